@@ -1,0 +1,129 @@
+# clvox — build, test, install.
+#   make [CONFIG=release|debug|sanitize] [V=1]    library, clvox binary
+#   make test                                      build and run the test suite
+#   make install PREFIX=/usr/local DESTDIR=
+CONFIG ?= release
+PREFIX ?= /usr/local
+DESTDIR ?=
+V ?= 0
+
+CC ?= cc
+CXX ?= c++
+BUILD := build/$(CONFIG)
+
+WARN := -Wall -Wextra -Wpedantic -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wvla
+BASE_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -ffp-contract=off $(WARN) -Iinclude -Isrc
+BASE_CXXFLAGS := -std=c++17 -fPIC -Wall -Wextra -Iinclude -Isrc
+ifeq ($(CONFIG),release)
+  OPT := -O2 -g
+else ifeq ($(CONFIG),debug)
+  OPT := -O0 -g3
+else ifeq ($(CONFIG),sanitize)
+  OPT := -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+  SAN_LDFLAGS := -fsanitize=address,undefined
+else
+  $(error CONFIG must be release, debug or sanitize)
+endif
+# User flags come last so they win (redis FINAL_CFLAGS).
+FINAL_CFLAGS := $(BASE_CFLAGS) $(OPT) $(CFLAGS)
+FINAL_CXXFLAGS := $(BASE_CXXFLAGS) $(OPT) -Wno-maybe-uninitialized $(CXXFLAGS)
+LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
+FINAL_LDFLAGS := $(SAN_LDFLAGS) $(LDFLAGS)
+
+ifeq ($(V),1)
+  Q :=
+else
+  Q := @
+endif
+
+CLI_SRC := src/cli.c
+LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
+LIB_CXX := $(wildcard src/*.cpp)
+# Kernel program = shared types + prelude + one file per stage.
+KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
+KERNEL_C := $(BUILD)/gen/kernels_embedded.c
+
+LIB_OBJ := $(LIB_C:%.c=$(BUILD)/%.o) $(LIB_CXX:%.cpp=$(BUILD)/%.o) $(BUILD)/gen/kernels_embedded.o
+CLI_OBJ := $(BUILD)/src/cli.o
+TEST_SUPPORT := $(filter-out tests/test_%.c,$(wildcard tests/*.c))
+TEST_SUPPORT_OBJ := $(TEST_SUPPORT:%.c=$(BUILD)/%.o)
+TEST_SRCS := $(wildcard tests/test_*.c)
+TEST_BINS := $(TEST_SRCS:tests/%.c=$(BUILD)/tests/%)
+
+STATIC_LIB := $(BUILD)/libclvox.a
+SHARED_LIB := $(BUILD)/libclvox.so
+CLI_BIN := $(BUILD)/clvox
+DEPS := $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_SUPPORT_OBJ:.o=.d) $(TEST_BINS:%=%.d)
+
+.PHONY: all test check install uninstall clean bench tests
+all: $(STATIC_LIB) $(SHARED_LIB) $(CLI_BIN)
+	$(Q)ln -sf $(CONFIG)/clvox build/clvox
+
+$(BUILD)/%.o: %.c
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  CC    $<")
+	$(Q)$(CC) $(FINAL_CFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/%.o: %.cpp
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  CXX   $<")
+	$(Q)$(CXX) $(FINAL_CXXFLAGS) -MMD -MP -c $< -o $@
+
+$(KERNEL_C): $(KERNEL_FILES) scripts/embed_kernels.sh
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  EMBED kernels/")
+	$(Q)sh scripts/embed_kernels.sh $@ $(KERNEL_FILES)
+
+$(BUILD)/gen/kernels_embedded.o: $(KERNEL_C)
+	$(Q)$(CC) -std=c11 -fPIC $(OPT) -c $< -o $@
+
+$(STATIC_LIB): $(LIB_OBJ)
+	@$(if $(filter 0,$(V)),echo "  AR    $@")
+	$(Q)rm -f $@ && ar rcs $@ $^
+
+$(SHARED_LIB): $(LIB_OBJ)
+	@$(if $(filter 0,$(V)),echo "  LD    $@")
+	$(Q)$(CC) -shared -Wl,-soname,libclvox.so.$(word 1,$(subst ., ,$(shell sed -n 's/.*CLVOX_VERSION_STRING "\(.*\)"/\1/p' include/clvox.h))) $(FINAL_LDFLAGS) -o $@ $^ $(LIBS)
+
+$(CLI_BIN): $(CLI_OBJ) $(STATIC_LIB)
+	@$(if $(filter 0,$(V)),echo "  LD    $@")
+	$(Q)$(CC) $(FINAL_LDFLAGS) -o $@ $(CLI_OBJ) $(STATIC_LIB) $(LIBS)
+
+$(BUILD)/tests/%: tests/%.c $(TEST_SUPPORT_OBJ) $(STATIC_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  TEST  $<")
+	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS)
+
+tests: all $(TEST_BINS)
+
+# The whole suite; ends with one "N passed, N failed" line.
+test: tests
+	$(Q)CONFIG=$(CONFIG) sh tests/run_tests.sh $(BUILD)
+
+# Quick subset (no downloaded meshes).
+check: tests
+	$(Q)CLVOX_QUICK=1 CONFIG=$(CONFIG) sh tests/run_tests.sh $(BUILD)
+
+bench: all
+	$(Q)sh scripts/bench.sh
+
+VERSION := $(shell sed -n 's/.*CLVOX_VERSION_STRING "\(.*\)"/\1/p' include/clvox.h)
+install: all
+	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/bin
+	install -m 644 include/clvox.h $(DESTDIR)$(PREFIX)/include/clvox.h
+	install -m 644 $(STATIC_LIB) $(DESTDIR)$(PREFIX)/lib/libclvox.a
+	install -m 755 $(SHARED_LIB) $(DESTDIR)$(PREFIX)/lib/libclvox.so.$(VERSION)
+	ln -sf libclvox.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/libclvox.so.$(word 1,$(subst ., ,$(VERSION)))
+	ln -sf libclvox.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/libclvox.so
+	install -m 755 $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/clvox
+	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@VERSION@|$(VERSION)|g' scripts/clvox.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/clvox.pc
+
+uninstall:
+	rm -f $(DESTDIR)$(PREFIX)/include/clvox.h $(DESTDIR)$(PREFIX)/lib/libclvox.a \
+	  $(DESTDIR)$(PREFIX)/lib/libclvox.so* $(DESTDIR)$(PREFIX)/bin/clvox \
+	  $(DESTDIR)$(PREFIX)/lib/pkgconfig/clvox.pc
+
+clean:
+	rm -rf build
+
+-include $(DEPS)

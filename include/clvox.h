@@ -1,0 +1,290 @@
+/*
+ * clvox — OpenCL voxelization of triangle meshes, streamed to OpenEXR.
+ *
+ * Pipeline: mesh -> grid -> partition -> cast -> classify -> write.
+ *
+ * Conventions
+ *  - Every function that can fail returns a clvox_status; the detail message
+ *    of the last failure is clvox_context_error(ctx). Nothing is printed.
+ *  - Option structs: zero means "default". Initialise them with the
+ *    CLVOX_*_INIT macros (they set .size for binary stability).
+ *  - Arrays passed in are borrowed for the duration of the call, never kept.
+ *  - Voxel (i,j,k) covers [origin + (i,j,k)*h, origin + (i+1,j+1,k+1)*h) and is
+ *    sampled at its centre origin + (i+0.5, j+0.5, k+0.5)*h.
+ */
+#ifndef CLVOX_H
+#define CLVOX_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define CLVOX_VERSION_MAJOR 0
+#define CLVOX_VERSION_MINOR 1
+#define CLVOX_VERSION_PATCH 0
+#define CLVOX_VERSION_STRING "0.1.0"
+
+/* ---- status ------------------------------------------------------------ */
+
+typedef enum clvox_status {
+    CLVOX_OK = 0,
+    CLVOX_ERR_INVALID_ARGUMENT, /* a bad parameter from the caller            */
+    CLVOX_ERR_OUT_OF_MEMORY,    /* host or device allocation failed           */
+    CLVOX_ERR_IO,               /* file missing, unreadable or unwritable     */
+    CLVOX_ERR_MESH_FORMAT,      /* unknown extension, garbage, truncated file */
+    CLVOX_ERR_MESH_INVALID,     /* non-finite coordinates, bad indices        */
+    CLVOX_ERR_MESH_EMPTY,       /* no usable triangle                         */
+    CLVOX_ERR_GRID,             /* zero, negative or too large grid           */
+    CLVOX_ERR_NO_DEVICE,        /* no OpenCL platform/device matches          */
+    CLVOX_ERR_OPENCL,           /* an OpenCL call failed                      */
+    CLVOX_ERR_KERNEL_BUILD,     /* kernel compilation failed (log in message) */
+    CLVOX_ERR_EXR,              /* OpenEXR encode/decode/format failure       */
+    CLVOX_ERR_CANCELLED,        /* the progress callback asked to stop        */
+    CLVOX_ERR_INTERNAL,         /* a bug in clvox                             */
+    CLVOX_STATUS_COUNT
+} clvox_status;
+
+/* Static, never NULL. */
+const char *clvox_status_string(clvox_status status);
+const char *clvox_version(void);
+
+/* ---- context and devices ------------------------------------------------ */
+
+typedef struct clvox_context clvox_context;
+
+typedef struct clvox_context_options {
+    size_t size;
+    /* Device selection. NULL or "" = the environment variable CLVOX_DEVICE if
+     * set, else "auto": the first GPU if any, else the first CPU device
+     * (PoCL). Otherwise one of: "auto", "gpu", "cpu", "accelerator", a
+     * global device index as listed by clvox_list_devices ("0", "1", ...),
+     * or a case-insensitive substring of the device or platform name. */
+    const char *device;
+    /* 1: open no OpenCL device; enough for loading meshes, computing grids
+     * and reading volumes (clvox info), not for voxelizing. */
+    int host_only;
+} clvox_context_options;
+#define CLVOX_CONTEXT_OPTIONS_INIT { sizeof(clvox_context_options), NULL, 0 }
+
+typedef struct clvox_device_info {
+    uint32_t index;        /* global index, usable as the device selector */
+    char name[128];
+    char platform[128];
+    char type[16];         /* "gpu", "cpu", "accelerator", "other" */
+    char version[64];      /* CL_DEVICE_VERSION */
+    uint32_t compute_units;
+    uint64_t global_mem_bytes;
+    uint64_t max_alloc_bytes;
+} clvox_device_info;
+
+/* Fills up to `capacity` entries; *count receives the number of devices
+ * present (may exceed capacity). Returns CLVOX_ERR_NO_DEVICE when none. */
+clvox_status clvox_list_devices(clvox_device_info *out, size_t capacity, size_t *count);
+
+/* Creates a context on the selected device and builds the kernels.
+ * On failure *out is still set to a context that holds the error message
+ * (so clvox_context_error works) and must be destroyed; it can not be
+ * used for anything else. */
+clvox_status clvox_context_create(const clvox_context_options *options, clvox_context **out);
+void clvox_context_destroy(clvox_context *ctx);            /* NULL-safe */
+const char *clvox_context_error(const clvox_context *ctx);  /* "" if none */
+const clvox_device_info *clvox_context_device(const clvox_context *ctx);
+
+/* ---- mesh ---------------------------------------------------------------- */
+
+typedef struct clvox_mesh clvox_mesh;
+
+typedef struct clvox_mesh_report {
+    uint64_t input_vertices;
+    uint64_t input_faces;         /* polygons as read, before triangulation     */
+    uint64_t polygons_triangulated; /* faces with more than 3 corners (fanned)  */
+    uint64_t vertices;
+    uint64_t triangles;           /* triangles kept                              */
+    uint64_t dropped_faces;       /* repeated vertex index: no area, removed     */
+    uint64_t degenerate_triangles;/* zero area (collinear corners), kept         */
+    uint64_t nonmanifold_faces;   /* faces the loader had to re-add (OpenMesh)   */
+    uint64_t boundary_edges;      /* edges used by an odd number of triangles    */
+    int closed;                   /* 1 when boundary_edges == 0                  */
+    double bbox_min[3], bbox_max[3];
+    double enclosed_volume;       /* |sum of signed tetra volumes|; exact only when closed */
+} clvox_mesh_report;
+
+/* Loads OBJ, OFF, PLY (ascii/binary), STL (ascii/binary), OM by extension.
+ * Validates: non-finite coordinates and out-of-range indices are errors,
+ * empty meshes are errors; polygons are fan-triangulated. */
+clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out);
+
+/* Copies the caller's arrays (borrowed): xyz has 3*vertex_count floats,
+ * triangles has 3*triangle_count indices. Same validation as loading. */
+clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t vertex_count,
+                                    const uint32_t *triangles, size_t triangle_count,
+                                    clvox_mesh **out);
+void clvox_mesh_destroy(clvox_mesh *mesh); /* NULL-safe */
+const clvox_mesh_report *clvox_mesh_get_report(const clvox_mesh *mesh);
+/* Borrowed views of the validated triangle soup (valid while the mesh lives). */
+const float *clvox_mesh_vertices(const clvox_mesh *mesh, size_t *vertex_count);
+const uint32_t *clvox_mesh_triangles(const clvox_mesh *mesh, size_t *triangle_count);
+
+/* ---- grid ---------------------------------------------------------------- */
+
+typedef struct clvox_grid_options {
+    size_t size;
+    /* Exactly one of resolution / dims / voxel_size may be set (0 = unset);
+     * none set means resolution 256. */
+    uint32_t resolution;   /* N voxels along the longest box axis, cubic voxels */
+    uint32_t dims[3];      /* voxels per axis, box divided evenly (anisotropic) */
+    double voxel_size[3];  /* voxel size per axis; ceil(extent / size) voxels   */
+    int use_box;           /* 1: box_min/box_max replace the mesh bounding box  */
+    double box_min[3], box_max[3];
+    uint32_t padding;      /* empty voxels added on every side                  */
+} clvox_grid_options;
+#define CLVOX_GRID_OPTIONS_INIT { sizeof(clvox_grid_options), 0, {0,0,0}, {0,0,0}, 0, {0,0,0}, {0,0,0}, 0 }
+
+typedef struct clvox_grid {
+    uint32_t dims[3];      /* voxels along x, y, z                           */
+    double origin[3];      /* corner of voxel (0,0,0)                        */
+    double voxel_size[3];  /* h per axis                                     */
+} clvox_grid;
+
+/* Largest grid accepted: each axis <= CLVOX_MAX_AXIS and the total voxel
+ * count <= CLVOX_MAX_VOXELS (2^40, about 2 TB of half values uncompressed). */
+#define CLVOX_MAX_AXIS 65536u
+#define CLVOX_MAX_VOXELS (1ull << 40)
+
+clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *options,
+                                const double bbox_min[3], const double bbox_max[3],
+                                clvox_grid *out);
+
+/* ---- voxelization ---------------------------------------------------------- */
+
+typedef enum clvox_method {
+    CLVOX_METHOD_RAY = 0,   /* Thon et al.: quadtree + ray parity (default) */
+    CLVOX_METHOD_TETRA,     /* Rueda et al.: XOR of centroid tetrahedra       */
+    CLVOX_METHOD_COUNT
+} clvox_method;
+
+typedef enum clvox_axis {
+    CLVOX_AXIS_DEFAULT = 0, /* x: slabs are independent, one ray per image row */
+    CLVOX_AXIS_X,
+    CLVOX_AXIS_Y,
+    CLVOX_AXIS_Z
+} clvox_axis;
+
+typedef enum clvox_compression {
+    CLVOX_COMPRESSION_DEFAULT = 0, /* RLE: fastest to write, see README */
+    CLVOX_COMPRESSION_NONE,
+    CLVOX_COMPRESSION_RLE,
+    CLVOX_COMPRESSION_ZIPS,
+    CLVOX_COMPRESSION_ZIP,
+    CLVOX_COMPRESSION_PIZ,
+    CLVOX_COMPRESSION_COUNT
+} clvox_compression;
+
+typedef enum clvox_tetra_origin {
+    CLVOX_TETRA_ORIGIN_CENTROID = 0, /* area-weighted surface centroid (default) */
+    CLVOX_TETRA_ORIGIN_BBOX_CENTER,
+    CLVOX_TETRA_ORIGIN_POINT         /* tetra_point */
+} clvox_tetra_origin;
+
+typedef enum clvox_stage {
+    CLVOX_STAGE_LOAD = 0,  /* filled by the CLI / caller, not by clvox_voxelize */
+    CLVOX_STAGE_PARTITION, /* quadtree build and upload (ray); binning (tetra)   */
+    CLVOX_STAGE_CAST,      /* leaf lookup + intersection + sort (device time)    */
+    CLVOX_STAGE_CLASSIFY,  /* parity classification / XOR raster (device time)   */
+    CLVOX_STAGE_WRITE,     /* EXR encode + write (host)                          */
+    CLVOX_STAGE_TOTAL,     /* wall time of the whole call                        */
+    CLVOX_STAGE_COUNT
+} clvox_stage;
+
+const char *clvox_stage_name(clvox_stage stage);
+
+/* Called after each slab with the fraction done in [0,1]. Return 0 to
+ * cancel (the call then returns CLVOX_ERR_CANCELLED, no file is left). */
+typedef int (*clvox_progress_fn)(void *user, double fraction);
+
+typedef struct clvox_voxelize_options {
+    size_t size;
+    clvox_method method;
+    clvox_axis ray_axis;
+    uint32_t quadtree_max_depth;   /* 0 = auto (see README "Partition")          */
+    uint32_t quadtree_leaf_size;   /* split while a leaf holds more; 0 = auto    */
+    uint32_t slab_depth;           /* slices per slab; 0 = auto (memory-bounded) */
+    uint32_t hit_capacity;         /* crossings kept per ray in the fast pass; 0 = auto (32);
+                                      rays with more are redone with a larger buffer */
+    clvox_compression compression;
+    uint32_t threads;              /* host encoder threads; 0 = number of cores  */
+    clvox_tetra_origin tetra_origin;
+    double tetra_point[3];
+    clvox_progress_fn progress;
+    void *progress_user;
+} clvox_voxelize_options;
+#define CLVOX_VOXELIZE_OPTIONS_INIT { sizeof(clvox_voxelize_options), CLVOX_METHOD_RAY, \
+    CLVOX_AXIS_DEFAULT, 0, 0, 0, 0, CLVOX_COMPRESSION_DEFAULT, 0, CLVOX_TETRA_ORIGIN_CENTROID, \
+    {0,0,0}, NULL, NULL }
+
+typedef struct clvox_stats {
+    double seconds[CLVOX_STAGE_COUNT];
+    uint64_t filled_voxels;
+    uint64_t total_voxels;
+    uint64_t rays;                 /* rays cast (ray method)                    */
+    uint64_t odd_parity_rays;      /* rays with an odd number of crossings: the mesh is not closed */
+    uint64_t overflow_rays;        /* rays redone with a larger crossing buffer */
+    uint32_t max_crossings;        /* most crossings on one ray                 */
+    uint32_t quadtree_depth;       /* depth reached                             */
+    uint64_t quadtree_leaves;
+    uint64_t quadtree_refs;        /* triangle references stored in leaves      */
+    uint32_t slab_depth;           /* slices per slab used                      */
+    uint64_t peak_slab_bytes;      /* largest host+device working set of a slab */
+    uint64_t output_bytes;         /* size of the EXR file written              */
+} clvox_stats;
+
+/* Receives consecutive slabs in increasing z: slices z0 .. z0+nz-1, each an
+ * X*Y image, x fastest: occupancy[(z-z0)*X*Y + y*X + x] is 0 or 1. The
+ * pointer is valid only during the call. Return non-zero to cancel. */
+typedef int (*clvox_slab_fn)(void *user, uint32_t z0, uint32_t nz, const uint8_t *occupancy);
+
+/* Voxelizes and streams the volume to an EXR file (written to a temporary
+ * name in the same directory and renamed on success). stats may be NULL. */
+clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh,
+                                   const clvox_grid *grid,
+                                   const clvox_voxelize_options *options,
+                                   const char *path, clvox_stats *stats);
+
+/* Voxelizes and hands each slab to `fn` (nothing written to disk). */
+clvox_status clvox_voxelize_stream(clvox_context *ctx, const clvox_mesh *mesh,
+                                   const clvox_grid *grid,
+                                   const clvox_voxelize_options *options,
+                                   clvox_slab_fn fn, void *user, clvox_stats *stats);
+
+/* Dense result for small grids: `out` holds X*Y*Z bytes (x fastest, then y, then z). */
+clvox_status clvox_voxelize_to_memory(clvox_context *ctx, const clvox_mesh *mesh,
+                                      const clvox_grid *grid,
+                                      const clvox_voxelize_options *options,
+                                      uint8_t *out, size_t out_size, clvox_stats *stats);
+
+/* ---- reading volumes back ---------------------------------------------------- */
+
+typedef struct clvox_volume_info {
+    uint32_t dims[3];
+    double origin[3];
+    double voxel_size[3];
+    char method[32];          /* "ray", "tetra"                          */
+    char parameters[256];     /* method parameters as written            */
+    char version[32];         /* clvox version that wrote the file       */
+    char compression[16];
+    char channels[64];        /* comma-separated channel names           */
+    uint64_t filled_voxels;   /* counted by reading every slice          */
+} clvox_volume_info;
+
+/* Reads the header and counts filled voxels slice by slice (bounded memory).
+ * If occupancy is not NULL it must hold X*Y*Z bytes and receives 0/1 values. */
+clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
+                               uint8_t *occupancy, size_t occupancy_size);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* CLVOX_H */

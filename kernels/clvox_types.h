@@ -1,0 +1,41 @@
+/*
+ * Structs shared by the host (C11) and the OpenCL kernels.
+ * Only fixed-width scalars, explicit padding; sizes pinned on the host.
+ */
+#ifndef CLVOX_TYPES_H
+#define CLVOX_TYPES_H
+
+#ifdef __OPENCL_VERSION__
+typedef uint clvox_u32;
+typedef float clvox_f32;
+#else
+#include <stdint.h>
+typedef uint32_t clvox_u32;
+typedef float clvox_f32;
+#endif
+
+/* Quadtree node over the ray plane (v,w), in grid coordinates.
+ * Internal node: count == CLVOX_QT_INTERNAL, first = index of its 4 children
+ * (child q holds points with (v >= split_v) + 2*(w >= split_w) == q).
+ * Leaf: refs[first .. first+count) are the triangles it holds. */
+#define CLVOX_QT_INTERNAL 0xFFFFFFFFu
+typedef struct clvox_qt_node {
+    clvox_f32 split_v, split_w;
+    clvox_u32 first, count;
+} clvox_qt_node;
+
+/* One ray parallel to the u axis at (v,w) of the ray plane, in grid
+ * coordinates (voxel centres at integers). Its classified voxels go to
+ * out[out_base + (u - u_begin) * out_stride]. */
+typedef struct clvox_ray {
+    clvox_f32 v, w;
+    clvox_u32 out_base;
+    clvox_u32 pad;
+} clvox_ray;
+
+#ifndef __OPENCL_VERSION__
+_Static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
+_Static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
+#endif
+
+#endif /* CLVOX_TYPES_H */

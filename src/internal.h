@@ -1,0 +1,164 @@
+/* Private interfaces between clvox's pipeline stages. Not installed. */
+#ifndef CLVOX_INTERNAL_H
+#define CLVOX_INTERNAL_H
+
+#define CL_TARGET_OPENCL_VERSION 120
+#include <CL/cl.h>
+#include <stdarg.h>
+#include <stdint.h>
+
+#include "clvox.h"
+#include "../kernels/clvox_types.h"
+
+#if defined(__GNUC__)
+#define CLVOX__PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define CLVOX__PRINTF(a, b)
+#endif
+
+/* ---- context (context.c) ---- */
+
+struct clvox_context {
+    char error[8192];
+    int host_only;
+    clvox_device_info device;
+    cl_platform_id platform;
+    cl_device_id device_id;
+    cl_context cl;
+    cl_command_queue queue; /* in-order, profiling enabled */
+    cl_program program;     /* all kernels, built once per context */
+};
+
+/* Records the message and returns `status`, so that reporting and returning
+ * an error is one expression: return clvox__fail(ctx, CLVOX_ERR_IO, "…", …); */
+clvox_status clvox__fail(clvox_context *ctx, clvox_status status, const char *fmt, ...)
+    CLVOX__PRINTF(3, 4);
+/* Same for an OpenCL error: "<what>: CL_OUT_OF_RESOURCES (-5)". */
+clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what);
+const char *clvox__cl_error_name(cl_int err);
+/* Creates kernel `name` from the context's program. */
+clvox_status clvox__kernel(clvox_context *ctx, const char *name, cl_kernel *out);
+/* Seconds of device time an event took (0 if profiling info is missing). */
+double clvox__event_seconds(cl_event ev);
+double clvox__now(void); /* monotonic seconds */
+
+/* Embedded kernel sources (generated from kernels/ at build time). */
+extern const char *const clvox__kernel_sources[];
+extern const char *const clvox__kernel_names[];
+extern const unsigned clvox__kernel_source_count;
+
+/* ---- mesh (mesh.c, mesh_openmesh.cpp) ---- */
+
+struct clvox_mesh {
+    float *xyz;          /* 3 per vertex */
+    size_t vertex_count;
+    uint32_t *tris;      /* 3 per triangle */
+    size_t triangle_count;
+    clvox_mesh_report report;
+};
+
+/* What the OpenMesh shim hands back: polygons as read (not validated). */
+typedef struct clvox__raw_mesh {
+    float *xyz;               /* malloc'ed, 3 per vertex */
+    size_t vertex_count;
+    uint32_t *face_sizes;     /* malloc'ed, corners per face */
+    uint32_t *face_indices;   /* malloc'ed, all corners concatenated */
+    size_t face_count;
+    size_t index_count;
+    uint64_t nonmanifold_faces;
+} clvox__raw_mesh;
+
+/* C++ shim around OpenMesh::IO::read_mesh. Never throws. Returns 0 on
+ * success, else writes a one-line reason into err. */
+int clvox__openmesh_read(const char *path, clvox__raw_mesh *out, char *err, size_t err_size);
+void clvox__raw_mesh_free(clvox__raw_mesh *raw);
+
+/* ---- grid space ---- */
+
+/* The ray axis u and the ray plane (v,w) as a permutation of (x,y,z):
+ * perm[0] = u, perm[1] = v, perm[2] = w. */
+typedef struct clvox__axes {
+    int perm[3];
+} clvox__axes;
+clvox__axes clvox__axes_for(clvox_axis axis);
+
+/* Triangle soup in grid coordinates (voxel centres at integers, permuted so
+ * that index 0 is u): 9 floats per triangle (a.uvw, b.uvw, c.uvw). Each
+ * vertex is transformed once, so shared vertices stay bit-identical and a
+ * closed mesh stays closed. */
+clvox_status clvox__grid_space_soup(clvox_context *ctx, const clvox_mesh *mesh,
+                                    const clvox_grid *grid, clvox__axes axes, float **out_soup);
+
+/* ---- partition (partition.c) ---- */
+
+typedef struct clvox__quadtree {
+    clvox_qt_node *nodes;
+    size_t node_count;
+    uint32_t *refs;
+    size_t ref_count;
+    uint32_t depth;       /* deepest level reached */
+    size_t leaf_count;
+} clvox__quadtree;
+
+/* Builds the quadtree over the (v,w) projection of the soup, covering the
+ * ray plane [-0.5, dim_v-0.5] x [-0.5, dim_w-0.5]. max_depth/leaf_size 0 = auto. */
+clvox_status clvox__quadtree_build(clvox_context *ctx, const float *soup, size_t tri_count,
+                                   uint32_t dim_v, uint32_t dim_w, uint32_t max_depth,
+                                   uint32_t leaf_size, clvox__quadtree *out);
+void clvox__quadtree_free(clvox__quadtree *qt);
+uint32_t clvox__quadtree_auto_depth(uint32_t dim_v, uint32_t dim_w, size_t tri_count);
+
+/* ---- methods: each fills slabs of half-float occupancy ---- */
+
+/* One slab: slices z0 .. z0+nz-1 of the output, X*Y*nz half values
+ * (0x0000 or 0x3C00), x fastest. */
+typedef struct clvox__slab_stats {
+    double cast_seconds, classify_seconds;
+    uint64_t filled, rays, odd_parity_rays, overflow_rays;
+    uint32_t max_crossings;
+} clvox__slab_stats;
+
+typedef struct clvox__method_state clvox__method_state;
+
+typedef struct clvox__method {
+    const char *name;
+    clvox_status (*prepare)(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                            const clvox_voxelize_options *opts, uint32_t slab_depth,
+                            clvox_stats *stats, clvox__method_state **out);
+    /* Computes the slab into the device buffer `out` (X*Y*nz cl_ushort) and
+     * may leave commands queued; the driver reads `out` back. */
+    clvox_status (*slab)(clvox__method_state *st, uint32_t z0, uint32_t nz, cl_mem out,
+                         clvox__slab_stats *ss);
+    void (*release)(clvox__method_state *st);
+    /* Text for the EXR "clvoxParameters" attribute. */
+    void (*describe)(const clvox__method_state *st, char *buf, size_t size);
+} clvox__method;
+
+extern const clvox__method clvox__method_ray;   /* cast.c  */
+extern const clvox__method clvox__method_tetra; /* tetra.c */
+
+/* ---- EXR (write_exr.c, read_exr.c) ---- */
+
+typedef struct clvox__exr_writer clvox__exr_writer;
+
+typedef struct clvox__exr_meta {
+    const char *method;      /* "ray" | "tetra" */
+    const char *parameters;  /* free text, e.g. "axis=x depth=9 leaf=8" */
+} clvox__exr_meta;
+
+/* Opens `path` for streaming: the data goes to a temporary file in the same
+ * directory, renamed to `path` by clvox__exr_finish. Channel "occupancy",
+ * HALF. Layout: see README "EXR layout". */
+clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
+                             const clvox__exr_meta *meta, clvox_compression compression,
+                             uint32_t threads, clvox__exr_writer **out);
+/* Slices must arrive in increasing z, without gaps. half_occupancy holds
+ * X*Y*nz half values, x fastest. */
+clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz,
+                                   const uint16_t *half_occupancy);
+/* Completes the file and renames it into place; *bytes = file size. Frees w. */
+clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes);
+/* Deletes the temporary file and frees w. NULL-safe. */
+void clvox__exr_abort(clvox__exr_writer *w);
+
+#endif /* CLVOX_INTERNAL_H */

@@ -1,0 +1,15 @@
+/* Stage partition (device side): find the quadtree leaf under each ray. */
+
+kernel void clvox_quadtree_lookup(global const clvox_ray *rays, uint ray_count,
+                                  global const clvox_qt_node *nodes, global uint *leaf_of_ray)
+{
+    uint gid = get_global_id(0);
+    if (gid >= ray_count) return;
+    float v = rays[gid].v, w = rays[gid].w;
+    uint i = 0;
+    while (nodes[i].count == CLVOX_QT_INTERNAL) {
+        uint q = (v >= nodes[i].split_v ? 1u : 0u) | (w >= nodes[i].split_w ? 2u : 0u);
+        i = nodes[i].first + q;
+    }
+    leaf_of_ray[gid] = i;
+}

@@ -1,0 +1,1092 @@
+/*
+ * clvox — command-line front end. Uses only the public header.
+ *
+ *   clvox [MESH] [options]        voxelize MESH into an OpenEXR volume
+ *   clvox info FILE.exr           header and filled voxel count (no OpenCL needed)
+ *   clvox --list-devices | --help | --version
+ *
+ * Exit codes (also in --help):
+ *   0    success
+ *   1    runtime failure (OpenCL, kernel build, EXR, out of memory, internal)
+ *   2    usage error (bad arguments)
+ *   3    no OpenCL device
+ *   4    input error: mesh (or the `info` file) missing, unreadable, bad
+ *        format, invalid or empty
+ *   5    output error: the output file can not be written
+ *   6    grid error: zero or too large grid
+ *   130  cancelled (SIGINT / SIGTERM)
+ *
+ * Order of work: parse arguments, check the output directory (creates
+ * nothing), load the mesh and compute the grid on a host-only context (so
+ * mesh and grid errors need no OpenCL device), then open the device and
+ * voxelize. The library writes to a temporary name and renames it on
+ * success, so a failed or cancelled run leaves no file.
+ */
+#ifndef _POSIX_C_SOURCE
+#define _POSIX_C_SOURCE 200809L
+#endif
+
+#include "clvox.h"
+
+#include <errno.h>
+#include <math.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+enum {
+    EXIT_OK = 0,
+    EXIT_RUNTIME = 1,
+    EXIT_USAGE = 2,
+    EXIT_NO_DEVICE = 3,
+    EXIT_INPUT = 4,
+    EXIT_OUTPUT = 5,
+    EXIT_GRID = 6,
+    EXIT_CANCELLED = 130
+};
+
+/* Where the mesh comes from when none is given, tried in order.
+ * "$CLVOX_DEFAULT_MESH" is the environment variable (when set and not
+ * empty it is used as is, existing or not: an explicit choice never falls
+ * back silently); "$EXE_DIR" is the directory of the running executable.
+ * The others are used when the file exists. Override at build time with
+ * -DCLVOX_DEFAULT_MESH_PATHS='"a", "b"'. */
+#ifndef CLVOX_DEFAULT_MESH_PATHS
+#define CLVOX_DEFAULT_MESH_PATHS                                                      \
+    "$CLVOX_DEFAULT_MESH", "$EXE_DIR/../share/clvox/default.obj",                      \
+        "$EXE_DIR/../../tests/data/default.obj", "tests/data/default.obj"
+#endif
+
+#define DEFAULT_RESOLUTION 256u
+#define PROGRESS_INTERVAL_S 0.1 /* at most 10 redraws per second */
+#define BAR_WIDTH 30
+
+static volatile sig_atomic_t g_interrupted;
+
+/* ---- small helpers ------------------------------------------------------ */
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void on_signal(int sig)
+{
+    if (g_interrupted) { /* second request: stop now */
+        signal(sig, SIG_DFL);
+        raise(sig);
+        return;
+    }
+    g_interrupted = 1;
+}
+
+static void install_signal_handlers(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
+/* The progress line, if one is on screen, is erased before anything else
+ * is written to stderr. */
+static int g_progress_line_len;
+
+static void progress_erase(void)
+{
+    if (g_progress_line_len > 0) {
+        fprintf(stderr, "\r%*s\r", g_progress_line_len, "");
+        fflush(stderr);
+        g_progress_line_len = 0;
+    }
+}
+
+/* Prints "clvox: error: <message>" as exactly one line (newlines in the
+ * message, e.g. a kernel build log, become " | ") and returns `code`. */
+static int fail_message(int code, const char *message)
+{
+    progress_erase();
+    fputs("clvox: error: ", stderr);
+    const char *s = message && *message ? message : "unknown error";
+    size_t n = strlen(s);
+    while (n > 0 && (s[n - 1] == '\n' || s[n - 1] == '\r' || s[n - 1] == ' ')) n--;
+    int pending_break = 0;
+    for (size_t i = 0; i < n; i++) {
+        char c = s[i];
+        if (c == '\n' || c == '\r') {
+            pending_break = 1;
+            continue;
+        }
+        if (pending_break) {
+            fputs(" | ", stderr);
+            pending_break = 0;
+        }
+        fputc(c == '\t' ? ' ' : c, stderr);
+    }
+    fputc('\n', stderr);
+    return code;
+}
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 2, 3)))
+#endif
+static int fail(int code, const char *fmt, ...)
+{
+    char buf[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    return fail_message(code, buf);
+}
+
+/* What a failing call was doing decides what IO/EXR errors mean. */
+typedef enum role { ROLE_INPUT, ROLE_OUTPUT, ROLE_OTHER } role;
+
+static int exit_code_for(clvox_status st, role r)
+{
+    switch (st) {
+    case CLVOX_OK: return EXIT_OK;
+    case CLVOX_ERR_INVALID_ARGUMENT: return EXIT_USAGE;
+    case CLVOX_ERR_IO: return r == ROLE_INPUT ? EXIT_INPUT : r == ROLE_OUTPUT ? EXIT_OUTPUT : EXIT_RUNTIME;
+    case CLVOX_ERR_EXR: return r == ROLE_INPUT ? EXIT_INPUT : EXIT_RUNTIME;
+    case CLVOX_ERR_MESH_FORMAT:
+    case CLVOX_ERR_MESH_INVALID:
+    case CLVOX_ERR_MESH_EMPTY: return EXIT_INPUT;
+    case CLVOX_ERR_GRID: return EXIT_GRID;
+    case CLVOX_ERR_NO_DEVICE: return EXIT_NO_DEVICE;
+    case CLVOX_ERR_CANCELLED: return EXIT_CANCELLED;
+    case CLVOX_ERR_OUT_OF_MEMORY:
+    case CLVOX_ERR_OPENCL:
+    case CLVOX_ERR_KERNEL_BUILD:
+    case CLVOX_ERR_INTERNAL:
+    case CLVOX_STATUS_COUNT: break;
+    }
+    return EXIT_RUNTIME;
+}
+
+/* Reports a library failure: the context's message, else the status string. */
+static int fail_status(const clvox_context *ctx, clvox_status st, role r)
+{
+    if (st == CLVOX_ERR_CANCELLED) return fail_message(EXIT_CANCELLED, "cancelled");
+    const char *msg = ctx ? clvox_context_error(ctx) : "";
+    return fail_message(exit_code_for(st, r), msg && *msg ? msg : clvox_status_string(st));
+}
+
+static void format_bytes(uint64_t bytes, char *buf, size_t size)
+{
+    static const char *const units[] = {"bytes", "KiB", "MiB", "GiB", "TiB"};
+    if (bytes < 1024) {
+        snprintf(buf, size, "%llu bytes", (unsigned long long)bytes);
+        return;
+    }
+    double v = (double)bytes;
+    int u = 0;
+    while (v >= 1024.0 && u < 4) {
+        v /= 1024.0;
+        u++;
+    }
+    snprintf(buf, size, "%.2f %s", v, units[u]);
+}
+
+static void format_duration(double s, char *buf, size_t size)
+{
+    if (!(s >= 0) || s > 1e7) snprintf(buf, size, "?");
+    else if (s < 1) snprintf(buf, size, "<1 s");
+    else if (s < 120) snprintf(buf, size, "%.0f s", s);
+    else if (s < 7200) snprintf(buf, size, "%d min %02d s", (int)(s / 60), (int)fmod(s, 60));
+    else snprintf(buf, size, "%d h %02d min", (int)(s / 3600), (int)fmod(s / 60, 60));
+}
+
+static const char *path_basename(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    return slash ? slash + 1 : path;
+}
+
+static char *dup_string(const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = malloc(n);
+    if (d) memcpy(d, s, n);
+    return d;
+}
+
+/* ---- strict number parsing ---------------------------------------------- */
+
+/* Returns NULL on success, else why `s` is not acceptable. */
+static const char *parse_u32(const char *s, uint32_t min, uint32_t *out, const char **end_out)
+{
+    if (!s || *s == '\0') return "empty value";
+    if (*s == '-') return "must not be negative";
+    if (*s < '0' || *s > '9') return "not a non-negative integer";
+    errno = 0;
+    char *end = NULL;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (end == s) return "not a non-negative integer";
+    if (end_out) *end_out = end;
+    else if (*end != '\0') return "not a non-negative integer";
+    if (errno == ERANGE || v > UINT32_MAX) return "too large";
+    if (v < min) return min == 1 ? "must be at least 1" : "too small";
+    *out = (uint32_t)v;
+    return NULL;
+}
+
+static const char *parse_double(const char *s, int positive, double *out, const char **end_out)
+{
+    if (!s || *s == '\0') return "empty value";
+    if (!((*s >= '0' && *s <= '9') || *s == '-' || *s == '+' || *s == '.')) return "not a number";
+    if (positive && *s == '-') return "must be positive";
+    errno = 0;
+    char *end = NULL;
+    double v = strtod(s, &end);
+    if (end == s) return "not a number";
+    if (end_out) *end_out = end;
+    else if (*end != '\0') return "not a number";
+    if (errno == ERANGE || !isfinite(v)) return "out of range";
+    if (positive && !(v > 0)) return "must be positive";
+    *out = v;
+    return NULL;
+}
+
+/* Comma-separated list of exactly `n` values. */
+static const char *parse_u32_list(const char *s, uint32_t min, uint32_t *out, int n)
+{
+    for (int i = 0; i < n; i++) {
+        const char *end = NULL;
+        const char *why = parse_u32(s, min, &out[i], &end);
+        if (why) return why;
+        if (i + 1 < n) {
+            if (*end != ',') return "too few values";
+            s = end + 1;
+        } else if (*end != '\0') {
+            return *end == ',' ? "too many values" : "not a non-negative integer";
+        }
+    }
+    return NULL;
+}
+
+/* Parses 1..max doubles; *count receives how many. */
+static const char *parse_double_list(const char *s, int positive, double *out, int max, int *count)
+{
+    int i = 0;
+    for (;;) {
+        if (i == max) return "too many values";
+        const char *end = NULL;
+        const char *why = parse_double(s, positive, &out[i], &end);
+        if (why) return why;
+        i++;
+        if (*end == '\0') break;
+        if (*end != ',') return "not a number";
+        s = end + 1;
+    }
+    *count = i;
+    return NULL;
+}
+
+/* ---- arguments ------------------------------------------------------------ */
+
+enum { GRID_BY_RESOLUTION = 1, GRID_BY_DIMS = 2, GRID_BY_VOXEL_SIZE = 4 };
+
+typedef struct cli_args {
+    const char *mesh;
+    const char *output;
+    clvox_grid_options grid;
+    int grid_by;        /* GRID_BY_* bits */
+    const char *grid_opt[3];
+    clvox_voxelize_options vox;
+    const char *device;
+    int list_devices, quiet, no_progress, help, version;
+} cli_args;
+
+static int usage_error(const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 1, 2)))
+#endif
+    ;
+
+static int usage_error(const char *fmt, ...)
+{
+    char buf[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    return fail(EXIT_USAGE, "%s (see clvox --help)", buf);
+}
+
+/* Matches argv[*i] against a short and/or long option that takes a value;
+ * accepts "-r 16", "-r16", "--opt 16" and "--opt=16". Returns 1 on a match
+ * (*missing = 1 when the value is absent), 0 otherwise. */
+static int match_value(int argc, char **argv, int *i, const char *short_name, const char *long_name,
+                       const char **value, int *missing)
+{
+    const char *a = argv[*i];
+    *missing = 0;
+    if (short_name && strncmp(a, short_name, 2) == 0 && a[1] != '-') {
+        if (a[2] != '\0') {
+            *value = a + 2;
+            return 1;
+        }
+    } else if (long_name) {
+        size_t n = strlen(long_name);
+        if (strncmp(a, long_name, n) != 0) return 0;
+        if (a[n] == '=') {
+            *value = a + n + 1;
+            return 1;
+        }
+        if (a[n] != '\0') return 0; /* --padding is not --pad */
+    } else {
+        return 0;
+    }
+    if (*i + 1 >= argc) {
+        *missing = 1;
+        return 1;
+    }
+    *value = argv[++*i];
+    return 1;
+}
+
+static int set_grid_kind(cli_args *a, int kind, const char *name)
+{
+    int k = kind == GRID_BY_RESOLUTION ? 0 : kind == GRID_BY_DIMS ? 1 : 2;
+    for (int j = 0; j < 3; j++) {
+        if (j != k && a->grid_opt[j])
+            return usage_error("%s and %s can not be combined: give one of -r, --dims, --voxel-size",
+                               a->grid_opt[j], name);
+    }
+    a->grid_by = kind;
+    a->grid_opt[k] = name;
+    a->grid.resolution = 0;
+    memset(a->grid.dims, 0, sizeof a->grid.dims);
+    memset(a->grid.voxel_size, 0, sizeof a->grid.voxel_size);
+    return 0;
+}
+
+static int parse_args(int argc, char **argv, cli_args *a)
+{
+    clvox_grid_options g0 = CLVOX_GRID_OPTIONS_INIT;
+    clvox_voxelize_options v0 = CLVOX_VOXELIZE_OPTIONS_INIT;
+    memset(a, 0, sizeof *a);
+    a->grid = g0;
+    a->vox = v0;
+    int options_done = 0;
+
+    for (int i = 1; i < argc; i++) {
+        const char *arg = argv[i];
+        const char *v = NULL;
+        const char *why = NULL;
+        int missing = 0;
+
+        if (options_done || arg[0] != '-' || arg[1] == '\0') {
+            if (a->mesh) return usage_error("more than one mesh given: '%s' and '%s'", a->mesh, arg);
+            a->mesh = arg;
+            continue;
+        }
+        if (strcmp(arg, "--") == 0) {
+            options_done = 1;
+            continue;
+        }
+        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) { a->help = 1; continue; }
+        if (strcmp(arg, "-V") == 0 || strcmp(arg, "--version") == 0) { a->version = 1; continue; }
+        if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) { a->quiet = 1; continue; }
+        if (strcmp(arg, "--no-progress") == 0) { a->no_progress = 1; continue; }
+        if (strcmp(arg, "--list-devices") == 0) { a->list_devices = 1; continue; }
+
+#define VALUE_OPT(sn, ln) match_value(argc, argv, &i, (sn), (ln), &v, &missing)
+#define NEED_VALUE(name) \
+    do { if (missing) return usage_error("option %s needs a value", (name)); } while (0)
+
+        if (VALUE_OPT("-o", "--output")) {
+            NEED_VALUE("-o");
+            if (*v == '\0') return usage_error("-o: empty file name");
+            a->output = v;
+        } else if (VALUE_OPT("-r", "--resolution")) {
+            NEED_VALUE("-r");
+            if (set_grid_kind(a, GRID_BY_RESOLUTION, "-r")) return EXIT_USAGE;
+            if ((why = parse_u32(v, 1, &a->grid.resolution, NULL)))
+                return usage_error("-r '%s': %s", v, why);
+        } else if (VALUE_OPT(NULL, "--dims")) {
+            NEED_VALUE("--dims");
+            if (set_grid_kind(a, GRID_BY_DIMS, "--dims")) return EXIT_USAGE;
+            if ((why = parse_u32_list(v, 1, a->grid.dims, 3)))
+                return usage_error("--dims '%s': %s (expected X,Y,Z, each at least 1)", v, why);
+        } else if (VALUE_OPT(NULL, "--voxel-size")) {
+            NEED_VALUE("--voxel-size");
+            if (set_grid_kind(a, GRID_BY_VOXEL_SIZE, "--voxel-size")) return EXIT_USAGE;
+            int n = 0;
+            if ((why = parse_double_list(v, 1, a->grid.voxel_size, 3, &n)) || (n != 1 && n != 3))
+                return usage_error("--voxel-size '%s': %s (expected S or SX,SY,SZ, positive)", v,
+                                   why ? why : "give one or three values");
+            if (n == 1) a->grid.voxel_size[1] = a->grid.voxel_size[2] = a->grid.voxel_size[0];
+        } else if (VALUE_OPT(NULL, "--box")) {
+            NEED_VALUE("--box");
+            double b[6];
+            int n = 0;
+            if ((why = parse_double_list(v, 0, b, 6, &n)) || n != 6)
+                return usage_error("--box '%s': %s (expected x0,y0,z0,x1,y1,z1)", v,
+                                   why ? why : "give six values");
+            for (int k = 0; k < 3; k++) {
+                if (!(b[k] < b[k + 3]))
+                    return usage_error("--box '%s': the %c range is empty (%g >= %g)", v, "xyz"[k], b[k],
+                                       b[k + 3]);
+                a->grid.box_min[k] = b[k];
+                a->grid.box_max[k] = b[k + 3];
+            }
+            a->grid.use_box = 1;
+        } else if (VALUE_OPT(NULL, "--pad")) {
+            NEED_VALUE("--pad");
+            if ((why = parse_u32(v, 0, &a->grid.padding, NULL))) return usage_error("--pad '%s': %s", v, why);
+        } else if (VALUE_OPT(NULL, "--method")) {
+            NEED_VALUE("--method");
+            if (strcmp(v, "ray") == 0) a->vox.method = CLVOX_METHOD_RAY;
+            else if (strcmp(v, "tetra") == 0) a->vox.method = CLVOX_METHOD_TETRA;
+            else return usage_error("--method '%s': expected ray or tetra", v);
+        } else if (VALUE_OPT(NULL, "--axis")) {
+            NEED_VALUE("--axis");
+            if (strcmp(v, "x") == 0) a->vox.ray_axis = CLVOX_AXIS_X;
+            else if (strcmp(v, "y") == 0) a->vox.ray_axis = CLVOX_AXIS_Y;
+            else if (strcmp(v, "z") == 0) a->vox.ray_axis = CLVOX_AXIS_Z;
+            else return usage_error("--axis '%s': expected x, y or z", v);
+        } else if (VALUE_OPT(NULL, "--depth")) {
+            NEED_VALUE("--depth");
+            if ((why = parse_u32(v, 0, &a->vox.quadtree_max_depth, NULL)))
+                return usage_error("--depth '%s': %s", v, why);
+        } else if (VALUE_OPT(NULL, "--leaf")) {
+            NEED_VALUE("--leaf");
+            if ((why = parse_u32(v, 0, &a->vox.quadtree_leaf_size, NULL)))
+                return usage_error("--leaf '%s': %s", v, why);
+        } else if (VALUE_OPT(NULL, "--slab")) {
+            NEED_VALUE("--slab");
+            if ((why = parse_u32(v, 0, &a->vox.slab_depth, NULL))) return usage_error("--slab '%s': %s", v, why);
+        } else if (VALUE_OPT(NULL, "--compression")) {
+            NEED_VALUE("--compression");
+            if (strcmp(v, "none") == 0) a->vox.compression = CLVOX_COMPRESSION_NONE;
+            else if (strcmp(v, "rle") == 0) a->vox.compression = CLVOX_COMPRESSION_RLE;
+            else if (strcmp(v, "zip") == 0) a->vox.compression = CLVOX_COMPRESSION_ZIP;
+            else if (strcmp(v, "zips") == 0) a->vox.compression = CLVOX_COMPRESSION_ZIPS;
+            else if (strcmp(v, "piz") == 0) a->vox.compression = CLVOX_COMPRESSION_PIZ;
+            else return usage_error("--compression '%s': expected none, rle, zip, zips or piz", v);
+        } else if (VALUE_OPT(NULL, "--tetra-origin")) {
+            NEED_VALUE("--tetra-origin");
+            if (strcmp(v, "centroid") == 0) {
+                a->vox.tetra_origin = CLVOX_TETRA_ORIGIN_CENTROID;
+            } else if (strcmp(v, "bbox") == 0) {
+                a->vox.tetra_origin = CLVOX_TETRA_ORIGIN_BBOX_CENTER;
+            } else {
+                int n = 0;
+                if ((why = parse_double_list(v, 0, a->vox.tetra_point, 3, &n)) || n != 3)
+                    return usage_error("--tetra-origin '%s': expected centroid, bbox or x,y,z", v);
+                a->vox.tetra_origin = CLVOX_TETRA_ORIGIN_POINT;
+            }
+        } else if (VALUE_OPT(NULL, "--threads")) {
+            NEED_VALUE("--threads");
+            if ((why = parse_u32(v, 0, &a->vox.threads, NULL))) return usage_error("--threads '%s': %s", v, why);
+        } else if (VALUE_OPT(NULL, "--device")) {
+            NEED_VALUE("--device");
+            if (*v == '\0') return usage_error("--device: empty selector");
+            a->device = v;
+        } else {
+            return usage_error("unknown option '%s'", arg);
+        }
+#undef VALUE_OPT
+#undef NEED_VALUE
+    }
+    return 0;
+}
+
+/* ---- help ------------------------------------------------------------------ */
+
+static void print_help(void)
+{
+    printf(
+"Usage: clvox [MESH] [options]\n"
+"       clvox info FILE.exr\n"
+"       clvox --list-devices | --help | --version\n"
+"\n"
+"Voxelizes a closed triangle mesh on an OpenCL device and writes the solid\n"
+"(inside = 1) volume to an OpenEXR file, slab by slab in bounded memory.\n"
+"Meshes: OBJ, OFF, PLY (ascii/binary), STL (ascii/binary), OM, by extension.\n"
+"\n"
+"Input and output:\n"
+"  MESH                     mesh to voxelize (default: the bundled default mesh,\n"
+"                           see ENVIRONMENT); the mesh used is printed\n"
+"  -o, --output OUT.exr     output file (default: <MESH name without extension>.exr\n"
+"                           in the current directory); written to a temporary name\n"
+"                           and renamed on success, so a failed run leaves no file\n"
+"\n"
+"Grid (at most one of -r, --dims, --voxel-size; default -r %u):\n"
+"  -r, --resolution N       N voxels along the longest axis of the box, cubic\n"
+"                           voxels (default %u)\n"
+"  --dims X,Y,Z             voxels per axis; the box is divided evenly (voxels\n"
+"                           may be non-cubic)\n"
+"  --voxel-size S[,S,S]     voxel size (one value: cubic voxels); ceil(extent/S)\n"
+"                           voxels per axis\n"
+"  --box x0,y0,z0,x1,y1,z1  box to voxelize (default: the mesh bounding box)\n"
+"  --pad N                  empty voxels added on every side (default 0)\n"
+"  Voxel (i,j,k) covers [origin + (i,j,k)*h, origin + (i+1,j+1,k+1)*h) and is\n"
+"  inside when its centre origin + (i+0.5,j+0.5,k+0.5)*h is inside the mesh.\n"
+"  Limits: at most %u voxels per axis and %llu voxels in all.\n"
+"\n",
+        DEFAULT_RESOLUTION, DEFAULT_RESOLUTION, CLVOX_MAX_AXIS, (unsigned long long)CLVOX_MAX_VOXELS);
+    fputs(
+"Method:\n"
+"  --method ray|tetra       ray: quadtree + ray parity (Thon et al.); tetra: XOR\n"
+"                           of the tetrahedra from one origin to every triangle\n"
+"                           (Rueda et al.) (default ray)\n"
+"  --axis x|y|z             ray direction (ray method; default x)\n"
+"  --depth D                maximum quadtree depth (ray method; default 0 = auto)\n"
+"  --leaf L                 split quadtree leaves holding more than L triangles\n"
+"                           (ray method; default 0 = auto)\n"
+"  --slab S                 slices per slab (default 0 = auto, memory-bounded)\n"
+"  --tetra-origin centroid|bbox|x,y,z\n"
+"                           common apex of the tetrahedra (tetra method; default\n"
+"                           centroid: the area-weighted surface centroid; bbox:\n"
+"                           the bounding box centre; or a point)\n"
+"\n"
+"Output encoding:\n"
+"  --compression none|rle|zip|zips|piz\n"
+"                           EXR compression (default rle: fastest to write)\n"
+"  --threads N              host encoder threads (default 0 = number of cores)\n"
+"\n"
+"Device:\n"
+"  --device SEL             auto, gpu, cpu, accelerator, an index from\n"
+"                           --list-devices, or a case-insensitive substring of the\n"
+"                           device or platform name (default: $CLVOX_DEVICE, else\n"
+"                           auto = the first GPU, else the first CPU device)\n"
+"  --list-devices           list the OpenCL devices (index, type, name, platform,\n"
+"                           version, memory) and exit\n"
+"\n"
+"Other:\n"
+"  -q, --quiet              no summary and no progress bar (errors and warnings\n"
+"                           still go to stderr)\n"
+"  --no-progress            no progress bar (it is drawn on stderr only when\n"
+"                           stderr is a terminal)\n"
+"  -h, --help               print this help and exit\n"
+"  -V, --version            print the version and exit\n"
+"  Ctrl-C cancels cleanly: no output file is left (exit 130); a second Ctrl-C\n"
+"  stops at once.\n"
+"\n", stdout);
+    fputs(
+"clvox info FILE.exr: prints the grid, method, parameters, compression and the\n"
+"filled voxel count of a volume written by clvox. Needs no OpenCL device.\n"
+"\n"
+"After a run, one summary goes to stdout: mesh, grid, device, method, filled\n"
+"voxels and volume, rays, time per stage and output size. Rays with an odd\n"
+"number of crossings produce a warning on stderr (the mesh is not closed).\n"
+"\n"
+"Exit codes:\n"
+"  0    success\n"
+"  1    runtime failure (OpenCL, kernel build, EXR, out of memory, internal)\n"
+"  2    usage error (bad arguments)\n"
+"  3    no OpenCL device\n"
+"  4    input error: mesh (or the info file) missing, unreadable, bad format,\n"
+"       invalid (non-finite coordinates, bad indices) or empty\n"
+"  5    output error: the output file can not be written\n"
+"  6    grid error: zero or too large grid\n"
+"  130  cancelled (SIGINT/SIGTERM)\n"
+"  Errors are one line on stderr: \"clvox: error: <message>\".\n"
+"\n"
+"Environment:\n"
+"  CLVOX_DEVICE             device selector used when --device is not given\n"
+"  CLVOX_DEFAULT_MESH       mesh used when no MESH is given (else\n"
+"                           <exe dir>/../share/clvox/default.obj,\n"
+"                           <exe dir>/../../tests/data/default.obj,\n"
+"                           tests/data/default.obj, the first that exists)\n"
+"  POCL_CACHE_DIR           must be a writable directory when the device is PoCL\n"
+"                           (else PoCL reports no device at all)\n", stdout);
+}
+
+static void print_version(void)
+{
+    printf("clvox %s (library %s)\n", CLVOX_VERSION_STRING, clvox_version());
+}
+
+/* ---- list devices ----------------------------------------------------------- */
+
+static int cmd_list_devices(void)
+{
+    size_t count = 0;
+    clvox_device_info *devs = NULL;
+    size_t cap = 16;
+    clvox_status st;
+    for (;;) {
+        clvox_device_info *grown = realloc(devs, cap * sizeof *devs);
+        if (!grown) {
+            free(devs);
+            return fail(EXIT_RUNTIME, "out of memory");
+        }
+        devs = grown;
+        st = clvox_list_devices(devs, cap, &count);
+        if (st != CLVOX_OK || count <= cap) break;
+        cap = count;
+    }
+    if (st != CLVOX_OK || count == 0) {
+        free(devs);
+        if (st == CLVOX_OK || st == CLVOX_ERR_NO_DEVICE)
+            return fail(EXIT_NO_DEVICE, "no OpenCL device found (for PoCL, POCL_CACHE_DIR must be writable)");
+        return fail_status(NULL, st, ROLE_OTHER);
+    }
+    printf("%-5s  %-11s  %-40s  %-32s  %-24s  %s\n", "index", "type", "name", "platform", "version", "memory");
+    for (size_t i = 0; i < count; i++) {
+        char mem[32];
+        format_bytes(devs[i].global_mem_bytes, mem, sizeof mem);
+        printf("%-5u  %-11s  %-40s  %-32s  %-24s  %s\n", (unsigned)devs[i].index, devs[i].type, devs[i].name,
+               devs[i].platform, devs[i].version, mem);
+    }
+    free(devs);
+    return EXIT_OK;
+}
+
+/* ---- summary helpers --------------------------------------------------------- */
+
+#define LABEL "%-12s"
+
+static void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3])
+{
+    char size[96];
+    if (h[0] == h[1] && h[1] == h[2]) snprintf(size, sizeof size, "voxel %.6g", h[0]);
+    else snprintf(size, sizeof size, "voxel %.6g x %.6g x %.6g", h[0], h[1], h[2]);
+    printf(LABEL "%u x %u x %u voxels, %s, origin (%.6g, %.6g, %.6g)\n", "grid", (unsigned)dims[0],
+           (unsigned)dims[1], (unsigned)dims[2], size, origin[0], origin[1], origin[2]);
+}
+
+static void print_filled_line(uint64_t filled, uint64_t total)
+{
+    double pct = total ? 100.0 * (double)filled / (double)total : 0.0;
+    printf(LABEL "%llu of %llu voxels (%.2f %%)\n", "filled", (unsigned long long)filled,
+           (unsigned long long)total, pct);
+}
+
+static const char *compression_name(clvox_compression c)
+{
+    switch (c) {
+    case CLVOX_COMPRESSION_NONE: return "none";
+    case CLVOX_COMPRESSION_DEFAULT:
+    case CLVOX_COMPRESSION_RLE: return "rle";
+    case CLVOX_COMPRESSION_ZIPS: return "zips";
+    case CLVOX_COMPRESSION_ZIP: return "zip";
+    case CLVOX_COMPRESSION_PIZ: return "piz";
+    case CLVOX_COMPRESSION_COUNT: break;
+    }
+    return "?";
+}
+
+static void auto_or_value(uint32_t v, char *buf, size_t size)
+{
+    if (v) snprintf(buf, size, "%u", (unsigned)v);
+    else snprintf(buf, size, "auto");
+}
+
+/* ---- info --------------------------------------------------------------------- */
+
+static int cmd_info(int argc, char **argv)
+{
+    const char *file = NULL;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+            print_help();
+            return EXIT_OK;
+        }
+        if (a[0] == '-' && a[1] != '\0') return usage_error("info: unknown option '%s'", a);
+        if (file) return usage_error("info: more than one file given: '%s' and '%s'", file, a);
+        file = a;
+    }
+    if (!file) return usage_error("info: missing FILE.exr");
+
+    clvox_context *ctx = NULL;
+    clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
+    co.host_only = 1;
+    clvox_status st = clvox_context_create(&co, &ctx);
+    if (st != CLVOX_OK) {
+        int rc = fail_status(ctx, st, ROLE_OTHER);
+        clvox_context_destroy(ctx);
+        return rc;
+    }
+    clvox_volume_info info;
+    memset(&info, 0, sizeof info);
+    st = clvox_volume_read(ctx, file, &info, NULL, 0);
+    if (st != CLVOX_OK) {
+        int rc = fail_status(ctx, st, ROLE_INPUT);
+        clvox_context_destroy(ctx);
+        return rc;
+    }
+    clvox_context_destroy(ctx);
+
+    struct stat sb;
+    char size[48] = "?";
+    if (stat(file, &sb) == 0) format_bytes((uint64_t)sb.st_size, size, sizeof size);
+    uint64_t total = (uint64_t)info.dims[0] * info.dims[1] * info.dims[2];
+    double voxel_volume = info.voxel_size[0] * info.voxel_size[1] * info.voxel_size[2];
+
+    printf(LABEL "%s (%s)\n", "file", file, size);
+    print_grid_line(info.dims, info.origin, info.voxel_size);
+    printf(LABEL "%s%s%s%s\n", "method", info.method[0] ? info.method : "?", info.parameters[0] ? " (" : "",
+           info.parameters, info.parameters[0] ? ")" : "");
+    printf(LABEL "clvox %s\n", "written by", info.version[0] ? info.version : "?");
+    printf(LABEL "%s, channels %s\n", "compression", info.compression[0] ? info.compression : "?",
+           info.channels[0] ? info.channels : "?");
+    print_filled_line(info.filled_voxels, total);
+    printf(LABEL "%.6g (filled voxels x voxel volume)\n", "volume", (double)info.filled_voxels * voxel_volume);
+    return EXIT_OK;
+}
+
+/* ---- progress ------------------------------------------------------------------ */
+
+typedef struct progress_state {
+    int draw;            /* 1: draw a bar on stderr */
+    double start;        /* when voxelization began */
+    double last_draw;
+    uint32_t calls;      /* slabs done */
+    uint32_t slabs;      /* estimated slab count (0 = unknown yet) */
+    uint32_t z;          /* slices */
+    uint32_t slab_option;
+} progress_state;
+
+static int on_progress(void *user, double fraction)
+{
+    progress_state *p = user;
+    if (g_interrupted) return 0;
+    p->calls++;
+    if (!p->draw) return 1;
+
+    if (!(fraction >= 0)) fraction = 0;
+    if (fraction > 1) fraction = 1;
+    if (p->slabs == 0 && p->z > 0) {
+        uint32_t nz = p->slab_option;
+        if (nz == 0 && fraction > 0) {
+            double est = fraction * (double)p->z / (double)p->calls;
+            nz = est < 1 ? 1 : (uint32_t)(est + 0.5);
+        }
+        if (nz) p->slabs = (uint32_t)(((uint64_t)p->z + nz - 1) / nz);
+    }
+    if (p->slabs < p->calls) p->slabs = p->calls;
+
+    double now = now_seconds();
+    if (fraction < 1 && now - p->last_draw < PROGRESS_INTERVAL_S) return 1;
+    p->last_draw = now;
+
+    char bar[BAR_WIDTH + 1];
+    int full = (int)(fraction * BAR_WIDTH);
+    for (int k = 0; k < BAR_WIDTH; k++) bar[k] = k < full ? '#' : '.';
+    bar[BAR_WIDTH] = '\0';
+    double elapsed = now - p->start;
+    char eta[32];
+    if (fraction > 0) format_duration(elapsed * (1 - fraction) / fraction, eta, sizeof eta);
+    else snprintf(eta, sizeof eta, "?");
+    char line[160];
+    int n = snprintf(line, sizeof line, "[%s] %3d%%  slab %u/%u  eta %s", bar, (int)(fraction * 100),
+                     (unsigned)p->calls, (unsigned)p->slabs, eta);
+    if (n < 0) return 1;
+    if (n >= (int)sizeof line) n = (int)sizeof line - 1;
+    /* pad so that a shorter line overwrites a longer one completely */
+    fprintf(stderr, "\r%s%*s", line, g_progress_line_len > n ? g_progress_line_len - n : 0, "");
+    fflush(stderr);
+    if (n > g_progress_line_len) g_progress_line_len = n;
+    return 1;
+}
+
+/* ---- default mesh / output ------------------------------------------------------ */
+
+static int is_readable_file(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode) && access(path, R_OK) == 0;
+}
+
+/* Directory of the running executable (no trailing slash), or "" if unknown. */
+static void exe_dir(const char *argv0, char *out, size_t size)
+{
+    char buf[4096];
+    ssize_t n = readlink("/proc/self/exe", buf, sizeof buf - 1);
+    if (n > 0) {
+        buf[n] = '\0';
+    } else if (argv0 && strchr(argv0, '/') && strlen(argv0) < sizeof buf) {
+        strcpy(buf, argv0);
+    } else {
+        out[0] = '\0';
+        return;
+    }
+    char *slash = strrchr(buf, '/');
+    if (slash == buf) slash[1] = '\0';
+    else if (slash) *slash = '\0';
+    snprintf(out, size, "%s", buf);
+}
+
+/* Returns a malloc'ed path, or NULL after reporting the error (rc set). */
+static char *find_default_mesh(const char *argv0, int *rc)
+{
+    static const char *const candidates[] = {CLVOX_DEFAULT_MESH_PATHS};
+    char dir[4096];
+    exe_dir(argv0, dir, sizeof dir);
+    char path[8192];
+    for (size_t i = 0; i < sizeof candidates / sizeof candidates[0]; i++) {
+        const char *c = candidates[i];
+        if (strncmp(c, "$CLVOX_DEFAULT_MESH", 19) == 0) {
+            const char *env = getenv("CLVOX_DEFAULT_MESH");
+            if (env && *env) {
+                char *p = dup_string(env);
+                if (!p) *rc = fail(EXIT_RUNTIME, "out of memory");
+                return p;
+            }
+            continue;
+        }
+        if (strncmp(c, "$EXE_DIR", 8) == 0) {
+            if (!dir[0]) continue;
+            snprintf(path, sizeof path, "%s%s", dir, c + 8);
+        } else {
+            snprintf(path, sizeof path, "%s", c);
+        }
+        if (is_readable_file(path)) {
+            char *p = dup_string(path);
+            if (!p) *rc = fail(EXIT_RUNTIME, "out of memory");
+            return p;
+        }
+    }
+    *rc = fail(EXIT_INPUT, "no MESH given and no default mesh found (set CLVOX_DEFAULT_MESH)");
+    return NULL;
+}
+
+/* "<basename of mesh without extension>.exr" in the current directory. */
+static char *default_output(const char *mesh)
+{
+    const char *base = path_basename(mesh);
+    size_t n = strlen(base);
+    const char *dot = strrchr(base, '.');
+    if (dot && dot != base) n = (size_t)(dot - base);
+    if (n == 0) {
+        base = "volume";
+        n = strlen(base);
+    }
+    char *out = malloc(n + 5);
+    if (!out) return NULL;
+    memcpy(out, base, n);
+    memcpy(out + n, ".exr", 5);
+    return out;
+}
+
+/* Fails early (creating nothing) when the output can not possibly be written. */
+static int check_output(const char *path)
+{
+    struct stat sb;
+    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) return fail(EXIT_OUTPUT, "cannot write '%s': it is a directory", path);
+    size_t len = strlen(path);
+    if (len > 0 && path[len - 1] == '/') return fail(EXIT_OUTPUT, "cannot write '%s': not a file name", path);
+
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else if ((size_t)(slash - path) >= sizeof dir) return fail(EXIT_OUTPUT, "cannot write '%s': path too long", path);
+    else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+
+    if (stat(dir, &sb) != 0)
+        return fail(EXIT_OUTPUT, "cannot write '%s': directory '%s': %s", path, dir, strerror(errno));
+    if (!S_ISDIR(sb.st_mode)) return fail(EXIT_OUTPUT, "cannot write '%s': '%s' is not a directory", path, dir);
+    if (access(dir, W_OK | X_OK) != 0)
+        return fail(EXIT_OUTPUT, "cannot write '%s': directory '%s': %s", path, dir, strerror(errno));
+    return EXIT_OK;
+}
+
+/* ---- the run --------------------------------------------------------------------- */
+
+static void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
+                          const clvox_device_info *dev, const cli_args *a, const clvox_stats *s,
+                          const char *output, double setup_seconds, double wall_seconds)
+{
+    char extra[256] = "";
+    size_t used = 0;
+    if (r->polygons_triangulated)
+        used += (size_t)snprintf(extra + used, sizeof extra - used, ", %llu polygons fanned",
+                                 (unsigned long long)r->polygons_triangulated);
+    if (r->nonmanifold_faces && used < sizeof extra)
+        snprintf(extra + used, sizeof extra - used, ", %llu non-manifold faces re-added",
+                 (unsigned long long)r->nonmanifold_faces);
+    char closed[64];
+    if (r->closed) snprintf(closed, sizeof closed, "closed");
+    else snprintf(closed, sizeof closed, "NOT closed (%llu boundary edges)", (unsigned long long)r->boundary_edges);
+    printf(LABEL "%s\n", "mesh", mesh_path);
+    printf(LABEL "%llu triangles, %llu vertices, %llu dropped faces, %llu degenerate%s, %s\n", "",
+           (unsigned long long)r->triangles, (unsigned long long)r->vertices, (unsigned long long)r->dropped_faces,
+           (unsigned long long)r->degenerate_triangles, extra, closed);
+
+    print_grid_line(grid->dims, grid->origin, grid->voxel_size);
+    printf(LABEL "%s (%s, %s)\n", "device", dev ? dev->name : "?", dev ? dev->type : "?",
+           dev ? dev->platform : "?");
+
+    char slab[32];
+    snprintf(slab, sizeof slab, "%u", (unsigned)s->slab_depth);
+    if (a->vox.method == CLVOX_METHOD_TETRA) {
+        char origin[128];
+        if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_BBOX_CENTER) snprintf(origin, sizeof origin, "bbox centre");
+        else if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_POINT)
+            snprintf(origin, sizeof origin, "(%.6g, %.6g, %.6g)", a->vox.tetra_point[0], a->vox.tetra_point[1],
+                     a->vox.tetra_point[2]);
+        else snprintf(origin, sizeof origin, "centroid");
+        printf(LABEL "tetra: origin %s, slab %s slices, %s compression\n", "method", origin, slab,
+               compression_name(a->vox.compression));
+    } else {
+        static const char axes[] = {'x', 'x', 'y', 'z'};
+        char depth[16], leaf[16];
+        auto_or_value(a->vox.quadtree_max_depth, depth, sizeof depth);
+        auto_or_value(a->vox.quadtree_leaf_size, leaf, sizeof leaf);
+        int ax = (int)a->vox.ray_axis;
+        printf(LABEL "ray along %c: quadtree depth %u (max %s), %llu leaves, leaf size %s, slab %s slices, %s "
+                     "compression\n",
+               "method", axes[ax >= 0 && ax <= 3 ? ax : 0], (unsigned)s->quadtree_depth, depth,
+               (unsigned long long)s->quadtree_leaves, leaf, slab, compression_name(a->vox.compression));
+    }
+
+    print_filled_line(s->filled_voxels, s->total_voxels);
+
+    double voxel_volume = grid->voxel_size[0] * grid->voxel_size[1] * grid->voxel_size[2];
+    double filled_volume = (double)s->filled_voxels * voxel_volume;
+    if (r->enclosed_volume > 0) {
+        printf(LABEL "%.6g filled vs %.6g enclosed by the mesh (%+.2f %%)%s\n", "volume", filled_volume,
+               r->enclosed_volume, 100.0 * (filled_volume - r->enclosed_volume) / r->enclosed_volume,
+               r->closed ? "" : " (mesh not closed: approximate)");
+    } else {
+        printf(LABEL "%.6g filled (the mesh encloses no volume)\n", "volume", filled_volume);
+    }
+    if (a->vox.method == CLVOX_METHOD_RAY || s->rays)
+        printf(LABEL "%llu cast, %llu odd parity, %llu overflow redone, at most %u crossings per ray\n", "rays",
+               (unsigned long long)s->rays, (unsigned long long)s->odd_parity_rays,
+               (unsigned long long)s->overflow_rays, (unsigned)s->max_crossings);
+    printf(LABEL "load %.3f  setup %.3f  partition %.3f  cast %.3f  classify %.3f  write %.3f  "
+                 "total %.3f s (wall %.3f s)\n",
+           "time", s->seconds[CLVOX_STAGE_LOAD], setup_seconds, s->seconds[CLVOX_STAGE_PARTITION],
+           s->seconds[CLVOX_STAGE_CAST], s->seconds[CLVOX_STAGE_CLASSIFY], s->seconds[CLVOX_STAGE_WRITE],
+           s->seconds[CLVOX_STAGE_TOTAL], wall_seconds);
+    uint64_t bytes = s->output_bytes;
+    struct stat sb;
+    if (bytes == 0 && stat(output, &sb) == 0) bytes = (uint64_t)sb.st_size;
+    char size[48];
+    format_bytes(bytes, size, sizeof size);
+    printf(LABEL "%s (%s)\n", "output", output, size);
+}
+
+static int cmd_voxelize(const cli_args *a, const char *argv0)
+{
+    double wall_start = now_seconds();
+    int rc = EXIT_OK;
+    char *mesh_path = NULL, *output = NULL;
+    clvox_context *host = NULL, *dev = NULL;
+    clvox_mesh *mesh = NULL;
+    clvox_status st;
+
+    install_signal_handlers();
+
+    if (a->mesh) {
+        mesh_path = dup_string(a->mesh);
+        if (!mesh_path) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
+    } else {
+        mesh_path = find_default_mesh(argv0, &rc);
+        if (!mesh_path) goto done;
+        if (!a->quiet) {
+            printf("clvox: no MESH given, using the default mesh %s\n", mesh_path);
+            fflush(stdout);
+        }
+    }
+    output = a->output ? dup_string(a->output) : default_output(mesh_path);
+    if (!output) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
+    if ((rc = check_output(output)) != EXIT_OK) goto done;
+
+    /* Mesh and grid on a host-only context: their errors need no device. */
+    clvox_context_options ho = CLVOX_CONTEXT_OPTIONS_INIT;
+    ho.host_only = 1;
+    if ((st = clvox_context_create(&ho, &host)) != CLVOX_OK) { rc = fail_status(host, st, ROLE_OTHER); goto done; }
+
+    double t0 = now_seconds();
+    if ((st = clvox_mesh_load(host, mesh_path, &mesh)) != CLVOX_OK) {
+        rc = fail_status(host, st, ROLE_INPUT);
+        goto done;
+    }
+    double load_seconds = now_seconds() - t0;
+    if (g_interrupted) { rc = fail_message(EXIT_CANCELLED, "cancelled"); goto done; }
+
+    const clvox_mesh_report *report = clvox_mesh_get_report(mesh);
+    clvox_grid_options go = a->grid;
+    if (!a->grid_by) go.resolution = DEFAULT_RESOLUTION;
+    clvox_grid grid;
+    memset(&grid, 0, sizeof grid);
+    if ((st = clvox_grid_compute(host, &go, report->bbox_min, report->bbox_max, &grid)) != CLVOX_OK) {
+        rc = fail_status(host, st, ROLE_OTHER);
+        goto done;
+    }
+
+    double t1 = now_seconds();
+    clvox_context_options dco = CLVOX_CONTEXT_OPTIONS_INIT;
+    dco.device = a->device;
+    if ((st = clvox_context_create(&dco, &dev)) != CLVOX_OK) { rc = fail_status(dev, st, ROLE_OTHER); goto done; }
+    double setup_seconds = now_seconds() - t1;
+    if (g_interrupted) { rc = fail_message(EXIT_CANCELLED, "cancelled"); goto done; }
+
+    progress_state prog;
+    memset(&prog, 0, sizeof prog);
+    prog.draw = !a->quiet && !a->no_progress && isatty(STDERR_FILENO);
+    prog.z = grid.dims[2];
+    prog.slab_option = a->vox.slab_depth;
+    prog.start = now_seconds();
+    prog.last_draw = prog.start - PROGRESS_INTERVAL_S;
+
+    clvox_voxelize_options vo = a->vox;
+    vo.progress = on_progress;
+    vo.progress_user = &prog;
+    clvox_stats stats;
+    memset(&stats, 0, sizeof stats);
+    st = clvox_voxelize_to_exr(dev, mesh, &grid, &vo, output, &stats);
+    progress_erase();
+    if (st != CLVOX_OK) {
+        rc = fail_status(dev, st, ROLE_OUTPUT);
+        goto done;
+    }
+    stats.seconds[CLVOX_STAGE_LOAD] = load_seconds;
+
+    if (!a->quiet) {
+        print_summary(mesh_path, report, &grid, clvox_context_device(dev), a, &stats, output, setup_seconds,
+                      now_seconds() - wall_start);
+        fflush(stdout);
+    }
+    if (stats.odd_parity_rays > 0)
+        fprintf(stderr,
+                "clvox: warning: %llu rays crossed the surface an odd number of times: the mesh is probably "
+                "not closed and the result may be wrong\n",
+                (unsigned long long)stats.odd_parity_rays);
+
+done:
+    clvox_mesh_destroy(mesh);
+    clvox_context_destroy(dev);
+    clvox_context_destroy(host);
+    free(output);
+    free(mesh_path);
+    return rc;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc >= 2 && strcmp(argv[1], "info") == 0) return cmd_info(argc - 2, argv + 2);
+
+    cli_args a;
+    int rc = parse_args(argc, argv, &a);
+    if (rc != EXIT_OK) return rc;
+    if (a.help) {
+        print_help();
+        return EXIT_OK;
+    }
+    if (a.version) {
+        print_version();
+        return EXIT_OK;
+    }
+    if (a.list_devices) return cmd_list_devices();
+    return cmd_voxelize(&a, argc > 0 ? argv[0] : NULL);
+}

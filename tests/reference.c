@@ -1,0 +1,70 @@
+#include "reference.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* Edge sign with the symbolic tie rule (design.md). */
+static int edge_sign(float av, float aw, float bv, float bw, float *e)
+{
+    *e = av * bw - aw * bv;
+    if (*e != 0.0f) return *e > 0.0f ? 1 : -1;
+    if (aw - bw != 0.0f) return aw - bw > 0.0f ? 1 : -1;
+    if (bv - av != 0.0f) return bv - av > 0.0f ? 1 : -1;
+    return 0;
+}
+
+static int cmp_float(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+uint64_t ref_voxelize(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, const clvox_grid *g,
+                      clvox_axis axis, uint8_t *out)
+{
+    int perm[3] = {0, 1, 2};                       /* u, v, w */
+    if (axis == CLVOX_AXIS_Y) perm[0] = 1, perm[1] = 2, perm[2] = 0;
+    if (axis == CLVOX_AXIS_Z) perm[0] = 2, perm[1] = 0, perm[2] = 1;
+    float *gv = malloc(nv * 3 * sizeof *gv);
+    float *hits = malloc((nt + 1) * sizeof *hits);
+    if (!gv || !hits) abort();
+    for (size_t i = 0; i < nv; i++)
+        for (int k = 0; k < 3; k++) {
+            int a = perm[k];
+            gv[i * 3 + k] = (float)(((double)xyz[i * 3 + a] - g->origin[a]) / g->voxel_size[a] - 0.5);
+        }
+    uint32_t du = g->dims[perm[0]], dv = g->dims[perm[1]], dw = g->dims[perm[2]];
+    uint64_t odd = 0;
+    for (uint32_t jw = 0; jw < dw; jw++)
+        for (uint32_t jv = 0; jv < dv; jv++) {
+            float pv = (float)jv, pw = (float)jw;
+            size_t n = 0;
+            for (size_t t = 0; t < nt; t++) {
+                const float *a = gv + 3 * (size_t)tri[3 * t], *b = gv + 3 * (size_t)tri[3 * t + 1],
+                            *c = gv + 3 * (size_t)tri[3 * t + 2];
+                float Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
+                float eab, ebc, eca;
+                int s1 = edge_sign(Av, Aw, Bv, Bw, &eab);
+                int s2 = edge_sign(Bv, Bw, Cv, Cw, &ebc);
+                int s3 = edge_sign(Cv, Cw, Av, Aw, &eca);
+                if (s1 == 0 || s1 != s2 || s1 != s3) continue;
+                float num = eca * (b[0] - a[0]) + eab * (c[0] - a[0]);
+                float den = eab + ebc + eca;
+                hits[n++] = a[0] + num / den;
+            }
+            odd += n & 1;
+            qsort(hits, n, sizeof *hits, cmp_float);
+            for (uint32_t i = 0; i < du; i++) {
+                size_t beyond = 0;
+                for (size_t k = 0; k < n; k++) beyond += hits[k] > (float)i;
+                uint32_t idx[3];
+                idx[perm[0]] = i;
+                idx[perm[1]] = jv;
+                idx[perm[2]] = jw;
+                out[((size_t)idx[2] * g->dims[1] + idx[1]) * g->dims[0] + idx[0]] = (uint8_t)(beyond & 1);
+            }
+        }
+    free(gv);
+    free(hits);
+    return odd;
+}

@@ -5,6 +5,10 @@ set -u
 build=${1:-build/release}
 here=$(cd "$(dirname "$0")/.." && pwd)
 cd "$here" || exit 1
+# The real meshes (data/meshes, git-ignored) come from Debian's libcgal-demo.
+if [ -z "${CLVOX_QUICK:-}" ] && [ ! -f data/meshes/armadillo.off ]; then
+  sh scripts/fetch_meshes.sh || echo "warning: could not fetch meshes"
+fi
 # PoCL needs a writable kernel cache, else it reports no device at all.
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"

@@ -1,0 +1,244 @@
+#!/bin/bash
+# clvox performance benchmark (not a test): per-stage seconds, whole-process
+# time and peak RSS of build/release/clvox on real meshes at several grid sizes.
+#
+#   scripts/bench.sh [--quick] [--peers] [--repeat R] [--method ray|tetra|all]
+#
+#   --quick      small subset: armadillo at N = 128, 256 and cow at 256
+#   --peers      also time VTK and OpenVDB on the same cases in the same run
+#                (scripts/bench_peers.py; needs scripts/setup.sh --peers)
+#   --repeat R   runs per case; the run with the best total is reported, peak
+#                RSS is the largest of the runs (default 3; peers: 1 unless
+#                --repeat is given)
+#   --method M   ray, tetra or all (default all: ray, plus tetra when
+#                `clvox --help` offers it)
+#
+# Cases: armadillo.off (52 k triangles) at N = 128, 256, 512, 1024;
+# armadillo subdivided twice (832 k) and three times (3.3 M triangles, binary
+# PLY, made by scripts/subdivide.c) at 512; bunny00 and cow at 512.
+# Meshes come from scripts/fetch_meshes.sh. The PoCL kernel cache
+# (POCL_CACHE_DIR, default build/pocl-cache) is warmed by one run first.
+# Stage seconds are those of clvox's summary ("time" line); "process" is the
+# wall time of the whole clvox process and peak RSS its maximum resident set,
+# both from /usr/bin/time -v. The output file is written (RLE, the default)
+# to build/bench/ and deleted after its size is taken.
+# Writes a markdown report to stdout and to build/bench/results.md.
+[ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+cd "$here"
+
+quick=0 peers=0 repeat=3 peer_repeat=1 methods=all
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --quick) quick=1 ;;
+    --peers) peers=1 ;;
+    --repeat) repeat=${2:?--repeat needs a number}; peer_repeat=$repeat; shift ;;
+    --repeat=*) repeat=${1#*=}; peer_repeat=$repeat ;;
+    --method) methods=${2:?--method needs ray, tetra or all}; shift ;;
+    --method=*) methods=${1#*=} ;;
+    -h|--help) sed -n '2,26p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "bench.sh: unknown option '$1' (try --help)" >&2; exit 2 ;;
+  esac
+  shift
+done
+case "$repeat" in ''|*[!0-9]*|0) echo "bench.sh: --repeat needs a positive number" >&2; exit 2 ;; esac
+
+clvox=${CLVOX_BENCH_BIN:-build/release/clvox}   # override to time another build
+outdir=build/bench
+tools=build/tools
+mkdir -p "$outdir" "$tools"
+export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
+mkdir -p "$POCL_CACHE_DIR"
+log() { echo "bench: $*" >&2; }
+
+if [ ! -x /usr/bin/time ]; then
+  echo "bench.sh: /usr/bin/time is missing (Debian package 'time'; scripts/setup.sh installs it)" >&2; exit 1
+fi
+if [ ! -x "$clvox" ]; then
+  log "building clvox (make CONFIG=release)"
+  make -s CONFIG=release >&2 || { echo "bench.sh: build failed" >&2; exit 1; }
+fi
+[ -f data/meshes/armadillo.off ] || sh scripts/fetch_meshes.sh >&2
+
+# Large meshes: armadillo subdivided 2 and 3 times.
+if [ "$quick" -eq 0 ]; then
+  if [ ! -x "$tools/subdivide" ] || [ scripts/subdivide.c -nt "$tools/subdivide" ]; then
+    cc -std=c11 -O2 -o "$tools/subdivide" scripts/subdivide.c
+  fi
+  for k in 2 3; do
+    [ -f "data/meshes/armadillo_s$k.ply" ] || "$tools/subdivide" data/meshes/armadillo.off "$k" "data/meshes/armadillo_s$k.ply" >&2
+  done
+fi
+
+if [ "$quick" -eq 1 ]; then
+  cases="armadillo.off:128 armadillo.off:256 cow.off:256"
+else
+  cases="armadillo.off:128 armadillo.off:256 armadillo.off:512 armadillo.off:1024
+         armadillo_s2.ply:512 armadillo_s3.ply:512 bunny00.off:512 cow.off:512"
+fi
+help=$("$clvox" --help 2>&1 || true)
+case "$methods" in
+  all) mlist="ray"; if grep -q -- 'tetra' <<<"$help"; then mlist="ray tetra"; fi ;;
+  ray|tetra) mlist=$methods ;;
+  *) echo "bench.sh: --method must be ray, tetra or all" >&2; exit 2 ;;
+esac
+
+tmp=$(mktemp -d "$outdir/run.XXXXXX")
+trap 'rm -rf "$tmp"' EXIT
+
+# One clvox run under /usr/bin/time; prints one tab-separated record:
+# triangles grid load setup partition cast classify write total process rss_mb out_mb filled
+run_one() {
+  local mesh=$1 n=$2 method=$3 out="$tmp/out.exr" rc=0
+  rm -f "$out"
+  /usr/bin/time -v -o "$tmp/time.txt" "$clvox" "$mesh" -o "$out" -r "$n" --method "$method" --no-progress \
+    >"$tmp/stdout.txt" 2>"$tmp/stderr.txt" || rc=$?
+  if [ "$rc" -ne 0 ]; then
+    log "FAILED (exit $rc): $clvox $mesh -r $n --method $method"
+    sed 's/^/    /' "$tmp/stderr.txt" | tail -n 5 >&2
+    return 1
+  fi
+  local bytes=0
+  [ -f "$out" ] && bytes=$(stat -c %s "$out")
+  rm -f "$out"
+  awk -v bytes="$bytes" -v timefile="$tmp/time.txt" '
+    function grab(name,   i) { for (i = 1; i < NF; i++) if ($i == name && $(i+1) ~ /^[0-9.]+$/) return $(i+1); return "" }
+    /^time[ \t]/ || / partition [0-9.]+ / {
+      for (k in want) { v = grab(k); if (v != "") t[k] = v } }
+    /^grid[ \t]/ { if (match($0, /[0-9]+ x [0-9]+ x [0-9]+/)) { g = substr($0, RSTART, RLENGTH); gsub(/ /, "", g) } }
+    /[0-9]+ triangles/ && tri == "" { if (match($0, /[0-9]+ triangles/)) tri = substr($0, RSTART, RLENGTH - 10) }
+    /^filled[ \t]/ { filled = $2 }
+    BEGIN { split("load setup partition cast classify write total", w, " "); for (i in w) want[w[i]] = 1 }
+    END {
+      while ((getline line < timefile) > 0) {
+        if (line ~ /Maximum resident set size/) { sub(/.*: */, "", line); rss = line / 1024 }
+        if (line ~ /Elapsed \(wall clock\)/) {
+          sub(/.*\): */, "", line); m = split(line, p, ":"); s = 0
+          for (i = 1; i <= m; i++) s = s * 60 + p[i]
+          proc = s
+        }
+      }
+      printf "%s\t%s", (tri == "" ? "?" : tri), (g == "" ? "?" : g)
+      split("load setup partition cast classify write total", w, " ")
+      for (i = 1; i <= 7; i++) printf "\t%s", ((w[i] in t) ? t[w[i]] : "-")
+      printf "\t%.2f\t%.0f\t%.1f\t%s\n", proc, rss, bytes / 1e6, (filled == "" ? "?" : filled)
+    }' "$tmp/stdout.txt"
+}
+
+# Warm the PoCL kernel cache (and the page cache for the meshes).
+for m in $mlist; do
+  run_one data/meshes/armadillo.off 64 "$m" >/dev/null || { echo "bench.sh: warm-up run failed" >&2; exit 1; }
+done
+device=$(sed -n 's/^device[ \t]*//p' "$tmp/stdout.txt" | head -n 1)
+
+results="$tmp/results.tsv"
+: >"$results"
+for c in $cases; do
+  mesh=${c%%:*} n=${c##*:}
+  path=data/meshes/$mesh
+  [ -f "$path" ] || { log "skipping $mesh (missing)"; continue; }
+  for m in $mlist; do
+    best="" maxrss=0
+    for ((r = 0; r < repeat; r++)); do
+      rec=$(run_one "$path" "$n" "$m") || { best=""; break; }
+      total=$(cut -f 9 <<<"$rec"); rss=$(cut -f 11 <<<"$rec")
+      [ "${rss%.*}" -gt "$maxrss" ] && maxrss=${rss%.*}
+      if [ -z "$best" ] || awk -v a="$total" -v b="$(cut -f 9 <<<"$best")" 'BEGIN { exit !(a < b) }'; then best=$rec; fi
+    done
+    if [ -n "$best" ]; then
+      best=$(awk -F '\t' -v OFS='\t' -v rss="$maxrss" '{ $11 = rss; print }' <<<"$best")
+      printf '%s\t%s\t%s\t%s\n' "$mesh" "$n" "$m" "$best" >>"$results"
+      log "$(printf '%-18s N=%-5s %-5s total %ss, process %ss, %s MB' "$mesh" "$n" "$m" \
+        "$(cut -f 9 <<<"$best")" "$(cut -f 10 <<<"$best")" "$maxrss")"
+    else
+      printf '%s\t%s\t%s\tFAILED\n' "$mesh" "$n" "$m" >>"$results"
+    fi
+  done
+done
+
+report="$outdir/results.md"
+{
+  cpu=$(sed -n 's/^model name[ \t]*: //p' /proc/cpuinfo | head -n 1)
+  echo "# clvox benchmark"
+  echo
+  echo "$(date -u '+%Y-%m-%d %H:%M UTC'), clvox $("$clvox" --version 2>/dev/null | head -n 1 | awk '{ print $2 }')" \
+       "(git $(git rev-parse --short HEAD 2>/dev/null || echo '?')), $(nproc) cores ($cpu), device: ${device:-?}," \
+       "best of $repeat run(s), PoCL kernel cache warm."
+  echo
+  echo "Stage seconds from clvox's summary; process = wall time of the whole clvox process"
+  echo "(start-up, kernel build from cache, output written and closed); peak RSS from /usr/bin/time -v."
+  echo
+  echo "| mesh | triangles | N | grid | method | load | setup | partition | cast | classify | write | total | process | peak RSS MB | output MB | filled voxels |"
+  echo "|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+  awk -F '\t' '$4 == "FAILED" { printf "| %s | | %s | | %s | failed |||||||||||\n", $1, $2, $3; next }
+    { printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",
+        $1, $4, $2, $5, $3, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16 }' "$results"
+  echo
+  echo "Growth with N (armadillo.off, 52 k triangles): time(2N) / time(N); a stage that"
+  echo "scales with the voxel count grows 8x, with the ray count (N^2) 4x."
+  echo
+  echo "| method | N -> 2N | load | partition | cast | classify | write | total | process | peak RSS |"
+  echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"
+  awk -F '\t' '
+    function r(a, b) { return (a + 0 > 0 && b != "-" && a != "-") ? sprintf("%.2f", b / a) : "-" }
+    $1 == "armadillo.off" && $4 != "FAILED" { row[$3, $2] = $0; seen[$3] = 1 }
+    END {
+      for (m in seen) for (n = 128; n < 1024; n *= 2) {
+        if (!(((m, n) in row) && ((m, 2 * n) in row))) continue
+        split(row[m, n], a, "\t"); split(row[m, 2 * n], b, "\t")
+        printf "| %s | %d -> %d | %s | %s | %s | %s | %s | %s | %s | %s |\n", m, n, 2 * n,
+          r(a[6], b[6]), r(a[8], b[8]), r(a[9], b[9]), r(a[10], b[10]), r(a[11], b[11]), r(a[12], b[12]),
+          r(a[13], b[13]), r(a[14], b[14])
+      }
+    }' "$results" | sort
+  echo
+  echo "Growth with triangle count at N = 512 (armadillo, subdivided x4 per step): ratio to the"
+  echo "52 k-triangle armadillo."
+  echo
+  echo "| method | mesh | triangles | x triangles | load | partition | cast | classify | write | total | process | peak RSS |"
+  echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+  awk -F '\t' '
+    function r(a, b) { return (a + 0 > 0 && b != "-" && a != "-") ? sprintf("%.2f", b / a) : "-" }
+    $2 == 512 && $4 != "FAILED" && $1 ~ /^armadillo/ { row[$3, $1] = $0; seen[$3] = 1 }
+    END {
+      for (m in seen) {
+        if (!((m, "armadillo.off") in row)) continue
+        split(row[m, "armadillo.off"], a, "\t")
+        n = split("armadillo_s2.ply armadillo_s3.ply", ms, " ")
+        for (i = 1; i <= n; i++) {
+          if (!((m, ms[i]) in row)) continue
+          split(row[m, ms[i]], b, "\t")
+          printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", m, ms[i], b[4], r(a[4], b[4]),
+            r(a[6], b[6]), r(a[8], b[8]), r(a[9], b[9]), r(a[10], b[10]), r(a[11], b[11]), r(a[12], b[12]),
+            r(a[13], b[13]), r(a[14], b[14])
+        }
+      }
+    }' "$results" | sort
+  echo
+  echo "Where the time goes (share of the summary total, per case):"
+  echo
+  echo "| mesh | N | method | load | setup | partition | cast | classify | write |"
+  echo "|---|---:|---|---:|---:|---:|---:|---:|---:|"
+  awk -F '\t' '
+    function p(x) { return (x == "-" || $12 + 0 <= 0) ? "-" : sprintf("%.0f %%", 100 * x / $12) }
+    $4 != "FAILED" { printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", $1, $2, $3, p($6), p($7), p($8), p($9), p($10), p($11) }' "$results"
+} >"$report"
+
+if [ "$peers" -eq 1 ]; then
+  pcases=""
+  for c in $cases; do pcases="$pcases data/meshes/${c%%:*}:${c##*:}"; done
+  log "running the peers (VTK, OpenVDB)"
+  {
+    echo
+    echo "## Peers (same meshes and grids; scripts/bench_peers.py, best of $peer_repeat)"
+    echo
+    echo "In-process seconds from the mesh file to a dense occupancy array in memory (no file"
+    echo "written); peak RSS of a fresh Python process per case. VTK: vtkPolyDataToImageStencil,"
+    echo "1 thread; OpenVDB: meshToVolume (level set, TBB threads on all cores) + dense copy."
+    echo
+    /usr/bin/python3 scripts/bench_peers.py --repeat "$peer_repeat" $pcases
+  } >>"$report"
+fi
+cat "$report"
+log "report written to $outdir/results.md"

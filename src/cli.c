@@ -649,7 +649,7 @@ static int cmd_list_devices(void)
 
 /* ---- summary helpers --------------------------------------------------------- */
 
-#define LABEL "%-12s"
+#define LABEL "%-13s"
 
 static void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3])
 {
@@ -748,9 +748,7 @@ typedef struct progress_state {
     double start;        /* when voxelization began */
     double last_draw;
     uint32_t calls;      /* slabs done */
-    uint32_t slabs;      /* estimated slab count (0 = unknown yet) */
-    uint32_t z;          /* slices */
-    uint32_t slab_option;
+    uint32_t slabs;      /* slab count, derived from the fraction */
 } progress_state;
 
 static int on_progress(void *user, double fraction)
@@ -762,14 +760,8 @@ static int on_progress(void *user, double fraction)
 
     if (!(fraction >= 0)) fraction = 0;
     if (fraction > 1) fraction = 1;
-    if (p->slabs == 0 && p->z > 0) {
-        uint32_t nz = p->slab_option;
-        if (nz == 0 && fraction > 0) {
-            double est = fraction * (double)p->z / (double)p->calls;
-            nz = est < 1 ? 1 : (uint32_t)(est + 0.5);
-        }
-        if (nz) p->slabs = (uint32_t)(((uint64_t)p->z + nz - 1) / nz);
-    }
+    /* fraction is slabs done / slabs: recover the slab count */
+    if (fraction > 0) p->slabs = (uint32_t)((double)p->calls / fraction + 0.5);
     if (p->slabs < p->calls) p->slabs = p->calls;
 
     double now = now_seconds();
@@ -952,9 +944,10 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
     double voxel_volume = grid->voxel_size[0] * grid->voxel_size[1] * grid->voxel_size[2];
     double filled_volume = (double)s->filled_voxels * voxel_volume;
     if (r->enclosed_volume > 0) {
+        double rel = 100.0 * (filled_volume - r->enclosed_volume) / r->enclosed_volume;
+        if (fabs(rel) < 0.005) rel = 0; /* no "-0.00 %" */
         printf(LABEL "%.6g filled vs %.6g enclosed by the mesh (%+.2f %%)%s\n", "volume", filled_volume,
-               r->enclosed_volume, 100.0 * (filled_volume - r->enclosed_volume) / r->enclosed_volume,
-               r->closed ? "" : " (mesh not closed: approximate)");
+               r->enclosed_volume, rel, r->closed ? "" : " (mesh not closed: approximate)");
     } else {
         printf(LABEL "%.6g filled (the mesh encloses no volume)\n", "volume", filled_volume);
     }
@@ -1034,8 +1027,6 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     progress_state prog;
     memset(&prog, 0, sizeof prog);
     prog.draw = !a->quiet && !a->no_progress && isatty(STDERR_FILENO);
-    prog.z = grid.dims[2];
-    prog.slab_option = a->vox.slab_depth;
     prog.start = now_seconds();
     prog.last_draw = prog.start - PROGRESS_INTERVAL_S;
 

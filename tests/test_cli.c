@@ -1,0 +1,736 @@
+/* End-to-end tests of the clvox command-line tool: runs the binary
+ * ($CLVOX_BIN, default build/release/clvox) with fork/execve (no shell),
+ * stdout and stderr captured into files, a 60 s limit per run, and checks
+ * exit codes, the one-line error contract and that failed runs leave no
+ * file behind. */
+#include "test.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdint.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+extern char **environ;
+
+#define RUN_TIMEOUT_S 60.0
+#define ARGS(...) ((const char *const[]){__VA_ARGS__, NULL})
+#define ENV(...) ((const char *const[]){__VA_ARGS__, NULL})
+
+typedef struct run_result {
+    int code;  /* exit status; 128+signal if killed by one; -1 timeout or spawn failure */
+    char *out; /* captured stdout (NUL-terminated, never NULL) */
+    char *err; /* captured stderr */
+} run_result;
+
+static char g_bin[PATH_MAX];  /* absolute path of the binary */
+static char g_dir[PATH_MAX];  /* <tmp>/cli */
+static char g_in[PATH_MAX];   /* input meshes */
+static char g_out[PATH_MAX];  /* outputs of runs that must fail: stays empty */
+static char g_logs[PATH_MAX]; /* captured stdout/stderr */
+static unsigned g_run_id;
+
+/* ---- files ---- */
+
+static void path_join(char *dst, size_t size, const char *dir, const char *name)
+{
+    int n = snprintf(dst, size, "%s/%s", dir, name);
+    if (n < 0 || (size_t)n >= size) {
+        fprintf(stderr, "path too long: %s/%s\n", dir, name);
+        abort();
+    }
+}
+
+static int write_file(const char *path, const void *data, size_t size)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return 0;
+    int ok = fwrite(data, 1, size, f) == size;
+    ok &= fclose(f) == 0;
+    return ok;
+}
+
+static int write_text(const char *dir, const char *name, const char *text)
+{
+    char p[PATH_MAX];
+    path_join(p, sizeof p, dir, name);
+    return write_file(p, text, strlen(text));
+}
+
+static char *read_all(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    size_t cap = 4096, n = 0;
+    char *buf = malloc(cap);
+    if (!buf) abort();
+    if (f) {
+        size_t got;
+        while ((got = fread(buf + n, 1, cap - n - 1, f)) > 0) {
+            n += got;
+            if (cap - n - 1 == 0) {
+                cap *= 2;
+                char *grown = realloc(buf, cap);
+                if (!grown) abort();
+                buf = grown;
+            }
+        }
+        fclose(f);
+    }
+    buf[n] = '\0';
+    return buf;
+}
+
+static int file_exists(const char *path)
+{
+    struct stat sb;
+    return lstat(path, &sb) == 0;
+}
+
+static long long file_size(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 ? (long long)sb.st_size : -1;
+}
+
+static void rm_tree(const char *path)
+{
+    struct stat sb;
+    if (lstat(path, &sb) != 0) return;
+    if (S_ISDIR(sb.st_mode)) {
+        DIR *d = opendir(path);
+        if (d) {
+            struct dirent *e;
+            while ((e = readdir(d)) != NULL) {
+                if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+                char sub[PATH_MAX];
+                path_join(sub, sizeof sub, path, e->d_name);
+                rm_tree(sub);
+            }
+            closedir(d);
+        }
+        rmdir(path);
+    } else {
+        unlink(path);
+    }
+}
+
+/* Names of the entries of `dir` ("" if empty), for messages. */
+static void dir_entries(const char *dir, char *buf, size_t size)
+{
+    buf[0] = '\0';
+    DIR *d = opendir(dir);
+    if (!d) {
+        snprintf(buf, size, "(cannot open the directory)");
+        return;
+    }
+    size_t used = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        int n = snprintf(buf + used, size - used, "%s ", e->d_name);
+        if (n < 0 || (size_t)n >= size - used) break;
+        used += (size_t)n;
+    }
+    closedir(d);
+}
+
+/* ---- running the binary ---- */
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Environment = the test's own, with `extra` entries ("NAME=VALUE" sets,
+ * "NAME" unsets) applied. Returns a malloc'ed array (strings borrowed). */
+static const char **make_env(const char *const *extra)
+{
+    size_t n = 0, m = 0;
+    while (environ[n]) n++;
+    while (extra && extra[m]) m++;
+    const char **env = malloc((n + m + 1) * sizeof *env);
+    if (!env) abort();
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++) {
+        int replaced = 0;
+        for (size_t j = 0; j < m; j++) {
+            size_t len = strcspn(extra[j], "=");
+            if (strncmp(environ[i], extra[j], len) == 0 && environ[i][len] == '=') replaced = 1;
+        }
+        if (!replaced) env[k++] = environ[i];
+    }
+    for (size_t j = 0; j < m; j++)
+        if (strchr(extra[j], '=')) env[k++] = extra[j];
+    env[k] = NULL;
+    return env;
+}
+
+/* Runs clvox with `args` (argv[1..], NULL-terminated). cwd may be NULL.
+ * If sigint_after > 0, sends SIGINT after that many seconds. */
+static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_extra, const char *const *args,
+                       double sigint_after)
+{
+    size_t na = 0;
+    while (args[na]) na++;
+    const char **argv = malloc((na + 2) * sizeof *argv);
+    if (!argv) abort();
+    argv[0] = g_bin;
+    for (size_t i = 0; i < na; i++) argv[i + 1] = args[i];
+    argv[na + 1] = NULL;
+    const char **env = make_env(env_extra);
+
+    char out_path[PATH_MAX], err_path[PATH_MAX], name[32];
+    unsigned id = ++g_run_id;
+    snprintf(name, sizeof name, "run%03u.out", id);
+    path_join(out_path, sizeof out_path, g_logs, name);
+    snprintf(name, sizeof name, "run%03u.err", id);
+    path_join(err_path, sizeof err_path, g_logs, name);
+
+    fflush(stdout);
+    fflush(stderr);
+    r->code = -1;
+    pid_t pid = fork();
+    if (pid == 0) {
+        /* child: only async-signal-safe calls */
+        if (cwd && chdir(cwd) != 0) _exit(126);
+        int in = open("/dev/null", O_RDONLY);
+        int o = open(out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (in < 0 || o < 0 || e < 0) _exit(126);
+        if (dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
+        execve(g_bin, (char *const *)argv, (char *const *)env);
+        _exit(127);
+    }
+    if (pid > 0) {
+        double start = now_s();
+        int sent = 0, status = 0;
+        for (;;) {
+            pid_t w = waitpid(pid, &status, WNOHANG);
+            if (w == pid) {
+                if (WIFEXITED(status)) r->code = WEXITSTATUS(status);
+                else if (WIFSIGNALED(status)) r->code = 128 + WTERMSIG(status);
+                break;
+            }
+            if (w < 0 && errno != EINTR) break;
+            double t = now_s() - start;
+            if (sigint_after > 0 && !sent && t >= sigint_after) {
+                kill(pid, SIGINT);
+                sent = 1;
+            }
+            if (t > RUN_TIMEOUT_S) {
+                kill(pid, SIGKILL);
+                waitpid(pid, &status, 0);
+                fprintf(stderr, "TIMEOUT after %.0f s: %s %s ...\n", RUN_TIMEOUT_S, g_bin, na ? args[0] : "");
+                r->code = -1;
+                break;
+            }
+            struct timespec ts = {0, 5 * 1000 * 1000};
+            nanosleep(&ts, NULL);
+        }
+    } else {
+        fprintf(stderr, "fork failed: %s\n", strerror(errno));
+    }
+    free(argv);
+    free(env);
+    r->out = read_all(out_path);
+    r->err = read_all(err_path);
+}
+
+static void run_cli(run_result *r, const char *const *env_extra, const char *const *args)
+{
+    run_cli_ex(r, NULL, env_extra, args, 0);
+}
+
+static void run_free(run_result *r)
+{
+    free(r->out);
+    free(r->err);
+    r->out = r->err = NULL;
+}
+
+static int count_lines(const char *s)
+{
+    int n = 0;
+    for (; *s; s++)
+        if (*s == '\n') n++;
+    return n;
+}
+
+/* Pointer to the text after "label" at the start of a line, or NULL. */
+static const char *find_field(const char *text, const char *label)
+{
+    size_t n = strlen(label);
+    for (const char *line = text; line && *line;) {
+        if (strncmp(line, label, n) == 0 && (line[n] == ' ' || line[n] == '\t')) {
+            const char *v = line + n;
+            while (*v == ' ' || *v == '\t') v++;
+            return v;
+        }
+        line = strchr(line, '\n');
+        if (line) line++;
+    }
+    return NULL;
+}
+
+/* "filled   N of M voxels" -> N (or -1). */
+static long long filled_count(const char *text, long long *total)
+{
+    const char *v = find_field(text, "filled");
+    unsigned long long f = 0, t = 0;
+    if (!v || sscanf(v, "%llu of %llu", &f, &t) != 2) return -1;
+    if (total) *total = (long long)t;
+    return (long long)f;
+}
+
+/* ---- the error contract ---- */
+
+/* Runs a command that must fail: exit code `expected` (-1: any non-zero),
+ * exactly one stderr line "clvox: error: ...", and nothing in g_out. */
+static void expect_failure(const char *what, int expected, const char *const *env, const char *const *args)
+{
+    run_result r;
+    run_cli(&r, env, args);
+    if (expected < 0)
+        CHECK_MSG(r.code > 0 && r.code != 127, "%s: exit %d, expected non-zero; stderr: %s", what, r.code, r.err);
+    else
+        CHECK_MSG(r.code == expected, "%s: exit %d, expected %d; stderr: %s", what, r.code, expected, r.err);
+    CHECK_MSG(count_lines(r.err) == 1 && strncmp(r.err, "clvox: error: ", 14) == 0,
+              "%s: stderr must be one 'clvox: error:' line, got: [%s]", what, r.err);
+    char left[1024];
+    dir_entries(g_out, left, sizeof left);
+    CHECK_MSG(left[0] == '\0', "%s: files left in the output directory: %s", what, left);
+    rm_tree(g_out);
+    mkdir(g_out, 0777);
+    run_free(&r);
+}
+
+/* ---- inputs ---- */
+
+static const char CUBE_OBJ[] =
+    "# unit cube, quads (fan-triangulated by the loader)\n"
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+    "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+static uint32_t g_rng = 0x12345678u;
+static uint32_t next_random(void)
+{
+    g_rng ^= g_rng << 13;
+    g_rng ^= g_rng >> 17;
+    g_rng ^= g_rng << 5;
+    return g_rng;
+}
+
+static void write_random(const char *name, size_t size)
+{
+    unsigned char *b = malloc(size);
+    if (!b) abort();
+    for (size_t i = 0; i < size; i++) b[i] = (unsigned char)next_random();
+    char p[PATH_MAX];
+    path_join(p, sizeof p, g_in, name);
+    CHECK(write_file(p, b, size));
+    free(b);
+}
+
+/* Binary STL claiming `claimed` triangles but holding only `present`. */
+static void write_truncated_stl(const char *name, uint32_t claimed, uint32_t present)
+{
+    size_t size = 84 + (size_t)present * 50;
+    unsigned char *b = calloc(1, size);
+    if (!b) abort();
+    memcpy(b, "binary stl, truncated", 21);
+    b[80] = (unsigned char)(claimed & 0xff);
+    b[81] = (unsigned char)((claimed >> 8) & 0xff);
+    b[82] = (unsigned char)((claimed >> 16) & 0xff);
+    b[83] = (unsigned char)(claimed >> 24);
+    for (uint32_t t = 0; t < present; t++) {
+        float v[12] = {0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0};
+        v[3] = (float)t;
+        memcpy(b + 84 + (size_t)t * 50, v, sizeof v);
+    }
+    char p[PATH_MAX];
+    path_join(p, sizeof p, g_in, name);
+    CHECK(write_file(p, b, size));
+    free(b);
+}
+
+static void make_inputs(void)
+{
+    CHECK(write_text(g_in, "cube.obj", CUBE_OBJ));
+    CHECK(write_text(g_in, "unitbox.obj", CUBE_OBJ));
+    CHECK(write_text(g_in, "cube.xyz", CUBE_OBJ));
+    CHECK(write_text(g_in, "empty.obj", ""));
+    CHECK(write_text(g_in, "empty.off", ""));
+    CHECK(write_text(g_in, "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"));
+    write_random("random.stl", 3000);
+    write_random("random.ply", 3000);
+    write_random("random.off", 3000);
+    write_random("random.obj", 3000);
+    write_random("random.exr", 3000);
+    write_truncated_stl("truncated.stl", 12, 5);
+    CHECK(write_text(g_in, "noend.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                     "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"));
+    CHECK(write_text(g_in, "nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n"));
+    CHECK(write_text(g_in, "inf.stl",
+                     "solid inf\n"
+                     " facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 inf 0\n"
+                     "  endloop\n endfacet\n"
+                     " facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 0 1\n"
+                     "  endloop\n endfacet\n"
+                     "endsolid inf\n"));
+    CHECK(write_text(g_in, "badindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 99\n"));
+    CHECK(write_text(g_in, "badindex.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 7\n"));
+    char p[PATH_MAX];
+    path_join(p, sizeof p, g_in, "adir.obj");
+    CHECK(mkdir(p, 0777) == 0 || errno == EEXIST);
+}
+
+/* ---- tests ---- */
+
+static void test_help_version(void)
+{
+    run_result r;
+    run_cli(&r, NULL, ARGS("--help"));
+    CHECK_MSG(r.code == 0, "--help exit %d", r.code);
+    CHECK_MSG(r.err[0] == '\0', "--help wrote to stderr: %s", r.err);
+    static const char *const needed[] = {
+        "-o", "--output", "-r", "--dims", "--voxel-size", "--box", "--pad", "--method", "ray", "tetra",
+        "--axis", "--depth", "--leaf", "--slab", "--compression", "none", "rle", "zips", "piz",
+        "--tetra-origin", "centroid", "bbox", "--threads", "--device", "--list-devices", "-q", "--quiet",
+        "--no-progress", "--help", "--version", "clvox info", "CLVOX_DEVICE", "POCL_CACHE_DIR",
+        "CLVOX_DEFAULT_MESH", "Exit codes", "130", "default 256", "centre", "longest axis", NULL};
+    for (int i = 0; needed[i]; i++)
+        CHECK_MSG(strstr(r.out, needed[i]) != NULL, "--help does not mention '%s'", needed[i]);
+    run_free(&r);
+
+    run_cli(&r, NULL, ARGS("-h"));
+    CHECK(r.code == 0 && strstr(r.out, "--voxel-size"));
+    run_free(&r);
+
+    run_cli(&r, NULL, ARGS("--version"));
+    CHECK_MSG(r.code == 0, "--version exit %d", r.code);
+    CHECK_MSG(strstr(r.out, CLVOX_VERSION_STRING) != NULL, "--version printed: %s", r.out);
+    CHECK(count_lines(r.out) == 1);
+    run_free(&r);
+}
+
+/* Voxelizes the cube at -r N --pad 1 with extra options; returns the filled
+ * count reported by `clvox info` (or -1) and checks the run. */
+static long long run_cube(const char *what, const char *out_name, const char *const *extra)
+{
+    char mesh[PATH_MAX], out[PATH_MAX];
+    path_join(mesh, sizeof mesh, g_in, "cube.obj");
+    path_join(out, sizeof out, g_dir, out_name);
+    unlink(out);
+    const char *args[32];
+    int n = 0;
+    args[n++] = mesh;
+    args[n++] = "-o";
+    args[n++] = out;
+    args[n++] = "--pad";
+    args[n++] = "1";
+    for (int i = 0; extra[i] && n < 30; i++) args[n++] = extra[i];
+    args[n] = NULL;
+
+    run_result r;
+    run_cli(&r, NULL, args);
+    CHECK_MSG(r.code == 0, "%s: exit %d; stderr: %s", what, r.code, r.err);
+    CHECK_MSG(file_exists(out), "%s: no output file %s", what, out);
+    long long summary = filled_count(r.out, NULL);
+    run_free(&r);
+    if (!file_exists(out)) return -1;
+
+    run_cli(&r, NULL, ARGS("info", out));
+    CHECK_MSG(r.code == 0, "%s: info exit %d; stderr: %s", what, r.code, r.err);
+    long long info = filled_count(r.out, NULL);
+    CHECK_MSG(info == summary, "%s: info reports %lld filled voxels, the run reported %lld", what, info, summary);
+    run_free(&r);
+    return info;
+}
+
+static void test_real_run(void)
+{
+    char mesh[PATH_MAX], out[PATH_MAX];
+    path_join(mesh, sizeof mesh, g_in, "cube.obj");
+    path_join(out, sizeof out, g_dir, "cube.exr");
+    unlink(out);
+
+    /* Unit cube, 16 voxels along the longest axis + 1 voxel of padding:
+     * 18^3 grid, the 16^3 centres inside the cube are filled. */
+    run_result r;
+    run_cli(&r, NULL, ARGS(mesh, "-r", "16", "--pad", "1", "-o", out, "--no-progress"));
+    CHECK_MSG(r.code == 0, "real run: exit %d; stderr: %s", r.code, r.err);
+    CHECK_MSG(file_exists(out) && file_size(out) > 0, "real run: no output %s", out);
+    long long total = 0;
+    long long filled = filled_count(r.out, &total);
+    CHECK_MSG(filled == 4096 && total == 18 * 18 * 18, "real run: filled %lld of %lld, expected 4096 of 5832; "
+              "stdout:\n%s", filled, total, r.out);
+    CHECK_MSG(strstr(r.out, "18 x 18 x 18") != NULL, "real run: grid not in summary:\n%s", r.out);
+    CHECK_MSG(strstr(r.out, "cube.obj") != NULL, "real run: mesh not in summary");
+    CHECK_MSG(find_field(r.out, "time") && find_field(r.out, "output") && find_field(r.out, "device") &&
+              find_field(r.out, "volume") && find_field(r.out, "method"),
+              "real run: summary incomplete:\n%s", r.out);
+    CHECK_MSG(strstr(r.out, " closed") != NULL, "real run: the cube is closed:\n%s", r.out);
+    CHECK_MSG(r.err[0] == '\0', "real run: unexpected stderr: %s", r.err);
+    CHECK_MSG(count_lines(r.out) <= 16, "real run: summary has %d lines", count_lines(r.out));
+    run_free(&r);
+
+    /* info: same count and dims; works without any OpenCL device */
+    static const char *const no_cl[][3] = {
+        {NULL, NULL, NULL},
+        {"CLVOX_DEVICE=no-such-device", "OCL_ICD_VENDORS=/nonexistent-clvox-test", NULL},
+    };
+    for (int k = 0; k < 2; k++) {
+        run_cli(&r, no_cl[k][0] ? no_cl[k] : NULL, ARGS("info", out));
+        CHECK_MSG(r.code == 0, "info (%d): exit %d; stderr: %s", k, r.code, r.err);
+        CHECK_MSG(filled_count(r.out, NULL) == filled, "info (%d): filled %lld, run said %lld:\n%s", k,
+                  filled_count(r.out, NULL), filled, r.out);
+        CHECK_MSG(strstr(r.out, "18 x 18 x 18") != NULL, "info (%d): dims missing:\n%s", k, r.out);
+        CHECK_MSG(strstr(r.out, "ray") != NULL, "info (%d): method missing:\n%s", k, r.out);
+        CHECK_MSG(strstr(r.out, CLVOX_VERSION_STRING) != NULL, "info (%d): version missing:\n%s", k, r.out);
+        run_free(&r);
+    }
+
+    /* -q: nothing on stdout, the file is still written */
+    unlink(out);
+    run_cli(&r, NULL, ARGS("-q", mesh, "-r", "8", "-o", out));
+    CHECK_MSG(r.code == 0 && r.out[0] == '\0' && r.err[0] == '\0', "-q: exit %d, stdout [%s], stderr [%s]", r.code,
+              r.out, r.err);
+    CHECK(file_exists(out));
+    run_free(&r);
+
+    /* --dims and --voxel-size give the grid they say; options with '=' */
+    run_cli(&r, NULL, ARGS(mesh, "--dims=4,5,6", "-o", out));
+    CHECK_MSG(r.code == 0 && strstr(r.out, "4 x 5 x 6"), "--dims: exit %d; %s%s", r.code, r.out, r.err);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS(mesh, "--voxel-size", "0.25", "--box=-1,-1,-1,2,2,2", "-o", out));
+    CHECK_MSG(r.code == 0 && strstr(r.out, "12 x 12 x 12") && filled_count(r.out, NULL) == 64,
+              "--voxel-size/--box: exit %d; %s%s", r.code, r.out, r.err);
+    run_free(&r);
+}
+
+static void test_options(void)
+{
+    /* every compression and ray axis gives the same volume */
+    static const char *const comp[] = {"none", "rle", "zips", "zip", "piz"};
+    for (int i = 0; i < 5; i++) {
+        char what[64];
+        snprintf(what, sizeof what, "--compression %s", comp[i]);
+        long long f = run_cube(what, "comp.exr", ARGS("-r", "8", "--compression", comp[i]));
+        CHECK_MSG(f == 512, "%s: %lld filled, expected 512", what, f);
+    }
+    static const char *const axes[] = {"x", "y", "z"};
+    for (int i = 0; i < 3; i++) {
+        char what[64];
+        snprintf(what, sizeof what, "--axis %s", axes[i]);
+        long long f = run_cube(what, "axis.exr", ARGS("-r", "8", "--axis", axes[i], "--slab", "3"));
+        CHECK_MSG(f == 512, "%s: %lld filled, expected 512", what, f);
+    }
+    long long f = run_cube("quadtree options", "qt.exr", ARGS("-r", "8", "--depth", "2", "--leaf", "1", "--threads", "1"));
+    CHECK_MSG(f == 512, "quadtree options: %lld filled, expected 512", f);
+    f = run_cube("--method tetra", "tetra.exr", ARGS("-r", "8", "--method", "tetra"));
+    CHECK_MSG(f == 512, "--method tetra: %lld filled, expected 512", f);
+    f = run_cube("--tetra-origin", "tetra2.exr", ARGS("-r", "8", "--method", "tetra", "--tetra-origin", "0.1,0.2,0.3"));
+    CHECK_MSG(f == 512, "--tetra-origin point: %lld filled, expected 512", f);
+}
+
+static void test_default_mesh(void)
+{
+    /* No MESH: CLVOX_DEFAULT_MESH is used, output <basename>.exr in the cwd. */
+    char cwd[PATH_MAX], mesh[PATH_MAX], env[PATH_MAX + 32], out[PATH_MAX];
+    path_join(cwd, sizeof cwd, g_dir, "cwd");
+    mkdir(cwd, 0777);
+    path_join(mesh, sizeof mesh, g_in, "unitbox.obj");
+    path_join(out, sizeof out, cwd, "unitbox.exr");
+    unlink(out);
+    snprintf(env, sizeof env, "CLVOX_DEFAULT_MESH=%s", mesh);
+    run_result r;
+    run_cli_ex(&r, cwd, ENV(env), ARGS("-r", "8"), 0);
+    CHECK_MSG(r.code == 0, "default mesh: exit %d; stderr: %s", r.code, r.err);
+    CHECK_MSG(file_exists(out), "default mesh: %s not written", out);
+    CHECK_MSG(strstr(r.out, "unitbox.obj") != NULL, "default mesh: mesh path not printed:\n%s", r.out);
+    run_free(&r);
+}
+
+static void test_list_devices(void)
+{
+    run_result r;
+    run_cli(&r, NULL, ARGS("--list-devices"));
+    CHECK_MSG(r.code == 0 || r.code == 3, "--list-devices: exit %d", r.code);
+    if (r.code == 0) CHECK_MSG(strstr(r.out, "index") && count_lines(r.out) >= 2, "--list-devices: %s", r.out);
+    else CHECK(count_lines(r.err) == 1 && strncmp(r.err, "clvox: error: ", 14) == 0);
+    run_free(&r);
+}
+
+static void test_errors(void)
+{
+    char out[PATH_MAX], cube[PATH_MAX], p[PATH_MAX];
+    path_join(out, sizeof out, g_out, "x.exr");
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+
+    /* input mesh errors: exit 4 */
+    static const char *const bad_meshes[] = {
+        "nope.obj", "adir.obj", "cube.xyz", "empty.obj", "empty.off", "points.obj",
+        "random.stl", "random.ply", "random.off", "random.obj", "truncated.stl", "noend.ply",
+        "nan.obj", "inf.stl", "badindex.obj", "badindex.off", NULL};
+    for (int i = 0; bad_meshes[i]; i++) {
+        path_join(p, sizeof p, g_in, bad_meshes[i]);
+        char what[128];
+        snprintf(what, sizeof what, "mesh %s", bad_meshes[i]);
+        expect_failure(what, 4, NULL, ARGS(p, "-r", "16", "-o", out));
+    }
+    /* the default output name is not created either */
+    {
+        path_join(p, sizeof p, g_in, "nan.obj");
+        run_result r;
+        run_cli_ex(&r, g_out, NULL, ARGS(p, "-r", "16"), 0);
+        CHECK_MSG(r.code == 4, "nan.obj, default output: exit %d", r.code);
+        char left[512];
+        dir_entries(g_out, left, sizeof left);
+        CHECK_MSG(left[0] == '\0', "nan.obj, default output: files left: %s", left);
+        run_free(&r);
+    }
+
+    /* usage errors: exit 2 */
+    expect_failure("-r 0", 2, NULL, ARGS(cube, "-r", "0", "-o", out));
+    expect_failure("-r -5", 2, NULL, ARGS(cube, "-r", "-5", "-o", out));
+    expect_failure("-r abc", 2, NULL, ARGS(cube, "-r", "abc", "-o", out));
+    expect_failure("-r 16x", 2, NULL, ARGS(cube, "-r", "16x", "-o", out));
+    expect_failure("-r ''", 2, NULL, ARGS(cube, "-r", "", "-o", out));
+    expect_failure("-r ' 16'", 2, NULL, ARGS(cube, "-r", " 16", "-o", out));
+    expect_failure("-r 2^70", 2, NULL, ARGS(cube, "-r", "1180591620717411303424", "-o", out));
+    expect_failure("-r 2^32", 2, NULL, ARGS(cube, "-r", "4294967296", "-o", out));
+    expect_failure("--dims 0,1,1", 2, NULL, ARGS(cube, "--dims", "0,1,1", "-o", out));
+    expect_failure("--dims 1,2", 2, NULL, ARGS(cube, "--dims", "1,2", "-o", out));
+    expect_failure("--dims 1,2,3,4", 2, NULL, ARGS(cube, "--dims", "1,2,3,4", "-o", out));
+    expect_failure("--dims -1,2,3", 2, NULL, ARGS(cube, "--dims", "-1,2,3", "-o", out));
+    expect_failure("--voxel-size 0", 2, NULL, ARGS(cube, "--voxel-size", "0", "-o", out));
+    expect_failure("--voxel-size -1", 2, NULL, ARGS(cube, "--voxel-size", "-1", "-o", out));
+    expect_failure("--voxel-size nan", 2, NULL, ARGS(cube, "--voxel-size", "nan", "-o", out));
+    expect_failure("--voxel-size inf", 2, NULL, ARGS(cube, "--voxel-size", "inf", "-o", out));
+    expect_failure("--voxel-size 1e999", 2, NULL, ARGS(cube, "--voxel-size", "1e999", "-o", out));
+    expect_failure("--voxel-size 1,1", 2, NULL, ARGS(cube, "--voxel-size", "1,1", "-o", out));
+    expect_failure("--box 5 values", 2, NULL, ARGS(cube, "--box", "0,0,0,1,1", "-o", out));
+    expect_failure("--box empty range", 2, NULL, ARGS(cube, "--box", "1,0,0,0,1,1", "-o", out));
+    expect_failure("--pad -1", 2, NULL, ARGS(cube, "--pad", "-1", "-o", out));
+    expect_failure("-r and --dims", 2, NULL, ARGS(cube, "-r", "16", "--dims", "4,4,4", "-o", out));
+    expect_failure("--dims and --voxel-size", 2, NULL, ARGS(cube, "--dims", "4,4,4", "--voxel-size", "0.1", "-o", out));
+    expect_failure("--voxel-size and -r", 2, NULL, ARGS(cube, "--voxel-size", "0.1", "-r", "8", "-o", out));
+    expect_failure("--method foo", 2, NULL, ARGS(cube, "--method", "foo", "-o", out));
+    expect_failure("--axis w", 2, NULL, ARGS(cube, "--axis", "w", "-o", out));
+    expect_failure("--compression lzma", 2, NULL, ARGS(cube, "--compression", "lzma", "-o", out));
+    expect_failure("--tetra-origin foo", 2, NULL, ARGS(cube, "--tetra-origin", "foo", "-o", out));
+    expect_failure("--threads x", 2, NULL, ARGS(cube, "--threads", "x", "-o", out));
+    expect_failure("-o without value", 2, NULL, ARGS(cube, "-r", "8", "-o"));
+    expect_failure("unknown option", 2, NULL, ARGS(cube, "--frobnicate", "-o", out));
+    expect_failure("unknown short option", 2, NULL, ARGS(cube, "-Z", "-o", out));
+    expect_failure("two meshes", 2, NULL, ARGS(cube, cube, "-o", out));
+
+    /* grid errors: exit 6 */
+    expect_failure("-r 100000000", 6, NULL, ARGS(cube, "-r", "100000000", "-o", out));
+    expect_failure("--dims too large", 6, NULL, ARGS(cube, "--dims", "65536,65536,65536", "-o", out));
+    expect_failure("--voxel-size tiny", 6, NULL, ARGS(cube, "--voxel-size", "1e-9", "-o", out));
+
+    /* output errors: exit 5, nothing created */
+    expect_failure("output /proc/nope/x.exr", 5, NULL, ARGS(cube, "-r", "8", "-o", "/proc/nope/x.exr"));
+    CHECK(!file_exists("/proc/nope/x.exr"));
+    path_join(p, sizeof p, g_dir, "missing-dir/x.exr");
+    expect_failure("output in a missing directory", 5, NULL, ARGS(cube, "-r", "8", "-o", p));
+    path_join(p, sizeof p, g_dir, "missing-dir");
+    CHECK(!file_exists(p));
+    expect_failure("output is a directory", 5, NULL, ARGS(cube, "-r", "8", "-o", g_out));
+
+    /* no OpenCL device: exit 3 */
+    expect_failure("CLVOX_DEVICE=no-such-device", 3, ENV("CLVOX_DEVICE=no-such-device"),
+                   ARGS(cube, "-r", "8", "-o", out));
+    expect_failure("--device no-such-device", 3, NULL, ARGS(cube, "-r", "8", "--device", "no-such-device", "-o", out));
+
+    /* info errors */
+    path_join(p, sizeof p, g_in, "nope.exr");
+    expect_failure("info missing file", 4, NULL, ARGS("info", p));
+    path_join(p, sizeof p, g_in, "random.exr");
+    expect_failure("info random bytes", 4, NULL, ARGS("info", p));
+    expect_failure("info on a mesh", -1, NULL, ARGS("info", cube));
+    expect_failure("info without file", 2, NULL, ARGS("info"));
+    expect_failure("info with two files", 2, NULL, ARGS("info", cube, cube));
+}
+
+static void test_cancel(void)
+{
+    /* SIGINT during a long run (2000^3 voxels, one slice per slab: tens of
+     * seconds of work): exit 130, one error line, no file left. */
+    char cube[PATH_MAX], out[PATH_MAX];
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    path_join(out, sizeof out, g_out, "big.exr");
+    run_result r;
+    run_cli_ex(&r, NULL, NULL, ARGS(cube, "-r", "2000", "--slab", "1", "-o", out), 1.5);
+    CHECK_MSG(r.code == 130, "SIGINT: exit %d, expected 130; stderr: %s", r.code, r.err);
+    CHECK_MSG(count_lines(r.err) == 1 && strncmp(r.err, "clvox: error: ", 14) == 0,
+              "SIGINT: stderr must be one error line: [%s]", r.err);
+    char left[1024];
+    dir_entries(g_out, left, sizeof left);
+    CHECK_MSG(left[0] == '\0', "SIGINT: files left: %s", left);
+    rm_tree(g_out);
+    mkdir(g_out, 0777);
+    run_free(&r);
+}
+
+/* Absolute form of `path` (not normalised); 0 if it does not exist. */
+static int absolute_path(const char *path, char *out, size_t size)
+{
+    if (!file_exists(path)) return 0;
+    if (path[0] == '/') {
+        int n = snprintf(out, size, "%s", path);
+        return n > 0 && (size_t)n < size;
+    }
+    char cwd[PATH_MAX];
+    if (!getcwd(cwd, sizeof cwd)) return 0;
+    int n = snprintf(out, size, "%s/%s", cwd, path);
+    return n > 0 && (size_t)n < size;
+}
+
+int main(void)
+{
+    const char *bin = getenv("CLVOX_BIN");
+    if (!bin || !*bin) bin = "build/release/clvox";
+    if (!absolute_path(bin, g_bin, sizeof g_bin)) {
+        fprintf(stderr, "FAIL: clvox binary '%s' not found (set CLVOX_BIN)\n", bin);
+        test_failed++;
+        return test_report();
+    }
+    char tmp[PATH_MAX];
+    if (!absolute_path(test_tmpdir(), tmp, sizeof tmp)) {
+        fprintf(stderr, "FAIL: no test directory\n");
+        test_failed++;
+        return test_report();
+    }
+    path_join(g_dir, sizeof g_dir, tmp, "cli");
+    rm_tree(g_dir);
+    mkdir(g_dir, 0777);
+    path_join(g_in, sizeof g_in, g_dir, "in");
+    path_join(g_out, sizeof g_out, g_dir, "out");
+    path_join(g_logs, sizeof g_logs, g_dir, "logs");
+    mkdir(g_in, 0777);
+    mkdir(g_out, 0777);
+    mkdir(g_logs, 0777);
+
+    make_inputs();
+    test_help_version();
+    test_errors();
+    test_real_run();
+    test_options();
+    test_default_mesh();
+    test_list_devices();
+    test_cancel();
+    return test_report();
+}

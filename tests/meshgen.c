@@ -1,0 +1,405 @@
+/* Deterministic test meshes; see meshgen.h. */
+#include "meshgen.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PI 3.14159265358979323846
+static void *grow(void *p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap) return p;
+    size_t c = *cap ? *cap : 64;
+    while (c < need) c *= 2;
+    if (!(p = realloc(p, c * elem))) { fprintf(stderr, "meshgen: out of memory\n"); abort(); }
+    *cap = c;
+    return p;
+}
+void tmesh_free(tmesh *m)
+{
+    if (!m) return;
+    free(m->xyz); free(m->tri);
+    memset(m, 0, sizeof *m);
+}
+uint32_t tmesh_add_vertex(tmesh *m, double x, double y, double z)
+{
+    m->xyz = grow(m->xyz, &m->cap_v, m->nv + 1, 3 * sizeof(float));
+    float *v = m->xyz + 3 * m->nv;
+    v[0] = (float)x; v[1] = (float)y; v[2] = (float)z;
+    return (uint32_t)m->nv++;
+}
+void tmesh_add_tri(tmesh *m, uint32_t a, uint32_t b, uint32_t c)
+{
+    m->tri = grow(m->tri, &m->cap_t, m->nt + 1, 3 * sizeof(uint32_t));
+    uint32_t *t = m->tri + 3 * m->nt++;
+    t[0] = a; t[1] = b; t[2] = c;
+}
+static void add_quad(tmesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d)
+{
+    tmesh_add_tri(m, a, b, c); tmesh_add_tri(m, a, c, d);
+}
+void tmesh_append(tmesh *dst, const tmesh *src)
+{
+    uint32_t off = (uint32_t)dst->nv;
+    for (size_t i = 0; i < src->nv; i++)
+        tmesh_add_vertex(dst, src->xyz[3 * i], src->xyz[3 * i + 1], src->xyz[3 * i + 2]);
+    for (const uint32_t *t = src->tri; t < src->tri + 3 * src->nt; t += 3)
+        tmesh_add_tri(dst, t[0] + off, t[1] + off, t[2] + off);
+}
+void tmesh_flip(tmesh *m)
+{
+    for (uint32_t *t = m->tri; t < m->tri + 3 * m->nt; t += 3) { uint32_t s = t[1]; t[1] = t[2]; t[2] = s; }
+}
+void tmesh_translate(tmesh *m, double x, double y, double z)
+{
+    for (float *v = m->xyz; v < m->xyz + 3 * m->nv; v += 3) {
+        v[0] = (float)(v[0] + x); v[1] = (float)(v[1] + y); v[2] = (float)(v[2] + z);
+    }
+}
+static void vget(const tmesh *m, size_t i, double *o) { for (int k = 0; k < 3; k++) o[k] = m->xyz[3 * i + k]; }
+static void tri_get(const tmesh *m, size_t t, double v[3][3])
+{
+    for (int k = 0; k < 3; k++) vget(m, m->tri[3 * t + k], v[k]);
+}
+static void sub3(const double *a, const double *b, double *o) { for (int k = 0; k < 3; k++) o[k] = a[k]-b[k]; }
+static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static void cross3(const double a[3], const double b[3], double o[3])
+{
+    o[0] = a[1] * b[2] - a[2] * b[1]; o[1] = a[2] * b[0] - a[0] * b[2]; o[2] = a[0] * b[1] - a[1] * b[0];
+}
+double tmesh_volume(const tmesh *m)
+{
+    if (!m->nt) return 0.0;
+    double o[3], v[3][3], n[3], sum = 0.0;
+    vget(m, m->tri[0], o); /* reference point: less cancellation far from 0 */
+    for (size_t i = 0; i < m->nt; i++) {
+        tri_get(m, i, v);
+        for (int k = 0; k < 3; k++) sub3(v[k], o, v[k]);
+        cross3(v[1], v[2], n);
+        sum += dot3(v[0], n);
+    }
+    return sum / 6.0;
+}
+static int cmp_u64(const void *a, const void *b)
+{
+    return (*(const uint64_t *)a > *(const uint64_t *)b) - (*(const uint64_t *)a < *(const uint64_t *)b);
+}
+int tmesh_is_closed(const tmesh *m)
+{
+    size_t ne = 3 * m->nt;
+    uint64_t *e = malloc((ne ? ne : 1) * sizeof *e);
+    int ok = m->nt > 0;
+    if (!e) abort();
+    for (size_t i = 0; i < ne; i++) {
+        uint32_t a = m->tri[i], b = m->tri[i - i % 3 + (i + 1) % 3];
+        if (a == b || a >= m->nv) ok = 0;
+        e[i] = (uint64_t)a << 32 | b;
+    }
+    qsort(e, ne, sizeof *e, cmp_u64);
+    for (size_t i = 0; ok && i < ne; i++) {
+        uint64_t r = e[i] << 32 | e[i] >> 32;
+        if ((i + 1 < ne && e[i + 1] == e[i]) || !bsearch(&r, e, ne, sizeof *e, cmp_u64))
+            ok = 0; /* a directed edge used twice, or without its opposite */
+    }
+    free(e);
+    return ok;
+}
+
+/* ---- writers ---- */
+static int finish(FILE *f, int ok) { return fclose(f) == 0 && ok ? 0 : -1; }
+static int write_text(const tmesh *m, const char *path, int off)
+{
+    FILE *f = fopen(path, "w");
+    if (!f) return -1;
+    int ok = !off || fprintf(f, "OFF\n%zu %zu 0\n", m->nv, m->nt) > 0;
+    for (const float *v = m->xyz; ok && v < m->xyz + 3 * m->nv; v += 3)
+        ok = fprintf(f, "%s%.9g %.9g %.9g\n", off ? "" : "v ", v[0], v[1], v[2]) > 0;
+    for (const uint32_t *t = m->tri; ok && t < m->tri + 3 * m->nt; t += 3) /* OBJ: 1-based */
+        ok = fprintf(f, "%s %lu %lu %lu\n", off ? "3" : "f", (unsigned long)t[0] + !off,
+                     (unsigned long)t[1] + !off, (unsigned long)t[2] + !off) > 0;
+    return finish(f, ok);
+}
+int tmesh_write_off(const tmesh *m, const char *path) { return write_text(m, path, 1); }
+int tmesh_write_obj(const tmesh *m, const char *path) { return write_text(m, path, 0); }
+static void put_u32(unsigned char *b, uint32_t v)
+{
+    for (int k = 0; k < 4; k++) b[k] = (unsigned char)(v >> 8 * k);
+}
+static void put_f32(unsigned char *p, float f) { uint32_t u; memcpy(&u, &f, 4); put_u32(p, u); }
+int tmesh_write_stl_binary(const tmesh *m, const char *path)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return -1;
+    unsigned char head[84] = "clvox meshgen binary STL", rec[50] = {0};
+    put_u32(head + 80, (uint32_t)m->nt);
+    int ok = fwrite(head, 1, 84, f) == 84;
+    for (size_t i = 0; ok && i < m->nt; i++) {
+        double v[3][3], e1[3], e2[3], n[3];
+        tri_get(m, i, v);
+        sub3(v[1], v[0], e1); sub3(v[2], v[0], e2); cross3(e1, e2, n);
+        double len = sqrt(dot3(n, n));
+        for (int k = 0; k < 3; k++) {
+            put_f32(rec + 4 * k, len > 0 ? (float)(n[k] / len) : 0.0f);
+            for (int j = 0; j < 3; j++) put_f32(rec + 12 + 12 * k + 4 * j, (float)v[k][j]);
+        }
+        ok = fwrite(rec, 1, 50, f) == 50;
+    }
+    return finish(f, ok);
+}
+int tmesh_write_ply_binary(const tmesh *m, const char *path)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return -1;
+    int ok = fprintf(f, "ply\nformat binary_little_endian 1.0\ncomment clvox meshgen\n"
+                        "element vertex %zu\nproperty float x\nproperty float y\nproperty float z\n"
+                        "element face %zu\nproperty list uchar int vertex_indices\nend_header\n",
+                     m->nv, m->nt) > 0;
+    unsigned char rec[13];
+    for (size_t i = 0; ok && i < m->nv; i++) {
+        for (int k = 0; k < 3; k++) put_f32(rec + 4 * k, m->xyz[3 * i + k]);
+        ok = fwrite(rec, 1, 12, f) == 12;
+    }
+    rec[0] = 3;
+    for (size_t i = 0; ok && i < m->nt; i++) {
+        for (int k = 0; k < 3; k++) put_u32(rec + 1 + 4 * k, m->tri[3 * i + k]);
+        ok = fwrite(rec, 1, 13, f) == 13;
+    }
+    return finish(f, ok);
+}
+
+/* ---- exact solids ---- */
+static double lerp_n(double lo, double hi, unsigned i, unsigned n)
+{
+    return i == 0 ? lo : i == n ? hi : lo + (hi - lo) * i / n;
+}
+tmesh tmesh_box_subdivided(double x0, double y0, double z0, double x1, double y1, double z1, unsigned n)
+{
+    tmesh m = {0};
+    if (n < 1) n = 1;
+    size_t s = n + 1;
+    uint32_t *id = malloc(s * s * s * sizeof *id); /* lattice point -> vertex */
+    if (!id) abort();
+    memset(id, 0xff, s * s * s * sizeof *id);
+    for (unsigned a = 0; a < 3; a++)
+        for (unsigned side = 0; side < 2; side++)
+            for (unsigned p = 0; p < n; p++)
+                for (unsigned q = 0; q < n; q++) {
+                    uint32_t v[4];
+                    for (int c = 0; c < 4; c++) {
+                        unsigned g[3];
+                        g[a] = side * n; g[(a + 1) % 3] = p + (c == 1 || c == 2); g[(a + 2) % 3] = q + c / 2;
+                        uint32_t *slot = &id[(g[0] * s + g[1]) * s + g[2]];
+                        if (*slot == UINT32_MAX)
+                            *slot = tmesh_add_vertex(&m, lerp_n(x0, x1, g[0], n), lerp_n(y0, y1, g[1], n),
+                                                     lerp_n(z0, z1, g[2], n));
+                        v[c] = *slot;
+                    }
+                    /* p, q step along e_{a+1}, e_{a+2}: v0..v3 is CCW around +e_a */
+                    if (side) add_quad(&m, v[0], v[1], v[2], v[3]);
+                    else add_quad(&m, v[0], v[3], v[2], v[1]);
+                }
+    free(id);
+    return m;
+}
+tmesh tmesh_box(double x0, double y0, double z0, double x1, double y1, double z1)
+{
+    return tmesh_box_subdivided(x0, y0, z0, x1, y1, z1, 1);
+}
+tmesh tmesh_tetra(const double a[3], const double b[3], const double c[3], const double d[3])
+{
+    tmesh m = {0};
+    double e1[3], e2[3], e3[3], n[3];
+    sub3(b, a, e1); sub3(c, a, e2); sub3(d, a, e3); cross3(e1, e2, n);
+    const double *p[4] = {a, b, c, d};
+    if (dot3(n, e3) < 0) { p[1] = c; p[2] = b; }
+    for (int i = 0; i < 4; i++) tmesh_add_vertex(&m, p[i][0], p[i][1], p[i][2]);
+    tmesh_add_tri(&m, 0, 2, 1); tmesh_add_tri(&m, 0, 1, 3);
+    tmesh_add_tri(&m, 0, 3, 2); tmesh_add_tri(&m, 1, 2, 3);
+    return m;
+}
+tmesh tmesh_octahedron(double cx, double cy, double cz, double r)
+{
+    tmesh m = {0};
+    for (int a = 0; a < 6; a++) { /* 0:+x 1:-x 2:+y 3:-y 4:+z 5:-z */
+        double p[3] = {cx, cy, cz};
+        p[a / 2] += a & 1 ? -r : r;
+        tmesh_add_vertex(&m, p[0], p[1], p[2]);
+    }
+    for (uint32_t o = 0; o < 8; o++) {
+        uint32_t x = o & 1, y = 2 + (o >> 1 & 1), z = 4 + (o >> 2 & 1);
+        if ((x + y + z) & 1) tmesh_add_tri(&m, x, z, y); /* odd number of negative axes */
+        else tmesh_add_tri(&m, x, y, z);
+    }
+    return m;
+}
+tmesh tmesh_sphere(double cx, double cy, double cz, double r, unsigned n)
+{
+    tmesh m = {0};
+    if (n < 2) n = 2;
+    unsigned seg = 2 * n;
+    tmesh_add_vertex(&m, cx, cy, cz + r);
+    for (unsigned j = 1; j < n; j++)
+        for (unsigned i = 0; i < seg; i++) {
+            double th = PI * j / n, ph = 2 * PI * i / seg;
+            tmesh_add_vertex(&m, cx + r * sin(th) * cos(ph), cy + r * sin(th) * sin(ph), cz + r * cos(th));
+        }
+    uint32_t south = tmesh_add_vertex(&m, cx, cy, cz - r);
+#define RING(j, i) ((uint32_t)(1 + ((j) - 1) * seg + (i) % seg))
+    for (unsigned i = 0; i < seg; i++) {
+        tmesh_add_tri(&m, 0, RING(1, i), RING(1, i + 1));
+        for (unsigned j = 1; j + 1 < n; j++)
+            add_quad(&m, RING(j, i), RING(j + 1, i), RING(j + 1, i + 1), RING(j, i + 1));
+        tmesh_add_tri(&m, south, RING(n - 1, i + 1), RING(n - 1, i));
+    }
+#undef RING
+    return m;
+}
+double tmesh_sphere_volume(double r) { return 4.0 / 3.0 * PI * r * r * r; }
+double tmesh_sphere_poly_volume(double r, unsigned n)
+{
+    if (n < 2) n = 2;
+    double sum = 0, k = n * sin(PI / n); /* area of a regular 2n-gon = k rho^2 */
+    for (unsigned j = 0; j < n; j++) {  /* frustum of band j */
+        double r0 = r * sin(PI * j / n), r1 = r * sin(PI * (j + 1) / n);
+        double h = r * (cos(PI * j / n) - cos(PI * (j + 1) / n));
+        sum += h / 3 * k * (r0 * r0 + r1 * r1 + r0 * r1);
+    }
+    return sum;
+}
+tmesh tmesh_torus(double cx, double cy, double cz, double R, double r, unsigned nu, unsigned nv)
+{
+    tmesh m = {0};
+    nu = nu < 3 ? 3 : nu; nv = nv < 3 ? 3 : nv;
+    for (unsigned i = 0; i < nu; i++)
+        for (unsigned j = 0; j < nv; j++) {
+            double u = 2 * PI * i / nu, v = 2 * PI * j / nv, rho = R + r * cos(v);
+            tmesh_add_vertex(&m, cx + rho * cos(u), cy + rho * sin(u), cz + r * sin(v));
+        }
+#define TV(i, j) ((uint32_t)(((i) % nu) * nv + (j) % nv))
+    for (unsigned i = 0; i < nu; i++)
+        for (unsigned j = 0; j < nv; j++)
+            add_quad(&m, TV(i, j), TV(i + 1, j), TV(i + 1, j + 1), TV(i, j + 1));
+#undef TV
+    return m;
+}
+double tmesh_torus_volume(double R, double r) { return 2 * PI * PI * R * r * r; }
+double tmesh_torus_poly_volume(double R, double r, unsigned nu, unsigned nv)
+{
+    return nu * sin(2 * PI / nu) * 0.5 * nv * sin(2 * PI / nv) * R * r * r;
+}
+tmesh tmesh_hollow_sphere(double cx, double cy, double cz, double r_out, double r_in, unsigned n)
+{
+    tmesh m = tmesh_sphere(cx, cy, cz, r_out, n), in = tmesh_sphere(cx, cy, cz, r_in, n);
+    tmesh_flip(&in);
+    tmesh_append(&m, &in);
+    tmesh_free(&in);
+    return m;
+}
+
+/* ---- random meshes ---- */
+uint64_t tmesh_rng_next(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+double tmesh_rng_uniform(uint64_t *state) { return (double)(tmesh_rng_next(state) >> 11) * 0x1p-53; }
+static double urange(uint64_t *s, double lo, double hi) { return lo + (hi - lo) * tmesh_rng_uniform(s); }
+/* Uniform point of the unit ball, norm^2 >= min2 (rejection): *n2 = norm^2. */
+static void in_ball(uint64_t *s, double *v, int dim, double min2, double *n2)
+{
+    do {
+        *n2 = 0;
+        for (int k = 0; k < dim; k++) { v[k] = urange(s, -1, 1); *n2 += v[k] * v[k]; }
+    } while (*n2 > 1 || *n2 < min2);
+}
+
+/* Star-shaped shell around c: radially projected subdivided cube, vertex radii
+ * in [rmin,rmax], random rotation (uniform quaternion, sqrt only, no trig). */
+static void add_star_shell(tmesh *dst, uint64_t *s, const double c[3], double rmin, double rmax, unsigned n)
+{
+    tmesh sh = tmesh_box_subdivided(-1, -1, -1, 1, 1, 1, n);
+    double q[4], qq;
+    in_ball(s, q, 4, 1e-3, &qq);
+    double w = q[0], x = q[1], y = q[2], z = q[3], k = 2 / qq;
+    double rot[3][3] = {{1 - k * (y * y + z * z), k * (x * y - w * z), k * (x * z + w * y)},
+                        {k * (x * y + w * z), 1 - k * (x * x + z * z), k * (y * z - w * x)},
+                        {k * (x * z - w * y), k * (y * z + w * x), 1 - k * (x * x + y * y)}};
+    for (size_t i = 0; i < sh.nv; i++) {
+        double v[3];
+        vget(&sh, i, v);
+        double f = urange(s, rmin, rmax) / sqrt(dot3(v, v));
+        for (int a = 0; a < 3; a++) sh.xyz[3 * i + a] = (float)(c[a] + f * dot3(rot[a], v));
+    }
+    tmesh_append(dst, &sh);
+    tmesh_free(&sh);
+}
+tmesh tmesh_random_closed(uint64_t seed, unsigned shells, unsigned n)
+{
+    tmesh m = {0};
+    uint64_t s = seed;
+    unsigned k = 1;
+    if (shells < 1) shells = 1;
+    while (k * k * k < shells) k++;
+    double cell = 1.0 / k; /* radius <= 0.40 cell, jitter <= 0.08 cell: stays in its cell */
+    for (unsigned i = 0; i < shells; i++) {
+        double c[3] = {(i % k + 0.5) * cell, (i / k % k + 0.5) * cell, (i / (k * k) + 0.5) * cell};
+        for (int a = 0; a < 3; a++) c[a] += urange(&s, -0.08, 0.08) * cell;
+        add_star_shell(&m, &s, c, 0.25 * cell, 0.40 * cell, n);
+    }
+    return m;
+}
+tmesh tmesh_random_overlap(uint64_t seed, unsigned n, double c1[3], double c2[3])
+{
+    tmesh m = {0};
+    uint64_t s = seed;
+    double d[3], dd;
+    in_ball(&s, d, 3, 1e-2, &dd);
+    for (int a = 0; a < 3; a++) {
+        c1[a] = 0.5 + urange(&s, -0.02, 0.02) - 0.15 * d[a] / sqrt(dd);
+        c2[a] = c1[a] + 0.3 * d[a] / sqrt(dd);
+    }
+    add_star_shell(&m, &s, c1, 0.25, 0.3, n);
+    add_star_shell(&m, &s, c2, 0.25, 0.3, n);
+    return m;
+}
+
+/* ---- oracles ---- */
+uint64_t expected_box_voxels(const clvox_grid *g, const double lo[3], const double hi[3])
+{
+    uint64_t count = 1;
+    for (int a = 0; a < 3; a++) {
+        double h = g->voxel_size[a], d = g->dims[a];
+        double glo = (float)(((double)(float)lo[a] - g->origin[a]) / h - 0.5);
+        double ghi = (float)(((double)(float)hi[a] - g->origin[a]) / h - 0.5);
+        double i0 = fmin(fmax(ceil(glo), 0), d), i1 = fmin(fmax(ceil(ghi), 0), d); /* i0 <= i < i1 */
+        count *= i1 > i0 ? (uint64_t)(i1 - i0) : 0;
+    }
+    return count;
+}
+static int ray_parity(const tmesh *m, const double p[3], const double d[3])
+{
+    int odd = 0;
+    for (size_t i = 0; i < m->nt; i++) { /* Moller-Trumbore */
+        double v[3][3], e1[3], e2[3], pv[3], tv[3], qv[3];
+        tri_get(m, i, v);
+        sub3(v[1], v[0], e1); sub3(v[2], v[0], e2); cross3(d, e2, pv);
+        double det = dot3(e1, pv);
+        if (det == 0) continue;
+        sub3(p, v[0], tv);
+        double u = dot3(tv, pv) / det;
+        if (u < 0 || u > 1) continue;
+        cross3(tv, e1, qv);
+        double w = dot3(d, qv) / det;
+        if (w < 0 || u + w > 1) continue;
+        odd ^= dot3(e2, qv) / det > 0;
+    }
+    return odd;
+}
+int tmesh_point_inside(const tmesh *m, const double p[3])
+{
+    static const double dir[3][3] = {
+        {1, 0.0123456789, 0.00731059}, {1, -0.0089123457, 0.0161803399}, {1, 0.0141421356, -0.0113137085}};
+    return ray_parity(m, p, dir[0]) + ray_parity(m, p, dir[1]) + ray_parity(m, p, dir[2]) >= 2;
+}

@@ -177,8 +177,8 @@ static int exit_code_for(clvox_status st, role r)
 /* Reports a library failure: the context's message, else the status string. */
 static int fail_status(const clvox_context *ctx, clvox_status st, role r)
 {
-    if (st == CLVOX_ERR_CANCELLED) return fail_message(EXIT_CANCELLED, "cancelled");
     const char *msg = ctx ? clvox_context_error(ctx) : "";
+    if (st == CLVOX_ERR_CANCELLED) return fail_message(EXIT_CANCELLED, msg && *msg ? msg : "cancelled");
     return fail_message(exit_code_for(st, r), msg && *msg ? msg : clvox_status_string(st));
 }
 
@@ -518,8 +518,8 @@ static void print_help(void)
 "Meshes: OBJ, OFF, PLY (ascii/binary), STL (ascii/binary), OM, by extension.\n"
 "\n"
 "Input and output:\n"
-"  MESH                     mesh to voxelize (default: the bundled default mesh,\n"
-"                           see ENVIRONMENT); the mesh used is printed\n"
+"  MESH                     mesh to voxelize (default: the bundled mesh, see\n"
+"                           Environment below); the mesh used is printed\n"
 "  -o, --output OUT.exr     output file (default: <MESH name without extension>.exr\n"
 "                           in the current directory); written to a temporary name\n"
 "                           and renamed on success, so a failed run leaves no file\n"
@@ -636,12 +636,23 @@ static int cmd_list_devices(void)
             return fail(EXIT_NO_DEVICE, "no OpenCL device found (for PoCL, POCL_CACHE_DIR must be writable)");
         return fail_status(NULL, st, ROLE_OTHER);
     }
-    printf("%-5s  %-11s  %-40s  %-32s  %-24s  %s\n", "index", "type", "name", "platform", "version", "memory");
+    /* column widths from the data, so long names stay aligned */
+    int wn = 4, wp = 8, wv = 7, wt = 4;
+    for (size_t i = 0; i < count; i++) {
+        int n = (int)strlen(devs[i].name), p = (int)strlen(devs[i].platform), v = (int)strlen(devs[i].version),
+            t = (int)strlen(devs[i].type);
+        if (n > wn) wn = n;
+        if (p > wp) wp = p;
+        if (v > wv) wv = v;
+        if (t > wt) wt = t;
+    }
+    printf("%-5s  %-*s  %-*s  %-*s  %-*s  %s\n", "index", wt, "type", wn, "name", wp, "platform", wv, "version",
+           "memory");
     for (size_t i = 0; i < count; i++) {
         char mem[32];
         format_bytes(devs[i].global_mem_bytes, mem, sizeof mem);
-        printf("%-5u  %-11s  %-40s  %-32s  %-24s  %s\n", (unsigned)devs[i].index, devs[i].type, devs[i].name,
-               devs[i].platform, devs[i].version, mem);
+        printf("%-5u  %-*s  %-*s  %-*s  %-*s  %s\n", (unsigned)devs[i].index, wt, devs[i].type, wn, devs[i].name,
+               wp, devs[i].platform, wv, devs[i].version, mem);
     }
     free(devs);
     return EXIT_OK;
@@ -993,6 +1004,12 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     output = a->output ? dup_string(a->output) : default_output(mesh_path);
     if (!output) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
     if ((rc = check_output(output)) != EXIT_OK) goto done;
+    struct stat in_sb, out_sb;
+    if (stat(mesh_path, &in_sb) == 0 && stat(output, &out_sb) == 0 && in_sb.st_dev == out_sb.st_dev &&
+        in_sb.st_ino == out_sb.st_ino) {
+        rc = usage_error("the output '%s' is the input mesh", output);
+        goto done;
+    }
 
     /* Mesh and grid on a host-only context: their errors need no device. */
     clvox_context_options ho = CLVOX_CONTEXT_OPTIONS_INIT;

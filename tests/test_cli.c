@@ -635,6 +635,8 @@ static void test_errors(void)
     expect_failure("unknown option", 2, NULL, ARGS(cube, "--frobnicate", "-o", out));
     expect_failure("unknown short option", 2, NULL, ARGS(cube, "-Z", "-o", out));
     expect_failure("two meshes", 2, NULL, ARGS(cube, cube, "-o", out));
+    expect_failure("output is the input", 2, NULL, ARGS(cube, "-r", "8", "-o", cube));
+    CHECK_MSG(file_size(cube) == (long long)strlen(CUBE_OBJ), "the input mesh was overwritten");
 
     /* grid errors: exit 6 */
     expect_failure("-r 100000000", 6, NULL, ARGS(cube, "-r", "100000000", "-o", out));

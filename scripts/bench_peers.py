@@ -5,8 +5,9 @@ Usage: /usr/bin/python3 scripts/bench_peers.py [--quick] [--repeat R] [MESH:N ..
        (default cases: armadillo at 128..1024, armadillo_s2/_s3, bunny00, cow at 512)
 
 Each (peer, mesh, N) runs in a fresh child process, so that "peak RSS" is
-that case's own: ru_maxrss of the child, which includes the Python
-interpreter and the imported library (about 60-100 MB before any work).
+that case's own: VmHWM of the child, which includes the Python interpreter,
+numpy and the imported library (VTK: the 3 vtkmodules used, ~55 MB;
+pyopenvdb ~125 MB, mostly its shared libraries) before any work.
 With --repeat R each case runs R times (R processes): the best time and the
 largest peak RSS are reported (timings on a shared 2-core VM vary by 30 %).
 "seconds" is wall time inside the child from opening the mesh file to a
@@ -131,28 +132,28 @@ def grid_for(pts, n):
 
 def run_vtk(path, n):
     import numpy as np
-    import vtk
-    from vtk.util import numpy_support as ns
-    vtk.vtkMultiThreader.SetGlobalMaximumNumberOfThreads(1)
+    from vtkmodules import vtkCommonCore, vtkCommonDataModel, vtkImagingStencil
+    from vtkmodules.util import numpy_support as ns
+    vtkCommonCore.vtkMultiThreader.SetGlobalMaximumNumberOfThreads(1)
     t0 = time.perf_counter()
     pts, tris = load_mesh(path)
     lo, h, dims = grid_for(pts, n)
-    poly = vtk.vtkPolyData()
-    p = vtk.vtkPoints()
+    poly = vtkCommonDataModel.vtkPolyData()
+    p = vtkCommonCore.vtkPoints()
     p.SetData(ns.numpy_to_vtk(pts, deep=1))
     poly.SetPoints(p)
-    cells = vtk.vtkCellArray()
+    cells = vtkCommonDataModel.vtkCellArray()
     offsets = np.arange(0, 3 * len(tris) + 1, 3, dtype=np.int64)
     cells.SetData(ns.numpy_to_vtkIdTypeArray(offsets, deep=1),
                   ns.numpy_to_vtkIdTypeArray(np.ascontiguousarray(tris.reshape(-1)), deep=1))
     poly.SetPolys(cells)
-    st = vtk.vtkPolyDataToImageStencil()
+    st = vtkImagingStencil.vtkPolyDataToImageStencil()
     st.SetInputData(poly)
     st.SetOutputOrigin(lo[0] + 0.5 * h, lo[1] + 0.5 * h, lo[2] + 0.5 * h)
     st.SetOutputSpacing(h, h, h)
     st.SetOutputWholeExtent(0, dims[0] - 1, 0, dims[1] - 1, 0, dims[2] - 1)
     st.SetTolerance(0.0)
-    img = vtk.vtkImageStencilToImage()
+    img = vtkImagingStencil.vtkImageStencilToImage()
     img.SetInputConnection(st.GetOutputPort())
     img.SetInsideValue(1)
     img.SetOutsideValue(0)
@@ -187,16 +188,29 @@ def run_openvdb(path, n):
     return t1 - t0, len(tris), dims, int(np.count_nonzero(vol))
 
 
+def peak_rss_mb():
+    """VmHWM of this process image (reset at exec, unlike ru_maxrss)."""
+    try:
+        with open("/proc/self/status") as f:
+            for ln in f:
+                if ln.startswith("VmHWM:"):
+                    return int(ln.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def child(peer, path, n):
     fn = {"vtk": run_vtk, "openvdb": run_openvdb}[peer]
     # import outside the timed region
     if peer == "vtk":
-        import vtk  # noqa: F401
+        from vtkmodules import vtkCommonCore, vtkCommonDataModel, vtkImagingStencil  # noqa: F401
+        from vtkmodules.util import numpy_support  # noqa: F401
     else:
         import pyopenvdb  # noqa: F401
     import numpy  # noqa: F401
     secs, ntri, dims, filled = fn(path, n)
-    rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    rss_mb = peak_rss_mb()
     print("RESULT %s %d %s %.3f %.0f %d" % (peer, ntri, "x".join(map(str, dims)), secs, rss_mb, filled))
 
 
@@ -205,10 +219,11 @@ def main(argv):
         child(argv[1], argv[2], int(argv[3]))
         return 0
     missing = []
+    # find_spec, not import: the parent must stay small, since on Linux a
+    # child's ru_maxrss starts from its parent's peak at fork.
+    import importlib.util
     for mod, pkg in (("numpy", "python3-numpy"), ("vtk", "python3-vtk9"), ("pyopenvdb", "python3-openvdb")):
-        try:
-            __import__(mod)
-        except ImportError:
+        if importlib.util.find_spec(mod) is None:
             missing.append(pkg)
     if missing:
         print("bench_peers: missing Python modules (%s) for %s; install them with: scripts/setup.sh --peers"
@@ -234,6 +249,13 @@ def main(argv):
             p, _, nn = a.rpartition(":")
             cases.append((p, int(nn)))
     os.chdir(ROOT)
+    def loadavg():
+        try:
+            with open("/proc/loadavg") as f:
+                return " ".join(f.read().split()[:3])
+        except OSError:
+            return "?"
+    load_before = loadavg()
     print("| peer | mesh | triangles | N | grid | seconds | peak RSS MB | inside voxels |")
     print("|---|---|---:|---:|---|---:|---:|---:|")
     sys.stdout.flush()
@@ -263,6 +285,7 @@ def main(argv):
                 pr, ntri, dims, secs, rss, filled = best
                 print("| %s | %s | %s | %d | %s | %s | %s | %s |" % (pr, name, ntri, n, dims, secs, rss, filled))
             sys.stdout.flush()
+    print("\nLoad average before / after: %s / %s (%d cores)" % (load_before, loadavg(), os.cpu_count() or 0))
     return 0
 
 

@@ -1,0 +1,1273 @@
+/* Mesh stage: guarded loading, validation, fan triangulation and the report.
+ *
+ * Loading = check the file ourselves, then let OpenMesh read it
+ * (mesh_openmesh.cpp), then cross-check what came back. OpenMesh 9.0 hangs,
+ * throws or silently reads garbage on many bad inputs (NOTES-deps), so
+ * nothing reaches it before the checks below say its reader will cope:
+ *   - a regular, non-empty file with a known extension;
+ *   - PLY: the header is parsed here (bounded, strict); binary bodies are
+ *     walked record by record so a truncated file is caught; ASCII bodies are
+ *     scanned token by token exactly as OpenMesh's reader consumes them;
+ *   - OFF: the same token-by-token scan (OpenMesh supports no comments, wants
+ *     the counts on the second line and reads face colours only for COFF);
+ *   - OBJ and ASCII STL: every vertex line must hold three finite numbers
+ *     (OpenMesh drops a "v nan 0 0" line and shifts every later index);
+ *   - binary STL: the size must be exactly 84 + 50 n, coordinates finite;
+ *     a file that is neither that nor a well-formed ASCII STL is rejected;
+ *   - OM: magic, mesh type and counts against the file size.
+ * Numbers are checked the way iostream's operator>> reads a float: the whole
+ * token must be a decimal number within float range (it fails on nan, inf and
+ * overflow, and a failed read desynchronises everything after it). The check
+ * does not depend on the C locale.
+ *
+ * Validation common to files and arrays (build_mesh): finite coordinates,
+ * indices in range, faces with fewer than 3 corners and triangles with a
+ * repeated index dropped, polygons fanned, zero-area triangles kept (they
+ * matter for parity), at least one triangle. */
+#include "internal.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ---- small helpers ------------------------------------------------------- */
+
+enum mesh_format { FMT_UNKNOWN = 0, FMT_OBJ, FMT_OFF, FMT_PLY, FMT_STL, FMT_OM };
+
+static enum mesh_format format_of(const char *path, const char **ext_out)
+{
+    const char *dot = strrchr(path, '.');
+    const char *slash = strrchr(path, '/');
+    *ext_out = "";
+    if (!dot || (slash && dot < slash)) return FMT_UNKNOWN;
+    *ext_out = dot + 1;
+    static const struct { const char *ext; enum mesh_format fmt; } known[] = {
+        {"obj", FMT_OBJ}, {"off", FMT_OFF}, {"ply", FMT_PLY}, {"stl", FMT_STL}, {"om", FMT_OM},
+    };
+    for (size_t k = 0; k < sizeof known / sizeof known[0]; k++) {
+        const char *a = dot + 1, *b = known[k].ext;
+        while (*a && *b && (*a | 0x20) == *b) a++, b++;
+        if (!*a && !*b) return known[k].fmt;
+    }
+    return FMT_UNKNOWN;
+}
+
+static uint32_t le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static float le_float(const unsigned char *p)
+{
+    uint32_t u = le32(p);
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+/* What the checks learnt about the file; the mesh OpenMesh returns must agree. */
+typedef struct expect {
+    int have_vertices, have_faces;
+    uint64_t vertices, faces;
+} expect;
+
+/* ---- text scanning ----------------------------------------------------------- */
+
+typedef struct text {
+    const char *p, *end;
+    uint64_t line; /* 1-based line of p */
+} text;
+
+typedef struct tok {
+    const char *s;
+    size_t n;
+    uint64_t line;
+} tok;
+
+/* The characters operator>> skips (isspace in the C locale). */
+static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
+static int is_digit(char c) { return c >= '0' && c <= '9'; }
+
+/* Next token on the current line; 0 at the end of the line (p stays on '\n'). */
+static int tok_line(text *t, tok *k)
+{
+    while (t->p < t->end && is_space(*t->p)) t->p++;
+    if (t->p >= t->end || *t->p == '\n') return 0;
+    k->s = t->p;
+    k->line = t->line;
+    while (t->p < t->end && !is_space(*t->p) && *t->p != '\n') t->p++;
+    k->n = (size_t)(t->p - k->s);
+    return 1;
+}
+
+/* Next token anywhere, as operator>> would find it; 0 at the end of the file. */
+static int tok_any(text *t, tok *k)
+{
+    for (;;) {
+        while (t->p < t->end && is_space(*t->p)) t->p++;
+        if (t->p >= t->end) return 0;
+        if (*t->p != '\n') break;
+        t->p++;
+        t->line++;
+    }
+    return tok_line(t, k);
+}
+
+static void skip_line(text *t)
+{
+    const char *nl = memchr(t->p, '\n', (size_t)(t->end - t->p));
+    if (nl) {
+        t->p = nl + 1;
+        t->line++;
+    } else {
+        t->p = t->end;
+    }
+}
+
+static int tok_is(const tok *k, const char *word)
+{
+    size_t n = strlen(word);
+    return k->n == n && memcmp(k->s, word, n) == 0;
+}
+
+enum { NUM_BAD = 0, NUM_OK, NUM_NONFINITE };
+
+/* Whether the whole token reads as a float with operator>>: NUM_NONFINITE for
+ * nan/inf spellings and values beyond FLT_MAX (the read fails), NUM_BAD for
+ * anything that is not a plain decimal number. Underflow is fine (reads 0). */
+static int classify_float(const tok *k)
+{
+    const char *s = k->s;
+    size_t n = k->n, i = 0;
+    if (i < n && (s[i] == '+' || s[i] == '-')) i++;
+    /* nan, inf, infinity (any case), MSVC's 1.#INF / 1.#IND / 1.#QNAN */
+    if (n - i >= 3) {
+        char a = (char)(s[i] | 0x20), b = (char)(s[i + 1] | 0x20), c = (char)(s[i + 2] | 0x20);
+        if ((a == 'n' && b == 'a' && c == 'n') || (a == 'i' && b == 'n' && c == 'f')) return NUM_NONFINITE;
+    }
+    if (memchr(s, '#', n)) return NUM_NONFINITE;
+    long lead = 0;       /* decimal exponent of the first significant digit */
+    int have_sig = 0, digits = 0;
+    uint64_t sig9 = 0;   /* first 9 significant digits */
+    int sig_count = 0;
+    for (; i < n && is_digit(s[i]); i++, digits++) {
+        if (!have_sig && s[i] != '0') have_sig = 1, lead = -1;
+        if (have_sig) {
+            lead++;
+            if (sig_count < 9) sig9 = sig9 * 10 + (uint64_t)(s[i] - '0'), sig_count++;
+        }
+    }
+    if (i < n && s[i] == '.') {
+        i++;
+        long pos = 0;
+        for (; i < n && is_digit(s[i]); i++, digits++) {
+            pos++;
+            if (!have_sig && s[i] != '0') have_sig = 1, lead = -pos;
+            if (have_sig && sig_count < 9) sig9 = sig9 * 10 + (uint64_t)(s[i] - '0'), sig_count++;
+        }
+    }
+    if (!digits) return NUM_BAD;
+    if (i < n && (s[i] == 'e' || s[i] == 'E')) {
+        i++;
+        int neg = 0;
+        if (i < n && (s[i] == '+' || s[i] == '-')) neg = s[i] == '-', i++;
+        if (i >= n || !is_digit(s[i])) return NUM_BAD;
+        long e = 0;
+        for (; i < n && is_digit(s[i]); i++)
+            if (e < 100000) e = e * 10 + (s[i] - '0');
+        lead += neg ? -e : e;
+    }
+    if (i != n) return NUM_BAD;
+    if (!have_sig || lead < 38) return NUM_OK;
+    if (lead > 38) return NUM_NONFINITE;
+    while (sig_count < 9) sig9 *= 10, sig_count++;
+    return sig9 > 340282346u ? NUM_NONFINITE : NUM_OK; /* FLT_MAX = 3.40282346e38 */
+}
+
+/* Integer token as operator>> reads it into an int/unsigned: [+-]digits.
+ * Returns 1 and the value (negative allowed), 0 if not an integer or beyond
+ * 64-bit range. */
+static int parse_int(const tok *k, int64_t *out)
+{
+    size_t i = 0;
+    int neg = 0;
+    if (k->n && (k->s[0] == '+' || k->s[0] == '-')) neg = k->s[0] == '-', i++;
+    if (i >= k->n) return 0;
+    uint64_t v = 0;
+    for (; i < k->n; i++) {
+        if (!is_digit(k->s[i])) return 0;
+        if (v > (uint64_t)INT64_MAX / 10) return 0;
+        v = v * 10 + (uint64_t)(k->s[i] - '0');
+        if (v > (uint64_t)INT64_MAX) return 0;
+    }
+    *out = neg ? -(int64_t)v : (int64_t)v;
+    return 1;
+}
+
+static int tok_print_len(const tok *k) { return k->n > 40 ? 40 : (int)k->n; }
+
+/* Text formats must not contain NUL bytes (random or binary data). */
+static clvox_status check_text(clvox_context *ctx, const char *path, const char *p, size_t n, const char *what)
+{
+    const char *z = memchr(p, 0, n);
+    if (z)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is not a valid %s file: binary data (NUL byte) at offset %zu",
+                           path, what, (size_t)(z - p));
+    return CLVOX_OK;
+}
+
+/* A coordinate token: a finite float. */
+static clvox_status check_coord(clvox_context *ctx, const char *path, const tok *k, const char *where)
+{
+    int c = classify_float(k);
+    if (c == NUM_OK) return CLVOX_OK;
+    if (c == NUM_NONFINITE)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                           "'%s': non-finite coordinate '%.*s' at line %llu (%s)", path, tok_print_len(k), k->s,
+                           (unsigned long long)k->line, where);
+    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': expected a number at line %llu (%s), found '%.*s'", path,
+                       (unsigned long long)k->line, where, tok_print_len(k), k->s);
+}
+
+/* ---- OBJ ------------------------------------------------------------------------ */
+
+static clvox_status check_obj(clvox_context *ctx, const char *path, const char *p, size_t n, expect *ex)
+{
+    clvox_status st = check_text(ctx, path, p, n, "OBJ");
+    if (st) return st;
+    text t = {p, p + n, 1};
+    uint64_t vertices = 0;
+    tok k;
+    while (t.p < t.end) {
+        if (tok_line(&t, &k) && tok_is(&k, "v")) {
+            for (int c = 0; c < 3; c++) {
+                if (!tok_line(&t, &k))
+                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                       "'%s': vertex at line %llu has fewer than 3 coordinates", path,
+                                       (unsigned long long)t.line);
+                if ((st = check_coord(ctx, path, &k, "vertex"))) return st;
+            }
+            vertices++;
+        }
+        skip_line(&t);
+    }
+    ex->have_vertices = 1;
+    ex->vertices = vertices;
+    return CLVOX_OK;
+}
+
+/* ---- STL ------------------------------------------------------------------------ */
+
+static clvox_status check_stl_ascii(clvox_context *ctx, const char *path, const char *p, size_t n,
+                                    const char *binary_note)
+{
+    /* Structure errors are reported with the binary reading as well: a
+     * truncated binary STL whose header starts with "solid" lands here. */
+    const char *z = memchr(p, 0, n);
+    if (z)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                           "'%s' is not a valid STL: %s; as ASCII: binary data at offset %zu", path, binary_note,
+                           (size_t)(z - p));
+    text t = {p, p + n, 1};
+    tok k;
+    uint64_t facets = 0, in_facet = 0;
+    int first = 1;
+    while (t.p < t.end) {
+        if (tok_line(&t, &k)) {
+            if (first && !tok_is(&k, "solid"))
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is not a valid STL: %s", path, binary_note);
+            first = 0;
+            if (tok_is(&k, "vertex")) {
+                if (!in_facet)
+                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': ASCII STL vertex outside a facet at line %llu",
+                                       path, (unsigned long long)k.line);
+                for (int c = 0; c < 3; c++) {
+                    if (!tok_line(&t, &k))
+                        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                           "'%s': ASCII STL vertex at line %llu has fewer than 3 coordinates", path,
+                                           (unsigned long long)t.line);
+                    clvox_status st = check_coord(ctx, path, &k, "STL vertex");
+                    if (st) return st;
+                }
+                in_facet++;
+            } else if (tok_is(&k, "facet")) {
+                if (in_facet)
+                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': ASCII STL facet not closed before line %llu",
+                                       path, (unsigned long long)k.line);
+                in_facet = 1;
+                facets++;
+            } else if (tok_is(&k, "endfacet")) {
+                if (in_facet != 4)
+                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                       "'%s': ASCII STL facet ending at line %llu has %llu vertices, not 3", path,
+                                       (unsigned long long)k.line, (unsigned long long)(in_facet ? in_facet - 1 : 0));
+                in_facet = 0;
+            } else if (!tok_is(&k, "solid") && !tok_is(&k, "endsolid") && !tok_is(&k, "outer") &&
+                       !tok_is(&k, "endloop")) {
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                   "'%s' is not a valid STL: %s; as ASCII: unexpected '%.*s' at line %llu", path,
+                                   binary_note, tok_print_len(&k), k.s, (unsigned long long)k.line);
+            }
+        }
+        skip_line(&t);
+    }
+    if (in_facet)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': ASCII STL is truncated inside facet %llu", path,
+                           (unsigned long long)facets);
+    return CLVOX_OK;
+}
+
+static clvox_status check_stl(clvox_context *ctx, const char *path, const unsigned char *p, size_t n)
+{
+    char note[160] = "too short for a binary STL";
+    if (n >= 84) {
+        uint64_t count = le32(p + 80);
+        uint64_t want = 84 + 50 * count;
+        if (want == n) { /* binary, whatever the header says */
+            for (uint64_t t = 0; t < count; t++) {
+                const unsigned char *r = p + 84 + 50 * t + 12; /* skip the normal */
+                for (int c = 0; c < 9; c++)
+                    if (!isfinite(le_float(r + 4 * c)))
+                        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                                           "'%s': non-finite coordinate in triangle %llu of the binary STL", path,
+                                           (unsigned long long)t);
+            }
+            return CLVOX_OK;
+        }
+        snprintf(note, sizeof note, "as binary it declares %llu triangles (%llu bytes) but has %zu bytes (truncated?)",
+                 (unsigned long long)count, (unsigned long long)want, n);
+    }
+    size_t i = 0;
+    while (i < n && (is_space((char)p[i]) || p[i] == '\n')) i++;
+    if (n - i < 5 || memcmp(p + i, "solid", 5) != 0)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is not a valid STL: %s, and it does not start with 'solid'",
+                           path, note);
+    return check_stl_ascii(ctx, path, (const char *)p, n, note);
+}
+
+/* ---- OFF ------------------------------------------------------------------------ */
+
+static clvox_status check_off(clvox_context *ctx, const char *path, const unsigned char *up, size_t n, expect *ex)
+{
+    const char *p = (const char *)up;
+    text t = {p, p + n, 1};
+    tok k;
+    /* Header line: [ST][C][N][4][n]OFF [BINARY], alone on its line (OpenMesh
+     * reads the counts from the following lines). */
+    if (!tok_line(&t, &k))
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is not a valid OFF file: no 'OFF' keyword on line 1", path);
+    size_t i = 0;
+    int color = 0, normal = 0, extended = 0;
+    if (k.n >= 2 && k.s[0] == 'S' && k.s[1] == 'T') i += 2;
+    if (i < k.n && k.s[i] == 'C') color = 1, i++;
+    if (i < k.n && k.s[i] == 'N') normal = 1, i++;
+    if (i < k.n && k.s[i] == '4') extended = 1, i++;
+    if (i < k.n && k.s[i] == 'n') extended = 1, i++;
+    if (k.n - i != 3 || memcmp(k.s + i, "OFF", 3) != 0)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is not a valid OFF file: line 1 is '%.*s', not 'OFF'", path,
+                           tok_print_len(&k), k.s);
+    if (extended)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': OFF variant '%.*s' (4D / n-D) is not supported", path,
+                           tok_print_len(&k), k.s);
+    int binary = 0;
+    if (tok_line(&t, &k)) {
+        if (!tok_is(&k, "BINARY"))
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                               "'%s': the OFF header line must hold only the keyword (counts go on the next line), found '%.*s'",
+                               path, tok_print_len(&k), k.s);
+        binary = 1;
+        if (tok_line(&t, &k))
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': unexpected '%.*s' on the OFF header line", path,
+                               tok_print_len(&k), k.s);
+    }
+    skip_line(&t);
+
+    if (binary) {
+        if (color || normal || i)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': only plain 'OFF BINARY' is supported", path);
+        const unsigned char *b = up + (t.p - p), *end = up + n;
+        if (end - b < 12)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': binary OFF is truncated in its counts", path);
+        uint64_t nv = le32(b), nf = le32(b + 4);
+        b += 12;
+        if ((uint64_t)(end - b) / 12 < nv)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                               "'%s': binary OFF declares %llu vertices, more than its %zu bytes hold (truncated?)", path,
+                               (unsigned long long)nv, n);
+        b += 12 * nv;
+        for (uint64_t f = 0; f < nf; f++) {
+            if (end - b < 4)
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                   "'%s': binary OFF is truncated: declares %llu faces, the file ends in face %llu", path,
+                                   (unsigned long long)nf, (unsigned long long)f);
+            uint64_t c = le32(b);
+            b += 4;
+            if ((uint64_t)(end - b) / 4 < c)
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                   "'%s': binary OFF is truncated: face %llu has %llu corners past the end of the file",
+                                   path, (unsigned long long)f, (unsigned long long)c);
+            b += 4 * c;
+        }
+        ex->have_vertices = ex->have_faces = 1;
+        ex->vertices = nv;
+        ex->faces = nf;
+        return CLVOX_OK;
+    }
+
+    clvox_status st = check_text(ctx, path, p, n, "OFF");
+    if (st) return st;
+    int64_t counts[3];
+    static const char *const count_names[3] = {"vertex", "face", "edge"};
+    for (int c = 0; c < 3; c++) {
+        if (!tok_any(&t, &k))
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': OFF file ends before its vertex/face/edge counts", path);
+        if (k.s[0] == '#')
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                               "'%s': comment at line %llu: OpenMesh's OFF reader does not support comments", path,
+                               (unsigned long long)k.line);
+        if (!parse_int(&k, &counts[c]) || counts[c] < 0 || counts[c] > (int64_t)UINT32_MAX)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': invalid OFF %s count '%.*s' at line %llu", path,
+                               count_names[c], tok_print_len(&k), k.s, (unsigned long long)k.line);
+    }
+    uint64_t nv = (uint64_t)counts[0], nf = (uint64_t)counts[1];
+    /* A vertex needs at least "0 0 0\n", a face "0\n". */
+    if (nv > n / 6 || nf > n / 2 || 6 * nv + 2 * nf > n)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                           "'%s' declares %llu vertices and %llu faces, more than a file of %zu bytes can hold", path,
+                           (unsigned long long)nv, (unsigned long long)nf, n);
+    for (uint64_t v = 0; v < nv; v++) {
+        for (int c = 0; c < (normal ? 6 : 3); c++) {
+            if (!tok_any(&t, &k))
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                   "'%s' is truncated: declares %llu vertices, the file ends in vertex %llu", path,
+                                   (unsigned long long)nv, (unsigned long long)v);
+            if (k.s[0] == '#')
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                   "'%s': comment at line %llu: OpenMesh's OFF reader does not support comments", path,
+                                   (unsigned long long)k.line);
+            if ((st = check_coord(ctx, path, &k, "OFF vertex"))) return st;
+        }
+        skip_line(&t); /* OpenMesh takes the rest of the line as colour / texture data */
+    }
+    for (uint64_t f = 0; f < nf; f++) {
+        int64_t c;
+        if (!tok_any(&t, &k))
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                               "'%s' is truncated: declares %llu faces, the file ends after %llu", path,
+                               (unsigned long long)nf, (unsigned long long)f);
+        if (!parse_int(&k, &c) || c < 0 || c > (1 << 24))
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': invalid corner count '%.*s' for face %llu at line %llu",
+                               path, tok_print_len(&k), k.s, (unsigned long long)f, (unsigned long long)k.line);
+        for (int64_t j = 0; j < c; j++) {
+            int64_t idx;
+            if (!tok_any(&t, &k))
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is truncated inside face %llu", path,
+                                   (unsigned long long)f);
+            if (!parse_int(&k, &idx))
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': invalid vertex index '%.*s' in face %llu at line %llu",
+                                   path, tok_print_len(&k), k.s, (unsigned long long)f, (unsigned long long)k.line);
+            if (idx < 0 || (uint64_t)idx >= nv)
+                return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                                   "'%s': face %llu at line %llu references vertex %lld, the file has %llu vertices", path,
+                                   (unsigned long long)f, (unsigned long long)k.line, (long long)idx,
+                                   (unsigned long long)nv);
+        }
+        if (color) {
+            skip_line(&t);
+        } else if (tok_line(&t, &k)) {
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                               "'%s': unexpected '%.*s' after face %llu at line %llu (face colours need a COFF header)",
+                               path, tok_print_len(&k), k.s, (unsigned long long)f, (unsigned long long)k.line);
+        }
+    }
+    ex->have_vertices = ex->have_faces = 1;
+    ex->vertices = nv;
+    ex->faces = nf;
+    return CLVOX_OK;
+}
+
+/* ---- PLY ------------------------------------------------------------------------ */
+
+#define PLY_MAX_HEADER (64u * 1024u)
+#define PLY_MAX_ELEMENTS 16
+#define PLY_MAX_PROPS 64
+#define PLY_NAME 64
+
+enum ply_format { PLY_ASCII, PLY_LE, PLY_BE };
+
+typedef struct ply_type { const char *name; int size, is_float, is_signed; } ply_type;
+static const ply_type ply_types[] = {
+    {"char", 1, 0, 1}, {"int8", 1, 0, 1}, {"uchar", 1, 0, 0}, {"uint8", 1, 0, 0},
+    {"short", 2, 0, 1}, {"int16", 2, 0, 1}, {"ushort", 2, 0, 0}, {"uint16", 2, 0, 0},
+    {"int", 4, 0, 1}, {"int32", 4, 0, 1}, {"uint", 4, 0, 0}, {"uint32", 4, 0, 0},
+    {"float", 4, 1, 1}, {"float32", 4, 1, 1}, {"double", 8, 1, 1}, {"float64", 8, 1, 1},
+};
+
+typedef struct ply_prop {
+    char name[PLY_NAME];
+    const ply_type *type;       /* value (list item) type */
+    const ply_type *count_type; /* NULL: scalar */
+} ply_prop;
+
+typedef struct ply_elem {
+    char name[PLY_NAME];
+    uint64_t count;
+    ply_prop props[PLY_MAX_PROPS];
+    int nprops;
+} ply_elem;
+
+typedef struct ply_header {
+    enum ply_format format;
+    ply_elem elems[PLY_MAX_ELEMENTS];
+    int nelems, vertex, face; /* element indices, -1 if absent */
+    size_t body;              /* offset of the first byte after the header */
+} ply_header;
+
+static const ply_type *ply_type_of(const tok *k)
+{
+    for (size_t i = 0; i < sizeof ply_types / sizeof ply_types[0]; i++)
+        if (tok_is(k, ply_types[i].name)) return &ply_types[i];
+    return NULL;
+}
+
+static int copy_name(char dst[PLY_NAME], const tok *k)
+{
+    if (k->n >= PLY_NAME) return 0;
+    memcpy(dst, k->s, k->n);
+    dst[k->n] = 0;
+    return 1;
+}
+
+static int is_index_list(const char *name) { return !strcmp(name, "vertex_indices") || !strcmp(name, "vertex_index"); }
+
+/* Parses and checks the header strictly: OpenMesh loops forever on a header
+ * without end_header, truncated in the header or with a malformed property
+ * list, so anything unusual is an error here. */
+static clvox_status ply_parse_header(clvox_context *ctx, const char *path, const char *p, size_t n, ply_header *h)
+{
+    size_t limit = n < PLY_MAX_HEADER ? n : PLY_MAX_HEADER;
+    text t = {p, p + limit, 1};
+    tok k;
+    memset(h, 0, sizeof *h);
+    h->vertex = h->face = -1;
+    int have_format = 0;
+#define BAD_LINE(why) \
+    clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': invalid PLY header at line %llu: %s", path, \
+                (unsigned long long)t.line, why)
+    if (limit < 4 || memcmp(p, "ply", 3) != 0 || (p[3] != '\n' && p[3] != '\r'))
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is not a PLY file (it does not start with 'ply')", path);
+    skip_line(&t);
+    for (;;) {
+        if (t.p >= t.end || !memchr(t.p, '\n', (size_t)(t.end - t.p))) {
+            if (limit < n)
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY header has no end_header in its first %u bytes",
+                                   path, PLY_MAX_HEADER);
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY file is truncated inside its header (no end_header)",
+                               path);
+        }
+        if (!tok_line(&t, &k)) return BAD_LINE("empty line");
+        if (tok_is(&k, "comment") || tok_is(&k, "obj_info")) {
+            skip_line(&t);
+            continue;
+        }
+        if (tok_is(&k, "end_header")) {
+            const char *word_end = k.s + k.n;
+            if (tok_line(&t, &k)) return BAD_LINE("text after end_header");
+            const char *nl = memchr(t.p, '\n', (size_t)(t.end - t.p));
+            /* The binary body starts right after the newline. */
+            if (h->format != PLY_ASCII && nl != word_end) return BAD_LINE("end_header must be followed by \\n alone");
+            h->body = (size_t)(nl + 1 - p);
+            break;
+        }
+        tok a[5];
+        int na = 0;
+        a[na++] = k;
+        while (na < 5 && tok_line(&t, &a[na])) na++;
+        tok extra;
+        if (tok_line(&t, &extra)) return BAD_LINE("too many words");
+        if (tok_is(&a[0], "format")) {
+            if (have_format) return BAD_LINE("second format line");
+            if (na != 3 || !tok_is(&a[2], "1.0")) return BAD_LINE("expected 'format <type> 1.0'");
+            if (tok_is(&a[1], "ascii")) h->format = PLY_ASCII;
+            else if (tok_is(&a[1], "binary_little_endian")) h->format = PLY_LE;
+            else if (tok_is(&a[1], "binary_big_endian")) h->format = PLY_BE;
+            else return BAD_LINE("unknown format");
+            have_format = 1;
+        } else if (tok_is(&a[0], "element")) {
+            int64_t count;
+            if (!have_format) return BAD_LINE("element before the format line");
+            if (na != 3) return BAD_LINE("expected 'element <name> <count>'");
+            if (h->nelems == PLY_MAX_ELEMENTS) return BAD_LINE("too many elements");
+            if (!parse_int(&a[2], &count) || count < 0 || count > (int64_t)UINT32_MAX || a[2].s[0] == '+')
+                return BAD_LINE("invalid element count");
+            ply_elem *e = &h->elems[h->nelems];
+            if (!copy_name(e->name, &a[1])) return BAD_LINE("element name too long");
+            e->count = (uint64_t)count;
+            if (!strcmp(e->name, "vertex")) {
+                if (h->vertex >= 0) return BAD_LINE("second vertex element");
+                h->vertex = h->nelems;
+            } else if (!strcmp(e->name, "face")) {
+                if (h->face >= 0) return BAD_LINE("second face element");
+                h->face = h->nelems;
+            }
+            h->nelems++;
+        } else if (tok_is(&a[0], "property")) {
+            if (!h->nelems) return BAD_LINE("property before any element");
+            ply_elem *e = &h->elems[h->nelems - 1];
+            if (e->nprops == PLY_MAX_PROPS) return BAD_LINE("too many properties");
+            ply_prop *pr = &e->props[e->nprops];
+            if (tok_is(&a[1], "list")) {
+                if (na != 5) return BAD_LINE("expected 'property list <count type> <item type> <name>'");
+                pr->count_type = ply_type_of(&a[2]);
+                pr->type = ply_type_of(&a[3]);
+                if (!pr->count_type || !pr->type) return BAD_LINE("unknown type in property list");
+                if (pr->count_type->is_float) return BAD_LINE("list count type must be an integer type");
+                if (!copy_name(pr->name, &a[4])) return BAD_LINE("property name too long");
+            } else {
+                if (na != 3) return BAD_LINE("expected 'property <type> <name>'");
+                pr->type = ply_type_of(&a[1]);
+                if (!pr->type) return BAD_LINE("unknown property type");
+                if (!copy_name(pr->name, &a[2])) return BAD_LINE("property name too long");
+            }
+            for (int q = 0; q < e->nprops; q++)
+                if (!strcmp(e->props[q].name, pr->name)) return BAD_LINE("duplicate property");
+            e->nprops++;
+        } else {
+            return BAD_LINE("unknown keyword");
+        }
+        skip_line(&t);
+    }
+#undef BAD_LINE
+    if (!have_format) return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY header has no format line", path);
+    if (h->vertex < 0) return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY file has no vertex element", path);
+    if (h->face >= 0 && h->face < h->vertex)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY face element comes before the vertex element", path);
+
+    /* What OpenMesh's reader can follow: lists only as face corner indices or
+     * face texture coordinates, among the elements it reads. */
+    int last = h->face >= 0 ? h->face : h->nelems - 1;
+    for (int ei = 0; ei <= last; ei++) {
+        const ply_elem *e = &h->elems[ei];
+        for (int q = 0; q < e->nprops; q++) {
+            const ply_prop *pr = &e->props[q];
+            if (!pr->count_type) {
+                if (ei == h->face && is_index_list(pr->name))
+                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY face property '%s' must be a list", path,
+                                       pr->name);
+                continue;
+            }
+            int ok = ei == h->face && (is_index_list(pr->name) || !strcmp(pr->name, "texcoord"));
+            if (!ok)
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                   "'%s': PLY list property '%s' in element '%s' is not supported", path, pr->name,
+                                   e->name);
+            if (is_index_list(pr->name) && pr->type->is_float)
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY face indices must have an integer type", path);
+        }
+    }
+    const ply_elem *ve = &h->elems[h->vertex];
+    static const char *const axes[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; a++) {
+        int found = 0;
+        for (int q = 0; q < ve->nprops; q++)
+            if (!strcmp(ve->props[q].name, axes[a])) {
+                if (!ve->props[q].type->is_float)
+                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                       "'%s': PLY vertex coordinate '%s' must be float or double", path, axes[a]);
+                found = 1;
+            }
+        if (!found)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY vertex element has no '%s' property", path, axes[a]);
+    }
+    return CLVOX_OK;
+}
+
+static uint64_t ply_read_count(const unsigned char *b, const ply_type *ty, enum ply_format f, int *negative)
+{
+    uint64_t v = 0;
+    for (int i = 0; i < ty->size; i++) v |= (uint64_t)b[f == PLY_BE ? ty->size - 1 - i : i] << (8 * i);
+    *negative = 0;
+    if (ty->is_signed && (v >> (8 * ty->size - 1)) & 1) *negative = 1;
+    return v;
+}
+
+/* Binary body: fixed-size records are checked by size, the face element is
+ * walked list by list, so a truncated file is caught exactly. */
+static clvox_status ply_check_binary(clvox_context *ctx, const char *path, const unsigned char *p, size_t n,
+                                     const ply_header *h)
+{
+    uint64_t pos = h->body;
+    int last = h->face >= 0 ? h->face : h->nelems - 1;
+    for (int ei = 0; ei <= last; ei++) {
+        const ply_elem *e = &h->elems[ei];
+        uint64_t fixed = 0;
+        int lists = 0;
+        for (int q = 0; q < e->nprops; q++) {
+            if (e->props[q].count_type) lists = 1;
+            else fixed += (uint64_t)e->props[q].type->size;
+        }
+        if (!lists) {
+            if (fixed && (n - pos) / fixed < e->count)
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                   "'%s': binary PLY is truncated: element '%s' declares %llu entries of %llu bytes, "
+                                   "only %llu bytes are left",
+                                   path, e->name, (unsigned long long)e->count, (unsigned long long)fixed,
+                                   (unsigned long long)(n - pos));
+            pos += fixed * e->count;
+            continue;
+        }
+        for (uint64_t r = 0; r < e->count; r++) {
+            for (int q = 0; q < e->nprops; q++) {
+                const ply_prop *pr = &e->props[q];
+                uint64_t need = (uint64_t)(pr->count_type ? pr->count_type->size : pr->type->size);
+                if (n - pos < need) goto truncated;
+                if (pr->count_type) {
+                    int neg;
+                    uint64_t c = ply_read_count(p + pos, pr->count_type, h->format, &neg);
+                    if (neg)
+                        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': negative list length in %s %llu", path,
+                                           e->name, (unsigned long long)r);
+                    pos += need;
+                    if ((n - pos) / (uint64_t)pr->type->size < c) goto truncated;
+                    pos += c * (uint64_t)pr->type->size;
+                } else {
+                    pos += need;
+                }
+            }
+            continue;
+        truncated:
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                               "'%s': binary PLY is truncated: element '%s' declares %llu entries, the file ends in entry %llu",
+                               path, e->name, (unsigned long long)e->count, (unsigned long long)r);
+        }
+    }
+    return CLVOX_OK;
+}
+
+/* ASCII body, token by token as OpenMesh reads it (operator>>). */
+static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const char *p, size_t n,
+                                    const ply_header *h)
+{
+    clvox_status st = check_text(ctx, path, p + h->body, n - h->body, "PLY");
+    if (st) return st;
+    text t = {p + h->body, p + n, 1};
+    for (const char *c = p; c < p + h->body; c++) t.line += *c == '\n';
+    uint64_t nv = h->elems[h->vertex].count;
+    int last = h->face >= 0 ? h->face : h->nelems - 1;
+    tok k;
+    for (int ei = 0; ei <= last; ei++) {
+        const ply_elem *e = &h->elems[ei];
+        /* A value needs at least two bytes ("0 "): reject absurd counts before scanning. */
+        if (e->count && e->nprops && e->count > (uint64_t)(n - h->body) / 2)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                               "'%s': PLY element '%s' declares %llu entries, more than the file can hold", path, e->name,
+                               (unsigned long long)e->count);
+        for (uint64_t r = 0; r < e->count; r++) {
+            for (int q = 0; q < e->nprops; q++) {
+                const ply_prop *pr = &e->props[q];
+                uint64_t items = 1;
+                if (pr->count_type) {
+                    int64_t c;
+                    if (!tok_any(&t, &k)) goto truncated;
+                    if (!parse_int(&k, &c) || c < 0 || c > (1 << 24))
+                        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                           "'%s': invalid list length '%.*s' for '%s' of %s %llu at line %llu", path,
+                                           tok_print_len(&k), k.s, pr->name, e->name, (unsigned long long)r,
+                                           (unsigned long long)k.line);
+                    items = (uint64_t)c;
+                }
+                int indices = pr->count_type && ei == h->face && is_index_list(pr->name);
+                int coord = ei == h->vertex && (!strcmp(pr->name, "x") || !strcmp(pr->name, "y") || !strcmp(pr->name, "z"));
+                for (uint64_t j = 0; j < items; j++) {
+                    if (!tok_any(&t, &k)) goto truncated;
+                    if (pr->type->is_float) {
+                        int c = classify_float(&k);
+                        if (c == NUM_NONFINITE)
+                            return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                                               "'%s': non-finite %s '%.*s' at line %llu (%s %llu, property '%s')", path,
+                                               coord ? "coordinate" : "value", tok_print_len(&k), k.s,
+                                               (unsigned long long)k.line, e->name, (unsigned long long)r, pr->name);
+                        if (c == NUM_BAD) goto not_a_number;
+                    } else {
+                        int64_t v;
+                        if (!parse_int(&k, &v)) goto not_a_number;
+                        if (indices && (v < 0 || (uint64_t)v >= nv))
+                            return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                                               "'%s': face %llu at line %llu references vertex %lld, the file has %llu vertices",
+                                               path, (unsigned long long)r, (unsigned long long)k.line, (long long)v,
+                                               (unsigned long long)nv);
+                    }
+                }
+                continue;
+            not_a_number:
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                   "'%s': expected %s for '%s' of %s %llu at line %llu, found '%.*s'", path,
+                                   pr->type->is_float ? "a number" : "an integer", pr->name, e->name,
+                                   (unsigned long long)r, (unsigned long long)k.line, tok_print_len(&k), k.s);
+            }
+            continue;
+        truncated:
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                               "'%s' is truncated: PLY element '%s' declares %llu entries, the file ends in entry %llu",
+                               path, e->name, (unsigned long long)e->count, (unsigned long long)r);
+        }
+    }
+    return CLVOX_OK;
+}
+
+static clvox_status check_ply(clvox_context *ctx, const char *path, const unsigned char *p, size_t n, expect *ex)
+{
+    ply_header *h = malloc(sizeof *h); /* about 300 KB: keep it off the stack */
+    if (!h) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory checking '%s'", path);
+    clvox_status st = ply_parse_header(ctx, path, (const char *)p, n, h);
+    if (!st)
+        st = h->format == PLY_ASCII ? ply_check_ascii(ctx, path, (const char *)p, n, h)
+                                    : ply_check_binary(ctx, path, p, n, h);
+    if (!st) {
+        ex->have_vertices = 1;
+        ex->vertices = h->elems[h->vertex].count;
+        ex->have_faces = 1;
+        ex->faces = h->face >= 0 ? h->elems[h->face].count : 0;
+    }
+    free(h);
+    return st;
+}
+
+/* ---- OM ------------------------------------------------------------------------- */
+
+static clvox_status check_om(clvox_context *ctx, const char *path, const unsigned char *p, size_t n)
+{
+    if (n < 16 || p[0] != 'O' || p[1] != 'M' || (p[2] != 'T' && p[2] != 'Q' && p[2] != 'P'))
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is not an OpenMesh OM file (bad magic)", path);
+    uint64_t nv = le32(p + 4), nf = le32(p + 8), ne = le32(p + 12);
+    /* Positions take at least 12 bytes a vertex; faces and edges at least a byte each. */
+    if (nv > n / 12 || nf > n || ne > n || 16 + 12 * nv + nf + ne > n)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                           "'%s': OM header declares %llu vertices, %llu faces, %llu edges: more than its %zu bytes hold",
+                           path, (unsigned long long)nv, (unsigned long long)nf, (unsigned long long)ne, n);
+    return CLVOX_OK;
+}
+
+/* ---- building the validated mesh ------------------------------------------------ */
+
+void clvox__raw_mesh_free(clvox__raw_mesh *raw)
+{
+    if (!raw) return;
+    free(raw->xyz);
+    free(raw->face_sizes);
+    free(raw->face_indices);
+    memset(raw, 0, sizeof *raw);
+}
+
+/* Ascending sort of small arrays of 64-bit keys. */
+static void sort_u64_small(uint64_t *a, size_t n)
+{
+    for (size_t i = 1; i < n; i++) {
+        uint64_t v = a[i];
+        size_t j = i;
+        for (; j > 0 && a[j - 1] > v; j--) a[j] = a[j - 1];
+        a[j] = v;
+    }
+}
+
+static int cmp_u64(const void *pa, const void *pb)
+{
+    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
+    return (a > b) - (a < b);
+}
+
+/* Boundary edges (used by an odd number of triangles) and non-manifold
+ * triangles. Edges are bucketed by their smaller vertex (counting sort, O(T))
+ * and each bucket sorted by (other vertex, use index), so the uses of one
+ * edge are adjacent and in input order.
+ *
+ * Non-manifold counts what OpenMesh calls a "complex edge" (it then re-adds
+ * the face with duplicated vertices): taking triangles in input order, one is
+ * rejected when an edge it uses is already used in the same direction, or
+ * twice, by triangles accepted before it; rejected triangles use nothing.
+ * Only edges with more than two uses or two uses in the same direction can
+ * reject anything, so just the triangles on such edges are replayed.
+ * (OpenMesh also rejects some faces at non-manifold vertices: not counted.)
+ * Returns -1 when memory runs out. */
+static int edge_analysis(const uint32_t *tris, size_t nt, size_t nv, uint64_t *boundary, uint64_t *nonmanifold)
+{
+    size_t ne = 3 * nt; /* <= UINT32_MAX, checked by the caller */
+    uint32_t *start = calloc(nv + 1, sizeof *start);
+    uint64_t *entry = malloc(ne * sizeof *entry);
+    uint64_t *cx = NULL;      /* uses of complex edges: tri << 33 | group << 1 | dir */
+    size_t ncx = 0, cap = 0;
+    unsigned char *gstate = NULL;
+    int rc = -1;
+    if (!start || !entry) goto done;
+#define OTHER(i) tris[(i) % 3 == 2 ? (i) - 2 : (i) + 1]
+    for (size_t i = 0; i < ne; i++) {
+        uint32_t a = tris[i], b = OTHER(i);
+        start[a < b ? a : b]++;
+    }
+    uint32_t sum = 0;
+    for (size_t v = 0; v <= nv; v++) {
+        uint32_t c = start[v];
+        start[v] = sum;
+        sum += c;
+    }
+    /* start[v] runs ahead as the fill cursor: afterwards bucket v is
+     * [start[v-1], start[v]) with start[-1] = 0. */
+    for (size_t i = 0; i < ne; i++) {
+        uint32_t a = tris[i], b = OTHER(i);
+        uint32_t lo = a < b ? a : b, hi = a < b ? b : a;
+        entry[start[lo]++] = (uint64_t)hi << 32 | (uint64_t)i;
+    }
+    uint64_t nb = 0, groups = 0;
+    size_t begin = 0;
+    for (size_t v = 0; v < nv; v++) {
+        size_t end = start[v], len = end - begin;
+        if (len > 1) {
+            if (len <= 24) sort_u64_small(entry + begin, len);
+            else qsort(entry + begin, len, sizeof *entry, cmp_u64);
+        }
+        for (size_t i = begin; i < end;) {
+            size_t j = i + 1;
+            while (j < end && entry[j] >> 32 == entry[i] >> 32) j++;
+            size_t uses = j - i;
+            nb += uses & 1;
+            int complex = uses > 2;
+            if (uses == 2) {
+                size_t u0 = (uint32_t)entry[i], u1 = (uint32_t)entry[i + 1];
+                complex = (tris[u0] > OTHER(u0)) == (tris[u1] > OTHER(u1));
+            }
+            if (complex) {
+                if (ncx + uses > cap) {
+                    cap = (ncx + uses) * 2 + 64;
+                    uint64_t *grown = realloc(cx, cap * sizeof *cx);
+                    if (!grown) goto done;
+                    cx = grown;
+                }
+                for (size_t q = i; q < j; q++) {
+                    size_t u = (uint32_t)entry[q];
+                    cx[ncx++] = (uint64_t)(u / 3) << 33 | groups << 1 | (uint64_t)(tris[u] > OTHER(u));
+                }
+                groups++;
+            }
+            i = j;
+        }
+        begin = end;
+    }
+#undef OTHER
+    free(entry);
+    entry = NULL;
+    free(start);
+    start = NULL;
+
+    uint64_t nm = 0;
+    if (ncx) {
+        /* Replay in triangle order. State per complex edge: bit 0/1 = used in
+         * direction 0/1, bits 2-3 = number of uses (saturating at 2). */
+        qsort(cx, ncx, sizeof *cx, cmp_u64);
+        gstate = calloc(groups, 1);
+        if (!gstate) goto done;
+        for (size_t i = 0; i < ncx;) {
+            size_t j = i;
+            int reject = 0;
+            for (; j < ncx && cx[j] >> 33 == cx[i] >> 33; j++) {
+                unsigned char s = gstate[(cx[j] >> 1) & 0xFFFFFFFFu];
+                if ((s >> 2) >= 2 || (s >> (cx[j] & 1) & 1)) reject = 1;
+            }
+            if (reject) {
+                nm++;
+            } else {
+                for (size_t q = i; q < j; q++) {
+                    unsigned char *s = &gstate[(cx[q] >> 1) & 0xFFFFFFFFu];
+                    *s = (unsigned char)((*s | 1u << (cx[q] & 1)) + 4);
+                }
+            }
+            i = j;
+        }
+    }
+    *boundary = nb;
+    *nonmanifold = nm;
+    rc = 0;
+done:
+    free(start);
+    free(entry);
+    free(cx);
+    free(gstate);
+    return rc;
+}
+
+/* Takes ownership of xyz (freed on failure). sizes == NULL: all faces are
+ * triangles. `what` names the source in messages. */
+static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz, size_t nv, const uint32_t *sizes,
+                               const uint32_t *idx, size_t nf, size_t index_count, uint64_t loader_nonmanifold,
+                               clvox_mesh **out)
+{
+    clvox_status st = CLVOX_OK;
+    uint32_t *tris = NULL;
+    clvox_mesh *m = NULL;
+    clvox_mesh_report r;
+    memset(&r, 0, sizeof r);
+    r.input_vertices = r.vertices = nv;
+    r.input_faces = nf;
+
+    for (size_t v = 0; v < nv; v++) {
+        const float *p = xyz + 3 * v;
+        if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) {
+            st = clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%s: vertex %zu has a non-finite coordinate (%g, %g, %g)", what,
+                             v, (double)p[0], (double)p[1], (double)p[2]);
+            goto fail;
+        }
+    }
+    /* Indices in range; triangle count after fanning. */
+    size_t nt = 0, pos = 0;
+    for (size_t f = 0; f < nf; f++) {
+        size_t k = sizes ? sizes[f] : 3;
+        if (k > index_count - pos) {
+            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "%s: face %zu runs past the index array", what, f);
+            goto fail;
+        }
+        for (size_t j = 0; j < k; j++)
+            if (idx[pos + j] >= nv) {
+                st = clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                                 "%s: face %zu references vertex %lu, but there are only %zu vertices", what, f,
+                                 (unsigned long)idx[pos + j], nv);
+                goto fail;
+            }
+        if (k >= 3) {
+            nt += k - 2;
+            if (k > 3) r.polygons_triangulated++;
+        } else {
+            r.dropped_faces++;
+        }
+        pos += k;
+    }
+    if (nt > UINT32_MAX / 3) {
+        st = clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%s: %zu triangles, more than clvox supports (%u)", what, nt,
+                         (unsigned)(UINT32_MAX / 3));
+        goto fail;
+    }
+    tris = malloc((nt ? nt : 1) * 3 * sizeof *tris);
+    if (!tris) {
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory for %zu triangles", what, nt);
+        goto fail;
+    }
+    size_t kept = 0;
+    pos = 0;
+    for (size_t f = 0; f < nf; f++) {
+        size_t k = sizes ? sizes[f] : 3;
+        for (size_t j = 1; j + 1 < k; j++) {
+            uint32_t a = idx[pos], b = idx[pos + j], c = idx[pos + j + 1];
+            if (a == b || b == c || a == c) {
+                r.dropped_faces++;
+                continue;
+            }
+            tris[3 * kept] = a;
+            tris[3 * kept + 1] = b;
+            tris[3 * kept + 2] = c;
+            kept++;
+        }
+        pos += k;
+    }
+    if (!kept) {
+        st = clvox__fail(ctx, CLVOX_ERR_MESH_EMPTY,
+                         "%s: mesh has no triangles (%zu vertices, %zu faces read, %llu dropped)", what, nv, nf,
+                         (unsigned long long)r.dropped_faces);
+        goto fail;
+    }
+    if (kept < nt) {
+        uint32_t *shrunk = realloc(tris, kept * 3 * sizeof *tris);
+        if (shrunk) tris = shrunk;
+    }
+    r.triangles = kept;
+
+    /* Bounding box of the vertices in use, degenerate triangles, volume
+     * (apex at the first vertex used: cancellation stays small far from the
+     * origin; the sum does not depend on the apex when the mesh is closed). */
+    const float *o = xyz + 3 * (size_t)tris[0];
+    double apex[3] = {o[0], o[1], o[2]};
+    for (int a = 0; a < 3; a++) r.bbox_min[a] = r.bbox_max[a] = apex[a];
+    double vol6 = 0.0;
+    for (size_t t = 0; t < kept; t++) {
+        double q[3][3];
+        for (int c = 0; c < 3; c++) {
+            const float *p = xyz + 3 * (size_t)tris[3 * t + c];
+            for (int a = 0; a < 3; a++) {
+                q[c][a] = p[a];
+                if (q[c][a] < r.bbox_min[a]) r.bbox_min[a] = q[c][a];
+                if (q[c][a] > r.bbox_max[a]) r.bbox_max[a] = q[c][a];
+            }
+        }
+        double e1[3], e2[3], cr[3];
+        for (int a = 0; a < 3; a++) e1[a] = q[1][a] - q[0][a], e2[a] = q[2][a] - q[0][a];
+        cr[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        cr[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        cr[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        if (cr[0] == 0.0 && cr[1] == 0.0 && cr[2] == 0.0) r.degenerate_triangles++;
+        /* (a-o) . ((b-o) x (c-o)) */
+        double A[3], B[3], C[3];
+        for (int a = 0; a < 3; a++) A[a] = q[0][a] - apex[a], B[a] = q[1][a] - apex[a], C[a] = q[2][a] - apex[a];
+        vol6 += A[0] * (B[1] * C[2] - B[2] * C[1]) + A[1] * (B[2] * C[0] - B[0] * C[2]) +
+                A[2] * (B[0] * C[1] - B[1] * C[0]);
+    }
+    r.enclosed_volume = fabs(vol6) / 6.0;
+
+    uint64_t nonmanifold = 0;
+    if (edge_analysis(tris, kept, nv, &r.boundary_edges, &nonmanifold) != 0) {
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory for the edge analysis of %zu triangles", what,
+                         kept);
+        goto fail;
+    }
+    r.nonmanifold_faces = nonmanifold + loader_nonmanifold;
+    r.closed = r.boundary_edges == 0;
+
+    m = malloc(sizeof *m);
+    if (!m) {
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
+        goto fail;
+    }
+    m->xyz = xyz;
+    m->vertex_count = nv;
+    m->tris = tris;
+    m->triangle_count = kept;
+    m->report = r;
+    *out = m;
+    return CLVOX_OK;
+
+fail:
+    free(xyz);
+    free(tris);
+    return st;
+}
+
+/* ---- public API ----------------------------------------------------------------- */
+
+clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out)
+{
+    if (out) *out = NULL;
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!path || !out)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: NULL %s", path ? "out" : "path");
+    if (!*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: empty path");
+
+    const char *ext;
+    enum mesh_format fmt = format_of(path, &ext);
+    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    if (fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open mesh '%s': %s", path, strerror(errno));
+    struct stat sb;
+    if (fstat(fd, &sb) != 0) {
+        int e = errno;
+        close(fd);
+        return clvox__fail(ctx, CLVOX_ERR_IO, "cannot stat mesh '%s': %s", path, strerror(e));
+    }
+    /* A directory named x.stl makes OpenMesh loop forever; fifos and devices
+     * could block or never end. */
+    if (S_ISDIR(sb.st_mode)) {
+        close(fd);
+        return clvox__fail(ctx, CLVOX_ERR_IO, "'%s' is a directory, not a mesh file", path);
+    }
+    if (!S_ISREG(sb.st_mode)) {
+        close(fd);
+        return clvox__fail(ctx, CLVOX_ERR_IO, "'%s' is not a regular file", path);
+    }
+    if (fmt == FMT_UNKNOWN) {
+        close(fd);
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                           "'%s': unknown extension '%s' (expected .obj, .off, .ply, .stl or .om)", path, ext);
+    }
+    if (sb.st_size == 0) {
+        close(fd);
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is empty", path);
+    }
+    if ((uint64_t)sb.st_size > (uint64_t)SIZE_MAX / 2) {
+        close(fd);
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is too large", path);
+    }
+    size_t n = (size_t)sb.st_size;
+    void *map = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fd, 0);
+    close(fd);
+    if (map == MAP_FAILED) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot map '%s': %s", path, strerror(errno));
+    posix_madvise(map, n, POSIX_MADV_SEQUENTIAL);
+
+    expect ex;
+    memset(&ex, 0, sizeof ex);
+    const unsigned char *p = map;
+    clvox_status st;
+    switch (fmt) {
+    case FMT_OBJ: st = check_obj(ctx, path, (const char *)p, n, &ex); break;
+    case FMT_OFF: st = check_off(ctx, path, p, n, &ex); break;
+    case FMT_PLY: st = check_ply(ctx, path, p, n, &ex); break;
+    case FMT_STL: st = check_stl(ctx, path, p, n); break;
+    case FMT_OM: st = check_om(ctx, path, p, n); break;
+    default: st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "unhandled format"); break;
+    }
+    munmap(map, n);
+    if (st) return st;
+
+    clvox__raw_mesh raw;
+    char err[512];
+    err[0] = 0;
+    int rc = clvox__openmesh_read(path, &raw, err, sizeof err);
+    if (rc == -2) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot read '%s': %s", path, err);
+    if (rc != 0) return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "cannot read '%s': %s", path, err);
+
+    if ((ex.have_vertices && raw.vertex_count != ex.vertices) || (ex.have_faces && raw.face_count != ex.faces)) {
+        st = clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                         "'%s': OpenMesh read %zu vertices and %zu faces, the file declares %llu and %llu", path,
+                         raw.vertex_count, raw.face_count, (unsigned long long)ex.vertices,
+                         (unsigned long long)ex.faces);
+        clvox__raw_mesh_free(&raw);
+        return st;
+    }
+    char what[4200];
+    snprintf(what, sizeof what, "'%s'", path);
+    float *xyz = raw.xyz;
+    raw.xyz = NULL; /* build_mesh owns it now */
+    st = build_mesh(ctx, what, xyz, raw.vertex_count, raw.face_sizes, raw.face_indices, raw.face_count,
+                    raw.index_count, raw.nonmanifold_faces, out);
+    clvox__raw_mesh_free(&raw);
+    return st;
+}
+
+clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t vertex_count,
+                                    const uint32_t *triangles, size_t triangle_count, clvox_mesh **out)
+{
+    if (out) *out = NULL;
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_from_arrays: NULL out");
+    if ((!xyz && vertex_count) || (!triangles && triangle_count))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_from_arrays: NULL %s with a non-zero count",
+                           !xyz && vertex_count ? "xyz" : "triangles");
+    if (vertex_count > SIZE_MAX / (3 * sizeof(float)) || triangle_count > SIZE_MAX / (3 * sizeof(uint32_t)))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_from_arrays: counts too large");
+    float *copy = malloc((vertex_count ? vertex_count : 1) * 3 * sizeof *copy);
+    if (!copy) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory copying %zu vertices", vertex_count);
+    if (vertex_count) memcpy(copy, xyz, vertex_count * 3 * sizeof *copy);
+    return build_mesh(ctx, "mesh arrays", copy, vertex_count, NULL, triangles, triangle_count, 3 * triangle_count, 0,
+                      out);
+}
+
+void clvox_mesh_destroy(clvox_mesh *mesh)
+{
+    if (!mesh) return;
+    free(mesh->xyz);
+    free(mesh->tris);
+    free(mesh);
+}
+
+const clvox_mesh_report *clvox_mesh_get_report(const clvox_mesh *mesh) { return mesh ? &mesh->report : NULL; }
+
+const float *clvox_mesh_vertices(const clvox_mesh *mesh, size_t *vertex_count)
+{
+    if (vertex_count) *vertex_count = mesh ? mesh->vertex_count : 0;
+    return mesh ? mesh->xyz : NULL;
+}
+
+const uint32_t *clvox_mesh_triangles(const clvox_mesh *mesh, size_t *triangle_count)
+{
+    if (triangle_count) *triangle_count = mesh ? mesh->triangle_count : 0;
+    return mesh ? mesh->tris : NULL;
+}

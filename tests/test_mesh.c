@@ -1,0 +1,739 @@
+/* The mesh stage: every format, the report, and every bad input we know
+ * OpenMesh mishandles (hangs, throws, silent garbage), written at test time. */
+#include "test.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+static clvox_context *ctx;
+static const double pi = 3.14159265358979323846;
+static char dir[1024];
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static const char *path_of(const char *name)
+{
+    static char buf[4][1200];
+    static int slot;
+    char *p = buf[slot++ & 3];
+    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
+    return p;
+}
+
+static const char *write_bytes(const char *name, const void *data, size_t n)
+{
+    const char *p = path_of(name);
+    FILE *f = fopen(p, "wb");
+    if (!f || (n && fwrite(data, 1, n, f) != n)) {
+        fprintf(stderr, "cannot write %s\n", p);
+        exit(1);
+    }
+    fclose(f);
+    return p;
+}
+
+static const char *write_text(const char *name, const char *text) { return write_bytes(name, text, strlen(text)); }
+
+/* ---- a small byte buffer for binary files ---- */
+
+typedef struct bytes { unsigned char *p; size_t n, cap; } bytes;
+
+static void put(bytes *b, const void *src, size_t n)
+{
+    if (b->n + n > b->cap) {
+        b->cap = (b->n + n) * 2 + 256;
+        b->p = realloc(b->p, b->cap);
+        if (!b->p) exit(1);
+    }
+    memcpy(b->p + b->n, src, n);
+    b->n += n;
+}
+static void put_str(bytes *b, const char *s) { put(b, s, strlen(s)); }
+static void put_u8(bytes *b, unsigned v) { unsigned char c = (unsigned char)v; put(b, &c, 1); }
+static void put_le32(bytes *b, uint32_t v)
+{
+    unsigned char c[4] = {(unsigned char)v, (unsigned char)(v >> 8), (unsigned char)(v >> 16), (unsigned char)(v >> 24)};
+    put(b, c, 4);
+}
+static void put_be32(bytes *b, uint32_t v)
+{
+    unsigned char c[4] = {(unsigned char)(v >> 24), (unsigned char)(v >> 16), (unsigned char)(v >> 8), (unsigned char)v};
+    put(b, c, 4);
+}
+static void put_lef(bytes *b, float f) { uint32_t u; memcpy(&u, &f, 4); put_le32(b, u); }
+static void put_bef(bytes *b, float f) { uint32_t u; memcpy(&u, &f, 4); put_be32(b, u); }
+
+/* ---- the unit cube, as quads and as triangles (outward, CCW) ---- */
+
+static const float cube_v[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                   {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+static const unsigned cube_q[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                                      {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
+
+static void cube_tris(uint32_t t[12][3])
+{
+    for (int f = 0; f < 6; f++) {
+        t[2 * f][0] = cube_q[f][0], t[2 * f][1] = cube_q[f][1], t[2 * f][2] = cube_q[f][2];
+        t[2 * f + 1][0] = cube_q[f][0], t[2 * f + 1][1] = cube_q[f][2], t[2 * f + 1][2] = cube_q[f][3];
+    }
+}
+
+static const char *cube_obj(const char *name, int faces)
+{
+    char text[2048];
+    size_t n = 0;
+    n += (size_t)snprintf(text + n, sizeof text - n, "# unit cube\no cube\n");
+    for (int v = 0; v < 8; v++)
+        n += (size_t)snprintf(text + n, sizeof text - n, "v %g %g %g\n", cube_v[v][0], cube_v[v][1], cube_v[v][2]);
+    for (int f = 0; f < faces; f++)
+        n += (size_t)snprintf(text + n, sizeof text - n, "f %u %u %u %u\n", cube_q[f][0] + 1, cube_q[f][1] + 1,
+                              cube_q[f][2] + 1, cube_q[f][3] + 1);
+    return write_text(name, text);
+}
+
+static const char *cube_off(const char *name)
+{
+    uint32_t t[12][3];
+    cube_tris(t);
+    char text[2048];
+    size_t n = (size_t)snprintf(text, sizeof text, "OFF\n8 12 18\n");
+    for (int v = 0; v < 8; v++)
+        n += (size_t)snprintf(text + n, sizeof text - n, "%g %g %g\n", cube_v[v][0], cube_v[v][1], cube_v[v][2]);
+    for (int f = 0; f < 12; f++)
+        n += (size_t)snprintf(text + n, sizeof text - n, "3 %u %u %u\n", t[f][0], t[f][1], t[f][2]);
+    return write_text(name, text);
+}
+
+static const char *cube_ply_ascii(const char *name)
+{
+    char text[2048];
+    size_t n = (size_t)snprintf(text, sizeof text,
+                                "ply\nformat ascii 1.0\ncomment unit cube\nelement vertex 8\nproperty float x\n"
+                                "property float y\nproperty float z\nproperty uchar red\nelement face 6\n"
+                                "property list uchar int vertex_indices\nend_header\n");
+    for (int v = 0; v < 8; v++)
+        n += (size_t)snprintf(text + n, sizeof text - n, "%g %g %g 255\n", cube_v[v][0], cube_v[v][1], cube_v[v][2]);
+    for (int f = 0; f < 6; f++)
+        n += (size_t)snprintf(text + n, sizeof text - n, "4 %u %u %u %u\n", cube_q[f][0], cube_q[f][1], cube_q[f][2],
+                              cube_q[f][3]);
+    return write_text(name, text);
+}
+
+/* Binary cube PLY; big = big endian. keep < size: truncated. */
+static bytes cube_ply_binary(int big)
+{
+    uint32_t t[12][3];
+    cube_tris(t);
+    bytes b = {0};
+    put_str(&b, big ? "ply\nformat binary_big_endian 1.0\n" : "ply\nformat binary_little_endian 1.0\n");
+    put_str(&b, "element vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+                "element face 12\nproperty list uchar int vertex_indices\nend_header\n");
+    for (int v = 0; v < 8; v++)
+        for (int a = 0; a < 3; a++) big ? put_bef(&b, cube_v[v][a]) : put_lef(&b, cube_v[v][a]);
+    for (int f = 0; f < 12; f++) {
+        put_u8(&b, 3);
+        for (int c = 0; c < 3; c++) big ? put_be32(&b, t[f][c]) : put_le32(&b, t[f][c]);
+    }
+    return b;
+}
+
+static const char *cube_stl_ascii(const char *name)
+{
+    uint32_t t[12][3];
+    cube_tris(t);
+    char text[8192];
+    size_t n = (size_t)snprintf(text, sizeof text, "solid cube\n");
+    for (int f = 0; f < 12; f++) {
+        n += (size_t)snprintf(text + n, sizeof text - n, "  facet normal 0 0 0\n    outer loop\n");
+        for (int c = 0; c < 3; c++) {
+            const float *p = cube_v[t[f][c]];
+            n += (size_t)snprintf(text + n, sizeof text - n, "      vertex %g %g %g\n", p[0], p[1], p[2]);
+        }
+        n += (size_t)snprintf(text + n, sizeof text - n, "    endloop\n  endfacet\n");
+    }
+    snprintf(text + n, sizeof text - n, "endsolid cube\n");
+    return write_text(name, text);
+}
+
+static bytes cube_stl_binary(const char *header)
+{
+    uint32_t t[12][3];
+    cube_tris(t);
+    bytes b = {0};
+    char h[80];
+    memset(h, ' ', sizeof h);
+    memcpy(h, header, strlen(header));
+    put(&b, h, 80);
+    put_le32(&b, 12);
+    for (int f = 0; f < 12; f++) {
+        for (int a = 0; a < 3; a++) put_lef(&b, 0.0f);
+        for (int c = 0; c < 3; c++)
+            for (int a = 0; a < 3; a++) put_lef(&b, cube_v[t[f][c]][a]);
+        put_u8(&b, 0);
+        put_u8(&b, 0);
+    }
+    return b;
+}
+
+/* ---- checking ---- */
+
+static void check_cube_report(const clvox_mesh *m, const char *what, uint64_t polys)
+{
+    const clvox_mesh_report *r = clvox_mesh_get_report(m);
+    CHECK_MSG(r != NULL, "%s: report", what);
+    if (!r) return;
+    CHECK_MSG(r->triangles == 12, "%s: %llu triangles", what, (unsigned long long)r->triangles);
+    CHECK_MSG(r->vertices == 8, "%s: %llu vertices", what, (unsigned long long)r->vertices);
+    CHECK_MSG(r->polygons_triangulated == polys, "%s: %llu polygons", what, (unsigned long long)r->polygons_triangulated);
+    CHECK_MSG(r->closed == 1 && r->boundary_edges == 0, "%s: closed %d, %llu boundary edges", what, r->closed,
+              (unsigned long long)r->boundary_edges);
+    CHECK_MSG(r->nonmanifold_faces == 0 && r->dropped_faces == 0 && r->degenerate_triangles == 0,
+              "%s: nonmanifold %llu dropped %llu degenerate %llu", what, (unsigned long long)r->nonmanifold_faces,
+              (unsigned long long)r->dropped_faces, (unsigned long long)r->degenerate_triangles);
+    CHECK_MSG(r->enclosed_volume == 1.0, "%s: volume %.17g", what, r->enclosed_volume);
+    for (int a = 0; a < 3; a++)
+        CHECK_MSG(r->bbox_min[a] == 0.0 && r->bbox_max[a] == 1.0, "%s: bbox axis %d [%g, %g]", what, a, r->bbox_min[a],
+                  r->bbox_max[a]);
+    size_t nv = 0, nt = 0;
+    const float *xyz = clvox_mesh_vertices(m, &nv);
+    const uint32_t *tri = clvox_mesh_triangles(m, &nt);
+    CHECK(xyz && tri && nv == 8 && nt == 12);
+    int in_range = 1;
+    for (size_t i = 0; tri && i < 3 * nt; i++) in_range &= tri[i] < nv;
+    CHECK_MSG(in_range, "%s: triangle indices in range", what);
+}
+
+static void load_good(const char *path, const char *what, uint64_t polys)
+{
+    clvox_mesh *m = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, path, &m));
+    if (m) check_cube_report(m, what, polys);
+    clvox_mesh_destroy(m);
+}
+
+/* A bad input: the expected status, quickly, a one-line message, no mesh. */
+static void expect_bad(const char *path, clvox_status want, const char *what, const char *needle)
+{
+    clvox_mesh *m = (clvox_mesh *)&m; /* must be reset to NULL */
+    double t0 = now();
+    clvox_status st = clvox_mesh_load(ctx, path, &m);
+    double dt = now() - t0;
+    const char *msg = clvox_context_error(ctx);
+    CHECK_MSG(st == want, "%s: %s (expected %s): %s", what, clvox_status_string(st), clvox_status_string(want), msg);
+    CHECK_MSG(m == NULL, "%s: out not NULL", what);
+    CHECK_MSG(msg[0] != 0 && !strchr(msg, '\n'), "%s: message '%s'", what, msg);
+    CHECK_MSG(dt < 2.0, "%s: took %.2f s", what, dt);
+    if (needle) CHECK_MSG(strstr(msg, needle) != NULL, "%s: message '%s' lacks '%s'", what, msg, needle);
+    if (st == CLVOX_OK) clvox_mesh_destroy(m);
+}
+
+/* ---- tests ---- */
+
+static void test_formats(void)
+{
+    load_good(cube_obj("cube.obj", 6), "obj quads", 6);
+    load_good(cube_off("cube.off"), "off", 0);
+    load_good(cube_ply_ascii("cube_ascii.ply"), "ply ascii quads", 6);
+    bytes b = cube_ply_binary(0);
+    load_good(write_bytes("cube_le.ply", b.p, b.n), "ply binary le", 0);
+    free(b.p);
+    b = cube_ply_binary(1);
+    load_good(write_bytes("cube_be.ply", b.p, b.n), "ply binary be", 0);
+    free(b.p);
+    load_good(cube_stl_ascii("cube_ascii.stl"), "stl ascii", 0);
+    b = cube_stl_binary("binary cube");
+    load_good(write_bytes("cube_bin.stl", b.p, b.n), "stl binary", 0);
+    free(b.p);
+    /* A binary STL whose header starts with "solid" is still binary (by size). */
+    b = cube_stl_binary("solid but binary");
+    load_good(write_bytes("cube_solid_bin.stl", b.p, b.n), "stl binary 'solid' header", 0);
+    free(b.p);
+    /* Extensions are case-insensitive. */
+    load_good(cube_obj("CUBE.OBJ", 6), "OBJ upper case", 6);
+
+    /* Binary OFF. */
+    uint32_t t[12][3];
+    cube_tris(t);
+    b = (bytes){0};
+    put_str(&b, "OFF BINARY\n");
+    put_le32(&b, 8), put_le32(&b, 12), put_le32(&b, 0);
+    for (int v = 0; v < 8; v++)
+        for (int a = 0; a < 3; a++) put_lef(&b, cube_v[v][a]);
+    for (int f = 0; f < 12; f++) {
+        put_le32(&b, 3);
+        for (int c = 0; c < 3; c++) put_le32(&b, t[f][c]);
+    }
+    load_good(write_bytes("cube_bin.off", b.p, b.n), "off binary", 0);
+    b.n -= 6;
+    expect_bad(write_bytes("cube_bin_trunc.off", b.p, b.n), CLVOX_ERR_MESH_FORMAT, "truncated binary off", "truncated");
+    free(b.p);
+}
+
+static void test_mesh_report(void)
+{
+    clvox_mesh *m = NULL;
+    /* Cube with one face missing: 4 boundary edges. */
+    CHECK_OK(ctx, clvox_mesh_load(ctx, cube_obj("open_cube.obj", 5), &m));
+    const clvox_mesh_report *r = clvox_mesh_get_report(m);
+    CHECK(r && r->triangles == 10 && r->boundary_edges == 4 && r->closed == 0);
+    clvox_mesh_destroy(m);
+
+    /* Tetrahedron: volume exactly 2*3*4/6 = 4, from a file and from arrays. */
+    m = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("tetra.off", "OFF\n4 4 6\n0 0 0\n2 0 0\n0 3 0\n0 0 4\n"
+                                                              "3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n"), &m));
+    r = clvox_mesh_get_report(m);
+    CHECK(r && r->triangles == 4 && r->closed && r->enclosed_volume == 4.0);
+    CHECK(r && r->bbox_max[0] == 2.0 && r->bbox_max[1] == 3.0 && r->bbox_max[2] == 4.0);
+    clvox_mesh_destroy(m);
+
+    /* Far from the origin the volume stays exact (apex at a mesh vertex). */
+    float tv[4][3] = {{1e6f, 1e6f, 1e6f}, {1e6f + 2, 1e6f, 1e6f}, {1e6f, 1e6f + 3, 1e6f}, {1e6f, 1e6f, 1e6f + 4}};
+    uint32_t tt[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+    m = NULL;
+    CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, &tv[0][0], 4, &tt[0][0], 4, &m));
+    r = clvox_mesh_get_report(m);
+    CHECK_MSG(r && r->enclosed_volume == 4.0, "far tetra volume %.17g", r ? r->enclosed_volume : -1.0);
+    clvox_mesh_destroy(m);
+
+    /* from_arrays copies: changing the caller's arrays afterwards changes nothing. */
+    float v[11][3];
+    memcpy(v, cube_v, sizeof cube_v);
+    /* three collinear points for a zero-area triangle with distinct indices */
+    v[8][0] = 0, v[8][1] = 0, v[8][2] = 0.25f;
+    v[9][0] = 0, v[9][1] = 0, v[9][2] = 0.5f;
+    v[10][0] = 0, v[10][1] = 0, v[10][2] = 0.75f;
+    uint32_t tri[14][3];
+    cube_tris((uint32_t(*)[3])tri);
+    tri[12][0] = 8, tri[12][1] = 9, tri[12][2] = 10; /* degenerate: kept */
+    tri[13][0] = 1, tri[13][1] = 1, tri[13][2] = 2;  /* repeated index: dropped */
+    m = NULL;
+    CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 11, &tri[0][0], 14, &m));
+    v[0][0] = 42.0f;
+    tri[0][0] = 7;
+    r = clvox_mesh_get_report(m);
+    CHECK(r && r->triangles == 13 && r->dropped_faces == 1 && r->degenerate_triangles == 1);
+    CHECK(r && r->input_vertices == 11 && r->input_faces == 14 && r->vertices == 11);
+    /* The degenerate triangle's 3 edges are boundary edges (used once). */
+    CHECK_MSG(r && r->boundary_edges == 3 && !r->closed, "boundary %llu", r ? (unsigned long long)r->boundary_edges : 0ull);
+    size_t nv, nt;
+    const float *xyz = clvox_mesh_vertices(m, &nv);
+    const uint32_t *ti = clvox_mesh_triangles(m, &nt);
+    CHECK(xyz && xyz[0] == 0.0f && nv == 11);
+    CHECK(ti && ti[0] == 0 && nt == 13);
+    CHECK(r && r->enclosed_volume == 1.0);
+    clvox_mesh_destroy(m);
+
+    /* One flipped triangle: still closed (parity needs no orientation), but
+     * non-manifold for OpenMesh (an edge used twice in the same direction). */
+    uint32_t ct[12][3];
+    cube_tris(ct);
+    uint32_t s = ct[5][1];
+    ct[5][1] = ct[5][2], ct[5][2] = s;
+    m = NULL;
+    CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, &cube_v[0][0], 8, &ct[0][0], 12, &m));
+    r = clvox_mesh_get_report(m);
+    CHECK_MSG(r && r->closed && r->nonmanifold_faces == 1, "flipped: closed %d nonmanifold %llu", r ? r->closed : -1,
+              r ? (unsigned long long)r->nonmanifold_faces : 0ull);
+    clvox_mesh_destroy(m);
+
+    /* Three triangles on one edge: odd use count, a third use is non-manifold. */
+    float fan[5][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};
+    uint32_t ft[3][3] = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}};
+    m = NULL;
+    CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, &fan[0][0], 5, &ft[0][0], 3, &m));
+    r = clvox_mesh_get_report(m);
+    /* edge 0-1 used 3 times (odd), plus 6 single edges */
+    CHECK_MSG(r && r->boundary_edges == 7 && r->nonmanifold_faces == 1, "fan: boundary %llu nonmanifold %llu",
+              r ? (unsigned long long)r->boundary_edges : 0ull, r ? (unsigned long long)r->nonmanifold_faces : 0ull);
+    clvox_mesh_destroy(m);
+
+    /* OFF with a 2-corner face and a pentagon: dropped and fanned. */
+    m = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("poly.off", "OFF\n6 2 0\n0 0 0\n1 0 0\n2 1 0\n1 2 0\n0 1 0\n5 5 5\n"
+                                                             "2 0 5\n5 0 1 2 3 4\n"), &m));
+    r = clvox_mesh_get_report(m);
+    CHECK(r && r->triangles == 3 && r->polygons_triangulated == 1 && r->dropped_faces == 1 && r->input_faces == 2);
+    /* bbox covers the vertices in use only (vertex 5 is unused). */
+    CHECK(r && r->bbox_max[0] == 2.0 && r->bbox_max[2] == 0.0);
+    clvox_mesh_destroy(m);
+
+    /* NULL safety of the accessors. */
+    clvox_mesh_destroy(NULL);
+    CHECK(clvox_mesh_get_report(NULL) == NULL);
+    nv = 7;
+    CHECK(clvox_mesh_vertices(NULL, &nv) == NULL && nv == 0);
+    nt = 7;
+    CHECK(clvox_mesh_triangles(NULL, &nt) == NULL && nt == 0);
+}
+
+static void fill_random(unsigned char *p, size_t n, uint64_t seed)
+{
+    for (size_t i = 0; i < n; i++) {
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        p[i] = (unsigned char)(seed >> 56);
+    }
+    p[n / 2] = 0; /* make sure: binary data */
+}
+
+static void test_bad_files(void)
+{
+    /* Paths that are not files. */
+    expect_bad(path_of("does_not_exist.obj"), CLVOX_ERR_IO, "missing file", "does_not_exist.obj");
+    mkdir(path_of("a_dir"), 0777);
+    expect_bad(path_of("a_dir"), CLVOX_ERR_IO, "directory", "directory");
+    mkdir(path_of("dir.stl"), 0777);
+    expect_bad(path_of("dir.stl"), CLVOX_ERR_IO, "directory named x.stl", "directory");
+    mkdir(path_of("dir.ply"), 0777);
+    expect_bad(path_of("dir.ply"), CLVOX_ERR_IO, "directory named x.ply", "directory");
+    expect_bad("/dev/null", CLVOX_ERR_IO, "device", "regular");
+
+    /* Names and sizes. */
+    expect_bad(write_text("cube.xyz", "v 0 0 0\n"), CLVOX_ERR_MESH_FORMAT, "unknown extension", "extension");
+    expect_bad(write_text("noext", "v 0 0 0\n"), CLVOX_ERR_MESH_FORMAT, "no extension", "extension");
+    static const char *const exts[] = {"obj", "off", "ply", "stl", "om"};
+    char name[64];
+    for (int e = 0; e < 5; e++) {
+        snprintf(name, sizeof name, "empty.%s", exts[e]);
+        expect_bad(write_bytes(name, "", 0), CLVOX_ERR_MESH_FORMAT, name, "empty");
+    }
+
+    /* Random bytes. */
+    unsigned char rnd[4096];
+    for (int e = 0; e < 5; e++) {
+        fill_random(rnd, sizeof rnd, 1234 + (uint64_t)e);
+        snprintf(name, sizeof name, "random.%s", exts[e]);
+        expect_bad(write_bytes(name, rnd, sizeof rnd), CLVOX_ERR_MESH_FORMAT, name, NULL);
+    }
+    memcpy(rnd, "solid ", 6);
+    expect_bad(write_bytes("random_solid.stl", rnd, sizeof rnd), CLVOX_ERR_MESH_FORMAT, "random bytes after 'solid'", NULL);
+    expect_bad(write_text("text.stl", "this is not a mesh\n"), CLVOX_ERR_MESH_FORMAT, "text stl", NULL);
+    expect_bad(write_text("text.obj", "this is not a mesh\nat all\n"), CLVOX_ERR_MESH_EMPTY, "text obj: no triangles",
+               "no triangles");
+
+    /* Truncated binary STL, with and without a "solid" header. */
+    bytes b = cube_stl_binary("binary");
+    expect_bad(write_bytes("trunc.stl", b.p, b.n - 10), CLVOX_ERR_MESH_FORMAT, "truncated binary stl", "truncated");
+    expect_bad(write_bytes("trunc_hdr.stl", b.p, 60), CLVOX_ERR_MESH_FORMAT, "stl shorter than its header", NULL);
+    free(b.p);
+    b = cube_stl_binary("solid cube");
+    expect_bad(write_bytes("trunc_solid.stl", b.p, b.n - 10), CLVOX_ERR_MESH_FORMAT, "truncated 'solid' binary stl",
+               "truncated");
+    /* Binary STL with a NaN coordinate. */
+    float nan = NAN;
+    memcpy(b.p + 84 + 50 * 3 + 12 + 4, &nan, 4);
+    expect_bad(write_bytes("nan_bin.stl", b.p, b.n), CLVOX_ERR_MESH_INVALID, "nan in binary stl", "non-finite");
+    free(b.p);
+
+    /* Truncated binary PLY: in the vertices, in the faces, by one byte. */
+    b = cube_ply_binary(0);
+    size_t header = (size_t)(strstr((char *)b.p, "end_header\n") - (char *)b.p) + 11;
+    expect_bad(write_bytes("trunc_v.ply", b.p, header + 50), CLVOX_ERR_MESH_FORMAT, "ply truncated in vertices",
+               "truncated");
+    expect_bad(write_bytes("trunc_f.ply", b.p, header + 96 + 30), CLVOX_ERR_MESH_FORMAT, "ply truncated in faces",
+               "truncated");
+    expect_bad(write_bytes("trunc_1.ply", b.p, b.n - 1), CLVOX_ERR_MESH_FORMAT, "ply short by one byte", "truncated");
+    /* Binary PLY with NaN and with an out-of-range index (found after loading). */
+    memcpy(b.p + header + 4, &nan, 4);
+    expect_bad(write_bytes("nan_bin.ply", b.p, b.n), CLVOX_ERR_MESH_INVALID, "nan in binary ply", "non-finite");
+    free(b.p);
+    b = cube_ply_binary(0);
+    b.p[header + 96 + 13 * 5 + 1] = 99; /* face 5, first index: 99 */
+    expect_bad(write_bytes("range_bin.ply", b.p, b.n), CLVOX_ERR_MESH_INVALID, "index out of range in binary ply",
+               "vertex 99");
+    /* Header truncated, no end_header, broken lines. */
+    expect_bad(write_bytes("trunc_hdr.ply", b.p, 40), CLVOX_ERR_MESH_FORMAT, "ply truncated in header", "header");
+    free(b.p);
+    static const char vhead[] = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                "property float z\n";
+    char text[4096];
+    snprintf(text, sizeof text, "%selement face 1\nproperty list uchar int vertex_indices\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+             vhead);
+    expect_bad(write_text("no_end_header.ply", text), CLVOX_ERR_MESH_FORMAT, "ply without end_header", "header");
+    static const char *const broken[] = {
+        "property list uchar vertex_indices\n",       /* malformed list */
+        "property list uchar int\n",                  /* no name */
+        "property list float int vertex_indices\n",   /* float count */
+        "property list uchar quux vertex_indices\n",  /* unknown type */
+        "property list uchar int vertex_indices extra\n",
+        "property int vertex_indices\n",              /* indices not a list */
+        "propertylist uchar int vertex_indices\n",    /* unknown keyword */
+        "property list uchar float vertex_indices\n", /* float indices */
+        "\n",                                         /* empty line */
+    };
+    for (size_t i = 0; i < sizeof broken / sizeof broken[0]; i++) {
+        snprintf(text, sizeof text, "%selement face 1\n%send_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", vhead, broken[i]);
+        snprintf(name, sizeof name, "broken_header_%zu.ply", i);
+        expect_bad(write_text(name, text), CLVOX_ERR_MESH_FORMAT, name, NULL);
+    }
+    expect_bad(write_text("no_format.ply", "ply\nelement vertex 0\nend_header\n"), CLVOX_ERR_MESH_FORMAT,
+               "ply without format", NULL);
+    expect_bad(write_text("no_xyz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n"),
+               CLVOX_ERR_MESH_FORMAT, "ply without y, z", NULL);
+    expect_bad(write_text("huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n"
+                                      "property float x\nproperty float y\nproperty float z\nend_header\n0000"),
+               CLVOX_ERR_MESH_FORMAT, "binary ply with a huge count", "truncated");
+    expect_bad(write_text("huge_ascii.ply", "ply\nformat ascii 1.0\nelement vertex 4000000000\n"
+                                            "property float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n"),
+               CLVOX_ERR_MESH_FORMAT, "ascii ply with a huge count", NULL);
+    expect_bad(write_text("neg.ply", "ply\nformat ascii 1.0\nelement vertex -3\n"
+                                     "property float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n"),
+               CLVOX_ERR_MESH_FORMAT, "ply with a negative count", NULL);
+    /* A header over 64 KiB without end_header. */
+    {
+        size_t big = 70 * 1024;
+        char *h = malloc(big);
+        memcpy(h, "ply\nformat ascii 1.0\n", 21);
+        for (size_t i = 21; i < big; i++) h[i] = (i % 64 == 63) ? '\n' : 'c';
+        for (size_t i = 21; i + 8 < big; i += 64) memcpy(h + i, "comment ", 8);
+        expect_bad(write_bytes("long_header.ply", h, big), CLVOX_ERR_MESH_FORMAT, "ply header over 64 KiB", "header");
+        free(h);
+    }
+
+    /* ASCII PLY: nan, inf, missing faces, index out of range. */
+    snprintf(text, sizeof text, "%selement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", vhead);
+    expect_bad(write_text("nan.ply", text), CLVOX_ERR_MESH_INVALID, "nan in ascii ply", "line 11");
+    snprintf(text, sizeof text, "%selement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\n1 0 0\n0 -inf 0\n3 0 1 2\n", vhead);
+    expect_bad(write_text("inf.ply", text), CLVOX_ERR_MESH_INVALID, "-inf in ascii ply", "non-finite");
+    snprintf(text, sizeof text, "%selement face 3\nproperty list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", vhead);
+    expect_bad(write_text("missing_faces.ply", text), CLVOX_ERR_MESH_FORMAT, "ascii ply missing faces", "truncated");
+    snprintf(text, sizeof text, "%selement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", vhead);
+    expect_bad(write_text("range.ply", text), CLVOX_ERR_MESH_INVALID, "ascii ply index out of range", "vertex 3");
+    snprintf(text, sizeof text, "%selement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\n1 0 0\n0 1 0\n3 0 1 2.5\n", vhead);
+    expect_bad(write_text("float_index.ply", text), CLVOX_ERR_MESH_FORMAT, "ascii ply fractional index", NULL);
+
+    /* OBJ and ASCII STL with nan / inf / beyond float range. */
+    static const char *const nonfinite[] = {"nan", "inf", "-inf", "NaN", "1e39", "-Infinity", "1.#INF"};
+    for (size_t i = 0; i < sizeof nonfinite / sizeof nonfinite[0]; i++) {
+        snprintf(text, sizeof text, "v 0 0 0\nv 1 0 0\nv 0 %s 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n", nonfinite[i]);
+        snprintf(name, sizeof name, "nonfinite_%zu.obj", i);
+        expect_bad(write_text(name, text), CLVOX_ERR_MESH_INVALID, name, "line 3");
+        snprintf(text, sizeof text,
+                 "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex %s 1 0\nendloop\n"
+                 "endfacet\nendsolid t\n", nonfinite[i]);
+        snprintf(name, sizeof name, "nonfinite_%zu.stl", i);
+        expect_bad(write_text(name, text), CLVOX_ERR_MESH_INVALID, name, "line 6");
+    }
+    expect_bad(write_text("short_v.obj", "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), CLVOX_ERR_MESH_FORMAT,
+               "obj vertex with 2 coordinates", "line 1");
+    expect_bad(write_text("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), CLVOX_ERR_MESH_INVALID,
+               "obj index out of range", "vertex");
+    expect_bad(write_text("range_neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -9\n"), CLVOX_ERR_MESH_INVALID,
+               "obj relative index out of range", "vertex");
+    expect_bad(write_text("bad_facet.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                           "endloop\nendfacet\nendsolid t\n"),
+               CLVOX_ERR_MESH_FORMAT, "stl facet with 2 vertices", NULL);
+
+    /* OFF: counts, truncation, comments, colours, nan, indices. */
+    static const struct { const char *text; clvox_status want; const char *needle; } offs[] = {
+        {"OFF\n4 2000000000 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n", CLVOX_ERR_MESH_FORMAT, "can hold"},
+        {"OFF\n4000000000 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n", CLVOX_ERR_MESH_FORMAT, "can hold"},
+        {"OFF\n99999999999999999999 2 0\n0 0 0\n", CLVOX_ERR_MESH_FORMAT, "count"},
+        {"OFF\n4 -2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n", CLVOX_ERR_MESH_FORMAT, "count"},
+        {"OFF\n-4 2 0\n0 0 0\n", CLVOX_ERR_MESH_FORMAT, "count"},
+        {"OFF\n4 5 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n", CLVOX_ERR_MESH_FORMAT, "truncated"},
+        {"OFF\n5 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n", CLVOX_ERR_MESH_FORMAT, "truncated"},
+        {"OFF\n4 2 0\n0 0 0\nnan 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n", CLVOX_ERR_MESH_INVALID, "line 4"},
+        {"OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 7\n", CLVOX_ERR_MESH_INVALID, "vertex 7"},
+        {"OFF\n# comment\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n", CLVOX_ERR_MESH_FORMAT, "comment"},
+        {"OFF 4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n", CLVOX_ERR_MESH_FORMAT, "header"},
+        {"OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2 255 0 0\n3 0 1 3\n", CLVOX_ERR_MESH_FORMAT, "COFF"},
+        {"OFF\n4 2 0\n0 0 0 1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n", CLVOX_ERR_MESH_FORMAT, "truncated"},
+        {"4OFF\n4 2 0\n0 0 0 1\n", CLVOX_ERR_MESH_FORMAT, "not supported"},
+        {"NOTOFF\n4 2 0\n", CLVOX_ERR_MESH_FORMAT, "OFF"},
+    };
+    for (size_t i = 0; i < sizeof offs / sizeof offs[0]; i++) {
+        snprintf(name, sizeof name, "bad_%zu.off", i);
+        expect_bad(write_text(name, offs[i].text), offs[i].want, name, offs[i].needle);
+    }
+    /* COFF with colours is fine. */
+    clvox_mesh *m = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("tetra.coff.off", "COFF\n4 4 6\n0 0 0 255 0 0 255\n2 0 0 0 255 0 255\n"
+                                                                    "0 3 0 0 0 255 255\n0 0 4 9 9 9 255\n"
+                                                                    "3 0 2 1 1 2 3\n3 0 1 3 1 2 3\n3 1 2 3\n3 0 3 2 0.5 0.5 0.5\n"),
+                                  &m));
+    const clvox_mesh_report *r = clvox_mesh_get_report(m);
+    CHECK(r && r->triangles == 4 && r->enclosed_volume == 4.0 && r->closed);
+    clvox_mesh_destroy(m);
+
+    /* OM: bad magic, counts beyond the file, too short. */
+    expect_bad(write_text("bad.om", "XXXXXXXXXXXXXXXXXXXXXXXX"), CLVOX_ERR_MESH_FORMAT, "om bad magic", "magic");
+    b = (bytes){0};
+    put_str(&b, "OMT");
+    put_u8(&b, 0x22);
+    put_le32(&b, 1000000), put_le32(&b, 2000000), put_le32(&b, 3000000);
+    put_str(&b, "0123456789");
+    expect_bad(write_bytes("huge.om", b.p, b.n), CLVOX_ERR_MESH_FORMAT, "om huge counts", "hold");
+    expect_bad(write_bytes("short.om", b.p, 9), CLVOX_ERR_MESH_FORMAT, "om too short", NULL);
+    free(b.p);
+
+    /* Nothing usable. */
+    expect_bad(write_text("only_vertices.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"), CLVOX_ERR_MESH_EMPTY, "no faces",
+               "no triangles");
+    expect_bad(write_text("degenerate.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 0 1\n2 1 2\n"), CLVOX_ERR_MESH_EMPTY,
+               "only dropped faces", "no triangles");
+    expect_bad(write_text("empty_mesh.ply", "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
+                                            "property float y\nproperty float z\nend_header\n"),
+               CLVOX_ERR_MESH_EMPTY, "ply with no vertices", NULL);
+}
+
+static void test_bad_arrays(void)
+{
+    float v[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    uint32_t t[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+    clvox_mesh *m = (clvox_mesh *)&m;
+    CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, &t[0][0], 4, &m));
+    clvox_mesh_destroy(m);
+
+    v[2][1] = NAN;
+    m = (clvox_mesh *)&m;
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, &t[0][0], 4, &m), CLVOX_ERR_MESH_INVALID);
+    CHECK(m == NULL && strstr(clvox_context_error(ctx), "vertex 2") != NULL);
+    v[2][1] = -INFINITY;
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, &t[0][0], 4, &m), CLVOX_ERR_MESH_INVALID);
+    v[2][1] = 1;
+
+    t[3][2] = 4;
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, &t[0][0], 4, &m), CLVOX_ERR_MESH_INVALID);
+    CHECK(strstr(clvox_context_error(ctx), "vertex 4") != NULL);
+    t[3][2] = 0xFFFFFFFFu;
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, &t[0][0], 4, &m), CLVOX_ERR_MESH_INVALID);
+    t[3][2] = 2;
+
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, &t[0][0], 0, &m), CLVOX_ERR_MESH_EMPTY);
+    CHECK(strstr(clvox_context_error(ctx), "no triangles") != NULL);
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, NULL, 0, NULL, 0, &m), CLVOX_ERR_MESH_EMPTY);
+    uint32_t rep[2][3] = {{0, 0, 1}, {2, 3, 2}};
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, &rep[0][0], 2, &m), CLVOX_ERR_MESH_EMPTY);
+    CHECK(m == NULL);
+
+    /* NULL arguments. */
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(NULL, &v[0][0], 4, &t[0][0], 4, &m), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, &t[0][0], 4, NULL), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, NULL, 4, &t[0][0], 4, &m), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_mesh_from_arrays(ctx, &v[0][0], 4, NULL, 4, &m), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_mesh_load(NULL, "x.obj", &m), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_mesh_load(ctx, NULL, &m), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_mesh_load(ctx, "x.obj", NULL), CLVOX_ERR_INVALID_ARGUMENT);
+}
+
+/* UV sphere with n bands: 4n(n-1) triangles, closed. */
+static void sphere(unsigned n, float **xyz, size_t *nv, uint32_t **tri, size_t *nt)
+{
+    unsigned lon = 2 * n;
+    *nv = 2 + (size_t)(n - 1) * lon;
+    *nt = 4 * (size_t)n * (n - 1);
+    float *v = malloc(*nv * 3 * sizeof *v);
+    uint32_t *t = malloc(*nt * 3 * sizeof *t);
+    if (!v || !t) exit(1);
+    size_t k = 0;
+    v[k++] = 0, v[k++] = 0, v[k++] = 1;
+    for (unsigned i = 1; i < n; i++)
+        for (unsigned j = 0; j < lon; j++) {
+            double th = pi * i / n, ph = 2 * pi * j / lon;
+            v[k++] = (float)(sin(th) * cos(ph)), v[k++] = (float)(sin(th) * sin(ph)), v[k++] = (float)cos(th);
+        }
+    v[k++] = 0, v[k++] = 0, v[k++] = -1;
+    size_t m = 0;
+    uint32_t south = (uint32_t)(*nv - 1);
+#define RING(i, j) ((uint32_t)(1 + (size_t)((i) - 1) * lon + ((j) % lon)))
+    for (unsigned j = 0; j < lon; j++) {
+        t[m++] = 0, t[m++] = RING(1, j), t[m++] = RING(1, j + 1);
+        t[m++] = south, t[m++] = RING(n - 1, j + 1), t[m++] = RING(n - 1, j);
+    }
+    for (unsigned i = 1; i + 1 < n; i++)
+        for (unsigned j = 0; j < lon; j++) {
+            t[m++] = RING(i, j), t[m++] = RING(i + 1, j), t[m++] = RING(i + 1, j + 1);
+            t[m++] = RING(i, j), t[m++] = RING(i + 1, j + 1), t[m++] = RING(i, j + 1);
+        }
+#undef RING
+    *xyz = v;
+    *tri = t;
+}
+
+static void test_performance(void)
+{
+    if (getenv("CLVOX_QUICK")) return;
+    /* ~1 M triangles as binary PLY. */
+    float *v;
+    uint32_t *t;
+    size_t nv, nt;
+    sphere(500, &v, &nv, &t, &nt);
+    bytes b = {0};
+    char head[256];
+    snprintf(head, sizeof head,
+             "ply\nformat binary_little_endian 1.0\nelement vertex %zu\nproperty float x\nproperty float y\n"
+             "property float z\nelement face %zu\nproperty list uchar int vertex_indices\nend_header\n",
+             nv, nt);
+    put_str(&b, head);
+    for (size_t i = 0; i < 3 * nv; i++) put_lef(&b, v[i]);
+    for (size_t i = 0; i < nt; i++) {
+        put_u8(&b, 3);
+        for (int c = 0; c < 3; c++) put_le32(&b, t[3 * i + c]);
+    }
+    const char *p = write_bytes("sphere_1m.ply", b.p, b.n);
+    free(b.p);
+    clvox_mesh *m = NULL;
+    double t0 = now();
+    CHECK_OK(ctx, clvox_mesh_load(ctx, p, &m));
+    double dt = now() - t0;
+    const clvox_mesh_report *r = clvox_mesh_get_report(m);
+    CHECK(r && r->triangles == nt && r->closed && r->nonmanifold_faces == 0 && r->degenerate_triangles == 0);
+    printf("load %zu-triangle binary PLY: %.3f s\n", nt, dt);
+    CHECK_MSG(dt < 10.0, "1M binary PLY took %.2f s", dt);
+    clvox_mesh_destroy(m);
+    remove(p);
+    free(v);
+    free(t);
+
+    /* 3.3 M triangles from arrays: validation + report. */
+    sphere(910, &v, &nv, &t, &nt);
+    m = NULL;
+    t0 = now();
+    CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, v, nv, t, nt, &m));
+    dt = now() - t0;
+    r = clvox_mesh_get_report(m);
+    CHECK(r && r->triangles == nt && r->closed && r->boundary_edges == 0);
+    printf("from_arrays %zu triangles: %.3f s\n", nt, dt);
+    CHECK_MSG(dt < 10.0, "3.3M triangles took %.2f s", dt);
+    clvox_mesh_destroy(m);
+    free(v);
+    free(t);
+}
+
+int main(void)
+{
+    clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
+    o.host_only = 1;
+    clvox_status st = clvox_context_create(&o, &ctx);
+    if (st != CLVOX_OK) {
+        fprintf(stderr, "host-only context: %s: %s\n", clvox_status_string(st), clvox_context_error(ctx));
+        clvox_context_destroy(ctx);
+        printf("0 passed, 1 failed\n");
+        return 1;
+    }
+    snprintf(dir, sizeof dir, "%s/mesh", test_tmpdir());
+    mkdir(dir, 0777);
+
+    test_formats();
+    test_mesh_report();
+    test_bad_files();
+    test_bad_arrays();
+    test_performance();
+
+    clvox_context_destroy(ctx);
+    return test_report();
+}

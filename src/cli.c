@@ -111,7 +111,8 @@ static void progress_erase(void)
 }
 
 /* Prints "clvox: error: <message>" as exactly one line (newlines in the
- * message, e.g. a kernel build log, become " | ") and returns `code`. */
+ * message, e.g. a kernel build log, become " | "; other control bytes "?")
+ * and returns `code`. */
 static int fail_message(int code, const char *message)
 {
     progress_erase();
@@ -130,7 +131,8 @@ static int fail_message(int code, const char *message)
             fputs(" | ", stderr);
             pending_break = 0;
         }
-        fputc(c == '\t' ? ' ' : c, stderr);
+        /* control bytes (from file names or file contents) would garble the line */
+        fputc(c == '\t' ? ' ' : ((unsigned char)c < 0x20 || c == 0x7f) ? '?' : c, stderr);
     }
     fputc('\n', stderr);
     return code;

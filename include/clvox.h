@@ -95,6 +95,8 @@ const clvox_device_info *clvox_context_device(const clvox_context *ctx);
 
 /* ---- mesh ---------------------------------------------------------------- */
 
+/* A mesh holds no reference to the context that made it: it may be loaded on
+ * a host_only context and voxelized on another. */
 typedef struct clvox_mesh clvox_mesh;
 
 typedef struct clvox_mesh_report {

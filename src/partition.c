@@ -56,7 +56,7 @@ static clvox_status build_node(build *b, size_t node, const uint32_t *tris, size
         b->nodes[node].first = (uint32_t)b->ref_count;
         b->nodes[node].count = (uint32_t)n;
         b->nodes[node].split_v = b->nodes[node].split_w = 0;
-        memcpy(b->refs + b->ref_count, tris, n * sizeof *tris);
+        if (n) memcpy(b->refs + b->ref_count, tris, n * sizeof *tris);
         b->ref_count += n;
         b->leaves++;
         if (b->ref_count > 0xFFFFFFF0u)

@@ -152,8 +152,13 @@ static void test_progress_cancel_and_memory(clvox_context *ctx)
     long before = vm_hwm_kb();
     CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &tall, &o, path, &s));
     long after = vm_hwm_kb();
+#ifdef __SANITIZE_ADDRESS__
+    /* ASan's quarantine holds freed memory back: RSS says nothing here. */
+    printf("ASan build: streaming memory bound not checked\n");
+#else
     CHECK_MSG(before > 0 && after - before < 1024,
               "peak RSS grew by %ld KiB from 512 to 4096 slices (bound 1024 KiB)", after - before);
+#endif
     printf("streaming: VmHWM %ld KiB after 512 slices, %ld KiB after 4096 slices\n", before, after);
     clvox_volume_info info;
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));

@@ -109,7 +109,9 @@ bench: all
 
 VERSION := $(shell sed -n 's/.*CLVOX_VERSION_STRING "\(.*\)"/\1/p' include/clvox.h)
 install: all
-	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/bin
+	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/bin \
+	  $(DESTDIR)$(PREFIX)/share/clvox
+	install -m 644 tests/data/default.obj $(DESTDIR)$(PREFIX)/share/clvox/default.obj
 	install -m 644 include/clvox.h $(DESTDIR)$(PREFIX)/include/clvox.h
 	install -m 644 $(STATIC_LIB) $(DESTDIR)$(PREFIX)/lib/libclvox.a
 	install -m 755 $(SHARED_LIB) $(DESTDIR)$(PREFIX)/lib/libclvox.so.$(VERSION)
@@ -122,6 +124,7 @@ uninstall:
 	rm -f $(DESTDIR)$(PREFIX)/include/clvox.h $(DESTDIR)$(PREFIX)/lib/libclvox.a \
 	  $(DESTDIR)$(PREFIX)/lib/libclvox.so* $(DESTDIR)$(PREFIX)/bin/clvox \
 	  $(DESTDIR)$(PREFIX)/lib/pkgconfig/clvox.pc
+	rm -rf $(DESTDIR)$(PREFIX)/share/clvox
 
 clean:
 	rm -rf build

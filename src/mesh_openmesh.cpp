@@ -1,32 +1,32 @@
 /* The only C++ file: a shim around OpenMesh's readers that hands back the
  * polygons exactly as the file lists them.
  *
- * OBJ, OFF, PLY and STL go through OpenMesh's IOManager (the reader picked by
+ * Every format goes through OpenMesh's IOManager (the reader picked by
  * extension, as in read_mesh) into RawImporter below, which records vertices
- * and faces without building any topology. So nothing is dropped or re-added
- * behind our back: out-of-range and repeated indices reach mesh.c, which
- * reports them. (ImporterT, what read_mesh uses, silently drops faces with an
- * invalid or repeated index and re-adds non-manifold faces with duplicated
- * vertices, which would turn a closed mesh with one flipped triangle into an
- * open one.)
+ * and faces without building a halfedge mesh. So nothing is dropped or
+ * re-added behind our back: out-of-range and repeated indices reach mesh.c,
+ * which reports them. (ImporterT, what read_mesh uses, silently drops faces
+ * with an invalid or repeated index, re-adds non-manifold faces with
+ * duplicated vertices - a closed mesh with one flipped triangle would come
+ * back open - and asserts, i.e. aborts, on out-of-range halfedge ids in an
+ * OM file.)
  *
- * OM files need a real mesh kernel (the reader restores halfedge topology and
- * refuses an importer without one), so they are read with read_mesh into a
- * PolyMesh; faces OpenMesh had to re-add are counted with the
- * fixed_nonmanifold face status.
+ * OM files store halfedge topology: the importer records it (to-vertex and
+ * next of each halfedge, one halfedge per face) and faces are rebuilt by
+ * walking the next links with bounds checks. The OM reader insists on a
+ * property kernel; it gets an empty BaseKernel, so custom properties are
+ * skipped.
  *
- * mesh.c validates every file before it gets here: OpenMesh hangs, throws or
- * reads garbage on bad input (docs/NOTES-deps). This file still catches
+ * mesh.c validates every file before it gets here: OpenMesh hangs, throws,
+ * aborts or reads garbage on bad input (NOTES-deps). This file still catches
  * everything, silences OpenMesh's console output and serialises calls (the
  * readers are singletons with per-file state). */
-#include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/IO/importer/BaseImporter.hh>
-#include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/Mesh/BaseKernel.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 
 #include <algorithm>
-#include <cctype>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -35,6 +35,7 @@
 #include <iostream>
 #include <mutex>
 #include <new>
+#include <stdexcept>
 #include <streambuf>
 #include <string>
 
@@ -96,6 +97,9 @@ class RawImporter : public OpenMesh::IO::BaseImporter {
 public:
     Buf<float> xyz;
     Buf<uint32_t> sizes, indices;
+    /* OM halfedge topology: halfedge 2e and 2e+1 are the two sides of edge e. */
+    Buf<int32_t> he_to, he_next, face_he;
+    OpenMesh::BaseKernel no_properties;
 
     VertexHandle add_vertex(const Vec3f &p) override
     {
@@ -134,10 +138,46 @@ public:
     size_t n_faces() const override { return sizes.size; }
     size_t n_edges() const override { return 0; }
 
-    /* Topology and attributes: not needed (OM, the only reader that uses
-     * them, goes through read_mesh). */
-    HalfedgeHandle add_edge(VertexHandle, VertexHandle) override { return HalfedgeHandle(); }
-    FaceHandle add_face(HalfedgeHandle) override { return FaceHandle(); }
+    /* OM topology (as ArrayKernel::new_edge: the first halfedge points to vh1). */
+    HalfedgeHandle add_edge(VertexHandle vh0, VertexHandle vh1) override
+    {
+        he_to.push(vh1.idx());
+        he_to.push(vh0.idx());
+        he_next.push(-1);
+        he_next.push(-1);
+        return HalfedgeHandle(int(he_to.size - 2));
+    }
+    void set_next(HalfedgeHandle heh, HalfedgeHandle next) override
+    {
+        if (heh.idx() >= 0 && size_t(heh.idx()) < he_next.size) he_next.data[heh.idx()] = next.idx();
+    }
+    FaceHandle add_face(HalfedgeHandle heh) override
+    {
+        face_he.push(heh.idx());
+        return FaceHandle(int(face_he.size - 1));
+    }
+    OpenMesh::BaseKernel *kernel() override { return &no_properties; }
+
+    /* Appends the OM faces: walks each face's next links. Returns false on
+     * broken topology (an id out of range, a loop that does not close). */
+    bool rebuild_om_faces()
+    {
+        size_t nh = he_to.size;
+        for (size_t f = 0; f < face_he.size; f++) {
+            int32_t h0 = face_he.data[f], h = h0;
+            uint32_t n = 0;
+            do {
+                if (h < 0 || size_t(h) >= nh || n >= nh) return false;
+                indices.push(uint32_t(he_to.data[h]));
+                n++;
+                h = he_next.data[h];
+            } while (h != h0);
+            sizes.push(n);
+        }
+        return true;
+    }
+
+    /* Attributes: not needed. */
     void add_face_texcoords(FaceHandle, VertexHandle, const std::vector<Vec2f> &) override {}
     void add_face_texcoords(FaceHandle, VertexHandle, const std::vector<Vec3f> &) override {}
     void set_face_texindex(FaceHandle, int) override {}
@@ -150,7 +190,6 @@ public:
     void set_color(VertexHandle, const Vec4f &) override {}
     void set_texcoord(VertexHandle, const Vec2f &) override {}
     void set_status(VertexHandle, const StatusInfo &) override {}
-    void set_next(HalfedgeHandle, HalfedgeHandle) override {}
     void set_face(HalfedgeHandle, FaceHandle) override {}
     void request_face_texcoords2D() override {}
     void set_texcoord(HalfedgeHandle, const Vec2f &) override {}
@@ -211,56 +250,9 @@ private:
 
 std::mutex g_read_lock;
 
-bool has_extension(const char *path, const char *ext)
-{
-    size_t n = std::strlen(path), e = std::strlen(ext);
-    if (n < e + 1 || path[n - e - 1] != '.') return false;
-    for (size_t i = 0; i < e; i++)
-        if (std::tolower((unsigned char)path[n - e + i]) != ext[i]) return false;
-    return true;
-}
-
 void set_err(char *err, size_t size, const char *msg)
 {
     if (err && size) std::snprintf(err, size, "%s", msg);
-}
-
-/* OM: a real PolyMesh. */
-bool read_om(const char *path, clvox__raw_mesh *out)
-{
-    using Mesh = OpenMesh::PolyMesh_ArrayKernelT<>;
-    Mesh mesh;
-    mesh.request_face_status();
-    OpenMesh::IO::Options opt;
-    if (!OpenMesh::IO::read_mesh(mesh, std::string(path), opt)) return false;
-
-    Buf<float> xyz;
-    Buf<uint32_t> sizes, indices;
-    xyz.reserve(3 * mesh.n_vertices() + 1);
-    for (const auto &vh : mesh.all_vertices()) {
-        const auto &p = mesh.point(vh);
-        xyz.push(float(p[0]));
-        xyz.push(float(p[1]));
-        xyz.push(float(p[2]));
-    }
-    uint64_t nonmanifold = 0;
-    for (const auto &fh : mesh.all_faces()) {
-        uint32_t n = 0;
-        for (const auto &vh : mesh.fv_range(fh)) {
-            indices.push(uint32_t(vh.idx()));
-            n++;
-        }
-        sizes.push(n);
-        if (mesh.status(fh).fixed_nonmanifold()) nonmanifold++;
-    }
-    out->vertex_count = xyz.size / 3;
-    out->face_count = sizes.size;
-    out->index_count = indices.size;
-    out->nonmanifold_faces = nonmanifold;
-    out->xyz = xyz.release();
-    out->face_sizes = sizes.release();
-    out->face_indices = indices.release();
-    return true;
 }
 
 bool read_raw(const char *path, clvox__raw_mesh *out)
@@ -268,6 +260,7 @@ bool read_raw(const char *path, clvox__raw_mesh *out)
     RawImporter imp;
     OpenMesh::IO::Options opt; /* nothing optional: no normals, colours, custom properties */
     if (!OpenMesh::IO::IOManager().read(std::string(path), imp, opt)) return false;
+    if (imp.face_he.size && !imp.rebuild_om_faces()) throw std::runtime_error("corrupt OM halfedge topology");
     out->vertex_count = imp.xyz.size / 3;
     out->face_count = imp.sizes.size;
     out->index_count = imp.indices.size;
@@ -291,8 +284,7 @@ extern "C" int clvox__openmesh_read(const char *path, clvox__raw_mesh *out, char
     try {
         std::lock_guard<std::mutex> lock(g_read_lock);
         Quiet quiet;
-        bool ok = has_extension(path, "om") ? read_om(path, out) : read_raw(path, out);
-        if (!ok) {
+        if (!read_raw(path, out)) {
             clvox__raw_mesh_free(out);
             set_err(err, err_size, "OpenMesh could not parse the file (truncated or corrupt?)");
             return -1;

@@ -183,6 +183,24 @@ static bytes cube_stl_binary(const char *header)
     return b;
 }
 
+/* The unit cube as OpenMesh 9.0 writes it (PolyMesh, 6 quads, OM 2.2 with
+ * halfedge topology), dumped from write_mesh. */
+static const unsigned char cube_om[] = {
+    0x4f, 0x4d, 0x50, 0x42, 0x08, 0x00, 0x00, 0x00, 0x06, 0x00, 0x00, 0x00, 0x0c, 0x00, 0x00, 0x00,
+    0x00, 0x16, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x80, 0x3f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3f, 0x00, 0x00,
+    0x80, 0x3f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3f, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3f, 0x00, 0x00,
+    0x80, 0x3f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3f, 0x00, 0x00, 0x80, 0x3f, 0x00, 0x00,
+    0x80, 0x3f, 0x00, 0x00, 0x80, 0x3f, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3f, 0x00, 0x00,
+    0x80, 0x3f, 0xf8, 0x16, 0x02, 0x03, 0x00, 0x13, 0x00, 0x05, 0x04, 0x02, 0x00, 0x16, 0x03, 0x04,
+    0x06, 0x01, 0x00, 0x14, 0x02, 0x03, 0x00, 0x00, 0x00, 0x10, 0x01, 0x02, 0x0a, 0x05, 0x01, 0x12,
+    0x04, 0x02, 0x0c, 0x06, 0x01, 0x11, 0x05, 0x03, 0x0e, 0x07, 0x01, 0x15, 0x06, 0x04, 0x08, 0x04,
+    0x01, 0x17, 0x07, 0x05, 0x09, 0x05, 0x02, 0x05, 0x01, 0x03, 0x07, 0x00, 0x02, 0x0f, 0x04, 0x05,
+    0x0b, 0x06, 0x03, 0x03, 0x02, 0x04, 0x0d, 0x07, 0x04, 0x01, 0x03, 0x05, 0xe0, 0x06, 0x13, 0x05,
+    0x03, 0x01, 0x0f, 0x11, 0x15, 0x17, 0xe8, 0x06, 0x06, 0x0e, 0x12, 0x11, 0x15, 0x17, 0x1c, 0x00
+};
+
 /* ---- checking ---- */
 
 static void check_cube_report(const clvox_mesh *m, const char *what, uint64_t polys)
@@ -272,6 +290,7 @@ static void test_formats(void)
         for (int c = 0; c < 3; c++) put_le32(&b, t[f][c]);
     }
     load_good(write_bytes("cube_bin.off", b.p, b.n), "off binary", 0);
+    load_good(write_bytes("cube.om", cube_om, sizeof cube_om), "om", 6);
     b.n -= 6;
     expect_bad(write_bytes("cube_bin_trunc.off", b.p, b.n), CLVOX_ERR_MESH_FORMAT, "truncated binary off", "truncated");
     free(b.p);
@@ -533,6 +552,9 @@ static void test_bad_files(void)
                "obj index out of range", "vertex");
     expect_bad(write_text("range_neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -9\n"), CLVOX_ERR_MESH_INVALID,
                "obj relative index out of range", "vertex");
+    expect_bad(write_text("no_endsolid.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                             "vertex 0 1 0\nendloop\nendfacet\n"),
+               CLVOX_ERR_MESH_FORMAT, "ascii stl without endsolid", "truncated");
     expect_bad(write_text("bad_facet.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
                                            "endloop\nendfacet\nendsolid t\n"),
                CLVOX_ERR_MESH_FORMAT, "stl facet with 2 vertices", NULL);
@@ -569,6 +591,30 @@ static void test_bad_files(void)
     CHECK(r && r->triangles == 4 && r->enclosed_volume == 4.0 && r->closed);
     clvox_mesh_destroy(m);
 
+    /* OM: truncated anywhere (OpenMesh itself accepts a file cut at a chunk
+     * boundary), a corrupt chunk header (OpenMesh asserts), a broken halfedge
+     * loop (it would hang or abort), bad magic, huge counts. */
+    {
+        int all = 1;
+        for (size_t cut = 16; cut < sizeof cube_om; cut += 7) {
+            m = (clvox_mesh *)&m;
+            clvox_status s = clvox_mesh_load(ctx, write_bytes("trunc.om", cube_om, cut), &m);
+            all &= s == CLVOX_ERR_MESH_FORMAT && m == NULL;
+        }
+        CHECK_MSG(all, "every truncated OM is rejected");
+        unsigned char om[sizeof cube_om];
+        memcpy(om, cube_om, sizeof om);
+        om[17] = 0x06; /* first chunk: positions claimed as 1-D (OpenMesh: assertion failure) */
+        expect_bad(write_bytes("dims.om", om, sizeof om), CLVOX_ERR_MESH_FORMAT, "om corrupt chunk header", "corrupt");
+        memcpy(om, cube_om, sizeof om);
+        om[sizeof om - 2] = 0x00; /* sentinel gone */
+        expect_bad(write_bytes("nosentinel.om", om, sizeof om), CLVOX_ERR_MESH_FORMAT, "om without end marker", NULL);
+        /* Faces are the last chunk before the sentinel: 6 halfedge ids of one byte. */
+        memcpy(om, cube_om, sizeof om);
+        om[sizeof om - 8] = 0x7f; /* face 0 starts at halfedge 127 of 24 */
+        expect_bad(write_bytes("halfedge.om", om, sizeof om), CLVOX_ERR_MESH_FORMAT, "om halfedge id out of range",
+                   "topology");
+    }
     /* OM: bad magic, counts beyond the file, too short. */
     expect_bad(write_text("bad.om", "XXXXXXXXXXXXXXXXXXXXXXXX"), CLVOX_ERR_MESH_FORMAT, "om bad magic", "magic");
     b = (bytes){0};

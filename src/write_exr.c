@@ -1,0 +1,911 @@
+/*
+ * Streaming EXR writer: slabs of half occupancy in, one OpenEXR file out.
+ *
+ * File layout (attribute clvoxLayout says which variant was used)
+ * ----------------------------------------------------------------
+ *  - One part, tiled, ONE_LEVEL, ROUND_DOWN, lineOrder INCREASING_Y.
+ *  - dataWindow = displayWindow = (0,0) - (X-1, Y*Z-1): an image X pixels
+ *    wide and Y*Z rows tall in which the Z slices are stacked in increasing z.
+ *    Voxel (x,y,z) is pixel (x, y + z*Y): x runs along an image row, y down
+ *    the rows of one slice, z selects the slice. Reading the pixels in file
+ *    order therefore gives the same x-fastest, then y, then z order as
+ *    clvox_voxelize_to_memory.
+ *  - "tile-per-slice" (every grid with X*Y*2 <= CLVOX__EXR_CHUNK_BYTES,
+ *    i.e. slices up to 2048 x 2048): the tile size is X x Y, so tile (0, z)
+ *    is exactly slice z and the file holds one chunk per slice.
+ *  - "row-chunks" (larger slices): the tile size is X x T with
+ *    T = CLVOX__EXR_CHUNK_BYTES / (2*X) rows; tile (0, r) covers image rows
+ *    r*T .. r*T+T-1 (the last one may be shorter) and may span two slices.
+ *    The writer carries the rows of an incomplete chunk over to the next slab.
+ *  - Memory: OpenEXRCore keeps the chunk offset table (8 bytes per chunk) until
+ *    the file is complete, i.e. 8 bytes per slice for tile-per-slice and at
+ *    most 8*X*Y*Z*2 / CLVOX__EXR_CHUNK_BYTES bytes in all for row-chunks.
+ *    Everything else is bounded by the chunk size times the number of
+ *    encoder slots (threads + 2), whatever Z is.
+ *  - Channels: "occupancy", HALF, 0.0 (outside) or 1.0 (inside). The channel
+ *    table below is where further channels (coverage HALF, element UINT,
+ *    score HALF/FLOAT) will go; everything else walks that table.
+ *  - Attributes: clvoxDims (v3i X,Y,Z), clvoxOrigin (v3d, corner of voxel
+ *    (0,0,0)), clvoxVoxelSize (v3d), clvoxMethod, clvoxParameters,
+ *    clvoxVersion, clvoxLayout (strings).
+ *  - Limits: Y*Z <= 2^31-1 (EXR coordinates are int32), else CLVOX_ERR_GRID.
+ *
+ * Writing
+ * -------
+ * The file is written to "<path>.tmp-<pid>-<n>" (created with O_EXCL in the
+ * same directory, so a missing or unwritable directory fails in
+ * clvox__exr_open, before any compute work) through our own write callback,
+ * so OpenEXRCore never opens, truncates or deletes files itself. Only
+ * clvox__exr_finish renames it to `path`, after checking that every chunk was
+ * written and exr_finish succeeded; every other exit unlinks it.
+ *
+ * Encoding runs in `threads` worker threads: each chunk is packed and
+ * compressed by exr_encoding_run in an encode pipeline owned by one of
+ * threads+2 ring slots (its write_fn is removed, so nothing is written
+ * there); the calling thread then writes the compressed chunks strictly in
+ * order with exr_write_tile_chunk. Library messages go to our error handler,
+ * never to stderr.
+ */
+#include "internal.h"
+
+#include <OpenEXR/openexr.h>
+
+#include <errno.h>
+#include <fcntl.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
+/* Largest uncompressed chunk: slices up to this size are one tile each. */
+#ifndef CLVOX__EXR_CHUNK_BYTES
+#define CLVOX__EXR_CHUNK_BYTES (8u << 20)
+#endif
+/* zlib level for ZIP / ZIPS (1: fastest; OpenEXR's default is zlib's 6). */
+#ifndef CLVOX__EXR_ZIP_LEVEL
+#define CLVOX__EXR_ZIP_LEVEL 1
+#endif
+#define CLVOX__EXR_MAX_THREADS 64u
+#define CLVOX__EXR_MAX_CHANNELS 4
+
+/* ---- channel table ---- */
+
+typedef struct exr_channel_def {
+    const char *name;
+    exr_pixel_type_t type;
+    uint32_t bytes; /* per sample */
+} exr_channel_def;
+
+/* Channels written today. Add entries here (and a data pointer per channel
+ * in write_rows' caller) to store more per-voxel values. */
+static const exr_channel_def channel_table[] = {
+    { "occupancy", EXR_PIXEL_HALF, 2 },
+};
+#define CHANNEL_COUNT (sizeof channel_table / sizeof channel_table[0])
+_Static_assert(CHANNEL_COUNT <= CLVOX__EXR_MAX_CHANNELS, "too many EXR channels");
+
+/* ---- writer ---- */
+
+enum { SLOT_FREE = 0, SLOT_BUSY, SLOT_DONE };
+
+typedef struct exr_slot {
+    int state;
+    int initialized;            /* pipe went through exr_encoding_initialize */
+    int32_t chunk;              /* tile row index being encoded */
+    exr_result_t rv;
+    exr_encode_pipeline_t pipe; /* owns the packed/compressed buffers */
+    const void *out;            /* what to write: pipe.compressed_buffer or raw */
+    uint64_t out_bytes;
+    uint8_t *raw, *scratch, *comp; /* packed_chunk, RLE buffers */
+    size_t raw_size, scratch_size, comp_size;
+} exr_slot;
+
+struct clvox__exr_writer {
+    clvox_context *ctx;
+    exr_context_t exr;
+    char *path, *tmp;
+    int fd;
+    uint32_t dims[3];
+    int32_t height;       /* Y*Z image rows */
+    int32_t tile_h;       /* rows per chunk */
+    int32_t chunk_count;
+    exr_compression_t compression;
+    int little_endian;
+    size_t file_order[CLVOX__EXR_MAX_CHANNELS]; /* channel_table indices sorted by name */
+    uint64_t next_row;    /* image rows received so far */
+    uint32_t next_z;      /* next slice expected */
+    int failed;           /* a slab failed: only abort is possible */
+    clvox_status fail_status;
+
+    /* source of the current slab (read by workers) */
+    const uint8_t *src[CLVOX__EXR_MAX_CHANNELS];
+    uint64_t src_row0;
+    /* rows of the chunk that straddles two slabs (row-chunks only) */
+    uint8_t *carry[CLVOX__EXR_MAX_CHANNELS];
+    uint64_t carry_row0; /* image row of carry[][0] */
+    int32_t carry_rows;
+
+    /* worker pool; slots[] also serves the single-threaded path */
+    unsigned thread_count, threads_started;
+    pthread_t *threads;
+    exr_slot *slots;
+    unsigned slot_count;
+    pthread_mutex_t mu;
+    pthread_cond_t work_cv, done_cv;
+    int mu_ready;
+    int quit;
+    int32_t job_next, job_end;
+    unsigned busy;
+
+    /* errors from OpenEXRCore callbacks (any thread; guarded by mu) */
+    char exr_msg[512];
+    int io_errno;
+};
+
+static void writer_error_handler(exr_const_context_t ectx, exr_result_t code, const char *msg)
+{
+    void *ud = NULL;
+    if (!ectx || exr_get_user_data(ectx, &ud) != EXR_ERR_SUCCESS || !ud) return;
+    clvox__exr_writer *w = ud;
+    pthread_mutex_lock(&w->mu);
+    if (!w->exr_msg[0])
+        snprintf(w->exr_msg, sizeof w->exr_msg, "%s", msg ? msg : exr_get_default_error_message(code));
+    pthread_mutex_unlock(&w->mu);
+}
+
+static int64_t writer_write_fn(exr_const_context_t ectx, void *ud, const void *buffer, uint64_t size,
+                               uint64_t offset, exr_stream_error_func_ptr_t error_cb)
+{
+    clvox__exr_writer *w = ud;
+    const uint8_t *p = buffer;
+    uint64_t left = size;
+    while (left > 0) {
+        size_t n = left > (1u << 30) ? (1u << 30) : (size_t)left;
+        ssize_t got = pwrite(w->fd, p, n, (off_t)offset);
+        if (got < 0 && errno == EINTR) continue;
+        if (got <= 0) {
+            int e = got < 0 ? errno : EIO;
+            pthread_mutex_lock(&w->mu);
+            if (!w->io_errno) w->io_errno = e;
+            pthread_mutex_unlock(&w->mu);
+            if (error_cb) error_cb(ectx, EXR_ERR_WRITE_IO, "write to '%s' failed: %s", w->tmp, strerror(e));
+            return -1;
+        }
+        p += got;
+        offset += (uint64_t)got;
+        left -= (uint64_t)got;
+    }
+    return (int64_t)size;
+}
+
+/* "OpenEXR: <what>: <library message or default message for rv>" */
+static clvox_status exr_fail(clvox__exr_writer *w, exr_result_t rv, const char *what)
+{
+    char msg[512];
+    int io = 0;
+    pthread_mutex_lock(&w->mu);
+    snprintf(msg, sizeof msg, "%s", w->exr_msg[0] ? w->exr_msg : exr_get_default_error_message(rv));
+    io = w->io_errno;
+    pthread_mutex_unlock(&w->mu);
+    return clvox__fail(w->ctx, io ? CLVOX_ERR_IO : CLVOX_ERR_EXR, "OpenEXR: %s '%s': %s", what, w->path, msg);
+}
+
+static exr_compression_t map_compression(clvox_compression c)
+{
+    switch (c) {
+    case CLVOX_COMPRESSION_NONE: return EXR_COMPRESSION_NONE;
+    case CLVOX_COMPRESSION_ZIPS: return EXR_COMPRESSION_ZIPS;
+    case CLVOX_COMPRESSION_ZIP: return EXR_COMPRESSION_ZIP;
+    case CLVOX_COMPRESSION_PIZ: return EXR_COMPRESSION_PIZ;
+    case CLVOX_COMPRESSION_RLE:
+    case CLVOX_COMPRESSION_DEFAULT:
+    default: return EXR_COMPRESSION_RLE;
+    }
+}
+
+static uint32_t pixel_bytes(void)
+{
+    uint32_t b = 0;
+    for (size_t c = 0; c < CHANNEL_COUNT; c++) b += channel_table[c].bytes;
+    return b;
+}
+
+static int host_little_endian(void)
+{
+    const uint16_t one = 1;
+    uint8_t b;
+    memcpy(&b, &one, 1);
+    return b == 1;
+}
+
+static int grow(uint8_t **buf, size_t *size, size_t need)
+{
+    if (*size >= need) return 1;
+    uint8_t *p = realloc(*buf, need);
+    if (!p) return 0;
+    *buf = p;
+    *size = need;
+    return 1;
+}
+
+/* Channel t's data for image row `row` of the current slab (or of the
+ * carried-over rows of a chunk begun by the previous slab). */
+static const uint8_t *channel_rows(const clvox__exr_writer *w, size_t t, uint64_t row)
+{
+    uint64_t rb = (uint64_t)w->dims[0] * channel_table[t].bytes;
+    if (row < w->src_row0) return w->carry[t] + (size_t)((row - w->carry_row0) * rb);
+    return w->src[t] + (size_t)((row - w->src_row0) * rb);
+}
+
+/* The uncompressed chunk as the file format stores it: per image row, each
+ * channel in file (name-sorted) order, little-endian. With one channel on a
+ * little-endian host that is the caller's data itself: no copy. */
+static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows,
+                                 const uint8_t **out)
+{
+    const size_t X = w->dims[0];
+    if (CHANNEL_COUNT == 1 && (channel_table[0].bytes == 1 || w->little_endian)) {
+        *out = channel_rows(w, 0, row0);
+        return EXR_ERR_SUCCESS;
+    }
+    if (!grow(&s->raw, &s->raw_size, (size_t)rows * X * pixel_bytes())) return EXR_ERR_OUT_OF_MEMORY;
+    uint8_t *dst = s->raw;
+    for (uint32_t y = 0; y < rows; y++) {
+        for (size_t k = 0; k < CHANNEL_COUNT; k++) {
+            size_t t = w->file_order[k], b = channel_table[t].bytes, n = X * b;
+            const uint8_t *src = channel_rows(w, t, row0 + y);
+            if (w->little_endian) {
+                memcpy(dst, src, n);
+            } else {
+                for (size_t i = 0; i < n; i += b)
+                    for (size_t j = 0; j < b; j++) dst[i + j] = src[i + b - 1 - j];
+            }
+            dst += n;
+        }
+    }
+    *out = s->raw;
+    return EXR_ERR_SUCCESS;
+}
+
+/* ---- RLE, written here for speed (format of OpenEXR's RLE compressor) ----
+ * 1. Split the bytes: even-indexed bytes first, then odd-indexed ones.
+ * 2. Delta: every byte but the first becomes (b[i] - b[i-1] + 128) mod 256.
+ * 3. Runs: a count byte c >= 0 followed by one byte means c+1 copies of it
+ *    (runs of 3..128 are encoded so); c < 0 is followed by -c literal bytes
+ *    (at most 127).
+ * Readers undo it with the library's decoder; the output need not match the
+ * library's encoder byte for byte, only decode to the same data. Occupancy
+ * turns into long runs of 0x80, found 8 bytes at a time. */
+
+static void rle_predict(uint8_t *restrict dst, const uint8_t *restrict src, size_t n)
+{
+    if (n == 0) return;
+    const size_t h = (n + 1) / 2, pairs = n / 2;
+    uint8_t *ev = dst, *od = dst + h; /* even-indexed bytes, then odd-indexed ones */
+    size_t k = 0;
+#ifdef __SSE2__
+    const __m128i low = _mm_set1_epi16(0x00FF), bias = _mm_set1_epi8((char)0x80);
+    __m128i pe = _mm_setzero_si128(), po = _mm_setzero_si128();
+    for (; k + 16 <= pairs; k += 16) {
+        __m128i a = _mm_loadu_si128((const __m128i *)(const void *)(src + 2 * k));
+        __m128i b = _mm_loadu_si128((const __m128i *)(const void *)(src + 2 * k + 16));
+        __m128i e = _mm_packus_epi16(_mm_and_si128(a, low), _mm_and_si128(b, low));
+        __m128i o = _mm_packus_epi16(_mm_srli_epi16(a, 8), _mm_srli_epi16(b, 8));
+        __m128i e1 = _mm_or_si128(_mm_slli_si128(e, 1), _mm_srli_si128(pe, 15)); /* previous bytes */
+        __m128i o1 = _mm_or_si128(_mm_slli_si128(o, 1), _mm_srli_si128(po, 15));
+        _mm_storeu_si128((__m128i *)(void *)(ev + k), _mm_add_epi8(_mm_sub_epi8(e, e1), bias));
+        _mm_storeu_si128((__m128i *)(void *)(od + k), _mm_add_epi8(_mm_sub_epi8(o, o1), bias));
+        pe = e;
+        po = o;
+    }
+#endif
+    for (k = k ? k : 1; k < pairs; k++) {
+        ev[k] = (uint8_t)(src[2 * k] - src[2 * k - 2] + 128);
+        od[k] = (uint8_t)(src[2 * k + 1] - src[2 * k - 1] + 128);
+    }
+    if ((n & 1) && n >= 3) ev[h - 1] = (uint8_t)(src[n - 1] - src[n - 3] + 128);
+    ev[0] = src[0]; /* the first byte stays; the first odd byte follows the last even one */
+    if (n > 1) od[0] = (uint8_t)(src[1] - src[2 * (h - 1)] + 128);
+}
+
+/* Bytes equal to p[0] from p[0] on, at most `max`. */
+static size_t run_length(const uint8_t *p, size_t max)
+{
+    const uint8_t v = p[0];
+    const uint64_t pattern = 0x0101010101010101ull * v;
+    size_t k = 1;
+    while (k + 8 <= max) {
+        uint64_t word;
+        memcpy(&word, p + k, 8);
+        if (word != pattern) break;
+        k += 8;
+    }
+    while (k < max && p[k] == v) k++;
+    return k;
+}
+
+/* Returns the encoded size; out holds at least n + n/127 + 2 bytes. */
+static size_t rle_encode(uint8_t *restrict out, const uint8_t *restrict in, size_t n)
+{
+    size_t i = 0, o = 0;
+    while (i < n) {
+        size_t run = run_length(in + i, n - i < 128 ? n - i : 128);
+        if (run >= 3) {
+            out[o++] = (uint8_t)(run - 1);
+            out[o++] = in[i];
+            i += run;
+            continue;
+        }
+        size_t j = i + 1; /* literals until a run of 3 starts, at most 127 */
+        while (j < n && j - i < 127 && !(j + 2 < n && in[j] == in[j + 1] && in[j] == in[j + 2])) j++;
+        out[o++] = (uint8_t)(256 - (j - i));
+        memcpy(out + o, in + i, j - i);
+        o += j - i;
+        i = j;
+    }
+    return o;
+}
+
+/* Readers take a chunk whose stored size equals its unpacked size as
+ * uncompressed. OpenEXRCore 3.1.5 keeps compressed output that is exactly as
+ * large as the input (it falls back to raw data only when larger), which then
+ * decodes to garbage: seen with ZIP on 3x2 slices. Such chunks (and any that
+ * do not shrink) are stored raw. */
+static exr_result_t store_raw_if_not_smaller(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows,
+                                             uint64_t unpacked)
+{
+    if (s->out_bytes < unpacked) return EXR_ERR_SUCCESS;
+    const uint8_t *raw = NULL;
+    exr_result_t rv = packed_chunk(w, s, row0, rows, &raw);
+    if (rv != EXR_ERR_SUCCESS) return rv;
+    s->out = raw;
+    s->out_bytes = unpacked;
+    return EXR_ERR_SUCCESS;
+}
+
+/* ZIP, ZIPS, PIZ: OpenEXRCore's encode pipeline without its write step. */
+static exr_result_t library_encode(clvox__exr_writer *w, exr_slot *s, int32_t c, uint64_t row0)
+{
+    exr_chunk_info_t ci;
+    exr_result_t rv = exr_write_tile_chunk_info(w->exr, 0, 0, c, 0, 0, &ci);
+    if (rv != EXR_ERR_SUCCESS) return rv;
+    if (!s->initialized) {
+        rv = exr_encoding_initialize(w->exr, 0, &ci, &s->pipe);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+        s->initialized = 1;
+    } else {
+        rv = exr_encoding_update(w->exr, 0, &ci, &s->pipe);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+    }
+    const uint64_t X = w->dims[0];
+    for (int16_t k = 0; k < s->pipe.channel_count; k++) {
+        exr_coding_channel_info_t *ch = &s->pipe.channels[k];
+        size_t t;
+        for (t = 0; t < CHANNEL_COUNT; t++)
+            if (strcmp(ch->channel_name, channel_table[t].name) == 0) break;
+        if (t == CHANNEL_COUNT) return EXR_ERR_INVALID_ARGUMENT;
+        uint32_t b = channel_table[t].bytes;
+        ch->encode_from_ptr = channel_rows(w, t, row0);
+        ch->user_pixel_stride = (int32_t)b;
+        ch->user_line_stride = (int32_t)(X * b);
+        ch->user_bytes_per_element = (int16_t)b;
+        ch->user_data_type = (uint16_t)channel_table[t].type;
+    }
+    if (!s->pipe.convert_and_pack_fn) {
+        rv = exr_encoding_choose_default_routines(w->exr, 0, &s->pipe);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+        s->pipe.yield_until_ready_fn = NULL; /* chunks are written by the caller, in order */
+        s->pipe.write_fn = NULL;
+    }
+    rv = exr_encoding_run(w->exr, 0, &s->pipe);
+    if (rv != EXR_ERR_SUCCESS) return rv;
+    s->out = s->pipe.compressed_buffer;
+    s->out_bytes = s->pipe.compressed_bytes;
+    return EXR_ERR_SUCCESS;
+}
+
+/* Packs and compresses chunk c into slot s (no I/O). Any thread. */
+static exr_result_t encode_chunk(clvox__exr_writer *w, exr_slot *s, int32_t c)
+{
+    const uint64_t row0 = (uint64_t)c * (uint64_t)w->tile_h;
+    const uint32_t rows = (uint32_t)((uint64_t)w->height - row0 < (uint64_t)w->tile_h ? (uint64_t)w->height - row0
+                                                                                        : (uint64_t)w->tile_h);
+    const uint64_t unpacked = (uint64_t)rows * w->dims[0] * pixel_bytes();
+    exr_result_t rv;
+    const uint8_t *packed = NULL;
+
+    switch (w->compression) {
+    case EXR_COMPRESSION_NONE:
+        rv = packed_chunk(w, s, row0, rows, &packed);
+        s->out = packed;
+        s->out_bytes = unpacked;
+        return rv;
+    case EXR_COMPRESSION_RLE: {
+        size_t n = (size_t)unpacked;
+        if (!grow(&s->scratch, &s->scratch_size, n) || !grow(&s->comp, &s->comp_size, n + n / 127 + 16))
+            return EXR_ERR_OUT_OF_MEMORY;
+        rv = packed_chunk(w, s, row0, rows, &packed);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+        rle_predict(s->scratch, packed, n);
+        s->out = s->comp;
+        s->out_bytes = rle_encode(s->comp, s->scratch, n);
+        break;
+    }
+    default:
+        rv = library_encode(w, s, c, row0);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+        break;
+    }
+    return store_raw_if_not_smaller(w, s, row0, rows, unpacked);
+}
+
+static exr_result_t write_chunk(clvox__exr_writer *w, exr_slot *s, int32_t c)
+{
+    return exr_write_tile_chunk(w->exr, 0, 0, c, 0, 0, s->out, s->out_bytes);
+}
+
+static void *worker_main(void *arg)
+{
+    clvox__exr_writer *w = arg;
+    pthread_mutex_lock(&w->mu);
+    for (;;) {
+        while (!w->quit &&
+               !(w->job_next < w->job_end && w->slots[(unsigned)w->job_next % w->slot_count].state == SLOT_FREE))
+            pthread_cond_wait(&w->work_cv, &w->mu);
+        if (w->quit) break;
+        int32_t c = w->job_next++;
+        exr_slot *s = &w->slots[(unsigned)c % w->slot_count];
+        s->state = SLOT_BUSY;
+        s->chunk = c;
+        w->busy++;
+        pthread_mutex_unlock(&w->mu);
+        exr_result_t rv = encode_chunk(w, s, c);
+        pthread_mutex_lock(&w->mu);
+        s->rv = rv;
+        s->state = SLOT_DONE;
+        w->busy--;
+        pthread_cond_broadcast(&w->done_cv);
+    }
+    pthread_mutex_unlock(&w->mu);
+    return NULL;
+}
+
+/* Encodes and writes chunks [first, end). */
+static clvox_status run_chunks(clvox__exr_writer *w, int32_t first, int32_t end)
+{
+    char what[96];
+    if (w->threads_started == 0) {
+        exr_slot *s = &w->slots[0];
+        for (int32_t c = first; c < end; c++) {
+            exr_result_t rv = encode_chunk(w, s, c);
+            if (rv != EXR_ERR_SUCCESS) {
+                snprintf(what, sizeof what, "encoding chunk %d of", (int)c);
+                return exr_fail(w, rv, what);
+            }
+            rv = write_chunk(w, s, c);
+            if (rv != EXR_ERR_SUCCESS) {
+                snprintf(what, sizeof what, "writing chunk %d of", (int)c);
+                return exr_fail(w, rv, what);
+            }
+        }
+        return CLVOX_OK;
+    }
+
+    clvox_status st = CLVOX_OK;
+    pthread_mutex_lock(&w->mu);
+    w->job_next = first;
+    w->job_end = end;
+    pthread_cond_broadcast(&w->work_cv);
+    for (int32_t c = first; c < end; c++) {
+        exr_slot *s = &w->slots[(unsigned)c % w->slot_count];
+        while (!(s->state == SLOT_DONE && s->chunk == c)) pthread_cond_wait(&w->done_cv, &w->mu);
+        pthread_mutex_unlock(&w->mu);
+        exr_result_t rv = s->rv;
+        if (rv != EXR_ERR_SUCCESS) {
+            snprintf(what, sizeof what, "encoding chunk %d of", (int)c);
+            st = exr_fail(w, rv, what);
+        } else {
+            rv = write_chunk(w, s, c);
+            if (rv != EXR_ERR_SUCCESS) {
+                snprintf(what, sizeof what, "writing chunk %d of", (int)c);
+                st = exr_fail(w, rv, what);
+            }
+        }
+        pthread_mutex_lock(&w->mu);
+        s->state = SLOT_FREE;
+        if (st != CLVOX_OK) {
+            w->job_end = w->job_next; /* assign nothing more */
+            break;
+        }
+        pthread_cond_broadcast(&w->work_cv);
+    }
+    /* Workers must be idle before the caller's slab goes away. */
+    while (w->busy > 0) pthread_cond_wait(&w->done_cv, &w->mu);
+    for (unsigned i = 0; i < w->slot_count; i++) w->slots[i].state = SLOT_FREE;
+    w->job_next = w->job_end = 0;
+    pthread_mutex_unlock(&w->mu);
+    return st;
+}
+
+/* Appends image rows [row0, row0 + nrows) (one pointer per channel table
+ * entry) to the file. */
+static clvox_status write_rows(clvox__exr_writer *w, uint64_t row0, uint64_t nrows, const uint8_t *const *data)
+{
+    const uint64_t X = w->dims[0], T = (uint64_t)w->tile_h, H = (uint64_t)w->height;
+    const uint64_t R0 = row0, R1 = row0 + nrows;
+    int32_t first = (int32_t)(R0 / T);
+
+    for (size_t t = 0; t < CHANNEL_COUNT; t++) w->src[t] = data[t];
+    w->src_row0 = R0;
+
+    if (w->carry_rows > 0) { /* complete the chunk begun by the previous slab */
+        uint64_t cstart = (uint64_t)first * T;
+        uint64_t cend = cstart + T < H ? cstart + T : H;
+        uint64_t take = cend - R0 < nrows ? cend - R0 : nrows;
+        for (size_t t = 0; t < CHANNEL_COUNT; t++) {
+            size_t rb = (size_t)(X * channel_table[t].bytes);
+            memcpy(w->carry[t] + (size_t)w->carry_rows * rb, data[t], (size_t)take * rb);
+        }
+        w->carry_rows += (int32_t)take;
+        if (cstart + (uint64_t)w->carry_rows < cend) return CLVOX_OK; /* still incomplete */
+    }
+    int32_t end = R1 == H ? w->chunk_count : (int32_t)(R1 / T);
+    clvox_status st = run_chunks(w, first, end);
+    if (st != CLVOX_OK) return st;
+    w->carry_rows = 0;
+    uint64_t tail0 = (uint64_t)end * T;
+    if (tail0 < R1) { /* keep the start of the next chunk */
+        for (size_t t = 0; t < CHANNEL_COUNT; t++) {
+            size_t rb = (size_t)(X * channel_table[t].bytes);
+            memcpy(w->carry[t], data[t] + (size_t)(tail0 - R0) * rb, (size_t)(R1 - tail0) * rb);
+        }
+        w->carry_rows = (int32_t)(R1 - tail0);
+        w->carry_row0 = tail0;
+    }
+    return CLVOX_OK;
+}
+
+static void stop_pool(clvox__exr_writer *w)
+{
+    if (!w->mu_ready) return;
+    pthread_mutex_lock(&w->mu);
+    w->quit = 1;
+    pthread_cond_broadcast(&w->work_cv);
+    pthread_mutex_unlock(&w->mu);
+    for (unsigned i = 0; i < w->threads_started; i++) pthread_join(w->threads[i], NULL);
+    w->threads_started = 0;
+}
+
+static void release_slots(clvox__exr_writer *w)
+{
+    if (!w->slots) return;
+    for (unsigned i = 0; i < w->slot_count; i++) {
+        if (w->slots[i].initialized) exr_encoding_destroy(w->exr, &w->slots[i].pipe);
+        free(w->slots[i].raw);
+        free(w->slots[i].scratch);
+        free(w->slots[i].comp);
+    }
+    free(w->slots);
+    w->slots = NULL;
+}
+
+/* Frees everything; unlinks the temporary file unless it was renamed. */
+static void writer_free(clvox__exr_writer *w)
+{
+    if (!w) return;
+    stop_pool(w);
+    if (w->exr) {
+        release_slots(w);
+        exr_finish(&w->exr); /* our write_fn: nothing is deleted or renamed by the library */
+    }
+    free(w->slots);
+    if (w->fd >= 0) close(w->fd);
+    if (w->tmp) unlink(w->tmp);
+    for (size_t t = 0; t < CLVOX__EXR_MAX_CHANNELS; t++) free(w->carry[t]);
+    free(w->threads);
+    if (w->mu_ready) {
+        pthread_cond_destroy(&w->done_cv);
+        pthread_cond_destroy(&w->work_cv);
+        pthread_mutex_destroy(&w->mu);
+    }
+    free(w->path);
+    free(w->tmp);
+    free(w);
+}
+
+static clvox_status create_temp(clvox__exr_writer *w)
+{
+    static unsigned counter;
+    size_t n = strlen(w->path) + 64;
+    w->tmp = malloc(n);
+    if (!w->tmp) return clvox__fail(w->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    for (int attempt = 0; attempt < 100; attempt++) {
+        unsigned k = __atomic_fetch_add(&counter, 1u, __ATOMIC_RELAXED);
+        snprintf(w->tmp, n, "%s.tmp-%ld-%u", w->path, (long)getpid(), k);
+        w->fd = open(w->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (w->fd >= 0) return CLVOX_OK;
+        if (errno != EEXIST) {
+            int e = errno;
+            free(w->tmp);
+            w->tmp = NULL; /* nothing to unlink */
+            return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create output file '%s': %s", w->path, strerror(e));
+        }
+    }
+    free(w->tmp);
+    w->tmp = NULL;
+    return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create a temporary file next to '%s'", w->path);
+}
+
+static clvox_status define_header(clvox__exr_writer *w, const clvox_grid *grid, const clvox__exr_meta *meta,
+                                  clvox_compression compression)
+{
+    exr_result_t rv;
+    int part = 0;
+    exr_compression_t ec = map_compression(compression);
+    char layout[160];
+
+#define EXR_TRY(call, what) do { rv = (call); if (rv != EXR_ERR_SUCCESS) return exr_fail(w, rv, what); } while (0)
+    EXR_TRY(exr_add_part(w->exr, NULL, EXR_STORAGE_TILED, &part), "adding the part of");
+    EXR_TRY(exr_initialize_required_attr_simple(w->exr, part, (int32_t)w->dims[0], w->height, ec),
+            "setting the header of");
+    EXR_TRY(exr_set_tile_descriptor(w->exr, part, w->dims[0], (uint32_t)w->tile_h, EXR_TILE_ONE_LEVEL,
+                                    EXR_TILE_ROUND_DOWN),
+            "setting the tiles of");
+    for (size_t t = 0; t < CHANNEL_COUNT; t++) {
+        rv = exr_add_channel(w->exr, part, channel_table[t].name, channel_table[t].type, EXR_PERCEPTUALLY_LINEAR,
+                             1, 1);
+        if (rv != EXR_ERR_SUCCESS) return exr_fail(w, rv, "adding a channel to");
+    }
+    if (ec == EXR_COMPRESSION_ZIP || ec == EXR_COMPRESSION_ZIPS)
+        EXR_TRY(exr_set_zip_compression_level(w->exr, part, CLVOX__EXR_ZIP_LEVEL), "setting the zip level of");
+
+    exr_attr_v3i_t dims = { .arr = { (int32_t)w->dims[0], (int32_t)w->dims[1], (int32_t)w->dims[2] } };
+    exr_attr_v3d_t origin = { .arr = { grid->origin[0], grid->origin[1], grid->origin[2] } };
+    exr_attr_v3d_t h = { .arr = { grid->voxel_size[0], grid->voxel_size[1], grid->voxel_size[2] } };
+    if (w->tile_h == (int32_t)w->dims[1])
+        snprintf(layout, sizeof layout, "tile-per-slice: pixel (x, y + z*Y), tile X x Y = slice z");
+    else
+        snprintf(layout, sizeof layout, "row-chunks: pixel (x, y + z*Y), tile X x %d rows", (int)w->tile_h);
+    EXR_TRY(exr_attr_set_v3i(w->exr, part, "clvoxDims", &dims), "setting clvoxDims in");
+    EXR_TRY(exr_attr_set_v3d(w->exr, part, "clvoxOrigin", &origin), "setting clvoxOrigin in");
+    EXR_TRY(exr_attr_set_v3d(w->exr, part, "clvoxVoxelSize", &h), "setting clvoxVoxelSize in");
+    EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxMethod", meta && meta->method ? meta->method : ""),
+            "setting clvoxMethod in");
+    EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxParameters",
+                                meta && meta->parameters ? meta->parameters : ""),
+            "setting clvoxParameters in");
+    EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxVersion", CLVOX_VERSION_STRING), "setting clvoxVersion in");
+    EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxLayout", layout), "setting clvoxLayout in");
+    EXR_TRY(exr_write_header(w->exr), "writing the header of");
+#undef EXR_TRY
+    return CLVOX_OK;
+}
+
+static unsigned online_cpus(void)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n < 1 ? 1u : (unsigned)n;
+}
+
+clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
+                             const clvox__exr_meta *meta, clvox_compression compression, uint32_t threads,
+                             clvox__exr_writer **out)
+{
+    if (out) *out = NULL;
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!path || !*path || !grid || !out)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__exr_open: missing path, grid or output");
+    if ((unsigned)compression >= CLVOX_COMPRESSION_COUNT)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown compression %d", (int)compression);
+    const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
+    if (X == 0 || Y == 0 || Z == 0)
+        return clvox__fail(ctx, CLVOX_ERR_GRID, "grid %ux%ux%u has no voxels", X, Y, Z);
+    if ((uint64_t)Y * Z > (uint64_t)INT32_MAX || X > (uint32_t)INT32_MAX)
+        return clvox__fail(ctx, CLVOX_ERR_GRID,
+                           "grid %ux%ux%u does not fit in an EXR image: Y*Z = %llu rows (at most 2^31-1)", X, Y, Z,
+                           (unsigned long long)Y * Z);
+    struct stat sb;
+    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode))
+        return clvox__fail(ctx, CLVOX_ERR_IO, "cannot write '%s': it is a directory", path);
+
+    clvox__exr_writer *w = calloc(1, sizeof *w);
+    if (!w) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    w->ctx = ctx;
+    w->fd = -1;
+    w->dims[0] = X;
+    w->dims[1] = Y;
+    w->dims[2] = Z;
+    w->height = (int32_t)((uint64_t)Y * Z);
+    w->compression = map_compression(compression);
+    w->little_endian = host_little_endian();
+    for (size_t t = 0; t < CHANNEL_COUNT; t++) { /* insertion sort by name: the file's channel order */
+        size_t k = t;
+        while (k > 0 && strcmp(channel_table[w->file_order[k - 1]].name, channel_table[t].name) > 0) {
+            w->file_order[k] = w->file_order[k - 1];
+            k--;
+        }
+        w->file_order[k] = t;
+    }
+    uint64_t row_bytes = (uint64_t)X * pixel_bytes();
+    uint64_t slice_bytes = row_bytes * Y;
+    if (slice_bytes <= CLVOX__EXR_CHUNK_BYTES) {
+        w->tile_h = (int32_t)Y;
+    } else {
+        uint64_t t = CLVOX__EXR_CHUNK_BYTES / row_bytes;
+        w->tile_h = (int32_t)(t < 1 ? 1 : t);
+    }
+    w->chunk_count = (int32_t)(((uint64_t)w->height + (uint64_t)w->tile_h - 1) / (uint64_t)w->tile_h);
+    if (pthread_mutex_init(&w->mu, NULL) != 0) {
+        free(w);
+        return clvox__fail(ctx, CLVOX_ERR_INTERNAL, "pthread_mutex_init failed");
+    }
+    pthread_cond_init(&w->work_cv, NULL);
+    pthread_cond_init(&w->done_cv, NULL);
+    w->mu_ready = 1;
+    w->path = strdup(path);
+    if (!w->path) {
+        writer_free(w);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    if (w->tile_h != (int32_t)Y) {
+        for (size_t t = 0; t < CHANNEL_COUNT; t++) {
+            w->carry[t] = malloc((size_t)((uint64_t)X * channel_table[t].bytes * (uint64_t)w->tile_h));
+            if (!w->carry[t]) {
+                writer_free(w);
+                return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for the EXR row buffer");
+            }
+        }
+    }
+
+    clvox_status st = create_temp(w);
+    if (st != CLVOX_OK) {
+        writer_free(w);
+        return st;
+    }
+
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = writer_error_handler;
+    init.user_data = w;
+    init.write_fn = writer_write_fn;
+    exr_result_t rv = exr_start_write(&w->exr, w->tmp, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (rv != EXR_ERR_SUCCESS) {
+        w->exr = NULL;
+        st = exr_fail(w, rv, "starting to write");
+        writer_free(w);
+        return st;
+    }
+    st = define_header(w, grid, meta, compression);
+    if (st != CLVOX_OK) {
+        writer_free(w);
+        return st;
+    }
+
+    unsigned n = threads ? threads : online_cpus();
+    if (w->compression == EXR_COMPRESSION_NONE) n = 1; /* nothing to compute: chunks are the caller's data */
+    if (n > CLVOX__EXR_MAX_THREADS) n = CLVOX__EXR_MAX_THREADS;
+    if ((uint32_t)n > (uint32_t)w->chunk_count) n = (unsigned)w->chunk_count;
+    w->thread_count = n;
+    w->slot_count = n > 1 ? n + 2 : 1;
+    w->slots = calloc(w->slot_count, sizeof *w->slots);
+    if (!w->slots) {
+        writer_free(w);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    if (n > 1) {
+        w->threads = calloc(n, sizeof *w->threads);
+        if (!w->threads) {
+            writer_free(w);
+            return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+        }
+        for (unsigned i = 0; i < n; i++) {
+            if (pthread_create(&w->threads[i], NULL, worker_main, w) != 0) break;
+            w->threads_started++;
+        }
+        /* Fewer threads than asked still works; none means the inline path. */
+    }
+    *out = w;
+    return CLVOX_OK;
+}
+
+clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz, const uint16_t *half_occupancy)
+{
+    if (!w) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (w->failed)
+        return clvox__fail(w->ctx, w->fail_status, "EXR writer for '%s' already failed", w->path);
+    if (!half_occupancy || nz == 0 || z0 != w->next_z || nz > w->dims[2] - z0) {
+        w->failed = 1;
+        w->fail_status = CLVOX_ERR_INTERNAL;
+        return clvox__fail(w->ctx, CLVOX_ERR_INTERNAL,
+                           "EXR slab z0=%u nz=%u out of order (expected z0=%u, Z=%u, data %s)", z0, nz, w->next_z,
+                           w->dims[2], half_occupancy ? "set" : "missing");
+    }
+    const uint8_t *data[CLVOX__EXR_MAX_CHANNELS] = { (const uint8_t *)half_occupancy };
+    uint64_t Y = w->dims[1];
+    clvox_status st = write_rows(w, (uint64_t)z0 * Y, (uint64_t)nz * Y, data);
+    if (st != CLVOX_OK) {
+        w->failed = 1;
+        w->fail_status = st;
+        return st;
+    }
+    w->next_z = z0 + nz;
+    w->next_row = (uint64_t)w->next_z * Y;
+    return CLVOX_OK;
+}
+
+clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes)
+{
+    if (bytes) *bytes = 0;
+    if (!w) return CLVOX_ERR_INVALID_ARGUMENT;
+    clvox_context *ctx = w->ctx;
+    clvox_status st = CLVOX_OK;
+    if (w->failed) {
+        st = clvox__fail(ctx, w->fail_status, "EXR writer for '%s' failed earlier; no file written", w->path);
+        writer_free(w);
+        return st;
+    }
+    if (w->next_z != w->dims[2]) {
+        st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "EXR '%s': only %u of %u slices were written; no file written",
+                         w->path, w->next_z, w->dims[2]);
+        writer_free(w);
+        return st;
+    }
+    stop_pool(w);
+    release_slots(w);
+    exr_result_t rv = exr_finish(&w->exr);
+    w->exr = NULL;
+    if (rv != EXR_ERR_SUCCESS) {
+        st = exr_fail(w, rv, "finishing");
+        writer_free(w);
+        return st;
+    }
+    pthread_mutex_lock(&w->mu);
+    int io = w->io_errno;
+    pthread_mutex_unlock(&w->mu);
+    if (io) {
+        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", w->path, strerror(io));
+        writer_free(w);
+        return st;
+    }
+    struct stat sb;
+    if (fstat(w->fd, &sb) != 0 || sb.st_size <= 0) {
+        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: the temporary file '%s' is empty", w->path,
+                         w->tmp);
+        writer_free(w);
+        return st;
+    }
+    int fd = w->fd;
+    w->fd = -1;
+    /* On disk before it gets its name: a crash never leaves a partial file at `path`. */
+    if (fdatasync(fd) != 0) {
+        int e = errno;
+        close(fd);
+        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", w->path, strerror(e));
+        writer_free(w);
+        return st;
+    }
+    if (close(fd) != 0) {
+        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", w->path, strerror(errno));
+        writer_free(w);
+        return st;
+    }
+    if (rename(w->tmp, w->path) != 0) {
+        st = clvox__fail(ctx, CLVOX_ERR_IO, "cannot rename '%s' to '%s': %s", w->tmp, w->path, strerror(errno));
+        writer_free(w);
+        return st;
+    }
+    free(w->tmp);
+    w->tmp = NULL; /* renamed: nothing to unlink */
+    if (bytes) *bytes = (uint64_t)sb.st_size;
+    writer_free(w);
+    return CLVOX_OK;
+}
+
+void clvox__exr_abort(clvox__exr_writer *w)
+{
+    writer_free(w);
+}

@@ -1,0 +1,682 @@
+/* EXR writer and reader: round trips for every compression and several
+ * grid shapes and slab splits, header attributes, exrheader, failure paths
+ * (no file and no temporary file left), and bounded memory. No OpenCL. */
+#include "test.h"
+#include "internal.h"
+
+#include <OpenEXR/openexr.h>
+
+#include <dirent.h>
+#include <errno.h>
+#include <stdint.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+static clvox_context *ctx;
+static char dir[1024];
+
+/* ---- helpers ---- */
+
+static uint64_t rng_state = 0x9E3779B97F4A7C15ull;
+static uint32_t rnd(void)
+{
+    rng_state ^= rng_state << 13;
+    rng_state ^= rng_state >> 7;
+    rng_state ^= rng_state << 17;
+    return (uint32_t)(rng_state >> 11);
+}
+
+static int exists(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0;
+}
+
+static long long file_size(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 ? (long long)sb.st_size : -1;
+}
+
+/* Number of files in dir whose name starts with "<base>.tmp-". */
+static int temp_files(const char *path)
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    char prefix[512];
+    snprintf(prefix, sizeof prefix, "%s.tmp-", base);
+    DIR *d = opendir(dir);
+    int n = 0;
+    if (!d) return -1;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL)
+        if (strncmp(e->d_name, prefix, strlen(prefix)) == 0) n++;
+    closedir(d);
+    return n;
+}
+
+static clvox_grid make_grid(uint32_t X, uint32_t Y, uint32_t Z)
+{
+    clvox_grid g;
+    g.dims[0] = X;
+    g.dims[1] = Y;
+    g.dims[2] = Z;
+    g.origin[0] = -1.25;
+    g.origin[1] = 0.1;          /* not exact in binary: must round trip bit for bit */
+    g.origin[2] = 1e-300;
+    g.voxel_size[0] = 0.5;
+    g.voxel_size[1] = 1.0 / 3.0;
+    g.voxel_size[2] = 12345.678;
+    return g;
+}
+
+static const clvox__exr_meta test_meta = { "ray", "axis=x depth=9 leaf=8 \"quoted\" utf8: \xc3\xa9" };
+
+/* Writes vol (X*Y*Z bytes 0/1) in slabs of the given depths (cycled). */
+static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_compression comp, uint32_t threads,
+                                 const uint8_t *vol, const uint32_t *depths, size_t ndepths, uint64_t *bytes)
+{
+    clvox__exr_writer *w = NULL;
+    clvox_status st = clvox__exr_open(ctx, path, g, &test_meta, comp, threads, &w);
+    if (st != CLVOX_OK) return st;
+    const size_t XY = (size_t)g->dims[0] * g->dims[1];
+    uint16_t *half = NULL;
+    size_t half_cap = 0;
+    size_t k = 0;
+    for (uint32_t z0 = 0; z0 < g->dims[2];) {
+        uint32_t nz = depths[k++ % ndepths];
+        if (nz > g->dims[2] - z0) nz = g->dims[2] - z0;
+        if (XY * nz > half_cap) {
+            free(half);
+            half_cap = XY * nz;
+            half = malloc(half_cap * 2);
+            if (!half) {
+                clvox__exr_abort(w);
+                return CLVOX_ERR_OUT_OF_MEMORY;
+            }
+        }
+        for (size_t i = 0; i < XY * nz; i++) half[i] = vol[(size_t)z0 * XY + i] ? 0x3C00 : 0x0000;
+        st = clvox__exr_write_slab(w, z0, nz, half);
+        if (st != CLVOX_OK) {
+            free(half);
+            clvox__exr_abort(w);
+            return st;
+        }
+        z0 += nz;
+    }
+    free(half);
+    return clvox__exr_finish(w, bytes);
+}
+
+static void fill_random(uint8_t *vol, size_t n)
+{
+    for (size_t i = 0; i < n; i++) vol[i] = (uint8_t)(rnd() & 1);
+}
+
+static void fill_structured(uint8_t *vol, uint32_t X, uint32_t Y, uint32_t Z)
+{
+    double cx = X / 2.0, cy = Y / 2.0, cz = Z / 2.0;
+    double r = (X < Y ? (X < Z ? X : Z) : (Y < Z ? Y : Z)) / 2.5 + 0.5;
+    for (uint32_t z = 0; z < Z; z++)
+        for (uint32_t y = 0; y < Y; y++)
+            for (uint32_t x = 0; x < X; x++) {
+                double dx = x + 0.5 - cx, dy = y + 0.5 - cy, dz = z + 0.5 - cz;
+                int in = dx * dx + dy * dy + dz * dz < r * r;
+                in |= (x < X / 4 && y >= Y / 2 && z % 3 == 0); /* a slab of plates */
+                vol[((size_t)z * Y + y) * X + x] = (uint8_t)in;
+            }
+}
+
+static uint64_t count(const uint8_t *v, size_t n)
+{
+    uint64_t c = 0;
+    for (size_t i = 0; i < n; i++) c += v[i];
+    return c;
+}
+
+static const char *comp_names[CLVOX_COMPRESSION_COUNT] = { "rle", "none", "rle", "zips", "zip", "piz" };
+
+/* Writes, reads back and compares everything. */
+static void round_trip(uint32_t X, uint32_t Y, uint32_t Z, int structured, clvox_compression comp, uint32_t threads,
+                       const uint32_t *depths, size_t ndepths)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/rt_%ux%ux%u_%d_%d_%u.exr", dir, X, Y, Z, structured, (int)comp, threads);
+    size_t n = (size_t)X * Y * Z;
+    uint8_t *vol = malloc(n), *back = malloc(n + 1);
+    if (!vol || !back) {
+        CHECK(!"out of memory");
+        free(vol);
+        free(back);
+        return;
+    }
+    if (structured) fill_structured(vol, X, Y, Z);
+    else fill_random(vol, n);
+    clvox_grid g = make_grid(X, Y, Z);
+    uint64_t bytes = 0;
+    clvox_status st = write_volume(path, &g, comp, threads, vol, depths, ndepths, &bytes);
+    CHECK_MSG(st == CLVOX_OK, "%s: %s: %s", path, clvox_status_string(st), clvox_context_error(ctx));
+    CHECK_MSG(bytes > 0 && (long long)bytes == file_size(path), "%s: bytes %llu, file %lld", path,
+              (unsigned long long)bytes, file_size(path));
+    CHECK(temp_files(path) == 0);
+
+    clvox_volume_info info;
+    memset(back, 0xAB, n + 1);
+    st = clvox_volume_read(ctx, path, &info, back, n);
+    CHECK_MSG(st == CLVOX_OK, "%s: %s: %s", path, clvox_status_string(st), clvox_context_error(ctx));
+    CHECK_MSG(memcmp(vol, back, n) == 0, "%s: voxels differ", path);
+    CHECK(back[n] == 0xAB); /* nothing written past the buffer */
+    CHECK_MSG(info.filled_voxels == count(vol, n), "%s: filled %llu, expected %llu", path,
+              (unsigned long long)info.filled_voxels, (unsigned long long)count(vol, n));
+    CHECK(info.dims[0] == X && info.dims[1] == Y && info.dims[2] == Z);
+    CHECK(memcmp(info.origin, g.origin, sizeof g.origin) == 0);
+    CHECK(memcmp(info.voxel_size, g.voxel_size, sizeof g.voxel_size) == 0);
+    CHECK(strcmp(info.method, test_meta.method) == 0);
+    CHECK(strcmp(info.parameters, test_meta.parameters) == 0);
+    CHECK(strcmp(info.version, CLVOX_VERSION_STRING) == 0);
+    CHECK_MSG(strcmp(info.compression, comp_names[comp]) == 0, "compression %s", info.compression);
+    CHECK(strcmp(info.channels, "occupancy") == 0);
+
+    /* count only, no buffer */
+    clvox_volume_info info2;
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info2, NULL, 0));
+    CHECK(info2.filled_voxels == info.filled_voxels);
+    unlink(path);
+    free(vol);
+    free(back);
+}
+
+/* ---- tests ---- */
+
+static void test_round_trips(void)
+{
+    static const uint32_t dims[][3] = {
+        { 1, 1, 1 }, { 17, 5, 9 }, { 8, 8, 8 }, { 33, 1, 7 }, { 1, 40, 3 }, { 64, 48, 20 }, { 3, 2, 31 },
+    };
+    static const uint32_t one[] = { 1 }, mixed[] = { 2, 1, 5, 3 }, big[] = { 1000 };
+    for (size_t d = 0; d < sizeof dims / sizeof dims[0]; d++)
+        for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++)
+            for (int s = 0; s < 2; s++) {
+                const uint32_t *dp = s ? mixed : (c & 1 ? one : big);
+                size_t nd = s ? 4 : 1;
+                uint32_t threads = (uint32_t)((d + (size_t)c + (size_t)s) % 4); /* 0 (= all cores), 1, 2, 3 */
+                round_trip(dims[d][0], dims[d][1], dims[d][2], s, (clvox_compression)c, threads, dp, nd);
+            }
+}
+
+/* Slices larger than one chunk: tiles of fewer rows than Y, which straddle
+ * slices and slabs (the writer carries rows over). */
+static void test_row_chunks(void)
+{
+    static const uint32_t d12[] = { 1, 2 }, d3[] = { 3 };
+    round_trip(4099, 1031, 3, 0, CLVOX_COMPRESSION_RLE, 2, d12, 2);
+    round_trip(4099, 1031, 3, 1, CLVOX_COMPRESSION_ZIP, 1, d3, 1);
+    round_trip(4099, 1031, 3, 1, CLVOX_COMPRESSION_NONE, 3, d12, 2);
+}
+
+/* The file does not depend on the number of threads. */
+static void test_threads_identical(void)
+{
+    const uint32_t X = 40, Y = 30, Z = 50;
+    size_t n = (size_t)X * Y * Z;
+    uint8_t *vol = malloc(n);
+    if (!vol) return;
+    fill_structured(vol, X, Y, Z);
+    clvox_grid g = make_grid(X, Y, Z);
+    static const uint32_t depths[] = { 7, 1, 12 };
+    char p1[2048], p2[2048];
+    for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+        snprintf(p1, sizeof p1, "%s/thr1.exr", dir);
+        snprintf(p2, sizeof p2, "%s/thr4.exr", dir);
+        CHECK_OK(ctx, write_volume(p1, &g, (clvox_compression)c, 1, vol, depths, 3, NULL));
+        CHECK_OK(ctx, write_volume(p2, &g, (clvox_compression)c, 4, vol, depths, 3, NULL));
+        FILE *a = fopen(p1, "rb"), *b = fopen(p2, "rb");
+        int same = a && b;
+        while (same) {
+            int ca = fgetc(a), cb = fgetc(b);
+            if (ca != cb) same = 0;
+            if (ca == EOF || cb == EOF) break;
+        }
+        CHECK_MSG(same, "compression %d: 1 and 4 threads give different files", c);
+        if (a) fclose(a);
+        if (b) fclose(b);
+        unlink(p1);
+        unlink(p2);
+    }
+    free(vol);
+}
+
+static void test_exrheader(void)
+{
+    if (system("command -v exrheader >/dev/null 2>&1") != 0) {
+        printf("skip: exrheader is not installed\n");
+        return;
+    }
+    const uint32_t X = 17, Y = 5, Z = 9;
+    uint8_t vol[17 * 5 * 9];
+    fill_structured(vol, X, Y, Z);
+    clvox_grid g = make_grid(X, Y, Z);
+    static const uint32_t depths[] = { 4 };
+    char path[2048], cmd[2200], line[512];
+    for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+        snprintf(path, sizeof path, "%s/hdr.exr", dir);
+        CHECK_OK(ctx, write_volume(path, &g, (clvox_compression)c, 2, vol, depths, 1, NULL));
+        snprintf(cmd, sizeof cmd, "exrheader '%s' 2>&1", path);
+        FILE *p = popen(cmd, "r");
+        CHECK(p != NULL);
+        if (!p) continue;
+        int seen = 0;
+        while (fgets(line, sizeof line, p)) {
+            if (strstr(line, "clvoxDims")) seen |= 1;
+            if (strstr(line, "clvoxOrigin")) seen |= 2;
+            if (strstr(line, "clvoxVoxelSize")) seen |= 4;
+            if (strstr(line, "clvoxMethod")) seen |= 8;
+            if (strstr(line, "clvoxParameters")) seen |= 16;
+            if (strstr(line, "clvoxVersion") && strstr(line, CLVOX_VERSION_STRING)) seen |= 32;
+            if (strstr(line, "clvoxLayout")) seen |= 64;
+            if (strstr(line, "(17 5 9)")) seen |= 128;
+            if (strstr(line, "tiledimage")) seen |= 256;
+            if (strstr(line, "occupancy, 16-bit floating-point")) seen |= 512;
+        }
+        int rc = pclose(p);
+        CHECK_MSG(rc != -1 && WIFEXITED(rc) && WEXITSTATUS(rc) == 0, "exrheader exit status %d", rc);
+        CHECK_MSG(seen == 1023, "exrheader output misses attributes (mask %#x)", seen);
+        unlink(path);
+    }
+}
+
+static void test_unwritable(void)
+{
+    clvox_grid g = make_grid(4, 4, 4);
+    clvox__exr_writer *w = (clvox__exr_writer *)&w; /* must be reset to NULL */
+    char path[2048];
+
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, "/proc/x.exr", &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w),
+                 CLVOX_ERR_IO);
+    CHECK(w == NULL);
+    CHECK(strstr(clvox_context_error(ctx), "/proc/x.exr") != NULL);
+    CHECK(strchr(clvox_context_error(ctx), '\n') == NULL);
+    CHECK(!exists("/proc/x.exr"));
+
+    snprintf(path, sizeof path, "%s/no/such/dir/x.exr", dir);
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w), CLVOX_ERR_IO);
+    CHECK(strstr(clvox_context_error(ctx), path) != NULL);
+    CHECK(!exists(path));
+
+    /* a directory as the output */
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, dir, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w), CLVOX_ERR_IO);
+
+    /* a read-only directory (root ignores permissions: skip then) */
+    char ro[1100];
+    snprintf(ro, sizeof ro, "%s/readonly", dir);
+    mkdir(ro, 0755);
+    chmod(ro, 0555);
+    snprintf(path, sizeof path, "%s/x.exr", ro);
+    if (access(ro, W_OK) == 0) {
+        printf("skip: read-only directory check (running as root)\n");
+    } else {
+        CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w),
+                     CLVOX_ERR_IO);
+        CHECK(!exists(path));
+    }
+    chmod(ro, 0755);
+    rmdir(ro);
+
+    /* bad arguments */
+    snprintf(path, sizeof path, "%s/bad.exr", dir);
+    clvox_grid empty = make_grid(0, 4, 4);
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &empty, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w),
+                 CLVOX_ERR_GRID);
+    clvox_grid tall = make_grid(4, 65536, 65536);
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &tall, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w),
+                 CLVOX_ERR_GRID);
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_COUNT, 1, &w),
+                 CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(!exists(path) && temp_files(path) == 0);
+}
+
+static void test_abort_and_incomplete(void)
+{
+    clvox_grid g = make_grid(6, 5, 4);
+    uint16_t slab[6 * 5 * 4];
+    for (size_t i = 0; i < sizeof slab / sizeof slab[0]; i++) slab[i] = (i % 3) ? 0x3C00 : 0;
+    char path[2048];
+    snprintf(path, sizeof path, "%s/abort.exr", dir);
+    unlink(path);
+    for (uint32_t threads = 1; threads <= 2; threads++) {
+        /* abort after some slices */
+        clvox__exr_writer *w = NULL;
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, threads, &w));
+        CHECK(!exists(path));          /* not renamed while writing */
+        CHECK(temp_files(path) == 1);  /* the temporary file exists */
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 2, slab));
+        CHECK(!exists(path));
+        clvox__exr_abort(w);
+        CHECK(!exists(path));
+        CHECK(temp_files(path) == 0);
+
+        /* finish with missing slices */
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_ZIP, threads, &w));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 3, slab));
+        uint64_t bytes = 123;
+        clvox_status st = clvox__exr_finish(w, &bytes);
+        CHECK(st != CLVOX_OK);
+        CHECK(strstr(clvox_context_error(ctx), "3 of 4") != NULL);
+        CHECK(bytes == 0);
+        CHECK(!exists(path) && temp_files(path) == 0);
+
+        /* no slice at all */
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_NONE, threads, &w));
+        CHECK(clvox__exr_finish(w, NULL) != CLVOX_OK);
+        CHECK(!exists(path) && temp_files(path) == 0);
+
+        /* slices out of order: error, then finish fails, nothing left */
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, threads, &w));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, slab));
+        CHECK(clvox__exr_write_slab(w, 2, 1, slab) != CLVOX_OK);  /* gap */
+        CHECK(clvox__exr_write_slab(w, 1, 3, slab) != CLVOX_OK);  /* writer has failed */
+        CHECK(clvox__exr_finish(w, NULL) != CLVOX_OK);
+        CHECK(!exists(path) && temp_files(path) == 0);
+
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, threads, &w));
+        CHECK(clvox__exr_write_slab(w, 0, 5, slab) != CLVOX_OK);  /* past Z */
+        clvox__exr_abort(w);
+        CHECK(!exists(path) && temp_files(path) == 0);
+    }
+    clvox__exr_abort(NULL); /* NULL-safe */
+
+    /* an existing file is replaced only by finish */
+    FILE *f = fopen(path, "w");
+    CHECK(f != NULL);
+    if (f) {
+        fputs("old", f);
+        fclose(f);
+    }
+    clvox__exr_writer *w = NULL;
+    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, 2, &w));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 4, slab));
+    CHECK(file_size(path) == 3);
+    clvox__exr_abort(w);
+    CHECK(file_size(path) == 3); /* abort keeps the old file */
+    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, 2, &w));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, slab));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 1, 3, slab + 6 * 5));
+    CHECK(file_size(path) == 3);
+    uint64_t bytes = 0;
+    CHECK_OK(ctx, clvox__exr_finish(w, &bytes));
+    CHECK((long long)bytes == file_size(path) && bytes > 3);
+    CHECK(temp_files(path) == 0);
+    clvox_volume_info info;
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    CHECK(info.filled_voxels == 80); /* 2 of every 3 of 120 */
+    unlink(path);
+}
+
+/* An EXR written with OpenEXRCore directly: X x (Y*Z) pixels of vol,
+ * scanline (tile_w == 0) or tiled, with or without the clvox attributes. */
+static void write_foreign_exr(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const uint16_t *half,
+                              int tile_w, int tile_h, exr_compression_t comp, int attributes)
+{
+    exr_context_t e = NULL;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    int part = 0, H = (int)(Y * Z);
+    CHECK(exr_start_write(&e, path, EXR_WRITE_FILE_DIRECTLY, &init) == EXR_ERR_SUCCESS);
+    CHECK(exr_add_part(e, NULL, tile_w ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part) == EXR_ERR_SUCCESS);
+    CHECK(exr_initialize_required_attr_simple(e, part, (int)X, H, comp) == EXR_ERR_SUCCESS);
+    if (tile_w)
+        CHECK(exr_set_tile_descriptor(e, part, (uint32_t)tile_w, (uint32_t)tile_h, EXR_TILE_ONE_LEVEL,
+                                      EXR_TILE_ROUND_DOWN) == EXR_ERR_SUCCESS);
+    CHECK(exr_add_channel(e, part, "a_other", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LINEAR, 1, 1) == EXR_ERR_SUCCESS);
+    CHECK(exr_add_channel(e, part, "occupancy", EXR_PIXEL_HALF, EXR_PERCEPTUALLY_LINEAR, 1, 1) == EXR_ERR_SUCCESS);
+    if (attributes) {
+        exr_attr_v3i_t d = { .arr = { (int32_t)X, (int32_t)Y, (int32_t)Z } };
+        exr_attr_v3d_t o = { .arr = { 1, 2, 3 } }, h = { .arr = { 0.25, 0.25, 0.25 } };
+        exr_attr_set_v3i(e, part, "clvoxDims", &d);
+        exr_attr_set_v3d(e, part, "clvoxOrigin", &o);
+        exr_attr_set_v3d(e, part, "clvoxVoxelSize", &h);
+        exr_attr_set_string(e, part, "clvoxMethod", "tetra");
+        exr_attr_set_string(e, part, "clvoxParameters", "");
+        exr_attr_set_string(e, part, "clvoxVersion", "9.9.9");
+    }
+    CHECK(exr_write_header(e) == EXR_ERR_SUCCESS);
+    float *other = calloc((size_t)X * H, sizeof(float));
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    int first = 1;
+    int32_t lpc = 1;
+    if (!tile_w) exr_get_scanlines_per_chunk(e, part, &lpc);
+    int step_y = tile_w ? tile_h : lpc, step_x = tile_w ? tile_w : (int)X;
+    for (int y0 = 0; y0 < H; y0 += step_y)
+        for (int x0 = 0; x0 < (int)X; x0 += step_x) {
+            exr_chunk_info_t ci;
+            exr_result_t rv = tile_w ? exr_write_tile_chunk_info(e, part, x0 / tile_w, y0 / tile_h, 0, 0, &ci)
+                                     : exr_write_scanline_chunk_info(e, part, y0, &ci);
+            CHECK(rv == EXR_ERR_SUCCESS);
+            rv = first ? exr_encoding_initialize(e, part, &ci, &enc) : exr_encoding_update(e, part, &ci, &enc);
+            CHECK(rv == EXR_ERR_SUCCESS);
+            for (int c = 0; c < enc.channel_count; c++) {
+                exr_coding_channel_info_t *ch = &enc.channels[c];
+                int is_occ = strcmp(ch->channel_name, "occupancy") == 0;
+                size_t b = is_occ ? 2 : 4;
+                ch->encode_from_ptr = is_occ ? (const uint8_t *)(half + (size_t)y0 * X + x0)
+                                             : (const uint8_t *)(other + (size_t)y0 * X + x0);
+                ch->user_pixel_stride = (int32_t)b;
+                ch->user_line_stride = (int32_t)(X * b);
+                ch->user_bytes_per_element = (int16_t)b;
+                ch->user_data_type = is_occ ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
+            }
+            if (first) CHECK(exr_encoding_choose_default_routines(e, part, &enc) == EXR_ERR_SUCCESS);
+            first = 0;
+            CHECK(exr_encoding_run(e, part, &enc) == EXR_ERR_SUCCESS);
+        }
+    exr_encoding_destroy(e, &enc);
+    CHECK(exr_finish(&e) == EXR_ERR_SUCCESS);
+    free(other);
+}
+
+/* The reader takes any single-level layout, other channels, and counts
+ * exactly the samples > 0.5. */
+static void test_reader_layouts(void)
+{
+    const uint32_t X = 13, Y = 7, Z = 5;
+    const size_t n = (size_t)X * Y * Z;
+    static const uint16_t special[] = { 0x0000, 0x3800 /* 0.5 */, 0x3801, 0x3C00, 0x7C00 /* +inf */,
+                                        0x7C01 /* NaN */, 0x7E00 /* NaN */, 0xBC00 /* -1 */, 0x8000 /* -0 */,
+                                        0x0001, 0x7BFF /* 65504 */, 0x37FF };
+    static const uint8_t expect[] = { 0, 0, 1, 1, 1, 0, 0, 0, 0, 0, 1, 0 };
+    uint16_t half[13 * 7 * 5];
+    uint8_t want[13 * 7 * 5], back[13 * 7 * 5];
+    uint64_t filled = 0;
+    for (size_t i = 0; i < n; i++) {
+        size_t k = rnd() % (sizeof special / sizeof special[0]);
+        half[i] = special[k];
+        want[i] = expect[k];
+        filled += expect[k];
+    }
+    char path[2048];
+    clvox_volume_info info;
+    static const struct { int tw, th; exr_compression_t c; } layouts[] = {
+        { 0, 0, EXR_COMPRESSION_NONE }, { 0, 0, EXR_COMPRESSION_ZIP }, { 0, 0, EXR_COMPRESSION_PIZ },
+        { 4, 4, EXR_COMPRESSION_RLE },  { 13, 7, EXR_COMPRESSION_ZIPS }, { 5, 35, EXR_COMPRESSION_NONE },
+        { 64, 64, EXR_COMPRESSION_PIZ },
+    };
+    snprintf(path, sizeof path, "%s/foreign.exr", dir);
+    for (size_t l = 0; l < sizeof layouts / sizeof layouts[0]; l++) {
+        write_foreign_exr(path, X, Y, Z, half, layouts[l].tw, layouts[l].th, layouts[l].c, 1);
+        memset(back, 7, sizeof back);
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, sizeof back));
+        CHECK_MSG(info.filled_voxels == filled, "layout %zu: filled %llu, expected %llu", l,
+                  (unsigned long long)info.filled_voxels, (unsigned long long)filled);
+        CHECK_MSG(memcmp(back, want, n) == 0, "layout %zu: voxels differ", l);
+        CHECK(strcmp(info.channels, "a_other,occupancy") == 0);
+        CHECK(strcmp(info.method, "tetra") == 0 && strcmp(info.version, "9.9.9") == 0);
+        CHECK(info.parameters[0] == '\0');
+        CHECK(info.origin[2] == 3 && info.voxel_size[0] == 0.25);
+    }
+    /* the same values through clvox's writer */
+    clvox_grid g = make_grid(X, Y, Z);
+    clvox__exr_writer *w = NULL;
+    for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, (clvox_compression)c, 2, &w));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, Z, half));
+        CHECK_OK(ctx, clvox__exr_finish(w, NULL));
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, sizeof back));
+        CHECK(info.filled_voxels == filled && memcmp(back, want, n) == 0);
+    }
+    /* without the attributes: not a clvox volume */
+    write_foreign_exr(path, X, Y, Z, half, 0, 0, EXR_COMPRESSION_NONE, 0);
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, path, &info, NULL, 0), CLVOX_ERR_EXR);
+    CHECK(strstr(clvox_context_error(ctx), "not a clvox volume") != NULL);
+    unlink(path);
+}
+
+static void test_reader_rejects(void)
+{
+    char path[2048];
+    clvox_volume_info info;
+
+    snprintf(path, sizeof path, "%s/missing.exr", dir);
+    unlink(path);
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, path, &info, NULL, 0), CLVOX_ERR_IO);
+    CHECK(strstr(clvox_context_error(ctx), path) != NULL);
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, dir, &info, NULL, 0), CLVOX_ERR_IO);
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, NULL, &info, NULL, 0), CLVOX_ERR_INVALID_ARGUMENT);
+
+    snprintf(path, sizeof path, "%s/text.exr", dir);
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs("this is not an EXR file\n", f);
+        fclose(f);
+    }
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, path, &info, NULL, 0), CLVOX_ERR_EXR);
+    unlink(path);
+
+    /* buffer too small; truncated file */
+    const uint32_t X = 20, Y = 10, Z = 30;
+    uint8_t vol[20 * 10 * 30], back[20 * 10 * 30];
+    fill_random(vol, sizeof vol);
+    clvox_grid g = make_grid(X, Y, Z);
+    static const uint32_t depths[] = { 8 };
+    snprintf(path, sizeof path, "%s/small.exr", dir);
+    CHECK_OK(ctx, write_volume(path, &g, CLVOX_COMPRESSION_NONE, 1, vol, depths, 1, NULL));
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, path, &info, back, sizeof back - 1), CLVOX_ERR_INVALID_ARGUMENT);
+    long long size = file_size(path);
+    CHECK(size > 0 && truncate(path, size * 2 / 3) == 0);
+    CHECK(clvox_volume_read(ctx, path, &info, back, sizeof back) != CLVOX_OK);
+    CHECK(strchr(clvox_context_error(ctx), '\n') == NULL);
+    unlink(path);
+}
+
+static long vm_hwm_kb(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    long kb = -1;
+    if (!f) return -1;
+    while (fgets(line, sizeof line, f))
+        if (sscanf(line, "VmHWM: %ld kB", &kb) == 1) break;
+    fclose(f);
+    return kb;
+}
+
+/* Streams a 256x256xZ sphere in slabs of 16 slices. */
+static clvox_status stream_sphere(const char *path, uint32_t Z, uint16_t *slab)
+{
+    const uint32_t X = 256, Y = 256, NZ = 16;
+    clvox_grid g = make_grid(X, Y, Z);
+    clvox__exr_writer *w = NULL;
+    clvox_status st = clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 2, &w);
+    if (st != CLVOX_OK) return st;
+    for (uint32_t z0 = 0; z0 < Z; z0 += NZ) {
+        for (uint32_t k = 0; k < NZ; k++)
+            for (uint32_t y = 0; y < Y; y++)
+                for (uint32_t x = 0; x < X; x++) {
+                    double dx = x - 128.0, dy = y - 128.0, dz = ((z0 + k) % 256) - 128.0;
+                    slab[((size_t)k * Y + y) * X + x] = dx * dx + dy * dy + dz * dz < 100.0 * 100.0 ? 0x3C00 : 0;
+                }
+        st = clvox__exr_write_slab(w, z0, NZ, slab);
+        if (st != CLVOX_OK) {
+            clvox__exr_abort(w);
+            return st;
+        }
+    }
+    return clvox__exr_finish(w, NULL);
+}
+
+/* Peak memory must not grow with the number of slices: writing (and then
+ * reading) 4096 slices may use at most BOUND_KB more than 64 slices (the
+ * offset table is 8 bytes per slice, 32 KiB here). Runs in a child process
+ * so that the other tests' allocations do not hide the growth. */
+#define BOUND_KB 2048L
+static void test_peak_memory(void)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/mem.exr", dir);
+    int fds[2];
+    if (pipe(fds) != 0) {
+        CHECK(!"pipe");
+        return;
+    }
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid == 0) {
+        long r[4] = { -1, -1, -1, -1 };
+        uint16_t *slab = malloc((size_t)256 * 256 * 16 * 2);
+        clvox_volume_info info;
+        if (slab && stream_sphere(path, 64, slab) == CLVOX_OK && stream_sphere(path, 64, slab) == CLVOX_OK &&
+            clvox_volume_read(ctx, path, &info, NULL, 0) == CLVOX_OK) {
+            r[0] = vm_hwm_kb();
+            if (stream_sphere(path, 4096, slab) == CLVOX_OK) r[1] = vm_hwm_kb();
+            if (clvox_volume_read(ctx, path, &info, NULL, 0) == CLVOX_OK && info.dims[2] == 4096)
+                r[2] = vm_hwm_kb();
+            r[3] = (long)info.filled_voxels;
+        }
+        free(slab);
+        ssize_t wr = write(fds[1], r, sizeof r);
+        _exit(wr == (ssize_t)sizeof r ? 0 : 1);
+    }
+    close(fds[1]);
+    long r[4] = { -1, -1, -1, -1 };
+    ssize_t got = pid > 0 ? read(fds[0], r, sizeof r) : -1;
+    close(fds[0]);
+    int status = 0;
+    if (pid > 0) waitpid(pid, &status, 0);
+    CHECK(got == (ssize_t)sizeof r && r[0] > 0 && r[1] > 0 && r[2] > 0);
+    CHECK_MSG(r[1] - r[0] < BOUND_KB, "VmHWM grew by %ld kB writing 4096 slices instead of 64 (bound %ld kB)",
+              r[1] - r[0], BOUND_KB);
+    CHECK_MSG(r[2] - r[0] < BOUND_KB, "VmHWM grew by %ld kB reading 4096 slices (bound %ld kB)", r[2] - r[0],
+              BOUND_KB);
+    CHECK(r[3] > 0);
+    printf("peak memory: VmHWM %ld kB after 64 slices, %ld kB after writing 4096, %ld kB after reading them "
+           "(bound +%ld kB)\n", r[0], r[1], r[2], BOUND_KB);
+    unlink(path);
+}
+
+int main(void)
+{
+    clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
+    o.host_only = 1;
+    clvox_status st = clvox_context_create(&o, &ctx);
+    if (st != CLVOX_OK) {
+        fprintf(stderr, "host-only context: %s\n", clvox_context_error(ctx));
+        printf("0 passed, 1 failed\n");
+        return 1;
+    }
+    snprintf(dir, sizeof dir, "%s/exr", test_tmpdir());
+    mkdir(dir, 0777);
+
+    test_round_trips();
+    test_row_chunks();
+    test_threads_identical();
+    test_exrheader();
+    test_unwritable();
+    test_abort_and_incomplete();
+    test_reader_rejects();
+    test_reader_layouts();
+    test_peak_memory();
+
+    rmdir(dir);
+    clvox_context_destroy(ctx);
+    return test_report();
+}

@@ -237,6 +237,29 @@ static clvox_status check_coord(clvox_context *ctx, const char *path, const tok 
 
 /* ---- OBJ ------------------------------------------------------------------------ */
 
+/* OpenMesh opens "mtllib <rest of line>" relative to the OBJ's directory; a
+ * FIFO there blocks it forever, a device never ends. */
+static clvox_status check_mtllib(clvox_context *ctx, const char *path, text *t)
+{
+    const char *s = t->p, *e = memchr(t->p, '\n', (size_t)(t->end - t->p));
+    if (!e) e = t->end;
+    while (s < e && is_space(*s)) s++;
+    while (e > s && is_space(e[-1])) e--;
+    const char *slash = strrchr(path, '/');
+    size_t dir_len = slash ? (size_t)(slash + 1 - path) : 0;
+    char full[4096];
+    if (s == e || dir_len + (size_t)(e - s) + 3 > sizeof full) return CLVOX_OK;
+    if (slash) memcpy(full, path, dir_len);
+    else memcpy(full, "./", 2), dir_len = 2;
+    memcpy(full + dir_len, s, (size_t)(e - s));
+    full[dir_len + (size_t)(e - s)] = 0;
+    struct stat sb;
+    if (stat(full, &sb) == 0 && !S_ISREG(sb.st_mode))
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': material library '%s' (line %llu) is not a regular file",
+                           path, full, (unsigned long long)t->line);
+    return CLVOX_OK;
+}
+
 static clvox_status check_obj(clvox_context *ctx, const char *path, const char *p, size_t n, expect *ex)
 {
     clvox_status st = check_text(ctx, path, p, n, "OBJ");
@@ -245,7 +268,9 @@ static clvox_status check_obj(clvox_context *ctx, const char *path, const char *
     uint64_t vertices = 0;
     tok k;
     while (t.p < t.end) {
-        if (tok_line(&t, &k) && tok_is(&k, "v")) {
+        int have = tok_line(&t, &k);
+        if (have && tok_is(&k, "mtllib") && (st = check_mtllib(ctx, path, &t))) return st;
+        if (have && tok_is(&k, "v")) {
             for (int c = 0; c < 3; c++) {
                 if (!tok_line(&t, &k))
                     return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
@@ -576,6 +601,8 @@ static clvox_status ply_parse_header(clvox_context *ctx, const char *path, const
                                path);
         }
         if (!tok_line(&t, &k)) return BAD_LINE("empty line");
+        if (!have_format && !tok_is(&k, "format")) /* OpenMesh wants it on line 2 */
+            return BAD_LINE("the second line must be the format line");
         if (tok_is(&k, "comment") || tok_is(&k, "obj_info")) {
             skip_line(&t);
             continue;
@@ -605,7 +632,6 @@ static clvox_status ply_parse_header(clvox_context *ctx, const char *path, const
             have_format = 1;
         } else if (tok_is(&a[0], "element")) {
             int64_t count;
-            if (!have_format) return BAD_LINE("element before the format line");
             if (na != 3) return BAD_LINE("expected 'element <name> <count>'");
             if (h->nelems == PLY_MAX_ELEMENTS) return BAD_LINE("too many elements");
             if (!parse_int(&a[2], &count) || count < 0 || count > (int64_t)UINT32_MAX || a[2].s[0] == '+')
@@ -648,7 +674,6 @@ static clvox_status ply_parse_header(clvox_context *ctx, const char *path, const
         skip_line(&t);
     }
 #undef BAD_LINE
-    if (!have_format) return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY header has no format line", path);
     if (h->vertex < 0) return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY file has no vertex element", path);
     if (h->face >= 0 && h->face < h->vertex)
         return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY face element comes before the vertex element", path);
@@ -674,6 +699,13 @@ static clvox_status ply_parse_header(clvox_context *ctx, const char *path, const
             if (is_index_list(pr->name) && pr->type->is_float)
                 return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY face indices must have an integer type", path);
         }
+    }
+    if (h->face >= 0) {
+        const ply_elem *fe = &h->elems[h->face];
+        int found = 0;
+        for (int q = 0; q < fe->nprops; q++) found |= is_index_list(fe->props[q].name);
+        if (!found && fe->count)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': PLY face element has no vertex_indices list", path);
     }
     const ply_elem *ve = &h->elems[h->vertex];
     static const char *const axes[3] = {"x", "y", "z"};

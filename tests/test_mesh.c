@@ -2,6 +2,7 @@
  * OpenMesh mishandles (hangs, throws, silent garbage), written at test time. */
 #include "test.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -405,6 +406,7 @@ static void fill_random(unsigned char *p, size_t n, uint64_t seed)
 
 static void test_bad_files(void)
 {
+    clvox_mesh *m = NULL;
     /* Paths that are not files. */
     expect_bad(path_of("does_not_exist.obj"), CLVOX_ERR_IO, "missing file", "does_not_exist.obj");
     mkdir(path_of("a_dir"), 0777);
@@ -546,6 +548,13 @@ static void test_bad_files(void)
         snprintf(name, sizeof name, "nonfinite_%zu.stl", i);
         expect_bad(write_text(name, text), CLVOX_ERR_MESH_INVALID, name, "line 6");
     }
+    /* OpenMesh opens the material library: a FIFO would block it forever. */
+    if (mkfifo(path_of("fifo.mtl"), 0666) == 0 || errno == EEXIST)
+        expect_bad(write_text("fifo_mtl.obj", "mtllib fifo.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+                   CLVOX_ERR_MESH_FORMAT, "obj with a FIFO as material library", "material");
+    CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("missing_mtl.obj", "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+                                  &m));
+    clvox_mesh_destroy(m);
     expect_bad(write_text("short_v.obj", "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), CLVOX_ERR_MESH_FORMAT,
                "obj vertex with 2 coordinates", "line 1");
     expect_bad(write_text("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), CLVOX_ERR_MESH_INVALID,
@@ -582,7 +591,7 @@ static void test_bad_files(void)
         expect_bad(write_text(name, offs[i].text), offs[i].want, name, offs[i].needle);
     }
     /* COFF with colours is fine. */
-    clvox_mesh *m = NULL;
+    m = NULL;
     CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("tetra.coff.off", "COFF\n4 4 6\n0 0 0 255 0 0 255\n2 0 0 0 255 0 255\n"
                                                                     "0 3 0 0 0 255 255\n0 0 4 9 9 9 255\n"
                                                                     "3 0 2 1 1 2 3\n3 0 1 3 1 2 3\n3 1 2 3\n3 0 3 2 0.5 0.5 0.5\n"),

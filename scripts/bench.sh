@@ -115,11 +115,12 @@ run_one() {
     END {
       while ((getline line < timefile) > 0) {
         if (line ~ /Maximum resident set size/) { sub(/.*: */, "", line); rss = line / 1024 }
+        if (line ~ /(User|System) time \(seconds\)/) { sub(/.*: */, "", line); cpu += line }
       }
       printf "%s\t%s", (tri == "" ? "?" : tri), (g == "" ? "?" : g)
       split("load setup partition cast classify write total", w, " ")
       for (i = 1; i <= 7; i++) printf "\t%s", ((w[i] in t) ? t[w[i]] : "-")
-      printf "\t%.3f\t%.0f\t%.1f\t%s\n", t1 - t0, rss, bytes / 1e6, (filled == "" ? "?" : filled)
+      printf "\t%.3f\t%.0f\t%.1f\t%s\t%.2f\n", t1 - t0, rss, bytes / 1e6, (filled == "" ? "?" : filled), cpu
     }' "$tmp/stdout.txt"
 }
 
@@ -179,13 +180,14 @@ report="$outdir/results.md"
   echo "setup = OpenCL context + kernels (from PoCL's cache), total = the clvox_voxelize call"
   echo "(partition + cast + classify + write; stages overlap when slabs are streamed)."
   echo "process = wall time of the whole clvox process (start to exit, output written and"
-  echo "closed); peak RSS from /usr/bin/time -v. The best process time of the runs is shown."
+  echo "closed); CPU s = its user + system time (all threads); peak RSS from /usr/bin/time -v."
+  echo "The run with the best process time is shown."
   echo
-  echo "| mesh | triangles | N | grid | method | load | setup | partition | cast | classify | write | total | process | peak RSS MB | output MB | filled voxels |"
-  echo "|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-  awk -F '\t' '$4 == "FAILED" { printf "| %s | | %s | | %s | failed |||||||||||\n", $1, $2, $3; next }
-    { printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",
-        $1, $4, $2, $5, $3, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16 }' "$results"
+  echo "| mesh | triangles | N | grid | method | load | setup | partition | cast | classify | write | total | process | CPU s | peak RSS MB | output MB | filled voxels |"
+  echo "|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+  awk -F '\t' '$4 == "FAILED" { printf "| %s | | %s | | %s | failed ||||||||||||\n", $1, $2, $3; next }
+    { printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",
+        $1, $4, $2, $5, $3, $6, $7, $8, $9, $10, $11, $12, $13, $17, $14, $15, $16 }' "$results"
   echo
   echo "Growth with N (armadillo.off, 52 k triangles): time(2N) / time(N); a stage that"
   echo "scales with the voxel count grows 8x, with the ray count (N^2) 4x."

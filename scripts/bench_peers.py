@@ -12,7 +12,9 @@ With --repeat R each case runs R times (R processes): the best time and the
 largest peak RSS are reported (timings on a shared 2-core VM vary by 30 %).
 "seconds" is wall time inside the child from opening the mesh file to a
 dense occupancy volume in memory (numpy uint8/bool, one byte per voxel);
-module import time is not counted, no file is written.
+module import time is not counted, no file is written. "CPU seconds" is
+user+system time of the process over the same interval: on a loaded machine
+it is the steadier figure (for 1-thread VTK it is the uncontended time).
 
 Grid: the same as clvox -r N: h = longest bounding-box extent / N, origin =
 bbox min, ceil(extent / h) voxels (at least 1) on the other axes, voxel
@@ -209,9 +211,12 @@ def child(peer, path, n):
     else:
         import pyopenvdb  # noqa: F401
     import numpy  # noqa: F401
+    r0 = resource.getrusage(resource.RUSAGE_SELF)
     secs, ntri, dims, filled = fn(path, n)
+    r1 = resource.getrusage(resource.RUSAGE_SELF)
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     rss_mb = peak_rss_mb()
-    print("RESULT %s %d %s %.3f %.0f %d" % (peer, ntri, "x".join(map(str, dims)), secs, rss_mb, filled))
+    print("RESULT %s %d %s %.3f %.0f %d %.3f" % (peer, ntri, "x".join(map(str, dims)), secs, rss_mb, filled, cpu))
 
 
 def main(argv):
@@ -256,12 +261,12 @@ def main(argv):
         except OSError:
             return "?"
     load_before = loadavg()
-    print("| peer | mesh | triangles | N | grid | seconds | peak RSS MB | inside voxels |")
-    print("|---|---|---:|---:|---|---:|---:|---:|")
+    print("| peer | mesh | triangles | N | grid | seconds | CPU seconds | peak RSS MB | inside voxels |")
+    print("|---|---|---:|---:|---|---:|---:|---:|---:|")
     sys.stdout.flush()
     for path, n in cases:
         if not os.path.isfile(path):
-            print("| - | %s | missing (scripts/fetch_meshes.sh, scripts/bench.sh makes the _s2/_s3 PLYs) | %d |||||" % (path, n))
+            print("| - | %s | missing (scripts/fetch_meshes.sh, scripts/bench.sh makes the _s2/_s3 PLYs) | %d ||||||" % (path, n))
             continue
         for peer in PEERS:
             name = os.path.basename(path)
@@ -272,18 +277,18 @@ def main(argv):
                 line = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
                 if r.returncode != 0 or not line:
                     err = (r.stderr.strip().splitlines() or ["exit %d" % r.returncode])[-1]
-                    print("| %s | %s | | %d | | failed: %s | | |" % (peer, name, n, err[:80]))
+                    print("| %s | %s | | %d | | failed: %s | | | |" % (peer, name, n, err[:80]))
                     best = None
                     break
-                _, pr, ntri, dims, secs, rss, filled = line[0].split()
-                if best is None:
-                    best = [pr, ntri, dims, secs, rss, filled]
+                _, pr, ntri, dims, secs, rss, filled, cpu = line[0].split()
+                if best is None or float(secs) < float(best[3]):
+                    rss_max = rss if best is None else max(best[4], rss, key=float)
+                    best = [pr, ntri, dims, secs, rss_max, filled, cpu]
                 else:
-                    best[3] = min(best[3], secs, key=float)
                     best[4] = max(best[4], rss, key=float)
             if best:
-                pr, ntri, dims, secs, rss, filled = best
-                print("| %s | %s | %s | %d | %s | %s | %s | %s |" % (pr, name, ntri, n, dims, secs, rss, filled))
+                pr, ntri, dims, secs, rss, filled, cpu = best
+                print("| %s | %s | %s | %d | %s | %s | %s | %s | %s |" % (pr, name, ntri, n, dims, secs, cpu, rss, filled))
             sys.stdout.flush()
     print("\nLoad average before / after: %s / %s (%d cores)" % (load_before, loadavg(), os.cpu_count() or 0))
     return 0

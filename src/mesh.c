@@ -1,21 +1,24 @@
 /* Mesh stage: guarded loading, validation, fan triangulation and the report.
  *
- * Loading = check the file ourselves, then let OpenMesh read it
- * (mesh_openmesh.cpp), then cross-check what came back. OpenMesh 9.0 hangs,
- * throws or silently reads garbage on many bad inputs (NOTES-deps), so
- * nothing reaches it before the checks below say its reader will cope:
+ * Loading = check the file ourselves, let OpenMesh read it
+ * (mesh_openmesh.cpp), cross-check what came back. OpenMesh 9.0 hangs,
+ * throws, aborts or silently reads garbage on many bad inputs (NOTES-deps),
+ * so nothing reaches it before the checks below say its reader will cope:
  *   - a regular, non-empty file with a known extension;
  *   - PLY: the header is parsed here (bounded, strict); binary bodies are
  *     walked record by record so a truncated file is caught; ASCII bodies are
  *     scanned token by token exactly as OpenMesh's reader consumes them;
- *   - OFF: ASCII files are parsed here (OpenMesh's reader supports no
- *     comments, wants the counts on the second line and misreads face colours
- *     without a COFF header); binary ones are walked face by face;
+ *   - OFF: ASCII files are parsed here, not by OpenMesh (its reader supports
+ *     no comments, wants the counts on the second line and misreads face
+ *     colours without a COFF header); binary ones are walked face by face;
  *   - OBJ and ASCII STL: every vertex line must hold three finite numbers
- *     (OpenMesh drops a "v nan 0 0" line and shifts every later index);
+ *     (OpenMesh drops a "v nan 0 0" line and shifts every later index); an
+ *     OBJ's material library must be a regular file if it exists (a FIFO
+ *     blocks OpenMesh); an ASCII STL must end with endsolid;
  *   - binary STL: the size must be exactly 84 + 50 n, coordinates finite;
  *     a file that is neither that nor a well-formed ASCII STL is rejected;
- *   - OM: magic, mesh type and counts against the file size.
+ *   - OM: the chunk sequence is walked as OpenMesh's reader consumes it (it
+ *     asserts on odd chunk headers and accepts a file cut at a chunk end).
  * Numbers are checked the way iostream's operator>> reads a float: the whole
  * token must be a decimal number within float range (it fails on nan, inf and
  * overflow, and a failed read desynchronises everything after it). The check

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 static clvox_context *ctx;
 static const double pi = 3.14159265358979323846;
@@ -820,6 +821,12 @@ int main(void)
     test_bad_files();
     test_bad_arrays();
     test_performance();
+
+    /* Leave no FIFO or directories behind in the scratch directory. */
+    remove(path_of("fifo.mtl"));
+    rmdir(path_of("a_dir"));
+    rmdir(path_of("dir.stl"));
+    rmdir(path_of("dir.ply"));
 
     clvox_context_destroy(ctx);
     return test_report();

@@ -107,7 +107,7 @@ typedef struct clvox_mesh_report {
     uint64_t triangles;           /* triangles kept                              */
     uint64_t dropped_faces;       /* repeated vertex index: no area, removed     */
     uint64_t degenerate_triangles;/* zero area (collinear corners), kept         */
-    uint64_t nonmanifold_faces;   /* faces the loader had to re-add (OpenMesh)   */
+    uint64_t nonmanifold_faces;   /* triangles on a "complex" (non-manifold) edge, kept */
     uint64_t boundary_edges;      /* edges used by an odd number of triangles    */
     int closed;                   /* 1 when boundary_edges == 0                  */
     double bbox_min[3], bbox_max[3];

@@ -915,7 +915,7 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
         used += (size_t)snprintf(extra + used, sizeof extra - used, ", %llu polygons fanned",
                                  (unsigned long long)r->polygons_triangulated);
     if (r->nonmanifold_faces && used < sizeof extra)
-        snprintf(extra + used, sizeof extra - used, ", %llu non-manifold faces re-added",
+        snprintf(extra + used, sizeof extra - used, ", %llu non-manifold faces",
                  (unsigned long long)r->nonmanifold_faces);
     char closed[64];
     if (r->closed) snprintf(closed, sizeof closed, "closed");

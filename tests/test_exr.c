@@ -10,6 +10,8 @@
 #include <errno.h>
 #include <stdint.h>
 #include <string.h>
+#include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -414,6 +416,46 @@ static void test_abort_and_incomplete(void)
     unlink(path);
 }
 
+/* A write error (here: the file size limit, as for a full disk) is
+ * CLVOX_ERR_IO, and leaves neither the file nor the temporary file. Runs in a
+ * child process because of setrlimit. */
+static void test_write_error(void)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/full.exr", dir);
+    unlink(path);
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid == 0) {
+        struct rlimit rl = { 64 * 1024, 64 * 1024 };
+        signal(SIGXFSZ, SIG_IGN);
+        if (setrlimit(RLIMIT_FSIZE, &rl) != 0) _exit(10);
+        const uint32_t X = 64, Y = 64, Z = 64;
+        uint8_t *vol = malloc((size_t)X * Y * Z);
+        if (!vol) _exit(11);
+        fill_random(vol, (size_t)X * Y * Z);
+        clvox_grid g = make_grid(X, Y, Z);
+        static const uint32_t depths[] = { 5 };
+        int code = 0;
+        for (int c = 0; c < 2 && !code; c++) {
+            clvox_compression comp = c ? CLVOX_COMPRESSION_RLE : CLVOX_COMPRESSION_NONE;
+            clvox_status st = write_volume(path, &g, comp, 2, vol, depths, 1, NULL);
+            if (st != CLVOX_ERR_IO) code = 20 + (int)st;
+            else if (!strstr(clvox_context_error(ctx), "full.exr") || strchr(clvox_context_error(ctx), '\n'))
+                code = 12;
+            else if (exists(path) || temp_files(path) != 0) code = 13;
+            else if (c == 1) printf("write error reported as: %s\n", clvox_context_error(ctx));
+        }
+        free(vol);
+        fflush(stdout);
+        _exit(code);
+    }
+    int status = -1;
+    if (pid > 0) waitpid(pid, &status, 0);
+    CHECK_MSG(pid > 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0, "write error child: status %#x", status);
+    CHECK(!exists(path) && temp_files(path) == 0);
+}
+
 /* An EXR written with OpenEXRCore directly: X x (Y*Z) pixels of vol,
  * scanline (tile_w == 0) or tiled, with or without the clvox attributes. */
 static void write_foreign_exr(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const uint16_t *half,
@@ -663,7 +705,7 @@ int main(void)
         printf("0 passed, 1 failed\n");
         return 1;
     }
-    snprintf(dir, sizeof dir, "%s/exr", test_tmpdir());
+    snprintf(dir, sizeof dir, "%s/exr-%ld", test_tmpdir(), (long)getpid()); /* parallel runs do not collide */
     mkdir(dir, 0777);
 
     test_round_trips();
@@ -672,11 +714,12 @@ int main(void)
     test_exrheader();
     test_unwritable();
     test_abort_and_incomplete();
+    test_write_error();
     test_reader_rejects();
     test_reader_layouts();
     test_peak_memory();
 
-    rmdir(dir);
+    CHECK_MSG(rmdir(dir) == 0, "%s is not empty: a file was left behind", dir);
     clvox_context_destroy(ctx);
     return test_report();
 }

@@ -33,7 +33,10 @@ typedef struct clvox_ray {
     clvox_u32 pad;
 } clvox_ray;
 
-#ifndef __OPENCL_VERSION__
+#if defined(__cplusplus)
+static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
+static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
+#elif !defined(__OPENCL_VERSION__)
 _Static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
 _Static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
 #endif

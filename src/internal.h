@@ -10,6 +10,10 @@
 #include "clvox.h"
 #include "../kernels/clvox_types.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #if defined(__GNUC__)
 #define CLVOX__PRINTF(a, b) __attribute__((format(printf, a, b)))
 #else
@@ -161,4 +165,7 @@ clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes);
 /* Deletes the temporary file and frees w. NULL-safe. */
 void clvox__exr_abort(clvox__exr_writer *w);
 
+#ifdef __cplusplus
+}
+#endif
 #endif /* CLVOX_INTERNAL_H */

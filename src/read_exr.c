@@ -18,12 +18,21 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 typedef struct reader {
     clvox_context *ctx;
     const char *path;
     exr_context_t exr;
     char msg[512]; /* last OpenEXRCore message */
+    /* fast path (NONE, RLE): raw chunk layout, see fast_chunk */
+    int fast;
+    exr_compression_t compression;
+    uint32_t pixel_bytes, occ_offset; /* per pixel: all channels, channels before occupancy */
+    uint8_t *packed, *tmp, *raw;
+    size_t packed_size, tmp_size, raw_size;
 } reader;
 
 static void reader_error_handler(exr_const_context_t ectx, exr_result_t code, const char *msg)
@@ -122,6 +131,15 @@ static clvox_status read_header(reader *r, clvox_volume_info *info, const exr_at
                            r->path, info->channels);
     if ((*occ)->x_sampling != 1 || (*occ)->y_sampling != 1)
         return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': channel occupancy is subsampled", r->path);
+    r->compression = comp;
+    r->fast = comp == EXR_COMPRESSION_NONE || comp == EXR_COMPRESSION_RLE;
+    r->pixel_bytes = r->occ_offset = 0;
+    for (int c = 0; c < chl->num_channels; c++) {
+        const exr_attr_chlist_entry_t *e = &chl->entries[c];
+        if (e->x_sampling != 1 || e->y_sampling != 1) r->fast = 0; /* rows of differing sizes: library */
+        if (e == *occ) r->occ_offset = r->pixel_bytes;
+        r->pixel_bytes += e->pixel_type == EXR_PIXEL_HALF ? 2u : 4u;
+    }
 
     exr_attr_box2i_t dw;
     rv = exr_get_data_window(r->exr, 0, &dw);
@@ -146,14 +164,32 @@ static uint64_t consume_band(const uint8_t *band, int type, uint64_t X, uint64_t
     if (type == EXR_PIXEL_HALF) {
         /* half bits in (0x3800 = 0.5, 0x7C00 = +inf]: one unsigned range test */
         const uint16_t *v = (const uint16_t *)(const void *)band;
+        size_t i0 = 0;
+#ifdef __SSE2__
+        /* (v - 0x3801) <= 0x43FF unsigned, as a signed compare after flipping bit 15 */
+        const __m128i off = _mm_set1_epi16(0x3801), flip = _mm_set1_epi16((short)0x8000);
+        const __m128i lim = _mm_set1_epi16((short)(0x4400 ^ 0x8000)), one = _mm_set1_epi8(1);
+        for (; i0 + 16 <= n; i0 += 16) {
+            __m128i a = _mm_loadu_si128((const __m128i *)(const void *)(v + i0));
+            __m128i b = _mm_loadu_si128((const __m128i *)(const void *)(v + i0 + 8));
+            __m128i fa = _mm_cmplt_epi16(_mm_xor_si128(_mm_sub_epi16(a, off), flip), lim);
+            __m128i fb = _mm_cmplt_epi16(_mm_xor_si128(_mm_sub_epi16(b, off), flip), lim);
+            __m128i f = _mm_packs_epi16(fa, fb); /* 0xFF or 0 per voxel */
+            filled += (uint64_t)__builtin_popcount((unsigned)_mm_movemask_epi8(f));
+            if (out) _mm_storeu_si128((__m128i *)(void *)(out + i0), _mm_and_si128(f, one));
+        }
+#endif
+        v += i0;
+        if (out) out += i0;
+        const size_t rest = n - i0;
         if (out) {
-            for (size_t i = 0; i < n; i++) {
+            for (size_t i = 0; i < rest; i++) {
                 uint8_t f = (uint16_t)(v[i] - 0x3801u) <= 0x7C00u - 0x3801u;
                 out[i] = f;
                 filled += f;
             }
         } else {
-            for (size_t i = 0; i < n; i++) filled += (uint16_t)(v[i] - 0x3801u) <= 0x7C00u - 0x3801u;
+            for (size_t i = 0; i < rest; i++) filled += (uint16_t)(v[i] - 0x3801u) <= 0x7C00u - 0x3801u;
         }
     } else if (type == EXR_PIXEL_FLOAT) {
         const float *v = (const float *)(const void *)band;
@@ -173,11 +209,138 @@ static uint64_t consume_band(const uint8_t *band, int type, uint64_t X, uint64_t
     return filled;
 }
 
+static int grow(uint8_t **buf, size_t *size, size_t need)
+{
+    if (*size >= need) return 1;
+    uint8_t *p = realloc(*buf, need ? need : 1);
+    if (!p) return 0;
+    *buf = p;
+    *size = need;
+    return 1;
+}
+
+/* ---- fast path for the two layouts clvox writes quickly: NONE and RLE ----
+ * (OpenEXRCore 3.1.5's RLE decoder takes most of the reading time otherwise.)
+ * RLE format: see write_exr.c. */
+
+/* Expands RLE tokens; 0 when they fill exactly out[0..n). */
+static int rle_expand(uint8_t *restrict out, size_t n, const uint8_t *restrict in, size_t len)
+{
+    size_t i = 0, o = 0;
+    while (i < len) {
+        int c = (int8_t)in[i++];
+        if (c < 0) {
+            size_t k = (size_t)-c;
+            if (k > len - i || k > n - o) return -1;
+            memcpy(out + o, in + i, k);
+            i += k;
+            o += k;
+        } else {
+            size_t k = (size_t)c + 1;
+            if (i >= len || k > n - o) return -1;
+            memset(out + o, in[i++], k);
+            o += k;
+        }
+    }
+    return o == n ? 0 : -1;
+}
+
+/* Undoes the delta (in place in t) and the even/odd split (into out). */
+static void rle_reconstruct(uint8_t *restrict out, uint8_t *restrict t, size_t n)
+{
+    if (n == 0) return;
+    size_t i = 0;
+    uint8_t prev = 0;
+    t[0] = (uint8_t)(t[0] + 128); /* the first byte is not a delta: make the loop below leave it */
+#ifdef __SSE2__
+    const __m128i bias = _mm_set1_epi8((char)0x80);
+    __m128i carry = _mm_setzero_si128();
+    for (; i + 16 <= n; i += 16) {
+        __m128i d = _mm_sub_epi8(_mm_loadu_si128((const __m128i *)(const void *)(t + i)), bias);
+        d = _mm_add_epi8(d, _mm_slli_si128(d, 1)); /* prefix sum in 4 steps */
+        d = _mm_add_epi8(d, _mm_slli_si128(d, 2));
+        d = _mm_add_epi8(d, _mm_slli_si128(d, 4));
+        d = _mm_add_epi8(d, _mm_slli_si128(d, 8));
+        /* byte 15 of the local sums in every lane: off the carry chain, since
+         * broadcast(local + carry) = broadcast(local) + carry */
+        __m128i last = _mm_shufflehi_epi16(d, 0xFF);                   /* word 7 in words 4-7 */
+        last = _mm_srli_epi16(_mm_unpackhi_epi64(last, last), 8);        /* byte 15 in every word */
+        last = _mm_or_si128(last, _mm_slli_epi16(last, 8));              /* ... and every byte */
+        _mm_storeu_si128((__m128i *)(void *)(t + i), _mm_add_epi8(d, carry));
+        carry = _mm_add_epi8(carry, last);
+    }
+    prev = (uint8_t)(_mm_cvtsi128_si32(carry) & 0xFF);
+#endif
+    for (; i < n; i++) {
+        prev = (uint8_t)(prev + t[i] - 128);
+        t[i] = prev;
+    }
+    const size_t h = (n + 1) / 2, pairs = n / 2;
+    size_t k = 0;
+#ifdef __SSE2__
+    for (; k + 16 <= pairs; k += 16) {
+        __m128i e = _mm_loadu_si128((const __m128i *)(const void *)(t + k));
+        __m128i o = _mm_loadu_si128((const __m128i *)(const void *)(t + h + k));
+        _mm_storeu_si128((__m128i *)(void *)(out + 2 * k), _mm_unpacklo_epi8(e, o));
+        _mm_storeu_si128((__m128i *)(void *)(out + 2 * k + 16), _mm_unpackhi_epi8(e, o));
+    }
+#endif
+    for (; k < pairs; k++) {
+        out[2 * k] = t[k];
+        out[2 * k + 1] = t[h + k];
+    }
+    if (n & 1) out[n - 1] = t[h - 1];
+}
+
+/* Reads a chunk and copies its occupancy samples (little-endian in the file)
+ * into dst (row stride X samples). */
+static clvox_status fast_chunk(reader *r, const exr_chunk_info_t *ci, uint8_t *dst, uint64_t X, uint32_t bytes)
+{
+    const uint64_t w = (uint64_t)ci->width, h = (uint64_t)ci->height;
+    const uint64_t n = w * h * r->pixel_bytes;
+    if (ci->unpacked_size != n || ci->packed_size == 0 || ci->packed_size > n || n > (uint64_t)SIZE_MAX / 2)
+        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': chunk %d has inconsistent sizes (%llu packed, %llu unpacked)",
+                           r->path, ci->idx, (unsigned long long)ci->packed_size,
+                           (unsigned long long)ci->unpacked_size);
+    if (!grow(&r->packed, &r->packed_size, (size_t)ci->packed_size))
+        return clvox__fail(r->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", r->path);
+    exr_result_t rv = exr_read_chunk(r->exr, 0, ci, r->packed);
+    if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "reading a chunk of");
+    const uint8_t *raw = r->packed;
+    if (ci->packed_size < n) { /* compressed; equal sizes mean stored raw */
+        if (r->compression != EXR_COMPRESSION_RLE) return CLVOX_ERR_INTERNAL;
+        if (!grow(&r->tmp, &r->tmp_size, (size_t)n) || !grow(&r->raw, &r->raw_size, (size_t)n))
+            return clvox__fail(r->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", r->path);
+        if (rle_expand(r->tmp, (size_t)n, r->packed, (size_t)ci->packed_size) != 0)
+            return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': chunk %d is corrupt (bad RLE data)", r->path, ci->idx);
+        rle_reconstruct(r->raw, r->tmp, (size_t)n);
+        raw = r->raw;
+    }
+    /* raw: per row, every channel in file order, ci->width samples each */
+    const size_t row_bytes = (size_t)(w * r->pixel_bytes), off = (size_t)(w * r->occ_offset);
+    const size_t len = (size_t)(w * bytes);
+    const uint16_t one = 1;
+    uint8_t little;
+    memcpy(&little, &one, 1);
+    for (uint64_t y = 0; y < h; y++) {
+        const uint8_t *src = raw + (size_t)y * row_bytes + off;
+        uint8_t *d = dst + (size_t)(y * X * bytes);
+        if (little) {
+            memcpy(d, src, len);
+        } else {
+            for (size_t i = 0; i < len; i += bytes)
+                for (size_t j = 0; j < bytes; j++) d[i + j] = src[i + bytes - 1 - j];
+        }
+    }
+    return CLVOX_OK;
+}
+
 /* Decodes one chunk's occupancy samples into the band (row stride X). */
 static clvox_status decode_chunk(reader *r, exr_decode_pipeline_t *dec, int *initialized,
                                  const exr_chunk_info_t *ci, uint8_t *dst, uint64_t X, uint32_t bytes, int type)
 {
     exr_result_t rv;
+    if (r->fast) return fast_chunk(r, ci, dst, X, bytes);
     if (!*initialized) {
         rv = exr_decoding_initialize(r->exr, 0, ci, dec);
         if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "starting to decode");
@@ -329,5 +492,8 @@ clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volum
     }
     if (st == CLVOX_OK) st = read_pixels(&r, info, occ, occupancy);
     exr_finish(&r.exr);
+    free(r.packed);
+    free(r.tmp);
+    free(r.raw);
     return st;
 }

@@ -288,70 +288,58 @@ static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row
 /* ---- RLE, written here for speed (format of OpenEXR's RLE compressor) ----
  * 1. Split the bytes: even-indexed bytes first, then odd-indexed ones.
  * 2. Delta: every byte but the first becomes (b[i] - b[i-1] + 128) mod 256.
- * 3. Runs: a count byte c >= 0 followed by one byte means c+1 copies of it
- *    (runs of 3..128 are encoded so); c < 0 is followed by -c literal bytes
- *    (at most 127).
+ * 3. Runs: a count byte c >= 0 followed by one byte means c+1 copies of it;
+ *    c < 0 is followed by -c literal bytes (at most 127).
  * Readers undo it with the library's decoder; the output need not match the
- * library's encoder byte for byte, only decode to the same data. Occupancy
- * turns into long runs of 0x80, found 8 bytes at a time. */
+ * library's encoder byte for byte, only decode to the same data. Steps 1-3
+ * run block by block on a small buffer that stays in L1, and the source is
+ * read once: the even and odd halves are encoded side by side into two
+ * outputs that are joined at the end. A run may be cut at a block edge (two
+ * tokens instead of one). Occupancy turns into long runs of 0x80, found 16
+ * bytes at a time. */
 
-static void rle_predict(uint8_t *restrict dst, const uint8_t *restrict src, size_t n)
-{
-    if (n == 0) return;
-    const size_t h = (n + 1) / 2, pairs = n / 2;
-    uint8_t *ev = dst, *od = dst + h; /* even-indexed bytes, then odd-indexed ones */
-    size_t k = 0;
-#ifdef __SSE2__
-    const __m128i low = _mm_set1_epi16(0x00FF), bias = _mm_set1_epi8((char)0x80);
-    __m128i pe = _mm_setzero_si128(), po = _mm_setzero_si128();
-    for (; k + 16 <= pairs; k += 16) {
-        __m128i a = _mm_loadu_si128((const __m128i *)(const void *)(src + 2 * k));
-        __m128i b = _mm_loadu_si128((const __m128i *)(const void *)(src + 2 * k + 16));
-        __m128i e = _mm_packus_epi16(_mm_and_si128(a, low), _mm_and_si128(b, low));
-        __m128i o = _mm_packus_epi16(_mm_srli_epi16(a, 8), _mm_srli_epi16(b, 8));
-        __m128i e1 = _mm_or_si128(_mm_slli_si128(e, 1), _mm_srli_si128(pe, 15)); /* previous bytes */
-        __m128i o1 = _mm_or_si128(_mm_slli_si128(o, 1), _mm_srli_si128(po, 15));
-        _mm_storeu_si128((__m128i *)(void *)(ev + k), _mm_add_epi8(_mm_sub_epi8(e, e1), bias));
-        _mm_storeu_si128((__m128i *)(void *)(od + k), _mm_add_epi8(_mm_sub_epi8(o, o1), bias));
-        pe = e;
-        po = o;
-    }
-#endif
-    for (k = k ? k : 1; k < pairs; k++) {
-        ev[k] = (uint8_t)(src[2 * k] - src[2 * k - 2] + 128);
-        od[k] = (uint8_t)(src[2 * k + 1] - src[2 * k - 1] + 128);
-    }
-    if ((n & 1) && n >= 3) ev[h - 1] = (uint8_t)(src[n - 1] - src[n - 3] + 128);
-    ev[0] = src[0]; /* the first byte stays; the first odd byte follows the last even one */
-    if (n > 1) od[0] = (uint8_t)(src[1] - src[2 * (h - 1)] + 128);
-}
+#define RLE_BLOCK 4096 /* pairs of bytes per block */
 
-/* Bytes equal to p[0] from p[0] on, at most `max`. */
-static size_t run_length(const uint8_t *p, size_t max)
+/* Bytes equal to p[0] from p[0] on, at most n. */
+static size_t run_length(const uint8_t *p, size_t n)
 {
     const uint8_t v = p[0];
-    const uint64_t pattern = 0x0101010101010101ull * v;
     size_t k = 1;
-    while (k + 8 <= max) {
+#ifdef __SSE2__
+    const __m128i pattern = _mm_set1_epi8((char)v);
+    while (k + 16 <= n) {
+        int eq = _mm_movemask_epi8(_mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)(const void *)(p + k)), pattern));
+        if (eq != 0xFFFF) return k + (size_t)__builtin_ctz((unsigned)~eq);
+        k += 16;
+    }
+#else
+    const uint64_t pattern = 0x0101010101010101ull * v;
+    while (k + 8 <= n) {
         uint64_t word;
         memcpy(&word, p + k, 8);
         if (word != pattern) break;
         k += 8;
     }
-    while (k < max && p[k] == v) k++;
+#endif
+    while (k < n && p[k] == v) k++;
     return k;
 }
 
-/* Returns the encoded size; out holds at least n + n/127 + 2 bytes. */
-static size_t rle_encode(uint8_t *restrict out, const uint8_t *restrict in, size_t n)
+/* Appends the tokens for in[0..n) to out; returns the bytes written, at most
+ * n + n/127 + 1. */
+static size_t rle_tokens(uint8_t *restrict out, const uint8_t *restrict in, size_t n)
 {
     size_t i = 0, o = 0;
     while (i < n) {
-        size_t run = run_length(in + i, n - i < 128 ? n - i : 128);
+        size_t run = run_length(in + i, n - i);
         if (run >= 3) {
-            out[o++] = (uint8_t)(run - 1);
-            out[o++] = in[i];
-            i += run;
+            for (; run > 0;) {
+                size_t r = run < 128 ? run : 128;
+                out[o++] = (uint8_t)(r - 1);
+                out[o++] = in[i];
+                i += r;
+                run -= r;
+            }
             continue;
         }
         size_t j = i + 1; /* literals until a run of 3 starts, at most 127 */
@@ -362,6 +350,62 @@ static size_t rle_encode(uint8_t *restrict out, const uint8_t *restrict in, size
         i = j;
     }
     return o;
+}
+
+/* Capacity rle_encode needs in each of out and out2. */
+static size_t rle_bound(size_t n)
+{
+    size_t h = (n + 1) / 2;
+    return n + n / 127 + 2 * (h / RLE_BLOCK + 2) + 16;
+}
+
+/* Encodes src[0..n) into out (out2 is scratch); returns the encoded size. */
+static size_t rle_encode(uint8_t *restrict out, uint8_t *restrict out2, const uint8_t *restrict src, size_t n)
+{
+    if (n == 0) return 0;
+    const size_t h = (n + 1) / 2, pairs = n / 2; /* even bytes: h, odd bytes: pairs */
+    uint8_t ev[RLE_BLOCK], od[RLE_BLOCK];
+    size_t o1 = 0, o2 = 0;
+    for (size_t k0 = 0; k0 < h; k0 += RLE_BLOCK) {
+        const size_t ke = h - k0 < RLE_BLOCK ? h : k0 + RLE_BLOCK; /* even indices [k0, ke) */
+        const size_t ko = ke < pairs ? ke : pairs;                 /* odd indices [k0, ko) */
+        size_t k = k0;
+#ifdef __SSE2__
+        if (ko == ke) {
+            const __m128i low = _mm_set1_epi16(0x00FF), bias = _mm_set1_epi8((char)0x80);
+            __m128i pe = _mm_setzero_si128(), po = _mm_setzero_si128(); /* index 0: fixed below */
+            if (k0) {
+                pe = _mm_slli_si128(_mm_cvtsi32_si128(src[2 * k0 - 2]), 15);
+                po = _mm_slli_si128(_mm_cvtsi32_si128(src[2 * k0 - 1]), 15);
+            }
+            for (; k + 16 <= ko; k += 16) {
+                __m128i a = _mm_loadu_si128((const __m128i *)(const void *)(src + 2 * k));
+                __m128i b = _mm_loadu_si128((const __m128i *)(const void *)(src + 2 * k + 16));
+                __m128i e = _mm_packus_epi16(_mm_and_si128(a, low), _mm_and_si128(b, low));
+                __m128i d = _mm_packus_epi16(_mm_srli_epi16(a, 8), _mm_srli_epi16(b, 8));
+                __m128i e1 = _mm_or_si128(_mm_slli_si128(e, 1), _mm_srli_si128(pe, 15)); /* previous bytes */
+                __m128i d1 = _mm_or_si128(_mm_slli_si128(d, 1), _mm_srli_si128(po, 15));
+                _mm_storeu_si128((__m128i *)(void *)(ev + (k - k0)), _mm_add_epi8(_mm_sub_epi8(e, e1), bias));
+                _mm_storeu_si128((__m128i *)(void *)(od + (k - k0)), _mm_add_epi8(_mm_sub_epi8(d, d1), bias));
+                pe = e;
+                po = d;
+            }
+        }
+#endif
+        if (k == 0) k = 1; /* index 0 of each half is special, below */
+        for (; k < ke; k++) {
+            ev[k - k0] = (uint8_t)(src[2 * k] - src[2 * k - 2] + 128);
+            if (k < ko) od[k - k0] = (uint8_t)(src[2 * k + 1] - src[2 * k - 1] + 128);
+        }
+        if (k0 == 0) { /* the first byte stays; the first odd byte follows the last even one */
+            ev[0] = src[0];
+            if (pairs) od[0] = (uint8_t)(src[1] - src[2 * (h - 1)] + 128);
+        }
+        o1 += rle_tokens(out + o1, ev, ke - k0);
+        if (ko > k0) o2 += rle_tokens(out2 + o2, od, ko - k0);
+    }
+    memcpy(out + o1, out2, o2);
+    return o1 + o2;
 }
 
 /* Readers take a chunk whose stored size equals its unpacked size as
@@ -441,13 +485,12 @@ static exr_result_t encode_chunk(clvox__exr_writer *w, exr_slot *s, int32_t c)
 #ifndef CLVOX__EXR_LIBRARY_RLE /* defined: OpenEXRCore's RLE encoder, for comparison */
     case EXR_COMPRESSION_RLE: {
         size_t n = (size_t)unpacked;
-        if (!grow(&s->scratch, &s->scratch_size, n) || !grow(&s->comp, &s->comp_size, n + n / 127 + 16))
+        if (!grow(&s->scratch, &s->scratch_size, rle_bound(n)) || !grow(&s->comp, &s->comp_size, rle_bound(n)))
             return EXR_ERR_OUT_OF_MEMORY;
         rv = packed_chunk(w, s, row0, rows, &packed);
         if (rv != EXR_ERR_SUCCESS) return rv;
-        rle_predict(s->scratch, packed, n);
         s->out = s->comp;
-        s->out_bytes = rle_encode(s->comp, s->scratch, n);
+        s->out_bytes = rle_encode(s->comp, s->scratch, packed, n);
         break;
     }
 #endif

@@ -1,0 +1,366 @@
+/* Stage tetra: Rueda et al. (2004), sections 3-4. Every mesh triangle
+ * (a,b,c) and the common point O span a tetrahedron; a voxel centre covered
+ * by an odd number of them is inside (Lemma 1). Each task scan-converts one
+ * tetrahedron over a few slices z = k of the current slab; the resolve
+ * kernel turns the presence bits into half values.
+ *
+ * Presence bits are stored as differences along x: a tetrahedron covers the
+ * centres x in [L, U) of a row, and flipping those is XOR-ing a marker at L
+ * and one at U (when U < X); the resolve kernel's prefix XOR along the row
+ * gives the presence bit of each voxel. Two markers per (tetrahedron, row)
+ * whatever the length of the span.
+ *
+ * Exactness (see src/tetra.c for the argument): every face of a tetrahedron
+ * is judged by an affine function F(P) = n.(P - A) in double precision,
+ * where (n, A) depend only on the unordered vertex set of the face (O, p, q
+ * with p < q in lexicographic order, or the sorted triangle), so the face
+ * shared by the tetrahedra of two neighbouring triangles gives both exactly
+ * the same thresholds. F is evaluated as
+ *     F = n.x*(x - A.x) + (n.y*(y - A.y) + n.z*(z - A.z))
+ * in exactly this order (FP_CONTRACT OFF, prelude), which is monotone in x:
+ * along a row its sign changes at most once. F == 0 is broken by the
+ * symbolic perturbation P + e*t0 + e^2*t1 + e^3*t2 (t = the ray axes u,v,w):
+ * the sign of the first non-zero of n.t0, n.t1, n.t2. */
+
+#if defined(cl_khr_fp64)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+
+/* Slices and rows within this distance (voxel units) of a tetrahedron are
+ * visited, far more than the rounding of F (about 1e-11 voxel). */
+#ifndef CLVOX_TETRA_MARGIN
+#define CLVOX_TETRA_MARGIN 1e-3
+#endif
+
+#ifndef CLVOX_HALF_ONE
+#define CLVOX_HALF_ONE ((ushort)0x3C00)
+#endif
+
+/* p < q in lexicographic (x, y, z) order; bit-identical shared vertices
+ * compare the same way from every triangle. */
+inline int clvox_lex_less(float px, float py, float pz, float qx, float qy, float qz)
+{
+    return px < qx || (px == qx && (py < qy || (py == qy && pz < qz)));
+}
+
+/* Swaps two points; returns -1 (the parity change). */
+inline int clvox_swap3(float *p, float *q)
+{
+    for (int i = 0; i < 3; i++) {
+        float t = p[i];
+        p[i] = q[i];
+        q[i] = t;
+    }
+    return -1;
+}
+
+/* One face of a tetrahedron, ready for thresholds along x. */
+typedef struct clvox_tface {
+    double nx, ny, nz;  /* normal of the canonical orientation */
+    double ax, ay, az;  /* anchor A */
+    double inv_nx;      /* 1 / nx (0 when nx == 0) */
+    double slope;       /* -ny / nx: d(root)/dy */
+    int want;           /* sign F must have inside the tetrahedron */
+    int tie;            /* sign of F when F == 0 (0: degenerate face) */
+} clvox_tface;
+
+inline int clvox_tie_sign(double nx, double ny, double nz, uint order)
+{
+    double n[3] = {nx, ny, nz};
+    for (int i = 0; i < 3; i++) {
+        double v = n[(order >> (2 * i)) & 3u];
+        if (v != 0.0) return v > 0.0 ? 1 : -1;
+    }
+    return 0;
+}
+
+/* Face through A = (ax,ay,az), P1, P2: n = (P1 - A) x (P2 - A). */
+inline void clvox_face_set(clvox_tface *f, double ax, double ay, double az, double p1x, double p1y, double p1z,
+                           double p2x, double p2y, double p2z, uint order)
+{
+    double ux = p1x - ax, uy = p1y - ay, uz = p1z - az;
+    double vx = p2x - ax, vy = p2y - ay, vz = p2z - az;
+    f->nx = uy * vz - uz * vy;
+    f->ny = uz * vx - ux * vz;
+    f->nz = ux * vy - uy * vx;
+    f->ax = ax;
+    f->ay = ay;
+    f->az = az;
+    f->inv_nx = f->nx != 0.0 ? 1.0 / f->nx : 0.0;
+    f->slope = -f->ny * f->inv_nx;
+    f->tie = clvox_tie_sign(f->nx, f->ny, f->nz, order);
+}
+
+/* Internal face (O, p, q): canonical order p < q. Returns the sign relating
+ * F_Opq to the canonical function. */
+inline int clvox_face_internal(clvox_tface *f, float ox, float oy, float oz, float px, float py, float pz,
+                               float qx, float qy, float qz, uint order)
+{
+    if (clvox_lex_less(qx, qy, qz, px, py, pz)) {
+        clvox_face_set(f, ox, oy, oz, qx, qy, qz, px, py, pz, order);
+        return -1;
+    }
+    clvox_face_set(f, ox, oy, oz, px, py, pz, qx, qy, qz, order);
+    return 1;
+}
+
+/* Sign of F at (x, y) of the slice, C = ny*(y - ay) + tz: F(P) itself. */
+inline int clvox_face_sign_at(const clvox_tface *f, double C, int x)
+{
+    double F = f->nx * ((double)x - f->ax) + C;
+    return F > 0.0 ? 1 : (F < 0.0 ? -1 : f->tie);
+}
+
+/* First x in [0, X] where sign(nx) * sign(F(x)) > 0 (X when none), by
+ * evaluating F at the integers around the approximate root xs: F is
+ * monotone along x, so this is where the face's sign flips. */
+inline int clvox_face_threshold(const clvox_tface *f, double yd, double kd, double xs, int X)
+{
+    double C = f->ny * (yd - f->ay) + f->nz * (kd - f->az);
+    int sx = f->nx > 0.0 ? 1 : -1;
+    int t = (int)fmin(fmax(rint(xs), 0.0), (double)X); /* NaN -> 0 */
+    while (t > 0 && sx * clvox_face_sign_at(f, C, t - 1) > 0) t--;
+    while (t < X && sx * clvox_face_sign_at(f, C, t) <= 0) t++;
+    return t;
+}
+
+/* The bound of a row from a group of faces, evaluated exactly: L = the
+ * largest threshold of the lower faces, U = the smallest of the upper ones. */
+inline int clvox_group_bound(const clvox_tface *f, const int *idx, int n, double yd, double kd, int X, int upper)
+{
+    int b = upper ? X : 0;
+    for (int a = 0; a < n; a++) {
+        const clvox_tface *g = &f[idx[a]];
+        double xs = g->ax - (g->ny * (yd - g->ay) + g->nz * (kd - g->az)) * g->inv_nx;
+        int t = clvox_face_threshold(g, yd, kd, xs, X);
+        b = upper ? min(b, t) : max(b, t);
+    }
+    return b;
+}
+
+/* The same bound from the extreme root xe of the group (the largest root
+ * of the lower faces, the smallest of the upper ones): the threshold of
+ * each face is the first integer beyond its root wherever the root is more
+ * than tol from an integer (the rounded F then has the sign of x - root at
+ * every integer x; its rounding moves the root by < 1e-10 voxel, and the
+ * error of xe is below 1e-3 tol), and that is monotone in the root, so the
+ * bound is the first integer beyond xe. Returns -1 when xe is within tol of
+ * an integer: then each threshold must be evaluated. */
+inline int clvox_bound_fast(double xe, double tol, double Xd)
+{
+    /* Roots below -0.5 give 0, above X - 0.5 give X (all centres on one side). */
+    double c = fmin(fmax(xe, -0.5), Xd - 0.5);
+    double lo = floor(c - tol), hi = floor(c + tol);
+    return lo == hi ? (int)hi + 1 : -1;
+}
+
+/* y-range of the cross-section at height h, D.z <= h <= A.z, of the
+ * tetrahedron with vertices A, B, C, D sorted by decreasing z (vy, vz) and
+ * edge slopes e = dy/dz of AB, AC, AD, BC, BD, CD (0 for flat edges). Paper,
+ * section 4 and Table 1: the plane cuts AD always, AB and AC for
+ * B.z <= h <= A.z, BD and CD for h < C.z, and AD, AC, BD, BC in between (the
+ * paper's table lists CD for P2 there, but that plane separates {A,B} from
+ * {C,D}: it is AC). Each point is interpolated from the edge's lower end,
+ * so at a vertex's height it is that vertex, and a flat edge gives its
+ * lower-indexed end (the other is on another edge). */
+inline void clvox_section(const double *vy, const double *vz, double h, const double *e, double *lo, double *hi)
+{
+    double p0 = vy[3] + (h - vz[3]) * e[2], p1, p2, p3;
+    if (h >= vz[1]) {
+        p1 = vy[1] + (h - vz[1]) * e[0];
+        p2 = vy[2] + (h - vz[2]) * e[1];
+        p3 = p2;
+    } else if (h >= vz[2]) {
+        p1 = vy[3] + (h - vz[3]) * e[4];
+        p2 = vy[2] + (h - vz[2]) * e[1];
+        p3 = vy[2] + (h - vz[2]) * e[3];
+    } else {
+        p1 = vy[3] + (h - vz[3]) * e[4];
+        p2 = vy[3] + (h - vz[3]) * e[5];
+        p3 = p2;
+    }
+    *lo = fmin(fmin(p0, p1), fmin(p2, p3));
+    *hi = fmax(fmax(p0, p1), fmax(p2, p3));
+}
+
+/* tasks: 4 uints each (triangle, first slice, end slice, unused), slices in
+ * grid z. bits: words_per_row words per row, row (k - z0) * Y + y. */
+kernel void clvox_tetra_raster(global const float *soup, global const uint *tasks, uint task_count, float ox,
+                               float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
+                               global uint *bits)
+{
+    uint gid = get_global_id(0);
+    if (gid >= task_count) return;
+    global const uint *task = tasks + (size_t)gid * 4;
+    global const float *t = soup + (size_t)task[0] * 9;
+    float a0 = t[0], a1 = t[1], a2 = t[2];
+    float b0 = t[3], b1 = t[4], b2 = t[5];
+    float c0 = t[6], c1 = t[7], c2 = t[8];
+
+    clvox_tface f[4];
+    /* Faces (O,a,b), (O,b,c), (O,c,a): inside, F_Oab, F_Obc, F_Oca all have
+     * the sign s of the tetrahedron's orientation det[a-O; b-O; c-O]. */
+    int s0 = clvox_face_internal(&f[0], ox, oy, oz, a0, a1, a2, b0, b1, b2, tie_order);
+    int s1 = clvox_face_internal(&f[1], ox, oy, oz, b0, b1, b2, c0, c1, c2, tie_order);
+    int s2 = clvox_face_internal(&f[2], ox, oy, oz, c0, c1, c2, a0, a1, a2, tie_order);
+    double vol = (double)s0 * (f[0].nx * ((double)c0 - f[0].ax) +
+                               (f[0].ny * ((double)c1 - f[0].ay) + f[0].nz * ((double)c2 - f[0].az)));
+    if (vol == 0.0) return; /* flat: covers nothing */
+    int s = vol > 0.0 ? 1 : -1;
+    f[0].want = s * s0;
+    f[1].want = s * s1;
+    f[2].want = s * s2;
+    /* Mesh face, vertices sorted: F_abc = par * F_sorted, and inside F_abc
+     * has the sign -s. */
+    {
+        float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
+        int par = 1;
+        if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
+        if (clvox_lex_less(r[0], r[1], r[2], q[0], q[1], q[2])) par *= clvox_swap3(q, r);
+        if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
+        clvox_face_set(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
+        f[3].want = -s * par;
+    }
+    /* Lower faces bound the rows' spans from the left, upper ones from the
+     * right; faces parallel to x (nx == 0) are constant along a row. Along
+     * x, a face's root in row (y, k) is ax - (ny*(y - ay) + nz*(k - az))/nx
+     * = c0 + k*c1 + y*slope; groups are padded to 3 with roots at -+inf. */
+    int lo_idx[4], up_idx[4], cst_idx[4], nlo = 0, nup = 0, ncst = 0;
+    double lc0[3] = {-INFINITY, -INFINITY, -INFINITY}, lc1[3] = {0, 0, 0}, ls[3] = {0, 0, 0};
+    double uc0[3] = {INFINITY, INFINITY, INFINITY}, uc1[3] = {0, 0, 0}, us[3] = {0, 0, 0};
+    double tol_lo = 0.0, tol_up = 0.0;
+    const double kmax = (double)task[2];
+    for (int i = 0; i < 4; i++) {
+        clvox_tface *g = &f[i];
+        if (g->nx == 0.0) {
+            cst_idx[ncst++] = i;
+            continue;
+        }
+        double c0 = g->ax + (g->nz * g->az + g->ny * g->ay) * g->inv_nx, c1 = -g->nz * g->inv_nx;
+        /* Error bound: a few ulps of the magnitudes summed (with the
+         * rounding of F itself), far below tol. */
+        double M = fabs(g->ax) + (fabs(g->nz) * (fabs(g->az) + kmax) + fabs(g->ny) * (fabs(g->ay) + (double)Y)) *
+                                     fabs(g->inv_nx);
+        double tol = 1e-7 + 1e-12 * M;
+        if ((g->want > 0) == (g->nx > 0.0)) {
+            lc0[nlo] = c0, lc1[nlo] = c1, ls[nlo] = g->slope, tol_lo = fmax(tol_lo, tol);
+            lo_idx[nlo++] = i;
+        } else {
+            uc0[nup] = c0, uc1[nup] = c1, us[nup] = g->slope, tol_up = fmax(tol_up, tol);
+            up_idx[nup++] = i;
+        }
+    }
+    if (nlo > 3 || nup > 3) return; /* all four on one side: cannot cover anything */
+
+    /* Cross-sections: vertices sorted by decreasing z (clvox_section). */
+    double vy[4] = {oy, a1, b1, c1}, vz[4] = {oz, a2, b2, c2};
+    for (int i = 1; i < 4; i++)
+        for (int j = i; j > 0 && vz[j] > vz[j - 1]; j--) {
+            double ty = vy[j], tz = vz[j];
+            vy[j] = vy[j - 1];
+            vz[j] = vz[j - 1];
+            vy[j - 1] = ty;
+            vz[j - 1] = tz;
+        }
+    /* dy/dz of the edges AB, AC, AD, BC, BD, CD (0 when flat: not used). */
+    double e[6];
+    e[0] = vz[0] > vz[1] ? (vy[0] - vy[1]) / (vz[0] - vz[1]) : 0.0;
+    e[1] = vz[0] > vz[2] ? (vy[0] - vy[2]) / (vz[0] - vz[2]) : 0.0;
+    e[2] = vz[0] > vz[3] ? (vy[0] - vy[3]) / (vz[0] - vz[3]) : 0.0;
+    e[3] = vz[1] > vz[2] ? (vy[1] - vy[2]) / (vz[1] - vz[2]) : 0.0;
+    e[4] = vz[1] > vz[3] ? (vy[1] - vy[3]) / (vz[1] - vz[3]) : 0.0;
+    e[5] = vz[2] > vz[3] ? (vy[2] - vy[3]) / (vz[2] - vz[3]) : 0.0;
+
+    const double m = CLVOX_TETRA_MARGIN, Yd = (double)Y, Xd = (double)X;
+    const double widen = 2.0 * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
+                                        fmax(fabs(e[4]), fabs(e[5])));
+    const int iX = (int)X;
+    for (uint k = task[1]; k < task[2]; k++) {
+        /* Rows: the y-range of the part of the tetrahedron between the
+         * planes k - m and k + m. With kc = k clamped to [D.z, A.z] (k itself
+         * or a vertex within m), that is the section at kc widened by 2m
+         * times the steepest edge; with steep edges (nearly horizontal),
+         * the sections at k -+ m and the vertices in between. Then m more. */
+        double kd = (double)k, kc = fmin(fmax(kd, vz[3]), vz[0]), lo, hi;
+        if (fabs(kd - kc) > m) continue;
+        if (widen < 0.5) {
+            clvox_section(vy, vz, kc, e, &lo, &hi);
+            lo -= widen;
+            hi += widen;
+        } else {
+            lo = INFINITY;
+            hi = -INFINITY;
+            for (int i = 0; i < 4; i++)
+                if (fabs(vz[i] - kd) <= m) {
+                    lo = fmin(lo, vy[i]);
+                    hi = fmax(hi, vy[i]);
+                }
+            for (int i = -1; i <= 1; i += 2) {
+                double h = kd + i * m, l2, h2;
+                if (h < vz[3] || h > vz[0]) continue;
+                clvox_section(vy, vz, h, e, &l2, &h2);
+                lo = fmin(lo, l2);
+                hi = fmax(hi, h2);
+            }
+            if (!(lo <= hi)) continue;
+        }
+        lo -= m;
+        hi += m;
+        double jlo = fmax(ceil(lo), 0.0), jhi = fmin(floor(hi), Yd - 1.0);
+        if (jlo > jhi) continue;
+        double lb0 = lc0[0] + kd * lc1[0], lb1 = lc0[1] + kd * lc1[1], lb2 = lc0[2] + kd * lc1[2];
+        double ub0 = uc0[0] + kd * uc1[0], ub1 = uc0[1] + kd * uc1[1], ub2 = uc0[2] + kd * uc1[2];
+        global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
+        for (int j = (int)jlo; j <= (int)jhi; j++) {
+            double yd = (double)j;
+            if (ncst) { /* faces with F constant along the row */
+                int out = 0;
+                for (int a = 0; a < ncst; a++) {
+                    const clvox_tface *g = &f[cst_idx[a]];
+                    double C = g->ny * (yd - g->ay) + g->nz * (kd - g->az);
+                    int sg = C > 0.0 ? 1 : (C < 0.0 ? -1 : g->tie);
+                    out |= sg != g->want;
+                }
+                if (out) continue;
+            }
+            double xl = fmax(fmax(lb0 + yd * ls[0], lb1 + yd * ls[1]), lb2 + yd * ls[2]);
+            double xu = fmin(fmin(ub0 + yd * us[0], ub1 + yd * us[1]), ub2 + yd * us[2]);
+            int L = clvox_bound_fast(xl, tol_lo, Xd), U = clvox_bound_fast(xu, tol_up, Xd);
+            if (L < 0) L = clvox_group_bound(f, lo_idx, nlo, yd, kd, iX, 0);
+            if (U < 0) U = clvox_group_bound(f, up_idx, nup, yd, kd, iX, 1);
+            if (L >= U) continue;
+            global uint *row = slice + (size_t)j * words_per_row;
+            atomic_xor(row + (L >> 5), 1u << (L & 31));
+            if (U < iX) atomic_xor(row + (U >> 5), 1u << (U & 31));
+        }
+    }
+}
+
+/* Prefix XOR along each row: presence bit -> half 0 / 1, and the count of
+ * filled voxels. rows = Y * nz; out has X halves per row. */
+kernel void clvox_tetra_resolve(global const uint *bits, uint words_per_row, uint X, uint rows,
+                                global ushort *out, global uint *filled)
+{
+    uint r = get_global_id(0);
+    if (r >= rows) return;
+    global const uint *w = bits + (size_t)r * words_per_row;
+    global ushort *o = out + (size_t)r * X;
+    uint carry = 0, count = 0;
+    for (uint i = 0; i < words_per_row; i++) {
+        uint v = w[i];
+        v ^= v << 1;
+        v ^= v << 2;
+        v ^= v << 4;
+        v ^= v << 8;
+        v ^= v << 16;
+        if (carry) v = ~v;
+        carry = v >> 31;
+        uint n = min(32u, X - i * 32u);
+        if (n < 32u) v &= (1u << n) - 1u;
+        count += popcount(v);
+        global ushort *oo = o + i * 32u;
+        for (uint b = 0; b < n; b++) oo[b] = ((v >> b) & 1u) ? CLVOX_HALF_ONE : (ushort)0;
+    }
+    if (count) atomic_add(filled, count);
+}
+
+#endif /* cl_khr_fp64 */

@@ -44,18 +44,22 @@
  * strictly in order with exr_write_tile_chunk (packed data), then returns when
  * the whole slab is in the file. Per compression:
  *  - RLE (the default): clvox's own encoder below, same format as
- *    OpenEXR's; on binary volumes 7-9x less CPU than OpenEXRCore 3.1.5's.
+ *    OpenEXR's; on binary volumes about 10x less CPU than OpenEXRCore 3.1.5's
+ *    and then limited by memory bandwidth, not by threads.
  *  - NONE: the caller's rows are written as they are (no copy, no threads).
  *  - ZIP, ZIPS, PIZ: OpenEXRCore's encode pipeline (exr_encoding_run with its
  *    write step removed). ZIP and ZIPS use zlib level CLVOX__EXR_ZIP_LEVEL;
  *    in a tiled file both compress a whole tile, so they are the same.
  *  - Any chunk that does not shrink is stored raw (see
  *    store_raw_if_not_smaller for the OpenEXRCore 3.1.5 bug this avoids).
- * Measured on a sphere (2 cores, single thread CPU seconds / file size):
- *   512^3:  NONE 0.10 s / 268 MB, RLE 0.06 s / 5.0 MB, ZIP(1) 0.69 s / 1.8 MB,
- *           ZIP(6) 1.17 s / 0.8 MB, PIZ 0.49 s / 1.3 MB
- *   1024^3: NONE 2.2 s / 2.1 GB, RLE 0.43 s / 37 MB, ZIP(1) 4.8 s / 13 MB,
- *           ZIP(6) 8.9 s / 4.5 MB, PIZ 3.2 s / 7.7 MB
+ * Measured on a sphere, wall seconds for the writer alone, 1 thread / 2
+ * threads (2-core VM shared with other jobs, so 2-thread figures are noisy):
+ *   512^3:  NONE 0.13 / 0.16 s 268 MB; RLE 0.036 / 0.06 s 5.0 MB
+ *           (OpenEXRCore's RLE 0.44 / 0.59 s); ZIP level 1 0.59 / 0.73 s
+ *           1.8 MB; ZIP level 6 0.96 / 1.33 s 0.8 MB; PIZ 0.46 / 0.45 s 1.3 MB
+ *   1024^3: NONE 2.0-3.5 s (I/O) 2.1 GB; RLE 0.26 / 0.27 s 37 MB
+ *           (OpenEXRCore's RLE 3.0 / 2.0 s); ZIP level 1 6.1 / 3.3 s 13 MB;
+ *           ZIP level 6 7.5 / 4.5 s 4.5 MB; PIZ 4.2 / 2.4 s 7.7 MB
  * Library messages go to our error handler, never to stderr. The file is
  * fdatasync'ed before the rename.
  */

@@ -15,15 +15,23 @@ kernel void clvox_classify(global const clvox_ray *rays, uint ray_count,
     if (n > capacity) return; /* overflowed: redone by the host */
     global const float *h = hits + (size_t)gid * capacity;
     global ushort *o = out + rays[gid].out_base;
-    /* k = number of crossings at or before the current centre. */
-    uint k = 0;
-    uint cnt = 0;
-    for (uint j = 0; j < u_count; j++) {
-        float c = (float)(u_begin + j);
-        while (k < n && h[k] <= c) k++;
-        uint inside = (n - k) & 1u;
-        o[(size_t)j * out_stride] = inside ? CLVOX_HALF_ONE : (ushort)0;
-        cnt += inside;
+    /* Run k: the centres c with h[k-1] <= c < h[k] have n-k crossings
+     * beyond them; the integer centres c < h are those below ceil(h). */
+    uint j = 0, cnt = 0;
+    for (uint k = 0; k <= n && j < u_count; k++) {
+        uint end = u_count;
+        if (k < n) {
+            float e = ceil(h[k]) - (float)u_begin;
+            end = e <= 0.0f ? 0u : (e >= (float)u_count ? u_count : (uint)e);
+        }
+        if (end <= j) continue;
+        ushort val = ((n - k) & 1u) ? CLVOX_HALF_ONE : (ushort)0;
+        if (val) cnt += end - j;
+        if (out_stride == 1) {
+            for (; j < end; j++) o[j] = val;
+        } else {
+            for (; j < end; j++) o[(size_t)j * out_stride] = val;
+        }
     }
     filled[gid] = cnt;
 }

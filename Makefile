@@ -96,6 +96,9 @@ $(BUILD)/tests/%: tests/%.c $(TEST_SUPPORT_OBJ) $(STATIC_LIB)
 
 tests: all $(TEST_BINS)
 
+# Keep the support objects (make would delete them as intermediates).
+.SECONDARY: $(TEST_SUPPORT_OBJ)
+
 # The whole suite; ends with one "N passed, N failed" line.
 test: tests
 	$(Q)CONFIG=$(CONFIG) sh tests/run_tests.sh $(BUILD)

@@ -1,4 +1,4 @@
-/* Stage tetra: Rueda et al. (2004), sections 3-4. Every mesh triangle
+/* Stage tetra: Rueda et al., sections 3-4. Every mesh triangle
  * (a,b,c) and the common point O span a tetrahedron; a voxel centre covered
  * by an odd number of them is inside (Lemma 1). Each task scan-converts one
  * tetrahedron over a few slices z = k of the current slab; the resolve
@@ -63,6 +63,8 @@ typedef struct clvox_tface {
     int tie;            /* sign of F when F == 0 (0: degenerate face) */
 } clvox_tface;
 
+/* Sign of F(P') when F(P) == 0: the first non-zero of n.t0, n.t1, n.t2,
+ * where order holds the axes t0, t1, t2 in 2 bits each. */
 inline int clvox_tie_sign(double nx, double ny, double nz, uint order)
 {
     double n[3] = {nx, ny, nz};
@@ -103,7 +105,8 @@ inline int clvox_face_internal(clvox_tface *f, float ox, float oy, float oz, flo
     return 1;
 }
 
-/* Sign of F at (x, y) of the slice, C = ny*(y - ay) + tz: F(P) itself. */
+/* Sign of F at (x, y, k), given C = ny*(y - ay) + nz*(k - az) of the row:
+ * exactly the per-point F, ties broken by the perturbation. */
 inline int clvox_face_sign_at(const clvox_tface *f, double C, int x)
 {
     double F = f->nx * ((double)x - f->ax) + C;
@@ -143,14 +146,14 @@ inline int clvox_group_bound(const clvox_tface *f, const int *idx, int n, double
  * than tol from an integer (the rounded F then has the sign of x - root at
  * every integer x; its rounding moves the root by < 1e-10 voxel, and the
  * error of xe is below 1e-3 tol), and that is monotone in the root, so the
- * bound is the first integer beyond xe. Returns -1 when xe is within tol of
- * an integer: then each threshold must be evaluated. */
-inline int clvox_bound_fast(double xe, double tol, double Xd)
+ * bound is the first integer beyond xe. Gives -1 when xe is within tol of
+ * an integer: then each threshold must be evaluated. Four rows at once. */
+inline int4 clvox_bound_fast4(double4 xe, double tol, double Xd)
 {
     /* Roots below -0.5 give 0, above X - 0.5 give X (all centres on one side). */
-    double c = fmin(fmax(xe, -0.5), Xd - 0.5);
-    double lo = floor(c - tol), hi = floor(c + tol);
-    return lo == hi ? (int)hi + 1 : -1;
+    double4 c = fmin(fmax(xe, -0.5), Xd - 0.5);
+    double4 lo = floor(c - tol), hi = floor(c + tol);
+    return select((int4)(-1), convert_int4(hi) + 1, convert_int4(lo == hi));
 }
 
 /* y-range of the cross-section at height h, D.z <= h <= A.z, of the
@@ -178,6 +181,20 @@ inline void clvox_section(const double *vy, const double *vz, double h, const do
         p2 = vy[3] + (h - vz[3]) * e[5];
         p3 = p2;
     }
+    *lo = fmin(fmin(p0, p1), fmin(p2, p3));
+    *hi = fmax(fmax(p0, p1), fmax(p2, p3));
+}
+
+/* clvox_section at four heights at once (each within [D.z, A.z]). */
+inline void clvox_section4(const double *vy, const double *vz, double4 h, const double *e, double4 *lo,
+                           double4 *hi)
+{
+    long4 top = h >= vz[1], mid = h >= vz[2];
+    double4 bd = h - vz[3], cd = h - vz[2];
+    double4 p0 = vy[3] + bd * e[2];
+    double4 p1 = select(vy[3] + bd * e[4], vy[1] + (h - vz[1]) * e[0], top);
+    double4 p2 = select(vy[3] + bd * e[5], vy[2] + cd * e[1], top | mid);
+    double4 p3 = select(p2, vy[2] + cd * e[3], mid & ~top);
     *lo = fmin(fmin(p0, p1), fmin(p2, p3));
     *hi = fmax(fmax(p0, p1), fmax(p2, p3));
 }
@@ -241,6 +258,7 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
         double M = fabs(g->ax) + (fabs(g->nz) * (fabs(g->az) + kmax) + fabs(g->ny) * (fabs(g->ay) + (double)Y)) *
                                      fabs(g->inv_nx);
         double tol = 1e-7 + 1e-12 * M;
+        if (!(tol < 1.0)) tol = 1.0; /* from 0.5 on (or NaN), no root is far enough from an integer */
         if ((g->want > 0) == (g->nx > 0.0)) {
             lc0[nlo] = c0, lc1[nlo] = c1, ls[nlo] = g->slope, tol_lo = fmax(tol_lo, tol);
             lo_idx[nlo++] = i;
@@ -274,63 +292,88 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
     const double widen = 2.0 * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
                                         fmax(fabs(e[4]), fabs(e[5])));
     const int iX = (int)X;
-    for (uint k = task[1]; k < task[2]; k++) {
-        /* Rows: the y-range of the part of the tetrahedron between the
-         * planes k - m and k + m. With kc = k clamped to [D.z, A.z] (k itself
-         * or a vertex within m), that is the section at kc widened by 2m
-         * times the steepest edge; with steep edges (nearly horizontal),
-         * the sections at k -+ m and the vertices in between. Then m more. */
-        double kd = (double)k, kc = fmin(fmax(kd, vz[3]), vz[0]), lo, hi;
-        if (fabs(kd - kc) > m) continue;
+    for (uint k4 = task[1]; k4 < task[2]; k4 += 4) {
+        /* Four slices at a time. Rows: the y-range of the part of the
+         * tetrahedron between the planes k - m and k + m. With kc = k clamped
+         * to [D.z, A.z] (k itself or a vertex within m), that is the section
+         * at kc widened by 2m times the steepest edge; with steep (nearly
+         * horizontal) edges, the sections at k -+ m and the vertices in
+         * between. Then m more. */
+        double4 kd4 = (double)k4 + (double4)(0.0, 1.0, 2.0, 3.0), lo4, hi4;
         if (widen < 0.5) {
-            clvox_section(vy, vz, kc, e, &lo, &hi);
-            lo -= widen;
-            hi += widen;
+            double4 kc = fmin(fmax(kd4, vz[3]), vz[0]);
+            clvox_section4(vy, vz, kc, e, &lo4, &hi4);
+            long4 far = fabs(kd4 - kc) > m;
+            lo4 = select(lo4 - widen, (double4)(INFINITY), far);
+            hi4 = select(hi4 + widen, (double4)(-INFINITY), far);
         } else {
-            lo = INFINITY;
-            hi = -INFINITY;
-            for (int i = 0; i < 4; i++)
-                if (fabs(vz[i] - kd) <= m) {
-                    lo = fmin(lo, vy[i]);
-                    hi = fmax(hi, vy[i]);
+            double los[4], his[4];
+            for (int q = 0; q < 4; q++) {
+                double kd = (double)(k4 + q), lo = INFINITY, hi = -INFINITY;
+                for (int i = 0; i < 4; i++)
+                    if (fabs(vz[i] - kd) <= m) {
+                        lo = fmin(lo, vy[i]);
+                        hi = fmax(hi, vy[i]);
+                    }
+                for (int i = -1; i <= 1; i += 2) {
+                    double h = kd + i * m, l2, h2;
+                    if (h < vz[3] || h > vz[0]) continue;
+                    clvox_section(vy, vz, h, e, &l2, &h2);
+                    lo = fmin(lo, l2);
+                    hi = fmax(hi, h2);
                 }
-            for (int i = -1; i <= 1; i += 2) {
-                double h = kd + i * m, l2, h2;
-                if (h < vz[3] || h > vz[0]) continue;
-                clvox_section(vy, vz, h, e, &l2, &h2);
-                lo = fmin(lo, l2);
-                hi = fmax(hi, h2);
+                los[q] = lo;
+                his[q] = hi;
             }
-            if (!(lo <= hi)) continue;
+            lo4 = vload4(0, los);
+            hi4 = vload4(0, his);
         }
-        lo -= m;
-        hi += m;
-        double jlo = fmax(ceil(lo), 0.0), jhi = fmin(floor(hi), Yd - 1.0);
-        if (jlo > jhi) continue;
-        double lb0 = lc0[0] + kd * lc1[0], lb1 = lc0[1] + kd * lc1[1], lb2 = lc0[2] + kd * lc1[2];
-        double ub0 = uc0[0] + kd * uc1[0], ub1 = uc0[1] + kd * uc1[1], ub2 = uc0[2] + kd * uc1[2];
-        global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
-        for (int j = (int)jlo; j <= (int)jhi; j++) {
-            double yd = (double)j;
-            if (ncst) { /* faces with F constant along the row */
-                int out = 0;
-                for (int a = 0; a < ncst; a++) {
-                    const clvox_tface *g = &f[cst_idx[a]];
-                    double C = g->ny * (yd - g->ay) + g->nz * (kd - g->az);
-                    int sg = C > 0.0 ? 1 : (C < 0.0 ? -1 : g->tie);
-                    out |= sg != g->want;
+        double jlos[4], jhis[4], lbs[3][4], ubs[3][4];
+        vstore4(fmax(ceil(lo4 - m), 0.0), 0, jlos);
+        vstore4(fmin(floor(hi4 + m), Yd - 1.0), 0, jhis);
+        for (int i = 0; i < 3; i++) {
+            vstore4(lc0[i] + kd4 * lc1[i], 0, lbs[i]);
+            vstore4(uc0[i] + kd4 * uc1[i], 0, ubs[i]);
+        }
+        int nk = min(4, (int)(task[2] - k4));
+        for (int qk = 0; qk < nk; qk++) {
+            uint k = k4 + qk;
+            double kd = (double)k, jlo = jlos[qk], jhi = jhis[qk];
+            if (!(jlo <= jhi)) continue;
+            double lb0 = lbs[0][qk], lb1 = lbs[1][qk], lb2 = lbs[2][qk];
+            double ub0 = ubs[0][qk], ub1 = ubs[1][qk], ub2 = ubs[2][qk];
+            global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
+            /* Four rows at a time: the extreme roots and their fast bounds
+             * as vectors, then row by row. */
+            for (int j4 = (int)jlo; j4 <= (int)jhi; j4 += 4) {
+                double4 y4 = (double)j4 + (double4)(0.0, 1.0, 2.0, 3.0);
+                double4 xl = fmax(fmax(lb0 + y4 * ls[0], lb1 + y4 * ls[1]), lb2 + y4 * ls[2]);
+                double4 xu = fmin(fmin(ub0 + y4 * us[0], ub1 + y4 * us[1]), ub2 + y4 * us[2]);
+                int Ls[4], Us[4];
+                vstore4(clvox_bound_fast4(xl, tol_lo, Xd), 0, Ls);
+                vstore4(clvox_bound_fast4(xu, tol_up, Xd), 0, Us);
+                int nrows = min(4, (int)jhi - j4 + 1);
+                for (int q = 0; q < nrows; q++) {
+                    int j = j4 + q, L = Ls[q], U = Us[q];
+                    double yd = (double)j;
+                    if (ncst) { /* faces with F constant along the row */
+                        int out = 0;
+                        for (int a = 0; a < ncst; a++) {
+                            const clvox_tface *g = &f[cst_idx[a]];
+                            double C = g->ny * (yd - g->ay) + g->nz * (kd - g->az);
+                            int sg = C > 0.0 ? 1 : (C < 0.0 ? -1 : g->tie);
+                            out |= sg != g->want;
+                        }
+                        if (out) continue;
+                    }
+                    if (L < 0) L = clvox_group_bound(f, lo_idx, nlo, yd, kd, iX, 0);
+                    if (U < 0) U = clvox_group_bound(f, up_idx, nup, yd, kd, iX, 1);
+                    if (L >= U) continue;
+                    global uint *row = slice + (size_t)j * words_per_row;
+                    atomic_xor(row + (L >> 5), 1u << (L & 31));
+                    if (U < iX) atomic_xor(row + (U >> 5), 1u << (U & 31));
                 }
-                if (out) continue;
             }
-            double xl = fmax(fmax(lb0 + yd * ls[0], lb1 + yd * ls[1]), lb2 + yd * ls[2]);
-            double xu = fmin(fmin(ub0 + yd * us[0], ub1 + yd * us[1]), ub2 + yd * us[2]);
-            int L = clvox_bound_fast(xl, tol_lo, Xd), U = clvox_bound_fast(xu, tol_up, Xd);
-            if (L < 0) L = clvox_group_bound(f, lo_idx, nlo, yd, kd, iX, 0);
-            if (U < 0) U = clvox_group_bound(f, up_idx, nup, yd, kd, iX, 1);
-            if (L >= U) continue;
-            global uint *row = slice + (size_t)j * words_per_row;
-            atomic_xor(row + (L >> 5), 1u << (L & 31));
-            if (U < iX) atomic_xor(row + (U >> 5), 1u << (U & 31));
         }
     }
 }

@@ -90,8 +90,8 @@ struct clvox__method_state {
     float origin_g[3];   /* grid space */
     clvox_axis tie_axis; /* X, Y or Z (resolved) */
     cl_uint tie_order;   /* axes u | v << 2 | w << 4 */
-    size_t tri_count;
-    int32_t *klo, *khi;  /* slices of each tetrahedron; klo > khi: none */
+    size_t tri_count;    /* tetrahedra kept (those that meet the grid), in Morton order */
+    int32_t *klo, *khi;  /* slices of each tetrahedron */
     uint32_t slices_per_task;
     uint32_t words_per_row;
     cl_uint *tasks_host; /* 4 per task */
@@ -186,6 +186,98 @@ static clvox_status choose_origin(clvox_context *ctx, const clvox_mesh *mesh, co
     return CLVOX_OK;
 }
 
+/* 10 bits of x spread to every third bit. */
+static uint32_t spread3(uint32_t x)
+{
+    x &= 0x3FF;
+    x = (x | x << 16) & 0x030000FF;
+    x = (x | x << 8) & 0x0300F00F;
+    x = (x | x << 4) & 0x030C30C3;
+    x = (x | x << 2) & 0x09249249;
+    return x;
+}
+
+/* Keeps the tetrahedra that meet the grid (klo <= khi) and sorts them by
+ * the Morton code of their triangle's centroid (grid space), so that tasks
+ * run together read nearby triangles and touch nearby rows of presence
+ * bits: *soup, klo, khi and tri_count are replaced. Stable LSD radix sort,
+ * 2 x 15 bits. */
+static clvox_status sort_tetrahedra(clvox__method_state *s, float **soup)
+{
+    size_t n = 0, nt = s->tri_count;
+    for (size_t i = 0; i < nt; i++) n += s->klo[i] <= s->khi[i];
+    size_t cap = n ? n : 1;
+    uint32_t *key = malloc(cap * sizeof *key), *idx = malloc(cap * sizeof *idx);
+    uint32_t *key2 = malloc(cap * sizeof *key2), *idx2 = malloc(cap * sizeof *idx2);
+    uint32_t *cnt = calloc(1u << 15, sizeof *cnt);
+    float *out = malloc(cap * 9 * sizeof *out);
+    int32_t *klo = malloc(cap * sizeof *klo), *khi = malloc(cap * sizeof *khi);
+    clvox_status st = CLVOX_OK;
+    if (!key || !idx || !key2 || !idx2 || !cnt || !out || !klo || !khi) {
+        st = clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory sorting %zu tetrahedra", n);
+        goto done;
+    }
+    double scale[3];
+    for (int a = 0; a < 3; a++) scale[a] = 1023.0 / (s->grid.dims[a] > 1 ? s->grid.dims[a] - 1 : 1);
+    n = 0;
+    for (size_t i = 0; i < nt; i++) {
+        if (s->klo[i] > s->khi[i]) continue;
+        const float *t = *soup + i * 9;
+        uint32_t code = 0;
+        for (int a = 0; a < 3; a++) {
+            double c = ((double)t[a] + t[3 + a] + t[6 + a]) / 3.0 * scale[a];
+            code |= spread3((uint32_t)(c < 0 ? 0 : c > 1023 ? 1023 : c)) << a;
+        }
+        key[n] = code;
+        idx[n++] = (uint32_t)i;
+    }
+    for (int pass = 0; pass < 2; pass++) {
+        memset(cnt, 0, (1u << 15) * sizeof *cnt);
+        for (size_t i = 0; i < n; i++) cnt[(key[i] >> (15 * pass)) & 0x7FFF]++;
+        uint32_t sum = 0;
+        for (uint32_t b = 0; b < 1u << 15; b++) {
+            uint32_t c = cnt[b];
+            cnt[b] = sum;
+            sum += c;
+        }
+        for (size_t i = 0; i < n; i++) {
+            uint32_t d = cnt[(key[i] >> (15 * pass)) & 0x7FFF]++;
+            key2[d] = key[i];
+            idx2[d] = idx[i];
+        }
+        uint32_t *t = key;
+        key = key2;
+        key2 = t;
+        t = idx;
+        idx = idx2;
+        idx2 = t;
+    }
+    for (size_t i = 0; i < n; i++) {
+        memcpy(out + i * 9, *soup + (size_t)idx[i] * 9, 9 * sizeof *out);
+        klo[i] = s->klo[idx[i]];
+        khi[i] = s->khi[idx[i]];
+    }
+    free(*soup);
+    *soup = out;
+    out = NULL;
+    free(s->klo);
+    free(s->khi);
+    s->klo = klo;
+    s->khi = khi;
+    klo = khi = NULL;
+    s->tri_count = n;
+done:
+    free(key);
+    free(idx);
+    free(key2);
+    free(idx2);
+    free(cnt);
+    free(out);
+    free(klo);
+    free(khi);
+    return st;
+}
+
 static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                   const clvox_voxelize_options *opts, uint32_t slab_depth, clvox_stats *stats,
                                   clvox__method_state **out)
@@ -244,6 +336,7 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
         s->klo[i] = (int32_t)(kl < 0 ? 0 : kl);
         s->khi[i] = (int32_t)(kh > lim[2] ? lim[2] : kh);
     }
+    if (st == CLVOX_OK) st = sort_tetrahedra(s, &soup);
     cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
     if (st == CLVOX_OK) s->soup = make_buffer(ctx, ro, s->tri_count * 9 * sizeof(float), soup, &st, "triangles");
     free(soup);

@@ -494,7 +494,7 @@ static void test_exr(void)
     tmesh_free(&t);
 }
 
-/* ---- real meshes (scripts/fetch_meshes.sh) ---- */
+/* ---- real meshes (scripts/fetch_meshes.sh); CLVOX_TETRA_REAL_RES=n: grid n ---- */
 
 static void test_real_meshes(void)
 {
@@ -515,7 +515,8 @@ static void test_real_meshes(void)
         }
         const clvox_mesh_report *r = clvox_mesh_get_report(mesh);
         clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
-        go.resolution = 128;
+        const char *res = getenv("CLVOX_TETRA_REAL_RES"); /* default 128 */
+        go.resolution = res && atoi(res) > 0 ? (uint32_t)atoi(res) : 128;
         go.padding = 1;
         clvox_grid g;
         CHECK_OK(ctx, clvox_grid_compute(ctx, &go, r->bbox_min, r->bbox_max, &g));

@@ -497,7 +497,6 @@ static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz,
         ss->cast_seconds += t_bin + clvox__event_seconds(ev[EV_TASKS]) + clvox__event_seconds(ev[EV_CLEAR]) +
                             clvox__event_seconds(ev[EV_ZERO]);
         ss->classify_seconds += clvox__event_seconds(ev[EV_RASTER]) + clvox__event_seconds(ev[EV_RESOLVE]);
-        if (getenv("TDBG")) fprintf(stderr, "slab %u: tasks %zu raster %.4f resolve %.4f bin %.4f\n", z0, n, clvox__event_seconds(ev[EV_RASTER]), clvox__event_seconds(ev[EV_RESOLVE]), t_bin);
     } else {
         clFinish(ctx->queue); /* the host task array must outlive the upload */
     }

@@ -328,51 +328,51 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
             lo4 = vload4(0, los);
             hi4 = vload4(0, his);
         }
-        double jlos[4], jhis[4], lbs[3][4], ubs[3][4];
-        vstore4(fmax(ceil(lo4 - m), 0.0), 0, jlos);
-        vstore4(fmin(floor(hi4 + m), Yd - 1.0), 0, jhis);
-        for (int i = 0; i < 3; i++) {
-            vstore4(lc0[i] + kd4 * lc1[i], 0, lbs[i]);
-            vstore4(uc0[i] + kd4 * uc1[i], 0, ubs[i]);
-        }
-        int nk = min(4, (int)(task[2] - k4));
-        for (int qk = 0; qk < nk; qk++) {
-            uint k = k4 + qk;
-            double kd = (double)k, jlo = jlos[qk], jhi = jhis[qk];
-            if (!(jlo <= jhi)) continue;
-            double lb0 = lbs[0][qk], lb1 = lbs[1][qk], lb2 = lbs[2][qk];
-            double ub0 = ubs[0][qk], ub1 = ubs[1][qk], ub2 = ubs[2][qk];
-            global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
-            /* Four rows at a time: the extreme roots and their fast bounds
-             * as vectors, then row by row. */
-            for (int j4 = (int)jlo; j4 <= (int)jhi; j4 += 4) {
-                double4 y4 = (double)j4 + (double4)(0.0, 1.0, 2.0, 3.0);
-                double4 xl = fmax(fmax(lb0 + y4 * ls[0], lb1 + y4 * ls[1]), lb2 + y4 * ls[2]);
-                double4 xu = fmin(fmin(ub0 + y4 * us[0], ub1 + y4 * us[1]), ub2 + y4 * us[2]);
-                int Ls[4], Us[4];
-                vstore4(clvox_bound_fast4(xl, tol_lo, Xd), 0, Ls);
-                vstore4(clvox_bound_fast4(xu, tol_up, Xd), 0, Us);
-                int nrows = min(4, (int)jhi - j4 + 1);
-                for (int q = 0; q < nrows; q++) {
-                    int j = j4 + q, L = Ls[q], U = Us[q];
-                    double yd = (double)j;
-                    if (ncst) { /* faces with F constant along the row */
-                        int out = 0;
-                        for (int a = 0; a < ncst; a++) {
-                            const clvox_tface *g = &f[cst_idx[a]];
-                            double C = g->ny * (yd - g->ay) + g->nz * (kd - g->az);
-                            int sg = C > 0.0 ? 1 : (C < 0.0 ? -1 : g->tie);
-                            out |= sg != g->want;
-                        }
-                        if (out) continue;
+        /* Rows r = 0, 1, ... of the four slices at once: lane q handles row
+         * jlo_q + r of slice k4 + q while there is one. */
+        double4 jlo4 = fmax(ceil(lo4 - m), 0.0), jhi4 = fmin(floor(hi4 + m), Yd - 1.0);
+        jhi4 = select(jhi4, (double4)(-1.0), kd4 >= (double)task[2]); /* past the task */
+        double4 nr4 = fmax(jhi4 - jlo4 + 1.0, 0.0);                  /* 0 for empty (also inf) */
+        double rmax = fmax(fmax(nr4.s0, nr4.s1), fmax(nr4.s2, nr4.s3));
+        if (rmax == 0.0) continue;
+        double4 lb0 = lc0[0] + kd4 * lc1[0], lb1 = lc0[1] + kd4 * lc1[1], lb2 = lc0[2] + kd4 * lc1[2];
+        double4 ub0 = uc0[0] + kd4 * uc1[0], ub1 = uc0[1] + kd4 * uc1[1], ub2 = uc0[2] + kd4 * uc1[2];
+        int4 nr = convert_int4(nr4), j0 = convert_int4(select(jlo4, (double4)(0.0), nr4 == 0.0));
+        for (int r = 0; r < (int)rmax; r++) {
+            double4 y4 = jlo4 + (double)r;
+            double4 xl = fmax(fmax(lb0 + y4 * ls[0], lb1 + y4 * ls[1]), lb2 + y4 * ls[2]);
+            double4 xu = fmin(fmin(ub0 + y4 * us[0], ub1 + y4 * us[1]), ub2 + y4 * us[2]);
+            int4 L4 = clvox_bound_fast4(xl, tol_lo, Xd), U4 = clvox_bound_fast4(xu, tol_up, Xd);
+            /* Lanes with a row and a span that may be non-empty (or unknown). */
+            int4 live = ((int4)(r) < nr) & ((L4 < U4) | (L4 < 0) | (U4 < 0) | (int4)(ncst ? -1 : 0));
+            uint mask = (uint)(live.s0 & 1) | (uint)(live.s1 & 2) | (uint)(live.s2 & 4) | (uint)(live.s3 & 8);
+            if (!mask) continue;
+            int Ls[4], Us[4], Js[4];
+            vstore4(L4, 0, Ls);
+            vstore4(U4, 0, Us);
+            vstore4(j0 + r, 0, Js);
+            while (mask) {
+                int q = 31 - (int)clz(mask & (0u - mask));
+                mask &= mask - 1u;
+                int j = Js[q], L = Ls[q], U = Us[q];
+                uint k = k4 + (uint)q;
+                double yd = (double)j, kd = (double)k;
+                if (ncst) { /* faces with F constant along the row */
+                    int out = 0;
+                    for (int a = 0; a < ncst; a++) {
+                        const clvox_tface *g = &f[cst_idx[a]];
+                        double C = g->ny * (yd - g->ay) + g->nz * (kd - g->az);
+                        int sg = C > 0.0 ? 1 : (C < 0.0 ? -1 : g->tie);
+                        out |= sg != g->want;
                     }
-                    if (L < 0) L = clvox_group_bound(f, lo_idx, nlo, yd, kd, iX, 0);
-                    if (U < 0) U = clvox_group_bound(f, up_idx, nup, yd, kd, iX, 1);
-                    if (L >= U) continue;
-                    global uint *row = slice + (size_t)j * words_per_row;
-                    atomic_xor(row + (L >> 5), 1u << (L & 31));
-                    if (U < iX) atomic_xor(row + (U >> 5), 1u << (U & 31));
+                    if (out) continue;
                 }
+                if (L < 0) L = clvox_group_bound(f, lo_idx, nlo, yd, kd, iX, 0);
+                if (U < 0) U = clvox_group_bound(f, up_idx, nup, yd, kd, iX, 1);
+                if (L >= U) continue;
+                global uint *row = bits + ((size_t)(k - z0) * Y + (size_t)j) * words_per_row;
+                atomic_xor(row + (L >> 5), 1u << (L & 31));
+                if (U < iX) atomic_xor(row + (U >> 5), 1u << (U & 31));
             }
         }
     }

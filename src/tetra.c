@@ -510,11 +510,10 @@ static void tetra_describe(const clvox__method_state *s, char *buf, size_t size)
     static const char *kind[] = {"centroid", "bbox_center", "point"};
     const char *k = (unsigned)s->origin_kind < 3 ? kind[s->origin_kind] : "?";
     clvox__axes t = clvox__axes_for(s->tie_axis);
-    snprintf(buf, size,
-             "origin=%s(%.9g,%.9g,%.9g) centroid=area-weighted-surface slices_per_task=%u "
-             "tie=+%c>+%c>+%c rule=centre-on-surface:+x+y+z",
-             k, s->origin[0], s->origin[1], s->origin[2], s->slices_per_task, "xyz"[t.perm[0]], "xyz"[t.perm[1]],
-             "xyz"[t.perm[2]]);
+    snprintf(buf, size, "origin=%s(%.9g,%.9g,%.9g)%s slices_per_task=%u tie=+%c>+%c>+%c rule=centre-on-surface:+x+y+z",
+             k, s->origin[0], s->origin[1], s->origin[2],
+             s->origin_kind == CLVOX_TETRA_ORIGIN_CENTROID ? " centroid=area-weighted-surface" : "",
+             s->slices_per_task, "xyz"[t.perm[0]], "xyz"[t.perm[1]], "xyz"[t.perm[2]]);
 }
 
 const clvox__method clvox__method_tetra = {"tetra", tetra_prepare, tetra_slab, tetra_release, tetra_describe};

@@ -5,7 +5,7 @@
 #define CLVOX_HALF_ONE ((ushort)0x3C00)
 
 kernel void clvox_classify(global const clvox_ray *rays, uint ray_count,
-                           global const float *hits, global const uint *counts, uint capacity,
+                           global const clvox_real *hits, global const uint *counts, uint capacity,
                            uint u_begin, uint u_count, uint out_stride,
                            global ushort *out, global uint *filled)
 {
@@ -13,7 +13,7 @@ kernel void clvox_classify(global const clvox_ray *rays, uint ray_count,
     if (gid >= ray_count) return;
     uint n = counts[gid];
     if (n > capacity) return; /* overflowed: redone by the host */
-    global const float *h = hits + (size_t)gid * capacity;
+    global const clvox_real *h = hits + (size_t)gid * capacity;
     global ushort *o = out + rays[gid].out_base;
     /* Run k: the centres c with h[k-1] <= c < h[k] have n-k crossings
      * beyond them; the integer centres c < h are those below ceil(h). */
@@ -21,8 +21,8 @@ kernel void clvox_classify(global const clvox_ray *rays, uint ray_count,
     for (uint k = 0; k <= n && j < u_count; k++) {
         uint end = u_count;
         if (k < n) {
-            float e = ceil(h[k]) - (float)u_begin;
-            end = e <= 0.0f ? 0u : (e >= (float)u_count ? u_count : (uint)e);
+            clvox_real e = ceil(h[k]) - (clvox_real)u_begin;
+            end = e <= 0 ? 0u : (e >= (clvox_real)u_count ? u_count : (uint)e);
         }
         if (end <= j) continue;
         ushort val = ((n - k) & 1u) ? CLVOX_HALF_ONE : (ushort)0;

@@ -5,17 +5,17 @@
 kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
                             global const uint *leaf_of_ray, global const clvox_qt_node *nodes,
                             global const uint *refs, global const float *soup,
-                            uint capacity, global float *hits, global uint *counts)
+                            uint capacity, global clvox_real *hits, global uint *counts)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
     float pv = rays[gid].v, pw = rays[gid].w;
     clvox_qt_node leaf = nodes[leaf_of_ray[gid]];
-    global float *out = hits + (size_t)gid * capacity;
+    global clvox_real *out = hits + (size_t)gid * capacity;
     uint n = 0;
     for (uint k = 0; k < leaf.count; k++) {
         uint t = refs[leaf.first + k];
-        float u;
+        clvox_real u;
         if (clvox_ray_crosses(soup + (size_t)t * 9, pv, pw, &u)) {
             if (n < capacity) out[n] = u;
             n++;

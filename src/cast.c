@@ -130,12 +130,12 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_classify", &s->k_classify);
 
     size_t nr = s->max_rays;
-    if (st == CLVOX_OK && nr > SIZE_MAX / (s->capacity * sizeof(float)))
+    if (st == CLVOX_OK && nr > SIZE_MAX / (s->capacity * ctx->real_size))
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "crossing buffer too large");
     if (st == CLVOX_OK) s->rays = make_buffer(ctx, CL_MEM_READ_ONLY, nr * sizeof(clvox_ray), NULL, &st, "rays");
     if (st == CLVOX_OK) s->leaf = make_buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "leaves");
     if (st == CLVOX_OK)
-        s->hits = make_buffer(ctx, CL_MEM_READ_WRITE, nr * s->capacity * sizeof(float), NULL, &st, "crossings");
+        s->hits = make_buffer(ctx, CL_MEM_READ_WRITE, nr * s->capacity * ctx->real_size, NULL, &st, "crossings");
     if (st == CLVOX_OK) s->counts = make_buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "counts");
     if (st == CLVOX_OK) s->filled = make_buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "filled");
     if (st == CLVOX_OK) {
@@ -146,7 +146,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
             st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
     }
     if (stats) {
-        uint64_t b = (uint64_t)nr * (sizeof(clvox_ray) * 2 + 4 * 4 + s->capacity * sizeof(float));
+        uint64_t b = (uint64_t)nr * (sizeof(clvox_ray) * 2 + 4 * 4 + s->capacity * ctx->real_size);
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;
     }
     if (st != CLVOX_OK) {
@@ -226,14 +226,14 @@ static clvox_status redo_overflow(clvox__method_state *s, const uint32_t *idx, s
     uint32_t *cnt = malloc(m * sizeof *cnt), *fil = malloc(m * sizeof *fil);
     cl_mem rays = NULL, leaf = NULL, hits = NULL, counts = NULL, filled = NULL;
     if (!r || !cnt || !fil) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", m);
-    if (st == CLVOX_OK && (size_t)need > SIZE_MAX / sizeof(float) / m)
+    if (st == CLVOX_OK && (size_t)need > SIZE_MAX / ctx->real_size / m)
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "crossing buffer for %zu rays x %u too large", m, need);
     for (size_t i = 0; st == CLVOX_OK && i < m; i++) r[i] = s->rays_host[idx[i]];
     if (st == CLVOX_OK)
         rays = make_buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, m * sizeof *r, r, &st, "overflow rays");
     if (st == CLVOX_OK) leaf = make_buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow leaves");
     if (st == CLVOX_OK)
-        hits = make_buffer(ctx, CL_MEM_READ_WRITE, m * need * sizeof(float), NULL, &st, "overflow crossings");
+        hits = make_buffer(ctx, CL_MEM_READ_WRITE, m * need * ctx->real_size, NULL, &st, "overflow crossings");
     if (st == CLVOX_OK) counts = make_buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow counts");
     if (st == CLVOX_OK) filled = make_buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow filled");
     if (st == CLVOX_OK)

@@ -280,6 +280,29 @@ static clvox_status build_program(clvox_context *ctx)
                        (int)err, log);
 }
 
+/* The kernels compute crossings in double when the device compiler offers
+ * cl_khr_fp64; ask the compiled program rather than guess. */
+static clvox_status query_real_size(clvox_context *ctx)
+{
+    cl_kernel k = NULL;
+    clvox_status st = clvox__kernel(ctx, "clvox_real_size", &k);
+    if (st != CLVOX_OK) return st;
+    cl_int err;
+    cl_uint size = 0;
+    cl_mem m = clCreateBuffer(ctx->cl, CL_MEM_WRITE_ONLY, sizeof size, NULL, &err);
+    if (err == CL_SUCCESS) err = clSetKernelArg(k, 0, sizeof m, &m);
+    size_t one = 1;
+    if (err == CL_SUCCESS) err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &one, &one, 0, NULL, NULL);
+    if (err == CL_SUCCESS) err = clEnqueueReadBuffer(ctx->queue, m, CL_TRUE, 0, sizeof size, &size, 0, NULL, NULL);
+    if (m) clReleaseMemObject(m);
+    clReleaseKernel(k);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "probing the kernel precision");
+    if (size != 4 && size != 8)
+        return clvox__fail(ctx, CLVOX_ERR_INTERNAL, "kernel real size %u", (unsigned)size);
+    ctx->real_size = size;
+    return CLVOX_OK;
+}
+
 clvox_status clvox_context_create(const clvox_context_options *options, clvox_context **out)
 {
     if (!out) return CLVOX_ERR_INVALID_ARGUMENT;
@@ -319,7 +342,9 @@ clvox_status clvox_context_create(const clvox_context_options *options, clvox_co
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateContext");
     ctx->queue = clCreateCommandQueue(ctx->cl, ctx->device_id, CL_QUEUE_PROFILING_ENABLE, &err);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateCommandQueue");
-    return build_program(ctx);
+    clvox_status st2 = build_program(ctx);
+    if (st2 != CLVOX_OK) return st2;
+    return query_real_size(ctx);
 }
 
 void clvox_context_destroy(clvox_context *ctx)

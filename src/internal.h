@@ -31,6 +31,7 @@ struct clvox_context {
     cl_context cl;
     cl_command_queue queue; /* in-order, profiling enabled */
     cl_program program;     /* all kernels, built once per context */
+    size_t real_size;       /* sizeof(clvox_real) in the kernels: 8 with fp64, else 4 */
 };
 
 /* Records the message and returns `status`, so that reporting and returning

@@ -3,19 +3,20 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Edge sign with the symbolic tie rule (design.md). */
-static int edge_sign(float av, float aw, float bv, float bw, float *e)
+/* Edge sign with the symbolic tie rule (design.md), in double as the
+ * kernels do on devices with fp64 (PoCL has it). */
+static int edge_sign(double av, double aw, double bv, double bw, double *e)
 {
     *e = av * bw - aw * bv;
-    if (*e != 0.0f) return *e > 0.0f ? 1 : -1;
-    if (aw - bw != 0.0f) return aw - bw > 0.0f ? 1 : -1;
-    if (bv - av != 0.0f) return bv - av > 0.0f ? 1 : -1;
+    if (*e != 0.0) return *e > 0.0 ? 1 : -1;
+    if (aw - bw != 0.0) return aw - bw > 0.0 ? 1 : -1;
+    if (bv - av != 0.0) return bv - av > 0.0 ? 1 : -1;
     return 0;
 }
 
-static int cmp_float(const void *a, const void *b)
+static int cmp_double(const void *a, const void *b)
 {
-    float x = *(const float *)a, y = *(const float *)b;
+    double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
 }
 
@@ -26,7 +27,7 @@ uint64_t ref_voxelize(const float *xyz, size_t nv, const uint32_t *tri, size_t n
     if (axis == CLVOX_AXIS_Y) perm[0] = 1, perm[1] = 2, perm[2] = 0;
     if (axis == CLVOX_AXIS_Z) perm[0] = 2, perm[1] = 0, perm[2] = 1;
     float *gv = malloc(nv * 3 * sizeof *gv);
-    float *hits = malloc((nt + 1) * sizeof *hits);
+    double *hits = malloc((nt + 1) * sizeof *hits);
     if (!gv || !hits) abort();
     for (size_t i = 0; i < nv; i++)
         for (int k = 0; k < 3; k++) {
@@ -37,26 +38,27 @@ uint64_t ref_voxelize(const float *xyz, size_t nv, const uint32_t *tri, size_t n
     uint64_t odd = 0;
     for (uint32_t jw = 0; jw < dw; jw++)
         for (uint32_t jv = 0; jv < dv; jv++) {
-            float pv = (float)jv, pw = (float)jw;
+            double pv = jv, pw = jw;
             size_t n = 0;
             for (size_t t = 0; t < nt; t++) {
                 const float *a = gv + 3 * (size_t)tri[3 * t], *b = gv + 3 * (size_t)tri[3 * t + 1],
                             *c = gv + 3 * (size_t)tri[3 * t + 2];
-                float Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
-                float eab, ebc, eca;
+                double Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
+                double eab, ebc, eca;
                 int s1 = edge_sign(Av, Aw, Bv, Bw, &eab);
                 int s2 = edge_sign(Bv, Bw, Cv, Cw, &ebc);
                 int s3 = edge_sign(Cv, Cw, Av, Aw, &eca);
                 if (s1 == 0 || s1 != s2 || s1 != s3) continue;
-                float num = eca * (b[0] - a[0]) + eab * (c[0] - a[0]);
-                float den = eab + ebc + eca;
-                hits[n++] = a[0] + num / den;
+                double au = a[0];
+                double num = eca * ((double)b[0] - au) + eab * ((double)c[0] - au);
+                double den = eab + ebc + eca;
+                hits[n++] = au + num / den;
             }
             odd += n & 1;
-            qsort(hits, n, sizeof *hits, cmp_float);
+            qsort(hits, n, sizeof *hits, cmp_double);
             for (uint32_t i = 0; i < du; i++) {
                 size_t beyond = 0;
-                for (size_t k = 0; k < n; k++) beyond += hits[k] > (float)i;
+                for (size_t k = 0; k < n; k++) beyond += hits[k] > (double)i;
                 uint32_t idx[3];
                 idx[perm[0]] = i;
                 idx[perm[1]] = jv;

@@ -32,38 +32,17 @@ struct clvox__method_state {
     uint32_t leaf_size;
 };
 
-static cl_mem make_buffer(clvox_context *ctx, cl_mem_flags flags, size_t bytes, void *host, clvox_status *st,
-                          const char *what)
-{
-    cl_int err;
-    if (bytes == 0) bytes = 16;
-    cl_mem m = clCreateBuffer(ctx->cl, flags, bytes, host, &err);
-    if (err != CL_SUCCESS) {
-        char msg[160];
-        snprintf(msg, sizeof msg, "clCreateBuffer(%s, %zu bytes)", what, bytes);
-        *st = clvox__cl_fail(ctx, err, msg);
-        return NULL;
-    }
-    return m;
-}
-
-static void release_mem(cl_mem *m)
-{
-    if (*m) clReleaseMemObject(*m);
-    *m = NULL;
-}
-
 static void ray_release(clvox__method_state *s)
 {
     if (!s) return;
-    release_mem(&s->soup);
-    release_mem(&s->nodes);
-    release_mem(&s->refs);
-    release_mem(&s->rays);
-    release_mem(&s->leaf);
-    release_mem(&s->hits);
-    release_mem(&s->counts);
-    release_mem(&s->filled);
+    clvox__release_mem(&s->soup);
+    clvox__release_mem(&s->nodes);
+    clvox__release_mem(&s->refs);
+    clvox__release_mem(&s->rays);
+    clvox__release_mem(&s->leaf);
+    clvox__release_mem(&s->hits);
+    clvox__release_mem(&s->counts);
+    clvox__release_mem(&s->filled);
     if (s->k_lookup) clReleaseKernel(s->k_lookup);
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
     if (s->k_sort) clReleaseKernel(s->k_sort);
@@ -111,12 +90,12 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         return st;
     }
     cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    s->soup = make_buffer(ctx, ro, mesh->triangle_count * 9 * sizeof(float), soup, &st, "triangles");
+    s->soup = clvox__buffer(ctx, ro, mesh->triangle_count * 9 * sizeof(float), soup, &st, "triangles");
     free(soup);
     if (st == CLVOX_OK)
-        s->nodes = make_buffer(ctx, ro, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
+        s->nodes = clvox__buffer(ctx, ro, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
     if (st == CLVOX_OK)
-        s->refs = make_buffer(ctx, ro, (s->qt.ref_count ? s->qt.ref_count : 1) * sizeof(uint32_t), s->qt.refs, &st,
+        s->refs = clvox__buffer(ctx, ro, (s->qt.ref_count ? s->qt.ref_count : 1) * sizeof(uint32_t), s->qt.refs, &st,
                               "quadtree refs");
     if (stats) {
         stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
@@ -132,12 +111,12 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     size_t nr = s->max_rays;
     if (st == CLVOX_OK && nr > SIZE_MAX / (s->capacity * ctx->real_size))
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "crossing buffer too large");
-    if (st == CLVOX_OK) s->rays = make_buffer(ctx, CL_MEM_READ_ONLY, nr * sizeof(clvox_ray), NULL, &st, "rays");
-    if (st == CLVOX_OK) s->leaf = make_buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "leaves");
+    if (st == CLVOX_OK) s->rays = clvox__buffer(ctx, CL_MEM_READ_ONLY, nr * sizeof(clvox_ray), NULL, &st, "rays");
+    if (st == CLVOX_OK) s->leaf = clvox__buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "leaves");
     if (st == CLVOX_OK)
-        s->hits = make_buffer(ctx, CL_MEM_READ_WRITE, nr * s->capacity * ctx->real_size, NULL, &st, "crossings");
-    if (st == CLVOX_OK) s->counts = make_buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "counts");
-    if (st == CLVOX_OK) s->filled = make_buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "filled");
+        s->hits = clvox__buffer(ctx, CL_MEM_READ_WRITE, nr * s->capacity * ctx->real_size, NULL, &st, "crossings");
+    if (st == CLVOX_OK) s->counts = clvox__buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "counts");
+    if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "filled");
     if (st == CLVOX_OK) {
         s->rays_host = malloc(nr * sizeof *s->rays_host);
         s->counts_host = malloc(nr * sizeof *s->counts_host);
@@ -230,12 +209,12 @@ static clvox_status redo_overflow(clvox__method_state *s, const uint32_t *idx, s
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "crossing buffer for %zu rays x %u too large", m, need);
     for (size_t i = 0; st == CLVOX_OK && i < m; i++) r[i] = s->rays_host[idx[i]];
     if (st == CLVOX_OK)
-        rays = make_buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, m * sizeof *r, r, &st, "overflow rays");
-    if (st == CLVOX_OK) leaf = make_buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow leaves");
+        rays = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, m * sizeof *r, r, &st, "overflow rays");
+    if (st == CLVOX_OK) leaf = clvox__buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow leaves");
     if (st == CLVOX_OK)
-        hits = make_buffer(ctx, CL_MEM_READ_WRITE, m * need * ctx->real_size, NULL, &st, "overflow crossings");
-    if (st == CLVOX_OK) counts = make_buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow counts");
-    if (st == CLVOX_OK) filled = make_buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow filled");
+        hits = clvox__buffer(ctx, CL_MEM_READ_WRITE, m * need * ctx->real_size, NULL, &st, "overflow crossings");
+    if (st == CLVOX_OK) counts = clvox__buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow counts");
+    if (st == CLVOX_OK) filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow filled");
     if (st == CLVOX_OK)
         st = cast_rays(s, rays, (cl_uint)m, leaf, hits, need, counts, filled, u_begin, u_count, out_stride, out, ss);
     if (st == CLVOX_OK) {
@@ -250,11 +229,11 @@ static clvox_status redo_overflow(clvox__method_state *s, const uint32_t *idx, s
         else
             ss->filled += fil[i];
     }
-    release_mem(&rays);
-    release_mem(&leaf);
-    release_mem(&hits);
-    release_mem(&counts);
-    release_mem(&filled);
+    clvox__release_mem(&rays);
+    clvox__release_mem(&leaf);
+    clvox__release_mem(&hits);
+    clvox__release_mem(&counts);
+    clvox__release_mem(&filled);
     free(r);
     free(cnt);
     free(fil);

@@ -377,3 +377,24 @@ clvox_status clvox__kernel(clvox_context *ctx, const char *name, cl_kernel *out)
     }
     return CLVOX_OK;
 }
+
+cl_mem clvox__buffer(clvox_context *ctx, cl_mem_flags flags, size_t bytes, void *host, clvox_status *st,
+                     const char *what)
+{
+    cl_int err;
+    if (bytes == 0) bytes = 16;
+    cl_mem m = clCreateBuffer(ctx->cl, flags, bytes, host, &err);
+    if (err != CL_SUCCESS) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "clCreateBuffer(%s, %zu bytes)", what, bytes);
+        *st = clvox__cl_fail(ctx, err, msg);
+        return NULL;
+    }
+    return m;
+}
+
+void clvox__release_mem(cl_mem *m)
+{
+    if (*m) clReleaseMemObject(*m);
+    *m = NULL;
+}

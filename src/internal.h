@@ -43,6 +43,12 @@ clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what);
 const char *clvox__cl_error_name(cl_int err);
 /* Creates kernel `name` from the context's program. */
 clvox_status clvox__kernel(clvox_context *ctx, const char *name, cl_kernel *out);
+/* clCreateBuffer with the error recorded in ctx (status in *st, NULL
+ * returned); zero bytes allocate a small buffer so it can still be bound. */
+cl_mem clvox__buffer(clvox_context *ctx, cl_mem_flags flags, size_t bytes, void *host, clvox_status *st,
+                     const char *what);
+/* Releases *m if set and clears it. */
+void clvox__release_mem(cl_mem *m);
 /* Seconds of device time an event took (0 if profiling info is missing). */
 double clvox__event_seconds(cl_event ev);
 double clvox__now(void); /* monotonic seconds */

@@ -63,12 +63,11 @@
  *
  * Limits: with rounding (non-dyadic input), F can be wrong for points
  * within about 1e-11 voxel of a plane; the shared-face consistency still
- * holds, so only such points can be misclassified. The ray method rounds
- * each crossing to float (half an ulp: 3.8e-6 voxel at u in [64,128)), so a
- * centre that close to the surface can differ between the two methods;
- * there tetra agrees with the crossings counted in double
- * (tests/test_tetra.c checks every such voxel). The kernels need
- * cl_khr_fp64; without it prepare fails with CLVOX_ERR_NO_DEVICE. */
+ * holds, so only such points can be misclassified. The ray method computes
+ * its crossings in double too, so the two methods agree bit for bit on
+ * every test (tests/test_tetra.c compares every voxel, no tolerance). The
+ * kernels need cl_khr_fp64; without it prepare fails with
+ * CLVOX_ERR_NO_DEVICE. */
 #include "internal.h"
 
 #include <math.h>
@@ -100,34 +99,13 @@ struct clvox__method_state {
     cl_kernel k_raster, k_resolve;
 };
 
-static cl_mem make_buffer(clvox_context *ctx, cl_mem_flags flags, size_t bytes, void *host, clvox_status *st,
-                          const char *what)
-{
-    cl_int err;
-    if (bytes == 0) bytes = 16;
-    cl_mem m = clCreateBuffer(ctx->cl, flags, bytes, host, &err);
-    if (err != CL_SUCCESS) {
-        char msg[160];
-        snprintf(msg, sizeof msg, "clCreateBuffer(%s, %zu bytes)", what, bytes);
-        *st = clvox__cl_fail(ctx, err, msg);
-        return NULL;
-    }
-    return m;
-}
-
-static void release_mem(cl_mem *m)
-{
-    if (*m) clReleaseMemObject(*m);
-    *m = NULL;
-}
-
 static void tetra_release(clvox__method_state *s)
 {
     if (!s) return;
-    release_mem(&s->soup);
-    release_mem(&s->tasks);
-    release_mem(&s->bits);
-    release_mem(&s->filled);
+    clvox__release_mem(&s->soup);
+    clvox__release_mem(&s->tasks);
+    clvox__release_mem(&s->bits);
+    clvox__release_mem(&s->filled);
     if (s->k_raster) clReleaseKernel(s->k_raster);
     if (s->k_resolve) clReleaseKernel(s->k_resolve);
     free(s->klo);
@@ -338,14 +316,14 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     }
     if (st == CLVOX_OK) st = sort_tetrahedra(s, &soup);
     cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    if (st == CLVOX_OK) s->soup = make_buffer(ctx, ro, s->tri_count * 9 * sizeof(float), soup, &st, "triangles");
+    if (st == CLVOX_OK) s->soup = clvox__buffer(ctx, ro, s->tri_count * 9 * sizeof(float), soup, &st, "triangles");
     free(soup);
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
 
     size_t words = (size_t)s->words_per_row * Y * slab_depth;
     if (st == CLVOX_OK)
-        s->bits = make_buffer(ctx, CL_MEM_READ_WRITE, words * sizeof(cl_uint), NULL, &st, "presence bits");
-    if (st == CLVOX_OK) s->filled = make_buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
+        s->bits = clvox__buffer(ctx, CL_MEM_READ_WRITE, words * sizeof(cl_uint), NULL, &st, "presence bits");
+    if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
     if (st == CLVOX_OK) {
         cl_int err;
         s->k_raster = clCreateKernel(ctx->program, "clvox_tetra_raster", &err);
@@ -378,7 +356,7 @@ static clvox_status push_task(clvox__method_state *s, size_t *n, size_t tri, int
         if (!p) return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu tasks", cap);
         s->tasks_host = p;
         s->task_cap = cap;
-        release_mem(&s->tasks); /* re-created at the new size */
+        clvox__release_mem(&s->tasks); /* re-created at the new size */
     }
     cl_uint *q = s->tasks_host + 4 * (*n)++;
     q[0] = (cl_uint)tri;
@@ -408,7 +386,7 @@ static clvox_status bin_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, s
     *count = n;
     if (!s->tasks && s->task_cap) {
         clvox_status st = CLVOX_OK;
-        s->tasks = make_buffer(s->ctx, CL_MEM_READ_ONLY, s->task_cap * 4 * sizeof(cl_uint), NULL, &st, "tasks");
+        s->tasks = clvox__buffer(s->ctx, CL_MEM_READ_ONLY, s->task_cap * 4 * sizeof(cl_uint), NULL, &st, "tasks");
         if (st != CLVOX_OK) return st;
     }
     return CLVOX_OK;

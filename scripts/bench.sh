@@ -15,7 +15,8 @@
 #
 # Cases: armadillo.off (52 k triangles) at N = 128, 256, 512, 1024;
 # armadillo subdivided twice (832 k) and three times (3.3 M triangles, binary
-# PLY, made by scripts/subdivide.c) at 512; bunny00 and cow at 512.
+# PLY, made by scripts/subdivide.c) at 512; bunny00 (75 k) and cow (5.8 k) at
+# 256, 512, 1024.
 # Meshes come from scripts/fetch_meshes.sh. The PoCL kernel cache
 # (POCL_CACHE_DIR, default build/pocl-cache) is warmed by one run first.
 # Stage seconds are those of clvox's summary ("time" line); "process" is the
@@ -75,7 +76,8 @@ if [ "$quick" -eq 1 ]; then
   cases="armadillo.off:128 armadillo.off:256 cow.off:256"
 else
   cases="armadillo.off:128 armadillo.off:256 armadillo.off:512 armadillo.off:1024
-         armadillo_s2.ply:512 armadillo_s3.ply:512 bunny00.off:512 cow.off:512"
+         armadillo_s2.ply:512 armadillo_s3.ply:512
+         bunny00.off:256 bunny00.off:512 bunny00.off:1024 cow.off:256 cow.off:512 cow.off:1024"
 fi
 help=$("$clvox" --help 2>&1 || true)
 case "$methods" in
@@ -240,6 +242,24 @@ report="$outdir/results.md"
     $4 != "FAILED" { printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", $1, $2, $3, p($6), p($7), p($8), p($9),
       p($10), p($11), p($13 - $6 - $7 - $12) }' "$results"
   echo
+  echo "Ray vs tetra: the same cases side by side, ratio = tetra / ray (below 1: tetra is"
+  echo "faster). total = the clvox_voxelize call, process = the whole clvox process."
+  echo
+  echo "| mesh | triangles | N | ray total | tetra total | ratio | ray process | tetra process | ratio | same voxels |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+  awk -F '\t' '
+    $4 != "FAILED" { row[$1, $2, $3] = $0; if (!(($1, $2) in seen)) { seen[$1, $2] = 1; order[++n] = $1 SUBSEP $2 } }
+    function q(a, b) { return (a + 0 > 0) ? sprintf("%.2f", b / a) : "-" }
+    END {
+      for (i = 1; i <= n; i++) {
+        split(order[i], k, SUBSEP)
+        if (!(((k[1], k[2], "ray") in row) && ((k[1], k[2], "tetra") in row))) continue
+        split(row[k[1], k[2], "ray"], a, "\t"); split(row[k[1], k[2], "tetra"], b, "\t")
+        printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", k[1], a[4], k[2], a[12], b[12], q(a[12], b[12]),
+          a[13], b[13], q(a[13], b[13]), (a[16] == b[16] ? "yes" : "NO")
+      }
+    }' "$results"
+  echo
   echo "Targets (issue 2; whole process, kernel cache warm, best method per case):"
   echo
   echo "| case | target | measured | met |"
@@ -257,6 +277,29 @@ report="$outdir/results.md"
       t("armadillo_s2.ply:512", "armadillo 832 k, 512^3", 1.5, 0)
       t("armadillo_s3.ply:512", "armadillo 3.3 M (binary PLY), 512^3", 4, 0)
       t("armadillo.off:1024", "armadillo 52 k, 1024^3", 3, 300)
+    }' "$results"
+  echo
+  echo "Targets (issue 3, tetra method): meshes up to 100 k triangles at 512^3 within 2x of"
+  echo "the ray method (both the clvox_voxelize time and the whole process are shown), and"
+  echo "bunny00 at 512^3 in <= 2 s end to end."
+  echo
+  echo "| case | target | measured | met |"
+  echo "|---|---|---|---|"
+  awk -F '\t' '
+    $4 != "FAILED" { row[$1, $2, $3] = $0; if ($2 == 512 && $4 + 0 <= 100000 && !($1 in seen)) { seen[$1] = 1; order[++n] = $1 } }
+    END {
+      for (i = 1; i <= n; i++) {
+        m = order[i]
+        if (!(((m, 512, "ray") in row) && ((m, 512, "tetra") in row))) continue
+        split(row[m, 512, "ray"], a, "\t"); split(row[m, 512, "tetra"], b, "\t")
+        rt = b[12] / a[12]; rp = b[13] / a[13]
+        printf "| %s (%s tris), 512^3, tetra / ray | <= 2 | %.2f (voxelize), %.2f (process) | %s |\n", m, a[4], rt, rp,
+          (rt <= 2 && rp <= 2) ? "yes" : ((rp <= 2) ? "process only" : "NO")
+      }
+      if (("bunny00.off", 512, "tetra") in row) {
+        split(row["bunny00.off", 512, "tetra"], b, "\t")
+        printf "| bunny00.off, 512^3, tetra, whole process | <= 2 s | %.2f s | %s |\n", b[13], (b[13] <= 2 ? "yes" : "NO")
+      }
     }' "$results"
 } >"$report"
 

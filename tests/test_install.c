@@ -67,12 +67,18 @@ int main(void)
 {
     const char *config = getenv("CONFIG");
     if (!config || !*config) config = "release";
-    char cwd[512];
-    if (!getcwd(cwd, sizeof cwd)) return 1;
-    snprintf(root, sizeof root, "%s/%s/install", cwd, test_tmpdir());
+    const char *tmp = test_tmpdir();
+    char cwd[512] = "";
+    if (tmp[0] != '/' && !getcwd(cwd, sizeof cwd)) return 1;
+    snprintf(root, sizeof root, "%s%s%s/install", cwd, *cwd ? "/" : "", tmp);
     snprintf(prefix, sizeof prefix, "%s/usr", root);
-    CHECK(run("rm -rf '%s' && make -s install CONFIG=%s PREFIX=/usr DESTDIR='%s' >'%s.log' 2>&1", root, config, root,
-              root));
+    int installed = run("rm -rf '%s' && make -s install CONFIG=%s PREFIX=/usr DESTDIR='%s' >'%s.log' 2>&1", root,
+                        config, root, root);
+    CHECK(installed);
+    if (!installed) { /* nothing below can work */
+        run("cat '%s.log' >&2", root);
+        return test_report();
+    }
 
     static const char *files[] = {"include/clvox.h", "lib/libclvox.a", "lib/libclvox.so", "lib/pkgconfig/clvox.pc",
                                   "share/clvox/default.obj"};

@@ -25,6 +25,9 @@
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L
 #endif
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700 /* realpath */
+#endif
 
 #include "clvox.h"
 
@@ -853,7 +856,8 @@ static char *find_default_mesh(const char *argv0, int *rc)
             snprintf(path, sizeof path, "%s", c);
         }
         if (is_readable_file(path)) {
-            char *p = dup_string(path);
+            char *p = realpath(path, NULL); /* "/usr/share/clvox/default.obj", not "/usr/bin/../share/..." */
+            if (!p) p = dup_string(path);
             if (!p) *rc = fail(EXIT_RUNTIME, "out of memory");
             return p;
         }

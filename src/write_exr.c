@@ -74,6 +74,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -703,6 +704,23 @@ static clvox_status create_temp(clvox__exr_writer *w)
     return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create a temporary file next to '%s'", w->path);
 }
 
+/* An uncompressed file has a known size: refuse it up front when the file
+ * system cannot hold it, instead of failing after minutes of work. (For
+ * compressed files the size is unknown; a write error is caught per chunk.) */
+static clvox_status check_disk_space(clvox__exr_writer *w)
+{
+    if (w->compression != EXR_COMPRESSION_NONE) return CLVOX_OK;
+    struct statvfs vfs;
+    if (fstatvfs(w->fd, &vfs) != 0) return CLVOX_OK; /* unknown: let the writes tell */
+    uint64_t need = (uint64_t)w->dims[0] * w->dims[1] * w->dims[2] * pixel_bytes() + 8ull * (uint64_t)w->chunk_count;
+    uint64_t avail = (uint64_t)vfs.f_bavail * (uint64_t)(vfs.f_frsize ? vfs.f_frsize : vfs.f_bsize);
+    if (need <= avail) return CLVOX_OK;
+    return clvox__fail(w->ctx, CLVOX_ERR_IO,
+                       "not enough disk space for '%s': the uncompressed volume needs %.1f GB, %.1f GB are free "
+                       "(compressed output, rle by default, is far smaller)",
+                       w->path, (double)need / 1e9, (double)avail / 1e9);
+}
+
 static clvox_status define_header(clvox__exr_writer *w, const clvox_grid *grid, const clvox__exr_meta *meta,
                                   clvox_compression compression)
 {
@@ -825,6 +843,7 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     }
 
     clvox_status st = create_temp(w);
+    if (st == CLVOX_OK) st = check_disk_space(w);
     if (st != CLVOX_OK) {
         writer_free(w);
         return st;

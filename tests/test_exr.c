@@ -13,6 +13,7 @@
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -456,6 +457,33 @@ static void test_write_error(void)
     CHECK(!exists(path) && temp_files(path) == 0);
 }
 
+/* An uncompressed volume larger than the free space of the output's file
+ * system is refused at open (before any work) with CLVOX_ERR_IO, no file
+ * left; the same grid with RLE is accepted (its size is unknown). */
+static void test_disk_space(void)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/huge.exr", dir);
+    struct statvfs vfs;
+    CHECK(statvfs(dir, &vfs) == 0);
+    uint64_t avail = (uint64_t)vfs.f_bavail * (vfs.f_frsize ? vfs.f_frsize : vfs.f_bsize);
+    const uint32_t X = 4096, Y = 4096;
+    uint64_t slice = (uint64_t)X * Y * 2, z = avail / slice + 2;
+    if (z > 65536) {
+        printf("skip: %llu GB free, more than the largest grid\n", (unsigned long long)(avail >> 30));
+        return;
+    }
+    clvox_grid g = make_grid(X, Y, (uint32_t)z);
+    clvox__exr_writer *w = NULL;
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_NONE, 1, &w), CLVOX_ERR_IO);
+    CHECK_MSG(strstr(clvox_context_error(ctx), "not enough disk space") != NULL, "message: %s",
+              clvox_context_error(ctx));
+    CHECK(w == NULL && !exists(path) && temp_files(path) == 0);
+    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, 1, &w));
+    clvox__exr_abort(w);
+    CHECK(!exists(path) && temp_files(path) == 0);
+}
+
 /* An EXR written with OpenEXRCore directly: X x (Y*Z) pixels of vol,
  * scanline (tile_w == 0) or tiled, with or without the clvox attributes. */
 static void write_foreign_exr(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const uint16_t *half,
@@ -715,6 +743,7 @@ int main(void)
     test_unwritable();
     test_abort_and_incomplete();
     test_write_error();
+    test_disk_space();
     test_reader_rejects();
     test_reader_layouts();
     test_peak_memory();

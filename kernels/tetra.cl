@@ -140,6 +140,15 @@ inline int clvox_group_bound(const clvox_tface *f, const int *idx, int n, double
     return b;
 }
 
+/* floor(x) for |x| < 2^31 (here x is within [-1.5, X + 0.5]): truncate,
+ * then step down where that rounded up. Cheaper than floor(), which must
+ * handle every double. */
+inline int4 clvox_floor_small4(double4 x)
+{
+    int4 t = convert_int4(x); /* towards zero */
+    return t + convert_int4(convert_double4(t) > x);
+}
+
 /* The same bound from the extreme root xe of the group (the largest root
  * of the lower faces, the smallest of the upper ones): the threshold of
  * each face is the first integer beyond its root wherever the root is more
@@ -151,9 +160,16 @@ inline int clvox_group_bound(const clvox_tface *f, const int *idx, int n, double
 inline int4 clvox_bound_fast4(double4 xe, double tol, double Xd)
 {
     /* Roots below -0.5 give 0, above X - 0.5 give X (all centres on one side). */
-    double4 c = fmin(fmax(xe, -0.5), Xd - 0.5);
-    double4 lo = floor(c - tol), hi = floor(c + tol);
-    return select((int4)(-1), convert_int4(hi) + 1, convert_int4(lo == hi));
+    double4 c = min(max(xe, -0.5), Xd - 0.5);
+    int4 lo = clvox_floor_small4(c - tol), hi = clvox_floor_small4(c + tol);
+    return select((int4)(-1), hi + 1, lo == hi);
+}
+
+/* Flips the centres [L, U) of one row of presence differences. */
+inline void clvox_span_xor(global uint *row, int L, int U, int X)
+{
+    atomic_xor(row + (L >> 5), 1u << (L & 31));
+    if (U < X) atomic_xor(row + (U >> 5), 1u << (U & 31));
 }
 
 /* y-range of the cross-section at height h, D.z <= h <= A.z, of the
@@ -340,13 +356,27 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
         int4 nr = convert_int4(nr4), j0 = convert_int4(select(jlo4, (double4)(0.0), nr4 == 0.0));
         for (int r = 0; r < (int)rmax; r++) {
             double4 y4 = jlo4 + (double)r;
-            double4 xl = fmax(fmax(lb0 + y4 * ls[0], lb1 + y4 * ls[1]), lb2 + y4 * ls[2]);
-            double4 xu = fmin(fmin(ub0 + y4 * us[0], ub1 + y4 * us[1]), ub2 + y4 * us[2]);
+            /* max/min, not fmax/fmin: no root is NaN (finite face data,
+             * padding at -+inf) and they compile to single instructions. */
+            double4 xl = max(max(lb0 + y4 * ls[0], lb1 + y4 * ls[1]), lb2 + y4 * ls[2]);
+            double4 xu = min(min(ub0 + y4 * us[0], ub1 + y4 * us[1]), ub2 + y4 * us[2]);
             int4 L4 = clvox_bound_fast4(xl, tol_lo, Xd), U4 = clvox_bound_fast4(xu, tol_up, Xd);
             /* Lanes with a row and a span that may be non-empty (or unknown). */
             int4 live = ((int4)(r) < nr) & ((L4 < U4) | (L4 < 0) | (U4 < 0) | (int4)(ncst ? -1 : 0));
             uint mask = (uint)(live.s0 & 1) | (uint)(live.s1 & 2) | (uint)(live.s2 & 4) | (uint)(live.s3 & 8);
             if (!mask) continue;
+            if (!ncst && !any(L4 < 0) && !any(U4 < 0)) {
+                /* The common case: every span known exactly, live lanes
+                 * non-empty. Lanes taken apart statically (no private
+                 * arrays indexed at run time). */
+                int4 jr = j0 + r;
+                size_t base = (size_t)(k4 - z0) * Y;
+                if (live.s0) clvox_span_xor(bits + (base + (size_t)jr.s0) * words_per_row, L4.s0, U4.s0, iX);
+                if (live.s1) clvox_span_xor(bits + (base + Y + (size_t)jr.s1) * words_per_row, L4.s1, U4.s1, iX);
+                if (live.s2) clvox_span_xor(bits + (base + 2 * Y + (size_t)jr.s2) * words_per_row, L4.s2, U4.s2, iX);
+                if (live.s3) clvox_span_xor(bits + (base + 3 * Y + (size_t)jr.s3) * words_per_row, L4.s3, U4.s3, iX);
+                continue;
+            }
             int Ls[4], Us[4], Js[4];
             vstore4(L4, 0, Ls);
             vstore4(U4, 0, Us);
@@ -370,9 +400,7 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
                 if (L < 0) L = clvox_group_bound(f, lo_idx, nlo, yd, kd, iX, 0);
                 if (U < 0) U = clvox_group_bound(f, up_idx, nup, yd, kd, iX, 1);
                 if (L >= U) continue;
-                global uint *row = bits + ((size_t)(k - z0) * Y + (size_t)j) * words_per_row;
-                atomic_xor(row + (L >> 5), 1u << (L & 31));
-                if (U < iX) atomic_xor(row + (U >> 5), 1u << (U & 31));
+                clvox_span_xor(bits + ((size_t)(k - z0) * Y + (size_t)j) * words_per_row, L, U, iX);
             }
         }
     }

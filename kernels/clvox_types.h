@@ -25,12 +25,13 @@ typedef struct clvox_qt_node {
 } clvox_qt_node;
 
 /* One ray parallel to the u axis at (v,w) of the ray plane, in grid
- * coordinates (voxel centres at integers). Its classified voxels go to
- * out[out_base + (u - u_begin) * out_stride]. */
+ * coordinates (voxel centres at integers). Its classified voxels are bits
+ * of the slab's bit rows: rays along x own the row at word out_base; other
+ * rays set bit `bit` of word out_base + (u - u_begin) * out_stride. */
 typedef struct clvox_ray {
     clvox_f32 v, w;
     clvox_u32 out_base;
-    clvox_u32 pad;
+    clvox_u32 bit;
 } clvox_ray;
 
 #if defined(__cplusplus)

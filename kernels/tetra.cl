@@ -2,7 +2,7 @@
  * (a,b,c) and the common point O span a tetrahedron; a voxel centre covered
  * by an odd number of them is inside (Lemma 1). Each task scan-converts one
  * tetrahedron over a few slices z = k of the current slab; the resolve
- * kernel turns the presence bits into half values.
+ * kernel turns the difference markers into the slab's occupancy bits.
  *
  * Presence bits are stored as differences along x: a tetrahedron covers the
  * centres x in [L, U) of a row, and flipping those is XOR-ing a marker at L
@@ -29,10 +29,6 @@
  * visited, far more than the rounding of F (about 1e-11 voxel). */
 #ifndef CLVOX_TETRA_MARGIN
 #define CLVOX_TETRA_MARGIN 1e-3
-#endif
-
-#ifndef CLVOX_HALF_ONE
-#define CLVOX_HALF_ONE ((ushort)0x3C00)
 #endif
 
 /* p < q in lexicographic (x, y, z) order; bit-identical shared vertices
@@ -406,15 +402,16 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
     }
 }
 
-/* Prefix XOR along each row: presence bit -> half 0 / 1, and the count of
- * filled voxels. rows = Y * nz; out has X halves per row. */
+/* Prefix XOR along each row: difference markers -> occupancy bits (the
+ * slab format of src/internal.h, bits past X cleared), and the count of
+ * filled voxels. rows = Y * nz. */
 kernel void clvox_tetra_resolve(global const uint *bits, uint words_per_row, uint X, uint rows,
-                                global ushort *out, global uint *filled)
+                                global uint *out, global uint *filled)
 {
     uint r = get_global_id(0);
     if (r >= rows) return;
     global const uint *w = bits + (size_t)r * words_per_row;
-    global ushort *o = out + (size_t)r * X;
+    global uint *o = out + (size_t)r * words_per_row;
     uint carry = 0, count = 0;
     for (uint i = 0; i < words_per_row; i++) {
         uint v = w[i];
@@ -428,8 +425,7 @@ kernel void clvox_tetra_resolve(global const uint *bits, uint words_per_row, uin
         uint n = min(32u, X - i * 32u);
         if (n < 32u) v &= (1u << n) - 1u;
         count += popcount(v);
-        global ushort *oo = o + i * 32u;
-        for (uint b = 0; b < n; b++) oo[b] = ((v >> b) & 1u) ? CLVOX_HALF_ONE : (ushort)0;
+        o[i] = v;
     }
     if (count) atomic_add(filled, count);
 }

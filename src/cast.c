@@ -244,27 +244,36 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
 {
     clvox_context *ctx = s->ctx;
     const uint32_t X = s->grid.dims[0], Y = s->grid.dims[1];
+    const uint32_t W = clvox__row_words(X);
     size_t n = 0;
-    cl_uint u_begin = 0, u_count = s->dim_u, stride = 1;
-    /* The slab's rays and where each one's voxels go in the slab buffer. */
+    cl_uint u_begin = 0, u_count = s->dim_u, stride = 0;
+    /* The slab's rays and where each one's voxels go in the slab's bit rows
+     * (stride 0: the ray is a whole row). */
     if (s->axis == CLVOX_AXIS_X) {
         for (uint32_t z = z0; z < z0 + nz; z++)
             for (uint32_t y = 0; y < Y; y++)
-                s->rays_host[n++] = (clvox_ray){(float)y, (float)z, ((z - z0) * Y + y) * X, 0};
+                s->rays_host[n++] = (clvox_ray){(float)y, (float)z, ((z - z0) * Y + y) * W, 0};
     } else if (s->axis == CLVOX_AXIS_Y) {
-        stride = X;
+        stride = W;
         for (uint32_t z = z0; z < z0 + nz; z++)
             for (uint32_t x = 0; x < X; x++)
-                s->rays_host[n++] = (clvox_ray){(float)z, (float)x, (z - z0) * X * Y + x, 0};
+                s->rays_host[n++] = (clvox_ray){(float)z, (float)x, (z - z0) * Y * W + x / 32, x % 32};
     } else {
-        stride = X * Y;
+        stride = Y * W;
         u_begin = z0;
         u_count = nz;
         for (uint32_t y = 0; y < Y; y++)
-            for (uint32_t x = 0; x < X; x++) s->rays_host[n++] = (clvox_ray){(float)x, (float)y, y * X + x, 0};
+            for (uint32_t x = 0; x < X; x++)
+                s->rays_host[n++] = (clvox_ray){(float)x, (float)y, y * W + x / 32, x % 32};
     }
-    cl_int err = clEnqueueWriteBuffer(ctx->queue, s->rays, CL_TRUE, 0, n * sizeof(clvox_ray), s->rays_host, 0,
-                                      NULL, NULL);
+    cl_int err = CL_SUCCESS;
+    if (stride != 0) { /* these rays only set bits */
+        cl_uint zero = 0;
+        err = clEnqueueFillBuffer(ctx->queue, out, &zero, sizeof zero, 0, (size_t)W * Y * nz * sizeof(cl_uint), 0,
+                                  NULL, NULL);
+        if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the slab");
+    }
+    err = clEnqueueWriteBuffer(ctx->queue, s->rays, CL_TRUE, 0, n * sizeof(clvox_ray), s->rays_host, 0, NULL, NULL);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "uploading rays");
     clvox_status st = cast_rays(s, s->rays, (cl_uint)n, s->leaf, s->hits, s->capacity, s->counts, s->filled, u_begin,
                                 u_count, stride, out, ss);

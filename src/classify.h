@@ -9,8 +9,8 @@ typedef struct clvox__classify_args {
     cl_mem hits;        /* sorted crossings, `capacity` per ray         */
     cl_mem counts;      /* crossings per ray (rays above capacity skipped) */
     cl_uint capacity;
-    cl_uint u_begin, u_count, out_stride;
-    cl_mem out;         /* cl_ushort half values                      */
+    cl_uint u_begin, u_count, out_stride; /* out_stride 0: rays along x, one bit row each */
+    cl_mem out;         /* slab bit rows (src/internal.h)             */
     cl_mem filled;      /* cl_uint per ray: voxels set                 */
 } clvox__classify_args;
 

@@ -119,10 +119,15 @@ clvox_status clvox__quadtree_build(clvox_context *ctx, const float *soup, size_t
 void clvox__quadtree_free(clvox__quadtree *qt);
 uint32_t clvox__quadtree_auto_depth(uint32_t dim_v, uint32_t dim_w, size_t tri_count);
 
-/* ---- methods: each fills slabs of half-float occupancy ---- */
+/* ---- methods: each fills slabs of occupancy bits ---- */
 
-/* One slab: slices z0 .. z0+nz-1 of the output, X*Y*nz half values
- * (0x0000 or 0x3C00), x fastest. */
+/* One slab: slices z0 .. z0+nz-1 of the output as bit rows: row (z - z0, y)
+ * is clvox__row_words(X) 32-bit words at ((z - z0) * Y + y) * words, voxel
+ * x is bit x % 32 of word x / 32 (1 = inside), bits past X are 0. One bit
+ * per voxel: the device writes, and the writer reads, 16 times less than
+ * half values would take. */
+static inline uint32_t clvox__row_words(uint32_t X) { return (X + 31u) / 32u; }
+
 typedef struct clvox__slab_stats {
     double cast_seconds, classify_seconds;
     uint64_t filled, rays, odd_parity_rays, overflow_rays;
@@ -136,8 +141,8 @@ typedef struct clvox__method {
     clvox_status (*prepare)(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                             const clvox_voxelize_options *opts, uint32_t slab_depth,
                             clvox_stats *stats, clvox__method_state **out);
-    /* Computes the slab into the device buffer `out` (X*Y*nz cl_ushort) and
-     * may leave commands queued; the driver reads `out` back. */
+    /* Computes the slab into the device buffer `out` (bit rows, see above)
+     * and may leave commands queued; the driver reads `out` back. */
     clvox_status (*slab)(clvox__method_state *st, uint32_t z0, uint32_t nz, cl_mem out,
                          clvox__slab_stats *ss);
     void (*release)(clvox__method_state *st);
@@ -163,10 +168,10 @@ typedef struct clvox__exr_meta {
 clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
                              const clvox__exr_meta *meta, clvox_compression compression,
                              uint32_t threads, clvox__exr_writer **out);
-/* Slices must arrive in increasing z, without gaps. half_occupancy holds
- * X*Y*nz half values, x fastest. */
+/* Slices must arrive in increasing z, without gaps. occupancy_bits holds
+ * Y*nz bit rows (the slab format above); the file gets HALF 0.0 / 1.0. */
 clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz,
-                                   const uint16_t *half_occupancy);
+                                   const uint32_t *occupancy_bits);
 /* Completes the file and renames it into place; *bytes = file size. Frees w. */
 clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes);
 /* Deletes the temporary file and frees w. NULL-safe. */

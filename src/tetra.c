@@ -14,7 +14,7 @@
  * whose rows y = j are spans [L, U) of voxel centres, XOR-ed into a
  * one-bit-per-voxel presence buffer as two difference markers (atomic_xor on
  * 32-bit words); the resolve kernel's prefix XOR along x gives the presence
- * bits and writes the slab's half values. Memory: X*Y*nz/8 bytes of presence
+ * bits, the slab's output. Memory: X*Y*nz/8 bytes of presence
  * bits per slab, the triangle soup, one task list: bounded like the ray
  * method.
  *

@@ -1,22 +1,24 @@
-/* Driver: runs a method slab by slab and hands each slab, in increasing z,
- * to a sink (EXR writer, caller callback or dense memory). Memory is one
- * slab buffer whatever the number of slices. */
+/* Driver: runs a method slab by slab and hands each slab (occupancy bit
+ * rows, see internal.h), in increasing z, to a sink (EXR writer, caller
+ * callback or dense memory). Memory is one slab buffer whatever the number
+ * of slices. */
 #include "internal.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* Slab buffers are kept near this size: big enough to keep the device busy,
- * small enough that memory does not grow with the grid. */
-#define SLAB_TARGET_BYTES (32u << 20)
+/* Slabs hold about this many voxels: enough to keep the device busy, few
+ * enough that the methods' per-ray and per-row buffers stay small and
+ * memory does not grow with the grid (the slab's bits take 2 MiB). */
+#define SLAB_TARGET_VOXELS (16u << 20)
 
-typedef clvox_status (*sink_fn)(void *user, uint32_t z0, uint32_t nz, const uint16_t *half);
+typedef clvox_status (*sink_fn)(void *user, uint32_t z0, uint32_t nz, const uint32_t *bits);
 
 static uint32_t auto_slab_depth(const clvox_grid *g)
 {
-    uint64_t slice = (uint64_t)g->dims[0] * g->dims[1] * 2;
-    uint64_t d = SLAB_TARGET_BYTES / (slice ? slice : 1);
+    uint64_t slice = (uint64_t)g->dims[0] * g->dims[1];
+    uint64_t d = SLAB_TARGET_VOXELS / (slice ? slice : 1);
     if (d < 1) d = 1;
     if (d > g->dims[2]) d = g->dims[2];
     return (uint32_t)d;
@@ -68,7 +70,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
 
     const clvox__method *m = o.method == CLVOX_METHOD_TETRA ? &clvox__method_tetra : &clvox__method_ray;
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
-    uint64_t slice_bytes = (uint64_t)X * Y * sizeof(cl_ushort);
+    uint64_t slice_bytes = (uint64_t)clvox__row_words(X) * Y * sizeof(cl_uint);
     uint64_t max_alloc = ctx->device.max_alloc_bytes ? ctx->device.max_alloc_bytes : (1ull << 31);
     if (slice_bytes > max_alloc)
         return clvox__fail(ctx, CLVOX_ERR_GRID, "one %ux%u slice needs %llu MB, more than the device's largest buffer (%llu MB)",
@@ -153,10 +155,10 @@ static clvox_status exr_open(void *user, const char *method, const char *params)
     return clvox__exr_open(s->ctx, s->path, s->grid, &meta, s->compression, s->threads, &s->w);
 }
 
-static clvox_status exr_slab(void *user, uint32_t z0, uint32_t nz, const uint16_t *half)
+static clvox_status exr_slab(void *user, uint32_t z0, uint32_t nz, const uint32_t *bits)
 {
     exr_sink *s = user;
-    return clvox__exr_write_slab(s->w, z0, nz, half);
+    return clvox__exr_write_slab(s->w, z0, nz, bits);
 }
 
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
@@ -191,20 +193,23 @@ typedef struct user_sink {
     uint8_t *scratch;
     size_t scratch_size;
     uint8_t *dense;  /* memory sink: X*Y*Z */
-    size_t slice;    /* X*Y */
+    uint32_t X, Y;
 } user_sink;
 
-static void half_to_u8(uint8_t *dst, const uint16_t *src, size_t n)
+/* Bit rows -> one byte (0/1) per voxel, x fastest. */
+static void bits_to_u8(uint8_t *dst, const uint32_t *bits, uint32_t X, size_t rows)
 {
-    for (size_t i = 0; i < n; i++) dst[i] = src[i] != 0;
+    const uint32_t W = clvox__row_words(X);
+    for (size_t r = 0; r < rows; r++, bits += W, dst += X)
+        for (uint32_t x = 0; x < X; x++) dst[x] = (uint8_t)((bits[x >> 5] >> (x & 31)) & 1u);
 }
 
-static clvox_status user_slab(void *p, uint32_t z0, uint32_t nz, const uint16_t *half)
+static clvox_status user_slab(void *p, uint32_t z0, uint32_t nz, const uint32_t *bits)
 {
     user_sink *s = p;
-    size_t n = s->slice * nz;
+    size_t slice = (size_t)s->X * s->Y, n = slice * nz;
     if (s->dense) {
-        half_to_u8(s->dense + (size_t)z0 * s->slice, half, n);
+        bits_to_u8(s->dense + (size_t)z0 * slice, bits, s->X, (size_t)s->Y * nz);
         return CLVOX_OK;
     }
     if (n > s->scratch_size) {
@@ -213,7 +218,7 @@ static clvox_status user_slab(void *p, uint32_t z0, uint32_t nz, const uint16_t 
         s->scratch = q;
         s->scratch_size = n;
     }
-    half_to_u8(s->scratch, half, n);
+    bits_to_u8(s->scratch, bits, s->X, (size_t)s->Y * nz);
     if (s->fn(s->user, z0, nz, s->scratch))
         return clvox__fail(s->ctx, CLVOX_ERR_CANCELLED, "cancelled by the slab callback at slice %u", z0);
     return CLVOX_OK;
@@ -225,7 +230,7 @@ clvox_status clvox_voxelize_stream(clvox_context *ctx, const clvox_mesh *mesh, c
 {
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!fn || !grid) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL slab callback or grid");
-    user_sink s = {ctx, fn, user, NULL, 0, NULL, (size_t)grid->dims[0] * grid->dims[1]};
+    user_sink s = {ctx, fn, user, NULL, 0, NULL, grid->dims[0], grid->dims[1]};
     clvox_status st = run(ctx, mesh, grid, options, NULL, user_slab, &s, stats);
     free(s.scratch);
     return st;
@@ -241,6 +246,6 @@ clvox_status clvox_voxelize_to_memory(clvox_context *ctx, const clvox_mesh *mesh
     if (out_size < need)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "output buffer holds %zu bytes, the grid needs %llu",
                            out_size, (unsigned long long)need);
-    user_sink s = {ctx, NULL, NULL, NULL, 0, out, (size_t)grid->dims[0] * grid->dims[1]};
+    user_sink s = {ctx, NULL, NULL, NULL, 0, out, grid->dims[0], grid->dims[1]};
     return run(ctx, mesh, grid, options, NULL, user_slab, &s, stats);
 }

@@ -96,13 +96,14 @@
 typedef struct exr_channel_def {
     const char *name;
     exr_pixel_type_t type;
-    uint32_t bytes; /* per sample */
+    uint32_t bytes; /* per sample in the file */
+    int bits;       /* the caller gives bit rows (clvox__row_words words per row, bit 1 = 1.0), not samples */
 } exr_channel_def;
 
 /* Channels written today. Add entries here (and a data pointer per channel
  * in write_rows' caller) to store more per-voxel values. */
 static const exr_channel_def channel_table[] = {
-    { "occupancy", EXR_PIXEL_HALF, 2 },
+    { "occupancy", EXR_PIXEL_HALF, 2, 1 },
 };
 #define CHANNEL_COUNT (sizeof channel_table / sizeof channel_table[0])
 _Static_assert(CHANNEL_COUNT <= CLVOX__EXR_MAX_CHANNELS, "too many EXR channels");
@@ -138,6 +139,8 @@ struct clvox__exr_writer {
     uint64_t next_row;    /* image rows received so far */
     uint32_t next_z;      /* next slice expected */
     int failed;           /* a slab failed: only abort is possible */
+    uint8_t *even_rle;    /* RLE of the even bytes of a full chunk of bit rows (the same in every chunk) */
+    size_t even_rle_bytes;
     clvox_status fail_status;
 
     /* source of the current slab (read by workers) */
@@ -253,9 +256,16 @@ static int grow(uint8_t **buf, size_t *size, size_t need)
 
 /* Channel t's data for image row `row` of the current slab (or of the
  * carried-over rows of a chunk begun by the previous slab). */
+/* Bytes of one image row of channel t as the caller gives it. */
+static size_t source_row_bytes(const clvox__exr_writer *w, size_t t)
+{
+    if (channel_table[t].bits) return (size_t)clvox__row_words(w->dims[0]) * 4;
+    return (size_t)w->dims[0] * channel_table[t].bytes;
+}
+
 static const uint8_t *channel_rows(const clvox__exr_writer *w, size_t t, uint64_t row)
 {
-    uint64_t rb = (uint64_t)w->dims[0] * channel_table[t].bytes;
+    uint64_t rb = source_row_bytes(w, t);
     if (row < w->src_row0) return w->carry[t] + (size_t)((row - w->carry_row0) * rb);
     return w->src[t] + (size_t)((row - w->src_row0) * rb);
 }
@@ -267,7 +277,7 @@ static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row
                                  const uint8_t **out)
 {
     const size_t X = w->dims[0];
-    if (CHANNEL_COUNT == 1 && (channel_table[0].bytes == 1 || w->little_endian)) {
+    if (CHANNEL_COUNT == 1 && !channel_table[0].bits && (channel_table[0].bytes == 1 || w->little_endian)) {
         *out = channel_rows(w, 0, row0);
         return EXR_ERR_SUCCESS;
     }
@@ -277,7 +287,13 @@ static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row
         for (size_t k = 0; k < CHANNEL_COUNT; k++) {
             size_t t = w->file_order[k], b = channel_table[t].bytes, n = X * b;
             const uint8_t *src = channel_rows(w, t, row0 + y);
-            if (w->little_endian) {
+            if (channel_table[t].bits) { /* HALF 0.0 / 1.0, little-endian */
+                const uint32_t *bits = (const uint32_t *)(const void *)src;
+                for (size_t x = 0; x < X; x++) {
+                    dst[2 * x] = 0;
+                    dst[2 * x + 1] = (bits[x >> 5] >> (x & 31)) & 1u ? 0x3C : 0x00;
+                }
+            } else if (w->little_endian) {
                 memcpy(dst, src, n);
             } else {
                 for (size_t i = 0; i < n; i += b)
@@ -413,6 +429,125 @@ static size_t rle_encode(uint8_t *restrict out, uint8_t *restrict out2, const ui
     return o1 + o2;
 }
 
+/* RLE of a chunk of bit rows (one HALF channel, 0.0 / 1.0) straight from the
+ * bits, never building the samples: the bytes are 0x00 / 0x3C00 halves, so
+ * after step 1 the even half is X*rows zero bytes and the odd half is 0x3C
+ * where a bit is set; after step 2 the even half is 0 then 0x80s, the odd
+ * half 0x80 except 0x80 +- 0x3C where a bit differs from the one before it
+ * (the first from 0). Cost: one pass over the words plus one per change. */
+typedef struct rle_out {
+    uint8_t *p;
+    size_t n;        /* bytes written */
+    uint8_t lit[127]; /* pending literal bytes */
+    size_t nlit;
+} rle_out;
+
+static void rle_flush(rle_out *o)
+{
+    if (!o->nlit) return;
+    o->p[o->n++] = (uint8_t)(256 - o->nlit);
+    memcpy(o->p + o->n, o->lit, o->nlit);
+    o->n += o->nlit;
+    o->nlit = 0;
+}
+
+/* Appends `len` copies of v. */
+static void rle_put(rle_out *o, uint8_t v, uint64_t len)
+{
+    if (len < 3) { /* too short for a run token: literal bytes */
+        for (; len > 0; len--) {
+            if (o->nlit == sizeof o->lit) rle_flush(o);
+            o->lit[o->nlit++] = v;
+        }
+        return;
+    }
+    rle_flush(o);
+    uint64_t full = len / 128; /* tokens of 128: the same two bytes over and over */
+    uint8_t *q = o->p + o->n;
+    for (uint64_t i = 0; i < full; i++) {
+        q[2 * i] = 127;
+        q[2 * i + 1] = v;
+    }
+    o->n += 2 * full;
+    if (len % 128) {
+        o->p[o->n++] = (uint8_t)(len % 128 - 1);
+        o->p[o->n++] = v;
+    }
+}
+
+/* Capacity rle_encode_bits needs for `samples` values: the even half is at
+ * most 2 + 2*samples/128 bytes, the odd half at most 2 bytes per sample
+ * (every sample a change, as 127-byte literals: 128 bytes per 127). */
+static size_t rle_bits_bound(uint64_t samples)
+{
+    return (size_t)(samples + samples / 127 + samples / 64 + 64);
+}
+
+/* The odd-half bytes for the changes (bits set in `changes`) of word v,
+ * whose bit 0 is sample pos; *last = the sample after the last change. */
+static inline void rle_changes(rle_out *o, uint32_t changes, uint32_t v, uint64_t pos, uint64_t *last)
+{
+    while (changes) {
+        unsigned b = (unsigned)__builtin_ctz(changes);
+        changes &= changes - 1u;
+        uint64_t at = pos + b;
+        rle_put(o, 0x80, at - *last); /* unchanged samples before it */
+        rle_put(o, (v >> b) & 1u ? 0x80 + 0x3C : 0x80 - 0x3C, 1);
+        *last = at + 1;
+    }
+}
+
+/* The even half of n samples: the first byte stays (0), then deltas of 0. */
+static size_t rle_even_half(uint8_t *out, uint64_t n)
+{
+    rle_out o = { out, 0, {0}, 0 };
+    rle_put(&o, 0x00, 1);
+    rle_put(&o, 0x80, n - 1);
+    rle_flush(&o);
+    return o.n;
+}
+
+/* Encodes rows [row0, row0 + rows) of bit channel t; returns the size. */
+static size_t rle_encode_bits(const clvox__exr_writer *w, size_t t, uint64_t row0, uint32_t rows, uint8_t *out)
+{
+    const uint64_t X = w->dims[0], n = X * rows;
+    const uint32_t full = (uint32_t)(X / 32), rem = (uint32_t)(X % 32);
+    rle_out o = { out, 0, {0}, 0 };
+    if (n == 0) return 0;
+    if (w->even_rle && rows == (uint32_t)w->tile_h) {
+        memcpy(out, w->even_rle, w->even_rle_bytes);
+        o.n = w->even_rle_bytes;
+    } else {
+        o.n = rle_even_half(out, n);
+    }
+    uint64_t last = 0; /* the sample after the last change */
+    uint32_t prev = 0; /* the sample before the current one */
+    for (uint32_t y = 0; y < rows; y++) {
+        const uint32_t *bits = (const uint32_t *)(const void *)channel_rows(w, t, row0 + y);
+        uint64_t pos = (uint64_t)y * X;
+        for (uint32_t k = 0; k < full; k++, pos += 32) {
+            const uint32_t same = 0u - prev; /* a word without changes */
+            while (k + 4 <= full && ((bits[k] ^ same) | (bits[k + 1] ^ same) | (bits[k + 2] ^ same) |
+                                     (bits[k + 3] ^ same)) == 0) {
+                k += 4;
+                pos += 128;
+            }
+            if (k == full) break;
+            uint32_t v = bits[k], changes = v ^ ((v << 1) | prev);
+            if (changes) rle_changes(&o, changes, v, pos, &last);
+            prev = v >> 31;
+        }
+        if (rem) { /* the row's last word: bits past X are not samples */
+            uint32_t valid = (1u << rem) - 1u, v = bits[full] & valid;
+            rle_changes(&o, (v ^ ((v << 1) | prev)) & valid, v, pos, &last);
+            prev = (v >> (rem - 1)) & 1u;
+        }
+    }
+    rle_put(&o, 0x80, n - last);
+    rle_flush(&o);
+    return o.n;
+}
+
 /* Readers take a chunk whose stored size equals its unpacked size as
  * uncompressed. OpenEXRCore 3.1.5 keeps compressed output that is exactly as
  * large as the input (it falls back to raw data only when larger), which then
@@ -445,14 +580,24 @@ static exr_result_t library_encode(clvox__exr_writer *w, exr_slot *s, int32_t c,
         if (rv != EXR_ERR_SUCCESS) return rv;
     }
     const uint64_t X = w->dims[0];
+    /* Bit channels: the samples are made first (the packed chunk holds
+     * them, little-endian, as the library reads user data). */
+    const uint8_t *packed = NULL;
+    if (CHANNEL_COUNT == 1 && channel_table[0].bits) {
+        uint32_t rows = (uint32_t)((uint64_t)w->height - row0 < (uint64_t)w->tile_h ? (uint64_t)w->height - row0
+                                                                                    : (uint64_t)w->tile_h);
+        rv = packed_chunk(w, s, row0, rows, &packed);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+    }
     for (int16_t k = 0; k < s->pipe.channel_count; k++) {
         exr_coding_channel_info_t *ch = &s->pipe.channels[k];
         size_t t;
         for (t = 0; t < CHANNEL_COUNT; t++)
             if (strcmp(ch->channel_name, channel_table[t].name) == 0) break;
         if (t == CHANNEL_COUNT) return EXR_ERR_INVALID_ARGUMENT;
+        if (channel_table[t].bits && !packed) return EXR_ERR_INVALID_ARGUMENT; /* several channels: not yet */
         uint32_t b = channel_table[t].bytes;
-        ch->encode_from_ptr = channel_rows(w, t, row0);
+        ch->encode_from_ptr = channel_table[t].bits ? packed : channel_rows(w, t, row0);
         ch->user_pixel_stride = (int32_t)b;
         ch->user_line_stride = (int32_t)(X * b);
         ch->user_bytes_per_element = (int16_t)b;
@@ -490,6 +635,13 @@ static exr_result_t encode_chunk(clvox__exr_writer *w, exr_slot *s, int32_t c)
 #ifndef CLVOX__EXR_LIBRARY_RLE /* defined: OpenEXRCore's RLE encoder, for comparison */
     case EXR_COMPRESSION_RLE: {
         size_t n = (size_t)unpacked;
+        if (CHANNEL_COUNT == 1 && channel_table[0].bits) {
+            if (!grow(&s->comp, &s->comp_size, rle_bits_bound((uint64_t)rows * w->dims[0])))
+                return EXR_ERR_OUT_OF_MEMORY;
+            s->out = s->comp;
+            s->out_bytes = rle_encode_bits(w, 0, row0, rows, s->comp);
+            break;
+        }
         if (!grow(&s->scratch, &s->scratch_size, rle_bound(n)) || !grow(&s->comp, &s->comp_size, rle_bound(n)))
             return EXR_ERR_OUT_OF_MEMORY;
         rv = packed_chunk(w, s, row0, rows, &packed);
@@ -599,7 +751,7 @@ static clvox_status run_chunks(clvox__exr_writer *w, int32_t first, int32_t end)
  * entry) to the file. */
 static clvox_status write_rows(clvox__exr_writer *w, uint64_t row0, uint64_t nrows, const uint8_t *const *data)
 {
-    const uint64_t X = w->dims[0], T = (uint64_t)w->tile_h, H = (uint64_t)w->height;
+    const uint64_t T = (uint64_t)w->tile_h, H = (uint64_t)w->height;
     const uint64_t R0 = row0, R1 = row0 + nrows;
     int32_t first = (int32_t)(R0 / T);
 
@@ -611,7 +763,7 @@ static clvox_status write_rows(clvox__exr_writer *w, uint64_t row0, uint64_t nro
         uint64_t cend = cstart + T < H ? cstart + T : H;
         uint64_t take = cend - R0 < nrows ? cend - R0 : nrows;
         for (size_t t = 0; t < CHANNEL_COUNT; t++) {
-            size_t rb = (size_t)(X * channel_table[t].bytes);
+            size_t rb = source_row_bytes(w, t);
             memcpy(w->carry[t] + (size_t)w->carry_rows * rb, data[t], (size_t)take * rb);
         }
         w->carry_rows += (int32_t)take;
@@ -624,7 +776,7 @@ static clvox_status write_rows(clvox__exr_writer *w, uint64_t row0, uint64_t nro
     uint64_t tail0 = (uint64_t)end * T;
     if (tail0 < R1) { /* keep the start of the next chunk */
         for (size_t t = 0; t < CHANNEL_COUNT; t++) {
-            size_t rb = (size_t)(X * channel_table[t].bytes);
+            size_t rb = source_row_bytes(w, t);
             memcpy(w->carry[t], data[t] + (size_t)(tail0 - R0) * rb, (size_t)(R1 - tail0) * rb);
         }
         w->carry_rows = (int32_t)(R1 - tail0);
@@ -676,6 +828,7 @@ static void writer_free(clvox__exr_writer *w)
         pthread_cond_destroy(&w->work_cv);
         pthread_mutex_destroy(&w->mu);
     }
+    free(w->even_rle);
     free(w->path);
     free(w->tmp);
     free(w);
@@ -832,9 +985,18 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
         writer_free(w);
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     }
+    if (w->compression == EXR_COMPRESSION_RLE && CHANNEL_COUNT == 1 && channel_table[0].bits) {
+        uint64_t n = X * (uint64_t)w->tile_h; /* made once: 2 bytes per 128 samples */
+        w->even_rle = malloc((size_t)(n / 64 + 16));
+        if (!w->even_rle) {
+            writer_free(w);
+            return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+        }
+        w->even_rle_bytes = rle_even_half(w->even_rle, n);
+    }
     if (w->tile_h != (int32_t)Y) {
         for (size_t t = 0; t < CHANNEL_COUNT; t++) {
-            w->carry[t] = malloc((size_t)((uint64_t)X * channel_table[t].bytes * (uint64_t)w->tile_h));
+            w->carry[t] = malloc(source_row_bytes(w, t) * (size_t)w->tile_h);
             if (!w->carry[t]) {
                 writer_free(w);
                 return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for the EXR row buffer");
@@ -867,7 +1029,8 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     }
 
     unsigned n = threads ? threads : online_cpus();
-    if (w->compression == EXR_COMPRESSION_NONE) n = 1; /* nothing to compute: chunks are the caller's data */
+    if (w->compression == EXR_COMPRESSION_NONE && !channel_table[0].bits)
+        n = 1; /* nothing to compute: chunks are the caller's data */
     if (n > CLVOX__EXR_MAX_THREADS) n = CLVOX__EXR_MAX_THREADS;
     if ((uint32_t)n > (uint32_t)w->chunk_count) n = (unsigned)w->chunk_count;
     w->thread_count = n;
@@ -893,19 +1056,19 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     return CLVOX_OK;
 }
 
-clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz, const uint16_t *half_occupancy)
+clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz, const uint32_t *occupancy_bits)
 {
     if (!w) return CLVOX_ERR_INVALID_ARGUMENT;
     if (w->failed)
         return clvox__fail(w->ctx, w->fail_status, "EXR writer for '%s' already failed", w->path);
-    if (!half_occupancy || nz == 0 || z0 != w->next_z || nz > w->dims[2] - z0) {
+    if (!occupancy_bits || nz == 0 || z0 != w->next_z || nz > w->dims[2] - z0) {
         w->failed = 1;
         w->fail_status = CLVOX_ERR_INTERNAL;
         return clvox__fail(w->ctx, CLVOX_ERR_INTERNAL,
                            "EXR slab z0=%u nz=%u out of order (expected z0=%u, Z=%u, data %s)", z0, nz, w->next_z,
-                           w->dims[2], half_occupancy ? "set" : "missing");
+                           w->dims[2], occupancy_bits ? "set" : "missing");
     }
-    const uint8_t *data[CLVOX__EXR_MAX_CHANNELS] = { (const uint8_t *)half_occupancy };
+    const uint8_t *data[CLVOX__EXR_MAX_CHANNELS] = { (const uint8_t *)occupancy_bits };
     uint64_t Y = w->dims[1];
     clvox_status st = write_rows(w, (uint64_t)z0 * Y, (uint64_t)nz * Y, data);
     if (st != CLVOX_OK) {

@@ -77,6 +77,16 @@ static clvox_grid make_grid(uint32_t X, uint32_t Y, uint32_t Z)
 
 static const clvox__exr_meta test_meta = { "ray", "axis=x depth=9 leaf=8 \"quoted\" utf8: \xc3\xa9" };
 
+/* Packs rows of X bytes 0/1 into the slab format's bit rows. */
+static void pack_bits(uint32_t *dst, const uint8_t *vol, uint32_t X, size_t rows)
+{
+    const uint32_t W = clvox__row_words(X);
+    memset(dst, 0, rows * W * sizeof *dst);
+    for (size_t r = 0; r < rows; r++)
+        for (uint32_t x = 0; x < X; x++)
+            if (vol[r * X + x]) dst[r * W + x / 32] |= 1u << (x % 32);
+}
+
 /* Writes vol (X*Y*Z bytes 0/1) in slabs of the given depths (cycled). */
 static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_compression comp, uint32_t threads,
                                  const uint8_t *vol, const uint32_t *depths, size_t ndepths, uint64_t *bytes)
@@ -84,32 +94,32 @@ static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_co
     clvox__exr_writer *w = NULL;
     clvox_status st = clvox__exr_open(ctx, path, g, &test_meta, comp, threads, &w);
     if (st != CLVOX_OK) return st;
-    const size_t XY = (size_t)g->dims[0] * g->dims[1];
-    uint16_t *half = NULL;
-    size_t half_cap = 0;
+    const size_t XY = (size_t)g->dims[0] * g->dims[1], WY = (size_t)clvox__row_words(g->dims[0]) * g->dims[1];
+    uint32_t *bits = NULL;
+    size_t bits_cap = 0;
     size_t k = 0;
     for (uint32_t z0 = 0; z0 < g->dims[2];) {
         uint32_t nz = depths[k++ % ndepths];
         if (nz > g->dims[2] - z0) nz = g->dims[2] - z0;
-        if (XY * nz > half_cap) {
-            free(half);
-            half_cap = XY * nz;
-            half = malloc(half_cap * 2);
-            if (!half) {
+        if (WY * nz > bits_cap) {
+            free(bits);
+            bits_cap = WY * nz;
+            bits = malloc(bits_cap * sizeof *bits);
+            if (!bits) {
                 clvox__exr_abort(w);
                 return CLVOX_ERR_OUT_OF_MEMORY;
             }
         }
-        for (size_t i = 0; i < XY * nz; i++) half[i] = vol[(size_t)z0 * XY + i] ? 0x3C00 : 0x0000;
-        st = clvox__exr_write_slab(w, z0, nz, half);
+        pack_bits(bits, vol + (size_t)z0 * XY, g->dims[0], (size_t)g->dims[1] * nz);
+        st = clvox__exr_write_slab(w, z0, nz, bits);
         if (st != CLVOX_OK) {
-            free(half);
+            free(bits);
             clvox__exr_abort(w);
             return st;
         }
         z0 += nz;
     }
-    free(half);
+    free(bits);
     return clvox__exr_finish(w, bytes);
 }
 
@@ -155,7 +165,8 @@ static void round_trip(uint32_t X, uint32_t Y, uint32_t Z, int structured, clvox
         free(back);
         return;
     }
-    if (structured) fill_structured(vol, X, Y, Z);
+    if (structured == 2) memset(vol, 1, n); /* full: no change across rows or slices */
+    else if (structured) fill_structured(vol, X, Y, Z);
     else fill_random(vol, n);
     clvox_grid g = make_grid(X, Y, Z);
     uint64_t bytes = 0;
@@ -207,6 +218,12 @@ static void test_round_trips(void)
                 uint32_t threads = (uint32_t)((d + (size_t)c + (size_t)s) % 4); /* 0 (= all cores), 1, 2, 3 */
                 round_trip(dims[d][0], dims[d][1], dims[d][2], s, (clvox_compression)c, threads, dp, nd);
             }
+    /* Full volumes: one run of ones through every row and slice (RLE runs
+     * longer than 128, row ends inside words). */
+    static const uint32_t full[][3] = { { 37, 3, 4 }, { 64, 2, 2 }, { 300, 5, 2 } };
+    for (size_t d = 0; d < sizeof full / sizeof full[0]; d++)
+        for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++)
+            round_trip(full[d][0], full[d][1], full[d][2], 2, (clvox_compression)c, 2, one, 1);
 }
 
 /* Slices larger than one chunk: tiles of fewer rows than Y, which straddle
@@ -343,8 +360,10 @@ static void test_unwritable(void)
 static void test_abort_and_incomplete(void)
 {
     clvox_grid g = make_grid(6, 5, 4);
-    uint16_t slab[6 * 5 * 4];
-    for (size_t i = 0; i < sizeof slab / sizeof slab[0]; i++) slab[i] = (i % 3) ? 0x3C00 : 0;
+    uint8_t pattern[6 * 5 * 4];
+    uint32_t slab[5 * 4]; /* one word per row */
+    for (size_t i = 0; i < sizeof pattern; i++) pattern[i] = (i % 3) != 0;
+    pack_bits(slab, pattern, 6, 5 * 4);
     char path[2048];
     snprintf(path, sizeof path, "%s/abort.exr", dir);
     unlink(path);
@@ -405,7 +424,7 @@ static void test_abort_and_incomplete(void)
     CHECK(file_size(path) == 3); /* abort keeps the old file */
     CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, 2, &w));
     CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, slab));
-    CHECK_OK(ctx, clvox__exr_write_slab(w, 1, 3, slab + 6 * 5));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 1, 3, slab + 5));
     CHECK(file_size(path) == 3);
     uint64_t bytes = 0;
     CHECK_OK(ctx, clvox__exr_finish(w, &bytes));
@@ -584,12 +603,14 @@ static void test_reader_layouts(void)
         CHECK(info.parameters[0] == '\0');
         CHECK(info.origin[2] == 3 && info.voxel_size[0] == 0.25);
     }
-    /* the same values through clvox's writer */
+    /* what they mean, through clvox's writer (which takes bits) */
     clvox_grid g = make_grid(X, Y, Z);
     clvox__exr_writer *w = NULL;
+    uint32_t bits[7 * 5];
+    pack_bits(bits, want, X, (size_t)Y * Z);
     for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
         CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, (clvox_compression)c, 2, &w));
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, Z, half));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, Z, bits));
         CHECK_OK(ctx, clvox__exr_finish(w, NULL));
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, sizeof back));
         CHECK(info.filled_voxels == filled && memcmp(back, want, n) == 0);
@@ -651,9 +672,9 @@ static long vm_hwm_kb(void)
 }
 
 /* Streams a 256x256xZ sphere in slabs of 16 slices. */
-static clvox_status stream_sphere(const char *path, uint32_t Z, uint16_t *slab)
+static clvox_status stream_sphere(const char *path, uint32_t Z, uint32_t *slab)
 {
-    const uint32_t X = 256, Y = 256, NZ = 16;
+    const uint32_t X = 256, Y = 256, NZ = 16, W = 256 / 32;
     clvox_grid g = make_grid(X, Y, Z);
     clvox__exr_writer *w = NULL;
     clvox_status st = clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 2, &w);
@@ -663,7 +684,8 @@ static clvox_status stream_sphere(const char *path, uint32_t Z, uint16_t *slab)
             for (uint32_t y = 0; y < Y; y++)
                 for (uint32_t x = 0; x < X; x++) {
                     double dx = x - 128.0, dy = y - 128.0, dz = ((z0 + k) % 256) - 128.0;
-                    slab[((size_t)k * Y + y) * X + x] = dx * dx + dy * dy + dz * dz < 100.0 * 100.0 ? 0x3C00 : 0;
+                    uint32_t *word = &slab[((size_t)k * Y + y) * W + x / 32], bit = 1u << (x % 32);
+                    *word = dx * dx + dy * dy + dz * dz < 100.0 * 100.0 ? *word | bit : *word & ~bit;
                 }
         st = clvox__exr_write_slab(w, z0, NZ, slab);
         if (st != CLVOX_OK) {
@@ -692,7 +714,7 @@ static void test_peak_memory(void)
     pid_t pid = fork();
     if (pid == 0) {
         long r[4] = { -1, -1, -1, -1 };
-        uint16_t *slab = malloc((size_t)256 * 256 * 16 * 2);
+        uint32_t *slab = malloc((size_t)256 / 32 * 256 * 16 * sizeof *slab);
         clvox_volume_info info;
         if (slab && stream_sphere(path, 64, slab) == CLVOX_OK && stream_sphere(path, 64, slab) == CLVOX_OK &&
             clvox_volume_read(ctx, path, &info, NULL, 0) == CLVOX_OK) {

@@ -1,5 +1,5 @@
 /*
- * Streaming EXR writer: slabs of half occupancy in, one OpenEXR file out.
+ * Streaming EXR writer: slabs of occupancy bits in, one OpenEXR file out.
  *
  * File layout (attribute clvoxLayout says which variant was used)
  * ----------------------------------------------------------------
@@ -42,24 +42,28 @@
  * Encoding runs in `threads` worker threads (0 = online CPUs), each chunk in
  * one of threads+2 ring slots; the calling thread writes the finished chunks
  * strictly in order with exr_write_tile_chunk (packed data), then returns when
- * the whole slab is in the file. Per compression:
- *  - RLE (the default): clvox's own encoder below, same format as
- *    OpenEXR's; on binary volumes about 10x less CPU than OpenEXRCore 3.1.5's
- *    and then limited by memory bandwidth, not by threads.
- *  - NONE: the caller's rows are written as they are (no copy, no threads).
- *  - ZIP, ZIPS, PIZ: OpenEXRCore's encode pipeline (exr_encoding_run with its
- *    write step removed). ZIP and ZIPS use zlib level CLVOX__EXR_ZIP_LEVEL;
- *    in a tiled file both compress a whole tile, so they are the same.
+ * the whole slab is in the file. The input is occupancy bits (the slab format
+ * of internal.h). Per compression:
+ *  - RLE (the default): clvox's own encoder, same format as OpenEXR's, fed
+ *    straight from the bits (rle_encode_bits: the tokens follow from where a
+ *    bit changes; no HALF sample is ever made).
+ *  - NONE: the bits are expanded to HALF samples per chunk.
+ *  - ZIP, ZIPS, PIZ: samples made per chunk, then OpenEXRCore's encode
+ *    pipeline (exr_encoding_run with its write step removed). ZIP and ZIPS
+ *    use zlib level CLVOX__EXR_ZIP_LEVEL; in a tiled file both compress a
+ *    whole tile, so they are the same.
  *  - Any chunk that does not shrink is stored raw (see
  *    store_raw_if_not_smaller for the OpenEXRCore 3.1.5 bug this avoids).
- * Measured on a sphere, wall seconds for the writer alone, 1 thread / 2
- * threads (2-core VM shared with other jobs, so 2-thread figures are noisy):
- *   512^3:  NONE 0.13 / 0.16 s 268 MB; RLE 0.036 / 0.06 s 5.0 MB
- *           (OpenEXRCore's RLE 0.44 / 0.59 s); ZIP level 1 0.59 / 0.73 s
- *           1.8 MB; ZIP level 6 0.96 / 1.33 s 0.8 MB; PIZ 0.46 / 0.45 s 1.3 MB
- *   1024^3: NONE 2.0-3.5 s (I/O) 2.1 GB; RLE 0.26 / 0.27 s 37 MB
- *           (OpenEXRCore's RLE 3.0 / 2.0 s); ZIP level 1 6.1 / 3.3 s 13 MB;
- *           ZIP level 6 7.5 / 4.5 s 4.5 MB; PIZ 4.2 / 2.4 s 7.7 MB
+ * Measured with scripts/bench_writer.c (a sphere, the writer alone, wall
+ * seconds including the fdatasync, 1 thread / 2 threads; 2-core VM shared
+ * with other jobs, so the figures vary by 20 % or more):
+ *   512^3:  NONE 0.52 / 0.64 s 268 MB (mostly the fdatasync of 268 MB);
+ *           RLE 0.031 / 0.038 s 5.0 MB; ZIP level 1 0.95 / 0.58 s 1.8 MB;
+ *           PIZ 1.05 / 0.70 s 1.3 MB
+ *   1024^3: NONE 7.2 / 4.9 s (I/O) 2.1 GB; RLE 0.19 / 0.19 s 37 MB;
+ *           ZIP level 1 7.6 / 3.9 s 13 MB; PIZ 8.0 / 5.0 s 7.7 MB
+ * (RLE from HALF samples, before the bits: 0.036 s at 512^3, 0.26 s at 1024^3;
+ * OpenEXRCore's own RLE encoder 0.44 s and 3.0 s.)
  * Library messages go to our error handler, never to stderr. The file is
  * fdatasync'ed before the rename.
  */
@@ -270,14 +274,51 @@ static const uint8_t *channel_rows(const clvox__exr_writer *w, size_t t, uint64_
     return w->src[t] + (size_t)((row - w->src_row0) * rb);
 }
 
+/* Bit rows -> HALF 0.0 / 1.0 samples in host order, 8 at a time from a table
+ * (a byte of bits -> 16 bytes of samples). */
+static uint16_t expand_table[256][8];
+static pthread_once_t expand_once = PTHREAD_ONCE_INIT;
+
+static void expand_init(void)
+{
+    for (unsigned b = 0; b < 256; b++)
+        for (unsigned i = 0; i < 8; i++) expand_table[b][i] = (b >> i) & 1u ? 0x3C00 : 0x0000;
+}
+
+static void expand_bits_row(uint16_t *dst, const uint32_t *bits, size_t X)
+{
+    size_t x = 0;
+    for (; x + 32 <= X; x += 32) {
+        uint32_t v = bits[x / 32];
+        for (unsigned k = 0; k < 4; k++) memcpy(dst + x + 8 * k, expand_table[(v >> (8 * k)) & 0xFFu], 16);
+    }
+    for (; x < X; x++) dst[x] = (bits[x / 32] >> (x % 32)) & 1u ? 0x3C00 : 0x0000;
+}
+
 /* The uncompressed chunk as the file format stores it: per image row, each
  * channel in file (name-sorted) order, little-endian. With one channel on a
  * little-endian host that is the caller's data itself: no copy. */
+static exr_result_t packed_rows(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows, int native,
+                                const uint8_t **out);
+
 static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows,
                                  const uint8_t **out)
 {
+    return packed_rows(w, s, row0, rows, 0, out);
+}
+
+/* The same in host byte order (what OpenEXRCore's encoder reads). */
+static exr_result_t native_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows,
+                                 const uint8_t **out)
+{
+    return packed_rows(w, s, row0, rows, 1, out);
+}
+
+static exr_result_t packed_rows(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows, int native,
+                                const uint8_t **out)
+{
     const size_t X = w->dims[0];
-    if (CHANNEL_COUNT == 1 && !channel_table[0].bits && (channel_table[0].bytes == 1 || w->little_endian)) {
+    if (CHANNEL_COUNT == 1 && !channel_table[0].bits && (channel_table[0].bytes == 1 || native || w->little_endian)) {
         *out = channel_rows(w, 0, row0);
         return EXR_ERR_SUCCESS;
     }
@@ -287,13 +328,16 @@ static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row
         for (size_t k = 0; k < CHANNEL_COUNT; k++) {
             size_t t = w->file_order[k], b = channel_table[t].bytes, n = X * b;
             const uint8_t *src = channel_rows(w, t, row0 + y);
-            if (channel_table[t].bits) { /* HALF 0.0 / 1.0, little-endian */
-                const uint32_t *bits = (const uint32_t *)(const void *)src;
-                for (size_t x = 0; x < X; x++) {
-                    dst[2 * x] = 0;
-                    dst[2 * x + 1] = (bits[x >> 5] >> (x & 31)) & 1u ? 0x3C : 0x00;
-                }
-            } else if (w->little_endian) {
+            if (channel_table[t].bits) { /* HALF 0.0 / 1.0 */
+                pthread_once(&expand_once, expand_init);
+                expand_bits_row((uint16_t *)(void *)dst, (const uint32_t *)(const void *)src, X);
+                if (!native && !w->little_endian)
+                    for (size_t i = 0; i < n; i += 2) {
+                        uint8_t tmp = dst[i];
+                        dst[i] = dst[i + 1];
+                        dst[i + 1] = tmp;
+                    }
+            } else if (native || w->little_endian) {
                 memcpy(dst, src, n);
             } else {
                 for (size_t i = 0; i < n; i += b)
@@ -580,13 +624,12 @@ static exr_result_t library_encode(clvox__exr_writer *w, exr_slot *s, int32_t c,
         if (rv != EXR_ERR_SUCCESS) return rv;
     }
     const uint64_t X = w->dims[0];
-    /* Bit channels: the samples are made first (the packed chunk holds
-     * them, little-endian, as the library reads user data). */
+    /* Bit channels: the samples are made first, in host order. */
     const uint8_t *packed = NULL;
     if (CHANNEL_COUNT == 1 && channel_table[0].bits) {
         uint32_t rows = (uint32_t)((uint64_t)w->height - row0 < (uint64_t)w->tile_h ? (uint64_t)w->height - row0
                                                                                     : (uint64_t)w->tile_h);
-        rv = packed_chunk(w, s, row0, rows, &packed);
+        rv = native_chunk(w, s, row0, rows, &packed);
         if (rv != EXR_ERR_SUCCESS) return rv;
     }
     for (int16_t k = 0; k < s->pipe.channel_count; k++) {

@@ -165,7 +165,9 @@ static void round_trip(uint32_t X, uint32_t Y, uint32_t Z, int structured, clvox
         free(back);
         return;
     }
-    if (structured == 2) memset(vol, 1, n); /* full: no change across rows or slices */
+    if (structured == 3) { /* alternating: every sample a change, RLE's worst case */
+        for (size_t i = 0; i < n; i++) vol[i] = (uint8_t)(i & 1);
+    } else if (structured == 2) memset(vol, 1, n); /* full: no change across rows or slices */
     else if (structured) fill_structured(vol, X, Y, Z);
     else fill_random(vol, n);
     clvox_grid g = make_grid(X, Y, Z);
@@ -222,8 +224,10 @@ static void test_round_trips(void)
      * longer than 128, row ends inside words). */
     static const uint32_t full[][3] = { { 37, 3, 4 }, { 64, 2, 2 }, { 300, 5, 2 } };
     for (size_t d = 0; d < sizeof full / sizeof full[0]; d++)
-        for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++)
+        for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
             round_trip(full[d][0], full[d][1], full[d][2], 2, (clvox_compression)c, 2, one, 1);
+            round_trip(full[d][0], full[d][1], full[d][2], 3, (clvox_compression)c, 2, one, 1);
+        }
 }
 
 /* Slices larger than one chunk: tiles of fewer rows than Y, which straddle

@@ -402,16 +402,14 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
     }
 }
 
-/* Prefix XOR along each row: difference markers -> occupancy bits (the
- * slab format of src/internal.h, bits past X cleared), and the count of
- * filled voxels. rows = Y * nz. */
-kernel void clvox_tetra_resolve(global const uint *bits, uint words_per_row, uint X, uint rows,
-                                global uint *out, global uint *filled)
+/* Prefix XOR along each row, in place: difference markers -> occupancy bits
+ * (the slab format of src/internal.h, bits past X cleared), and the count
+ * of filled voxels. rows = Y * nz. */
+kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, uint rows, global uint *filled)
 {
     uint r = get_global_id(0);
     if (r >= rows) return;
-    global const uint *w = bits + (size_t)r * words_per_row;
-    global uint *o = out + (size_t)r * words_per_row;
+    global uint *w = bits + (size_t)r * words_per_row;
     uint carry = 0, count = 0;
     for (uint i = 0; i < words_per_row; i++) {
         uint v = w[i];
@@ -425,7 +423,7 @@ kernel void clvox_tetra_resolve(global const uint *bits, uint words_per_row, uin
         uint n = min(32u, X - i * 32u);
         if (n < 32u) v &= (1u << n) - 1u;
         count += popcount(v);
-        o[i] = v;
+        w[i] = v;
     }
     if (count) atomic_add(filled, count);
 }

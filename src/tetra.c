@@ -14,9 +14,9 @@
  * whose rows y = j are spans [L, U) of voxel centres, XOR-ed into a
  * one-bit-per-voxel presence buffer as two difference markers (atomic_xor on
  * 32-bit words); the resolve kernel's prefix XOR along x gives the presence
- * bits, the slab's output. Memory: X*Y*nz/8 bytes of presence
- * bits per slab, the triangle soup, one task list: bounded like the ray
- * method.
+ * bits, in place: the presence buffer is the driver's slab buffer itself.
+ * Memory: that buffer (X*Y*nz/8 bytes), the triangle soup, one task list:
+ * bounded like the ray method.
  *
  * Grid space and O. The soup comes from clvox__grid_space_soup (one rounding
  * per vertex, x,y,z order: slices are z = const). O is chosen in world
@@ -95,7 +95,7 @@ struct clvox__method_state {
     uint32_t words_per_row;
     cl_uint *tasks_host; /* 4 per task */
     size_t task_cap;     /* tasks the host and device buffers hold */
-    cl_mem soup, tasks, bits, filled;
+    cl_mem soup, tasks, filled; /* the presence bits live in the driver's slab buffer */
     cl_kernel k_raster, k_resolve;
 };
 
@@ -104,7 +104,6 @@ static void tetra_release(clvox__method_state *s)
     if (!s) return;
     clvox__release_mem(&s->soup);
     clvox__release_mem(&s->tasks);
-    clvox__release_mem(&s->bits);
     clvox__release_mem(&s->filled);
     if (s->k_raster) clReleaseKernel(s->k_raster);
     if (s->k_resolve) clReleaseKernel(s->k_resolve);
@@ -260,6 +259,7 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
                                   const clvox_voxelize_options *opts, uint32_t slab_depth, clvox_stats *stats,
                                   clvox__method_state **out)
 {
+    (void)slab_depth; /* per-slab memory is the driver's slab buffer */
     *out = NULL;
     clvox__method_state *s = calloc(1, sizeof *s);
     if (!s) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
@@ -320,9 +320,6 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     free(soup);
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
 
-    size_t words = (size_t)s->words_per_row * Y * slab_depth;
-    if (st == CLVOX_OK)
-        s->bits = clvox__buffer(ctx, CL_MEM_READ_WRITE, words * sizeof(cl_uint), NULL, &st, "presence bits");
     if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
     if (st == CLVOX_OK) {
         cl_int err;
@@ -336,7 +333,7 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     }
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_tetra_resolve", &s->k_resolve);
     if (stats) {
-        uint64_t b = (uint64_t)words * 4 + (uint64_t)s->tri_count * (9 * 4 + 8);
+        uint64_t b = (uint64_t)s->tri_count * (9 * 4 + 8); /* + the slab's bits, counted by the driver */
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;
     }
     if (st != CLVOX_OK) {
@@ -415,7 +412,7 @@ static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz,
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "uploading tetra tasks");
     }
     if (st == CLVOX_OK) {
-        err = clEnqueueFillBuffer(ctx->queue, s->bits, &zero, sizeof zero, 0, words * sizeof(cl_uint), 0, NULL,
+        err = clEnqueueFillBuffer(ctx->queue, out, &zero, sizeof zero, 0, words * sizeof(cl_uint), 0, NULL,
                                   &ev[EV_CLEAR]);
         if (err == CL_SUCCESS)
             err = clEnqueueFillBuffer(ctx->queue, s->filled, &zero, sizeof zero, 0, sizeof zero, 0, NULL,
@@ -438,7 +435,7 @@ static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz,
         err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &X);
         err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &Y);
         err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &W);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &s->bits);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &out);
         if (err != CL_SUCCESS) {
             st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_raster)");
         } else {
@@ -451,11 +448,10 @@ static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz,
     if (st == CLVOX_OK) {
         cl_uint rows = Y * nz, i = 0;
         err = 0;
-        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &s->bits);
+        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &out);
         err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &W);
         err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &X);
         err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &rows);
-        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &out);
         err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &s->filled);
         if (err != CL_SUCCESS) {
             st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_resolve)");

@@ -140,8 +140,6 @@ struct clvox__exr_writer {
     uint64_t next_row;    /* image rows received so far */
     uint32_t next_z;      /* next slice expected */
     int failed;           /* a slab failed: only abort is possible */
-    uint8_t *even_rle;    /* RLE of the even bytes of a full chunk of bit rows (the same in every chunk) */
-    size_t even_rle_bytes;
     clvox_status fail_status;
 
     /* source of the current slab (read by workers) */
@@ -255,8 +253,6 @@ static int grow(uint8_t **buf, size_t *size, size_t need)
     return 1;
 }
 
-/* Channel t's data for image row `row` of the current slab (or of the
- * carried-over rows of a chunk begun by the previous slab). */
 /* Bytes of one image row of channel t as the caller gives it. */
 static size_t source_row_bytes(const clvox__exr_writer *w, size_t t)
 {
@@ -264,6 +260,8 @@ static size_t source_row_bytes(const clvox__exr_writer *w, size_t t)
     return (size_t)w->dims[0] * channel_table[t].bytes;
 }
 
+/* Channel t's data for image row `row` of the current slab (or of the
+ * carried-over rows of a chunk begun by the previous slab). */
 static const uint8_t *channel_rows(const clvox__exr_writer *w, size_t t, uint64_t row)
 {
     uint64_t rb = source_row_bytes(w, t);
@@ -292,27 +290,13 @@ static void expand_bits_row(uint16_t *dst, const uint32_t *bits, size_t X)
     for (; x < X; x++) dst[x] = (bits[x / 32] >> (x % 32)) & 1u ? 0x3C00 : 0x0000;
 }
 
-/* The uncompressed chunk as the file format stores it: per image row, each
- * channel in file (name-sorted) order, little-endian. With one channel on a
- * little-endian host that is the caller's data itself: no copy. */
-static exr_result_t packed_rows(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows, int native,
-                                const uint8_t **out);
-
-static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows,
+/* The uncompressed chunk: per image row, each channel in file (name-sorted)
+ * order, as samples (bit channels expanded); little-endian as the file
+ * stores it, or in host order with `native` (what OpenEXRCore's encoder
+ * reads). A single sample channel already in that order is the caller's
+ * data itself: no copy. */
+static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows, int native,
                                  const uint8_t **out)
-{
-    return packed_rows(w, s, row0, rows, 0, out);
-}
-
-/* The same in host byte order (what OpenEXRCore's encoder reads). */
-static exr_result_t native_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows,
-                                 const uint8_t **out)
-{
-    return packed_rows(w, s, row0, rows, 1, out);
-}
-
-static exr_result_t packed_rows(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows, int native,
-                                const uint8_t **out)
 {
     const size_t X = w->dims[0];
     if (CHANNEL_COUNT == 1 && !channel_table[0].bits && (channel_table[0].bytes == 1 || native || w->little_endian)) {
@@ -405,8 +389,9 @@ static void rle_put(rle_out *o, uint8_t v, uint64_t len)
 }
 
 /* Capacity rle_encode_bits needs for `samples` values: the even half is at
- * most 2 + 2*samples/128 bytes, the odd half at most 2 bytes per sample
- * (every sample a change, as 127-byte literals: 128 bytes per 127). */
+ * most 4 + 2*samples/128 bytes; the odd half at most one byte per sample
+ * plus one per 127 (every sample a change: 127-byte literals; a change
+ * between runs of 3 or more costs 2 + 2 bytes per 4 samples or more). */
 static size_t rle_bits_bound(uint64_t samples)
 {
     return (size_t)(samples + samples / 127 + samples / 64 + 64);
@@ -443,12 +428,7 @@ static size_t rle_encode_bits(const clvox__exr_writer *w, size_t t, uint64_t row
     const uint32_t full = (uint32_t)(X / 32), rem = (uint32_t)(X % 32);
     rle_out o = { out, 0, {0}, 0 };
     if (n == 0) return 0;
-    if (w->even_rle && rows == (uint32_t)w->tile_h) {
-        memcpy(out, w->even_rle, w->even_rle_bytes);
-        o.n = w->even_rle_bytes;
-    } else {
-        o.n = rle_even_half(out, n);
-    }
+    o.n = rle_even_half(out, n);
     uint64_t last = 0; /* the sample after the last change */
     uint32_t prev = 0; /* the sample before the current one */
     for (uint32_t y = 0; y < rows; y++) {
@@ -487,7 +467,7 @@ static exr_result_t store_raw_if_not_smaller(clvox__exr_writer *w, exr_slot *s, 
 {
     if (s->out_bytes < unpacked) return EXR_ERR_SUCCESS;
     const uint8_t *raw = NULL;
-    exr_result_t rv = packed_chunk(w, s, row0, rows, &raw);
+    exr_result_t rv = packed_chunk(w, s, row0, rows, 0, &raw);
     if (rv != EXR_ERR_SUCCESS) return rv;
     s->out = raw;
     s->out_bytes = unpacked;
@@ -514,7 +494,7 @@ static exr_result_t library_encode(clvox__exr_writer *w, exr_slot *s, int32_t c,
     if (CHANNEL_COUNT == 1 && channel_table[0].bits) {
         uint32_t rows = (uint32_t)((uint64_t)w->height - row0 < (uint64_t)w->tile_h ? (uint64_t)w->height - row0
                                                                                     : (uint64_t)w->tile_h);
-        rv = native_chunk(w, s, row0, rows, &packed);
+        rv = packed_chunk(w, s, row0, rows, 1, &packed);
         if (rv != EXR_ERR_SUCCESS) return rv;
     }
     for (int16_t k = 0; k < s->pipe.channel_count; k++) {
@@ -556,7 +536,7 @@ static exr_result_t encode_chunk(clvox__exr_writer *w, exr_slot *s, int32_t c)
 
     switch (w->compression) {
     case EXR_COMPRESSION_NONE:
-        rv = packed_chunk(w, s, row0, rows, &packed);
+        rv = packed_chunk(w, s, row0, rows, 0, &packed);
         s->out = packed;
         s->out_bytes = unpacked;
         return rv;
@@ -749,7 +729,6 @@ static void writer_free(clvox__exr_writer *w)
         pthread_cond_destroy(&w->work_cv);
         pthread_mutex_destroy(&w->mu);
     }
-    free(w->even_rle);
     free(w->path);
     free(w->tmp);
     free(w);
@@ -905,15 +884,6 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     if (!w->path) {
         writer_free(w);
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-    }
-    if (w->compression == EXR_COMPRESSION_RLE && CHANNEL_COUNT == 1 && channel_table[0].bits) {
-        uint64_t n = X * (uint64_t)w->tile_h; /* made once: 2 bytes per 128 samples */
-        w->even_rle = malloc((size_t)(n / 64 + 16));
-        if (!w->even_rle) {
-            writer_free(w);
-            return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-        }
-        w->even_rle_bytes = rle_even_half(w->even_rle, n);
     }
     if (w->tile_h != (int32_t)Y) {
         for (size_t t = 0; t < CHANNEL_COUNT; t++) {

@@ -1,7 +1,8 @@
 /*
  * clvox — OpenCL voxelization of triangle meshes, streamed to OpenEXR.
  *
- * Pipeline: mesh -> grid -> partition -> cast -> classify -> write.
+ * Pipeline: mesh -> grid -> partition -> cast -> consumer (classify: occupancy
+ * bits, or coverage: grey levels) -> write; or the tetra raster -> write.
  *
  * Conventions
  *  - Every function that can fail returns a clvox_status; the detail message
@@ -222,10 +223,29 @@ typedef struct clvox_voxelize_options {
     double tetra_point[3];
     clvox_progress_fn progress;
     void *progress_user;
+    /* Grey levels (coverage; Thon et al. 3.3.4; ray method only). Each voxel
+     * column gets oversample x oversample rays, each ray oversample_points
+     * points per voxel; coverage = points inside / (oversample^2 * points).
+     * 0 = no oversampling: one sample at the voxel centre (binary). */
+    uint32_t oversample;           /* N: N x N rays per voxel column (1 .. CLVOX_MAX_OVERSAMPLE) */
+    uint32_t oversample_points;    /* M: points per voxel along each ray; 0 = N      */
+    int stochastic;                /* 1: stratified jitter of rays and points, from seed */
+    uint64_t seed;                 /* sampler seed (stochastic only); default 0      */
+    uint32_t channels;             /* CLVOX_CHANNEL_* mask; 0 = auto: occupancy when binary,
+                                      coverage when oversampled (+ occupancy with threshold_set) */
+    int threshold_set;             /* 1: occupancy = coverage > threshold when oversampled */
+    double threshold;              /* in [0,1]; used when threshold_set (else 0.5)   */
 } clvox_voxelize_options;
 #define CLVOX_VOXELIZE_OPTIONS_INIT { sizeof(clvox_voxelize_options), CLVOX_METHOD_RAY, \
     CLVOX_AXIS_DEFAULT, 0, 0, 0, 0, CLVOX_COMPRESSION_DEFAULT, 0, CLVOX_TETRA_ORIGIN_CENTROID, \
-    {0,0,0}, NULL, NULL }
+    {0,0,0}, NULL, NULL, 0, 0, 0, 0, 0, 0, 0.0 }
+
+/* Per-voxel channels a run can produce (clvox_voxelize_options.channels). */
+#define CLVOX_CHANNEL_OCCUPANCY 0x1u /* 0/1: inside (binary), or coverage > threshold */
+#define CLVOX_CHANNEL_COVERAGE 0x2u  /* fraction of the voxel's samples inside, [0,1] */
+/* Samples per voxel: oversample^2 * points at most this many; oversample at most 256. */
+#define CLVOX_MAX_SAMPLES 65536u
+#define CLVOX_MAX_OVERSAMPLE 256u
 
 typedef struct clvox_stats {
     double seconds[CLVOX_STAGE_COUNT];
@@ -241,6 +261,10 @@ typedef struct clvox_stats {
     uint32_t slab_depth;           /* slices per slab used                      */
     uint64_t peak_slab_bytes;      /* largest host+device working set of a slab */
     uint64_t output_bytes;         /* size of the EXR file written              */
+    uint32_t channels;             /* CLVOX_CHANNEL_* produced                  */
+    uint32_t samples_per_voxel;    /* N^2 * M (1 when binary)                   */
+    double coverage_sum;           /* sum of coverage over all voxels (voxel units; times the
+                                      voxel volume = estimated volume); filled_voxels when binary */
 } clvox_stats;
 
 /* Receives consecutive slabs in increasing z: slices z0 .. z0+nz-1, each an
@@ -267,6 +291,30 @@ clvox_status clvox_voxelize_to_memory(clvox_context *ctx, const clvox_mesh *mesh
                                       const clvox_voxelize_options *options,
                                       uint8_t *out, size_t out_size, clvox_stats *stats);
 
+/* All channels of one slab, for clvox_voxelize_slabs: slices z0 .. z0+nz-1,
+ * each X*Y values, x fastest; a pointer is NULL when the run does not produce
+ * that channel. coverage is exactly (samples inside) / (samples per voxel)
+ * as a float (the EXR file holds the same value rounded to HALF). */
+typedef struct clvox_slab {
+    uint32_t z0, nz;
+    const uint8_t *occupancy;  /* 0 or 1 */
+    const float *coverage;     /* in [0,1] */
+} clvox_slab;
+typedef int (*clvox_slab_channels_fn)(void *user, const clvox_slab *slab);
+
+/* Like clvox_voxelize_stream, with every channel the options ask for. */
+clvox_status clvox_voxelize_slabs(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                  const clvox_voxelize_options *options, clvox_slab_channels_fn fn,
+                                  void *user, clvox_stats *stats);
+
+/* Dense results for small grids: each non-NULL array holds X*Y*Z values (x
+ * fastest, then y, then z; sizes in elements). A NULL array is not wanted;
+ * a wanted channel the options do not produce is an error. */
+clvox_status clvox_voxelize_to_buffers(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                       const clvox_voxelize_options *options, uint8_t *occupancy,
+                                       size_t occupancy_count, float *coverage, size_t coverage_count,
+                                       clvox_stats *stats);
+
 /* ---- reading volumes back ---------------------------------------------------- */
 
 typedef struct clvox_volume_info {
@@ -278,13 +326,23 @@ typedef struct clvox_volume_info {
     char version[32];         /* clvox version that wrote the file       */
     char compression[16];
     char channels[64];        /* comma-separated channel names           */
-    uint64_t filled_voxels;   /* counted by reading every slice          */
+    uint64_t filled_voxels;   /* counted by reading every slice: occupancy > 0.5, or
+                                 coverage > 0.5 in a file without occupancy */
+    double coverage_sum;      /* sum of coverage (voxel units), 0 without a coverage channel */
 } clvox_volume_info;
 
 /* Reads the header and counts filled voxels slice by slice (bounded memory).
  * If occupancy is not NULL it must hold X*Y*Z bytes and receives 0/1 values. */
 clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
                                uint8_t *occupancy, size_t occupancy_size);
+
+/* Streams one channel ("occupancy", "coverage", ...) as floats, one whole
+ * slice (X*Y values, x fastest) per call in increasing z; memory is one slice
+ * plus one chunk. info (may be NULL) gets the header. Return non-zero from fn
+ * to stop (CLVOX_ERR_CANCELLED). */
+typedef int (*clvox_volume_slice_fn)(void *user, uint32_t z, const float *values);
+clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
+                                      clvox_volume_info *info, clvox_volume_slice_fn fn, void *user);
 
 #ifdef __cplusplus
 }

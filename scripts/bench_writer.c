@@ -71,10 +71,10 @@ int main(int argc, char **argv)
                 for (int rep = 0; rep < 2; rep++) {
                     clvox__exr_writer *w = NULL;
                     double t0 = now();
-                    clvox_status st = clvox__exr_open(ctx, "build/bench/writer.exr", &g, &meta, comps[c], threads, &w);
+                    clvox_status st = clvox__exr_open(ctx, "build/bench/writer.exr", &g, &meta, 0, comps[c], threads, &w);
                     for (uint32_t s = 0; st == CLVOX_OK && s < slabs; s++) {
                         uint32_t z0 = s * nz;
-                        st = clvox__exr_write_slab(w, z0, N - z0 < nz ? N - z0 : nz, bits + (size_t)z0 * W * N);
+                        st = clvox__exr_write_slab(w, z0, N - z0 < nz ? N - z0 : nz, &(clvox__slab_planes){bits + (size_t)z0 * W * N, NULL});
                     }
                     if (st == CLVOX_OK) st = clvox__exr_finish(w, &bytes);
                     else clvox__exr_abort(w);

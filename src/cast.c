@@ -240,8 +240,10 @@ static clvox_status redo_overflow(clvox__method_state *s, const uint32_t *idx, s
     return st;
 }
 
-static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, cl_mem out, clvox__slab_stats *ss)
+static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, const clvox__slab_out *planes,
+                            clvox__slab_stats *ss)
 {
+    cl_mem out = planes->occupancy;
     clvox_context *ctx = s->ctx;
     const uint32_t X = s->grid.dims[0], Y = s->grid.dims[1];
     const uint32_t W = clvox__row_words(X);

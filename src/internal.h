@@ -128,9 +128,24 @@ uint32_t clvox__quadtree_auto_depth(uint32_t dim_v, uint32_t dim_w, size_t tri_c
  * half values would take. */
 static inline uint32_t clvox__row_words(uint32_t X) { return (X + 31u) / 32u; }
 
+/* Device planes of one slab; a plane is NULL when the run does not produce
+ * that channel. coverage: one HALF (as uint16 bits) per voxel, x fastest,
+ * X*Y per slice. */
+typedef struct clvox__slab_out {
+    cl_mem occupancy; /* bit rows (above) */
+    cl_mem coverage;  /* HALF bits */
+} clvox__slab_out;
+
+/* The same planes mapped on the host, as the sinks get them. */
+typedef struct clvox__slab_planes {
+    const uint32_t *occupancy_bits; /* bit rows, or NULL */
+    const uint16_t *coverage_half;  /* HALF bits per voxel, or NULL */
+} clvox__slab_planes;
+
 typedef struct clvox__slab_stats {
     double cast_seconds, classify_seconds;
     uint64_t filled, rays, odd_parity_rays, overflow_rays;
+    uint64_t coverage_count; /* samples inside, summed over the slab's voxels */
     uint32_t max_crossings;
 } clvox__slab_stats;
 
@@ -141,9 +156,9 @@ typedef struct clvox__method {
     clvox_status (*prepare)(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                             const clvox_voxelize_options *opts, uint32_t slab_depth,
                             clvox_stats *stats, clvox__method_state **out);
-    /* Computes the slab into the device buffer `out` (bit rows, see above)
-     * and may leave commands queued; the driver reads `out` back. */
-    clvox_status (*slab)(clvox__method_state *st, uint32_t z0, uint32_t nz, cl_mem out,
+    /* Computes the slab into the device planes of `out` (those not NULL)
+     * and may leave commands queued; the driver reads them back. */
+    clvox_status (*slab)(clvox__method_state *st, uint32_t z0, uint32_t nz, const clvox__slab_out *out,
                          clvox__slab_stats *ss);
     void (*release)(clvox__method_state *st);
     /* Text for the EXR "clvoxParameters" attribute. */
@@ -163,15 +178,17 @@ typedef struct clvox__exr_meta {
 } clvox__exr_meta;
 
 /* Opens `path` for streaming: the data goes to a temporary file in the same
- * directory, renamed to `path` by clvox__exr_finish. Channel "occupancy",
- * HALF. Layout: see README "EXR layout". */
+ * directory, renamed to `path` by clvox__exr_finish. `channels` is a
+ * CLVOX_CHANNEL_* mask (0 = occupancy): "occupancy" HALF 0.0/1.0 and/or
+ * "coverage" HALF. Layout: see README "EXR layout". */
 clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
-                             const clvox__exr_meta *meta, clvox_compression compression,
+                             const clvox__exr_meta *meta, uint32_t channels, clvox_compression compression,
                              uint32_t threads, clvox__exr_writer **out);
-/* Slices must arrive in increasing z, without gaps. occupancy_bits holds
- * Y*nz bit rows (the slab format above); the file gets HALF 0.0 / 1.0. */
+/* Slices must arrive in increasing z, without gaps. planes holds the
+ * channels the writer was opened with: occupancy as Y*nz bit rows (the slab
+ * format above; the file gets HALF 0.0 / 1.0), coverage as X*Y*nz HALF bits. */
 clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz,
-                                   const uint32_t *occupancy_bits);
+                                   const clvox__slab_planes *planes);
 /* Completes the file and renames it into place; *bytes = file size. Frees w. */
 clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes);
 /* Deletes the temporary file and frees w. NULL-safe. */

@@ -389,9 +389,10 @@ static clvox_status bin_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, s
     return CLVOX_OK;
 }
 
-static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, cl_mem out,
+static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, const clvox__slab_out *planes,
                                clvox__slab_stats *ss)
 {
+    cl_mem out = planes->occupancy;
     clvox_context *ctx = s->ctx;
     const cl_uint X = s->grid.dims[0], Y = s->grid.dims[1], W = s->words_per_row;
     double t0 = clvox__now();

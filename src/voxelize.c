@@ -101,7 +101,8 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         uint32_t nz = Z - z0 < depth ? Z - z0 : depth;
         clvox__slab_stats ss;
         memset(&ss, 0, sizeof ss);
-        st = m->slab(ms, z0, nz, out, &ss);
+        clvox__slab_out planes = {out, NULL};
+        st = m->slab(ms, z0, nz, &planes, &ss);
         if (st != CLVOX_OK) break;
         stats.seconds[CLVOX_STAGE_CAST] += ss.cast_seconds;
         stats.seconds[CLVOX_STAGE_CLASSIFY] += ss.classify_seconds;
@@ -152,13 +153,14 @@ static clvox_status exr_open(void *user, const char *method, const char *params)
 {
     exr_sink *s = user;
     clvox__exr_meta meta = {method, params};
-    return clvox__exr_open(s->ctx, s->path, s->grid, &meta, s->compression, s->threads, &s->w);
+    return clvox__exr_open(s->ctx, s->path, s->grid, &meta, 0, s->compression, s->threads, &s->w);
 }
 
 static clvox_status exr_slab(void *user, uint32_t z0, uint32_t nz, const uint32_t *bits)
 {
     exr_sink *s = user;
-    return clvox__exr_write_slab(s->w, z0, nz, bits);
+    clvox__slab_planes p = {bits, NULL};
+    return clvox__exr_write_slab(s->w, z0, nz, &p);
 }
 
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,

@@ -826,13 +826,15 @@ static unsigned online_cpus(void)
 }
 
 clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
-                             const clvox__exr_meta *meta, clvox_compression compression, uint32_t threads,
-                             clvox__exr_writer **out)
+                             const clvox__exr_meta *meta, uint32_t channels, clvox_compression compression,
+                             uint32_t threads, clvox__exr_writer **out)
 {
     if (out) *out = NULL;
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!path || !*path || !grid || !out)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__exr_open: missing path, grid or output");
+    if (channels != 0 && channels != CLVOX_CHANNEL_OCCUPANCY)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__exr_open: channels 0x%x not supported yet", channels);
     if ((unsigned)compression >= CLVOX_COMPRESSION_COUNT)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown compression %d", (int)compression);
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
@@ -947,9 +949,10 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     return CLVOX_OK;
 }
 
-clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz, const uint32_t *occupancy_bits)
+clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes)
 {
     if (!w) return CLVOX_ERR_INVALID_ARGUMENT;
+    const uint32_t *occupancy_bits = planes ? planes->occupancy_bits : NULL;
     if (w->failed)
         return clvox__fail(w->ctx, w->fail_status, "EXR writer for '%s' already failed", w->path);
     if (!occupancy_bits || nz == 0 || z0 != w->next_z || nz > w->dims[2] - z0) {

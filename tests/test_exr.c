@@ -92,7 +92,7 @@ static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_co
                                  const uint8_t *vol, const uint32_t *depths, size_t ndepths, uint64_t *bytes)
 {
     clvox__exr_writer *w = NULL;
-    clvox_status st = clvox__exr_open(ctx, path, g, &test_meta, comp, threads, &w);
+    clvox_status st = clvox__exr_open(ctx, path, g, &test_meta, 0, comp, threads, &w);
     if (st != CLVOX_OK) return st;
     const size_t XY = (size_t)g->dims[0] * g->dims[1], WY = (size_t)clvox__row_words(g->dims[0]) * g->dims[1];
     uint32_t *bits = NULL;
@@ -111,7 +111,7 @@ static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_co
             }
         }
         pack_bits(bits, vol + (size_t)z0 * XY, g->dims[0], (size_t)g->dims[1] * nz);
-        st = clvox__exr_write_slab(w, z0, nz, bits);
+        st = clvox__exr_write_slab(w, z0, nz, &(clvox__slab_planes){bits, NULL});
         if (st != CLVOX_OK) {
             free(bits);
             clvox__exr_abort(w);
@@ -317,7 +317,7 @@ static void test_unwritable(void)
     clvox__exr_writer *w = (clvox__exr_writer *)&w; /* must be reset to NULL */
     char path[2048];
 
-    CHECK_STATUS(ctx, clvox__exr_open(ctx, "/proc/x.exr", &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w),
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, "/proc/x.exr", &g, &test_meta, 0, CLVOX_COMPRESSION_DEFAULT, 1, &w),
                  CLVOX_ERR_IO);
     CHECK(w == NULL);
     CHECK(strstr(clvox_context_error(ctx), "/proc/x.exr") != NULL);
@@ -325,12 +325,12 @@ static void test_unwritable(void)
     CHECK(!exists("/proc/x.exr"));
 
     snprintf(path, sizeof path, "%s/no/such/dir/x.exr", dir);
-    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w), CLVOX_ERR_IO);
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_DEFAULT, 1, &w), CLVOX_ERR_IO);
     CHECK(strstr(clvox_context_error(ctx), path) != NULL);
     CHECK(!exists(path));
 
     /* a directory as the output */
-    CHECK_STATUS(ctx, clvox__exr_open(ctx, dir, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w), CLVOX_ERR_IO);
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, dir, &g, &test_meta, 0, CLVOX_COMPRESSION_DEFAULT, 1, &w), CLVOX_ERR_IO);
 
     /* a read-only directory (root ignores permissions: skip then) */
     char ro[1100];
@@ -341,7 +341,7 @@ static void test_unwritable(void)
     if (access(ro, W_OK) == 0) {
         printf("skip: read-only directory check (running as root)\n");
     } else {
-        CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w),
+        CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_DEFAULT, 1, &w),
                      CLVOX_ERR_IO);
         CHECK(!exists(path));
     }
@@ -351,12 +351,12 @@ static void test_unwritable(void)
     /* bad arguments */
     snprintf(path, sizeof path, "%s/bad.exr", dir);
     clvox_grid empty = make_grid(0, 4, 4);
-    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &empty, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w),
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &empty, &test_meta, 0, CLVOX_COMPRESSION_DEFAULT, 1, &w),
                  CLVOX_ERR_GRID);
     clvox_grid tall = make_grid(4, 65536, 65536);
-    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &tall, &test_meta, CLVOX_COMPRESSION_DEFAULT, 1, &w),
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &tall, &test_meta, 0, CLVOX_COMPRESSION_DEFAULT, 1, &w),
                  CLVOX_ERR_GRID);
-    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_COUNT, 1, &w),
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_COUNT, 1, &w),
                  CLVOX_ERR_INVALID_ARGUMENT);
     CHECK(!exists(path) && temp_files(path) == 0);
 }
@@ -374,18 +374,18 @@ static void test_abort_and_incomplete(void)
     for (uint32_t threads = 1; threads <= 2; threads++) {
         /* abort after some slices */
         clvox__exr_writer *w = NULL;
-        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, threads, &w));
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, threads, &w));
         CHECK(!exists(path));          /* not renamed while writing */
         CHECK(temp_files(path) == 1);  /* the temporary file exists */
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 2, slab));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 2, &(clvox__slab_planes){slab, NULL}));
         CHECK(!exists(path));
         clvox__exr_abort(w);
         CHECK(!exists(path));
         CHECK(temp_files(path) == 0);
 
         /* finish with missing slices */
-        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_ZIP, threads, &w));
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 3, slab));
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_ZIP, threads, &w));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 3, &(clvox__slab_planes){slab, NULL}));
         uint64_t bytes = 123;
         clvox_status st = clvox__exr_finish(w, &bytes);
         CHECK(st != CLVOX_OK);
@@ -394,20 +394,20 @@ static void test_abort_and_incomplete(void)
         CHECK(!exists(path) && temp_files(path) == 0);
 
         /* no slice at all */
-        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_NONE, threads, &w));
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_NONE, threads, &w));
         CHECK(clvox__exr_finish(w, NULL) != CLVOX_OK);
         CHECK(!exists(path) && temp_files(path) == 0);
 
         /* slices out of order: error, then finish fails, nothing left */
-        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, threads, &w));
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, slab));
-        CHECK(clvox__exr_write_slab(w, 2, 1, slab) != CLVOX_OK);  /* gap */
-        CHECK(clvox__exr_write_slab(w, 1, 3, slab) != CLVOX_OK);  /* writer has failed */
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, threads, &w));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &(clvox__slab_planes){slab, NULL}));
+        CHECK(clvox__exr_write_slab(w, 2, 1, &(clvox__slab_planes){slab, NULL}) != CLVOX_OK);  /* gap */
+        CHECK(clvox__exr_write_slab(w, 1, 3, &(clvox__slab_planes){slab, NULL}) != CLVOX_OK);  /* writer has failed */
         CHECK(clvox__exr_finish(w, NULL) != CLVOX_OK);
         CHECK(!exists(path) && temp_files(path) == 0);
 
-        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, threads, &w));
-        CHECK(clvox__exr_write_slab(w, 0, 5, slab) != CLVOX_OK);  /* past Z */
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, threads, &w));
+        CHECK(clvox__exr_write_slab(w, 0, 5, &(clvox__slab_planes){slab, NULL}) != CLVOX_OK);  /* past Z */
         clvox__exr_abort(w);
         CHECK(!exists(path) && temp_files(path) == 0);
     }
@@ -421,14 +421,14 @@ static void test_abort_and_incomplete(void)
         fclose(f);
     }
     clvox__exr_writer *w = NULL;
-    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, 2, &w));
-    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 4, slab));
+    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 2, &w));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){slab, NULL}));
     CHECK(file_size(path) == 3);
     clvox__exr_abort(w);
     CHECK(file_size(path) == 3); /* abort keeps the old file */
-    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, 2, &w));
-    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, slab));
-    CHECK_OK(ctx, clvox__exr_write_slab(w, 1, 3, slab + 5));
+    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 2, &w));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &(clvox__slab_planes){slab, NULL}));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 1, 3, &(clvox__slab_planes){slab + 5, NULL}));
     CHECK(file_size(path) == 3);
     uint64_t bytes = 0;
     CHECK_OK(ctx, clvox__exr_finish(w, &bytes));
@@ -543,11 +543,11 @@ static void test_disk_space(void)
     }
     clvox_grid g = make_grid(X, Y, (uint32_t)z);
     clvox__exr_writer *w = NULL;
-    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_NONE, 1, &w), CLVOX_ERR_IO);
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_NONE, 1, &w), CLVOX_ERR_IO);
     CHECK_MSG(strstr(clvox_context_error(ctx), "not enough disk space") != NULL, "message: %s",
               clvox_context_error(ctx));
     CHECK(w == NULL && !exists(path) && temp_files(path) == 0);
-    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_RLE, 1, &w));
+    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w));
     clvox__exr_abort(w);
     CHECK(!exists(path) && temp_files(path) == 0);
 }
@@ -658,8 +658,8 @@ static void test_reader_layouts(void)
     uint32_t bits[7 * 5];
     pack_bits(bits, want, X, (size_t)Y * Z);
     for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
-        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, (clvox_compression)c, 2, &w));
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, Z, bits));
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, (clvox_compression)c, 2, &w));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, Z, &(clvox__slab_planes){bits, NULL}));
         CHECK_OK(ctx, clvox__exr_finish(w, NULL));
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, sizeof back));
         CHECK(info.filled_voxels == filled && memcmp(back, want, n) == 0);
@@ -726,7 +726,7 @@ static clvox_status stream_sphere(const char *path, uint32_t Z, uint32_t *slab)
     const uint32_t X = 256, Y = 256, NZ = 16, W = 256 / 32;
     clvox_grid g = make_grid(X, Y, Z);
     clvox__exr_writer *w = NULL;
-    clvox_status st = clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_COMPRESSION_DEFAULT, 2, &w);
+    clvox_status st = clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_DEFAULT, 2, &w);
     if (st != CLVOX_OK) return st;
     for (uint32_t z0 = 0; z0 < Z; z0 += NZ) {
         for (uint32_t k = 0; k < NZ; k++)
@@ -736,7 +736,7 @@ static clvox_status stream_sphere(const char *path, uint32_t Z, uint32_t *slab)
                     uint32_t *word = &slab[((size_t)k * Y + y) * W + x / 32], bit = 1u << (x % 32);
                     *word = dx * dx + dy * dy + dz * dz < 100.0 * 100.0 ? *word | bit : *word & ~bit;
                 }
-        st = clvox__exr_write_slab(w, z0, NZ, slab);
+        st = clvox__exr_write_slab(w, z0, NZ, &(clvox__slab_planes){slab, NULL});
         if (st != CLVOX_OK) {
             clvox__exr_abort(w);
             return st;

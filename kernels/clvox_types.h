@@ -34,12 +34,24 @@ typedef struct clvox_ray {
     clvox_u32 bit;
 } clvox_ray;
 
+/* One voxel column of a coverage run: its rays are rays[c*R .. c*R+R) of
+ * the batch (R = N*N); `id` is the sampler's column key (sampler.h); its
+ * voxels go to the slab as for a ray (out_base, bit: see clvox_ray). */
+typedef struct clvox_column {
+    clvox_u32 id;
+    clvox_u32 out_base;
+    clvox_u32 bit;
+    clvox_u32 pad;
+} clvox_column;
+
 #if defined(__cplusplus)
 static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
 static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
+static_assert(sizeof(clvox_column) == 16, "clvox_column layout");
 #elif !defined(__OPENCL_VERSION__)
 _Static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
 _Static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
+_Static_assert(sizeof(clvox_column) == 16, "clvox_column layout");
 #endif
 
 #endif /* CLVOX_TYPES_H */

@@ -1,0 +1,87 @@
+/*
+ * The sampler of grey-level (coverage) voxelization, in the common subset of
+ * C11 and OpenCL C: the kernels (kernels/coverage.cl), the host (ray
+ * positions, src/cast.c) and the CPU reference (tests/reference.c) compile
+ * this same source, so they draw the same samples bit for bit.
+ *
+ * Generator: Philox4x32-10, the counter-based generator of Salmon, Moraes,
+ * Dror and Shaw, "Parallel random numbers: as easy as 1, 2, 3" (SC 2011),
+ * written from its published description: a 4 x 32-bit counter and a
+ * 2 x 32-bit key; each of 10 rounds multiplies counter words 0 and 2 by
+ * M0 = 0xD2511F53 and M1 = 0xCD9E8D57 and mixes the high and low halves with
+ * the other words and the key; the key is bumped by the Weyl constants
+ * W0 = 0x9E3779B9, W1 = 0xBB67AE85 between rounds. Checked against the
+ * published known-answer vectors (tests/test_coverage.c).
+ *
+ * Keys and counters (the key is the seed; nothing depends on the device,
+ * the slab depth, the work-group size or the order in which columns run):
+ *   ray jitter:   counter (column, ray, 0xFFFFFFFF, 0) -> word 0 along v, word 1 along w
+ *   point jitter: counter (column, ray, u, point / 4)  -> word point % 4
+ * column = w * dim_v + v (the voxel column in the ray plane), ray = a + N*b
+ * for the sub-column (a, b) of N x N, u = the voxel index along the ray
+ * (< 65536, so never 0xFFFFFFFF), point = 0 .. M-1.
+ *
+ * Stratification (Thon et al. 3.3.4, Figure 8): sample i of n along one axis
+ * of a unit cell sits at (i + j) / n from the cell's lower side, j = 1/2
+ * (uniform) or j = bits * 2^-32 in [0, 1) (stochastic: one jittered sample
+ * per stratum). Ray (a, b) of column (v, w) runs at v - 1/2 + (a + j)/N,
+ * w - 1/2 + (b + j')/N (grid space: centres at integers; rounded to float
+ * once); point m of voxel u at u - 1/2 + (m + j)/M (double on fp64 devices).
+ * With N = M = 1 uniform these are exactly the voxel centres.
+ */
+#ifndef CLVOX_SAMPLER_H
+#define CLVOX_SAMPLER_H
+
+#ifdef __OPENCL_VERSION__
+typedef ulong clvox_u64;
+#define CLVOX_SAMPLER_FN inline
+#else
+#include <stdint.h>
+typedef uint64_t clvox_u64;
+typedef double clvox_real; /* the kernels' type on fp64 devices (prelude.cl) */
+#define CLVOX_SAMPLER_FN static inline
+#endif
+
+/* Philox4x32-10 of counter c with key (k0, k1) into out[0..3]. */
+CLVOX_SAMPLER_FN void clvox_philox4x32_10(clvox_u32 c0, clvox_u32 c1, clvox_u32 c2, clvox_u32 c3,
+                                           clvox_u32 k0, clvox_u32 k1, clvox_u32 *out)
+{
+    for (int r = 0; r < 10; r++) {
+        if (r > 0) {
+            k0 += 0x9E3779B9u;
+            k1 += 0xBB67AE85u;
+        }
+        clvox_u64 p0 = (clvox_u64)0xD2511F53u * c0, p1 = (clvox_u64)0xCD9E8D57u * c2;
+        clvox_u32 hi0 = (clvox_u32)(p0 >> 32), lo0 = (clvox_u32)p0;
+        clvox_u32 hi1 = (clvox_u32)(p1 >> 32), lo1 = (clvox_u32)p1;
+        c0 = hi1 ^ c1 ^ k0;
+        c1 = lo1;
+        c2 = hi0 ^ c3 ^ k1;
+        c3 = lo0;
+    }
+    out[0] = c0;
+    out[1] = c1;
+    out[2] = c2;
+    out[3] = c3;
+}
+
+#define CLVOX_SAMPLER_RAY_WORD 0xFFFFFFFFu
+
+/* Jitter bits of the point `point` of voxel u on ray `ray` of `column`. */
+CLVOX_SAMPLER_FN clvox_u32 clvox_point_bits(clvox_u32 seed_lo, clvox_u32 seed_hi, clvox_u32 column, clvox_u32 ray,
+                                             clvox_u32 u, clvox_u32 point)
+{
+    clvox_u32 out[4];
+    clvox_philox4x32_10(column, ray, u, point >> 2, seed_lo, seed_hi, out);
+    return out[point & 3u];
+}
+
+/* Offset of stratum i of n inside a unit cell: (i + j) / n, j = 1/2 when
+ * uniform, bits * 2^-32 when stochastic. */
+CLVOX_SAMPLER_FN clvox_real clvox_stratum(clvox_u32 i, clvox_u32 n, int stochastic, clvox_u32 bits)
+{
+    clvox_real j = stochastic ? (clvox_real)bits * (clvox_real)2.3283064365386963e-10 : (clvox_real)0.5;
+    return ((clvox_real)i + j) / (clvox_real)n;
+}
+
+#endif /* CLVOX_SAMPLER_H */

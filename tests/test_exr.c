@@ -512,22 +512,33 @@ static void test_bad_planes(void)
     CHECK(!exists(path) && temp_files(path) == 0);
 }
 
-/* The file does not depend on the number of threads. */
+/* The file does not depend on the number of threads (occupancy alone, and
+ * coverage with occupancy). */
 static void test_threads_identical(void)
 {
     const uint32_t X = 40, Y = 30, Z = 50;
     size_t n = (size_t)X * Y * Z;
     uint8_t *vol = malloc(n);
-    if (!vol) return;
+    uint16_t *cov = malloc(n * 2);
+    if (!vol || !cov) {
+        CHECK(!"out of memory");
+        free(vol);
+        free(cov);
+        return;
+    }
     fill_structured(vol, X, Y, Z);
+    fill_coverage(cov, X, Y, Z, 0);
     clvox_grid g = make_grid(X, Y, Z);
     static const uint32_t depths[] = { 7, 1, 12 };
     char p1[2048], p2[2048];
-    for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+    for (int k = 0; k < 2 * CLVOX_COMPRESSION_COUNT; k++) {
+        int c = k % CLVOX_COMPRESSION_COUNT;
+        uint32_t channels = k < CLVOX_COMPRESSION_COUNT ? 0 : CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY;
+        const uint16_t *cv = channels ? cov : NULL;
         snprintf(p1, sizeof p1, "%s/thr1.exr", dir);
         snprintf(p2, sizeof p2, "%s/thr4.exr", dir);
-        CHECK_OK(ctx, write_volume(p1, &g, (clvox_compression)c, 1, vol, depths, 3, NULL));
-        CHECK_OK(ctx, write_volume(p2, &g, (clvox_compression)c, 4, vol, depths, 3, NULL));
+        CHECK_OK(ctx, write_planes(p1, &g, channels, (clvox_compression)c, 1, vol, cv, depths, 3, NULL));
+        CHECK_OK(ctx, write_planes(p2, &g, channels, (clvox_compression)c, 4, vol, cv, depths, 3, NULL));
         FILE *a = fopen(p1, "rb"), *b = fopen(p2, "rb");
         int same = a && b;
         while (same) {
@@ -535,13 +546,14 @@ static void test_threads_identical(void)
             if (ca != cb) same = 0;
             if (ca == EOF || cb == EOF) break;
         }
-        CHECK_MSG(same, "compression %d: 1 and 4 threads give different files", c);
+        CHECK_MSG(same, "compression %d, channels %#x: 1 and 4 threads give different files", c, channels);
         if (a) fclose(a);
         if (b) fclose(b);
         unlink(p1);
         unlink(p2);
     }
     free(vol);
+    free(cov);
 }
 
 static void test_exrheader(void)
@@ -552,13 +564,22 @@ static void test_exrheader(void)
     }
     const uint32_t X = 17, Y = 5, Z = 9;
     uint8_t vol[17 * 5 * 9];
+    uint16_t cov[17 * 5 * 9];
     fill_structured(vol, X, Y, Z);
+    fill_coverage(cov, X, Y, Z, 1);
     clvox_grid g = make_grid(X, Y, Z);
     static const uint32_t depths[] = { 4 };
     char path[2048], cmd[2200], line[512];
-    for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+    /* every compression for occupancy; then coverage with occupancy, and alone */
+    for (int k = 0; k < CLVOX_COMPRESSION_COUNT + 2; k++) {
+        int c = k % CLVOX_COMPRESSION_COUNT;
+        uint32_t channels = k < CLVOX_COMPRESSION_COUNT        ? CLVOX_CHANNEL_OCCUPANCY
+                            : k == CLVOX_COMPRESSION_COUNT ? CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY
+                                                           : CLVOX_CHANNEL_COVERAGE;
+        int with_occ = (channels & CLVOX_CHANNEL_OCCUPANCY) != 0, with_cov = (channels & CLVOX_CHANNEL_COVERAGE) != 0;
         snprintf(path, sizeof path, "%s/hdr.exr", dir);
-        CHECK_OK(ctx, write_volume(path, &g, (clvox_compression)c, 2, vol, depths, 1, NULL));
+        CHECK_OK(ctx, write_planes(path, &g, channels, (clvox_compression)c, 2, with_occ ? vol : NULL,
+                                   with_cov ? cov : NULL, depths, 1, NULL));
         snprintf(cmd, sizeof cmd, "exrheader '%s' 2>&1", path);
         FILE *p = popen(cmd, "r");
         CHECK(p != NULL);
@@ -575,10 +596,12 @@ static void test_exrheader(void)
             if (strstr(line, "(17 5 9)")) seen |= 128;
             if (strstr(line, "tiledimage")) seen |= 256;
             if (strstr(line, "occupancy, 16-bit floating-point")) seen |= 512;
+            if (strstr(line, "coverage, 16-bit floating-point")) seen |= 1024;
         }
         int rc = pclose(p);
         CHECK_MSG(rc != -1 && WIFEXITED(rc) && WEXITSTATUS(rc) == 0, "exrheader exit status %d", rc);
-        CHECK_MSG(seen == 1023, "exrheader output misses attributes (mask %#x)", seen);
+        int want = 511 | (with_occ ? 512 : 0) | (with_cov ? 1024 : 0);
+        CHECK_MSG(seen == want, "exrheader output: attributes or channels mask %#x, expected %#x", seen, want);
         unlink(path);
     }
 }
@@ -793,6 +816,37 @@ static void test_cxx_decoder(void)
             unlink(out);
         }
     }
+    /* coverage with occupancy, decoded from the C++ library's copy by
+     * OpenEXRCore's generic pipeline */
+    uint16_t *cov = malloc(n * 2), *cov_back = malloc(n * 2), *occ_back = malloc(n * 2);
+    if (cov && cov_back && occ_back) {
+        fill_coverage(cov, X, Y, Z, 0);
+        fill_random(vol, n);
+        for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+            CHECK_OK(ctx, write_planes(in, &g, CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY, (clvox_compression)c,
+                                       2, vol, cov, depths, 1, NULL));
+            snprintf(cmd, sizeof cmd, "exrmaketiled -o -t 64 64 -z none '%s' '%s' >/dev/null 2>&1", in, out);
+            int rc = system(cmd);
+            CHECK_MSG(rc == 0, "exrmaketiled failed (%d) on coverage, %s compression", rc, comp_names[c]);
+            char names[256];
+            uint32_t th = 0;
+            memset(cov_back, 7, n * 2);
+            memset(occ_back, 7, n * 2);
+            CHECK(decode_halves(out, n, cov_back, occ_back, names, sizeof names, &th) && th == 64);
+            CHECK(strcmp(names, "coverage,occupancy") == 0);
+            CHECK_MSG(first_diff(cov, cov_back, n) == n, "%s: the C++ decoder sees other coverage", comp_names[c]);
+            size_t bad = 0;
+            for (size_t i = 0; i < n; i++) bad += occ_back[i] != (vol[i] ? 0x3C00 : 0x0000);
+            CHECK_MSG(bad == 0, "%s: the C++ decoder sees %zu other occupancy samples", comp_names[c], bad);
+            unlink(in);
+            unlink(out);
+        }
+    } else {
+        CHECK(!"out of memory");
+    }
+    free(cov);
+    free(cov_back);
+    free(occ_back);
     free(vol);
     free(back);
 }

@@ -76,6 +76,11 @@
  *           ZIP level 1 7.6 / 3.9 s 13 MB; PIZ 8.0 / 5.0 s 7.7 MB
  * (RLE from HALF samples, before the bits: 0.036 s at 512^3, 0.26 s at 1024^3;
  * OpenEXRCore's own RLE encoder 0.44 s and 3.0 s.)
+ * The sphere's coverage (grey shell) at 512^3, 1 / 2 threads: coverage alone
+ *   NONE 0.12 / 0.17 s 268 MB; RLE 0.038 / 0.038 s 6.8 MB (OpenEXRCore's RLE
+ *   0.38 / 0.25 s); ZIP 0.56 / 0.31 s 4.1 MB; PIZ 0.49 / 0.29 s 3.9 MB;
+ *   with occupancy: NONE 0.29 / 0.32 s 537 MB; RLE 0.11 / 0.08 s 11.8 MB
+ *   (mostly packing the chunk); ZIP 1.1 / 0.60 s 6.3 MB; PIZ 0.91 / 0.58 s.
  * Library messages go to our error handler, never to stderr. The file is
  * fdatasync'ed before the rename.
  */

@@ -133,7 +133,6 @@ static const exr_channel_def channel_table[] = {
 };
 #define CHANNEL_TABLE_SIZE (sizeof channel_table / sizeof channel_table[0])
 _Static_assert(CHANNEL_TABLE_SIZE <= CLVOX__EXR_MAX_CHANNELS, "too many EXR channels");
-#define CHANNEL_MASK_ALL (CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE)
 
 /* ---- writer ---- */
 
@@ -934,7 +933,9 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     if (!path || !*path || !grid || !out)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__exr_open: missing path, grid or output");
     if (channels == 0) channels = CLVOX_CHANNEL_OCCUPANCY;
-    if (channels & ~(uint32_t)CHANNEL_MASK_ALL)
+    uint32_t known = 0;
+    for (size_t t = 0; t < CHANNEL_TABLE_SIZE; t++) known |= channel_table[t].mask;
+    if (channels & ~known)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
                            "clvox__exr_open: channels 0x%x: the EXR writer knows occupancy (0x%x) and coverage (0x%x)",
                            channels, CLVOX_CHANNEL_OCCUPANCY, CLVOX_CHANNEL_COVERAGE);

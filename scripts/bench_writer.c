@@ -1,16 +1,19 @@
 /* Times the EXR writer alone (no OpenCL): a sphere of radius 0.4 N in an N^3
  * grid, streamed in slabs of occupancy bits, for each compression and thread
- * count. Not a test; numbers for src/write_exr.c and README.
+ * count; then, for N <= 512, the sphere's coverage (HALF: 0 outside, 1
+ * inside, the fraction r + 0.5 - distance on a one-voxel shell) alone and
+ * with occupancy. Not a test; numbers for src/write_exr.c and README.
  *
  *   cc -std=c11 -O2 -Iinclude -Isrc -Ikernels scripts/bench_writer.c build/release/libclvox.a \
  *      -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread -o build/tools/bench_writer
  *   build/tools/bench_writer [N ...]        (default 512 1024; files go to build/bench/)
  *
- * Prints: N, compression, threads, writer seconds (wall, best of 2, making
- * the bits excluded), file MB. */
+ * Prints: N, channels, compression, threads, writer seconds (wall, best of 2,
+ * making the data excluded), file MB. */
 #define _POSIX_C_SOURCE 200809L
 #include "internal.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -42,6 +45,66 @@ static void sphere_bits(uint32_t *bits, uint32_t N, uint32_t z0, uint32_t nz)
         }
 }
 
+/* HALF bits of f in [0, 1], rounded to nearest. */
+static uint16_t half_bits(double f)
+{
+    if (f <= 0) return 0;
+    if (f >= 1) return 0x3C00;
+    int e;
+    double m = frexp(f, &e);                                     /* f = m 2^e, m in [0.5, 1) */
+    if (e < -13) return (uint16_t)lrint(ldexp(f, 24));           /* subnormal: multiples of 2^-24 */
+    uint32_t mant = (uint32_t)lrint((2 * m - 1) * 1024);         /* 1024 carries into the exponent */
+    return (uint16_t)(((uint32_t)(e + 14) << 10) + mant);
+}
+
+/* Slices z0 .. z0+nz-1 of the sphere's coverage. */
+static void sphere_coverage(uint16_t *cov, uint32_t N, uint32_t z0, uint32_t nz)
+{
+    const double c = N / 2.0, r = 0.4 * N;
+    for (uint32_t k = 0; k < nz; k++)
+        for (uint32_t y = 0; y < N; y++)
+            for (uint32_t x = 0; x < N; x++) {
+                double dx = x + 0.5 - c, dy = y + 0.5 - c, dz = z0 + k + 0.5 - c;
+                cov[((size_t)k * N + y) * N + x] = half_bits(r + 0.5 - sqrt(dx * dx + dy * dy + dz * dz));
+            }
+}
+
+typedef struct bench_case {
+    uint32_t N, channels;
+    const uint32_t *bits;
+    const uint16_t *cov;
+} bench_case;
+
+/* Best of 2 wall seconds for writing the whole volume; *bytes: file size. */
+static double time_writer(clvox_context *ctx, const bench_case *b, clvox_compression comp, uint32_t threads,
+                          uint64_t *bytes)
+{
+    const uint32_t N = b->N, nz = 16, W = clvox__row_words(N), slabs = (N + nz - 1) / nz;
+    clvox_grid g = {{N, N, N}, {0, 0, 0}, {1.0 / N, 1.0 / N, 1.0 / N}};
+    clvox__exr_meta meta = {"ray", "bench"};
+    double best = 1e30;
+    for (int rep = 0; rep < 2; rep++) {
+        clvox__exr_writer *w = NULL;
+        double t0 = now();
+        clvox_status st = clvox__exr_open(ctx, "build/bench/writer.exr", &g, &meta, b->channels, comp, threads, &w);
+        for (uint32_t s = 0; st == CLVOX_OK && s < slabs; s++) {
+            uint32_t z0 = s * nz;
+            clvox__slab_planes planes = { b->bits ? b->bits + (size_t)z0 * W * N : NULL,
+                                          b->cov ? b->cov + (size_t)z0 * N * N : NULL };
+            st = clvox__exr_write_slab(w, z0, N - z0 < nz ? N - z0 : nz, &planes);
+        }
+        if (st == CLVOX_OK) st = clvox__exr_finish(w, bytes);
+        else clvox__exr_abort(w);
+        if (st != CLVOX_OK) {
+            fprintf(stderr, "bench_writer: %s\n", clvox_context_error(ctx));
+            exit(1);
+        }
+        double t = now() - t0;
+        if (t < best) best = t;
+    }
+    return best;
+}
+
 int main(int argc, char **argv)
 {
     clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
@@ -54,41 +117,35 @@ int main(int argc, char **argv)
     static const clvox_compression comps[] = {CLVOX_COMPRESSION_NONE, CLVOX_COMPRESSION_RLE, CLVOX_COMPRESSION_ZIP,
                                               CLVOX_COMPRESSION_PIZ};
     int nsizes = argc > 1 ? argc - 1 : 2;
-    printf("| N | compression | threads | writer s | file MB |\n|---:|---|---:|---:|---:|\n");
+    printf("| N | channels | compression | threads | writer s | file MB |\n|---:|---|---|---:|---:|---:|\n");
     for (int a = 0; a < nsizes; a++) {
         uint32_t N = argc > 1 ? (uint32_t)atoi(argv[a + 1]) : (a ? 1024u : 512u);
         const uint32_t nz = 16, W = clvox__row_words(N);
-        uint32_t slabs = (N + nz - 1) / nz;
         uint32_t *bits = malloc((size_t)W * N * N * sizeof *bits); /* all slabs, made before timing */
+        uint16_t *cov = N <= 512 ? malloc((size_t)N * N * N * sizeof *cov) : NULL;
         if (!bits) return 1;
-        for (uint32_t z0 = 0; z0 < N; z0 += nz) sphere_bits(bits + (size_t)z0 * W * N, N, z0, N - z0 < nz ? N - z0 : nz);
-        clvox_grid g = {{N, N, N}, {0, 0, 0}, {1.0 / N, 1.0 / N, 1.0 / N}};
-        clvox__exr_meta meta = {"ray", "bench"};
-        for (size_t c = 0; c < sizeof comps / sizeof comps[0]; c++)
-            for (uint32_t threads = 1; threads <= 2; threads++) {
-                double best = 1e30;
-                uint64_t bytes = 0;
-                for (int rep = 0; rep < 2; rep++) {
-                    clvox__exr_writer *w = NULL;
-                    double t0 = now();
-                    clvox_status st = clvox__exr_open(ctx, "build/bench/writer.exr", &g, &meta, 0, comps[c], threads, &w);
-                    for (uint32_t s = 0; st == CLVOX_OK && s < slabs; s++) {
-                        uint32_t z0 = s * nz;
-                        st = clvox__exr_write_slab(w, z0, N - z0 < nz ? N - z0 : nz, &(clvox__slab_planes){bits + (size_t)z0 * W * N, NULL});
-                    }
-                    if (st == CLVOX_OK) st = clvox__exr_finish(w, &bytes);
-                    else clvox__exr_abort(w);
-                    if (st != CLVOX_OK) {
-                        fprintf(stderr, "bench_writer: %s\n", clvox_context_error(ctx));
-                        return 1;
-                    }
-                    double t = now() - t0;
-                    if (t < best) best = t;
+        for (uint32_t z0 = 0; z0 < N; z0 += nz) {
+            uint32_t k = N - z0 < nz ? N - z0 : nz;
+            sphere_bits(bits + (size_t)z0 * W * N, N, z0, k);
+            if (cov) sphere_coverage(cov + (size_t)z0 * N * N, N, z0, k);
+        }
+        const bench_case cases[] = {
+            { N, CLVOX_CHANNEL_OCCUPANCY, bits, NULL },
+            { N, CLVOX_CHANNEL_COVERAGE, NULL, cov },
+            { N, CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY, bits, cov },
+        };
+        static const char *set_names[] = { "occupancy", "coverage", "coverage+occupancy" };
+        for (size_t k = 0; k < (cov ? 3u : 1u); k++)
+            for (size_t c = 0; c < sizeof comps / sizeof comps[0]; c++)
+                for (uint32_t threads = 1; threads <= 2; threads++) {
+                    uint64_t bytes = 0;
+                    double t = time_writer(ctx, &cases[k], comps[c], threads, &bytes);
+                    printf("| %u | %s | %s | %u | %.3f | %.1f |\n", N, set_names[k], names[c], threads, t,
+                           bytes / 1e6);
+                    fflush(stdout);
                 }
-                printf("| %u | %s | %u | %.3f | %.1f |\n", N, names[c], threads, best, bytes / 1e6);
-                fflush(stdout);
-            }
         free(bits);
+        free(cov);
     }
     unlink("build/bench/writer.exr");
     clvox_context_destroy(ctx);

@@ -1,5 +1,6 @@
 /*
- * Streaming EXR writer: slabs of occupancy bits in, one OpenEXR file out.
+ * Streaming EXR writer: slabs of occupancy bits and/or coverage samples in,
+ * one OpenEXR file out.
  *
  * File layout (attribute clvoxLayout says which variant was used)
  * ----------------------------------------------------------------
@@ -10,21 +11,26 @@
  *    the rows of one slice, z selects the slice. Reading the pixels in file
  *    order therefore gives the same x-fastest, then y, then z order as
  *    clvox_voxelize_to_memory.
- *  - "tile-per-slice" (every grid with X*Y*2 <= CLVOX__EXR_CHUNK_BYTES,
- *    i.e. slices up to 2048 x 2048): the tile size is X x Y, so tile (0, z)
- *    is exactly slice z and the file holds one chunk per slice.
+ *  - B = bytes per voxel, all channels together (2 per HALF channel).
+ *  - "tile-per-slice" (every grid with X*Y*B <= CLVOX__EXR_CHUNK_BYTES,
+ *    i.e. slices up to 2048 x 2048 for one channel, 1448 x 1448 for two):
+ *    the tile size is X x Y, so tile (0, z) is exactly slice z and the file
+ *    holds one chunk per slice.
  *  - "row-chunks" (larger slices): the tile size is X x T with
- *    T = CLVOX__EXR_CHUNK_BYTES / (2*X) rows; tile (0, r) covers image rows
+ *    T = CLVOX__EXR_CHUNK_BYTES / (B*X) rows; tile (0, r) covers image rows
  *    r*T .. r*T+T-1 (the last one may be shorter) and may span two slices.
  *    The writer carries the rows of an incomplete chunk over to the next slab.
  *  - Memory: OpenEXRCore keeps the chunk offset table (8 bytes per chunk) until
  *    the file is complete, i.e. 8 bytes per slice for tile-per-slice and at
- *    most 8*X*Y*Z*2 / CLVOX__EXR_CHUNK_BYTES bytes in all for row-chunks.
+ *    most 8*X*Y*Z*B / CLVOX__EXR_CHUNK_BYTES bytes in all for row-chunks.
  *    Everything else is bounded by the chunk size times the number of
  *    encoder slots (threads + 2), whatever Z is.
- *  - Channels: "occupancy", HALF, 0.0 (outside) or 1.0 (inside). The channel
- *    table below is where further channels (coverage HALF, element UINT,
- *    score HALF/FLOAT) will go; everything else walks that table.
+ *  - Channels: those the writer was opened with (CLVOX_CHANNEL_* mask, any
+ *    non-empty subset), in one part, in name order as EXR requires:
+ *    "coverage" HALF (the caller's HALF bits, stored as given), "occupancy"
+ *    HALF 0.0 (outside) or 1.0 (inside) (the caller gives bits). The channel
+ *    table below is where further channels (element UINT, score HALF/FLOAT)
+ *    will go; everything else walks the writer's list of channels.
  *  - Attributes: clvoxDims (v3i X,Y,Z), clvoxOrigin (v3d, corner of voxel
  *    (0,0,0)), clvoxVoxelSize (v3d), clvoxMethod, clvoxParameters,
  *    clvoxVersion, clvoxLayout (strings).
@@ -43,13 +49,19 @@
  * one of threads+2 ring slots; the calling thread writes the finished chunks
  * strictly in order with exr_write_tile_chunk (packed data), then returns when
  * the whole slab is in the file. The input is occupancy bits (the slab format
- * of internal.h). Per compression:
- *  - RLE (the default): clvox's own encoder, same format as OpenEXR's, fed
- *    straight from the bits (rle_encode_bits: the tokens follow from where a
- *    bit changes; no HALF sample is ever made).
- *  - NONE: the bits are expanded to HALF samples per chunk.
- *  - ZIP, ZIPS, PIZ: samples made per chunk, then OpenEXRCore's encode
- *    pipeline (exr_encoding_run with its write step removed). ZIP and ZIPS
+ * of internal.h) and coverage HALF bits (X*Y per slice). A chunk is "packed"
+ * as the file stores it uncompressed: per image row, each channel's X samples
+ * in file order (bits expanded to HALF); coverage alone needs no copy.
+ * Per compression:
+ *  - RLE (the default): clvox's own encoders, same format as OpenEXR's.
+ *    Occupancy alone: straight from the bits (rle_encode_bits: the tokens
+ *    follow from where a bit changes; no HALF sample is ever made). Any
+ *    other channel set: from the packed chunk (rle_encode_packed, which
+ *    skips runs of equal bytes 32 input bytes at a time).
+ *  - NONE: the packed chunk.
+ *  - ZIP, ZIPS, PIZ: the chunk packed in host order, each channel of
+ *    OpenEXRCore's encode pipeline pointed at its part of the packed rows,
+ *    then exr_encoding_run with its write step removed. ZIP and ZIPS
  *    use zlib level CLVOX__EXR_ZIP_LEVEL; in a tiled file both compress a
  *    whole tile, so they are the same.
  *  - Any chunk that does not shrink is stored raw (see
@@ -64,6 +76,11 @@
  *           ZIP level 1 7.6 / 3.9 s 13 MB; PIZ 8.0 / 5.0 s 7.7 MB
  * (RLE from HALF samples, before the bits: 0.036 s at 512^3, 0.26 s at 1024^3;
  * OpenEXRCore's own RLE encoder 0.44 s and 3.0 s.)
+ * The sphere's coverage (grey shell) at 512^3, 1 / 2 threads: coverage alone
+ *   NONE 0.12 / 0.17 s 268 MB; RLE 0.038 / 0.038 s 6.8 MB (OpenEXRCore's RLE
+ *   0.38 / 0.25 s); ZIP 0.56 / 0.31 s 4.1 MB; PIZ 0.49 / 0.29 s 3.9 MB;
+ *   with occupancy: NONE 0.29 / 0.32 s 537 MB; RLE 0.11 / 0.08 s 11.8 MB
+ *   (mostly packing the chunk); ZIP 1.1 / 0.60 s 6.3 MB; PIZ 0.91 / 0.58 s.
  * Library messages go to our error handler, never to stderr. The file is
  * fdatasync'ed before the rename.
  */
@@ -96,18 +113,26 @@
 
 typedef struct exr_channel_def {
     const char *name;
+    uint32_t mask;  /* CLVOX_CHANNEL_* */
     exr_pixel_type_t type;
     uint32_t bytes; /* per sample in the file */
     int bits;       /* the caller gives bit rows (clvox__row_words words per row, bit 1 = 1.0), not samples */
+    const void *(*plane)(const clvox__slab_planes *p); /* the caller's data for one slab */
 } exr_channel_def;
 
-/* Channels written today. Add entries here (and a data pointer per channel
- * in write_rows' caller) to store more per-voxel values. */
+static const void *plane_occupancy(const clvox__slab_planes *p) { return p->occupancy_bits; }
+static const void *plane_coverage(const clvox__slab_planes *p) { return p->coverage_half; }
+
+/* Every channel clvox can write; a writer keeps those it was opened with, in
+ * file order (sorted by name, as EXR requires). Add entries here (and a
+ * plane in clvox__slab_planes) to store more per-voxel values: element UINT,
+ * score HALF/FLOAT. Everything else walks the writer's list. */
 static const exr_channel_def channel_table[] = {
-    { "occupancy", EXR_PIXEL_HALF, 2, 1 },
+    { "coverage", CLVOX_CHANNEL_COVERAGE, EXR_PIXEL_HALF, 2, 0, plane_coverage },
+    { "occupancy", CLVOX_CHANNEL_OCCUPANCY, EXR_PIXEL_HALF, 2, 1, plane_occupancy },
 };
-#define CHANNEL_COUNT (sizeof channel_table / sizeof channel_table[0])
-_Static_assert(CHANNEL_COUNT <= CLVOX__EXR_MAX_CHANNELS, "too many EXR channels");
+#define CHANNEL_TABLE_SIZE (sizeof channel_table / sizeof channel_table[0])
+_Static_assert(CHANNEL_TABLE_SIZE <= CLVOX__EXR_MAX_CHANNELS, "too many EXR channels");
 
 /* ---- writer ---- */
 
@@ -136,13 +161,16 @@ struct clvox__exr_writer {
     int32_t chunk_count;
     exr_compression_t compression;
     int little_endian;
-    size_t file_order[CLVOX__EXR_MAX_CHANNELS]; /* channel_table indices sorted by name */
+    uint32_t channels;    /* CLVOX_CHANNEL_* mask */
+    const exr_channel_def *ch[CLVOX__EXR_MAX_CHANNELS]; /* this file's channels, in file (name) order */
+    size_t nch;
+    uint32_t pixel_bytes; /* all channels' bytes per voxel in the file */
     uint64_t next_row;    /* image rows received so far */
     uint32_t next_z;      /* next slice expected */
     int failed;           /* a slab failed: only abort is possible */
     clvox_status fail_status;
 
-    /* source of the current slab (read by workers) */
+    /* source of the current slab per channel of ch[] (read by workers) */
     const uint8_t *src[CLVOX__EXR_MAX_CHANNELS];
     uint64_t src_row0;
     /* rows of the chunk that straddles two slabs (row-chunks only) */
@@ -228,13 +256,6 @@ static exr_compression_t map_compression(clvox_compression c)
     }
 }
 
-static uint32_t pixel_bytes(void)
-{
-    uint32_t b = 0;
-    for (size_t c = 0; c < CHANNEL_COUNT; c++) b += channel_table[c].bytes;
-    return b;
-}
-
 static int host_little_endian(void)
 {
     const uint16_t one = 1;
@@ -253,15 +274,16 @@ static int grow(uint8_t **buf, size_t *size, size_t need)
     return 1;
 }
 
-/* Bytes of one image row of channel t as the caller gives it. */
+/* Bytes of one image row of the writer's channel t as the caller gives it. */
 static size_t source_row_bytes(const clvox__exr_writer *w, size_t t)
 {
-    if (channel_table[t].bits) return (size_t)clvox__row_words(w->dims[0]) * 4;
-    return (size_t)w->dims[0] * channel_table[t].bytes;
+    if (w->ch[t]->bits) return (size_t)clvox__row_words(w->dims[0]) * 4;
+    return (size_t)w->dims[0] * w->ch[t]->bytes;
 }
 
 /* Channel t's data for image row `row` of the current slab (or of the
- * carried-over rows of a chunk begun by the previous slab). */
+ * carried-over rows of a chunk begun by the previous slab: such a chunk is
+ * whole in carry[], so the rows of one chunk are always contiguous). */
 static const uint8_t *channel_rows(const clvox__exr_writer *w, size_t t, uint64_t row)
 {
     uint64_t rb = source_row_bytes(w, t);
@@ -290,26 +312,34 @@ static void expand_bits_row(uint16_t *dst, const uint32_t *bits, size_t X)
     for (; x < X; x++) dst[x] = (bits[x / 32] >> (x % 32)) & 1u ? 0x3C00 : 0x0000;
 }
 
+/* A chunk of a single sample channel in that byte order is the caller's
+ * data itself (see packed_chunk). */
+static int chunk_is_source(const clvox__exr_writer *w, int native)
+{
+    return w->nch == 1 && !w->ch[0]->bits && (w->ch[0]->bytes == 1 || native || w->little_endian);
+}
+
 /* The uncompressed chunk: per image row, each channel in file (name-sorted)
  * order, as samples (bit channels expanded); little-endian as the file
  * stores it, or in host order with `native` (what OpenEXRCore's encoder
  * reads). A single sample channel already in that order is the caller's
- * data itself: no copy. */
+ * data itself: no copy. Either way image row y of the chunk starts at
+ * (*out)[y * X * pixel_bytes]. */
 static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row0, uint32_t rows, int native,
                                  const uint8_t **out)
 {
     const size_t X = w->dims[0];
-    if (CHANNEL_COUNT == 1 && !channel_table[0].bits && (channel_table[0].bytes == 1 || native || w->little_endian)) {
+    if (chunk_is_source(w, native)) {
         *out = channel_rows(w, 0, row0);
         return EXR_ERR_SUCCESS;
     }
-    if (!grow(&s->raw, &s->raw_size, (size_t)rows * X * pixel_bytes())) return EXR_ERR_OUT_OF_MEMORY;
+    if (!grow(&s->raw, &s->raw_size, (size_t)rows * X * w->pixel_bytes)) return EXR_ERR_OUT_OF_MEMORY;
     uint8_t *dst = s->raw;
     for (uint32_t y = 0; y < rows; y++) {
-        for (size_t k = 0; k < CHANNEL_COUNT; k++) {
-            size_t t = w->file_order[k], b = channel_table[t].bytes, n = X * b;
+        for (size_t t = 0; t < w->nch; t++) {
+            size_t b = w->ch[t]->bytes, n = X * b;
             const uint8_t *src = channel_rows(w, t, row0 + y);
-            if (channel_table[t].bits) { /* HALF 0.0 / 1.0 */
+            if (w->ch[t]->bits) { /* HALF 0.0 / 1.0 */
                 pthread_once(&expand_once, expand_init);
                 expand_bits_row((uint16_t *)(void *)dst, (const uint32_t *)(const void *)src, X);
                 if (!native && !w->little_endian)
@@ -337,10 +367,11 @@ static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row
  * 3. Runs: a count byte c >= 0 followed by one byte means c+1 copies of it;
  *    c < 0 is followed by -c literal bytes (at most 127).
  * Readers undo it with the library's decoder; the output need not match the
- * library's encoder byte for byte, only decode to the same data. (Channels
- * given as samples rather than bits would go through OpenEXRCore's RLE
- * encoder; an encoder of our own for HALF samples, 10x faster than the
- * library's, is in the history before the slabs became bits.) */
+ * library's encoder byte for byte, only decode to the same data.
+ * Two encoders: rle_encode_bits for occupancy-only files (from the bits,
+ * below) and rle_encode_packed for any other channel set (from the packed
+ * chunk, after it). OpenEXRCore's own encoder is about 10x slower than
+ * either. */
 
 /* RLE of a chunk of bit rows (one HALF channel, 0.0 / 1.0) straight from the
  * bits, never building the samples: the bytes are 0x00 / 0x3C00 halves, so
@@ -457,6 +488,71 @@ static size_t rle_encode_bits(const clvox__exr_writer *w, size_t t, uint64_t row
     return o.n;
 }
 
+/* RLE of any packed chunk (n bytes in file order), for channel sets other
+ * than occupancy alone. Steps 1 and 2 are never materialised: the split
+ * stream is read in place as the bytes of one parity of src, the even ones
+ * then the odd ones, and the delta of each from the one before it (the
+ * previous byte of the split stream; 128 before the first, so that the
+ * first byte stays as it is). A delta of 0x80 means "same byte again": its
+ * runs, the long stretches of 0x0000 or 0x3C00 samples of a coverage
+ * plane, are skipped 16 bytes of one parity (32 of src) at a time. */
+static const uint8_t rle_parity_mask[2][8] = { { 0xFF, 0, 0xFF, 0, 0xFF, 0, 0xFF, 0 },
+                                               { 0, 0xFF, 0, 0xFF, 0, 0xFF, 0, 0xFF } };
+
+/* First index k' >= k of the parity-p stream V[k] = src[2k+p] (length m)
+ * with V[k'] != v, or m. */
+static size_t rle_same_bytes(const uint8_t *src, size_t n, unsigned p, size_t k, size_t m, uint8_t v)
+{
+    uint64_t mask, b = 0x0101010101010101ull * v;
+    memcpy(&mask, rle_parity_mask[p], 8);
+    while (2 * k + 32 <= n) {
+        uint64_t a[4];
+        memcpy(a, src + 2 * k, sizeof a);
+        if ((((a[0] ^ b) | (a[1] ^ b) | (a[2] ^ b) | (a[3] ^ b)) & mask) != 0) break;
+        k += 16;
+    }
+    while (k < m && src[2 * k + p] == v) k++; /* at most 16 steps, or the tail */
+    return k;
+}
+
+/* Tokens for the parity-p bytes of src; *prev: the split stream's byte
+ * before them, updated to their last. */
+static void rle_half(rle_out *o, const uint8_t *src, size_t n, unsigned p, uint8_t *prev)
+{
+    const size_t m = (n + 1 - p) / 2;
+    uint8_t last = *prev;
+    for (size_t j = 0; j < m;) {
+        const uint8_t v = src[2 * j + p], d = (uint8_t)(v - last + 128);
+        size_t e = j + 1;
+        if (d == 0x80) {
+            e = rle_same_bytes(src, n, p, e, m, v);
+        } else { /* a run of another delta (a ramp): rare, byte by byte */
+            while (e < m && (uint8_t)(src[2 * e + p] - src[2 * e - 2 + p] + 128) == d) e++;
+        }
+        rle_put(o, d, e - j);
+        last = src[2 * (e - 1) + p];
+        j = e;
+    }
+    *prev = last;
+}
+
+/* Capacity rle_encode_packed needs for n bytes: one per byte, plus a count
+ * byte per 127 literals (a run token never costs more than its bytes). */
+static size_t rle_packed_bound(size_t n)
+{
+    return n + n / 127 + 64;
+}
+
+static size_t rle_encode_packed(const uint8_t *src, size_t n, uint8_t *out)
+{
+    rle_out o = { out, 0, {0}, 0 };
+    uint8_t prev = 128;
+    rle_half(&o, src, n, 0, &prev);
+    rle_half(&o, src, n, 1, &prev);
+    rle_flush(&o);
+    return o.n;
+}
+
 /* Readers take a chunk whose stored size equals its unpacked size as
  * uncompressed. OpenEXRCore 3.1.5 keeps compressed output that is exactly as
  * large as the input (it falls back to raw data only when larger), which then
@@ -489,27 +585,28 @@ static exr_result_t library_encode(clvox__exr_writer *w, exr_slot *s, int32_t c,
         if (rv != EXR_ERR_SUCCESS) return rv;
     }
     const uint64_t X = w->dims[0];
-    /* Bit channels: the samples are made first, in host order. */
+    /* The chunk packed once in host order (bit channels expanded; a single
+     * sample channel is the caller's data); each channel of the pipeline
+     * reads its part of every packed row. */
+    uint32_t rows = (uint32_t)((uint64_t)w->height - row0 < (uint64_t)w->tile_h ? (uint64_t)w->height - row0
+                                                                                : (uint64_t)w->tile_h);
     const uint8_t *packed = NULL;
-    if (CHANNEL_COUNT == 1 && channel_table[0].bits) {
-        uint32_t rows = (uint32_t)((uint64_t)w->height - row0 < (uint64_t)w->tile_h ? (uint64_t)w->height - row0
-                                                                                    : (uint64_t)w->tile_h);
-        rv = packed_chunk(w, s, row0, rows, 1, &packed);
-        if (rv != EXR_ERR_SUCCESS) return rv;
-    }
+    rv = packed_chunk(w, s, row0, rows, 1, &packed);
+    if (rv != EXR_ERR_SUCCESS) return rv;
     for (int16_t k = 0; k < s->pipe.channel_count; k++) {
         exr_coding_channel_info_t *ch = &s->pipe.channels[k];
-        size_t t;
-        for (t = 0; t < CHANNEL_COUNT; t++)
-            if (strcmp(ch->channel_name, channel_table[t].name) == 0) break;
-        if (t == CHANNEL_COUNT) return EXR_ERR_INVALID_ARGUMENT;
-        if (channel_table[t].bits && !packed) return EXR_ERR_INVALID_ARGUMENT; /* several channels: not yet */
-        uint32_t b = channel_table[t].bytes;
-        ch->encode_from_ptr = channel_table[t].bits ? packed : channel_rows(w, t, row0);
+        size_t t, offset = 0; /* bytes before channel t in a packed pixel row, per sample */
+        for (t = 0; t < w->nch; t++) {
+            if (strcmp(ch->channel_name, w->ch[t]->name) == 0) break;
+            offset += w->ch[t]->bytes;
+        }
+        if (t == w->nch) return EXR_ERR_INVALID_ARGUMENT;
+        uint32_t b = w->ch[t]->bytes;
+        ch->encode_from_ptr = packed + offset * X;
         ch->user_pixel_stride = (int32_t)b;
-        ch->user_line_stride = (int32_t)(X * b);
+        ch->user_line_stride = (int32_t)(X * w->pixel_bytes);
         ch->user_bytes_per_element = (int16_t)b;
-        ch->user_data_type = (uint16_t)channel_table[t].type;
+        ch->user_data_type = (uint16_t)w->ch[t]->type;
     }
     if (!s->pipe.convert_and_pack_fn) {
         rv = exr_encoding_choose_default_routines(w->exr, 0, &s->pipe);
@@ -530,7 +627,7 @@ static exr_result_t encode_chunk(clvox__exr_writer *w, exr_slot *s, int32_t c)
     const uint64_t row0 = (uint64_t)c * (uint64_t)w->tile_h;
     const uint32_t rows = (uint32_t)((uint64_t)w->height - row0 < (uint64_t)w->tile_h ? (uint64_t)w->height - row0
                                                                                         : (uint64_t)w->tile_h);
-    const uint64_t unpacked = (uint64_t)rows * w->dims[0] * pixel_bytes();
+    const uint64_t unpacked = (uint64_t)rows * w->dims[0] * w->pixel_bytes;
     exr_result_t rv;
     const uint8_t *packed = NULL;
 
@@ -542,15 +639,18 @@ static exr_result_t encode_chunk(clvox__exr_writer *w, exr_slot *s, int32_t c)
         return rv;
 #ifndef CLVOX__EXR_LIBRARY_RLE /* defined: OpenEXRCore's RLE encoder, for comparison */
     case EXR_COMPRESSION_RLE:
-        if (CHANNEL_COUNT == 1 && channel_table[0].bits) {
+        if (w->nch == 1 && w->ch[0]->bits) { /* occupancy alone: from the bits */
             if (!grow(&s->comp, &s->comp_size, rle_bits_bound((uint64_t)rows * w->dims[0])))
                 return EXR_ERR_OUT_OF_MEMORY;
             s->out = s->comp;
             s->out_bytes = rle_encode_bits(w, 0, row0, rows, s->comp);
             break;
         }
-        rv = library_encode(w, s, c, row0);
+        rv = packed_chunk(w, s, row0, rows, 0, &packed);
         if (rv != EXR_ERR_SUCCESS) return rv;
+        if (!grow(&s->comp, &s->comp_size, rle_packed_bound((size_t)unpacked))) return EXR_ERR_OUT_OF_MEMORY;
+        s->out = s->comp;
+        s->out_bytes = rle_encode_packed(packed, (size_t)unpacked, s->comp);
         break;
 #endif
     default:
@@ -649,22 +749,22 @@ static clvox_status run_chunks(clvox__exr_writer *w, int32_t first, int32_t end)
     return st;
 }
 
-/* Appends image rows [row0, row0 + nrows) (one pointer per channel table
- * entry) to the file. */
+/* Appends image rows [row0, row0 + nrows) (one pointer per channel of
+ * w->ch) to the file. */
 static clvox_status write_rows(clvox__exr_writer *w, uint64_t row0, uint64_t nrows, const uint8_t *const *data)
 {
     const uint64_t T = (uint64_t)w->tile_h, H = (uint64_t)w->height;
     const uint64_t R0 = row0, R1 = row0 + nrows;
     int32_t first = (int32_t)(R0 / T);
 
-    for (size_t t = 0; t < CHANNEL_COUNT; t++) w->src[t] = data[t];
+    for (size_t t = 0; t < w->nch; t++) w->src[t] = data[t];
     w->src_row0 = R0;
 
     if (w->carry_rows > 0) { /* complete the chunk begun by the previous slab */
         uint64_t cstart = (uint64_t)first * T;
         uint64_t cend = cstart + T < H ? cstart + T : H;
         uint64_t take = cend - R0 < nrows ? cend - R0 : nrows;
-        for (size_t t = 0; t < CHANNEL_COUNT; t++) {
+        for (size_t t = 0; t < w->nch; t++) {
             size_t rb = source_row_bytes(w, t);
             memcpy(w->carry[t] + (size_t)w->carry_rows * rb, data[t], (size_t)take * rb);
         }
@@ -677,7 +777,7 @@ static clvox_status write_rows(clvox__exr_writer *w, uint64_t row0, uint64_t nro
     w->carry_rows = 0;
     uint64_t tail0 = (uint64_t)end * T;
     if (tail0 < R1) { /* keep the start of the next chunk */
-        for (size_t t = 0; t < CHANNEL_COUNT; t++) {
+        for (size_t t = 0; t < w->nch; t++) {
             size_t rb = source_row_bytes(w, t);
             memcpy(w->carry[t], data[t] + (size_t)(tail0 - R0) * rb, (size_t)(R1 - tail0) * rb);
         }
@@ -765,7 +865,7 @@ static clvox_status check_disk_space(clvox__exr_writer *w)
     if (w->compression != EXR_COMPRESSION_NONE) return CLVOX_OK;
     struct statvfs vfs;
     if (fstatvfs(w->fd, &vfs) != 0) return CLVOX_OK; /* unknown: let the writes tell */
-    uint64_t need = (uint64_t)w->dims[0] * w->dims[1] * w->dims[2] * pixel_bytes() + 8ull * (uint64_t)w->chunk_count;
+    uint64_t need = (uint64_t)w->dims[0] * w->dims[1] * w->dims[2] * w->pixel_bytes + 8ull * (uint64_t)w->chunk_count;
     uint64_t avail = (uint64_t)vfs.f_bavail * (uint64_t)(vfs.f_frsize ? vfs.f_frsize : vfs.f_bsize);
     if (need <= avail) return CLVOX_OK;
     return clvox__fail(w->ctx, CLVOX_ERR_IO,
@@ -789,9 +889,8 @@ static clvox_status define_header(clvox__exr_writer *w, const clvox_grid *grid, 
     EXR_TRY(exr_set_tile_descriptor(w->exr, part, w->dims[0], (uint32_t)w->tile_h, EXR_TILE_ONE_LEVEL,
                                     EXR_TILE_ROUND_DOWN),
             "setting the tiles of");
-    for (size_t t = 0; t < CHANNEL_COUNT; t++) {
-        rv = exr_add_channel(w->exr, part, channel_table[t].name, channel_table[t].type, EXR_PERCEPTUALLY_LINEAR,
-                             1, 1);
+    for (size_t t = 0; t < w->nch; t++) {
+        rv = exr_add_channel(w->exr, part, w->ch[t]->name, w->ch[t]->type, EXR_PERCEPTUALLY_LINEAR, 1, 1);
         if (rv != EXR_ERR_SUCCESS) return exr_fail(w, rv, "adding a channel to");
     }
     if (ec == EXR_COMPRESSION_ZIP || ec == EXR_COMPRESSION_ZIPS)
@@ -833,8 +932,13 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!path || !*path || !grid || !out)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__exr_open: missing path, grid or output");
-    if (channels != 0 && channels != CLVOX_CHANNEL_OCCUPANCY)
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__exr_open: channels 0x%x not supported yet", channels);
+    if (channels == 0) channels = CLVOX_CHANNEL_OCCUPANCY;
+    uint32_t known = 0;
+    for (size_t t = 0; t < CHANNEL_TABLE_SIZE; t++) known |= channel_table[t].mask;
+    if (channels & ~known)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                           "clvox__exr_open: channels 0x%x: the EXR writer knows occupancy (0x%x) and coverage (0x%x)",
+                           channels, CLVOX_CHANNEL_OCCUPANCY, CLVOX_CHANNEL_COVERAGE);
     if ((unsigned)compression >= CLVOX_COMPRESSION_COUNT)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown compression %d", (int)compression);
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
@@ -858,15 +962,18 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     w->height = (int32_t)((uint64_t)Y * Z);
     w->compression = map_compression(compression);
     w->little_endian = host_little_endian();
-    for (size_t t = 0; t < CHANNEL_COUNT; t++) { /* insertion sort by name: the file's channel order */
-        size_t k = t;
-        while (k > 0 && strcmp(channel_table[w->file_order[k - 1]].name, channel_table[t].name) > 0) {
-            w->file_order[k] = w->file_order[k - 1];
+    w->channels = channels;
+    for (size_t t = 0; t < CHANNEL_TABLE_SIZE; t++) { /* insertion sort by name: the file's channel order */
+        if (!(channels & channel_table[t].mask)) continue;
+        size_t k = w->nch++;
+        while (k > 0 && strcmp(w->ch[k - 1]->name, channel_table[t].name) > 0) {
+            w->ch[k] = w->ch[k - 1];
             k--;
         }
-        w->file_order[k] = t;
+        w->ch[k] = &channel_table[t];
+        w->pixel_bytes += channel_table[t].bytes;
     }
-    uint64_t row_bytes = (uint64_t)X * pixel_bytes();
+    uint64_t row_bytes = (uint64_t)X * w->pixel_bytes;
     uint64_t slice_bytes = row_bytes * Y;
     if (slice_bytes <= CLVOX__EXR_CHUNK_BYTES) {
         w->tile_h = (int32_t)Y;
@@ -888,7 +995,7 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     }
     if (w->tile_h != (int32_t)Y) {
-        for (size_t t = 0; t < CHANNEL_COUNT; t++) {
+        for (size_t t = 0; t < w->nch; t++) {
             w->carry[t] = malloc(source_row_bytes(w, t) * (size_t)w->tile_h);
             if (!w->carry[t]) {
                 writer_free(w);
@@ -922,7 +1029,7 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     }
 
     unsigned n = threads ? threads : online_cpus();
-    if (w->compression == EXR_COMPRESSION_NONE && !channel_table[0].bits)
+    if (w->compression == EXR_COMPRESSION_NONE && chunk_is_source(w, 0))
         n = 1; /* nothing to compute: chunks are the caller's data */
     if (n > CLVOX__EXR_MAX_THREADS) n = CLVOX__EXR_MAX_THREADS;
     if ((uint32_t)n > (uint32_t)w->chunk_count) n = (unsigned)w->chunk_count;
@@ -952,17 +1059,28 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
 clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes)
 {
     if (!w) return CLVOX_ERR_INVALID_ARGUMENT;
-    const uint32_t *occupancy_bits = planes ? planes->occupancy_bits : NULL;
     if (w->failed)
         return clvox__fail(w->ctx, w->fail_status, "EXR writer for '%s' already failed", w->path);
-    if (!occupancy_bits || nz == 0 || z0 != w->next_z || nz > w->dims[2] - z0) {
+    if (nz == 0 || z0 != w->next_z || nz > w->dims[2] - z0) {
         w->failed = 1;
         w->fail_status = CLVOX_ERR_INTERNAL;
-        return clvox__fail(w->ctx, CLVOX_ERR_INTERNAL,
-                           "EXR slab z0=%u nz=%u out of order (expected z0=%u, Z=%u, data %s)", z0, nz, w->next_z,
-                           w->dims[2], occupancy_bits ? "set" : "missing");
+        return clvox__fail(w->ctx, CLVOX_ERR_INTERNAL, "EXR slab z0=%u nz=%u out of order (expected z0=%u, Z=%u)",
+                           z0, nz, w->next_z, w->dims[2]);
     }
-    const uint8_t *data[CLVOX__EXR_MAX_CHANNELS] = { (const uint8_t *)occupancy_bits };
+    /* Exactly the planes of the writer's channels. */
+    for (size_t t = 0; t < CHANNEL_TABLE_SIZE; t++) {
+        const exr_channel_def *def = &channel_table[t];
+        int given = planes && def->plane(planes), wanted = (w->channels & def->mask) != 0;
+        if (given != wanted) {
+            w->failed = 1;
+            w->fail_status = CLVOX_ERR_INVALID_ARGUMENT;
+            return clvox__fail(w->ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                               "EXR slab z0=%u: the %s plane is %s (the writer for '%s' was opened %s it)", z0,
+                               def->name, given ? "given" : "missing", w->path, wanted ? "with" : "without");
+        }
+    }
+    const uint8_t *data[CLVOX__EXR_MAX_CHANNELS];
+    for (size_t t = 0; t < w->nch; t++) data[t] = w->ch[t]->plane(planes);
     uint64_t Y = w->dims[1];
     clvox_status st = write_rows(w, (uint64_t)z0 * Y, (uint64_t)nz * Y, data);
     if (st != CLVOX_OK) {

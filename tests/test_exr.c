@@ -8,6 +8,7 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <math.h>
 #include <stdint.h>
 #include <string.h>
 #include <signal.h>
@@ -87,12 +88,15 @@ static void pack_bits(uint32_t *dst, const uint8_t *vol, uint32_t X, size_t rows
             if (vol[r * X + x]) dst[r * W + x / 32] |= 1u << (x % 32);
 }
 
-/* Writes vol (X*Y*Z bytes 0/1) in slabs of the given depths (cycled). */
-static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_compression comp, uint32_t threads,
-                                 const uint8_t *vol, const uint32_t *depths, size_t ndepths, uint64_t *bytes)
+/* Writes the planes given, vol (X*Y*Z bytes 0/1) as occupancy and cov
+ * (X*Y*Z HALF bits) as coverage, in slabs of the given depths (cycled);
+ * channels: the mask to open the writer with. */
+static clvox_status write_planes(const char *path, const clvox_grid *g, uint32_t channels, clvox_compression comp,
+                                 uint32_t threads, const uint8_t *vol, const uint16_t *cov, const uint32_t *depths,
+                                 size_t ndepths, uint64_t *bytes)
 {
     clvox__exr_writer *w = NULL;
-    clvox_status st = clvox__exr_open(ctx, path, g, &test_meta, 0, comp, threads, &w);
+    clvox_status st = clvox__exr_open(ctx, path, g, &test_meta, channels, comp, threads, &w);
     if (st != CLVOX_OK) return st;
     const size_t XY = (size_t)g->dims[0] * g->dims[1], WY = (size_t)clvox__row_words(g->dims[0]) * g->dims[1];
     uint32_t *bits = NULL;
@@ -110,8 +114,9 @@ static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_co
                 return CLVOX_ERR_OUT_OF_MEMORY;
             }
         }
-        pack_bits(bits, vol + (size_t)z0 * XY, g->dims[0], (size_t)g->dims[1] * nz);
-        st = clvox__exr_write_slab(w, z0, nz, &(clvox__slab_planes){bits, NULL});
+        if (vol) pack_bits(bits, vol + (size_t)z0 * XY, g->dims[0], (size_t)g->dims[1] * nz);
+        st = clvox__exr_write_slab(w, z0, nz,
+                                   &(clvox__slab_planes){vol ? bits : NULL, cov ? cov + (size_t)z0 * XY : NULL});
         if (st != CLVOX_OK) {
             free(bits);
             clvox__exr_abort(w);
@@ -121,6 +126,13 @@ static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_co
     }
     free(bits);
     return clvox__exr_finish(w, bytes);
+}
+
+/* Writes vol (X*Y*Z bytes 0/1) as an occupancy-only file. */
+static clvox_status write_volume(const char *path, const clvox_grid *g, clvox_compression comp, uint32_t threads,
+                                 const uint8_t *vol, const uint32_t *depths, size_t ndepths, uint64_t *bytes)
+{
+    return write_planes(path, g, 0, comp, threads, vol, NULL, depths, ndepths, bytes);
 }
 
 static void fill_random(uint8_t *vol, size_t n)
@@ -204,12 +216,175 @@ static void round_trip(uint32_t X, uint32_t Y, uint32_t Z, int structured, clvox
     free(back);
 }
 
+/* ---- coverage: HALF samples, decoded with OpenEXRCore's generic pipeline ---- */
+
+/* Coverage test data as HALF bits. pattern 0: runs of random length (1 to
+ * 3000) of 0 and 1 mostly, of special values (subnormals, 0.5, -0, just
+ * under 1), of arbitrary bit patterns and ramps (RLE runs of a delta other
+ * than 0x80); pattern 1: a sphere's coverage, 0 outside, 1 inside and a
+ * grey shell (bits 0 .. 0x3C00 are HALF 0 .. 1, increasing). */
+static void fill_coverage(uint16_t *cov, uint32_t X, uint32_t Y, uint32_t Z, int pattern)
+{
+    static const uint16_t special[] = { 0x0000, 0x3C00, 0x0001, 0x03FF, 0x0200, 0x3800,
+                                        0x0400, 0x3BFF, 0x2E66, 0x8000, 0x3801, 0x37FF };
+    const size_t n = (size_t)X * Y * Z;
+    if (pattern == 1) {
+        double c[3] = { X / 2.0, Y / 2.0, Z / 2.0 };
+        double r = (X < Y ? (X < Z ? X : Z) : (Y < Z ? Y : Z)) / 2.5 + 0.5;
+        for (uint32_t z = 0; z < Z; z++)
+            for (uint32_t y = 0; y < Y; y++)
+                for (uint32_t x = 0; x < X; x++) {
+                    double dx = x + 0.5 - c[0], dy = y + 0.5 - c[1], dz = z + 0.5 - c[2];
+                    double f = r + 0.5 - sqrt(dx * dx + dy * dy + dz * dz);
+                    f = f < 0 ? 0 : f > 1 ? 1 : f;
+                    cov[((size_t)z * Y + y) * X + x] = (uint16_t)(f * 0x3C00);
+                }
+        return;
+    }
+    for (size_t i = 0; i < n;) {
+        uint32_t r = rnd() % 8, k = rnd() % 16;
+        size_t len = r < 3 ? 1 + rnd() % 3 : r < 6 ? 1 + rnd() % 40 : 100 + rnd() % 2900;
+        uint16_t v = k < 6 ? 0x0000 : k < 10 ? 0x3C00 : k < 14 ? special[rnd() % 12] : (uint16_t)rnd();
+        for (size_t j = 0; j < len && i < n; j++, i++) cov[i] = k == 15 ? (uint16_t)(v + j * 3) : v;
+    }
+}
+
+/* Decodes a clvox file with OpenEXRCore's generic decoding pipeline (not
+ * clvox's reader) into the raw HALF bits of "coverage" (cov) and
+ * "occupancy" (occ), each NULL to skip; names: the file's channels,
+ * comma-separated; *tile_h: the tile height. Returns 1 when the file is
+ * one tiled part of n HALF pixels and everything decoded. */
+static int decode_halves(const char *path, size_t n, uint16_t *cov, uint16_t *occ, char *names, size_t names_size,
+                         uint32_t *tile_h)
+{
+    exr_context_t e = NULL;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    if (exr_start_read(&e, path, &init) != EXR_ERR_SUCCESS) return 0;
+    int ok = 1, count = 0;
+    const exr_attr_chlist_t *chl = NULL;
+    exr_attr_box2i_t dw;
+    uint32_t tw = 0, th = 0;
+    exr_tile_level_mode_t lm;
+    exr_tile_round_mode_t rm;
+    int32_t ntx = 0, nty = 0;
+    ok = exr_get_count(e, &count) == EXR_ERR_SUCCESS && count == 1 &&
+         exr_get_channels(e, 0, &chl) == EXR_ERR_SUCCESS && exr_get_data_window(e, 0, &dw) == EXR_ERR_SUCCESS &&
+         exr_get_tile_descriptor(e, 0, &tw, &th, &lm, &rm) == EXR_ERR_SUCCESS && tw > 0 && th > 0 &&
+         lm == EXR_TILE_ONE_LEVEL;
+    const int64_t W = ok ? (int64_t)dw.max.x - dw.min.x + 1 : 0, H = ok ? (int64_t)dw.max.y - dw.min.y + 1 : 0;
+    ok = ok && dw.min.x == 0 && dw.min.y == 0 && (uint64_t)W * (uint64_t)H == n;
+    if (ok) {
+        ntx = (int32_t)((W + tw - 1) / tw);
+        nty = (int32_t)((H + th - 1) / th);
+    }
+    names[0] = '\0';
+    for (int i = 0; ok && i < chl->num_channels; i++) {
+        size_t len = strlen(names);
+        snprintf(names + len, names_size - len, "%s%s", i ? "," : "", chl->entries[i].name.str);
+        ok = chl->entries[i].pixel_type == EXR_PIXEL_HALF;
+    }
+    if (tile_h) *tile_h = th;
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    int initialized = 0;
+    for (int32_t ty = 0; ok && ty < nty; ty++)
+        for (int32_t tx = 0; ok && tx < ntx; tx++) {
+            exr_chunk_info_t ci;
+            ok = exr_read_tile_chunk_info(e, 0, tx, ty, 0, 0, &ci) == EXR_ERR_SUCCESS;
+            if (ok) ok = (initialized ? exr_decoding_update(e, 0, &ci, &dec)
+                                      : exr_decoding_initialize(e, 0, &ci, &dec)) == EXR_ERR_SUCCESS;
+            if (!ok) break;
+            initialized = 1;
+            for (int16_t c = 0; c < dec.channel_count; c++) {
+                exr_coding_channel_info_t *ch = &dec.channels[c];
+                uint16_t *dst = strcmp(ch->channel_name, "coverage") == 0    ? cov
+                                : strcmp(ch->channel_name, "occupancy") == 0 ? occ
+                                                                             : NULL;
+                /* (ci.start_x/y of a tile are tile indices in OpenEXRCore 3.1.5, not pixels) */
+                size_t at = (size_t)ty * th * (size_t)W + (size_t)tx * tw;
+                ch->decode_to_ptr = dst ? (uint8_t *)(dst + at) : NULL;
+                ch->user_pixel_stride = 2;
+                ch->user_line_stride = (int32_t)(2 * W);
+                ch->user_bytes_per_element = 2;
+                ch->user_data_type = EXR_PIXEL_HALF;
+            }
+            ok = exr_decoding_choose_default_routines(e, 0, &dec) == EXR_ERR_SUCCESS &&
+                 exr_decoding_run(e, 0, &dec) == EXR_ERR_SUCCESS;
+        }
+    if (initialized) exr_decoding_destroy(e, &dec);
+    exr_finish(&e);
+    return ok;
+}
+
+/* Index of the first difference of a and b (n HALF samples), or n. */
+static size_t first_diff(const uint16_t *a, const uint16_t *b, size_t n)
+{
+    size_t i = 0;
+    while (i < n && a[i] == b[i]) i++;
+    return i;
+}
+
+/* Writes coverage (and occupancy when `channels` has it) and compares every
+ * sample bit for bit, decoded by OpenEXRCore. row_chunks: the layout
+ * expected (tile height below Y). */
+static void coverage_round_trip(uint32_t X, uint32_t Y, uint32_t Z, uint32_t channels, int pattern,
+                                clvox_compression comp, uint32_t threads, const uint32_t *depths, size_t ndepths,
+                                int row_chunks)
+{
+    char path[2048], names[256];
+    snprintf(path, sizeof path, "%s/cov_%ux%ux%u_%u_%d_%d_%u.exr", dir, X, Y, Z, channels, pattern, (int)comp,
+             threads);
+    const size_t n = (size_t)X * Y * Z;
+    const int with_occ = (channels & CLVOX_CHANNEL_OCCUPANCY) != 0, with_cov = (channels & CLVOX_CHANNEL_COVERAGE) != 0;
+    uint16_t *cov = malloc(n * 2), *cov_back = malloc(n * 2), *occ_back = malloc(n * 2);
+    uint8_t *vol = malloc(n);
+    if (!cov || !cov_back || !occ_back || !vol) {
+        CHECK(!"out of memory");
+        goto done;
+    }
+    fill_coverage(cov, X, Y, Z, pattern);
+    if (pattern == 1)
+        for (size_t i = 0; i < n; i++) vol[i] = cov[i] >= 0x3800; /* coverage >= 0.5 */
+    else
+        fill_random(vol, n);
+    clvox_grid g = make_grid(X, Y, Z);
+    uint64_t bytes = 0;
+    clvox_status st = write_planes(path, &g, channels, comp, threads, with_occ ? vol : NULL, with_cov ? cov : NULL,
+                                   depths, ndepths, &bytes);
+    CHECK_MSG(st == CLVOX_OK, "%s: %s: %s", path, clvox_status_string(st), clvox_context_error(ctx));
+    CHECK(bytes > 0 && (long long)bytes == file_size(path) && temp_files(path) == 0);
+    memset(cov_back, 0xEE, n * 2);
+    memset(occ_back, 0xEE, n * 2);
+    uint32_t th = 0;
+    CHECK_MSG(decode_halves(path, n, cov_back, occ_back, names, sizeof names, &th), "%s: OpenEXRCore cannot decode it",
+              path);
+    const char *want = with_cov && with_occ ? "coverage,occupancy" : with_cov ? "coverage" : "occupancy";
+    CHECK_MSG(strcmp(names, want) == 0, "%s: channels '%s', expected '%s'", path, names, want);
+    CHECK_MSG((th < Y) == (row_chunks != 0), "%s: tile height %u for Y = %u", path, th, Y);
+    if (with_cov) {
+        size_t i = first_diff(cov, cov_back, n);
+        CHECK_MSG(i == n, "%s: coverage differs at sample %zu: %#x, read %#x", path, i, i < n ? cov[i] : 0,
+                  i < n ? cov_back[i] : 0);
+    }
+    if (with_occ) {
+        for (size_t i = 0; i < n; i++) cov[i] = vol[i] ? 0x3C00 : 0x0000; /* what occupancy must read */
+        size_t i = first_diff(cov, occ_back, n);
+        CHECK_MSG(i == n, "%s: occupancy differs at sample %zu: %#x, read %#x", path, i, i < n ? cov[i] : 0,
+                  i < n ? occ_back[i] : 0);
+    }
+    unlink(path);
+done:
+    free(cov);
+    free(cov_back);
+    free(occ_back);
+    free(vol);
+}
+
 /* ---- tests ---- */
 
 static void test_round_trips(void)
 {
     static const uint32_t dims[][3] = {
-        { 1, 1, 1 }, { 17, 5, 9 }, { 8, 8, 8 }, { 33, 1, 7 }, { 1, 40, 3 }, { 64, 48, 20 }, { 3, 2, 31 },
+        { 1, 1, 1 }, { 17, 5, 9 }, { 8, 8, 8 }, { 33, 1, 7 }, { 1, 40, 3 }, { 64, 48, 20 }, { 3, 2, 31 }, { 300, 7, 3 },
     };
     static const uint32_t one[] = { 1 }, mixed[] = { 2, 1, 5, 3 }, big[] = { 1000 };
     for (size_t d = 0; d < sizeof dims / sizeof dims[0]; d++)
@@ -240,22 +415,130 @@ static void test_row_chunks(void)
     round_trip(4099, 1031, 3, 1, CLVOX_COMPRESSION_NONE, 3, d12, 2);
 }
 
-/* The file does not depend on the number of threads. */
+/* Coverage alone and with occupancy, every compression, tile-per-slice,
+ * slabs of varying depth; occupancy alone through the same decoder. */
+static void test_coverage(void)
+{
+    static const uint32_t dims[][3] = { { 1, 1, 1 }, { 17, 5, 9 }, { 64, 48, 20 }, { 3, 2, 31 }, { 300, 7, 3 } };
+    static const uint32_t sets[] = { CLVOX_CHANNEL_COVERAGE, CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY,
+                                     CLVOX_CHANNEL_OCCUPANCY };
+    static const uint32_t one[] = { 1 }, mixed[] = { 2, 1, 5, 3 }, big[] = { 1000 };
+    for (size_t d = 0; d < sizeof dims / sizeof dims[0]; d++)
+        for (size_t k = 0; k < sizeof sets / sizeof sets[0]; k++)
+            for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++)
+                for (int pattern = 0; pattern < 2; pattern++) {
+                    const uint32_t *dp = pattern ? mixed : (c & 1 ? one : big);
+                    uint32_t threads = (uint32_t)((d + k + (size_t)c + (size_t)pattern) % 4);
+                    coverage_round_trip(dims[d][0], dims[d][1], dims[d][2], sets[k], pattern, (clvox_compression)c,
+                                        threads, dp, pattern ? 4 : 1, 0);
+                }
+}
+
+/* Row chunks with coverage: slices over CLVOX__EXR_CHUNK_BYTES (8 MiB) counting
+ * all channels' bytes, so tiles of fewer rows than Y that straddle slices
+ * and slabs (1500 x 1500 at 4 bytes per voxel: tiles of 1398 rows; 2900 x
+ * 1500 at 2 bytes: 1446 rows). */
+static void test_coverage_row_chunks(void)
+{
+    static const uint32_t d12[] = { 1, 2 }, d1[] = { 1 };
+    static const clvox_compression comps[] = { CLVOX_COMPRESSION_RLE, CLVOX_COMPRESSION_NONE, CLVOX_COMPRESSION_ZIP,
+                                               CLVOX_COMPRESSION_PIZ };
+    const uint32_t both = CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY;
+    for (size_t c = 0; c < sizeof comps / sizeof comps[0]; c++)
+        coverage_round_trip(1500, 1500, 3, both, (int)(c & 1), comps[c], (uint32_t)(c % 3), d12, 2, 1);
+    coverage_round_trip(2900, 1500, 2, CLVOX_CHANNEL_COVERAGE, 0, CLVOX_COMPRESSION_RLE, 2, d1, 1, 1);
+    coverage_round_trip(2900, 1500, 2, CLVOX_CHANNEL_COVERAGE, 1, CLVOX_COMPRESSION_ZIPS, 1, d1, 1, 1);
+    /* the same slice size with coverage alone is one tile (2 bytes per voxel) */
+    coverage_round_trip(1500, 1500, 2, CLVOX_CHANNEL_COVERAGE, 0, CLVOX_COMPRESSION_RLE, 2, d1, 1, 0);
+}
+
+/* A plane missing for a channel of the writer, or given for a channel it
+ * was not opened with, is CLVOX_ERR_INVALID_ARGUMENT; the writer has failed
+ * then and leaves no file. Unknown channel bits are refused at open. */
+static void test_bad_planes(void)
+{
+    const uint32_t X = 6, Y = 5, Z = 4;
+    clvox_grid g = make_grid(X, Y, Z);
+    uint32_t bits[5 * 4] = { 0 };
+    uint16_t cov[6 * 5 * 4] = { 0 };
+    char path[2048];
+    snprintf(path, sizeof path, "%s/planes.exr", dir);
+    unlink(path);
+    static const struct {
+        uint32_t channels;
+        int bits, cov;
+    } bad[] = {
+        { 0, 0, 0 },
+        { 0, 0, 1 },
+        { 0, 1, 1 },
+        { CLVOX_CHANNEL_OCCUPANCY, 0, 1 },
+        { CLVOX_CHANNEL_COVERAGE, 0, 0 },
+        { CLVOX_CHANNEL_COVERAGE, 1, 0 },
+        { CLVOX_CHANNEL_COVERAGE, 1, 1 },
+        { CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY, 1, 0 },
+        { CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY, 0, 1 },
+        { CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY, 0, 0 },
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        for (uint32_t threads = 1; threads <= 2; threads++) {
+            clvox__exr_writer *w = NULL;
+            clvox__slab_planes good = { bad[i].channels & CLVOX_CHANNEL_COVERAGE ? NULL : bits,
+                                        bad[i].channels & CLVOX_CHANNEL_COVERAGE ? cov : NULL };
+            if (bad[i].channels == (CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY)) good.occupancy_bits = bits;
+            clvox__slab_planes planes = { bad[i].bits ? bits : NULL, bad[i].cov ? cov : NULL };
+            CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, bad[i].channels, CLVOX_COMPRESSION_RLE, threads,
+                                          &w));
+            CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &good)); /* a good slab first: the bad one is the second */
+            CHECK_STATUS(ctx, clvox__exr_write_slab(w, 1, 1, &planes), CLVOX_ERR_INVALID_ARGUMENT);
+            CHECK_MSG(strstr(clvox_context_error(ctx), "plane") != NULL, "case %zu: %s", i, clvox_context_error(ctx));
+            CHECK(clvox__exr_write_slab(w, 1, 3, &good) != CLVOX_OK); /* the writer has failed */
+            CHECK_STATUS(ctx, clvox__exr_finish(w, NULL), CLVOX_ERR_INVALID_ARGUMENT);
+            CHECK(!exists(path) && temp_files(path) == 0);
+        }
+    /* no planes at all */
+    clvox__exr_writer *w = NULL;
+    CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_CHANNEL_COVERAGE, CLVOX_COMPRESSION_ZIP, 1, &w));
+    CHECK_STATUS(ctx, clvox__exr_write_slab(w, 0, Z, NULL), CLVOX_ERR_INVALID_ARGUMENT);
+    clvox__exr_abort(w);
+    CHECK(!exists(path) && temp_files(path) == 0);
+    /* channels the writer does not know */
+    w = (clvox__exr_writer *)&w;
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0x4, CLVOX_COMPRESSION_RLE, 1, &w),
+                 CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(w == NULL && !exists(path) && temp_files(path) == 0);
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_CHANNEL_COVERAGE | 0x80000000u,
+                                      CLVOX_COMPRESSION_RLE, 1, &w),
+                 CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(!exists(path) && temp_files(path) == 0);
+}
+
+/* The file does not depend on the number of threads (occupancy alone, and
+ * coverage with occupancy). */
 static void test_threads_identical(void)
 {
     const uint32_t X = 40, Y = 30, Z = 50;
     size_t n = (size_t)X * Y * Z;
     uint8_t *vol = malloc(n);
-    if (!vol) return;
+    uint16_t *cov = malloc(n * 2);
+    if (!vol || !cov) {
+        CHECK(!"out of memory");
+        free(vol);
+        free(cov);
+        return;
+    }
     fill_structured(vol, X, Y, Z);
+    fill_coverage(cov, X, Y, Z, 0);
     clvox_grid g = make_grid(X, Y, Z);
     static const uint32_t depths[] = { 7, 1, 12 };
     char p1[2048], p2[2048];
-    for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+    for (int k = 0; k < 2 * CLVOX_COMPRESSION_COUNT; k++) {
+        int c = k % CLVOX_COMPRESSION_COUNT;
+        uint32_t channels = k < CLVOX_COMPRESSION_COUNT ? 0 : CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY;
+        const uint16_t *cv = channels ? cov : NULL;
         snprintf(p1, sizeof p1, "%s/thr1.exr", dir);
         snprintf(p2, sizeof p2, "%s/thr4.exr", dir);
-        CHECK_OK(ctx, write_volume(p1, &g, (clvox_compression)c, 1, vol, depths, 3, NULL));
-        CHECK_OK(ctx, write_volume(p2, &g, (clvox_compression)c, 4, vol, depths, 3, NULL));
+        CHECK_OK(ctx, write_planes(p1, &g, channels, (clvox_compression)c, 1, vol, cv, depths, 3, NULL));
+        CHECK_OK(ctx, write_planes(p2, &g, channels, (clvox_compression)c, 4, vol, cv, depths, 3, NULL));
         FILE *a = fopen(p1, "rb"), *b = fopen(p2, "rb");
         int same = a && b;
         while (same) {
@@ -263,13 +546,14 @@ static void test_threads_identical(void)
             if (ca != cb) same = 0;
             if (ca == EOF || cb == EOF) break;
         }
-        CHECK_MSG(same, "compression %d: 1 and 4 threads give different files", c);
+        CHECK_MSG(same, "compression %d, channels %#x: 1 and 4 threads give different files", c, channels);
         if (a) fclose(a);
         if (b) fclose(b);
         unlink(p1);
         unlink(p2);
     }
     free(vol);
+    free(cov);
 }
 
 static void test_exrheader(void)
@@ -280,13 +564,22 @@ static void test_exrheader(void)
     }
     const uint32_t X = 17, Y = 5, Z = 9;
     uint8_t vol[17 * 5 * 9];
+    uint16_t cov[17 * 5 * 9];
     fill_structured(vol, X, Y, Z);
+    fill_coverage(cov, X, Y, Z, 1);
     clvox_grid g = make_grid(X, Y, Z);
     static const uint32_t depths[] = { 4 };
     char path[2048], cmd[2200], line[512];
-    for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+    /* every compression for occupancy; then coverage with occupancy, and alone */
+    for (int k = 0; k < CLVOX_COMPRESSION_COUNT + 2; k++) {
+        int c = k % CLVOX_COMPRESSION_COUNT;
+        uint32_t channels = k < CLVOX_COMPRESSION_COUNT        ? CLVOX_CHANNEL_OCCUPANCY
+                            : k == CLVOX_COMPRESSION_COUNT ? CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY
+                                                           : CLVOX_CHANNEL_COVERAGE;
+        int with_occ = (channels & CLVOX_CHANNEL_OCCUPANCY) != 0, with_cov = (channels & CLVOX_CHANNEL_COVERAGE) != 0;
         snprintf(path, sizeof path, "%s/hdr.exr", dir);
-        CHECK_OK(ctx, write_volume(path, &g, (clvox_compression)c, 2, vol, depths, 1, NULL));
+        CHECK_OK(ctx, write_planes(path, &g, channels, (clvox_compression)c, 2, with_occ ? vol : NULL,
+                                   with_cov ? cov : NULL, depths, 1, NULL));
         snprintf(cmd, sizeof cmd, "exrheader '%s' 2>&1", path);
         FILE *p = popen(cmd, "r");
         CHECK(p != NULL);
@@ -303,10 +596,12 @@ static void test_exrheader(void)
             if (strstr(line, "(17 5 9)")) seen |= 128;
             if (strstr(line, "tiledimage")) seen |= 256;
             if (strstr(line, "occupancy, 16-bit floating-point")) seen |= 512;
+            if (strstr(line, "coverage, 16-bit floating-point")) seen |= 1024;
         }
         int rc = pclose(p);
         CHECK_MSG(rc != -1 && WIFEXITED(rc) && WEXITSTATUS(rc) == 0, "exrheader exit status %d", rc);
-        CHECK_MSG(seen == 1023, "exrheader output misses attributes (mask %#x)", seen);
+        int want = 511 | (with_occ ? 512 : 0) | (with_cov ? 1024 : 0);
+        CHECK_MSG(seen == want, "exrheader output: attributes or channels mask %#x, expected %#x", seen, want);
         unlink(path);
     }
 }
@@ -521,6 +816,37 @@ static void test_cxx_decoder(void)
             unlink(out);
         }
     }
+    /* coverage with occupancy, decoded from the C++ library's copy by
+     * OpenEXRCore's generic pipeline */
+    uint16_t *cov = malloc(n * 2), *cov_back = malloc(n * 2), *occ_back = malloc(n * 2);
+    if (cov && cov_back && occ_back) {
+        fill_coverage(cov, X, Y, Z, 0);
+        fill_random(vol, n);
+        for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+            CHECK_OK(ctx, write_planes(in, &g, CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY, (clvox_compression)c,
+                                       2, vol, cov, depths, 1, NULL));
+            snprintf(cmd, sizeof cmd, "exrmaketiled -o -t 64 64 -z none '%s' '%s' >/dev/null 2>&1", in, out);
+            int rc = system(cmd);
+            CHECK_MSG(rc == 0, "exrmaketiled failed (%d) on coverage, %s compression", rc, comp_names[c]);
+            char names[256];
+            uint32_t th = 0;
+            memset(cov_back, 7, n * 2);
+            memset(occ_back, 7, n * 2);
+            CHECK(decode_halves(out, n, cov_back, occ_back, names, sizeof names, &th) && th == 64);
+            CHECK(strcmp(names, "coverage,occupancy") == 0);
+            CHECK_MSG(first_diff(cov, cov_back, n) == n, "%s: the C++ decoder sees other coverage", comp_names[c]);
+            size_t bad = 0;
+            for (size_t i = 0; i < n; i++) bad += occ_back[i] != (vol[i] ? 0x3C00 : 0x0000);
+            CHECK_MSG(bad == 0, "%s: the C++ decoder sees %zu other occupancy samples", comp_names[c], bad);
+            unlink(in);
+            unlink(out);
+        }
+    } else {
+        CHECK(!"out of memory");
+    }
+    free(cov);
+    free(cov_back);
+    free(occ_back);
     free(vol);
     free(back);
 }
@@ -809,6 +1135,9 @@ int main(void)
 
     test_round_trips();
     test_row_chunks();
+    test_coverage();
+    test_coverage_row_chunks();
+    test_bad_planes();
     test_threads_identical();
     test_exrheader();
     test_cxx_decoder();

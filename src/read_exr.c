@@ -746,9 +746,11 @@ clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, cons
     clvox_volume_info local;
     if (!info) info = &local;
 
-    /* info gets the header only (filled_voxels and coverage_sum stay 0); it
+    /* info gets the header only (filled_voxels and coverage_sum stay 0). It
      * is filled before the channel is looked up, so after a missing-channel
-     * error info->channels says what the file has. */
+     * error info->channels says what the file has, and before the first call
+     * of fn, which can size its buffers from info->dims (clvox preview relies
+     * on both; the public header does not promise it yet). */
     reader r;
     clvox_status st = reader_open(&r, ctx, path, info);
     const exr_attr_chlist_entry_t *e = NULL;

@@ -28,6 +28,9 @@ endif
 FINAL_CFLAGS := $(BASE_CFLAGS) $(OPT) $(CFLAGS)
 FINAL_CXXFLAGS := $(BASE_CXXFLAGS) $(OPT) -Wno-maybe-uninitialized $(CXXFLAGS)
 LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
+# libpng (Debian libpng-dev) only for `clvox preview` in the CLI and for the
+# tests that decode its pictures; the library does not use it.
+PNG_LIBS := -lpng
 FINAL_LDFLAGS := $(SAN_LDFLAGS) $(LDFLAGS)
 
 ifeq ($(V),1)
@@ -36,7 +39,7 @@ else
   Q := @
 endif
 
-CLI_SRC := src/cli.c
+CLI_SRC := src/cli.c src/cli_common.c src/cli_preview.c
 LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
 LIB_CXX := $(wildcard src/*.cpp)
 # Kernel program = shared types + prelude + sampler + one file per stage.
@@ -44,7 +47,7 @@ KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h $(fil
 KERNEL_C := $(BUILD)/gen/kernels_embedded.c
 
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/%.o) $(LIB_CXX:%.cpp=$(BUILD)/%.o) $(BUILD)/gen/kernels_embedded.o
-CLI_OBJ := $(BUILD)/src/cli.o
+CLI_OBJ := $(CLI_SRC:%.c=$(BUILD)/%.o)
 TEST_SUPPORT := $(filter-out tests/test_%.c,$(wildcard tests/*.c))
 TEST_SUPPORT_OBJ := $(TEST_SUPPORT:%.c=$(BUILD)/%.o)
 TEST_SRCS := $(wildcard tests/test_*.c)
@@ -87,12 +90,12 @@ $(SHARED_LIB): $(LIB_OBJ)
 
 $(CLI_BIN): $(CLI_OBJ) $(STATIC_LIB)
 	@$(if $(filter 0,$(V)),echo "  LD    $@")
-	$(Q)$(CC) $(FINAL_LDFLAGS) -o $@ $(CLI_OBJ) $(STATIC_LIB) $(LIBS)
+	$(Q)$(CC) $(FINAL_LDFLAGS) -o $@ $(CLI_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS)
 
 $(BUILD)/tests/%: tests/%.c $(TEST_SUPPORT_OBJ) $(STATIC_LIB)
 	@mkdir -p $(dir $@)
 	@$(if $(filter 0,$(V)),echo "  TEST  $<")
-	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS)
+	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS)
 
 tests: all $(TEST_BINS)
 

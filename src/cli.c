@@ -2,7 +2,8 @@
  * clvox — command-line front end. Uses only the public header.
  *
  *   clvox [MESH] [options]        voxelize MESH into an OpenEXR volume
- *   clvox info FILE.exr           header and filled voxel count (no OpenCL needed)
+ *   clvox info FILE.exr           header, filled voxel count, coverage sum (no OpenCL needed)
+ *   clvox preview FILE.exr -o OUT.png   slices as a PNG picture (cli_preview.c)
  *   clvox --list-devices | --help | --version
  *
  * Exit codes (also in --help):
@@ -30,6 +31,7 @@
 #endif
 
 #include "clvox.h"
+#include "cli_common.h"
 
 #include <errno.h>
 #include <math.h>
@@ -41,17 +43,6 @@
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
-
-enum {
-    EXIT_OK = 0,
-    EXIT_RUNTIME = 1,
-    EXIT_USAGE = 2,
-    EXIT_NO_DEVICE = 3,
-    EXIT_INPUT = 4,
-    EXIT_OUTPUT = 5,
-    EXIT_GRID = 6,
-    EXIT_CANCELLED = 130
-};
 
 /* Where the mesh comes from when none is given, tried in order.
  * "$CLVOX_DEFAULT_MESH" is the environment variable (when set and not
@@ -100,93 +91,6 @@ static void install_signal_handlers(void)
     sigaction(SIGTERM, &sa, NULL);
 }
 
-/* The progress line, if one is on screen, is erased before anything else
- * is written to stderr. */
-static int g_progress_line_len;
-
-static void progress_erase(void)
-{
-    if (g_progress_line_len > 0) {
-        fprintf(stderr, "\r%*s\r", g_progress_line_len, "");
-        fflush(stderr);
-        g_progress_line_len = 0;
-    }
-}
-
-/* Prints "clvox: error: <message>" as exactly one line (newlines in the
- * message, e.g. a kernel build log, become " | "; other control bytes "?")
- * and returns `code`. */
-static int fail_message(int code, const char *message)
-{
-    progress_erase();
-    fputs("clvox: error: ", stderr);
-    const char *s = message && *message ? message : "unknown error";
-    size_t n = strlen(s);
-    while (n > 0 && (s[n - 1] == '\n' || s[n - 1] == '\r' || s[n - 1] == ' ')) n--;
-    int pending_break = 0;
-    for (size_t i = 0; i < n; i++) {
-        char c = s[i];
-        if (c == '\n' || c == '\r') {
-            pending_break = 1;
-            continue;
-        }
-        if (pending_break) {
-            fputs(" | ", stderr);
-            pending_break = 0;
-        }
-        /* control bytes (from file names or file contents) would garble the line */
-        fputc(c == '\t' ? ' ' : ((unsigned char)c < 0x20 || c == 0x7f) ? '?' : c, stderr);
-    }
-    fputc('\n', stderr);
-    return code;
-}
-
-#if defined(__GNUC__)
-__attribute__((format(printf, 2, 3)))
-#endif
-static int fail(int code, const char *fmt, ...)
-{
-    char buf[1024];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
-    return fail_message(code, buf);
-}
-
-/* What a failing call was doing decides what IO/EXR errors mean. */
-typedef enum role { ROLE_INPUT, ROLE_OUTPUT, ROLE_OTHER } role;
-
-static int exit_code_for(clvox_status st, role r)
-{
-    switch (st) {
-    case CLVOX_OK: return EXIT_OK;
-    case CLVOX_ERR_INVALID_ARGUMENT: return EXIT_USAGE;
-    case CLVOX_ERR_IO: return r == ROLE_INPUT ? EXIT_INPUT : r == ROLE_OUTPUT ? EXIT_OUTPUT : EXIT_RUNTIME;
-    case CLVOX_ERR_EXR: return r == ROLE_INPUT ? EXIT_INPUT : EXIT_RUNTIME;
-    case CLVOX_ERR_MESH_FORMAT:
-    case CLVOX_ERR_MESH_INVALID:
-    case CLVOX_ERR_MESH_EMPTY: return EXIT_INPUT;
-    case CLVOX_ERR_GRID: return EXIT_GRID;
-    case CLVOX_ERR_NO_DEVICE: return EXIT_NO_DEVICE;
-    case CLVOX_ERR_CANCELLED: return EXIT_CANCELLED;
-    case CLVOX_ERR_OUT_OF_MEMORY:
-    case CLVOX_ERR_OPENCL:
-    case CLVOX_ERR_KERNEL_BUILD:
-    case CLVOX_ERR_INTERNAL:
-    case CLVOX_STATUS_COUNT: break;
-    }
-    return EXIT_RUNTIME;
-}
-
-/* Reports a library failure: the context's message, else the status string. */
-static int fail_status(const clvox_context *ctx, clvox_status st, role r)
-{
-    const char *msg = ctx ? clvox_context_error(ctx) : "";
-    if (st == CLVOX_ERR_CANCELLED) return fail_message(EXIT_CANCELLED, msg && *msg ? msg : "cancelled");
-    return fail_message(exit_code_for(st, r), msg && *msg ? msg : clvox_status_string(st));
-}
-
 static void format_bytes(uint64_t bytes, char *buf, size_t size)
 {
     static const char *const units[] = {"bytes", "KiB", "MiB", "GiB", "TiB"};
@@ -227,24 +131,6 @@ static char *dup_string(const char *s)
 }
 
 /* ---- strict number parsing ---------------------------------------------- */
-
-/* Returns NULL on success, else why `s` is not acceptable. */
-static const char *parse_u32(const char *s, uint32_t min, uint32_t *out, const char **end_out)
-{
-    if (!s || *s == '\0') return "empty value";
-    if (*s == '-') return "must not be negative";
-    if (*s < '0' || *s > '9') return "not a non-negative integer";
-    errno = 0;
-    char *end = NULL;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (end == s) return "not a non-negative integer";
-    if (end_out) *end_out = end;
-    else if (*end != '\0') return "not a non-negative integer";
-    if (errno == ERANGE || v > UINT32_MAX) return "too large";
-    if (v < min) return min == 1 ? "must be at least 1" : "too small";
-    *out = (uint32_t)v;
-    return NULL;
-}
 
 static const char *parse_double(const char *s, int positive, double *out, const char **end_out)
 {
@@ -312,54 +198,6 @@ typedef struct cli_args {
     const char *device;
     int list_devices, quiet, no_progress, help, version;
 } cli_args;
-
-static int usage_error(const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 1, 2)))
-#endif
-    ;
-
-static int usage_error(const char *fmt, ...)
-{
-    char buf[768];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
-    return fail(EXIT_USAGE, "%s (see clvox --help)", buf);
-}
-
-/* Matches argv[*i] against a short and/or long option that takes a value;
- * accepts "-r 16", "-r16", "--opt 16" and "--opt=16". Returns 1 on a match
- * (*missing = 1 when the value is absent), 0 otherwise. */
-static int match_value(int argc, char **argv, int *i, const char *short_name, const char *long_name,
-                       const char **value, int *missing)
-{
-    const char *a = argv[*i];
-    *missing = 0;
-    if (short_name && strncmp(a, short_name, 2) == 0 && a[1] != '-') {
-        if (a[2] != '\0') {
-            *value = a + 2;
-            return 1;
-        }
-    } else if (long_name) {
-        size_t n = strlen(long_name);
-        if (strncmp(a, long_name, n) != 0) return 0;
-        if (a[n] == '=') {
-            *value = a + n + 1;
-            return 1;
-        }
-        if (a[n] != '\0') return 0; /* --padding is not --pad */
-    } else {
-        return 0;
-    }
-    if (*i + 1 >= argc) {
-        *missing = 1;
-        return 1;
-    }
-    *value = argv[++*i];
-    return 1;
-}
 
 static int set_grid_kind(cli_args *a, int kind, const char *name)
 {
@@ -516,6 +354,7 @@ static void print_help(void)
     printf(
 "Usage: clvox [MESH] [options]\n"
 "       clvox info FILE.exr\n"
+"       clvox preview FILE.exr -o OUT.png [options]\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
 "Voxelizes a closed triangle mesh on an OpenCL device and writes the solid\n"
@@ -583,7 +422,13 @@ static void print_help(void)
 "\n", stdout);
     fputs(
 "clvox info FILE.exr: prints the grid, method, parameters, compression and the\n"
-"filled voxel count of a volume written by clvox. Needs no OpenCL device.\n"
+"filled voxel count of a volume written by clvox (occupancy > 0.5, or coverage\n"
+"> 0.5 without occupancy); with a coverage channel also the coverage sum and\n"
+"the estimated volume (sum x voxel volume). Needs no OpenCL device.\n"
+"\n"
+"clvox preview FILE.exr -o OUT.png: draws N evenly spaced z slices and the\n"
+"three central slices of a volume as a PNG picture (clvox preview --help\n"
+"gives the exact layout). Needs no OpenCL device.\n"
 "\n"
 "After a run, one summary goes to stdout: mesh, grid, device, method, filled\n"
 "voxels and volume, rays, time per stage and output size. Rays with an odd\n"
@@ -594,8 +439,8 @@ static void print_help(void)
 "  1    runtime failure (OpenCL, kernel build, EXR, out of memory, internal)\n"
 "  2    usage error (bad arguments)\n"
 "  3    no OpenCL device\n"
-"  4    input error: mesh (or the info file) missing, unreadable, bad format,\n"
-"       invalid (non-finite coordinates, bad indices) or empty\n"
+"  4    input error: mesh (or the info/preview file) missing, unreadable, bad\n"
+"       format, invalid (non-finite coordinates, bad indices) or empty\n"
 "  5    output error: the output file can not be written\n"
 "  6    grid error: zero or too large grid\n"
 "  130  cancelled (SIGINT/SIGTERM)\n"
@@ -753,6 +598,9 @@ static int cmd_info(int argc, char **argv)
     printf(LABEL "%s, channels %s\n", "compression", info.compression[0] ? info.compression : "?",
            info.channels[0] ? info.channels : "?");
     print_filled_line(info.filled_voxels, total);
+    if (has_channel(info.channels, "coverage"))
+        printf(LABEL "%.9g voxels (sum of coverage), estimated volume %.9g (sum x voxel volume)\n", "coverage",
+               info.coverage_sum, info.coverage_sum * voxel_volume);
     printf(LABEL "%.6g (filled voxels x voxel volume)\n", "volume", (double)info.filled_voxels * voxel_volume);
     return EXIT_OK;
 }
@@ -882,29 +730,6 @@ static char *default_output(const char *mesh)
     memcpy(out, base, n);
     memcpy(out + n, ".exr", 5);
     return out;
-}
-
-/* Fails early (creating nothing) when the output can not possibly be written. */
-static int check_output(const char *path)
-{
-    struct stat sb;
-    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) return fail(EXIT_OUTPUT, "cannot write '%s': it is a directory", path);
-    size_t len = strlen(path);
-    if (len > 0 && path[len - 1] == '/') return fail(EXIT_OUTPUT, "cannot write '%s': not a file name", path);
-
-    char dir[4096];
-    const char *slash = strrchr(path, '/');
-    if (!slash) snprintf(dir, sizeof dir, ".");
-    else if (slash == path) snprintf(dir, sizeof dir, "/");
-    else if ((size_t)(slash - path) >= sizeof dir) return fail(EXIT_OUTPUT, "cannot write '%s': path too long", path);
-    else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
-
-    if (stat(dir, &sb) != 0)
-        return fail(EXIT_OUTPUT, "cannot write '%s': directory '%s': %s", path, dir, strerror(errno));
-    if (!S_ISDIR(sb.st_mode)) return fail(EXIT_OUTPUT, "cannot write '%s': '%s' is not a directory", path, dir);
-    if (access(dir, W_OK | X_OK) != 0)
-        return fail(EXIT_OUTPUT, "cannot write '%s': directory '%s': %s", path, dir, strerror(errno));
-    return EXIT_OK;
 }
 
 /* ---- the run --------------------------------------------------------------------- */
@@ -1089,6 +914,7 @@ done:
 int main(int argc, char **argv)
 {
     if (argc >= 2 && strcmp(argv[1], "info") == 0) return cmd_info(argc - 2, argv + 2);
+    if (argc >= 2 && strcmp(argv[1], "preview") == 0) return cmd_preview(argc - 2, argv + 2);
 
     cli_args a;
     int rc = parse_args(argc, argv, &a);

@@ -1,11 +1,30 @@
 /*
- * Reading clvox volumes back (clvox_volume_read).
+ * Reading clvox volumes back (clvox_volume_read, clvox_volume_read_slices).
  *
  * Accepts any single-resolution EXR image X wide and Y*Z tall that carries
  * the clvox attributes (see the layout comment in write_exr.c): tiled (any
- * tile size, level 0) or scanline, any compression. It decodes one row of
- * chunks at a time into a band buffer, so memory is bounded by one chunk row,
- * whatever Z is. A voxel is filled when its "occupancy" sample is > 0.5.
+ * tile size, level 0) or scanline, any compression, any other channels.
+ *
+ * One code path reads a channel: read_channel decodes one row of chunks at a
+ * time into a band buffer (the channel's samples as stored: HALF, FLOAT or
+ * UINT, row stride X) and hands each band to a consumer, so memory is bounded
+ * by one chunk row, whatever Z is. The consumers:
+ *  - count_band: voxels > 0.5 (the "filled" count; optionally stores 0/1),
+ *    with an SSE range test for HALF; sums coverage too when asked;
+ *  - sum_band: the coverage sum;
+ *  - slice_band: converts rows to float into a one-slice buffer and calls the
+ *    user's function each time a slice is complete (a band may end inside a
+ *    slice or span several: rows are placed by their own z and y).
+ * A voxel is filled when its "occupancy" sample is > 0.5, or, in a file
+ * without occupancy, its "coverage" sample.
+ *
+ * Coverage sum. HALF samples are multiples of 2^-24 and finite ones are below
+ * 2^16, so each is an integer times 2^-24 with |integer| < 2^40: they are
+ * added exactly as integers (a 128-bit accumulator, int64 partial sums of at
+ * most 2^22 samples), and the total is converted to double once at the end
+ * (exact while the sum is below 2^29; otherwise one rounding). Infinite or
+ * NaN samples (never written by clvox) are added as floats, so they show in
+ * the result. FLOAT and UINT coverage samples are summed in double.
  */
 #include "internal.h"
 
@@ -27,10 +46,16 @@ typedef struct reader {
     const char *path;
     exr_context_t exr;
     char msg[512]; /* last OpenEXRCore message */
+    const exr_attr_chlist_t *chl;
+    int all_full;  /* no channel is subsampled */
+    /* the channel being read (select_channel) */
+    const char *ch_name;
+    int ch_type;            /* EXR_PIXEL_* */
+    uint32_t ch_bytes;      /* 2 or 4 */
     /* fast path (NONE, RLE): raw chunk layout, see fast_chunk */
     int fast;
     exr_compression_t compression;
-    uint32_t pixel_bytes, occ_offset; /* per pixel: all channels, channels before occupancy */
+    uint32_t pixel_bytes, ch_offset; /* per pixel: all channels, channels before the selected one */
     uint8_t *packed, *tmp, *raw;
     size_t packed_size, tmp_size, raw_size;
 } reader;
@@ -75,8 +100,9 @@ static clvox_status get_string(reader *r, const char *name, char *dst, size_t si
     return CLVOX_OK;
 }
 
-/* Reads the header into info and checks the image geometry. */
-static clvox_status read_header(reader *r, clvox_volume_info *info, const exr_attr_chlist_entry_t **occ)
+/* Reads the header into info (every field but the counts) and checks the
+ * image geometry. Channels are looked up afterwards (find_channel). */
+static clvox_status read_header(reader *r, clvox_volume_info *info)
 {
     exr_result_t rv;
     int parts = 0;
@@ -116,30 +142,18 @@ static clvox_status read_header(reader *r, clvox_volume_info *info, const exr_at
     const exr_attr_chlist_t *chl = NULL;
     rv = exr_get_channels(r->exr, 0, &chl);
     if (rv != EXR_ERR_SUCCESS || !chl) return exr_fail(r, rv, "reading the channels of");
+    r->chl = chl;
     info->channels[0] = '\0';
-    *occ = NULL;
+    r->all_full = 1;
     for (int c = 0; c < chl->num_channels; c++) {
         const exr_attr_chlist_entry_t *e = &chl->entries[c];
         size_t used = strlen(info->channels);
         char name[64];
         copy_str(name, sizeof name, e->name.str, e->name.length);
         snprintf(info->channels + used, sizeof info->channels - used, "%s%s", used ? "," : "", name);
-        if (strcmp(name, "occupancy") == 0) *occ = e;
+        if (e->x_sampling != 1 || e->y_sampling != 1) r->all_full = 0; /* rows of differing sizes: library */
     }
-    if (!*occ)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is not a clvox volume: no channel \"occupancy\" (has: %s)",
-                           r->path, info->channels);
-    if ((*occ)->x_sampling != 1 || (*occ)->y_sampling != 1)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': channel occupancy is subsampled", r->path);
     r->compression = comp;
-    r->fast = comp == EXR_COMPRESSION_NONE || comp == EXR_COMPRESSION_RLE;
-    r->pixel_bytes = r->occ_offset = 0;
-    for (int c = 0; c < chl->num_channels; c++) {
-        const exr_attr_chlist_entry_t *e = &chl->entries[c];
-        if (e->x_sampling != 1 || e->y_sampling != 1) r->fast = 0; /* rows of differing sizes: library */
-        if (e == *occ) r->occ_offset = r->pixel_bytes;
-        r->pixel_bytes += e->pixel_type == EXR_PIXEL_HALF ? 2u : 4u;
-    }
 
     exr_attr_box2i_t dw;
     rv = exr_get_data_window(r->exr, 0, &dw);
@@ -153,9 +167,138 @@ static clvox_status read_header(reader *r, clvox_volume_info *info, const exr_at
     return CLVOX_OK;
 }
 
+static const exr_attr_chlist_entry_t *find_channel(const reader *r, const char *name)
+{
+    size_t n = strlen(name);
+    for (int c = 0; c < r->chl->num_channels; c++) {
+        const exr_attr_chlist_entry_t *e = &r->chl->entries[c];
+        if (e->name.length >= 0 && (size_t)e->name.length == n && memcmp(e->name.str, name, n) == 0) return e;
+    }
+    return NULL;
+}
+
+/* Makes `e` the channel read_channel decodes. */
+static clvox_status select_channel(reader *r, const exr_attr_chlist_entry_t *e)
+{
+    if (e->x_sampling != 1 || e->y_sampling != 1)
+        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': channel %s is subsampled", r->path, e->name.str);
+    if (e->pixel_type != EXR_PIXEL_HALF && e->pixel_type != EXR_PIXEL_FLOAT && e->pixel_type != EXR_PIXEL_UINT)
+        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': channel %s has an unknown pixel type %d", r->path,
+                           e->name.str, (int)e->pixel_type);
+    r->ch_name = e->name.str;
+    r->ch_type = (int)e->pixel_type;
+    r->ch_bytes = e->pixel_type == EXR_PIXEL_HALF ? 2u : 4u;
+    r->fast = r->all_full && (r->compression == EXR_COMPRESSION_NONE || r->compression == EXR_COMPRESSION_RLE);
+    r->pixel_bytes = r->ch_offset = 0;
+    for (int c = 0; c < r->chl->num_channels; c++) {
+        const exr_attr_chlist_entry_t *o = &r->chl->entries[c];
+        if (o == e) r->ch_offset = r->pixel_bytes;
+        r->pixel_bytes += o->pixel_type == EXR_PIXEL_HALF ? 2u : 4u;
+    }
+    return CLVOX_OK;
+}
+
+/* ---- sample conversion and sums ------------------------------------------ */
+
+static float half_to_float(uint16_t h)
+{
+    uint32_t s = (uint32_t)(h & 0x8000u) << 16, e = (h >> 10) & 31u, m = h & 1023u, f;
+    if (e == 31) {
+        f = s | 0x7F800000u | (m << 13);
+    } else if (e) {
+        f = s | ((e + 112u) << 23) | (m << 13);
+    } else if (!m) {
+        f = s;
+    } else { /* subnormal: m * 2^-24, normalised */
+        e = 113;
+        while (!(m & 1024u)) {
+            m <<= 1;
+            e--;
+        }
+        f = s | (e << 23) | ((m & 1023u) << 13);
+    }
+    float v;
+    memcpy(&v, &f, sizeof v);
+    return v;
+}
+
+/* A finite HALF value times 2^24, exactly (|result| < 2^40). */
+static int64_t half_scaled(uint16_t h)
+{
+    uint32_t e = (h >> 10) & 31u, m = h & 1023u;
+    int64_t mag = e ? (int64_t)(m | 1024u) << (e - 1) : (int64_t)m;
+    return (h & 0x8000u) ? -mag : mag;
+}
+
+typedef struct coverage_sum {
+    uint64_t lo;   /* exact part: (hi * 2^64 + lo) * 2^-24, two's complement */
+    int64_t hi;
+    double other;  /* FLOAT/UINT samples and non-finite HALF samples */
+} coverage_sum;
+
+static void sum_add_exact(coverage_sum *s, int64_t v)
+{
+    uint64_t u = (uint64_t)v;
+    s->lo += u;
+    s->hi += (s->lo < u) - (v < 0);
+}
+
+static double sum_value(const coverage_sum *s)
+{
+    /* |hi * 2^64 + lo| as a double (hi is 0 for any real volume), then 2^-24 */
+    uint64_t lo = s->lo, hi = (uint64_t)s->hi;
+    const int negative = s->hi < 0;
+    if (negative) { /* two's complement negation of the 128-bit value */
+        lo = ~lo + 1;
+        hi = ~hi + (lo == 0);
+    }
+    double mag = (double)hi * 18446744073709551616.0 + (double)lo;
+    return (negative ? -mag : mag) * (1.0 / 16777216.0) + s->other;
+}
+
+static void sum_samples(coverage_sum *s, const uint8_t *band, int type, size_t n)
+{
+    if (type == EXR_PIXEL_HALF) {
+        const uint16_t *v = (const uint16_t *)(const void *)band;
+        for (size_t i0 = 0; i0 < n; i0 += (size_t)1 << 22) { /* 2^22 samples of < 2^40: fits int64 */
+            size_t i1 = n - i0 < ((size_t)1 << 22) ? n : i0 + ((size_t)1 << 22);
+            int64_t part = 0;
+            for (size_t i = i0; i < i1; i++) {
+                if ((v[i] & 0x7C00u) == 0x7C00u) s->other += half_to_float(v[i]);
+                else part += half_scaled(v[i]);
+            }
+            sum_add_exact(s, part);
+        }
+    } else if (type == EXR_PIXEL_FLOAT) {
+        const float *v = (const float *)(const void *)band;
+        double part = 0;
+        for (size_t i = 0; i < n; i++) part += v[i];
+        s->other += part;
+    } else {
+        const uint32_t *v = (const uint32_t *)(const void *)band;
+        double part = 0;
+        for (size_t i = 0; i < n; i++) part += v[i];
+        s->other += part;
+    }
+}
+
+/* Converts n samples to float (UINT exactly below 2^24). */
+static void to_float(float *out, const uint8_t *band, int type, size_t n)
+{
+    if (type == EXR_PIXEL_HALF) {
+        const uint16_t *v = (const uint16_t *)(const void *)band;
+        for (size_t i = 0; i < n; i++) out[i] = half_to_float(v[i]);
+    } else if (type == EXR_PIXEL_FLOAT) {
+        memcpy(out, band, n * sizeof *out);
+    } else {
+        const uint32_t *v = (const uint32_t *)(const void *)band;
+        for (size_t i = 0; i < n; i++) out[i] = (float)v[i];
+    }
+}
+
 /* Counts (and stores) rows [row0, row0+nrows) of the band: a voxel is filled
  * when its sample is > 0.5 (NaN is not; +infinity is). */
-static uint64_t consume_band(const uint8_t *band, int type, uint64_t X, uint64_t row0, uint64_t nrows,
+static uint64_t count_filled(const uint8_t *band, int type, uint64_t X, uint64_t row0, uint64_t nrows,
                              uint8_t *occupancy)
 {
     const size_t n = (size_t)(X * nrows);
@@ -208,6 +351,58 @@ static uint64_t consume_band(const uint8_t *band, int type, uint64_t X, uint64_t
     }
     return filled;
 }
+
+/* ---- band consumers ---------------------------------------------------------- */
+
+/* Receives rows [row0, row0+rows) of the image, X samples each of `type`. */
+typedef clvox_status (*band_fn)(void *user, const uint8_t *band, int type, uint64_t row0, uint64_t rows);
+
+typedef struct count_state {
+    uint64_t X;
+    uint8_t *occupancy;   /* NULL: count only */
+    uint64_t filled;
+    coverage_sum *sum;    /* not NULL: the channel is coverage, sum it too */
+} count_state;
+
+static clvox_status count_band(void *user, const uint8_t *band, int type, uint64_t row0, uint64_t rows)
+{
+    count_state *c = user;
+    c->filled += count_filled(band, type, c->X, row0, rows, c->occupancy);
+    if (c->sum) sum_samples(c->sum, band, type, (size_t)(c->X * rows));
+    return CLVOX_OK;
+}
+
+static clvox_status sum_band(void *user, const uint8_t *band, int type, uint64_t row0, uint64_t rows)
+{
+    count_state *c = user;
+    (void)row0;
+    sum_samples(c->sum, band, type, (size_t)(c->X * rows));
+    return CLVOX_OK;
+}
+
+typedef struct slice_state {
+    reader *r;
+    uint64_t X, Y;
+    float *slice;         /* X*Y */
+    clvox_volume_slice_fn fn;
+    void *user;
+} slice_state;
+
+static clvox_status slice_band(void *user, const uint8_t *band, int type, uint64_t row0, uint64_t rows)
+{
+    slice_state *s = user;
+    const size_t bytes = type == EXR_PIXEL_HALF ? 2 : 4;
+    for (uint64_t k = 0; k < rows; k++) {
+        uint64_t row = row0 + k, z = row / s->Y, y = row % s->Y;
+        to_float(s->slice + y * s->X, band + (size_t)(k * s->X * bytes), type, (size_t)s->X);
+        if (y + 1 == s->Y && s->fn(s->user, (uint32_t)z, s->slice) != 0)
+            return clvox__fail(s->r->ctx, CLVOX_ERR_CANCELLED, "reading '%s' cancelled after slice %llu",
+                               s->r->path, (unsigned long long)z);
+    }
+    return CLVOX_OK;
+}
+
+/* ---- decoding ------------------------------------------------------------------ */
 
 static int grow(uint8_t **buf, size_t *size, size_t need)
 {
@@ -292,10 +487,11 @@ static void rle_reconstruct(uint8_t *restrict out, uint8_t *restrict t, size_t n
     if (n & 1) out[n - 1] = t[h - 1];
 }
 
-/* Reads a chunk and copies its occupancy samples (little-endian in the file)
- * into dst (row stride X samples). */
-static clvox_status fast_chunk(reader *r, const exr_chunk_info_t *ci, uint8_t *dst, uint64_t X, uint32_t bytes)
+/* Reads a chunk and copies the selected channel's samples (little-endian in
+ * the file) into dst (row stride X samples). */
+static clvox_status fast_chunk(reader *r, const exr_chunk_info_t *ci, uint8_t *dst, uint64_t X)
 {
+    const uint32_t bytes = r->ch_bytes;
     const uint64_t w = (uint64_t)ci->width, h = (uint64_t)ci->height;
     const uint64_t n = w * h * r->pixel_bytes;
     if (ci->unpacked_size != n || ci->packed_size == 0 || ci->packed_size > n || n > (uint64_t)SIZE_MAX / 2)
@@ -317,7 +513,7 @@ static clvox_status fast_chunk(reader *r, const exr_chunk_info_t *ci, uint8_t *d
         raw = r->raw;
     }
     /* raw: per row, every channel in file order, ci->width samples each */
-    const size_t row_bytes = (size_t)(w * r->pixel_bytes), off = (size_t)(w * r->occ_offset);
+    const size_t row_bytes = (size_t)(w * r->pixel_bytes), off = (size_t)(w * r->ch_offset);
     const size_t len = (size_t)(w * bytes);
     const uint16_t one = 1;
     uint8_t little;
@@ -335,12 +531,13 @@ static clvox_status fast_chunk(reader *r, const exr_chunk_info_t *ci, uint8_t *d
     return CLVOX_OK;
 }
 
-/* Decodes one chunk's occupancy samples into the band (row stride X). */
+/* Decodes one chunk's samples of the selected channel into the band (row stride X). */
 static clvox_status decode_chunk(reader *r, exr_decode_pipeline_t *dec, int *initialized,
-                                 const exr_chunk_info_t *ci, uint8_t *dst, uint64_t X, uint32_t bytes, int type)
+                                 const exr_chunk_info_t *ci, uint8_t *dst, uint64_t X)
 {
     exr_result_t rv;
-    if (r->fast) return fast_chunk(r, ci, dst, X, bytes);
+    if (r->fast) return fast_chunk(r, ci, dst, X);
+    const uint32_t bytes = r->ch_bytes;
     if (!*initialized) {
         rv = exr_decoding_initialize(r->exr, 0, ci, dec);
         if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "starting to decode");
@@ -351,12 +548,12 @@ static clvox_status decode_chunk(reader *r, exr_decode_pipeline_t *dec, int *ini
     }
     for (int16_t c = 0; c < dec->channel_count; c++) {
         exr_coding_channel_info_t *ch = &dec->channels[c];
-        if (strcmp(ch->channel_name, "occupancy") == 0) {
+        if (strcmp(ch->channel_name, r->ch_name) == 0) {
             ch->decode_to_ptr = dst;
             ch->user_pixel_stride = (int32_t)bytes;
             ch->user_line_stride = (int32_t)(X * bytes);
             ch->user_bytes_per_element = (int16_t)bytes;
-            ch->user_data_type = (uint16_t)type;
+            ch->user_data_type = (uint16_t)r->ch_type;
         } else {
             ch->decode_to_ptr = NULL;
         }
@@ -368,9 +565,13 @@ static clvox_status decode_chunk(reader *r, exr_decode_pipeline_t *dec, int *ini
     return CLVOX_OK;
 }
 
-static clvox_status read_pixels(reader *r, clvox_volume_info *info, const exr_attr_chlist_entry_t *occ,
-                                uint8_t *occupancy)
+/* Decodes channel `e` one row of chunks at a time, in increasing y, and hands
+ * each band to `consume`. */
+static clvox_status read_channel(reader *r, const clvox_volume_info *info, const exr_attr_chlist_entry_t *e,
+                                 band_fn consume, void *user)
 {
+    clvox_status st = select_channel(r, e);
+    if (st != CLVOX_OK) return st;
     exr_result_t rv;
     exr_storage_t storage;
     rv = exr_get_storage(r->exr, 0, &storage);
@@ -380,8 +581,7 @@ static clvox_status read_pixels(reader *r, clvox_volume_info *info, const exr_at
 
     const uint64_t X = info->dims[0];
     const uint64_t H = (uint64_t)info->dims[1] * info->dims[2];
-    const int type = (int)occ->pixel_type;
-    const uint32_t bytes = type == EXR_PIXEL_HALF ? 2u : 4u;
+    const uint32_t bytes = r->ch_bytes;
     exr_attr_box2i_t dw;
     rv = exr_get_data_window(r->exr, 0, &dw);
     if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "reading the data window of");
@@ -409,8 +609,6 @@ static clvox_status read_pixels(reader *r, clvox_volume_info *info, const exr_at
 
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
     int initialized = 0;
-    clvox_status st = CLVOX_OK;
-    uint64_t filled = 0;
     for (uint64_t row0 = 0; row0 < H && st == CLVOX_OK; row0 += band_rows) {
         uint64_t rows = H - row0 < band_rows ? H - row0 : band_rows;
         exr_chunk_info_t ci;
@@ -428,7 +626,7 @@ static clvox_status read_pixels(reader *r, clvox_volume_info *info, const exr_at
                                      r->path, tx, ty, ci.width, ci.height);
                     break;
                 }
-                st = decode_chunk(r, &dec, &initialized, &ci, band + x0 * bytes, X, bytes, type);
+                st = decode_chunk(r, &dec, &initialized, &ci, band + x0 * bytes, X);
             }
         } else {
             rv = exr_read_scanline_chunk_info(r->exr, 0, dw.min.y + (int)row0, &ci);
@@ -441,23 +639,32 @@ static clvox_status read_pixels(reader *r, clvox_volume_info *info, const exr_at
                                  r->path, (unsigned long long)row0, ci.width, ci.height);
                 break;
             }
-            st = decode_chunk(r, &dec, &initialized, &ci, band, X, bytes, type);
+            st = decode_chunk(r, &dec, &initialized, &ci, band, X);
         }
-        if (st == CLVOX_OK) filled += consume_band(band, type, X, row0, rows, occupancy);
+        if (st == CLVOX_OK) st = consume(user, band, r->ch_type, row0, rows);
     }
     if (initialized) exr_decoding_destroy(r->exr, &dec);
     free(band);
-    if (st == CLVOX_OK) info->filled_voxels = filled;
     return st;
 }
 
-clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
-                               uint8_t *occupancy, size_t occupancy_size)
+/* ---- opening ------------------------------------------------------------------- */
+
+static void reader_close(reader *r)
 {
-    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
-    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_read: no path");
-    clvox_volume_info local;
-    if (!info) info = &local;
+    if (r->exr) exr_finish(&r->exr);
+    free(r->packed);
+    free(r->tmp);
+    free(r->raw);
+}
+
+/* Opens `path` and reads its header into info (zeroed first). reader_close
+ * afterwards in every case. */
+static clvox_status reader_open(reader *r, clvox_context *ctx, const char *path, clvox_volume_info *info)
+{
+    memset(r, 0, sizeof *r);
+    r->ctx = ctx;
+    r->path = path;
     memset(info, 0, sizeof *info);
 
     struct stat sb;
@@ -467,22 +674,38 @@ clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volum
     close(fd);
     if (is_dir) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': it is a directory", path);
 
-    reader r = { .ctx = ctx, .path = path };
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = reader_error_handler;
-    init.user_data = &r;
+    init.user_data = r;
     init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
-    exr_result_t rv = exr_start_read(&r.exr, path, &init);
+    exr_result_t rv = exr_start_read(&r->exr, path, &init);
     if (rv != EXR_ERR_SUCCESS) {
         clvox_status st = (rv == EXR_ERR_FILE_ACCESS) ? CLVOX_ERR_IO : CLVOX_ERR_EXR;
-        clvox__fail(ctx, st, "'%s' is not a readable OpenEXR file: %s", path,
-                    r.msg[0] ? r.msg : exr_get_default_error_message(rv));
-        if (r.exr) exr_finish(&r.exr);
-        return st;
+        return clvox__fail(ctx, st, "'%s' is not a readable OpenEXR file: %s", path,
+                           r->msg[0] ? r->msg : exr_get_default_error_message(rv));
     }
+    return read_header(r, info);
+}
 
-    const exr_attr_chlist_entry_t *occ = NULL;
-    clvox_status st = read_header(&r, info, &occ);
+clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
+                               uint8_t *occupancy, size_t occupancy_size)
+{
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_read: no path");
+    clvox_volume_info local;
+    if (!info) info = &local;
+
+    reader r;
+    clvox_status st = reader_open(&r, ctx, path, info);
+    const exr_attr_chlist_entry_t *occ = NULL, *cov = NULL;
+    if (st == CLVOX_OK) {
+        occ = find_channel(&r, "occupancy");
+        cov = find_channel(&r, "coverage");
+        if (!occ && !cov)
+            st = clvox__fail(ctx, CLVOX_ERR_EXR,
+                             "'%s' is not a clvox volume: no channel \"occupancy\" or \"coverage\" (has: %s)", path,
+                             info->channels);
+    }
     if (st == CLVOX_OK && occupancy) {
         uint64_t total = (uint64_t)info->dims[0] * info->dims[1] * info->dims[2];
         if (total > (uint64_t)SIZE_MAX || occupancy_size < (size_t)total)
@@ -490,10 +713,61 @@ clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volum
                              "occupancy buffer holds %zu bytes, '%s' needs %u x %u x %u = %llu", occupancy_size, path,
                              info->dims[0], info->dims[1], info->dims[2], (unsigned long long)total);
     }
-    if (st == CLVOX_OK) st = read_pixels(&r, info, occ, occupancy);
-    exr_finish(&r.exr);
-    free(r.packed);
-    free(r.tmp);
-    free(r.raw);
+    coverage_sum sum = { 0, 0, 0.0 };
+    count_state cs = { info->dims[0], occupancy, 0, NULL };
+    if (st == CLVOX_OK) {
+        /* Filled voxels from occupancy, else from coverage (summed in the same pass). */
+        if (!occ) cs.sum = &sum;
+        st = read_channel(&r, info, occ ? occ : cov, count_band, &cs);
+    }
+    if (st == CLVOX_OK && occ && cov) {
+        /* Both channels: a second pass over the file for the coverage sum. It
+         * decodes every chunk again; one pass decoding two channels would be
+         * faster but needs a band per channel and a two-channel consumer. */
+        cs.sum = &sum;
+        st = read_channel(&r, info, cov, sum_band, &cs);
+    }
+    if (st == CLVOX_OK) {
+        info->filled_voxels = cs.filled;
+        info->coverage_sum = cov ? sum_value(&sum) : 0.0;
+    }
+    reader_close(&r);
+    return st;
+}
+
+clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
+                                      clvox_volume_info *info, clvox_volume_slice_fn fn, void *user)
+{
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_read_slices: no path");
+    if (!channel || !*channel)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_read_slices: no channel name");
+    if (!fn) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_read_slices: no slice function");
+    clvox_volume_info local;
+    if (!info) info = &local;
+
+    /* info gets the header only (filled_voxels and coverage_sum stay 0). It
+     * is filled before the channel is looked up, so after a missing-channel
+     * error info->channels says what the file has, and before the first call
+     * of fn, which can size its buffers from info->dims (clvox preview relies
+     * on both; the public header does not promise it yet). */
+    reader r;
+    clvox_status st = reader_open(&r, ctx, path, info);
+    const exr_attr_chlist_entry_t *e = NULL;
+    if (st == CLVOX_OK && !(e = find_channel(&r, channel)))
+        st = clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' has no channel \"%s\" (has: %s)", path, channel, info->channels);
+    float *slice = NULL;
+    if (st == CLVOX_OK) {
+        uint64_t n = (uint64_t)info->dims[0] * info->dims[1];
+        if (n > (uint64_t)SIZE_MAX / sizeof *slice || !(slice = malloc((size_t)n * sizeof *slice)))
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a %u x %u slice of '%s'", info->dims[0],
+                             info->dims[1], path);
+    }
+    if (st == CLVOX_OK) {
+        slice_state s = { &r, info->dims[0], info->dims[1], slice, fn, user };
+        st = read_channel(&r, info, e, slice_band, &s);
+    }
+    free(slice);
+    reader_close(&r);
     return st;
 }

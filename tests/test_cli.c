@@ -2,13 +2,19 @@
  * ($CLVOX_BIN, default build/release/clvox) with fork/execve (no shell),
  * stdout and stderr captured into files, a 60 s limit per run, and checks
  * exit codes, the one-line error contract and that failed runs leave no
- * file behind. */
+ * file behind. `clvox preview` pictures are decoded with libpng and compared
+ * pixel by pixel with the layout its --help documents. */
 #include "test.h"
+#include "exrgen.h"
+
+#include <png.h>
 
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <math.h>
+#include <setjmp.h>
 #include <signal.h>
 #include <stdint.h>
 #include <string.h>
@@ -701,6 +707,383 @@ static int absolute_path(const char *path, char *out, size_t size)
     return n > 0 && (size_t)n < size;
 }
 
+/* ---- preview ---- */
+
+/* An 8-bit RGB picture decoded with libpng. */
+typedef struct picture {
+    uint32_t w, h;
+    uint8_t *rgb;
+} picture;
+
+typedef struct png_jmp {
+    jmp_buf jmp;
+} png_jmp;
+
+static void png_test_error(png_structp png, png_const_charp msg)
+{
+    fprintf(stderr, "libpng: %s\n", msg);
+    longjmp(((png_jmp *)png_get_error_ptr(png))->jmp, 1);
+}
+
+/* 1 when `path` is an 8-bit RGB, non-interlaced PNG; fills pic (free pic->rgb). */
+static int read_png(const char *path, picture *pic)
+{
+    memset(pic, 0, sizeof *pic);
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    png_jmp pj;
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &pj, png_test_error, NULL);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    uint8_t *volatile rgb = NULL;
+    if (!png || !info || setjmp(pj.jmp)) {
+        png_destroy_read_struct(&png, &info, NULL);
+        fclose(f);
+        free(rgb);
+        return 0;
+    }
+    png_init_io(png, f);
+    png_read_info(png, info);
+    png_uint_32 w = 0, h = 0;
+    int depth = 0, color = 0, interlace = 0;
+    png_get_IHDR(png, info, &w, &h, &depth, &color, &interlace, NULL, NULL);
+    int ok = depth == 8 && color == PNG_COLOR_TYPE_RGB && interlace == PNG_INTERLACE_NONE && w > 0 && h > 0;
+    if (ok) {
+        rgb = malloc((size_t)w * h * 3);
+        if (!rgb) abort();
+        for (png_uint_32 y = 0; y < h; y++) png_read_row(png, rgb + (size_t)y * w * 3, NULL);
+        png_read_end(png, NULL);
+        pic->w = w;
+        pic->h = h;
+        pic->rgb = rgb;
+    }
+    png_destroy_read_struct(&png, &info, NULL);
+    fclose(f);
+    return ok;
+}
+
+/* A volume as grey levels (what the documented mapping gives for its channel). */
+typedef struct grey_volume {
+    uint32_t X, Y, Z;
+    uint8_t *g; /* x fastest, then y, then z */
+} grey_volume;
+
+static uint8_t grey_level(double v)
+{
+    if (!(v > 0)) return 0; /* also NaN */
+    if (v >= 1) return 255;
+    return (uint8_t)floor(255.0 * v + 0.5);
+}
+
+/* round(a * px / max(a, b)), halves up, at least 1 (as documented) */
+static uint32_t doc_scaled(uint32_t a, uint32_t b, uint32_t px)
+{
+    uint32_t l = a > b ? a : b;
+    uint32_t v = (uint32_t)floor((double)a * px / l + 0.5);
+    return v ? v : 1;
+}
+
+/* The picture the documentation of `clvox preview --help` describes. */
+static void expected_preview(const grey_volume *v, uint32_t N, uint32_t PX, picture *pic)
+{
+    const uint32_t X = v->X, Y = v->Y, Z = v->Z, B = 2;
+    const uint32_t n = N < Z ? N : Z;
+    uint32_t C = (uint32_t)ceil(sqrt((double)n)), R = (n + C - 1) / C;
+    uint32_t w[3] = { doc_scaled(X, Y, PX), doc_scaled(X, Z, PX), doc_scaled(Y, Z, PX) };
+    uint32_t h[3] = { doc_scaled(Y, X, PX), doc_scaled(Z, X, PX), doc_scaled(Z, Y, PX) };
+    uint32_t mw = B + C * (w[0] + B), mh = B + R * (h[0] + B);
+    uint32_t ow = B + w[0] + B + w[1] + B + w[2] + B;
+    uint32_t oh = h[0];
+    if (h[1] > oh) oh = h[1];
+    if (h[2] > oh) oh = h[2];
+    pic->w = mw > ow ? mw : ow;
+    pic->h = mh + oh + B;
+    pic->rgb = malloc((size_t)pic->w * pic->h * 3);
+    if (!pic->rgb) abort();
+    for (size_t i = 0; i < (size_t)pic->w * pic->h; i++) {
+        pic->rgb[3 * i] = 0;
+        pic->rgb[3 * i + 1] = 0;
+        pic->rgb[3 * i + 2] = 128;
+    }
+#define PUT(px_, py_, val_) memset(pic->rgb + 3 * ((size_t)(py_) * pic->w + (px_)), (val_), 3)
+#define VOX(x_, y_, z_) v->g[((size_t)(z_) * Y + (y_)) * X + (x_)]
+    for (uint32_t k = 0; k < n; k++) {
+        uint32_t z = (uint32_t)floor((k + 0.5) * Z / n);
+        uint32_t x0 = B + (k % C) * (w[0] + B), y0 = B + (k / C) * (h[0] + B);
+        for (uint32_t j = 0; j < h[0]; j++)
+            for (uint32_t i = 0; i < w[0]; i++) PUT(x0 + i, y0 + j, VOX(i * X / w[0], j * Y / h[0], z));
+    }
+    uint32_t x0 = B;
+    for (uint32_t j = 0; j < h[0]; j++)
+        for (uint32_t i = 0; i < w[0]; i++) PUT(x0 + i, mh + j, VOX(i * X / w[0], j * Y / h[0], Z / 2));
+    x0 += w[0] + B;
+    for (uint32_t j = 0; j < h[1]; j++)
+        for (uint32_t i = 0; i < w[1]; i++) PUT(x0 + i, mh + j, VOX(i * X / w[1], Y / 2, j * Z / h[1]));
+    x0 += w[1] + B;
+    for (uint32_t j = 0; j < h[2]; j++)
+        for (uint32_t i = 0; i < w[2]; i++) PUT(x0 + i, mh + j, VOX(X / 2, i * Y / w[2], j * Z / h[2]));
+#undef PUT
+#undef VOX
+}
+
+/* Runs clvox preview (args after "preview") and compares the PNG with the
+ * documented picture of v; want_w/want_h: 0 = not checked. */
+static void check_preview(const char *what, const grey_volume *v, const char *exr, uint32_t N, uint32_t PX,
+                          uint32_t want_w, uint32_t want_h, const char *const *extra)
+{
+    char png[PATH_MAX];
+    path_join(png, sizeof png, g_dir, "preview.png");
+    unlink(png);
+    const char *args[16];
+    int na = 0;
+    args[na++] = "preview";
+    args[na++] = exr;
+    args[na++] = "-o";
+    args[na++] = png;
+    for (int i = 0; extra && extra[i] && na < 15; i++) args[na++] = extra[i];
+    args[na] = NULL;
+    run_result r;
+    run_cli(&r, NULL, args);
+    CHECK_MSG(r.code == 0 && r.err[0] == '\0', "%s: exit %d; stderr: %s", what, r.code, r.err);
+    CHECK_MSG(count_lines(r.out) == 1 && strstr(r.out, png), "%s: stdout: %s", what, r.out);
+    run_free(&r);
+    picture got, want;
+    int ok = read_png(png, &got);
+    CHECK_MSG(ok, "%s: %s is not an 8-bit RGB PNG", what, png);
+    expected_preview(v, N, PX, &want);
+    if (want_w) CHECK_MSG(want.w == want_w && want.h == want_h, "%s: the documented size is %u x %u, test says %u x %u",
+                          what, want.w, want.h, want_w, want_h);
+    if (ok) {
+        CHECK_MSG(got.w == want.w && got.h == want.h, "%s: %u x %u pixels, expected %u x %u", what, got.w, got.h,
+                  want.w, want.h);
+        if (got.w == want.w && got.h == want.h) {
+            size_t bad = 0, first = 0, n = (size_t)got.w * got.h;
+            for (size_t i = 0; i < n; i++)
+                if (memcmp(got.rgb + 3 * i, want.rgb + 3 * i, 3) != 0 && bad++ == 0) first = i;
+            CHECK_MSG(bad == 0, "%s: %zu of %zu pixels differ, first at (%zu, %zu): %u,%u,%u instead of %u,%u,%u",
+                      what, bad, n, first % got.w, first / got.w, got.rgb[3 * first], got.rgb[3 * first + 1],
+                      got.rgb[3 * first + 2], want.rgb[3 * first], want.rgb[3 * first + 1], want.rgb[3 * first + 2]);
+        }
+    }
+    /* nothing but the picture next to it */
+    char left[1024];
+    dir_entries(g_dir, left, sizeof left);
+    CHECK_MSG(strstr(left, ".tmp-") == NULL, "%s: temporary files left: %s", what, left);
+    free(got.rgb);
+    free(want.rgb);
+    unlink(png);
+}
+
+/* A coverage file written by the tests' own EXR writer (tests/exrgen.c). */
+typedef struct coverage_file {
+    uint32_t X, Y, Z;
+    uint16_t *cov, *occ;
+    float *score;
+} coverage_file;
+
+static void make_coverage_file(coverage_file *cf, uint32_t X, uint32_t Y, uint32_t Z)
+{
+    size_t n = (size_t)X * Y * Z;
+    cf->X = X;
+    cf->Y = Y;
+    cf->Z = Z;
+    cf->cov = malloc(n * 2);
+    cf->occ = malloc(n * 2);
+    cf->score = malloc(n * sizeof(float));
+    if (!cf->cov || !cf->occ || !cf->score) abort();
+    for (size_t i = 0; i < n; i++) {
+        uint32_t k = next_random();
+        /* every HALF in [0, 1], and the halfway grey 0.5 (127.5: rounds up) often */
+        cf->cov[i] = (k & 7) == 0 ? 0x3800 : (uint16_t)((k >> 3) % 0x3C01u);
+        cf->occ[i] = (next_random() & 1) ? 0x3C00 : 0;
+        float s = (float)((int32_t)(next_random() % 4001u) - 1000) / 2000.0f; /* -0.5 .. 1.5 */
+        cf->score[i] = (k % 97 == 0) ? NAN : s;
+    }
+}
+
+static void coverage_grey(const coverage_file *cf, int which, grey_volume *v)
+{
+    size_t n = (size_t)cf->X * cf->Y * cf->Z;
+    v->X = cf->X;
+    v->Y = cf->Y;
+    v->Z = cf->Z;
+    v->g = malloc(n);
+    if (!v->g) abort();
+    for (size_t i = 0; i < n; i++) {
+        if (which == 0) v->g[i] = grey_level(exrgen_half_value(cf->cov[i]));
+        else if (which == 1) v->g[i] = exrgen_half_value(cf->occ[i]) > 0.5 ? 255 : 0;
+        else v->g[i] = grey_level(cf->score[i]);
+    }
+}
+
+static void test_preview(void)
+{
+    char p[PATH_MAX], mesh[PATH_MAX], occ_exr[PATH_MAX], cov_exr[PATH_MAX], both_exr[PATH_MAX];
+    clvox_context *ctx = NULL;
+    clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
+    co.host_only = 1;
+    CHECK_OK(ctx, clvox_context_create(&co, &ctx));
+
+    /* help */
+    run_result r;
+    run_cli(&r, NULL, ARGS("preview", "--help"));
+    CHECK_MSG(r.code == 0 && r.err[0] == '\0', "preview --help: exit %d", r.code);
+    static const char *const needed[] = { "--slices", "--size", "--channel", "-o", "z_k = floor((k + 0.5) * Z / N)",
+                                          "ceil(sqrt(N))", "z = Z/2", "y = Y/2", "x = X/2", "round(255 * value)",
+                                          "2-pixel", "floor(p * cells / pixels)", "default 16", "default 256", NULL };
+    for (int i = 0; needed[i]; i++)
+        CHECK_MSG(strstr(r.out, needed[i]) != NULL, "preview --help does not mention '%s'", needed[i]);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS("--help"));
+    CHECK_MSG(strstr(r.out, "clvox preview") != NULL && strstr(r.out, "coverage sum"),
+              "--help does not describe preview and info's coverage");
+    run_free(&r);
+
+    /* an occupancy volume made by clvox itself: the bundled mesh at -r 32 */
+    if (!absolute_path("tests/data/default.obj", mesh, sizeof mesh)) {
+        CHECK(!"tests/data/default.obj not found (run from the repository root)");
+        clvox_context_destroy(ctx);
+        return;
+    }
+    path_join(occ_exr, sizeof occ_exr, g_dir, "knot.exr");
+    run_cli(&r, NULL, ARGS(mesh, "-r", "32", "-o", occ_exr, "-q"));
+    CHECK_MSG(r.code == 0, "voxelize default.obj: exit %d; %s", r.code, r.err);
+    run_free(&r);
+    clvox_volume_info info;
+    memset(&info, 0, sizeof info);
+    CHECK_OK(ctx, clvox_volume_read(ctx, occ_exr, &info, NULL, 0));
+    grey_volume v = { info.dims[0], info.dims[1], info.dims[2], NULL };
+    size_t nv = (size_t)v.X * v.Y * v.Z;
+    v.g = malloc(nv ? nv : 1);
+    if (!v.g) abort();
+    CHECK_OK(ctx, clvox_volume_read(ctx, occ_exr, &info, v.g, nv));
+    for (size_t i = 0; i < nv; i++) v.g[i] = v.g[i] ? 255 : 0;
+    CHECK(info.filled_voxels > 0 && info.filled_voxels < nv);
+    check_preview("occupancy, defaults", &v, occ_exr, 16, 256, 0, 0, NULL);
+    check_preview("occupancy, --slices 5 --size 40", &v, occ_exr, 5, 40, 0, 0, ARGS("--slices", "5", "--size", "40"));
+    check_preview("occupancy, --slices 100 --size 7 (fewer slices)", &v, occ_exr, 100, 7, 0, 0,
+                  ARGS("--slices=100", "--size=7", "--channel", "occupancy"));
+    check_preview("occupancy, --slices 1 --size 1", &v, occ_exr, 1, 1, 0, 0, ARGS("--slices", "1", "--size", "1"));
+    /* info of an occupancy-only file: no coverage line */
+    run_cli(&r, NULL, ARGS("info", occ_exr));
+    CHECK_MSG(r.code == 0 && find_field(r.out, "coverage") == NULL && find_field(r.out, "filled"),
+              "info of an occupancy file:\n%s", r.out);
+    run_free(&r);
+    free(v.g);
+
+    /* coverage (+ occupancy, + a FLOAT channel) from the test writer */
+    coverage_file cf;
+    make_coverage_file(&cf, 20, 9, 37);
+    path_join(cov_exr, sizeof cov_exr, g_dir, "coverage.exr");
+    path_join(both_exr, sizeof both_exr, g_dir, "both.exr");
+    exrgen_channel ch[] = { { "coverage", EXR_PIXEL_HALF, cf.cov }, { "occupancy", EXR_PIXEL_HALF, cf.occ },
+                            { "score", EXR_PIXEL_FLOAT, cf.score } };
+    CHECK(exrgen_write(cov_exr, cf.X, cf.Y, cf.Z, ch, 1, 20, 4, EXR_COMPRESSION_ZIP, 1)); /* chunks span slices */
+    CHECK(exrgen_write(both_exr, cf.X, cf.Y, cf.Z, ch, 3, 0, 0, EXR_COMPRESSION_RLE, 1));
+    grey_volume gc, go, gs;
+    coverage_grey(&cf, 0, &gc);
+    coverage_grey(&cf, 1, &go);
+    coverage_grey(&cf, 2, &gs);
+    /* 20 x 9 panels of 256 x 115, 4 x 4; 256 x 115, 138 x 256, 62 x 256 below: 1034 x 728 */
+    check_preview("coverage only, defaults", &gc, cov_exr, 16, 256, 1034, 728, NULL);
+    check_preview("coverage + occupancy: coverage by default", &gc, both_exr, 16, 256, 1034, 728, NULL);
+    check_preview("--channel occupancy", &go, both_exr, 7, 33, 0, 0, ARGS("--channel", "occupancy", "--slices", "7",
+                                                                          "--size", "33"));
+    check_preview("--channel score (FLOAT, clamped, NaN)", &gs, both_exr, 3, 100, 0, 0,
+                  ARGS("--channel", "score", "--slices", "3", "--size", "100"));
+    /* replacing an existing regular file is fine */
+    path_join(p, sizeof p, g_dir, "preview.png");
+    CHECK(write_text(g_dir, "preview.png", "old"));
+    run_cli(&r, NULL, ARGS("preview", cov_exr, "-o", p));
+    CHECK_MSG(r.code == 0 && file_size(p) > 100, "replacing a file: exit %d %s", r.code, r.err);
+    run_free(&r);
+    unlink(p);
+
+    /* info shows the coverage sum and the estimated volume */
+    size_t n = (size_t)cf.X * cf.Y * cf.Z;
+    double sum = 0;
+    for (size_t i = 0; i < n; i++) sum += exrgen_half_value(cf.cov[i]);
+    const double voxel_volume = EXRGEN_H_X * EXRGEN_H_Y * EXRGEN_H_Z;
+    for (int k = 0; k < 2; k++) {
+        run_cli(&r, NULL, ARGS("info", k ? both_exr : cov_exr));
+        const char *f = find_field(r.out, "coverage");
+        double got_sum = -1, got_vol = -1;
+        CHECK_MSG(r.code == 0 && f && sscanf(f, "%lf voxels (sum of coverage), estimated volume %lf", &got_sum,
+                                             &got_vol) == 2,
+                  "info coverage line (%d):\n%s", k, r.out);
+        CHECK_MSG(fabs(got_sum - sum) <= 1e-8 * sum && fabs(got_vol - sum * voxel_volume) <= 1e-8 * sum,
+                  "info (%d): sum %.9g volume %.9g, expected %.9g and %.9g", k, got_sum, got_vol, sum,
+                  sum * voxel_volume);
+        uint64_t filled = 0;
+        for (size_t i = 0; i < n; i++) filled += k ? cf.occ[i] == 0x3C00 : exrgen_half_value(cf.cov[i]) > 0.5;
+        CHECK_MSG(filled_count(r.out, NULL) == (long long)filled, "info (%d): filled %lld, expected %llu", k,
+                  filled_count(r.out, NULL), (unsigned long long)filled);
+        run_free(&r);
+    }
+
+    /* errors: one line, the documented exit code, nothing left in g_out */
+    char out[PATH_MAX];
+    path_join(out, sizeof out, g_out, "x.png");
+    path_join(p, sizeof p, g_out, "x.exr");
+    CHECK(write_text(g_in, "x.exr", "this is a text file, not an EXR\n"));
+    path_join(p, sizeof p, g_in, "x.exr");
+    expect_failure("preview of a text file", 4, NULL, ARGS("preview", p, "-o", out));
+    path_join(p, sizeof p, g_in, "plain.exr");
+    CHECK(exrgen_write(p, cf.X, cf.Y, cf.Z, ch, 1, 0, 0, EXR_COMPRESSION_NONE, 0));
+    expect_failure("preview of an EXR without clvox attributes", 4, NULL, ARGS("preview", p, "-o", out));
+    path_join(p, sizeof p, g_in, "nope.exr");
+    expect_failure("preview of a missing file", 4, NULL, ARGS("preview", p, "-o", out));
+    expect_failure("preview of a directory", 4, NULL, ARGS("preview", g_in, "-o", out));
+    expect_failure("preview --channel missing", 4, NULL, ARGS("preview", cov_exr, "-o", out, "--channel", "score"));
+    path_join(p, sizeof p, g_in, "score.exr");
+    CHECK(exrgen_write(p, cf.X, cf.Y, cf.Z, &ch[2], 1, 0, 0, EXR_COMPRESSION_NONE, 1));
+    expect_failure("preview, neither coverage nor occupancy", 4, NULL, ARGS("preview", p, "-o", out));
+    /* a truncated volume: the header reads, the pixels do not; no temporary file */
+    path_join(p, sizeof p, g_in, "truncated.exr");
+    CHECK(exrgen_write(p, cf.X, cf.Y, cf.Z, ch, 3, 0, 0, EXR_COMPRESSION_NONE, 1));
+    CHECK(truncate(p, file_size(p) * 2 / 3) == 0);
+    expect_failure("preview of a truncated volume", 4, NULL, ARGS("preview", p, "-o", out));
+    expect_failure("preview --slices 0", 2, NULL, ARGS("preview", cov_exr, "-o", out, "--slices", "0"));
+    expect_failure("preview --slices huge", 2, NULL, ARGS("preview", cov_exr, "-o", out, "--slices", "1000000"));
+    expect_failure("preview --slices -3", 2, NULL, ARGS("preview", cov_exr, "-o", out, "--slices", "-3"));
+    expect_failure("preview --size 0", 2, NULL, ARGS("preview", cov_exr, "-o", out, "--size", "0"));
+    expect_failure("preview --size huge", 2, NULL, ARGS("preview", cov_exr, "-o", out, "--size", "99999999999"));
+    expect_failure("preview --size x", 2, NULL, ARGS("preview", cov_exr, "-o", out, "--size", "x"));
+    expect_failure("preview picture too large", 2, NULL,
+                   ARGS("preview", cov_exr, "-o", out, "--slices", "4096", "--size", "8192"));
+    expect_failure("preview without -o", 2, NULL, ARGS("preview", cov_exr));
+    expect_failure("preview without file", 2, NULL, ARGS("preview", "-o", out));
+    expect_failure("preview two files", 2, NULL, ARGS("preview", cov_exr, cov_exr, "-o", out));
+    expect_failure("preview unknown option", 2, NULL, ARGS("preview", cov_exr, "-o", out, "--frobnicate"));
+    path_join(p, sizeof p, g_dir, "missing-dir/x.png");
+    expect_failure("preview into a missing directory", 5, NULL, ARGS("preview", cov_exr, "-o", p));
+    path_join(p, sizeof p, g_dir, "missing-dir");
+    CHECK(!file_exists(p));
+    expect_failure("preview output is a directory", 5, NULL, ARGS("preview", cov_exr, "-o", g_out));
+    expect_failure("preview output /proc/x.png", 5, NULL, ARGS("preview", cov_exr, "-o", "/proc/x.png"));
+    /* a symbolic link at the output name is not replaced (nor its target written) */
+    char target[PATH_MAX], link_path[PATH_MAX];
+    path_join(target, sizeof target, g_dir, "link-target.txt");
+    path_join(link_path, sizeof link_path, g_dir, "link.png");
+    CHECK(write_text(g_dir, "link-target.txt", "keep"));
+    unlink(link_path);
+    CHECK(symlink(target, link_path) == 0);
+    expect_failure("preview output is a symlink", 5, NULL, ARGS("preview", cov_exr, "-o", link_path));
+    struct stat sb;
+    CHECK(lstat(link_path, &sb) == 0 && S_ISLNK(sb.st_mode) && file_size(target) == 4);
+    char left[1024];
+    dir_entries(g_dir, left, sizeof left);
+    CHECK_MSG(strstr(left, ".tmp-") == NULL, "preview errors: temporary files left: %s", left);
+    expect_failure("preview output is the input", 2, NULL, ARGS("preview", cov_exr, "-o", cov_exr));
+
+    free(gc.g);
+    free(go.g);
+    free(gs.g);
+    free(cf.cov);
+    free(cf.occ);
+    free(cf.score);
+    clvox_context_destroy(ctx);
+}
+
 int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
@@ -733,6 +1116,7 @@ int main(void)
     test_options();
     test_default_mesh();
     test_list_devices();
+    test_preview();
     test_cancel();
     return test_report();
 }

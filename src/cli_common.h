@@ -1,0 +1,71 @@
+/* Helpers shared by the clvox command-line files (cli.c: voxelize, info,
+ * devices; cli_preview.c: preview). The CLI uses only the public header. */
+#ifndef CLVOX_CLI_COMMON_H
+#define CLVOX_CLI_COMMON_H
+
+#include "clvox.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(__GNUC__)
+#define CLI_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define CLI_PRINTF(a, b)
+#endif
+
+/* Exit codes (documented in --help and README). */
+enum {
+    EXIT_OK = 0,
+    EXIT_RUNTIME = 1,
+    EXIT_USAGE = 2,
+    EXIT_NO_DEVICE = 3,
+    EXIT_INPUT = 4,
+    EXIT_OUTPUT = 5,
+    EXIT_GRID = 6,
+    EXIT_CANCELLED = 130
+};
+
+/* Width of the progress line on stderr (0: none); erased by progress_erase. */
+extern int g_progress_line_len;
+/* Erases the progress line, if one is on screen, before anything else is
+ * written to stderr. */
+void progress_erase(void);
+
+/* Prints "clvox: error: <message>" as exactly one line (newlines in the
+ * message, e.g. a kernel build log, become " | "; other control bytes "?")
+ * and returns `code`. */
+int fail_message(int code, const char *message);
+int fail(int code, const char *fmt, ...) CLI_PRINTF(2, 3);
+/* fail(EXIT_USAGE, "<message> (see clvox --help)") */
+int usage_error(const char *fmt, ...) CLI_PRINTF(1, 2);
+
+/* What a failing call was doing decides what IO/EXR errors mean. */
+typedef enum role { ROLE_INPUT, ROLE_OUTPUT, ROLE_OTHER } role;
+int exit_code_for(clvox_status st, role r);
+/* Reports a library failure: the context's message, else the status string. */
+int fail_status(const clvox_context *ctx, clvox_status st, role r);
+
+/* Strict unsigned parsing: returns NULL on success, else why `s` is not
+ * acceptable. end_out NULL: the whole string must be the number. */
+const char *parse_u32(const char *s, uint32_t min, uint32_t *out, const char **end_out);
+
+/* Matches argv[*i] against a short and/or long option that takes a value;
+ * accepts "-r 16", "-r16", "--opt 16" and "--opt=16". Returns 1 on a match
+ * (*missing = 1 when the value is absent), 0 otherwise. */
+int match_value(int argc, char **argv, int *i, const char *short_name, const char *long_name, const char **value,
+                int *missing);
+
+/* Fails early (creating nothing) when the output can not possibly be
+ * written: a directory, a name ending in '/', a missing or unwritable
+ * directory. Returns EXIT_OK or the reported EXIT_OUTPUT. */
+int check_output(const char *path);
+
+/* 1 when `name` is one of the comma-separated names in `list`
+ * (clvox_volume_info.channels). */
+int has_channel(const char *list, const char *name);
+
+/* clvox preview (cli_preview.c); argv after "preview". */
+int cmd_preview(int argc, char **argv);
+
+#endif

@@ -1,0 +1,509 @@
+/*
+ * clvox preview FILE.exr -o OUT.png [--slices N] [--size PX] [--channel NAME]
+ *
+ * A picture of a clvox volume: a montage of N evenly spaced z slices and the
+ * three central orthogonal slices, as an 8-bit RGB PNG (libpng). The layout
+ * is documented in print_preview_help (and README); in short:
+ *  - slices z_k = floor((k + 0.5) * Z / N), k = 0..N-1 (N is first lowered to
+ *    Z when larger, so that no slice repeats), in a grid of C = ceil(sqrt(N))
+ *    columns and R = ceil(N / C) rows, row by row;
+ *  - below it one row: z = Z/2 (x right, y down), y = Y/2 (x right, z down),
+ *    x = X/2 (y right, z down), integer halves;
+ *  - each panel is resampled by nearest neighbour so that its longer side is
+ *    PX: an n_a x n_b source becomes round(n_a*PX/L) x round(n_b*PX/L) pixels
+ *    (L = max(n_a, n_b), halves up, at least 1), pixel p takes source index
+ *    floor(p * n_src / n_dst); voxel sizes are ignored (one voxel, one cell);
+ *  - a BORDER-pixel border of BORDER_RGB around and between panels, and the
+ *    same colour where the rows leave the image empty.
+ * Grey levels: "occupancy" 255 when > 0.5 else 0 (the filled rule); any other
+ * channel round(255 * v) clamped to [0, 255], NaN 0.
+ *
+ * Streaming: one pass over the file (clvox_volume_read_slices); each slice
+ * fills the panels that sample it, so memory is the panels plus one slice
+ * (the library's) whatever Z is. The layout needs the dimensions, which the
+ * library has put into `info` before the first slice arrives.
+ *
+ * The PNG is written to "<OUT>.tmp-<pid>-<n>" in the same directory (O_EXCL),
+ * flushed to disk and renamed; any failure unlinks it. Nothing that is not a
+ * regular file at OUT is ever replaced.
+ */
+#ifndef _POSIX_C_SOURCE
+#define _POSIX_C_SOURCE 200809L
+#endif
+
+#include "cli_common.h"
+
+#include <png.h>
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define DEFAULT_SLICES 16u
+#define DEFAULT_SIZE 256u
+#define MAX_SLICES 4096u
+#define MAX_SIZE 8192u
+#define MAX_PIXELS (1ull << 27) /* 128 M pixels: 128 MiB of panels, a 384 MiB picture */
+#define BORDER 2u
+static const unsigned char BORDER_RGB[3] = { 0, 0, 128 }; /* dark blue: no grey level is blue */
+
+/* ---- layout ---------------------------------------------------------------- */
+
+typedef struct panel {
+    uint32_t x0, y0;      /* top-left corner in the picture */
+    uint32_t w, h;        /* pixels */
+    uint32_t src_w, src_h;/* source cells along the panel's x and y */
+    uint8_t *grey;        /* w*h */
+} panel;
+
+typedef struct preview {
+    uint32_t X, Y, Z;
+    uint32_t n;           /* z slices in the montage */
+    uint32_t cols, rows;
+    uint32_t *zk;         /* n slice indices */
+    panel *panels;        /* n montage panels, then XY (z = Z/2), XZ (y = Y/2), YZ (x = X/2) */
+    uint32_t width, height;
+    int binary;           /* channel "occupancy": 0/255 by the > 0.5 rule */
+    /* set by the first slice callback */
+    const clvox_volume_info *info;
+    int ready;            /* layout made */
+    int too_large;        /* layout refused (message in why) */
+    char why[256];
+} preview;
+
+/* round(n * px / longest), halves up, at least 1 */
+static uint32_t scaled(uint32_t n, uint32_t longest, uint32_t px)
+{
+    uint64_t v = (2ull * n * px + longest) / (2ull * longest);
+    return v < 1 ? 1u : (uint32_t)v;
+}
+
+static void panel_size(panel *p, uint32_t src_w, uint32_t src_h, uint32_t px)
+{
+    uint32_t longest = src_w > src_h ? src_w : src_h;
+    p->src_w = src_w;
+    p->src_h = src_h;
+    p->w = scaled(src_w, longest, px);
+    p->h = scaled(src_h, longest, px);
+}
+
+static void preview_free(preview *pv)
+{
+    if (pv->panels)
+        for (uint32_t k = 0; k < pv->n + 3; k++) free(pv->panels[k].grey);
+    free(pv->panels);
+    free(pv->zk);
+}
+
+/* Computes the layout for an X x Y x Z volume; 0 on success, else why is set
+ * (too_large: the picture would be too large; else out of memory). */
+static int preview_layout(preview *pv, uint32_t X, uint32_t Y, uint32_t Z, uint32_t slices, uint32_t px)
+{
+    pv->X = X;
+    pv->Y = Y;
+    pv->Z = Z;
+    pv->n = slices < Z ? slices : Z;
+    uint32_t c = 1;
+    while ((uint64_t)c * c < pv->n) c++;
+    pv->cols = c;
+    pv->rows = (pv->n + c - 1) / c;
+
+    panel sz[4];
+    memset(sz, 0, sizeof sz);
+    panel_size(&sz[0], X, Y, px); /* montage panels and the z = Z/2 panel */
+    panel_size(&sz[1], X, Z, px); /* y = Y/2 */
+    panel_size(&sz[2], Y, Z, px); /* x = X/2 */
+    uint64_t montage_w = BORDER + (uint64_t)pv->cols * (sz[0].w + BORDER);
+    uint64_t montage_h = BORDER + (uint64_t)pv->rows * (sz[0].h + BORDER);
+    uint64_t ortho_w = BORDER + (uint64_t)sz[0].w + BORDER + sz[1].w + BORDER + sz[2].w + BORDER;
+    uint64_t ortho_h = 0;
+    for (int i = 0; i < 3; i++)
+        if (sz[i].h > ortho_h) ortho_h = sz[i].h;
+    ortho_h += BORDER;
+    uint64_t W = montage_w > ortho_w ? montage_w : ortho_w, H = montage_h + ortho_h;
+    if (W > PNG_UINT_31_MAX || H > PNG_UINT_31_MAX || W * H > MAX_PIXELS) {
+        pv->too_large = 1;
+        snprintf(pv->why, sizeof pv->why,
+                 "the preview of a %u x %u x %u volume with --slices %u --size %u would be %llu x %llu pixels "
+                 "(at most %llu in all): lower --slices or --size",
+                 X, Y, Z, slices, px, (unsigned long long)W, (unsigned long long)H,
+                 (unsigned long long)MAX_PIXELS);
+        return 1;
+    }
+    pv->width = (uint32_t)W;
+    pv->height = (uint32_t)H;
+
+    pv->zk = malloc((size_t)pv->n * sizeof *pv->zk);
+    pv->panels = calloc((size_t)pv->n + 3, sizeof *pv->panels);
+    if (!pv->zk || !pv->panels) goto oom;
+    for (uint32_t k = 0; k < pv->n; k++) {
+        pv->zk[k] = (uint32_t)(((2ull * k + 1) * Z) / (2ull * pv->n)); /* floor((k + 0.5) * Z / N) */
+        panel *p = &pv->panels[k];
+        *p = sz[0];
+        p->x0 = BORDER + (k % pv->cols) * (sz[0].w + BORDER);
+        p->y0 = BORDER + (k / pv->cols) * (sz[0].h + BORDER);
+    }
+    uint32_t x = BORDER;
+    for (int i = 0; i < 3; i++) {
+        panel *p = &pv->panels[pv->n + (uint32_t)i];
+        *p = sz[i];
+        p->x0 = x;
+        p->y0 = (uint32_t)montage_h;
+        x += p->w + BORDER;
+    }
+    for (uint32_t k = 0; k < pv->n + 3; k++) {
+        panel *p = &pv->panels[k];
+        p->grey = calloc((size_t)p->w * p->h, 1);
+        if (!p->grey) goto oom;
+    }
+    return 0;
+oom:
+    snprintf(pv->why, sizeof pv->why, "out of memory for a %u x %u preview", pv->width, pv->height);
+    return 1;
+}
+
+/* ---- filling the panels ------------------------------------------------------ */
+
+static uint8_t grey_of(const preview *pv, float v)
+{
+    if (pv->binary) return v > 0.5f ? 255 : 0;
+    if (!(v > 0)) return 0; /* also NaN */
+    if (v >= 1) return 255;
+    return (uint8_t)floor(255.0 * (double)v + 0.5);
+}
+
+static int on_slice(void *user, uint32_t z, const float *values)
+{
+    preview *pv = user;
+    if (!pv->ready) return 1; /* cannot happen: the layout is made before reading */
+    const uint32_t X = pv->X, Y = pv->Y, Z = pv->Z;
+    /* montage panels: the whole slice */
+    for (uint32_t k = 0; k <= pv->n; k++) {
+        panel *p = k < pv->n ? &pv->panels[k] : &pv->panels[pv->n]; /* k == n: the z = Z/2 panel */
+        if (k < pv->n ? pv->zk[k] != z : z != Z / 2) continue;
+        for (uint32_t j = 0; j < p->h; j++) {
+            uint32_t y = (uint32_t)((uint64_t)j * Y / p->h);
+            for (uint32_t i = 0; i < p->w; i++) {
+                uint32_t x = (uint32_t)((uint64_t)i * X / p->w);
+                p->grey[(size_t)j * p->w + i] = grey_of(pv, values[(size_t)y * X + x]);
+            }
+        }
+    }
+    /* y = Y/2 (x right, z down) and x = X/2 (y right, z down): the panel rows that sample z */
+    for (int which = 1; which <= 2; which++) {
+        panel *p = &pv->panels[pv->n + (uint32_t)which];
+        for (uint32_t j = 0; j < p->h; j++) {
+            if ((uint32_t)((uint64_t)j * Z / p->h) != z) continue;
+            uint8_t *row = p->grey + (size_t)j * p->w;
+            for (uint32_t i = 0; i < p->w; i++) {
+                size_t at = which == 1 ? (size_t)(Y / 2) * X + (size_t)((uint64_t)i * X / p->w)
+                                       : (size_t)((uint64_t)i * Y / p->w) * X + X / 2;
+                row[i] = grey_of(pv, values[at]);
+            }
+        }
+    }
+    return 0;
+}
+
+/* ---- the PNG ------------------------------------------------------------------ */
+
+typedef struct png_failure {
+    jmp_buf jmp;
+    char msg[256];
+} png_failure;
+
+static void png_on_error(png_structp png, png_const_charp msg)
+{
+    png_failure *f = png_get_error_ptr(png);
+    snprintf(f->msg, sizeof f->msg, "%s", msg ? msg : "libpng error");
+    longjmp(f->jmp, 1);
+}
+
+static void png_on_warning(png_structp png, png_const_charp msg)
+{
+    (void)png;
+    (void)msg; /* warnings are not errors; stay quiet */
+}
+
+/* Writes the picture to `f` row by row (one RGB row buffer). 0 on success,
+ * else the message is in fail_msg. */
+static int write_png(FILE *f, const preview *pv, uint8_t *row, char *fail_msg, size_t size)
+{
+    png_failure failure;
+    failure.msg[0] = '\0';
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &failure, png_on_error, png_on_warning);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, &info);
+        snprintf(fail_msg, size, "out of memory in libpng");
+        return 1;
+    }
+    if (setjmp(failure.jmp)) {
+        png_destroy_write_struct(&png, &info);
+        snprintf(fail_msg, size, "libpng: %s", failure.msg);
+        return 1;
+    }
+    png_init_io(png, f);
+    png_set_IHDR(png, info, pv->width, pv->height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    for (uint32_t y = 0; y < pv->height; y++) {
+        for (uint32_t x = 0; x < pv->width; x++) memcpy(row + 3 * (size_t)x, BORDER_RGB, 3);
+        for (uint32_t k = 0; k < pv->n + 3; k++) {
+            const panel *p = &pv->panels[k];
+            if (y < p->y0 || y >= p->y0 + p->h) continue;
+            const uint8_t *g = p->grey + (size_t)(y - p->y0) * p->w;
+            uint8_t *d = row + 3 * (size_t)p->x0;
+            for (uint32_t i = 0; i < p->w; i++) d[3 * i] = d[3 * i + 1] = d[3 * i + 2] = g[i];
+        }
+        png_write_row(png, row);
+    }
+    png_write_end(png, info);
+    png_destroy_write_struct(&png, &info);
+    return 0;
+}
+
+/* Writes the picture to a temporary file next to `path` and renames it. */
+static int save_png(const char *path, const preview *pv)
+{
+    static unsigned counter;
+    size_t n = strlen(path) + 64;
+    char *tmp = malloc(n);
+    uint8_t *row = malloc((size_t)pv->width * 3);
+    if (!tmp || !row) {
+        free(tmp);
+        free(row);
+        return fail(EXIT_RUNTIME, "out of memory");
+    }
+    int fd = -1;
+    for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
+        snprintf(tmp, n, "%s.tmp-%ld-%u", path, (long)getpid(), counter++);
+        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd < 0 && errno != EEXIST) break;
+    }
+    if (fd < 0) {
+        int rc = fail(EXIT_OUTPUT, "cannot create output file '%s': %s", path, strerror(errno));
+        free(tmp);
+        free(row);
+        return rc;
+    }
+    FILE *f = fdopen(fd, "wb");
+    if (!f) {
+        int e = errno;
+        close(fd);
+        unlink(tmp);
+        free(tmp);
+        free(row);
+        return fail(EXIT_RUNTIME, "cannot write '%s': %s", path, strerror(e));
+    }
+    char why[320] = "";
+    int bad = write_png(f, pv, row, why, sizeof why);
+    free(row);
+    if (!bad && fflush(f) != 0) {
+        bad = 1;
+        snprintf(why, sizeof why, "%s", strerror(errno));
+    }
+    if (!bad && fsync(fileno(f)) != 0) { /* on disk before it gets its name */
+        bad = 1;
+        snprintf(why, sizeof why, "%s", strerror(errno));
+    }
+    if (fclose(f) != 0 && !bad) {
+        bad = 1;
+        snprintf(why, sizeof why, "%s", strerror(errno));
+    }
+    struct stat sb;
+    if (!bad && lstat(path, &sb) == 0 && !S_ISREG(sb.st_mode)) {
+        bad = 1;
+        snprintf(why, sizeof why, "it is not a regular file");
+    }
+    if (!bad && rename(tmp, path) != 0) {
+        bad = 1;
+        snprintf(why, sizeof why, "cannot rename '%s': %s", tmp, strerror(errno));
+    }
+    int rc = EXIT_OK;
+    if (bad) {
+        unlink(tmp);
+        rc = fail(EXIT_OUTPUT, "writing '%s' failed: %s", path, why);
+    }
+    free(tmp);
+    return rc;
+}
+
+/* ---- command ------------------------------------------------------------------- */
+
+static void print_preview_help(void)
+{
+    printf(
+"Usage: clvox preview FILE.exr -o OUT.png [--slices N] [--size PX]\n"
+"                     [--channel NAME]\n"
+"\n"
+"Draws a clvox volume as an 8-bit RGB PNG: N evenly spaced z slices and the\n"
+"three central orthogonal slices. Reads the file once, slice by slice (memory:\n"
+"the picture's panels plus one slice). Needs no OpenCL device.\n"
+"\n"
+"Options:\n"
+"  -o, --output OUT.png     the picture (required); written to a temporary name\n"
+"                           in the same directory and renamed on success; never\n"
+"                           replaces anything but a regular file\n"
+"  --slices N               z slices in the montage, 1..%u (default %u); more\n"
+"                           than Z is lowered to Z\n"
+"  --size PX                longer side of every panel in pixels, 1..%u\n"
+"                           (default %u); the whole picture may have at most\n"
+"                           %llu pixels\n"
+"  --channel NAME           channel to draw (default: coverage if the file has\n"
+"                           it, else occupancy)\n"
+"  -h, --help               print this help and exit\n"
+"\n"
+"Layout (X, Y, Z: the volume's dimensions; integer division throughout):\n"
+"  - Montage: slices z_k = floor((k + 0.5) * Z / N) for k = 0..N-1, in a grid\n"
+"    of C = ceil(sqrt(N)) columns and R = ceil(N / C) rows, filled row by row\n"
+"    from the top left (N = 16: 4 x 4). Each panel shows x to the right and y\n"
+"    down.\n"
+"  - Below the montage, one row, left to right: z = Z/2 (x right, y down),\n"
+"    y = Y/2 (x right, z down), x = X/2 (y right, z down).\n"
+"  - Panel size: a source of a x b cells becomes round(a*PX/L) x round(b*PX/L)\n"
+"    pixels, L = max(a, b) (halves up, at least 1), so the longer side is PX;\n"
+"    nearest neighbour: pixel p shows cell floor(p * cells / pixels). Voxel\n"
+"    sizes are ignored: every voxel is drawn square.\n"
+"  - A %u-pixel dark blue (RGB %u,%u,%u) border around and between all panels;\n"
+"    the same colour fills what the two rows leave empty. Montage panel k\n"
+"    starts at x = %u + (k %% C) * (w + %u), y = %u + (k / C) * (h + %u); the\n"
+"    bottom row starts at y = %u + R * (h + %u), its panels at x = %u, then\n"
+"    after each panel's width plus %u. Picture width = the larger of the two\n"
+"    rows, height = montage + tallest bottom panel + %u.\n"
+"  - Grey levels: occupancy 255 (white) when > 0.5, else 0 (black); any other\n"
+"    channel round(255 * value), clamped to 0..255 (NaN: 0).\n"
+"\n"
+"Exit codes: 0 ok, 2 usage error, 4 FILE missing, not a clvox volume or\n"
+"without the channel, 5 OUT.png can not be written, 1 other failures. Errors\n"
+"are one line on stderr; a failed run leaves no file.\n",
+        MAX_SLICES, DEFAULT_SLICES, MAX_SIZE, DEFAULT_SIZE, (unsigned long long)MAX_PIXELS, BORDER,
+        (unsigned)BORDER_RGB[0], (unsigned)BORDER_RGB[1], (unsigned)BORDER_RGB[2], BORDER, BORDER, BORDER, BORDER, BORDER, BORDER, BORDER,
+        BORDER, BORDER);
+}
+
+#define PREVIEW_USAGE(...) fail(EXIT_USAGE, __VA_ARGS__)
+
+/* A wrapper that makes the layout when the first slice arrives (the header
+ * is in pv->info by then). */
+typedef struct reading {
+    preview *pv;
+    uint32_t slices, px;
+} reading;
+
+static int on_first_slice(void *user, uint32_t z, const float *values)
+{
+    reading *rd = user;
+    preview *pv = rd->pv;
+    if (!pv->ready) {
+        const clvox_volume_info *in = pv->info;
+        if (preview_layout(pv, in->dims[0], in->dims[1], in->dims[2], rd->slices, rd->px) != 0) return 1;
+        pv->ready = 1;
+    }
+    return on_slice(pv, z, values);
+}
+
+int cmd_preview(int argc, char **argv)
+{
+    const char *file = NULL, *output = NULL, *channel = NULL;
+    uint32_t slices = DEFAULT_SLICES, px = DEFAULT_SIZE;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = NULL, *why = NULL;
+        int missing = 0;
+        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+            print_preview_help();
+            return EXIT_OK;
+        }
+        if (a[0] != '-' || a[1] == '\0') {
+            if (file)
+                return PREVIEW_USAGE("preview: more than one file given: '%s' and '%s' (see clvox preview --help)",
+                                     file, a);
+            file = a;
+        } else if (match_value(argc, argv, &i, "-o", "--output", &v, &missing)) {
+            if (missing || !*v) return PREVIEW_USAGE("preview: -o needs a file name (see clvox preview --help)");
+            output = v;
+        } else if (match_value(argc, argv, &i, NULL, "--slices", &v, &missing)) {
+            if (missing) return PREVIEW_USAGE("preview: --slices needs a value (see clvox preview --help)");
+            if ((why = parse_u32(v, 1, &slices, NULL)) || slices > MAX_SLICES)
+                return PREVIEW_USAGE("preview: --slices '%s': %s (1 to %u)", v, why ? why : "too large", MAX_SLICES);
+        } else if (match_value(argc, argv, &i, NULL, "--size", &v, &missing)) {
+            if (missing) return PREVIEW_USAGE("preview: --size needs a value (see clvox preview --help)");
+            if ((why = parse_u32(v, 1, &px, NULL)) || px > MAX_SIZE)
+                return PREVIEW_USAGE("preview: --size '%s': %s (1 to %u pixels)", v, why ? why : "too large",
+                                     MAX_SIZE);
+        } else if (match_value(argc, argv, &i, NULL, "--channel", &v, &missing)) {
+            if (missing || !*v) return PREVIEW_USAGE("preview: --channel needs a name (see clvox preview --help)");
+            channel = v;
+        } else {
+            return PREVIEW_USAGE("preview: unknown option '%s' (see clvox preview --help)", a);
+        }
+    }
+    if (!file) return PREVIEW_USAGE("preview: missing FILE.exr (see clvox preview --help)");
+    if (!output) return PREVIEW_USAGE("preview: missing -o OUT.png (see clvox preview --help)");
+    int rc = check_output(output);
+    if (rc != EXIT_OK) return rc;
+    struct stat in_sb, out_sb;
+    if (lstat(output, &out_sb) == 0) {
+        if (!S_ISREG(out_sb.st_mode)) return fail(EXIT_OUTPUT, "cannot write '%s': it is not a regular file", output);
+        if (stat(file, &in_sb) == 0 && in_sb.st_dev == out_sb.st_dev && in_sb.st_ino == out_sb.st_ino)
+            return PREVIEW_USAGE("preview: the output '%s' is the input file", output);
+    }
+
+    clvox_context *ctx = NULL;
+    clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
+    co.host_only = 1;
+    clvox_status st = clvox_context_create(&co, &ctx);
+    if (st != CLVOX_OK) {
+        rc = fail_status(ctx, st, ROLE_OTHER);
+        clvox_context_destroy(ctx);
+        return rc;
+    }
+
+    clvox_volume_info info;
+    memset(&info, 0, sizeof info);
+    preview pv;
+    memset(&pv, 0, sizeof pv);
+    pv.info = &info;
+    reading rd = { &pv, slices, px };
+    const char *ch = channel ? channel : "coverage";
+    pv.binary = strcmp(ch, "occupancy") == 0;
+    st = clvox_volume_read_slices(ctx, file, ch, &info, on_first_slice, &rd);
+    if (st == CLVOX_ERR_EXR && !channel && info.dims[0] && !has_channel(info.channels, "coverage")) {
+        /* the header was read: no coverage channel, so the default is occupancy */
+        if (!has_channel(info.channels, "occupancy")) {
+            rc = fail(EXIT_INPUT, "'%s' has neither a coverage nor an occupancy channel (has: %s): choose one with "
+                      "--channel", file, info.channels);
+            goto done;
+        }
+        ch = "occupancy";
+        pv.binary = 1;
+        st = clvox_volume_read_slices(ctx, file, ch, &info, on_first_slice, &rd);
+    }
+    if (pv.too_large) {
+        rc = fail(EXIT_USAGE, "preview: %s", pv.why);
+        goto done;
+    }
+    if (st == CLVOX_ERR_CANCELLED && !pv.ready) {
+        rc = fail(EXIT_RUNTIME, "%s", pv.why);
+        goto done;
+    }
+    if (st != CLVOX_OK) {
+        rc = fail_status(ctx, st, ROLE_INPUT);
+        goto done;
+    }
+    rc = save_png(output, &pv);
+    if (rc == EXIT_OK)
+        printf("wrote %s: %u x %u pixels, channel %s, %u z slices and the 3 central slices of %u x %u x %u\n",
+               output, pv.width, pv.height, ch, pv.n, pv.X, pv.Y, pv.Z);
+done:
+    preview_free(&pv);
+    clvox_context_destroy(ctx);
+    return rc;
+}

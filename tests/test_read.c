@@ -1,0 +1,363 @@
+/* Reading volumes back, any channel: clvox_volume_read_slices returns every
+ * sample (HALF, FLOAT, UINT) of files written by an independent writer
+ * (tests/exrgen.c, OpenEXRCore directly) in every layout, including chunks
+ * spanning two slices; coverage_sum is exact; the filled-voxel rules; a
+ * coverage-only file through clvox_volume_read; missing channels and cancel.
+ * No OpenCL. */
+#include "test.h"
+#include "exrgen.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static clvox_context *ctx;
+static char dir[1024];
+
+static uint64_t rng_state = 0x2545F4914F6CDD1Dull;
+static uint32_t rnd(void)
+{
+    rng_state ^= rng_state << 13;
+    rng_state ^= rng_state >> 7;
+    rng_state ^= rng_state << 17;
+    return (uint32_t)(rng_state >> 11);
+}
+
+/* HALF bits of a random value in [0,1]: every bit pattern of that range is
+ * possible (subnormals included), plus exact 0, 0.5, 1 often. */
+static uint16_t random_coverage(void)
+{
+    uint32_t k = rnd() % 8;
+    if (k == 0) return 0x0000;
+    if (k == 1) return 0x3C00;
+    if (k == 2) return 0x3800;
+    return (uint16_t)(rnd() % 0x3C01u); /* 0 .. 0x3C00 = [0, 1] */
+}
+
+/* Collects the slices the reader hands out into a dense float volume. */
+typedef struct collect {
+    uint32_t X, Y, Z;
+    float *vol;
+    uint32_t calls, next_z;
+    int out_of_order;
+    uint32_t cancel_at; /* return 1 at this z (UINT32_MAX: never) */
+} collect;
+
+static int on_slice(void *user, uint32_t z, const float *values)
+{
+    collect *c = user;
+    if (z != c->next_z || z >= c->Z) {
+        c->out_of_order = 1;
+        return 1;
+    }
+    c->next_z++;
+    c->calls++;
+    memcpy(c->vol + (size_t)z * c->X * c->Y, values, (size_t)c->X * c->Y * sizeof(float));
+    return z == c->cancel_at;
+}
+
+static int same_float(float a, double want)
+{
+    if (isnan(want)) return isnan(a);
+    return (double)a == want;
+}
+
+/* Streams `channel` and checks it against want (doubles); returns 1 when all equal. */
+static int check_stream(const char *what, const char *path, const char *channel, uint32_t X, uint32_t Y, uint32_t Z,
+                        const double *want)
+{
+    size_t n = (size_t)X * Y * Z;
+    collect c = { X, Y, Z, malloc(n * sizeof(float)), 0, 0, 0, UINT32_MAX };
+    if (!c.vol) abort();
+    for (size_t i = 0; i < n; i++) c.vol[i] = -12345.0f;
+    clvox_volume_info info;
+    clvox_status st = clvox_volume_read_slices(ctx, path, channel, &info, on_slice, &c);
+    CHECK_MSG(st == CLVOX_OK, "%s: %s: %s", what, clvox_status_string(st), clvox_context_error(ctx));
+    CHECK_MSG(c.calls == Z && !c.out_of_order, "%s: %u calls for %u slices%s", what, c.calls, Z,
+              c.out_of_order ? ", out of order" : "");
+    CHECK(info.dims[0] == X && info.dims[1] == Y && info.dims[2] == Z);
+    size_t bad = 0, first_bad = 0;
+    for (size_t i = 0; i < n; i++)
+        if (!same_float(c.vol[i], want[i]) && bad++ == 0) first_bad = i;
+    CHECK_MSG(bad == 0, "%s: %zu of %zu values differ, first at %zu: %.9g, expected %.9g", what, bad, n, first_bad,
+              bad ? (double)c.vol[first_bad] : 0.0, bad ? want[first_bad] : 0.0);
+    free(c.vol);
+    return bad == 0 && st == CLVOX_OK;
+}
+
+typedef struct layout {
+    int tw, th; /* 0,0: scanline */
+    exr_compression_t comp;
+} layout;
+
+/* Channels of every type in every layout; tiles that are not slices (rows
+ * of 3 with Y = 7: chunks span two slices; 5 x 35: five slices per chunk). */
+static void test_layouts(void)
+{
+    const uint32_t X = 13, Y = 7, Z = 6;
+    const size_t n = (size_t)X * Y * Z;
+    uint16_t *cov = malloc(n * 2), *occ = malloc(n * 2);
+    float *score = malloc(n * 4);
+    uint32_t *elem = malloc(n * 4);
+    double *want_cov = malloc(n * sizeof(double)), *want_occ = malloc(n * sizeof(double));
+    double *want_score = malloc(n * sizeof(double)), *want_elem = malloc(n * sizeof(double));
+    uint8_t *back = malloc(n), *want_filled_occ = malloc(n);
+    if (!cov || !occ || !score || !elem || !want_cov || !want_occ || !want_score || !want_elem || !back ||
+        !want_filled_occ)
+        abort();
+    int64_t exact = 0; /* coverage sum times 2^24 */
+    uint64_t filled_occ = 0;
+    for (size_t i = 0; i < n; i++) {
+        cov[i] = random_coverage();
+        occ[i] = (rnd() & 1) ? 0x3C00 : 0x0000; /* independent of coverage on purpose */
+        score[i] = (float)((double)(int32_t)rnd() / 1024.0);
+        elem[i] = (i % 5 == 0) ? 0xFFFFFFu - (uint32_t)i : rnd() % (1u << 24); /* < 2^24: exact in float */
+        want_cov[i] = exrgen_half_value(cov[i]);
+        want_occ[i] = exrgen_half_value(occ[i]);
+        want_score[i] = score[i];
+        want_elem[i] = elem[i];
+        want_filled_occ[i] = occ[i] == 0x3C00;
+        filled_occ += want_filled_occ[i];
+        exact += (int64_t)ldexp(want_cov[i], 24);
+    }
+    const double want_sum = ldexp((double)exact, -24);
+    const exrgen_channel all[] = {
+        { "occupancy", EXR_PIXEL_HALF, occ }, { "coverage", EXR_PIXEL_HALF, cov },
+        { "score", EXR_PIXEL_FLOAT, score },  { "element", EXR_PIXEL_UINT, elem },
+    };
+    static const layout layouts[] = {
+        { 0, 0, EXR_COMPRESSION_NONE }, { 0, 0, EXR_COMPRESSION_RLE },  { 0, 0, EXR_COMPRESSION_ZIP },
+        { 0, 0, EXR_COMPRESSION_PIZ },  { 13, 7, EXR_COMPRESSION_RLE }, { 13, 7, EXR_COMPRESSION_NONE },
+        { 4, 4, EXR_COMPRESSION_ZIPS }, { 13, 3, EXR_COMPRESSION_RLE }, { 13, 3, EXR_COMPRESSION_NONE },
+        { 5, 35, EXR_COMPRESSION_ZIP }, { 64, 64, EXR_COMPRESSION_PIZ }, { 6, 11, EXR_COMPRESSION_RLE },
+    };
+    char path[1200];
+    snprintf(path, sizeof path, "%s/layouts.exr", dir);
+    for (size_t l = 0; l < sizeof layouts / sizeof layouts[0]; l++) {
+        char what[96];
+        snprintf(what, sizeof what, "layout %zu (tile %dx%d, compression %d)", l, layouts[l].tw, layouts[l].th,
+                 (int)layouts[l].comp);
+        CHECK(exrgen_write(path, X, Y, Z, all, 4, layouts[l].tw, layouts[l].th, layouts[l].comp, 1));
+        check_stream(what, path, "coverage", X, Y, Z, want_cov);
+        check_stream(what, path, "occupancy", X, Y, Z, want_occ);
+        check_stream(what, path, "score", X, Y, Z, want_score);
+        check_stream(what, path, "element", X, Y, Z, want_elem);
+
+        /* occupancy present: filled from occupancy, coverage summed (second pass) */
+        clvox_volume_info info;
+        memset(back, 7, n);
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, n));
+        CHECK_MSG(info.filled_voxels == filled_occ, "%s: filled %llu, expected %llu", what,
+                  (unsigned long long)info.filled_voxels, (unsigned long long)filled_occ);
+        CHECK_MSG(memcmp(back, want_filled_occ, n) == 0, "%s: occupancy output differs", what);
+        CHECK_MSG(info.coverage_sum == want_sum, "%s: coverage_sum %.17g, expected %.17g", what, info.coverage_sum,
+                  want_sum);
+        CHECK(strcmp(info.channels, "coverage,element,occupancy,score") == 0);
+        CHECK(strcmp(info.method, EXRGEN_METHOD) == 0 && strcmp(info.version, EXRGEN_VERSION) == 0);
+        CHECK(info.voxel_size[2] == EXRGEN_H_Z && info.origin[1] == EXRGEN_ORIGIN_Y);
+    }
+
+    /* coverage only: clvox_volume_read reads it; filled = coverage > 0.5 */
+    uint64_t filled_cov = 0;
+    uint8_t *want_filled_cov = malloc(n);
+    if (!want_filled_cov) abort();
+    for (size_t i = 0; i < n; i++) filled_cov += (want_filled_cov[i] = want_cov[i] > 0.5);
+    for (size_t l = 0; l < sizeof layouts / sizeof layouts[0]; l++) {
+        CHECK(exrgen_write(path, X, Y, Z, &all[1], 1, layouts[l].tw, layouts[l].th, layouts[l].comp, 1));
+        clvox_volume_info info;
+        memset(back, 7, n);
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, n));
+        CHECK_MSG(info.filled_voxels == filled_cov, "coverage-only layout %zu: filled %llu, expected %llu", l,
+                  (unsigned long long)info.filled_voxels, (unsigned long long)filled_cov);
+        CHECK_MSG(memcmp(back, want_filled_cov, n) == 0, "coverage-only layout %zu: occupancy output differs", l);
+        CHECK_MSG(info.coverage_sum == want_sum, "coverage-only layout %zu: coverage_sum %.17g, expected %.17g", l,
+                  info.coverage_sum, want_sum);
+        CHECK(strcmp(info.channels, "coverage") == 0);
+        /* no NULL info needed either */
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, NULL, NULL, 0));
+    }
+    /* occupancy only: coverage_sum stays 0 */
+    CHECK(exrgen_write(path, X, Y, Z, &all[0], 1, 0, 0, EXR_COMPRESSION_RLE, 1));
+    clvox_volume_info info;
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    CHECK(info.filled_voxels == filled_occ && info.coverage_sum == 0.0);
+    unlink(path);
+    free(want_filled_cov);
+    free(cov);
+    free(occ);
+    free(score);
+    free(elem);
+    free(want_cov);
+    free(want_occ);
+    free(want_score);
+    free(want_elem);
+    free(back);
+    free(want_filled_occ);
+}
+
+/* Special HALF values: > 0.5 is filled (NaN is not, +inf is), the sum
+ * carries inf/NaN, negative values subtract, subnormals count exactly. */
+static void test_special_values(void)
+{
+    const uint32_t X = 4, Y = 3, Z = 2;
+    static const uint16_t sub[24] = { 0x0001, 0x0001, 0x0001, 0x0001, 0x03FF, 0x3800, 0x3801, 0x3C00,
+                                      0x37FF, 0x0000, 0x8000, 0x0400, 0x3BFF, 0x3BFF, 0x3BFF, 0x3BFF,
+                                      0x3BFF, 0x3BFF, 0x3BFF, 0x3BFF, 0x3BFF, 0x3BFF, 0x3BFF, 0xBC00 };
+    char path[1200];
+    snprintf(path, sizeof path, "%s/special.exr", dir);
+    exrgen_channel ch = { "coverage", EXR_PIXEL_HALF, sub };
+    CHECK(exrgen_write(path, X, Y, Z, &ch, 1, 0, 0, EXR_COMPRESSION_NONE, 1));
+    clvox_volume_info info;
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    int64_t exact = 0;
+    uint64_t filled = 0;
+    for (int i = 0; i < 24; i++) {
+        exact += (int64_t)ldexp(exrgen_half_value(sub[i]), 24);
+        filled += exrgen_half_value(sub[i]) > 0.5;
+    }
+    CHECK_MSG(info.coverage_sum == ldexp((double)exact, -24), "coverage_sum %.17g, expected %.17g",
+              info.coverage_sum, ldexp((double)exact, -24));
+    CHECK(info.filled_voxels == filled && filled == 13);
+    double want[24];
+    for (int i = 0; i < 24; i++) want[i] = exrgen_half_value(sub[i]);
+    check_stream("special values", path, "coverage", X, Y, Z, want);
+
+    uint16_t inf[24];
+    memcpy(inf, sub, sizeof inf);
+    inf[3] = 0x7C00; /* +inf: filled, sum infinite */
+    inf[4] = 0x7E00; /* NaN would make the sum NaN: keep it out here */
+    ch.data = inf;
+    CHECK(exrgen_write(path, X, Y, Z, &ch, 1, 2, 2, EXR_COMPRESSION_RLE, 1));
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    CHECK(isnan(info.coverage_sum));
+    CHECK(info.filled_voxels == 14); /* +inf in, NaN not, 0x03FF was not filled anyway */
+    for (int i = 0; i < 24; i++) want[i] = exrgen_half_value(inf[i]);
+    check_stream("inf and NaN", path, "coverage", X, Y, Z, want);
+    inf[4] = 0x0000;
+    CHECK(exrgen_write(path, X, Y, Z, &ch, 1, 0, 0, EXR_COMPRESSION_ZIP, 1));
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    CHECK(isinf(info.coverage_sum) && info.coverage_sum > 0);
+    unlink(path);
+}
+
+/* A sum that float or naive double accumulation would round: 2^20 voxels of
+ * the smallest subnormal plus ones. */
+static void test_exact_sum(void)
+{
+    const uint32_t X = 1024, Y = 64, Z = 17;
+    const size_t n = (size_t)X * Y * Z;
+    uint16_t *cov = malloc(n * 2);
+    if (!cov) abort();
+    int64_t exact = 0;
+    for (size_t i = 0; i < n; i++) {
+        cov[i] = (i % 3 == 0) ? 0x3BFF /* 1 - 2^-11 */ : (i % 3 == 1) ? 0x0001 /* 2^-24 */ : 0x3C00;
+        exact += (int64_t)ldexp(exrgen_half_value(cov[i]), 24);
+    }
+    char path[1200];
+    snprintf(path, sizeof path, "%s/sum.exr", dir);
+    exrgen_channel ch = { "coverage", EXR_PIXEL_HALF, cov };
+    CHECK(exrgen_write(path, X, Y, Z, &ch, 1, 1024, 64, EXR_COMPRESSION_RLE, 1));
+    clvox_volume_info info;
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    CHECK_MSG(info.coverage_sum == ldexp((double)exact, -24), "coverage_sum %.17g, expected %.17g",
+              info.coverage_sum, ldexp((double)exact, -24));
+    float fsum = 0;
+    for (size_t i = 0; i < n; i++) fsum += (float)exrgen_half_value(cov[i]);
+    CHECK((double)fsum != info.coverage_sum); /* the test can tell an inexact sum */
+    unlink(path);
+    free(cov);
+}
+
+static void test_errors_and_cancel(void)
+{
+    const uint32_t X = 5, Y = 4, Z = 9;
+    const size_t n = (size_t)X * Y * Z;
+    uint16_t cov[5 * 4 * 9];
+    uint32_t elem[5 * 4 * 9];
+    for (size_t i = 0; i < n; i++) {
+        cov[i] = random_coverage();
+        elem[i] = (uint32_t)i;
+    }
+    char path[1200];
+    snprintf(path, sizeof path, "%s/err.exr", dir);
+    exrgen_channel ch[] = { { "coverage", EXR_PIXEL_HALF, cov }, { "element", EXR_PIXEL_UINT, elem } };
+    CHECK(exrgen_write(path, X, Y, Z, ch, 2, 5, 3, EXR_COMPRESSION_RLE, 1));
+
+    float vol[5 * 4 * 9];
+    collect c = { X, Y, Z, vol, 0, 0, 0, UINT32_MAX };
+    clvox_volume_info info;
+    /* missing channel: the message lists what the file has */
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "occupancy", &info, on_slice, &c), CLVOX_ERR_EXR);
+    CHECK(strstr(clvox_context_error(ctx), "occupancy") != NULL);
+    CHECK(strstr(clvox_context_error(ctx), "coverage,element") != NULL);
+    CHECK(c.calls == 0);
+    CHECK(strcmp(info.channels, "coverage,element") == 0 && info.dims[2] == Z); /* header still given */
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "Coverage", &info, on_slice, &c), CLVOX_ERR_EXR);
+    /* bad arguments */
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, NULL, &info, on_slice, &c), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "", &info, on_slice, &c), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "coverage", &info, NULL, &c), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, NULL, "coverage", &info, on_slice, &c),
+                 CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(NULL, clvox_volume_read_slices(NULL, path, "coverage", &info, on_slice, &c),
+                 CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(c.calls == 0);
+
+    /* cancel from the callback at z = 2: exactly three calls */
+    c.cancel_at = 2;
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "coverage", NULL, on_slice, &c), CLVOX_ERR_CANCELLED);
+    CHECK(c.calls == 3 && !c.out_of_order);
+    CHECK(strstr(clvox_context_error(ctx), "cancelled") != NULL);
+    /* cancel at the last slice still reports it */
+    c.calls = c.next_z = 0;
+    c.cancel_at = Z - 1;
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "element", NULL, on_slice, &c), CLVOX_ERR_CANCELLED);
+    CHECK(c.calls == Z);
+
+    /* neither occupancy nor coverage: not a clvox volume for clvox_volume_read, still streamable */
+    CHECK(exrgen_write(path, X, Y, Z, &ch[1], 1, 0, 0, EXR_COMPRESSION_NONE, 1));
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, path, &info, NULL, 0), CLVOX_ERR_EXR);
+    CHECK(strstr(clvox_context_error(ctx), "has: element") != NULL);
+    c.calls = c.next_z = 0;
+    c.cancel_at = UINT32_MAX;
+    CHECK_OK(ctx, clvox_volume_read_slices(ctx, path, "element", NULL, on_slice, &c));
+    CHECK(c.calls == Z && vol[n - 1] == (float)(n - 1));
+
+    /* not a clvox volume, not an EXR, a directory, missing */
+    CHECK(exrgen_write(path, X, Y, Z, ch, 1, 0, 0, EXR_COMPRESSION_NONE, 0));
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "coverage", &info, on_slice, &c), CLVOX_ERR_EXR);
+    CHECK(strstr(clvox_context_error(ctx), "not a clvox volume") != NULL);
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs("not an EXR\n", f);
+        fclose(f);
+    }
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "coverage", &info, on_slice, &c), CLVOX_ERR_EXR);
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, dir, "coverage", &info, on_slice, &c), CLVOX_ERR_IO);
+    unlink(path);
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "coverage", &info, on_slice, &c), CLVOX_ERR_IO);
+}
+
+int main(void)
+{
+    clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
+    o.host_only = 1;
+    if (clvox_context_create(&o, &ctx) != CLVOX_OK) {
+        fprintf(stderr, "host-only context: %s\n", clvox_context_error(ctx));
+        printf("0 passed, 1 failed\n");
+        return 1;
+    }
+    snprintf(dir, sizeof dir, "%s/read-%ld", test_tmpdir(), (long)getpid());
+    mkdir(dir, 0777);
+
+    test_layouts();
+    test_special_values();
+    test_exact_sum();
+    test_errors_and_cancel();
+
+    CHECK_MSG(rmdir(dir) == 0, "%s is not empty: a file was left behind", dir);
+    clvox_context_destroy(ctx);
+    return test_report();
+}

@@ -243,10 +243,12 @@ typedef struct clvox_voxelize_options {
 /* Per-voxel channels a run can produce (clvox_voxelize_options.channels). */
 #define CLVOX_CHANNEL_OCCUPANCY 0x1u /* 0/1: inside (binary), or coverage > threshold */
 #define CLVOX_CHANNEL_COVERAGE 0x2u  /* fraction of the voxel's samples inside, [0,1] */
-/* Samples per voxel: oversample^2 * points at most this many (counts are
- * 16-bit on the device); oversample and points at most CLVOX_MAX_OVERSAMPLE. */
+/* Limits of oversampling: at most CLVOX_MAX_OVERSAMPLE^2 = 256 rays per
+ * column, CLVOX_MAX_POINTS points per voxel and CLVOX_MAX_SAMPLES samples per
+ * voxel in all (counts are 16-bit on the device). */
+#define CLVOX_MAX_OVERSAMPLE 16u
+#define CLVOX_MAX_POINTS 255u
 #define CLVOX_MAX_SAMPLES 65535u
-#define CLVOX_MAX_OVERSAMPLE 255u
 
 typedef struct clvox_stats {
     double seconds[CLVOX_STAGE_COUNT];

@@ -1,19 +1,36 @@
-/* Stage cast, and the ray method that strings partition -> cast -> classify
+/* Stage cast, and the ray method that strings partition -> cast -> consumer
  * together for one slab (Thon et al. 3.3).
  *
- * Per slab: the host lists the slab's rays (one per voxel column, at the
- * column centre; the kernels accept any (v,w) so later jittered rays reuse
- * them), then the device runs leaf lookup, intersection, sort and classify.
- * Rays with more crossings than the buffer holds are found from the counts
- * and cast again with a buffer as large as the largest count. */
+ * One cast, two consumers. A batch is a list of rays (any (v,w) positions)
+ * that the device runs through leaf lookup, intersection and sort; the
+ * sorted crossing lists then go to the consumer kernel:
+ *  - classify (binary): one ray per voxel column, at the column centre;
+ *    the parity of the crossings beyond each centre gives occupancy bits;
+ *  - coverage (grey levels, 3.3.4): N x N rays per column (positions from
+ *    kernels/sampler.h), and kernels/coverage.cl counts the points inside
+ *    per voxel over the column's rays.
+ * A binary slab is one batch. A coverage slab is cut into batches of at most
+ * max_rays rays (whole columns), so the ray and crossing buffers are those of
+ * the binary run whatever N is. Rays with more crossings than the buffer
+ * holds are found from the counts and cast again (in coverage runs, with
+ * the rest of their column) with a buffer as large as the largest count, in
+ * batches of at most max_rays * capacity crossings (at least one column). */
 #include "internal.h"
 #include "classify.h"
+#include "../kernels/sampler.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define DEFAULT_HIT_CAPACITY 32u
+
+/* Device buffers of one batch. */
+typedef struct batch_mem {
+    cl_mem rays, cols, leaf, hits, counts, filled, sums;
+    size_t max_rays, max_items; /* items: rays (binary) or columns (coverage) */
+    cl_uint capacity;
+} batch_mem;
 
 struct clvox__method_state {
     clvox_context *ctx;
@@ -23,14 +40,68 @@ struct clvox__method_state {
     uint32_t dim_u, dim_v, dim_w;
     clvox__quadtree qt;
     cl_mem soup, nodes, refs;
-    cl_kernel k_lookup, k_intersect, k_sort, k_classify;
-    uint32_t capacity;
-    size_t max_rays;
-    cl_mem rays, leaf, hits, counts, filled;
-    clvox_ray *rays_host;
-    uint32_t *counts_host, *filled_host;
+    cl_kernel k_lookup, k_intersect, k_sort, k_classify, k_coverage;
     uint32_t leaf_size;
+    batch_mem mem;               /* the fast pass */
+    clvox_ray *rays_host;        /* max_rays */
+    clvox_column *cols_host;     /* coverage: max_items */
+    uint32_t *counts_host;       /* max_rays */
+    uint32_t *filled_host;       /* max_items */
+    uint64_t *sums_host;         /* coverage: max_items */
+    /* coverage */
+    int coverage;                /* 1: the coverage consumer */
+    uint32_t N, M, R;            /* R = N*N rays per column, M points per voxel */
+    int stochastic;
+    uint32_t seed_lo, seed_hi;
+    double threshold;            /* occupancy: coverage > threshold ... */
+    uint32_t occ_min;            /* ... i.e. count >= occ_min */
+    cl_mem value_of_count;       /* ushort[R*M+1]: HALF bits, or the count itself */
+    uint32_t channels;
 };
+
+/* Where one batch's voxels go in the slab. */
+typedef struct slab_target {
+    cl_uint u_begin, u_count; /* voxels along the rays covered by the slab */
+    cl_uint out_stride;       /* bit-row words between voxels of a ray; 0: one row */
+    const clvox__slab_out *out;
+} slab_target;
+
+static void batch_mem_release(batch_mem *m)
+{
+    clvox__release_mem(&m->rays);
+    clvox__release_mem(&m->cols);
+    clvox__release_mem(&m->leaf);
+    clvox__release_mem(&m->hits);
+    clvox__release_mem(&m->counts);
+    clvox__release_mem(&m->filled);
+    clvox__release_mem(&m->sums);
+}
+
+static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max_rays, size_t max_items,
+                                    cl_uint capacity, int coverage)
+{
+    clvox_status st = CLVOX_OK;
+    memset(m, 0, sizeof *m);
+    m->max_rays = max_rays;
+    m->max_items = max_items;
+    m->capacity = capacity;
+    if (max_rays > SIZE_MAX / ((size_t)capacity * ctx->real_size))
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "crossing buffer for %zu rays x %u too large", max_rays,
+                           capacity);
+    m->rays = clvox__buffer(ctx, CL_MEM_READ_ONLY, max_rays * sizeof(clvox_ray), NULL, &st, "rays");
+    if (st == CLVOX_OK) m->leaf = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * sizeof(cl_uint), NULL, &st, "leaves");
+    if (st == CLVOX_OK)
+        m->hits = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * capacity * ctx->real_size, NULL, &st, "crossings");
+    if (st == CLVOX_OK) m->counts = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * sizeof(cl_uint), NULL, &st, "counts");
+    if (st == CLVOX_OK)
+        m->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * sizeof(cl_uint), NULL, &st, "filled");
+    if (st == CLVOX_OK && coverage)
+        m->cols = clvox__buffer(ctx, CL_MEM_READ_ONLY, max_items * sizeof(clvox_column), NULL, &st, "columns");
+    if (st == CLVOX_OK && coverage)
+        m->sums = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * sizeof(cl_ulong), NULL, &st, "column sums");
+    if (st != CLVOX_OK) batch_mem_release(m);
+    return st;
+}
 
 static void ray_release(clvox__method_state *s)
 {
@@ -38,25 +109,59 @@ static void ray_release(clvox__method_state *s)
     clvox__release_mem(&s->soup);
     clvox__release_mem(&s->nodes);
     clvox__release_mem(&s->refs);
-    clvox__release_mem(&s->rays);
-    clvox__release_mem(&s->leaf);
-    clvox__release_mem(&s->hits);
-    clvox__release_mem(&s->counts);
-    clvox__release_mem(&s->filled);
+    clvox__release_mem(&s->value_of_count);
+    batch_mem_release(&s->mem);
     if (s->k_lookup) clReleaseKernel(s->k_lookup);
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
     if (s->k_sort) clReleaseKernel(s->k_sort);
     if (s->k_classify) clReleaseKernel(s->k_classify);
+    if (s->k_coverage) clReleaseKernel(s->k_coverage);
     clvox__quadtree_free(&s->qt);
     free(s->rays_host);
+    free(s->cols_host);
     free(s->counts_host);
     free(s->filled_host);
+    free(s->sums_host);
     free(s);
 }
 
+/* Smallest count whose fraction count / samples is > threshold. */
+static uint32_t occupancy_min_count(double threshold, uint32_t samples)
+{
+    uint32_t t = 0;
+    while (t <= samples && !((double)t / samples > threshold)) t++;
+    return t; /* samples + 1: never occupied */
+}
+
+/* The coverage consumer's settings and its count -> value table. */
+static clvox_status coverage_prepare(clvox__method_state *s, const clvox_voxelize_options *o, const clvox__run *run)
+{
+    clvox_context *ctx = s->ctx;
+    s->coverage = 1;
+    s->N = o->oversample;
+    s->M = o->oversample_points ? o->oversample_points : o->oversample;
+    s->R = s->N * s->N;
+    s->stochastic = o->stochastic != 0;
+    s->seed_lo = (uint32_t)o->seed;
+    s->seed_hi = (uint32_t)(o->seed >> 32);
+    const uint32_t S = s->R * s->M;
+    s->threshold = o->threshold_set ? o->threshold : 0.5;
+    s->occ_min = occupancy_min_count(s->threshold, S);
+    uint16_t *table = malloc(((size_t)S + 1) * sizeof *table);
+    if (!table) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    for (uint32_t t = 0; t <= S; t++)
+        table[t] = run->coverage_counts ? (uint16_t)t : clvox__half_from_unit((double)t / S);
+    clvox_status st = CLVOX_OK;
+    s->value_of_count = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ((size_t)S + 1) * sizeof *table,
+                                      table, &st, "coverage table");
+    free(table);
+    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_coverage", &s->k_coverage);
+    return st;
+}
+
 static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                const clvox_voxelize_options *opts, uint32_t slab_depth, clvox_stats *stats,
-                                clvox__method_state **out)
+                                const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
+                                clvox_stats *stats, clvox__method_state **out)
 {
     *out = NULL;
     clvox__method_state *s = calloc(1, sizeof *s);
@@ -68,19 +173,20 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     s->dim_u = grid->dims[s->axes.perm[0]];
     s->dim_v = grid->dims[s->axes.perm[1]];
     s->dim_w = grid->dims[s->axes.perm[2]];
-    s->capacity = opts->hit_capacity ? opts->hit_capacity : DEFAULT_HIT_CAPACITY;
     s->leaf_size = opts->quadtree_leaf_size ? opts->quadtree_leaf_size : 8;
+    s->channels = run->channels;
 
-    /* Rays of one slab: x-rays cover Y*nz columns, y-rays X*nz, z-rays all X*Y. */
+    /* Columns of one slab: x-rays cover Y*nz columns, y-rays X*nz, z-rays all X*Y. */
     const uint32_t *d = grid->dims;
-    s->max_rays = s->axis == CLVOX_AXIS_X   ? (size_t)d[1] * slab_depth
-                  : s->axis == CLVOX_AXIS_Y ? (size_t)d[0] * slab_depth
-                                            : (size_t)d[0] * d[1];
+    size_t columns = s->axis == CLVOX_AXIS_X   ? (size_t)d[1] * slab_depth
+                     : s->axis == CLVOX_AXIS_Y ? (size_t)d[0] * slab_depth
+                                               : (size_t)d[0] * d[1];
 
-    clvox_status st;
+    clvox_status st = CLVOX_OK;
+    if (opts->oversample) st = coverage_prepare(s, opts, run);
     float *soup = NULL;
     double t0 = clvox__now();
-    st = clvox__grid_space_soup(ctx, mesh, grid, s->axes, &soup);
+    if (st == CLVOX_OK) st = clvox__grid_space_soup(ctx, mesh, grid, s->axes, &soup);
     if (st == CLVOX_OK)
         st = clvox__quadtree_build(ctx, soup, mesh->triangle_count, s->dim_v, s->dim_w, opts->quadtree_max_depth,
                                    s->leaf_size, &s->qt);
@@ -106,26 +212,31 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_quadtree_lookup", &s->k_lookup);
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_intersect", &s->k_intersect);
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_sort", &s->k_sort);
-    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_classify", &s->k_classify);
+    if (st == CLVOX_OK && !s->coverage) st = clvox__kernel(ctx, "clvox_classify", &s->k_classify);
 
-    size_t nr = s->max_rays;
-    if (st == CLVOX_OK && nr > SIZE_MAX / (s->capacity * ctx->real_size))
-        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "crossing buffer too large");
-    if (st == CLVOX_OK) s->rays = clvox__buffer(ctx, CL_MEM_READ_ONLY, nr * sizeof(clvox_ray), NULL, &st, "rays");
-    if (st == CLVOX_OK) s->leaf = clvox__buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "leaves");
-    if (st == CLVOX_OK)
-        s->hits = clvox__buffer(ctx, CL_MEM_READ_WRITE, nr * s->capacity * ctx->real_size, NULL, &st, "crossings");
-    if (st == CLVOX_OK) s->counts = clvox__buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "counts");
-    if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, nr * sizeof(cl_uint), NULL, &st, "filled");
+    /* A coverage batch holds whole columns: as many rays as a binary slab,
+     * and at least one column. */
+    size_t max_rays = columns, max_items = columns;
+    if (s->coverage) {
+        max_items = columns / s->R ? columns / s->R : 1;
+        max_rays = max_items * s->R;
+    }
+    cl_uint capacity = opts->hit_capacity ? opts->hit_capacity : DEFAULT_HIT_CAPACITY;
+    if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage);
     if (st == CLVOX_OK) {
-        s->rays_host = malloc(nr * sizeof *s->rays_host);
-        s->counts_host = malloc(nr * sizeof *s->counts_host);
-        s->filled_host = malloc(nr * sizeof *s->filled_host);
-        if (!s->rays_host || !s->counts_host || !s->filled_host)
-            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
+        s->rays_host = malloc(max_rays * sizeof *s->rays_host);
+        s->counts_host = malloc(max_rays * sizeof *s->counts_host);
+        s->filled_host = malloc(max_items * sizeof *s->filled_host);
+        if (s->coverage) {
+            s->cols_host = malloc(max_items * sizeof *s->cols_host);
+            s->sums_host = malloc(max_items * sizeof *s->sums_host);
+        }
+        if (!s->rays_host || !s->counts_host || !s->filled_host || (s->coverage && (!s->cols_host || !s->sums_host)))
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", max_rays);
     }
     if (stats) {
-        uint64_t b = (uint64_t)nr * (sizeof(clvox_ray) * 2 + 4 * 4 + s->capacity * ctx->real_size);
+        uint64_t b = (uint64_t)max_rays * (sizeof(clvox_ray) * 2 + 3 * 4 + capacity * ctx->real_size) +
+                     (uint64_t)max_items * (4 * 2 + (s->coverage ? sizeof(clvox_column) + 8 * 2 : 0));
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;
     }
     if (st != CLVOX_OK) {
@@ -136,36 +247,86 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     return CLVOX_OK;
 }
 
-/* Enqueues lookup, intersect, sort and classify for `n` rays. */
-static clvox_status cast_rays(clvox__method_state *s, cl_mem rays, cl_uint n, cl_mem leaf, cl_mem hits,
-                              cl_uint capacity, cl_mem counts, cl_mem filled, cl_uint u_begin, cl_uint u_count,
-                              cl_uint out_stride, cl_mem out, clvox__slab_stats *ss)
+static clvox_status coverage_enqueue(clvox__method_state *s, const batch_mem *m, cl_uint n_cols,
+                                     const slab_target *t, cl_event *ev)
+{
+    clvox_context *ctx = s->ctx;
+    const cl_uint X = s->grid.dims[0], Y = s->grid.dims[1], W = clvox__row_words(X);
+    /* voxels between consecutive voxels of a ray in the coverage plane */
+    const cl_uint vox_stride = s->axis == CLVOX_AXIS_X ? 0 : s->axis == CLVOX_AXIS_Y ? X : X * Y;
+    cl_uint R = s->R, M = s->M, st_flag = (cl_uint)s->stochastic;
+    cl_mem cov = t->out->coverage, occ = t->out->occupancy;
+    cl_int err = 0;
+    cl_uint i = 0;
+    cl_kernel k = s->k_coverage;
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->cols);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &n_cols);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &R);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &M);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->hits);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->counts);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &m->capacity);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_begin);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_count);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &st_flag);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->seed_lo);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->seed_hi);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->value_of_count);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->occ_min);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &X);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &W);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &vox_stride);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->out_stride);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), cov ? &cov : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), occ ? &occ : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->sums);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_coverage)");
+    size_t local = 64, global = ((size_t)n_cols + local - 1) / local * local;
+    err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_coverage");
+    return CLVOX_OK;
+}
+
+/* Uploads a batch (n rays; coverage: n_cols columns of R rays each), runs
+ * lookup, intersect, sort and the consumer, and reads back the crossing
+ * count of every ray, the filled voxels of every item and (coverage) the
+ * count sum of every column. */
+static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const clvox_ray *rays, cl_uint n,
+                               const clvox_column *cols, cl_uint n_cols, const slab_target *t, uint32_t *counts,
+                               uint32_t *filled, uint64_t *sums, clvox__slab_stats *ss)
 {
     clvox_context *ctx = s->ctx;
     size_t local = 64, global = ((size_t)n + local - 1) / local * local;
     cl_event ev[4] = {0};
     cl_int err = 0;
     clvox_status st = CLVOX_OK;
+    cl_uint capacity = m->capacity;
 
-    err |= clSetKernelArg(s->k_lookup, 0, sizeof(cl_mem), &rays);
+    err = clEnqueueWriteBuffer(ctx->queue, m->rays, CL_FALSE, 0, n * sizeof *rays, rays, 0, NULL, NULL);
+    if (err == CL_SUCCESS && s->coverage)
+        err = clEnqueueWriteBuffer(ctx->queue, m->cols, CL_FALSE, 0, n_cols * sizeof *cols, cols, 0, NULL, NULL);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "uploading rays");
+
+    err |= clSetKernelArg(s->k_lookup, 0, sizeof(cl_mem), &m->rays);
     err |= clSetKernelArg(s->k_lookup, 1, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_lookup, 2, sizeof(cl_mem), &s->nodes);
-    err |= clSetKernelArg(s->k_lookup, 3, sizeof(cl_mem), &leaf);
+    err |= clSetKernelArg(s->k_lookup, 3, sizeof(cl_mem), &m->leaf);
 
-    err |= clSetKernelArg(s->k_intersect, 0, sizeof(cl_mem), &rays);
+    err |= clSetKernelArg(s->k_intersect, 0, sizeof(cl_mem), &m->rays);
     err |= clSetKernelArg(s->k_intersect, 1, sizeof(cl_uint), &n);
-    err |= clSetKernelArg(s->k_intersect, 2, sizeof(cl_mem), &leaf);
+    err |= clSetKernelArg(s->k_intersect, 2, sizeof(cl_mem), &m->leaf);
     err |= clSetKernelArg(s->k_intersect, 3, sizeof(cl_mem), &s->nodes);
     err |= clSetKernelArg(s->k_intersect, 4, sizeof(cl_mem), &s->refs);
     err |= clSetKernelArg(s->k_intersect, 5, sizeof(cl_mem), &s->soup);
     err |= clSetKernelArg(s->k_intersect, 6, sizeof(cl_uint), &capacity);
-    err |= clSetKernelArg(s->k_intersect, 7, sizeof(cl_mem), &hits);
-    err |= clSetKernelArg(s->k_intersect, 8, sizeof(cl_mem), &counts);
+    err |= clSetKernelArg(s->k_intersect, 7, sizeof(cl_mem), &m->hits);
+    err |= clSetKernelArg(s->k_intersect, 8, sizeof(cl_mem), &m->counts);
 
     err |= clSetKernelArg(s->k_sort, 0, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_sort, 1, sizeof(cl_uint), &capacity);
-    err |= clSetKernelArg(s->k_sort, 2, sizeof(cl_mem), &hits);
-    err |= clSetKernelArg(s->k_sort, 3, sizeof(cl_mem), &counts);
+    err |= clSetKernelArg(s->k_sort, 2, sizeof(cl_mem), &m->hits);
+    err |= clSetKernelArg(s->k_sort, 3, sizeof(cl_mem), &m->counts);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(cast kernels)");
 
     err = clEnqueueNDRangeKernel(ctx->queue, s->k_lookup, 1, NULL, &global, &local, 0, NULL, &ev[0]);
@@ -177,11 +338,23 @@ static clvox_status cast_rays(clvox__method_state *s, cl_mem rays, cl_uint n, cl
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "enqueue clvox_sort");
     }
     if (st == CLVOX_OK) {
-        clvox__classify_args a = {rays, n, hits, counts, capacity, u_begin, u_count, out_stride, out, filled};
-        st = clvox__classify_enqueue(ctx, s->k_classify, &a, &ev[3]);
+        if (s->coverage) {
+            st = coverage_enqueue(s, m, n_cols, t, &ev[3]);
+        } else {
+            clvox__classify_args a = {m->rays, n, m->hits, m->counts, capacity, t->u_begin, t->u_count,
+                                      t->out_stride, t->out->occupancy, m->filled};
+            st = clvox__classify_enqueue(ctx, s->k_classify, &a, &ev[3]);
+        }
     }
+    cl_uint items = s->coverage ? n_cols : n;
     if (st == CLVOX_OK) {
-        err = clWaitForEvents(1, &ev[3]);
+        err = clEnqueueReadBuffer(ctx->queue, m->counts, CL_FALSE, 0, n * sizeof *counts, counts, 0, NULL, NULL);
+        if (err == CL_SUCCESS)
+            err = clEnqueueReadBuffer(ctx->queue, m->filled, CL_FALSE, 0, items * sizeof *filled, filled, 0, NULL,
+                                      NULL);
+        if (err == CL_SUCCESS && s->coverage)
+            err = clEnqueueReadBuffer(ctx->queue, m->sums, CL_FALSE, 0, items * sizeof *sums, sums, 0, NULL, NULL);
+        if (err == CL_SUCCESS) err = clFinish(ctx->queue);
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the cast kernels");
     }
     if (st == CLVOX_OK) {
@@ -193,134 +366,174 @@ static clvox_status cast_rays(clvox__method_state *s, cl_mem rays, cl_uint n, cl
     return st;
 }
 
-/* Rays whose crossings did not fit: cast them again, all together, with a
- * buffer as large as the largest count. */
-static clvox_status redo_overflow(clvox__method_state *s, const uint32_t *idx, size_t m, uint32_t need,
-                                  cl_uint u_begin, cl_uint u_count, cl_uint out_stride, cl_mem out,
+/* Items (rays, or columns of R rays) whose crossings did not fit: cast
+ * them again with a buffer as large as the largest count, in batches of at
+ * most the fast pass's crossing buffer (at least one item). `rays` holds R
+ * rays per item, `cols` (coverage) one column per item; `expect` the counts
+ * of the first pass, which the redo must reproduce. */
+static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays, const clvox_column *cols,
+                                  const uint32_t *expect, size_t items, uint32_t need, const slab_target *t,
                                   clvox__slab_stats *ss)
 {
     clvox_context *ctx = s->ctx;
-    clvox_status st = CLVOX_OK;
-    clvox_ray *r = malloc(m * sizeof *r);
-    uint32_t *cnt = malloc(m * sizeof *cnt), *fil = malloc(m * sizeof *fil);
-    cl_mem rays = NULL, leaf = NULL, hits = NULL, counts = NULL, filled = NULL;
-    if (!r || !cnt || !fil) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", m);
-    if (st == CLVOX_OK && (size_t)need > SIZE_MAX / ctx->real_size / m)
-        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "crossing buffer for %zu rays x %u too large", m, need);
-    for (size_t i = 0; st == CLVOX_OK && i < m; i++) r[i] = s->rays_host[idx[i]];
-    if (st == CLVOX_OK)
-        rays = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, m * sizeof *r, r, &st, "overflow rays");
-    if (st == CLVOX_OK) leaf = clvox__buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow leaves");
-    if (st == CLVOX_OK)
-        hits = clvox__buffer(ctx, CL_MEM_READ_WRITE, m * need * ctx->real_size, NULL, &st, "overflow crossings");
-    if (st == CLVOX_OK) counts = clvox__buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow counts");
-    if (st == CLVOX_OK) filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, m * 4, NULL, &st, "overflow filled");
-    if (st == CLVOX_OK)
-        st = cast_rays(s, rays, (cl_uint)m, leaf, hits, need, counts, filled, u_begin, u_count, out_stride, out, ss);
-    if (st == CLVOX_OK) {
-        cl_int err = clEnqueueReadBuffer(ctx->queue, counts, CL_TRUE, 0, m * 4, cnt, 0, NULL, NULL);
-        if (err == CL_SUCCESS) err = clEnqueueReadBuffer(ctx->queue, filled, CL_TRUE, 0, m * 4, fil, 0, NULL, NULL);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "reading overflow results");
-    }
-    for (size_t i = 0; st == CLVOX_OK && i < m; i++) {
-        if (cnt[i] != s->counts_host[idx[i]])
-            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "overflow redo counted %u crossings instead of %u", cnt[i],
-                             s->counts_host[idx[i]]);
-        else
+    const size_t R = s->coverage ? s->R : 1;
+    size_t per = (s->mem.max_rays * s->mem.capacity) / ((size_t)need * R);
+    if (per < 1) per = 1;
+    if (per > items) per = items;
+    batch_mem m;
+    clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage);
+    if (st != CLVOX_OK) return st;
+    uint32_t *cnt = malloc(per * R * sizeof *cnt), *fil = malloc(per * sizeof *fil);
+    uint64_t *sum = malloc(per * sizeof *sum);
+    if (!cnt || !fil || !sum) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", items);
+    for (size_t i0 = 0; st == CLVOX_OK && i0 < items; i0 += per) {
+        size_t k = items - i0 < per ? items - i0 : per;
+        st = cast_batch(s, &m, rays + i0 * R, (cl_uint)(k * R), cols ? cols + i0 : NULL, (cl_uint)k, t, cnt, fil, sum,
+                        ss);
+        for (size_t i = 0; st == CLVOX_OK && i < k * R; i++)
+            if (cnt[i] != expect[i0 * R + i])
+                st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "overflow redo counted %u crossings instead of %u", cnt[i],
+                                 expect[i0 * R + i]);
+        for (size_t i = 0; st == CLVOX_OK && i < k; i++) {
             ss->filled += fil[i];
+            if (s->coverage) ss->coverage_count += sum[i];
+        }
     }
-    clvox__release_mem(&rays);
-    clvox__release_mem(&leaf);
-    clvox__release_mem(&hits);
-    clvox__release_mem(&counts);
-    clvox__release_mem(&filled);
-    free(r);
+    batch_mem_release(&m);
     free(cnt);
     free(fil);
+    free(sum);
     return st;
 }
 
-static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, const clvox__slab_out *planes,
-                            clvox__slab_stats *ss)
+/* Column i of the slab that starts at z0: its ray-plane position (v, w) and
+ * where its voxels go (out_base, bit; see clvox_ray). */
+static void slab_column(const clvox__method_state *s, uint32_t z0, size_t i, uint32_t *v, uint32_t *w,
+                        clvox_u32 *out_base, clvox_u32 *bit)
 {
-    cl_mem out = planes->occupancy;
+    const uint32_t X = s->grid.dims[0], Y = s->grid.dims[1], W = clvox__row_words(X);
+    if (s->axis == CLVOX_AXIS_X) { /* (v, w) = (y, z) */
+        uint32_t y = (uint32_t)(i % Y), dz = (uint32_t)(i / Y);
+        *v = y, *w = z0 + dz, *out_base = (dz * Y + y) * W, *bit = 0;
+    } else if (s->axis == CLVOX_AXIS_Y) { /* (z, x) */
+        uint32_t x = (uint32_t)(i % X), dz = (uint32_t)(i / X);
+        *v = z0 + dz, *w = x, *out_base = dz * Y * W + x / 32, *bit = x % 32;
+    } else { /* (x, y) */
+        uint32_t x = (uint32_t)(i % X), y = (uint32_t)(i / X);
+        *v = x, *w = y, *out_base = y * W + x / 32, *bit = x % 32;
+    }
+}
+
+/* The R = N*N rays of a coverage column (sampler.h). */
+static void column_rays(const clvox__method_state *s, uint32_t v, uint32_t w, uint32_t id, clvox_ray *out)
+{
+    const uint32_t N = s->N;
+    for (uint32_t b = 0; b < N; b++)
+        for (uint32_t a = 0; a < N; a++) {
+            uint32_t r = a + N * b, bits[4] = {0, 0, 0, 0};
+            if (s->stochastic) clvox_philox4x32_10(id, r, CLVOX_SAMPLER_RAY_WORD, 0, s->seed_lo, s->seed_hi, bits);
+            double pv = ((double)v - 0.5) + clvox_stratum(a, N, s->stochastic, bits[0]);
+            double pw = ((double)w - 0.5) + clvox_stratum(b, N, s->stochastic, bits[1]);
+            out[r] = (clvox_ray){(float)pv, (float)pw, 0, 0};
+        }
+}
+
+static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, const clvox__slab_out *out,
+                             clvox__slab_stats *ss)
+{
     clvox_context *ctx = s->ctx;
     const uint32_t X = s->grid.dims[0], Y = s->grid.dims[1];
     const uint32_t W = clvox__row_words(X);
-    size_t n = 0;
-    cl_uint u_begin = 0, u_count = s->dim_u, stride = 0;
-    /* The slab's rays and where each one's voxels go in the slab's bit rows
-     * (stride 0: the ray is a whole row). */
-    if (s->axis == CLVOX_AXIS_X) {
-        for (uint32_t z = z0; z < z0 + nz; z++)
-            for (uint32_t y = 0; y < Y; y++)
-                s->rays_host[n++] = (clvox_ray){(float)y, (float)z, ((z - z0) * Y + y) * W, 0};
-    } else if (s->axis == CLVOX_AXIS_Y) {
-        stride = W;
-        for (uint32_t z = z0; z < z0 + nz; z++)
-            for (uint32_t x = 0; x < X; x++)
-                s->rays_host[n++] = (clvox_ray){(float)z, (float)x, (z - z0) * Y * W + x / 32, x % 32};
-    } else {
-        stride = Y * W;
-        u_begin = z0;
-        u_count = nz;
-        for (uint32_t y = 0; y < Y; y++)
-            for (uint32_t x = 0; x < X; x++)
-                s->rays_host[n++] = (clvox_ray){(float)x, (float)y, y * W + x / 32, x % 32};
+    slab_target t = {0, s->dim_u, 0, out};
+    size_t columns = (size_t)Y * nz;
+    if (s->axis == CLVOX_AXIS_Y) {
+        t.out_stride = W;
+        columns = (size_t)X * nz;
+    } else if (s->axis == CLVOX_AXIS_Z) {
+        t.out_stride = Y * W;
+        t.u_begin = z0;
+        t.u_count = nz;
+        columns = (size_t)X * Y;
     }
-    cl_int err = CL_SUCCESS;
-    if (stride != 0) { /* these rays only set bits */
+    if (t.out_stride != 0 && out->occupancy) { /* these rays only set bits */
         cl_uint zero = 0;
-        err = clEnqueueFillBuffer(ctx->queue, out, &zero, sizeof zero, 0, (size_t)W * Y * nz * sizeof(cl_uint), 0,
-                                  NULL, NULL);
+        cl_int err = clEnqueueFillBuffer(ctx->queue, out->occupancy, &zero, sizeof zero, 0,
+                                         (size_t)W * Y * nz * sizeof(cl_uint), 0, NULL, NULL);
         if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the slab");
     }
-    err = clEnqueueWriteBuffer(ctx->queue, s->rays, CL_TRUE, 0, n * sizeof(clvox_ray), s->rays_host, 0, NULL, NULL);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "uploading rays");
-    clvox_status st = cast_rays(s, s->rays, (cl_uint)n, s->leaf, s->hits, s->capacity, s->counts, s->filled, u_begin,
-                                u_count, stride, out, ss);
-    if (st != CLVOX_OK) return st;
-    err = clEnqueueReadBuffer(ctx->queue, s->counts, CL_TRUE, 0, n * 4, s->counts_host, 0, NULL, NULL);
-    if (err == CL_SUCCESS)
-        err = clEnqueueReadBuffer(ctx->queue, s->filled, CL_TRUE, 0, n * 4, s->filled_host, 0, NULL, NULL);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "reading ray results");
-
     /* z-rays are the same for every slab: count them once. */
-    int count_rays = s->axis != CLVOX_AXIS_Z || z0 == 0;
-    size_t over = 0;
-    uint32_t need = 0;
-    for (size_t i = 0; i < n; i++) {
-        uint32_t c = s->counts_host[i];
-        if (count_rays) {
-            ss->odd_parity_rays += c & 1u;
-            if (c > ss->max_crossings) ss->max_crossings = c;
+    const int count_rays = s->axis != CLVOX_AXIS_Z || z0 == 0;
+    const size_t R = s->coverage ? s->R : 1;
+    const size_t per = s->mem.max_items; /* items (rays or columns) per batch */
+    clvox_status st = CLVOX_OK;
+    for (size_t c0 = 0; st == CLVOX_OK && c0 < columns; c0 += per) {
+        const size_t k = columns - c0 < per ? columns - c0 : per;
+        for (size_t i = 0; i < k; i++) {
+            uint32_t v, w;
+            clvox_u32 base, bit;
+            slab_column(s, z0, c0 + i, &v, &w, &base, &bit);
+            if (!s->coverage) {
+                s->rays_host[i] = (clvox_ray){(float)v, (float)w, base, bit};
+            } else {
+                uint32_t id = w * s->dim_v + v;
+                s->cols_host[i] = (clvox_column){id, base, bit, 0};
+                column_rays(s, v, w, id, s->rays_host + i * R);
+            }
         }
-        if (c > s->capacity) {
-            s->rays_host[over] = s->rays_host[i]; /* compact in place: over <= i */
-            s->counts_host[over] = c;
+        st = cast_batch(s, &s->mem, s->rays_host, (cl_uint)(k * R), s->cols_host, (cl_uint)k, &t, s->counts_host,
+                        s->filled_host, s->sums_host, ss);
+        if (st != CLVOX_OK) break;
+
+        /* Tally; compact the items that overflowed to the front (in place:
+         * over <= i), with their rays and first-pass counts. */
+        size_t over = 0;
+        uint32_t need = 0;
+        for (size_t i = 0; i < k; i++) {
+            int overflowed = 0;
+            for (size_t r = 0; r < R; r++) {
+                uint32_t c = s->counts_host[i * R + r];
+                if (count_rays) {
+                    ss->odd_parity_rays += c & 1u;
+                    if (c > ss->max_crossings) ss->max_crossings = c;
+                }
+                if (c > s->mem.capacity) {
+                    overflowed = 1;
+                    if (c > need) need = c;
+                }
+            }
+            if (!overflowed) {
+                ss->filled += s->filled_host[i];
+                if (s->coverage) ss->coverage_count += s->sums_host[i];
+                continue;
+            }
+            if (over != i) {
+                memmove(s->rays_host + over * R, s->rays_host + i * R, R * sizeof *s->rays_host);
+                memmove(s->counts_host + over * R, s->counts_host + i * R, R * sizeof *s->counts_host);
+                if (s->coverage) s->cols_host[over] = s->cols_host[i];
+            }
             over++;
-            if (c > need) need = c;
-        } else {
-            ss->filled += s->filled_host[i];
+        }
+        if (count_rays) ss->rays += k * R;
+        if (over) {
+            st = redo_overflow(s, s->rays_host, s->coverage ? s->cols_host : NULL, s->counts_host, over, need, &t, ss);
+            if (st == CLVOX_OK && count_rays) ss->overflow_rays += over * R;
         }
     }
-    if (count_rays) ss->rays += n;
-    if (over) {
-        uint32_t *idx = malloc(over * sizeof *idx);
-        if (!idx) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-        for (size_t i = 0; i < over; i++) idx[i] = (uint32_t)i;
-        st = redo_overflow(s, idx, over, need, u_begin, u_count, stride, out, ss);
-        free(idx);
-        if (st != CLVOX_OK) return st;
-        if (count_rays) ss->overflow_rays += over;
-    }
-    return CLVOX_OK;
+    return st;
 }
 
 static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
 {
-    snprintf(buf, size, "axis=%c quadtree_depth=%u quadtree_leaf_size=%u hit_capacity=%u rule=centre-on-surface:+x+y+z",
-             "?xyz"[s->axis], s->qt.depth, s->leaf_size, s->capacity);
+    int n = snprintf(buf, size, "axis=%c quadtree_depth=%u quadtree_leaf_size=%u hit_capacity=%u rule=centre-on-surface:+x+y+z",
+                     "?xyz"[s->axis], s->qt.depth, s->leaf_size, s->mem.capacity);
+    if (s->coverage && n > 0 && (size_t)n < size) {
+        int m = snprintf(buf + n, size - (size_t)n, " oversample=%ux%u points=%u sampling=%s seed=%llu sampler=philox4x32-10",
+                         s->N, s->N, s->M, s->stochastic ? "stratified-jitter" : "uniform",
+                         (unsigned long long)s->seed_lo | ((unsigned long long)s->seed_hi << 32));
+        n += m > 0 ? m : 0;
+        if ((s->channels & CLVOX_CHANNEL_OCCUPANCY) && (size_t)n < size)
+            snprintf(buf + n, size - (size_t)n, " occupancy=coverage>%.17g", s->threshold);
+    }
 }
 
 const clvox__method clvox__method_ray = {"ray", ray_prepare, ray_slab, ray_release, ray_describe};

@@ -150,6 +150,37 @@ static const char *parse_double(const char *s, int positive, double *out, const 
 }
 
 /* Comma-separated list of exactly `n` values. */
+/* Strict decimal uint64. */
+static const char *parse_u64(const char *s, uint64_t *out)
+{
+    if (!s || *s == '\0') return "empty value";
+    for (const char *p = s; *p; p++)
+        if (*p < '0' || *p > '9') return "not a non-negative integer";
+    errno = 0;
+    char *end = NULL;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno == ERANGE || *end != '\0') return "out of range (at most 18446744073709551615)";
+    *out = (uint64_t)v;
+    return NULL;
+}
+
+/* "occupancy,coverage" -> CLVOX_CHANNEL_* mask. */
+static const char *parse_channels(const char *s, uint32_t *out)
+{
+    uint32_t mask = 0;
+    while (*s) {
+        size_t n = strcspn(s, ",");
+        if (n == 9 && strncmp(s, "occupancy", 9) == 0) mask |= CLVOX_CHANNEL_OCCUPANCY;
+        else if (n == 8 && strncmp(s, "coverage", 8) == 0) mask |= CLVOX_CHANNEL_COVERAGE;
+        else return "unknown channel";
+        s += n;
+        if (*s == ',' && *++s == '\0') return "empty channel name";
+    }
+    if (!mask) return "no channel";
+    *out = mask;
+    return NULL;
+}
+
 static const char *parse_u32_list(const char *s, uint32_t min, uint32_t *out, int n)
 {
     for (int i = 0; i < n; i++) {
@@ -197,6 +228,7 @@ typedef struct cli_args {
     clvox_voxelize_options vox;
     const char *device;
     int list_devices, quiet, no_progress, help, version;
+    int seed_given;
 } cli_args;
 
 static int set_grid_kind(cli_args *a, int kind, const char *name)
@@ -331,6 +363,44 @@ static int parse_args(int argc, char **argv, cli_args *a)
                     return usage_error("--tetra-origin '%s': expected centroid, bbox or x,y,z", v);
                 a->vox.tetra_origin = CLVOX_TETRA_ORIGIN_POINT;
             }
+        } else if (VALUE_OPT(NULL, "--oversample")) {
+            NEED_VALUE("--oversample");
+            uint32_t nm[2] = {0, 0};
+            if (strchr(v, ',')) {
+                if ((why = parse_u32_list(v, 1, nm, 2)))
+                    return usage_error("--oversample '%s': %s (expected K or N,M, each at least 1)", v, why);
+            } else if ((why = parse_u32(v, 1, &nm[0], NULL))) {
+                return usage_error("--oversample '%s': %s (expected K or N,M, each at least 1)", v, why);
+            }
+            if (nm[0] > CLVOX_MAX_OVERSAMPLE)
+                return usage_error("--oversample '%s': at most %u rays per side (%u rays per column)", v,
+                                   CLVOX_MAX_OVERSAMPLE, CLVOX_MAX_OVERSAMPLE * CLVOX_MAX_OVERSAMPLE);
+            if (nm[1] > CLVOX_MAX_POINTS)
+                return usage_error("--oversample '%s': at most %u points per voxel", v, CLVOX_MAX_POINTS);
+            uint64_t samples = (uint64_t)nm[0] * nm[0] * (nm[1] ? nm[1] : nm[0]);
+            if (samples > CLVOX_MAX_SAMPLES)
+                return usage_error("--oversample '%s': %llu samples per voxel, at most %u", v,
+                                   (unsigned long long)samples, CLVOX_MAX_SAMPLES);
+            a->vox.oversample = nm[0];
+            a->vox.oversample_points = nm[1];
+        } else if (strcmp(arg, "--stochastic") == 0) {
+            a->vox.stochastic = 1;
+        } else if (VALUE_OPT(NULL, "--seed")) {
+            NEED_VALUE("--seed");
+            if ((why = parse_u64(v, &a->vox.seed))) return usage_error("--seed '%s': %s", v, why);
+            a->seed_given = 1;
+        } else if (VALUE_OPT(NULL, "--threshold")) {
+            NEED_VALUE("--threshold");
+            if ((why = parse_double(v, 0, &a->vox.threshold, NULL)))
+                return usage_error("--threshold '%s': %s (expected a number in [0, 1])", v, why);
+            if (!(a->vox.threshold >= 0.0 && a->vox.threshold <= 1.0))
+                return usage_error("--threshold '%s': outside [0, 1]", v);
+            a->vox.threshold_set = 1;
+        } else if (VALUE_OPT(NULL, "--channels")) {
+            NEED_VALUE("--channels");
+            if ((why = parse_channels(v, &a->vox.channels)))
+                return usage_error("--channels '%s': %s (expected a comma-separated list of occupancy, coverage)", v,
+                                   why);
         } else if (VALUE_OPT(NULL, "--threads")) {
             NEED_VALUE("--threads");
             if ((why = parse_u32(v, 0, &a->vox.threads, NULL))) return usage_error("--threads '%s': %s", v, why);
@@ -344,6 +414,16 @@ static int parse_args(int argc, char **argv, cli_args *a)
 #undef VALUE_OPT
 #undef NEED_VALUE
     }
+    /* combinations the library would also refuse, said in CLI terms */
+    if (!a->vox.oversample) {
+        if (a->vox.stochastic) return usage_error("--stochastic needs --oversample");
+        if (a->seed_given) return usage_error("--seed needs --oversample --stochastic");
+        if (a->vox.threshold_set) return usage_error("--threshold needs --oversample (binary runs are already 0/1)");
+        if (a->vox.channels & CLVOX_CHANNEL_COVERAGE) return usage_error("--channels coverage needs --oversample");
+    } else if (a->vox.method == CLVOX_METHOD_TETRA) {
+        return usage_error("--oversample: the tetra method does not compute coverage (use --method ray)");
+    }
+    if (a->seed_given && !a->vox.stochastic) return usage_error("--seed needs --stochastic");
     return 0;
 }
 
@@ -781,17 +861,32 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
                (unsigned long long)s->quadtree_leaves, leaf, slab, compression_name(a->vox.compression));
     }
 
+    const int grey = (s->channels & CLVOX_CHANNEL_COVERAGE) != 0;
+    if (a->vox.oversample) {
+        uint32_t N = a->vox.oversample, M = a->vox.oversample_points ? a->vox.oversample_points : N;
+        char seed[48] = "";
+        if (a->vox.stochastic) snprintf(seed, sizeof seed, ", seed %llu", (unsigned long long)a->vox.seed);
+        char occ[64] = "";
+        if (s->channels & CLVOX_CHANNEL_OCCUPANCY)
+            snprintf(occ, sizeof occ, " (= coverage > %g)",
+                     a->vox.threshold_set ? a->vox.threshold : 0.5);
+        printf(LABEL "%ux%u rays x %u points per voxel (%u samples), %s%s; channels %s%s\n", "sampling", N, N, M,
+               (unsigned)s->samples_per_voxel, a->vox.stochastic ? "stratified jitter" : "uniform", seed,
+               grey && (s->channels & CLVOX_CHANNEL_OCCUPANCY) ? "coverage, occupancy" : grey ? "coverage" : "occupancy",
+               occ);
+    }
     print_filled_line(s->filled_voxels, s->total_voxels);
 
     double voxel_volume = grid->voxel_size[0] * grid->voxel_size[1] * grid->voxel_size[2];
-    double filled_volume = (double)s->filled_voxels * voxel_volume;
+    double filled_volume = (grey ? s->coverage_sum : (double)s->filled_voxels) * voxel_volume;
+    const char *what = grey ? "estimated (sum of coverage)" : "filled";
     if (r->enclosed_volume > 0) {
         double rel = 100.0 * (filled_volume - r->enclosed_volume) / r->enclosed_volume;
         if (fabs(rel) < 0.005) rel = 0; /* no "-0.00 %" */
-        printf(LABEL "%.6g filled vs %.6g enclosed by the mesh (%+.2f %%)%s\n", "volume", filled_volume,
+        printf(LABEL "%.6g %s vs %.6g enclosed by the mesh (%+.2f %%)%s\n", "volume", filled_volume, what,
                r->enclosed_volume, rel, r->closed ? "" : " (mesh not closed: approximate)");
     } else {
-        printf(LABEL "%.6g filled (the mesh encloses no volume)\n", "volume", filled_volume);
+        printf(LABEL "%.6g %s (the mesh encloses no volume)\n", "volume", filled_volume, what);
     }
     if (a->vox.method == CLVOX_METHOD_RAY || s->rays)
         printf(LABEL "%llu cast, %llu odd parity, %llu overflow redone, at most %u crossings per ray\n", "rays",

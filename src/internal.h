@@ -149,12 +149,19 @@ typedef struct clvox__slab_stats {
     uint32_t max_crossings;
 } clvox__slab_stats;
 
+/* What the driver asks of a method beyond the options. */
+typedef struct clvox__run {
+    uint32_t channels;    /* CLVOX_CHANNEL_* planes the slabs must hold */
+    int coverage_counts;  /* 1: the coverage plane holds sample counts (uint16)
+                             rather than HALF bits of count / samples */
+} clvox__run;
+
 typedef struct clvox__method_state clvox__method_state;
 
 typedef struct clvox__method {
     const char *name;
     clvox_status (*prepare)(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                            const clvox_voxelize_options *opts, uint32_t slab_depth,
+                            const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
                             clvox_stats *stats, clvox__method_state **out);
     /* Computes the slab into the device planes of `out` (those not NULL)
      * and may leave commands queued; the driver reads them back. */
@@ -167,6 +174,9 @@ typedef struct clvox__method {
 
 extern const clvox__method clvox__method_ray;   /* cast.c  */
 extern const clvox__method clvox__method_tetra; /* tetra.c */
+
+/* HALF bit pattern of x in [0, 1], rounded to nearest even (voxelize.c). */
+uint16_t clvox__half_from_unit(double x);
 
 /* ---- EXR (write_exr.c, read_exr.c) ---- */
 

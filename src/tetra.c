@@ -256,9 +256,10 @@ done:
 }
 
 static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                  const clvox_voxelize_options *opts, uint32_t slab_depth, clvox_stats *stats,
-                                  clvox__method_state **out)
+                                  const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
+                                  clvox_stats *stats, clvox__method_state **out)
 {
+    (void)run; /* occupancy only: the driver refuses coverage for tetra */
     (void)slab_depth; /* per-slab memory is the driver's slab buffer */
     *out = NULL;
     clvox__method_state *s = calloc(1, sizeof *s);

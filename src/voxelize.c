@@ -1,9 +1,10 @@
-/* Driver: runs a method slab by slab and hands each slab (occupancy bit
- * rows, see internal.h), in increasing z, to a sink (EXR writer, caller
- * callback or dense memory). Memory is one slab buffer whatever the number
- * of slices. */
+/* Driver: runs a method slab by slab and hands each slab's planes
+ * (occupancy bit rows and/or coverage values, see internal.h), in
+ * increasing z, to a sink (EXR writer, caller callback or dense memory).
+ * Memory is one slab of each plane whatever the number of slices. */
 #include "internal.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,7 +14,7 @@
  * memory does not grow with the grid (the slab's bits take 2 MiB). */
 #define SLAB_TARGET_VOXELS (16u << 20)
 
-typedef clvox_status (*sink_fn)(void *user, uint32_t z0, uint32_t nz, const uint32_t *bits);
+typedef clvox_status (*sink_fn)(void *user, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes);
 
 static uint32_t auto_slab_depth(const clvox_grid *g)
 {
@@ -22,6 +23,57 @@ static uint32_t auto_slab_depth(const clvox_grid *g)
     if (d < 1) d = 1;
     if (d > g->dims[2]) d = g->dims[2];
     return (uint32_t)d;
+}
+
+/* Oversampling, channels and threshold. */
+static clvox_status check_sampling(clvox_context *ctx, const clvox_voxelize_options *o)
+{
+    const uint32_t N = o->oversample, M = o->oversample_points ? o->oversample_points : o->oversample;
+    if (o->channels & ~(CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown channels 0x%x", o->channels);
+    if (N == 0) {
+        if (o->oversample_points || o->stochastic)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "points per voxel and stochastic sampling need oversample >= 1");
+        if (o->channels & CLVOX_CHANNEL_COVERAGE)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "the coverage channel needs oversample >= 1");
+    } else {
+        if (o->method == CLVOX_METHOD_TETRA)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                               "the tetra method does not compute coverage (oversampling is the ray method's)");
+        if (N > CLVOX_MAX_OVERSAMPLE)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "oversample %u: at most %u (x %u rays per voxel column)",
+                               N, CLVOX_MAX_OVERSAMPLE, CLVOX_MAX_OVERSAMPLE);
+        if (M > CLVOX_MAX_POINTS)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "%u points per voxel: at most %u", M, CLVOX_MAX_POINTS);
+        if ((uint64_t)N * N * M > CLVOX_MAX_SAMPLES)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "%u x %u rays x %u points = %llu samples per voxel: at most %u",
+                               N, N, M, (unsigned long long)N * N * M, CLVOX_MAX_SAMPLES);
+    }
+    if (o->threshold_set && !(o->threshold >= 0.0 && o->threshold <= 1.0))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "threshold %g is outside [0, 1]", o->threshold);
+    return CLVOX_OK;
+}
+
+/* The channels a run produces when the caller does not say. */
+static uint32_t auto_channels(const clvox_voxelize_options *o)
+{
+    if (o->channels) return o->channels;
+    if (!o->oversample) return CLVOX_CHANNEL_OCCUPANCY;
+    return CLVOX_CHANNEL_COVERAGE | (o->threshold_set ? CLVOX_CHANNEL_OCCUPANCY : 0u);
+}
+
+uint16_t clvox__half_from_unit(double x)
+{
+    if (!(x > 0.0)) return 0;
+    if (x >= 1.0) return 0x3C00;
+    int e;
+    double m = frexp(x, &e); /* x = m * 2^e, m in [0.5, 1) */
+    if (e >= -13) {          /* normal: 1.f * 2^(e-1), 10 fraction bits */
+        double r = nearbyint(ldexp(m, 11)); /* in [1024, 2048], ties to even */
+        if (r == 2048.0) r = 1024.0, e++;
+        return (uint16_t)(((unsigned)(e + 14) << 10) | ((unsigned)r - 1024u));
+    }
+    return (uint16_t)nearbyint(ldexp(x, 24)); /* subnormal: k * 2^-24 (1024 = the smallest normal) */
 }
 
 static clvox_status check_inputs(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
@@ -50,16 +102,24 @@ static clvox_status check_inputs(clvox_context *ctx, const clvox_mesh *mesh, con
     if ((uint64_t)grid->dims[0] * grid->dims[1] * grid->dims[2] > CLVOX_MAX_VOXELS)
         return clvox__fail(ctx, CLVOX_ERR_GRID, "grid has more than %llu voxels", (unsigned long long)CLVOX_MAX_VOXELS);
     if (mesh->triangle_count == 0) return clvox__fail(ctx, CLVOX_ERR_MESH_EMPTY, "mesh has no triangles");
-    return CLVOX_OK;
+    return check_sampling(ctx, o);
 }
 
 /* The pipeline. `open_sink` (may be NULL) is called once the method is
  * prepared, with its parameter text, before any slab is computed. */
 typedef clvox_status (*open_fn)(void *user, const char *method, const char *params);
 
+/* What a sink asks of the run: the channels it needs beyond those the
+ * options produce (forced), and coverage as counts rather than HALF bits. */
+typedef struct sink_needs {
+    uint32_t forced;
+    int counts;
+    uint32_t *channels_out; /* receives the channels produced (may be NULL) */
+} sink_needs;
+
 static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                        const clvox_voxelize_options *in, open_fn open_sink, sink_fn sink, void *user,
-                        clvox_stats *stats_out)
+                        const clvox_voxelize_options *in, const sink_needs *needs, open_fn open_sink, sink_fn sink,
+                        void *user, clvox_stats *stats_out)
 {
     double t_start = clvox__now();
     clvox_voxelize_options o;
@@ -70,7 +130,15 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
 
     const clvox__method *m = o.method == CLVOX_METHOD_TETRA ? &clvox__method_tetra : &clvox__method_ray;
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
-    uint64_t slice_bytes = (uint64_t)clvox__row_words(X) * Y * sizeof(cl_uint);
+    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts};
+    o.channels = req.channels;
+    if (needs->channels_out) *needs->channels_out = req.channels;
+    const int want_occ = (req.channels & CLVOX_CHANNEL_OCCUPANCY) != 0;
+    const int want_cov = (req.channels & CLVOX_CHANNEL_COVERAGE) != 0;
+    const uint64_t occ_slice = want_occ ? (uint64_t)clvox__row_words(X) * Y * sizeof(cl_uint) : 0;
+    const uint64_t cov_slice = want_cov ? (uint64_t)X * Y * sizeof(cl_ushort) : 0;
+    /* the largest plane bounds the slab depth */
+    uint64_t slice_bytes = occ_slice > cov_slice ? occ_slice : cov_slice;
     uint64_t max_alloc = ctx->device.max_alloc_bytes ? ctx->device.max_alloc_bytes : (1ull << 31);
     if (slice_bytes > max_alloc)
         return clvox__fail(ctx, CLVOX_ERR_GRID, "one %ux%u slice needs %llu MB, more than the device's largest buffer (%llu MB)",
@@ -80,28 +148,34 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     stats.slab_depth = depth;
     stats.total_voxels = (uint64_t)X * Y * Z;
 
+    stats.channels = req.channels;
+    stats.samples_per_voxel = o.oversample ? o.oversample * o.oversample * (o.oversample_points ? o.oversample_points : o.oversample) : 1;
+
     clvox__method_state *ms = NULL;
-    cl_mem out = NULL;
-    st = m->prepare(ctx, mesh, grid, &o, depth, &stats, &ms);
+    clvox__slab_out planes = {NULL, NULL};
+    st = m->prepare(ctx, mesh, grid, &o, &req, depth, &stats, &ms);
     if (st == CLVOX_OK && open_sink) {
         char params[512];
         m->describe(ms, params, sizeof params);
         st = open_sink(user, m->name, params);
     }
-    if (st == CLVOX_OK) {
-        cl_int err;
-        out = clCreateBuffer(ctx->cl, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, (size_t)(depth * slice_bytes), NULL,
-                             &err);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clCreateBuffer(slab)");
-        uint64_t b = depth * slice_bytes;
-        stats.peak_slab_bytes += b; /* method working set + slab output */
+    cl_int err = CL_SUCCESS;
+    if (st == CLVOX_OK && want_occ) {
+        planes.occupancy = clCreateBuffer(ctx->cl, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR,
+                                          (size_t)(depth * occ_slice), NULL, &err);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clCreateBuffer(slab occupancy)");
     }
+    if (st == CLVOX_OK && want_cov) {
+        planes.coverage = clCreateBuffer(ctx->cl, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR,
+                                         (size_t)(depth * cov_slice), NULL, &err);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clCreateBuffer(slab coverage)");
+    }
+    stats.peak_slab_bytes += depth * (occ_slice + cov_slice); /* method working set + slab planes */
     uint32_t slabs = (Z + depth - 1) / depth, done = 0;
     for (uint32_t z0 = 0; st == CLVOX_OK && z0 < Z; z0 += depth) {
         uint32_t nz = Z - z0 < depth ? Z - z0 : depth;
         clvox__slab_stats ss;
         memset(&ss, 0, sizeof ss);
-        clvox__slab_out planes = {out, NULL};
         st = m->slab(ms, z0, nz, &planes, &ss);
         if (st != CLVOX_OK) break;
         stats.seconds[CLVOX_STAGE_CAST] += ss.cast_seconds;
@@ -110,29 +184,45 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         stats.rays += ss.rays;
         stats.odd_parity_rays += ss.odd_parity_rays;
         stats.overflow_rays += ss.overflow_rays;
+        stats.coverage_sum += (double)ss.coverage_count;
         if (ss.max_crossings > stats.max_crossings) stats.max_crossings = ss.max_crossings;
 
-        cl_int err;
-        size_t bytes = (size_t)(nz * slice_bytes);
-        void *p = clEnqueueMapBuffer(ctx->queue, out, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &err);
-        if (err != CL_SUCCESS) {
-            st = clvox__cl_fail(ctx, err, "mapping the slab");
-            break;
+        void *p_occ = NULL, *p_cov = NULL;
+        if (planes.occupancy) {
+            p_occ = clEnqueueMapBuffer(ctx->queue, planes.occupancy, CL_TRUE, CL_MAP_READ, 0, (size_t)(nz * occ_slice),
+                                       0, NULL, NULL, &err);
+            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "mapping the slab");
         }
-        double t0 = clvox__now();
-        st = sink(user, z0, nz, p);
-        stats.seconds[CLVOX_STAGE_WRITE] += clvox__now() - t0;
-        err = clEnqueueUnmapMemObject(ctx->queue, out, p, 0, NULL, NULL);
-        if (err != CL_SUCCESS && st == CLVOX_OK) st = clvox__cl_fail(ctx, err, "unmapping the slab");
+        if (st == CLVOX_OK && planes.coverage) {
+            p_cov = clEnqueueMapBuffer(ctx->queue, planes.coverage, CL_TRUE, CL_MAP_READ, 0, (size_t)(nz * cov_slice),
+                                       0, NULL, NULL, &err);
+            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "mapping the slab's coverage");
+        }
+        if (st == CLVOX_OK) {
+            double t0 = clvox__now();
+            clvox__slab_planes hp = {p_occ, p_cov};
+            st = sink(user, z0, nz, &hp);
+            stats.seconds[CLVOX_STAGE_WRITE] += clvox__now() - t0;
+        }
+        if (p_occ) {
+            err = clEnqueueUnmapMemObject(ctx->queue, planes.occupancy, p_occ, 0, NULL, NULL);
+            if (err != CL_SUCCESS && st == CLVOX_OK) st = clvox__cl_fail(ctx, err, "unmapping the slab");
+        }
+        if (p_cov) {
+            err = clEnqueueUnmapMemObject(ctx->queue, planes.coverage, p_cov, 0, NULL, NULL);
+            if (err != CL_SUCCESS && st == CLVOX_OK) st = clvox__cl_fail(ctx, err, "unmapping the slab");
+        }
+        if (st != CLVOX_OK) break;
         done++;
         if (st == CLVOX_OK && o.progress && !o.progress(o.progress_user, (double)done / slabs))
             st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled after %u of %u slabs", done, slabs);
     }
-    if (out) {
-        clFinish(ctx->queue);
-        clReleaseMemObject(out);
-    }
+    if (planes.occupancy || planes.coverage) clFinish(ctx->queue);
+    clvox__release_mem(&planes.occupancy);
+    clvox__release_mem(&planes.coverage);
     if (ms) m->release(ms);
+    /* coverage in voxel units: samples inside / samples per voxel */
+    stats.coverage_sum = want_cov ? stats.coverage_sum / stats.samples_per_voxel : (double)stats.filled_voxels;
     stats.seconds[CLVOX_STAGE_TOTAL] = clvox__now() - t_start;
     if (stats_out) *stats_out = stats;
     return st;
@@ -146,6 +236,7 @@ typedef struct exr_sink {
     const clvox_grid *grid;
     clvox_compression compression;
     uint32_t threads;
+    uint32_t channels; /* set by run() before open */
     clvox__exr_writer *w;
 } exr_sink;
 
@@ -153,14 +244,13 @@ static clvox_status exr_open(void *user, const char *method, const char *params)
 {
     exr_sink *s = user;
     clvox__exr_meta meta = {method, params};
-    return clvox__exr_open(s->ctx, s->path, s->grid, &meta, 0, s->compression, s->threads, &s->w);
+    return clvox__exr_open(s->ctx, s->path, s->grid, &meta, s->channels, s->compression, s->threads, &s->w);
 }
 
-static clvox_status exr_slab(void *user, uint32_t z0, uint32_t nz, const uint32_t *bits)
+static clvox_status exr_slab(void *user, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes)
 {
     exr_sink *s = user;
-    clvox__slab_planes p = {bits, NULL};
-    return clvox__exr_write_slab(s->w, z0, nz, &p);
+    return clvox__exr_write_slab(s->w, z0, nz, planes);
 }
 
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
@@ -169,10 +259,11 @@ clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, c
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "no output path");
     exr_sink s = {ctx, path, grid, options ? options->compression : CLVOX_COMPRESSION_DEFAULT,
-                  options ? options->threads : 0, NULL};
+                  options ? options->threads : 0, 0, NULL};
     clvox_stats local;
     clvox_stats *st_out = stats ? stats : &local;
-    clvox_status st = run(ctx, mesh, grid, options, exr_open, exr_slab, &s, st_out);
+    sink_needs needs = {0, 0, &s.channels}; /* HALF bits straight into the file */
+    clvox_status st = run(ctx, mesh, grid, options, &needs, exr_open, exr_slab, &s, st_out);
     if (st == CLVOX_OK && s.w) {
         double t0 = clvox__now();
         uint64_t bytes = 0;
@@ -190,12 +281,18 @@ clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, c
 
 typedef struct user_sink {
     clvox_context *ctx;
-    clvox_slab_fn fn;
+    clvox_slab_fn fn;              /* occupancy bytes (clvox_voxelize_stream) */
+    clvox_slab_channels_fn fn_all; /* every channel (clvox_voxelize_slabs)    */
     void *user;
-    uint8_t *scratch;
-    size_t scratch_size;
-    uint8_t *dense;  /* memory sink: X*Y*Z */
+    uint8_t *occ_scratch;
+    float *cov_scratch;
+    size_t occ_size, cov_size;     /* elements */
+    uint8_t *dense_occ;            /* memory sinks: X*Y*Z, or NULL */
+    float *dense_cov;
     uint32_t X, Y;
+    uint32_t channels;             /* produced (set by run) */
+    float *value;                  /* coverage of count t: t / samples, exactly rounded */
+    uint32_t samples;
 } user_sink;
 
 /* Bit rows -> one byte (0/1) per voxel, x fastest. */
@@ -206,24 +303,81 @@ static void bits_to_u8(uint8_t *dst, const uint32_t *bits, uint32_t X, size_t ro
         for (uint32_t x = 0; x < X; x++) dst[x] = (uint8_t)((bits[x >> 5] >> (x & 31)) & 1u);
 }
 
-static clvox_status user_slab(void *p, uint32_t z0, uint32_t nz, const uint32_t *bits)
+static void counts_to_float(float *dst, const uint16_t *counts, size_t n, const float *value)
+{
+    for (size_t i = 0; i < n; i++) dst[i] = value[counts[i]];
+}
+
+static int grow_scratch(void **buf, size_t *size, size_t n, size_t elem)
+{
+    if (n <= *size) return 1;
+    void *q = realloc(*buf, n * elem);
+    if (!q) return 0;
+    *buf = q;
+    *size = n;
+    return 1;
+}
+
+static clvox_status user_slab(void *p, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes)
 {
     user_sink *s = p;
     size_t slice = (size_t)s->X * s->Y, n = slice * nz;
-    if (s->dense) {
-        bits_to_u8(s->dense + (size_t)z0 * slice, bits, s->X, (size_t)s->Y * nz);
-        return CLVOX_OK;
+    if (!s->value && planes->coverage_half) { /* the count -> fraction table, once */
+        s->value = malloc(((size_t)s->samples + 1) * sizeof *s->value);
+        if (!s->value) return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+        for (uint32_t t = 0; t <= s->samples; t++) s->value[t] = (float)t / (float)s->samples;
     }
-    if (n > s->scratch_size) {
-        uint8_t *q = realloc(s->scratch, n);
-        if (!q) return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a slab");
-        s->scratch = q;
-        s->scratch_size = n;
+    uint8_t *occ = NULL;
+    float *cov = NULL;
+    if (planes->occupancy_bits && (s->dense_occ || s->fn || s->fn_all)) {
+        if (s->dense_occ) {
+            occ = s->dense_occ + (size_t)z0 * slice;
+        } else {
+            if (!grow_scratch((void **)&s->occ_scratch, &s->occ_size, n, 1))
+                return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a slab");
+            occ = s->occ_scratch;
+        }
+        bits_to_u8(occ, planes->occupancy_bits, s->X, (size_t)s->Y * nz);
     }
-    bits_to_u8(s->scratch, bits, s->X, (size_t)s->Y * nz);
-    if (s->fn(s->user, z0, nz, s->scratch))
-        return clvox__fail(s->ctx, CLVOX_ERR_CANCELLED, "cancelled by the slab callback at slice %u", z0);
+    if (planes->coverage_half && (s->dense_cov || s->fn_all)) {
+        if (s->dense_cov) {
+            cov = s->dense_cov + (size_t)z0 * slice;
+        } else {
+            if (!grow_scratch((void **)&s->cov_scratch, &s->cov_size, n, sizeof(float)))
+                return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a slab");
+            cov = s->cov_scratch;
+        }
+        counts_to_float(cov, planes->coverage_half, n, s->value);
+    }
+    int stop = 0;
+    if (s->fn) stop = s->fn(s->user, z0, nz, occ);
+    if (s->fn_all) {
+        clvox_slab slab = {z0, nz, occ, cov};
+        stop = s->fn_all(s->user, &slab);
+    }
+    if (stop) return clvox__fail(s->ctx, CLVOX_ERR_CANCELLED, "cancelled by the slab callback at slice %u", z0);
     return CLVOX_OK;
+}
+
+static clvox_status run_user(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                             const clvox_voxelize_options *options, uint32_t forced, user_sink *s, clvox_stats *stats)
+{
+    /* coverage arrives as counts; samples = N^2 M (validated by run) */
+    uint32_t N = options ? options->oversample : 0, M = options && options->oversample_points ? options->oversample_points : N;
+    s->samples = N ? N * N * M : 1;
+    sink_needs needs = {forced, 1, &s->channels};
+    clvox_status st = run(ctx, mesh, grid, options, &needs, NULL, user_slab, s, stats);
+    free(s->occ_scratch);
+    free(s->cov_scratch);
+    free(s->value);
+    return st;
+}
+
+/* Legacy occupancy calls: occupancy is always produced (coverage > threshold,
+ * 0.5 by default, when oversampled); no coverage plane unless asked for. */
+static uint32_t occupancy_channels(const clvox_voxelize_options *o)
+{
+    return (o && o->channels ? o->channels : 0u) | CLVOX_CHANNEL_OCCUPANCY;
 }
 
 clvox_status clvox_voxelize_stream(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
@@ -232,10 +386,31 @@ clvox_status clvox_voxelize_stream(clvox_context *ctx, const clvox_mesh *mesh, c
 {
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!fn || !grid) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL slab callback or grid");
-    user_sink s = {ctx, fn, user, NULL, 0, NULL, grid->dims[0], grid->dims[1]};
-    clvox_status st = run(ctx, mesh, grid, options, NULL, user_slab, &s, stats);
-    free(s.scratch);
-    return st;
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    if (options && options->size >= sizeof(size_t) && options->size <= sizeof o) memcpy(&o, options, options->size);
+    o.size = sizeof o; /* the fields set below are read whatever the caller's size */
+    o.channels = occupancy_channels(&o);
+    user_sink s = {ctx, fn, NULL, user, NULL, NULL, 0, 0, NULL, NULL, grid->dims[0], grid->dims[1], 0, NULL, 0};
+    return run_user(ctx, mesh, grid, options ? &o : NULL, o.channels, &s, stats);
+}
+
+clvox_status clvox_voxelize_slabs(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                  const clvox_voxelize_options *options, clvox_slab_channels_fn fn, void *user,
+                                  clvox_stats *stats)
+{
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!fn || !grid) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL slab callback or grid");
+    user_sink s = {ctx, NULL, fn, user, NULL, NULL, 0, 0, NULL, NULL, grid->dims[0], grid->dims[1], 0, NULL, 0};
+    return run_user(ctx, mesh, grid, options, 0, &s, stats);
+}
+
+static clvox_status check_dense(clvox_context *ctx, const clvox_grid *grid, size_t have, const char *what)
+{
+    uint64_t need = (uint64_t)grid->dims[0] * grid->dims[1] * grid->dims[2];
+    if (have < need)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "%s buffer holds %zu values, the grid needs %llu", what,
+                           have, (unsigned long long)need);
+    return CLVOX_OK;
 }
 
 clvox_status clvox_voxelize_to_memory(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
@@ -244,10 +419,36 @@ clvox_status clvox_voxelize_to_memory(clvox_context *ctx, const clvox_mesh *mesh
 {
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!out || !grid) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL output buffer or grid");
-    uint64_t need = (uint64_t)grid->dims[0] * grid->dims[1] * grid->dims[2];
-    if (out_size < need)
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "output buffer holds %zu bytes, the grid needs %llu",
-                           out_size, (unsigned long long)need);
-    user_sink s = {ctx, NULL, NULL, NULL, 0, out, grid->dims[0], grid->dims[1]};
-    return run(ctx, mesh, grid, options, NULL, user_slab, &s, stats);
+    clvox_status st = check_dense(ctx, grid, out_size, "output");
+    if (st != CLVOX_OK) return st;
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    if (options && options->size >= sizeof(size_t) && options->size <= sizeof o) memcpy(&o, options, options->size);
+    o.size = sizeof o; /* the fields set below are read whatever the caller's size */
+    o.channels = occupancy_channels(&o) & ~CLVOX_CHANNEL_COVERAGE; /* nowhere to put coverage */
+    user_sink s = {ctx, NULL, NULL, NULL, NULL, NULL, 0, 0, out, NULL, grid->dims[0], grid->dims[1], 0, NULL, 0};
+    return run_user(ctx, mesh, grid, options ? &o : NULL, CLVOX_CHANNEL_OCCUPANCY, &s, stats);
+}
+
+clvox_status clvox_voxelize_to_buffers(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                       const clvox_voxelize_options *options, uint8_t *occupancy,
+                                       size_t occupancy_count, float *coverage, size_t coverage_count,
+                                       clvox_stats *stats)
+{
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!grid || (!occupancy && !coverage))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL grid, or no output buffer at all");
+    clvox_status st = CLVOX_OK;
+    if (occupancy) st = check_dense(ctx, grid, occupancy_count, "occupancy");
+    if (st == CLVOX_OK && coverage) st = check_dense(ctx, grid, coverage_count, "coverage");
+    if (st != CLVOX_OK) return st;
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    if (options && options->size >= sizeof(size_t) && options->size <= sizeof o) memcpy(&o, options, options->size);
+    o.size = sizeof o; /* the fields set below are read whatever the caller's size */
+    uint32_t produced = auto_channels(&o);
+    if ((occupancy && !(produced & CLVOX_CHANNEL_OCCUPANCY)) || (coverage && !(produced & CLVOX_CHANNEL_COVERAGE)))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                           "a %s buffer was given but the options do not produce that channel (channels 0x%x)",
+                           occupancy && !(produced & CLVOX_CHANNEL_OCCUPANCY) ? "occupancy" : "coverage", produced);
+    user_sink s = {ctx, NULL, NULL, NULL, NULL, NULL, 0, 0, occupancy, coverage, grid->dims[0], grid->dims[1], 0, NULL, 0};
+    return run_user(ctx, mesh, grid, options, 0, &s, stats);
 }

@@ -232,7 +232,8 @@ typedef struct clvox_voxelize_options {
     int stochastic;                /* 1: stratified jitter of rays and points, from seed */
     uint64_t seed;                 /* sampler seed (stochastic only); default 0      */
     uint32_t channels;             /* CLVOX_CHANNEL_* mask; 0 = auto: occupancy when binary,
-                                      coverage when oversampled (+ occupancy with threshold_set) */
+                                      coverage when oversampled, occupancy (= coverage > threshold)
+                                      when oversampled with threshold_set */
     int threshold_set;             /* 1: occupancy = coverage > threshold when oversampled */
     double threshold;              /* in [0,1]; used when threshold_set (else 0.5)   */
 } clvox_voxelize_options;

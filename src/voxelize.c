@@ -59,7 +59,8 @@ static uint32_t auto_channels(const clvox_voxelize_options *o)
 {
     if (o->channels) return o->channels;
     if (!o->oversample) return CLVOX_CHANNEL_OCCUPANCY;
-    return CLVOX_CHANNEL_COVERAGE | (o->threshold_set ? CLVOX_CHANNEL_OCCUPANCY : 0u);
+    /* the paper's use of a threshold: a binary volume from the grey levels */
+    return o->threshold_set ? CLVOX_CHANNEL_OCCUPANCY : CLVOX_CHANNEL_COVERAGE;
 }
 
 uint16_t clvox__half_from_unit(double x)

@@ -1084,6 +1084,95 @@ static void test_preview(void)
     clvox_context_destroy(ctx);
 }
 
+/* ---- grey levels (coverage) ---- */
+
+static int same_file(const char *a, const char *b)
+{
+    char *x = read_all(a), *y = read_all(b);
+    long long na = file_size(a), nb = file_size(b);
+    int same = x && y && na == nb && memcmp(x, y, (size_t)na) == 0;
+    free(x);
+    free(y);
+    return same;
+}
+
+static void test_coverage_options(void)
+{
+    char mesh[PATH_MAX], a[PATH_MAX], b[PATH_MAX], c[PATH_MAX], out[PATH_MAX];
+    path_join(mesh, sizeof mesh, g_in, "cube.obj");
+    path_join(a, sizeof a, g_dir, "cov_a.exr");
+    path_join(b, sizeof b, g_dir, "cov_b.exr");
+    path_join(c, sizeof c, g_dir, "cov_c.exr");
+    path_join(out, sizeof out, g_out, "x.exr");
+
+    /* K = 1 with threshold 0.5 is the binary run; only occupancy is written */
+    long long bin = run_cube("binary", "cov_bin.exr", ARGS("-r", "20", NULL));
+    long long k1 = run_cube("oversample 1", "cov_k1.exr", ARGS("-r", "20", "--oversample", "1", "--threshold", "0.5", NULL));
+    CHECK_MSG(bin > 0 && k1 == bin, "K=1 + threshold 0.5 filled %lld, binary %lld", k1, bin);
+
+    run_result r;
+    run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "4", "-o", a));
+    CHECK_MSG(r.code == 0, "oversample 4: exit %d: %s", r.code, r.err);
+    CHECK(strstr(r.out, "sampling     4x4 rays x 4 points per voxel (64 samples), uniform; channels coverage") != NULL);
+    CHECK(strstr(r.out, "estimated (sum of coverage)") != NULL);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS("info", a));
+    CHECK_MSG(r.code == 0 && strstr(r.out, "channels coverage\n") && strstr(r.out, "coverage     "), "info: %s%s", r.out,
+              r.err);
+    CHECK(strstr(r.out, "oversample=4x4 points=4 sampling=uniform") != NULL);
+    run_free(&r);
+
+    /* stochastic: the same seed gives the same file, another seed another one */
+    run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "2,3", "--stochastic", "--seed", "5", "-o", a, "-q"));
+    CHECK(r.code == 0);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "2,3", "--stochastic", "--seed=5", "--slab", "3", "-o", b, "-q"));
+    CHECK(r.code == 0);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "2,3", "--stochastic", "--seed", "6", "-o", c, "-q"));
+    CHECK(r.code == 0);
+    run_free(&r);
+    CHECK_MSG(same_file(a, b), "seed 5 twice (slab auto and 3) gave different files");
+    CHECK_MSG(!same_file(a, c), "seeds 5 and 6 gave the same file");
+
+    /* both channels on request */
+    run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "3", "--channels", "occupancy,coverage", "-o", a, "-q"));
+    CHECK(r.code == 0);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS("info", a));
+    CHECK_MSG(strstr(r.out, "channels coverage,occupancy") != NULL, "info: %s", r.out);
+    run_free(&r);
+    unlink(a);
+    unlink(b);
+    unlink(c);
+
+    /* bad values: exit 2, one line, nothing left behind */
+    static const char *const bad[][4] = {
+        {"--oversample", "0", NULL, NULL},           {"--oversample", "17", NULL, NULL},
+        {"--oversample", "2,0", NULL, NULL},         {"--oversample", "2,256", NULL, NULL},
+        {"--oversample", "x", NULL, NULL},           {"--oversample", "2,3,4", NULL, NULL},
+        {"--oversample", "-2", NULL, NULL},          {"--oversample", "2", "--threshold", "1.5"},
+        {"--oversample", "2", "--threshold", "-0.1"}, {"--oversample", "2", "--threshold", "abc"},
+        {"--oversample", "2", "--threshold", "nan"}, {"--oversample", "2", "--stochastic", "--seed=abc"},
+        {"--oversample", "2", "--stochastic", "--seed=-1"},
+        {"--oversample", "2", "--stochastic", "--seed=18446744073709551616"},
+        {"--stochastic", NULL, NULL, NULL},          {"--oversample", "2", "--seed", "3"},
+        {"--threshold", "0.5", NULL, NULL},          {"--oversample", "2", "--method", "tetra"},
+        {"--oversample", "2", "--channels", "foo"},  {"--channels", "coverage", NULL, NULL},
+        {"--oversample", "2", "--channels", ""},     {"--oversample", "2", "--channels", "coverage,"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        const char *args[12] = {mesh, "-r", "8", "-o", out};
+        int n = 5;
+        for (int k = 0; k < 4 && bad[i][k]; k++) args[n++] = bad[i][k];
+        args[n] = NULL;
+        char what[160];
+        snprintf(what, sizeof what, "%s %s %s %s", bad[i][0], bad[i][1] ? bad[i][1] : "", bad[i][2] ? bad[i][2] : "",
+                 bad[i][3] ? bad[i][3] : "");
+        expect_failure(what, 2, NULL, args);
+    }
+}
+
 int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
@@ -1114,6 +1203,7 @@ int main(void)
     test_errors();
     test_real_run();
     test_options();
+    test_coverage_options();
     test_default_mesh();
     test_list_devices();
     test_preview();

@@ -231,6 +231,7 @@ static void test_k1_is_binary(void)
         clvox_voxelize_options o = b;
         o.oversample = 1;
         o.threshold_set = 1;
+        o.channels = CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE;
         o.threshold = 0.5;
         uint8_t *occ = NULL;
         clvox_stats sc;
@@ -293,6 +294,7 @@ static void test_determinism(void)
     o.stochastic = 1;
     o.seed = 0x123456789abcull;
     o.threshold_set = 1;
+    o.channels = CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE;
     o.threshold = 0.25;
     uint8_t *occ0 = NULL;
     clvox_stats s0;

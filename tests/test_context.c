@@ -3,6 +3,7 @@
 #include "meshgen.h"
 #include "test.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <stdint.h>
@@ -131,6 +132,54 @@ static int peak_reset(long *rss)
     return ok && *rss > 0;
 }
 
+/* Streaming bound: with a fixed slab size, peak memory must not grow with
+ * the number of slices beyond the EXR chunk table (8 bytes per slice).
+ * 64x64 slices, 16 per slab; 512 slices vs 65536 slices. Each run's own
+ * peak is measured: the heap is trimmed and VmHWM reset (clear_refs 5)
+ * before it, so what earlier runs left in malloc's free lists does not
+ * count. Measured: +520 KiB for the 65024 extra slices (8.2 B/slice).
+ * Bound: 16 bytes per extra slice + 256 KiB; a leak of 64 bytes per
+ * slice (4 MiB) fails it. */
+static void streaming_bound(clvox_context *ctx, const clvox_mesh *m, const clvox_voxelize_options *base_opts,
+                            const char *what)
+{
+    char path[512];
+    clvox_stats s;
+    clvox_voxelize_options o = *base_opts;
+    o.slab_depth = 16;
+    const uint32_t short_z = 512, tall_z = 65536;
+    clvox_grid small = {{64, 64, short_z}, {0, 0, 0}, {1.0 / 64, 1.0 / 64, 1.0 / short_z}};
+    clvox_grid tall = {{64, 64, tall_z}, {0, 0, 0}, {1.0 / 64, 1.0 / 64, 1.0 / tall_z}};
+    snprintf(path, sizeof path, "%s/stream.exr", test_tmpdir());
+    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &small, &o, path, &s)); /* warm-up */
+    long base = 0, grow_short = 0, grow_tall = 0;
+    int reset_ok = peak_reset(&base);
+    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &small, &o, path, &s));
+    grow_short = vm_kb("VmHWM:") - base;
+    reset_ok = reset_ok && peak_reset(&base);
+    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &tall, &o, path, &s));
+    grow_tall = vm_kb("VmHWM:") - base;
+    long bound = (long)(16 * (uint64_t)(tall_z - short_z) / 1024) + 256;
+    CHECK_MSG(reset_ok, "cannot reset the peak RSS through /proc/self/clear_refs");
+#ifdef __SANITIZE_ADDRESS__
+    /* ASan's quarantine holds freed memory back: RSS says nothing here. */
+    printf("ASan build: streaming memory bound not checked\n");
+#else
+    CHECK_MSG(grow_tall - grow_short <= bound,
+              "%s: peak RSS grew by %ld KiB from %u to %u slices (bound %ld KiB)", what, grow_tall - grow_short,
+              short_z, tall_z, bound);
+#endif
+    printf("streaming (%s): run peak +%ld KiB at %u slices, +%ld KiB at %u slices (difference bound %ld KiB)\n",
+           what, grow_short, short_z, grow_tall, tall_z, bound);
+    clvox_volume_info info;
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    CHECK(info.dims[2] == tall_z && info.filled_voxels == s.filled_voxels);
+    if (s.channels & CLVOX_CHANNEL_COVERAGE)
+        CHECK_MSG(fabs(info.coverage_sum - s.coverage_sum) <= 1e-3 * s.coverage_sum, "coverage sum %.9g in the file, %.9g in the run",
+                  info.coverage_sum, s.coverage_sum);
+    unlink(path);
+}
+
 static void test_progress_cancel_and_memory(clvox_context *ctx)
 {
     tmesh t = tmesh_sphere(0.5, 0.5, 0.5, 0.45, 16);
@@ -159,44 +208,12 @@ static void test_progress_cancel_and_memory(clvox_context *ctx)
     CHECK(progress_calls == 3);
     CHECK(access(path, F_OK) != 0);
 
-    /* Streaming bound: with a fixed slab size, peak memory must not grow with
-     * the number of slices beyond the EXR chunk table (8 bytes per slice).
-     * 64x64 slices, 16 per slab; 512 slices vs 65536 slices. Each run's own
-     * peak is measured: the heap is trimmed and VmHWM reset (clear_refs 5)
-     * before it, so what earlier runs left in malloc's free lists does not
-     * count. Measured: +520 KiB for the 65024 extra slices (8.2 B/slice).
-     * Bound: 16 bytes per extra slice + 256 KiB; a leak of 64 bytes per
-     * slice (4 MiB) fails it. */
-    o = (clvox_voxelize_options)CLVOX_VOXELIZE_OPTIONS_INIT;
-    o.slab_depth = 16;
-    const uint32_t short_z = 512, tall_z = 65536;
-    clvox_grid small = {{64, 64, short_z}, {0, 0, 0}, {1.0 / 64, 1.0 / 64, 1.0 / short_z}};
-    clvox_grid tall = {{64, 64, tall_z}, {0, 0, 0}, {1.0 / 64, 1.0 / 64, 1.0 / tall_z}};
-    snprintf(path, sizeof path, "%s/stream.exr", test_tmpdir());
-    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &small, &o, path, &s)); /* warm-up */
-    long base = 0, grow_short = 0, grow_tall = 0;
-    int reset_ok = peak_reset(&base);
-    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &small, &o, path, &s));
-    grow_short = vm_kb("VmHWM:") - base;
-    reset_ok = reset_ok && peak_reset(&base);
-    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &tall, &o, path, &s));
-    grow_tall = vm_kb("VmHWM:") - base;
-    long bound = (long)(16 * (uint64_t)(tall_z - short_z) / 1024) + 256;
-    CHECK_MSG(reset_ok, "cannot reset the peak RSS through /proc/self/clear_refs");
-#ifdef __SANITIZE_ADDRESS__
-    /* ASan's quarantine holds freed memory back: RSS says nothing here. */
-    printf("ASan build: streaming memory bound not checked\n");
-#else
-    CHECK_MSG(grow_tall - grow_short <= bound,
-              "peak RSS grew by %ld KiB from %u to %u slices (bound %ld KiB)", grow_tall - grow_short, short_z,
-              tall_z, bound);
-#endif
-    printf("streaming: run peak +%ld KiB at %u slices, +%ld KiB at %u slices (difference bound %ld KiB)\n", grow_short,
-           short_z, grow_tall, tall_z, bound);
-    clvox_volume_info info;
-    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
-    CHECK(info.dims[2] == tall_z && info.filled_voxels == s.filled_voxels);
-    unlink(path);
+    clvox_voxelize_options bo = CLVOX_VOXELIZE_OPTIONS_INIT;
+    streaming_bound(ctx, m, &bo, "binary");
+    clvox_voxelize_options co = CLVOX_VOXELIZE_OPTIONS_INIT;
+    co.oversample = 2; /* grey levels: a coverage plane per slab, both channels in the file */
+    co.channels = CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE;
+    streaming_bound(ctx, m, &co, "coverage");
     clvox_mesh_destroy(m);
     tmesh_free(&t);
 }

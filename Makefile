@@ -58,7 +58,7 @@ SHARED_LIB := $(BUILD)/libclvox.so
 CLI_BIN := $(BUILD)/clvox
 DEPS := $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_SUPPORT_OBJ:.o=.d) $(TEST_BINS:%=%.d)
 
-.PHONY: all test check install uninstall clean bench tests
+.PHONY: all test check install uninstall clean bench tests fuzz fuzz-run
 all: $(STATIC_LIB) $(SHARED_LIB) $(CLI_BIN)
 	$(Q)ln -sf $(CONFIG)/clvox build/clvox
 
@@ -109,6 +109,43 @@ test: tests
 # Quick subset (no downloaded meshes).
 check: tests
 	$(Q)CLVOX_QUICK=1 CONFIG=$(CONFIG) sh tests/run_tests.sh $(BUILD)
+
+# libFuzzer targets (tests/fuzz/fuzz_*.c), built with clang over the library
+# sources (instrumented) and run briefly on their seed corpora:
+#   make fuzz                    build them
+#   make fuzz-run FUZZ_SECONDS=60   build and run each for FUZZ_SECONDS
+FUZZ_CC ?= clang
+FUZZ_CXX ?= clang++
+FUZZ_SECONDS ?= 30
+FUZZ_FLAGS := -g -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
+FUZZ_DIR := build/fuzz
+FUZZ_SRCS := $(wildcard tests/fuzz/fuzz_*.c)
+FUZZ_BINS := $(FUZZ_SRCS:tests/fuzz/%.c=$(FUZZ_DIR)/%)
+FUZZ_LIB_OBJ := $(LIB_C:%.c=$(FUZZ_DIR)/%.o) $(LIB_CXX:%.cpp=$(FUZZ_DIR)/%.o) $(FUZZ_DIR)/gen/kernels_embedded.o
+
+$(FUZZ_DIR)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@
+
+$(FUZZ_DIR)/%.o: %.cpp
+	@mkdir -p $(dir $@)
+	$(Q)$(FUZZ_CXX) $(BASE_CXXFLAGS) $(FUZZ_FLAGS) -c $< -o $@
+
+$(FUZZ_DIR)/gen/kernels_embedded.o: $(KERNEL_C)
+	@mkdir -p $(dir $@)
+	$(Q)$(FUZZ_CC) -std=c11 -fPIC -O1 -c $< -o $@
+
+$(FUZZ_DIR)/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ)
+	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@.o
+	$(Q)$(FUZZ_CXX) -fsanitize=fuzzer,address,undefined -o $@ $@.o $(FUZZ_LIB_OBJ) $(LIBS)
+
+fuzz: $(FUZZ_BINS)
+.SECONDARY: $(FUZZ_LIB_OBJ)
+
+fuzz-run: fuzz
+	$(Q)for b in $(FUZZ_BINS); do n=$${b##*/fuzz_}; mkdir -p $(FUZZ_DIR)/corpus_$$n; \
+	  $$b -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=2048 -timeout=10 $(FUZZ_DIR)/corpus_$$n tests/fuzz/seeds_$$n \
+	  || exit 1; done
 
 bench: all
 	$(Q)sh scripts/bench.sh

@@ -253,7 +253,7 @@ typedef struct clvox_voxelize_options {
 
 typedef struct clvox_stats {
     double seconds[CLVOX_STAGE_COUNT];
-    uint64_t filled_voxels;
+    uint64_t filled_voxels;        /* inside (binary); coverage > threshold (0.5 unless set) when oversampled */
     uint64_t total_voxels;
     uint64_t rays;                 /* rays cast (ray method)                    */
     uint64_t odd_parity_rays;      /* rays with an odd number of crossings: the mesh is not closed */

@@ -9,9 +9,13 @@
  *  - coverage (grey levels, 3.3.4): N x N rays per column (positions from
  *    kernels/sampler.h), and kernels/coverage.cl counts the points inside
  *    per voxel over the column's rays.
- * A binary slab is one batch. A coverage slab is cut into batches of at most
- * max_rays rays (whole columns), so the ray and crossing buffers are those of
- * the binary run whatever N is. Rays with more crossings than the buffer
+ * A binary slab is one batch unless its work is large. A coverage slab is
+ * cut into batches of at most max_rays rays (whole columns), so the ray and
+ * crossing buffers are those of the binary run whatever N is. Batches are
+ * also bounded in work (CLVOX__BATCH_TESTS ray-triangle tests, estimated
+ * from the largest quadtree leaf) and the driver is polled between them, so
+ * a cancel is honoured within about one batch's time however slow a slab is;
+ * a ray with more than CLVOX__MAX_CROSSINGS crossings is an error. Rays with more crossings than the buffer
  * holds are found from the counts and cast again (in coverage runs, with
  * the rest of their column) with a buffer as large as the largest count, in
  * batches of at most max_rays * capacity crossings (at least one column). */
@@ -42,7 +46,12 @@ struct clvox__method_state {
     cl_mem soup, nodes, refs;
     cl_kernel k_lookup, k_intersect, k_sort, k_classify, k_coverage;
     uint32_t leaf_size;
+    uint64_t leaf_max;           /* most triangles in one quadtree leaf */
     batch_mem mem;               /* the fast pass */
+    size_t batch_items;          /* items per fast-pass batch (work-bounded) */
+    int (*poll)(void *, double); /* clvox__run.poll */
+    void *poll_user;
+    uint64_t max_alloc;          /* the device's largest buffer */
     clvox_ray *rays_host;        /* max_rays */
     clvox_column *cols_host;     /* coverage: max_items */
     uint32_t *counts_host;       /* max_rays */
@@ -175,6 +184,9 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     s->dim_w = grid->dims[s->axes.perm[2]];
     s->leaf_size = opts->quadtree_leaf_size ? opts->quadtree_leaf_size : 8;
     s->channels = run->channels;
+    s->poll = run->poll;
+    s->poll_user = run->poll_user;
+    s->max_alloc = ctx->device.max_alloc_bytes ? ctx->device.max_alloc_bytes : (1ull << 31);
 
     /* Columns of one slab: x-rays cover Y*nz columns, y-rays X*nz, z-rays all X*Y. */
     const uint32_t *d = grid->dims;
@@ -222,6 +234,16 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         max_rays = max_items * s->R;
     }
     cl_uint capacity = opts->hit_capacity ? opts->hit_capacity : DEFAULT_HIT_CAPACITY;
+    if (capacity > CLVOX__MAX_CROSSINGS) capacity = CLVOX__MAX_CROSSINGS;
+    /* Batches of bounded work: items x rays per item x the largest leaf. */
+    for (size_t i = 0; i < s->qt.node_count; i++)
+        if (s->qt.nodes[i].count != CLVOX_QT_INTERNAL && s->qt.nodes[i].count > s->leaf_max)
+            s->leaf_max = s->qt.nodes[i].count;
+    {
+        uint64_t per_item = (uint64_t)(s->coverage ? s->R : 1) * (s->leaf_max ? s->leaf_max : 1);
+        uint64_t k = CLVOX__BATCH_TESTS / per_item;
+        s->batch_items = k < 1 ? 1 : k > max_items ? max_items : (size_t)k;
+    }
     if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage);
     if (st == CLVOX_OK) {
         s->rays_host = malloc(max_rays * sizeof *s->rays_host);
@@ -366,6 +388,14 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
     return st;
 }
 
+/* Asks the driver whether to go on (between batches); 1 = go on. */
+static int poll_ok(const clvox__method_state *s, double slab_fraction)
+{
+    if (!s->poll) return 1;
+    if (slab_fraction <= 0.0 || slab_fraction >= 1.0) return 1;
+    return s->poll(s->poll_user, slab_fraction);
+}
+
 /* Items (rays, or columns of R rays) whose crossings did not fit: cast
  * them again with a buffer as large as the largest count, in batches of at
  * most the fast pass's crossing buffer (at least one item). `rays` holds R
@@ -373,12 +403,19 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
  * of the first pass, which the redo must reproduce. */
 static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays, const clvox_column *cols,
                                   const uint32_t *expect, size_t items, uint32_t need, const slab_target *t,
-                                  clvox__slab_stats *ss)
+                                  double f0, double f1, clvox__slab_stats *ss)
 {
     clvox_context *ctx = s->ctx;
     const size_t R = s->coverage ? s->R : 1;
+    if ((uint64_t)need * R * ctx->real_size > s->max_alloc)
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY,
+                           "a voxel column's %zu rays with up to %u crossings need %llu MB, more than the device's "
+                           "largest buffer (%llu MB)",
+                           R, need, (unsigned long long)((uint64_t)need * R * ctx->real_size >> 20),
+                           (unsigned long long)(s->max_alloc >> 20));
     size_t per = (s->mem.max_rays * s->mem.capacity) / ((size_t)need * R);
     if (per < 1) per = 1;
+    if (per > s->batch_items) per = s->batch_items;
     if (per > items) per = items;
     batch_mem m;
     clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage);
@@ -398,6 +435,8 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
             ss->filled += fil[i];
             if (s->coverage) ss->coverage_count += sum[i];
         }
+        if (st == CLVOX_OK && i0 + k < items && !poll_ok(s, f0 + (f1 - f0) * (double)(i0 + k) / (double)items))
+            st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled while redoing rays with many crossings");
     }
     batch_mem_release(&m);
     free(cnt);
@@ -464,7 +503,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
     /* z-rays are the same for every slab: count them once. */
     const int count_rays = s->axis != CLVOX_AXIS_Z || z0 == 0;
     const size_t R = s->coverage ? s->R : 1;
-    const size_t per = s->mem.max_items; /* items (rays or columns) per batch */
+    const size_t per = s->batch_items; /* items (rays or columns) per batch */
     clvox_status st = CLVOX_OK;
     for (size_t c0 = 0; st == CLVOX_OK && c0 < columns; c0 += per) {
         const size_t k = columns - c0 < per ? columns - c0 : per;
@@ -514,10 +553,18 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
             over++;
         }
         if (count_rays) ss->rays += k * R;
+        if (need > CLVOX__MAX_CROSSINGS)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                               "a ray crosses the surface %u times (at most %u): the mesh holds many coincident or "
+                               "duplicated copies of its surfaces, where the inside test is meaningless",
+                               need, CLVOX__MAX_CROSSINGS);
         if (over) {
-            st = redo_overflow(s, s->rays_host, s->coverage ? s->cols_host : NULL, s->counts_host, over, need, &t, ss);
+            st = redo_overflow(s, s->rays_host, s->coverage ? s->cols_host : NULL, s->counts_host, over, need, &t,
+                               (double)c0 / (double)columns, (double)(c0 + k) / (double)columns, ss);
             if (st == CLVOX_OK && count_rays) ss->overflow_rays += over * R;
         }
+        if (st == CLVOX_OK && c0 + k < columns && !poll_ok(s, (double)(c0 + k) / (double)columns))
+            st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", z0);
     }
     return st;
 }

@@ -713,22 +713,16 @@ typedef struct progress_state {
     int draw;            /* 1: draw a bar on stderr */
     double start;        /* when voxelization began */
     double last_draw;
-    uint32_t calls;      /* slabs done */
-    uint32_t slabs;      /* slab count, derived from the fraction */
 } progress_state;
 
 static int on_progress(void *user, double fraction)
 {
     progress_state *p = user;
     if (g_interrupted) return 0;
-    p->calls++;
     if (!p->draw) return 1;
 
     if (!(fraction >= 0)) fraction = 0;
     if (fraction > 1) fraction = 1;
-    /* fraction is slabs done / slabs: recover the slab count */
-    if (fraction > 0) p->slabs = (uint32_t)((double)p->calls / fraction + 0.5);
-    if (p->slabs < p->calls) p->slabs = p->calls;
 
     double now = now_seconds();
     if (fraction < 1 && now - p->last_draw < PROGRESS_INTERVAL_S) return 1;
@@ -743,8 +737,8 @@ static int on_progress(void *user, double fraction)
     if (fraction > 0) format_duration(elapsed * (1 - fraction) / fraction, eta, sizeof eta);
     else snprintf(eta, sizeof eta, "?");
     char line[160];
-    int n = snprintf(line, sizeof line, "[%s] %3d%%  slab %u/%u  eta %s", bar, (int)(fraction * 100),
-                     (unsigned)p->calls, (unsigned)p->slabs, eta);
+    /* the library calls after each slab and between the batches of a long one */
+    int n = snprintf(line, sizeof line, "[%s] %3d%%  eta %s", bar, (int)(fraction * 100), eta);
     if (n < 0) return 1;
     if (n >= (int)sizeof line) n = (int)sizeof line - 1;
     /* pad so that a shorter line overwrites a longer one completely */

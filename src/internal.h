@@ -154,7 +154,22 @@ typedef struct clvox__run {
     uint32_t channels;    /* CLVOX_CHANNEL_* planes the slabs must hold */
     int coverage_counts;  /* 1: the coverage plane holds sample counts (uint16)
                              rather than HALF bits of count / samples */
+    /* Called between the batches of a long slab with the fraction of the
+     * slab done, in (0, 1); returns 0 to stop, and the method then fails
+     * with CLVOX_ERR_CANCELLED. NULL: never called. */
+    int (*poll)(void *user, double slab_fraction);
+    void *poll_user;
 } clvox__run;
+
+/* Most crossings one ray may have (the ray method fails with
+ * CLVOX_ERR_MESH_INVALID beyond it: that many surfaces on one line are
+ * duplicated or coincident copies, whose parity is meaningless, and their
+ * buffers and sorting would cost seconds per ray). 8 bytes each. */
+#define CLVOX__MAX_CROSSINGS 65536u
+/* Ray-triangle tests per batch of rays, at most (estimated from the largest
+ * quadtree leaf): about 0.25 s on a 2-core CPU device, so a cancel is seen
+ * within that time however slow a slab is. */
+#define CLVOX__BATCH_TESTS (128ull << 20)
 
 typedef struct clvox__method_state clvox__method_state;
 

@@ -3,7 +3,15 @@
  * holds more than `leaf_size` triangles and is shallower than `max_depth`.
  * A triangle goes to every child its projected bounding box touches
  * (closed intervals, slightly widened), so the leaf a ray lands in holds
- * every triangle the ray can cross. */
+ * every triangle the ray can cross.
+ *
+ * A split that does not separate the triangles is not made: when the four
+ * children would hold 3 times the node's triangles or more (most of them
+ * span both split lines: large or coincident triangles), a ray would still
+ * test three quarters of them, and the references would multiply by up to 4
+ * per level (a surface duplicated a million times asked for 32 GB). The
+ * references are also capped (MAX_REFS) as a last guard; any leaf that holds
+ * every triangle it touches is correct, so these rules change speed only. */
 #include "internal.h"
 
 #include <math.h>
@@ -21,6 +29,9 @@ typedef struct build {
     uint32_t depth;
     size_t leaves;
 } build;
+
+/* At most this many references in all (4 bytes each): past it, nodes stay leaves. */
+#define MAX_REFS ((size_t)1 << 28)
 
 static int grow(void **p, size_t *cap, size_t need, size_t elem)
 {
@@ -50,7 +61,18 @@ static clvox_status build_node(build *b, size_t node, const uint32_t *tris, size
                                float v1, float w1, uint32_t depth)
 {
     if (depth > b->depth) b->depth = depth;
-    if (n <= b->leaf_size || depth >= b->max_depth) {
+    float sv = 0.5f * (v0 + v1), sw = 0.5f * (w0 + w1);
+    int leaf = n <= b->leaf_size || depth >= b->max_depth;
+    if (!leaf) { /* does a split separate the triangles? (children's sizes, one pass) */
+        size_t sum = 0;
+        for (size_t i = 0; i < n; i++) {
+            const float *bb = b->box + (size_t)tris[i] * 4;
+            unsigned cv = (bb[0] <= sv) + (bb[2] >= sv), cw = (bb[1] <= sw) + (bb[3] >= sw);
+            sum += cv * cw; /* quadrants touched: 1, 2 or 4 */
+        }
+        leaf = sum >= 3 * n || b->ref_count + sum > MAX_REFS;
+    }
+    if (leaf) {
         if (!grow((void **)&b->refs, &b->ref_cap, b->ref_count + n, sizeof *b->refs))
             return clvox__fail(b->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory building the quadtree");
         b->nodes[node].first = (uint32_t)b->ref_count;
@@ -63,7 +85,6 @@ static clvox_status build_node(build *b, size_t node, const uint32_t *tris, size
             return clvox__fail(b->ctx, CLVOX_ERR_OUT_OF_MEMORY, "quadtree holds more than 2^32 references");
         return CLVOX_OK;
     }
-    float sv = 0.5f * (v0 + v1), sw = 0.5f * (w0 + w1);
     if (!grow((void **)&b->nodes, &b->node_cap, b->node_count + 4, sizeof *b->nodes))
         return clvox__fail(b->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory building the quadtree");
     size_t first = b->node_count;

@@ -118,6 +118,23 @@ typedef struct sink_needs {
     uint32_t *channels_out; /* receives the channels produced (may be NULL) */
 } sink_needs;
 
+/* Progress between the batches of a slab: the caller's callback with the
+ * fraction of the whole run, at most 10 times a second. */
+typedef struct poll_state {
+    const clvox_voxelize_options *o;
+    uint32_t done, slabs;
+    double last;
+} poll_state;
+
+static int poll_progress(void *user, double slab_fraction)
+{
+    poll_state *p = user;
+    double now = clvox__now();
+    if (!p->o->progress || now - p->last < 0.1) return 1;
+    p->last = now;
+    return p->o->progress(p->o->progress_user, ((double)p->done + slab_fraction) / p->slabs);
+}
+
 static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                         const clvox_voxelize_options *in, const sink_needs *needs, open_fn open_sink, sink_fn sink,
                         void *user, clvox_stats *stats_out)
@@ -131,7 +148,8 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
 
     const clvox__method *m = o.method == CLVOX_METHOD_TETRA ? &clvox__method_tetra : &clvox__method_ray;
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
-    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts};
+    poll_state poll = {&o, 0, 0, 0.0};
+    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts, poll_progress, &poll};
     o.channels = req.channels;
     if (needs->channels_out) *needs->channels_out = req.channels;
     const int want_occ = (req.channels & CLVOX_CHANNEL_OCCUPANCY) != 0;
@@ -173,6 +191,8 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     }
     stats.peak_slab_bytes += depth * (occ_slice + cov_slice); /* method working set + slab planes */
     uint32_t slabs = (Z + depth - 1) / depth, done = 0;
+    poll.slabs = slabs;
+    poll.last = clvox__now();
     for (uint32_t z0 = 0; st == CLVOX_OK && z0 < Z; z0 += depth) {
         uint32_t nz = Z - z0 < depth ? Z - z0 : depth;
         clvox__slab_stats ss;
@@ -215,6 +235,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         }
         if (st != CLVOX_OK) break;
         done++;
+        poll.done = done;
         if (st == CLVOX_OK && o.progress && !o.progress(o.progress_user, (double)done / slabs))
             st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled after %u of %u slabs", done, slabs);
     }

@@ -3,6 +3,7 @@
 #include "meshgen.h"
 #include "reference.h"
 #include "test.h"
+#include "internal.h"
 
 #include <math.h>
 #include <string.h>
@@ -318,6 +319,116 @@ static void test_grid_api(void)
     CHECK(g.dims[2] == 1);
 }
 
+/* Many crossings per ray: nested boxes (each ray through the middle crosses
+ * 2 faces per box) give lists far longer than the private sort buffer; the
+ * heap sort must order them exactly (the CPU reference), in the fast pass
+ * (large capacity) and in the overflow redo (default capacity). */
+static void test_long_crossing_lists(void)
+{
+    tmesh t = {0};
+    for (int k = 0; k < 90; k++) {
+        double e = 0.005 * k;
+        tmesh b = tmesh_box(0.05 + e, 0.05 + e * 0.9, 0.05 + e * 0.8, 0.95 - e * 0.7, 0.95 - e, 0.95 - e * 0.6);
+        if (k & 1) tmesh_flip(&b);
+        tmesh_append(&t, &b);
+        tmesh_free(&b);
+    }
+    double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    clvox_grid g = make_grid(lo, hi, 29, 23, 19);
+    clvox_mesh *m = to_mesh(&t);
+    uint8_t *ref = malloc(nvox(&g));
+    ref_voxelize(t.xyz, t.nv, t.tri, t.nt, &g, CLVOX_AXIS_X, ref);
+    const uint32_t caps[2] = {512, 0};
+    for (int i = 0; i < 2; i++) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.hit_capacity = caps[i];
+        clvox_stats s;
+        uint8_t *v = run_opts(m, &g, &o, &s);
+        CHECK_MSG(memcmp(v, ref, nvox(&g)) == 0, "nested boxes, capacity %u: differs from the reference", caps[i]);
+        CHECK_MSG(s.max_crossings == 180 && (caps[i] ? s.overflow_rays == 0 : s.overflow_rays > 0),
+                  "max crossings %u, overflow %llu", s.max_crossings, (unsigned long long)s.overflow_rays);
+        free(v);
+    }
+    free(ref);
+    clvox_mesh_destroy(m);
+    tmesh_free(&t);
+}
+
+/* A closed box repeated `copies` times (coincident surfaces). */
+static tmesh repeated_box(unsigned copies)
+{
+    tmesh one = tmesh_box(0.1, 0.2, 0.15, 0.9, 0.8, 0.85), t = {0};
+    for (unsigned c = 0; c < copies; c++) tmesh_append(&t, &one);
+    tmesh_free(&one);
+    return t;
+}
+
+static int cancel_calls, saw_partial;
+static int cancel_on_partial(void *user, double f)
+{
+    (void)user;
+    cancel_calls++;
+    if (f < 1.0) saw_partial = 1;
+    return f >= 1.0; /* stop at the first call inside the (only) slab */
+}
+
+/* Coincident copies: a clear error past CLVOX__MAX_CROSSINGS crossings per
+ * ray (not minutes of sorting or gigabytes of buffers), the quadtree does
+ * not multiply its references, and a slow slab is cancelled within a
+ * fraction of a second. */
+static void test_coincident_surfaces(void)
+{
+    double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    clvox_grid g8 = make_grid(lo, hi, 8, 8, 8);
+    /* 32769 copies: 65538 crossings per ray through the box, one more than allowed */
+    tmesh big = repeated_box(32769);
+    clvox_mesh *m = to_mesh(&big);
+    uint8_t v[512];
+    double t0 = clvox__now();
+    CHECK_STATUS(ctx, clvox_voxelize_to_memory(ctx, m, &g8, NULL, v, sizeof v, NULL), CLVOX_ERR_MESH_INVALID);
+    CHECK(strstr(clvox_context_error(ctx), "coincident") != NULL);
+    CHECK_MSG(clvox__now() - t0 < 10.0, "the refusal took %.1f s", clvox__now() - t0);
+    clvox_mesh_destroy(m);
+    tmesh_free(&big);
+
+    /* 30000 copies: allowed; the copies cancel (parity): empty, in bounded time and memory */
+    tmesh ok = repeated_box(30000);
+    m = to_mesh(&ok);
+    clvox_stats s;
+    t0 = clvox__now();
+    CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, &g8, NULL, v, sizeof v, &s));
+    CHECK(count(v, sizeof v) == 0 && s.max_crossings == 60000 && s.overflow_rays > 0);
+    CHECK_MSG(clvox__now() - t0 < 10.0, "30000 coincident boxes took %.1f s", clvox__now() - t0);
+    /* references: no split multiplies them (was 4x per level) */
+    clvox_grid g256 = make_grid(lo, hi, 256, 256, 1);
+    uint8_t *w = malloc(nvox(&g256));
+    CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, &g256, NULL, w, nvox(&g256), &s));
+    CHECK_MSG(s.quadtree_refs <= 8 * ok.nt, "%llu quadtree references for %zu triangles",
+              (unsigned long long)s.quadtree_refs, ok.nt);
+    free(w);
+    clvox_mesh_destroy(m);
+    tmesh_free(&ok);
+
+    /* cancel inside one slow slab: 2000 copies at 160^2 rays, one slab */
+    tmesh slow = repeated_box(2000);
+    m = to_mesh(&slow);
+    clvox_grid g = make_grid(lo, hi, 160, 160, 40);
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    o.slab_depth = 40;
+    o.progress = cancel_on_partial;
+    uint8_t *big_v = malloc(nvox(&g));
+    t0 = clvox__now();
+    CHECK_STATUS(ctx, clvox_voxelize_to_memory(ctx, m, &g, &o, big_v, nvox(&g), NULL), CLVOX_ERR_CANCELLED);
+    double took = clvox__now() - t0;
+    CHECK_MSG(saw_partial && cancel_calls == 1, "progress calls %d, partial %d", cancel_calls, saw_partial);
+    /* uncancelled, the same run takes several seconds on a 2-core CPU */
+    CHECK_MSG(took < 1.5, "cancel took %.2f s", took);
+    printf("coincident surfaces: cancel honoured after %.2f s\n", took);
+    free(big_v);
+    clvox_mesh_destroy(m);
+    tmesh_free(&slow);
+}
+
 int main(void)
 {
     ctx = test_context();
@@ -327,6 +438,8 @@ int main(void)
     test_shapes();
     test_overflow_and_slabs();
     test_open_mesh();
+    test_long_crossing_lists();
+    test_coincident_surfaces();
     clvox_context_destroy(ctx);
     return test_report();
 }

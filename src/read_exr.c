@@ -147,9 +147,9 @@ static clvox_status get_string(reader *r, const char *name, char *dst, size_t si
 
 /* What the file can hold: the samples the header declares (all channels)
  * at most max_expansion times the file size, the chunk offset table (8 bytes
- * per chunk) inside the file; with clvox's own layouts (clvoxLayout), tiles
- * as clvox writes them: X wide, and Y tall for "tile-per-slice" (so the tiles
- * confirm clvoxDims' Y), fewer rows than Y for "row-chunks". Every buffer
+ * per chunk) inside the file; with clvox's own layouts (clvoxLayout and
+ * tiles X wide, as clvox writes them), tiles Y tall for "tile-per-slice" (so
+ * the tiles confirm clvoxDims' Y), fewer rows than Y for "row-chunks". Every buffer
  * the reader allocates is bounded by the samples, so by the file size. */
 static clvox_status check_size(reader *r, const clvox_volume_info *info, uint64_t H)
 {
@@ -177,14 +177,15 @@ static clvox_status check_size(reader *r, const clvox_volume_info *info, uint64_
     const int per_slice = len >= 14 && strncmp(layout, "tile-per-slice", 14) == 0;
     const int row_chunks = len >= 10 && strncmp(layout, "row-chunks", 10) == 0;
     if (!per_slice && !row_chunks) return CLVOX_OK; /* a layout of some later version */
+    /* Only tiles X wide are clvox's: a file re-saved by another tool keeps
+     * the attribute with tiles (or scanlines) of its own, and is read as any
+     * other layout. */
     int32_t tw = 0, th = 0;
     exr_storage_t storage;
     if (exr_get_storage(r->exr, 0, &storage) != EXR_ERR_SUCCESS || storage != EXR_STORAGE_TILED ||
-        exr_get_tile_sizes(r->exr, 0, 0, 0, &tw, &th) != EXR_ERR_SUCCESS)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is corrupt: clvoxLayout says tiles, the file has none",
-                           r->path);
-    if ((uint64_t)tw != X || (per_slice && (uint32_t)th != info->dims[1]) ||
-        (row_chunks && (th <= 0 || (uint32_t)th >= info->dims[1])))
+        exr_get_tile_sizes(r->exr, 0, 0, 0, &tw, &th) != EXR_ERR_SUCCESS || (uint64_t)tw != X)
+        return CLVOX_OK;
+    if ((per_slice && (uint32_t)th != info->dims[1]) || (row_chunks && (th <= 0 || (uint32_t)th >= info->dims[1])))
         return clvox__fail(r->ctx, CLVOX_ERR_EXR,
                            "'%s' is corrupt: %d x %d tiles do not fit clvoxDims %u x %u x %u in its layout \"%.*s\"",
                            r->path, (int)tw, (int)th, info->dims[0], info->dims[1], info->dims[2],

@@ -15,13 +15,13 @@
  *        format, invalid or empty
  *   5    output error: the output file can not be written
  *   6    grid error: zero or too large grid
- *   130  cancelled (SIGINT / SIGTERM)
+ *   130  cancelled (SIGINT / SIGTERM / SIGHUP)
  *
  * Order of work: parse arguments, check the output directory (creates
  * nothing), load the mesh and compute the grid on a host-only context (so
  * mesh and grid errors need no OpenCL device), then open the device and
- * voxelize. The library writes to a temporary name and renames it on
- * success, so a failed or cancelled run leaves no file.
+ * voxelize. The library writes a file without a name and names it only on
+ * success, so a failed, cancelled or killed run leaves no file.
  */
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L
@@ -89,6 +89,7 @@ static void install_signal_handlers(void)
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL); /* a closed terminal cancels like SIGTERM */
 }
 
 static void format_bytes(uint64_t bytes, char *buf, size_t size)
@@ -519,8 +520,8 @@ static void print_help(void)
 "                           stderr is a terminal)\n"
 "  -h, --help               print this help and exit\n"
 "  -V, --version            print the version and exit\n"
-"  Ctrl-C cancels cleanly: no output file is left (exit 130); a second Ctrl-C\n"
-"  stops at once.\n"
+"  Ctrl-C (or SIGTERM, SIGHUP) cancels cleanly: no output file is left (exit\n"
+"  130); a second Ctrl-C stops at once.\n"
 "\n", stdout);
     fputs(
 "clvox info FILE.exr: prints the grid, method, parameters, compression and the\n"
@@ -545,7 +546,7 @@ static void print_help(void)
 "       format, invalid (non-finite coordinates, bad indices) or empty\n"
 "  5    output error: the output file can not be written\n"
 "  6    grid error: zero or too large grid\n"
-"  130  cancelled (SIGINT/SIGTERM)\n"
+"  130  cancelled (SIGINT/SIGTERM/SIGHUP)\n"
 "  Errors are one line on stderr: \"clvox: error: <message>\".\n"
 "\n"
 "Environment:\n"

@@ -4,6 +4,9 @@
  * early output check. Moved here from cli.c unchanged when `clvox preview`
  * got its own file (cli_preview.c).
  */
+#if defined(__linux__) && !defined(_GNU_SOURCE)
+#define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
+#endif
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L
 #endif
@@ -11,6 +14,7 @@
 #include "cli_common.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -164,6 +168,15 @@ int check_output(const char *path)
 {
     struct stat sb;
     if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) return fail(EXIT_OUTPUT, "cannot write '%s': it is a directory", path);
+    if (lstat(path, &sb) == 0 && !S_ISREG(sb.st_mode)) {
+        if (S_ISLNK(sb.st_mode))
+            return fail(EXIT_OUTPUT, "cannot write '%s': it is a symbolic link (clvox replaces only regular files)",
+                        path);
+        return fail(EXIT_OUTPUT,
+                    "cannot write '%s': it is not a regular file (a device, FIFO or socket; clvox replaces only "
+                    "regular files)",
+                    path);
+    }
     size_t len = strlen(path);
     if (len > 0 && path[len - 1] == '/') return fail(EXIT_OUTPUT, "cannot write '%s': not a file name", path);
 
@@ -192,4 +205,115 @@ int has_channel(const char *list, const char *name)
         p = comma ? comma + 1 : NULL;
     }
     return 0;
+}
+
+/* ---- output files (the scheme of the library's EXR writer, write_exr.c) ---- */
+
+static int out_temp_name(char *buf, size_t size, const char *dir)
+{
+    static unsigned counter;
+    int n = snprintf(buf, size, "%s/.clvox-%ld-%u.tmp", dir, (long)getpid(), counter++);
+    return n > 0 && (size_t)n < size;
+}
+
+int out_file_create(out_file *of, const char *path, char *why, size_t why_size)
+{
+    memset(of, 0, sizeof *of);
+    of->fd = -1;
+    const char *slash = strrchr(path, '/');
+    size_t dn = !slash ? 1 : slash == path ? 1 : (size_t)(slash - path);
+    if (dn >= sizeof of->dir) {
+        snprintf(why, why_size, "%s", strerror(ENAMETOOLONG));
+        return -1;
+    }
+    memcpy(of->dir, !slash ? "." : path, dn);
+    of->dir[dn] = '\0';
+#ifdef O_TMPFILE
+    int fd = open(of->dir, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+    if (fd >= 0) {
+        char proc[64];
+        snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
+        if (access(proc, F_OK) == 0) {
+            of->fd = fd;
+            of->unnamed = 1;
+            return 0;
+        }
+        close(fd);
+    } else if (errno != EOPNOTSUPP && errno != EISDIR && errno != EINVAL) {
+        snprintf(why, why_size, "%s", strerror(errno));
+        return -1;
+    }
+#endif
+    for (int attempt = 0; attempt < 100; attempt++) {
+        if (!out_temp_name(of->tmp, sizeof of->tmp, of->dir)) break;
+        of->fd = open(of->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (of->fd >= 0) return 0;
+        if (errno != EEXIST) {
+            snprintf(why, why_size, "%s", strerror(errno));
+            of->tmp[0] = '\0';
+            return -1;
+        }
+    }
+    of->tmp[0] = '\0';
+    snprintf(why, why_size, "no free temporary name in '%s'", of->dir);
+    return -1;
+}
+
+#ifdef O_TMPFILE
+static int out_link(int fd, const char *name)
+{
+    char proc[64];
+    snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
+    if (linkat(AT_FDCWD, proc, AT_FDCWD, name, AT_SYMLINK_FOLLOW) == 0) return 0;
+    if (errno != ENOENT) return -1;
+    return linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH);
+}
+#endif
+
+int out_file_commit(out_file *of, const char *path, char *why, size_t why_size)
+{
+    struct stat sb;
+    if (lstat(path, &sb) == 0 && !S_ISREG(sb.st_mode)) {
+        snprintf(why, why_size, "it is not a regular file");
+        out_file_discard(of);
+        return -1;
+    }
+#ifdef O_TMPFILE
+    if (of->unnamed) {
+        int linked = out_link(of->fd, path) == 0;
+        if (!linked && errno == EEXIST) { /* replace it: a unique name, renamed over it at once */
+            for (int attempt = 0; attempt < 100; attempt++) {
+                if (!out_temp_name(of->tmp, sizeof of->tmp, of->dir)) break;
+                if (out_link(of->fd, of->tmp) == 0) break;
+                of->tmp[0] = '\0';
+                if (errno != EEXIST) break;
+            }
+            if (!of->tmp[0]) {
+                snprintf(why, why_size, "%s", strerror(errno));
+                out_file_discard(of);
+                return -1;
+            }
+        } else if (!linked) {
+            snprintf(why, why_size, "%s", strerror(errno));
+            out_file_discard(of);
+            return -1;
+        }
+    }
+#endif
+    if (of->tmp[0] && rename(of->tmp, path) != 0) {
+        snprintf(why, why_size, "cannot rename '%s': %s", of->tmp, strerror(errno));
+        out_file_discard(of);
+        return -1;
+    }
+    of->tmp[0] = '\0';
+    out_file_discard(of); /* closes the descriptor; nothing left to unlink */
+    return 0;
+}
+
+void out_file_discard(out_file *of)
+{
+    if (of->fd >= 0) close(of->fd);
+    of->fd = -1;
+    if (of->tmp[0]) unlink(of->tmp);
+    of->tmp[0] = '\0';
 }

@@ -57,9 +57,29 @@ int match_value(int argc, char **argv, int *i, const char *short_name, const cha
                 int *missing);
 
 /* Fails early (creating nothing) when the output can not possibly be
- * written: a directory, a name ending in '/', a missing or unwritable
- * directory. Returns EXIT_OK or the reported EXIT_OUTPUT. */
+ * written: a directory, anything else that is not a regular file (symbolic
+ * link, device node, FIFO, socket), a name ending in '/', a missing or
+ * unwritable directory. Returns EXIT_OK or the reported EXIT_OUTPUT. */
 int check_output(const char *path);
+
+/* An output file written without a name and named only when complete, as
+ * the library's EXR writer does (write_exr.c): on Linux an O_TMPFILE in the
+ * directory of the path, linked to it (or to a short unique name renamed
+ * over an existing file) by out_file_commit; where the file system lacks
+ * O_TMPFILE, a named ".clvox-<pid>-<n>.tmp" in that directory. */
+typedef struct out_file {
+    int fd;           /* write here */
+    int unnamed;      /* O_TMPFILE */
+    char dir[4096];   /* directory of the path */
+    char tmp[4160];   /* the named temporary, "" if none */
+} out_file;
+/* 0, or -1 with the reason in why. */
+int out_file_create(out_file *of, const char *path, char *why, size_t why_size);
+/* After the data is synced: refuses a `path` that is not a regular file,
+ * names the file `path`, closes it. 0, or -1 (why; the file is discarded). */
+int out_file_commit(out_file *of, const char *path, char *why, size_t why_size);
+/* Closes and removes the file (no-op after a commit). */
+void out_file_discard(out_file *of);
 
 /* 1 when `name` is one of the comma-separated names in `list`
  * (clvox_volume_info.channels). */

@@ -23,9 +23,11 @@
  * (the library's) whatever Z is. The layout needs the dimensions, which the
  * library has put into `info` before the first slice arrives.
  *
- * The PNG is written to "<OUT>.tmp-<pid>-<n>" in the same directory (O_EXCL),
- * flushed to disk and renamed; any failure unlinks it. Nothing that is not a
- * regular file at OUT is ever replaced.
+ * The PNG is written to a file without a name in the directory of OUT
+ * (O_TMPFILE; where the file system lacks it, ".clvox-<pid>-<n>.tmp"),
+ * flushed to disk and only then named OUT (out_file_*, cli_common.c); any
+ * failure removes it. Nothing that is not a regular file at OUT is ever
+ * replaced.
  */
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L
@@ -269,40 +271,27 @@ static int write_png(FILE *f, const preview *pv, uint8_t *row, char *fail_msg, s
     return 0;
 }
 
-/* Writes the picture to a temporary file next to `path` and renames it. */
+/* Writes the picture to a file without a name in the directory of `path`
+ * and names it `path` once it is complete and synced (out_file_*). */
 static int save_png(const char *path, const preview *pv)
 {
-    static unsigned counter;
-    size_t n = strlen(path) + 64;
-    char *tmp = malloc(n);
     uint8_t *row = malloc((size_t)pv->width * 3);
-    if (!tmp || !row) {
-        free(tmp);
+    if (!row) return fail(EXIT_RUNTIME, "out of memory");
+    out_file of;
+    char why[320] = "";
+    if (out_file_create(&of, path, why, sizeof why) != 0) {
         free(row);
-        return fail(EXIT_RUNTIME, "out of memory");
+        return fail(EXIT_OUTPUT, "cannot create output file '%s': %s", path, why);
     }
-    int fd = -1;
-    for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
-        snprintf(tmp, n, "%s.tmp-%ld-%u", path, (long)getpid(), counter++);
-        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd < 0 && errno != EEXIST) break;
-    }
-    if (fd < 0) {
-        int rc = fail(EXIT_OUTPUT, "cannot create output file '%s': %s", path, strerror(errno));
-        free(tmp);
-        free(row);
-        return rc;
-    }
-    FILE *f = fdopen(fd, "wb");
+    int fd2 = dup(of.fd); /* the stream's own descriptor: of.fd stays open for the commit */
+    FILE *f = fd2 >= 0 ? fdopen(fd2, "wb") : NULL;
     if (!f) {
         int e = errno;
-        close(fd);
-        unlink(tmp);
-        free(tmp);
+        if (fd2 >= 0) close(fd2);
+        out_file_discard(&of);
         free(row);
         return fail(EXIT_RUNTIME, "cannot write '%s': %s", path, strerror(e));
     }
-    char why[320] = "";
     int bad = write_png(f, pv, row, why, sizeof why);
     free(row);
     if (!bad && fflush(f) != 0) {
@@ -317,22 +306,13 @@ static int save_png(const char *path, const preview *pv)
         bad = 1;
         snprintf(why, sizeof why, "%s", strerror(errno));
     }
-    struct stat sb;
-    if (!bad && lstat(path, &sb) == 0 && !S_ISREG(sb.st_mode)) {
-        bad = 1;
-        snprintf(why, sizeof why, "it is not a regular file");
-    }
-    if (!bad && rename(tmp, path) != 0) {
-        bad = 1;
-        snprintf(why, sizeof why, "cannot rename '%s': %s", tmp, strerror(errno));
-    }
-    int rc = EXIT_OK;
     if (bad) {
-        unlink(tmp);
-        rc = fail(EXIT_OUTPUT, "writing '%s' failed: %s", path, why);
+        out_file_discard(&of);
+        return fail(EXIT_OUTPUT, "writing '%s' failed: %s", path, why);
     }
-    free(tmp);
-    return rc;
+    if (out_file_commit(&of, path, why, sizeof why) != 0)
+        return fail(EXIT_OUTPUT, "writing '%s' failed: %s", path, why);
+    return EXIT_OK;
 }
 
 /* ---- command ------------------------------------------------------------------- */
@@ -348,9 +328,9 @@ static void print_preview_help(void)
 "the picture's panels plus one slice). Needs no OpenCL device.\n"
 "\n"
 "Options:\n"
-"  -o, --output OUT.png     the picture (required); written to a temporary name\n"
-"                           in the same directory and renamed on success; never\n"
-"                           replaces anything but a regular file\n"
+"  -o, --output OUT.png     the picture (required); written without a name in\n"
+"                           the same directory and named OUT.png on success;\n"
+"                           never replaces anything but a regular file\n"
 "  --slices N               z slices in the montage, 1..%u (default %u); more\n"
 "                           than Z is lowered to Z\n"
 "  --size PX                longer side of every panel in pixels, 1..%u\n"

@@ -202,8 +202,11 @@ typedef struct clvox__exr_meta {
     const char *parameters;  /* free text, e.g. "axis=x depth=9 leaf=8" */
 } clvox__exr_meta;
 
-/* Opens `path` for streaming: the data goes to a temporary file in the same
- * directory, renamed to `path` by clvox__exr_finish. `channels` is a
+/* Opens `path` for streaming: the data goes to an unnamed file in the same
+ * directory (O_TMPFILE; a short named temporary where the file system lacks
+ * it), given the name `path` by clvox__exr_finish. Anything at `path` that
+ * is not a regular file (directory, symbolic link, device, FIFO, socket) is
+ * refused with CLVOX_ERR_IO, here and again just before the rename. `channels` is a
  * CLVOX_CHANNEL_* mask (0 = occupancy): "occupancy" HALF 0.0/1.0 and/or
  * "coverage" HALF. Layout: see README "EXR layout". */
 clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
@@ -218,6 +221,9 @@ clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t n
 clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes);
 /* Deletes the temporary file and frees w. NULL-safe. */
 void clvox__exr_abort(clvox__exr_writer *w);
+/* Tests only: nonzero makes the writer use the named temporary file (the
+ * fallback for file systems without O_TMPFILE). */
+extern int clvox__exr_no_tmpfile;
 
 #ifdef __cplusplus
 }

@@ -32,6 +32,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,6 +45,8 @@
 typedef struct reader {
     clvox_context *ctx;
     const char *path;
+    int fd;             /* the file, opened once (read_fn reads through it) */
+    uint64_t file_size;
     exr_context_t exr;
     char msg[512]; /* last OpenEXRCore message */
     const exr_attr_chlist_t *chl;
@@ -66,6 +69,48 @@ static void reader_error_handler(exr_const_context_t ectx, exr_result_t code, co
     if (!ectx || exr_get_user_data(ectx, &ud) != EXR_ERR_SUCCESS || !ud) return;
     reader *r = ud;
     snprintf(r->msg, sizeof r->msg, "%s", msg ? msg : exr_get_default_error_message(code));
+}
+
+static int64_t reader_read_fn(exr_const_context_t ectx, void *ud, void *buffer, uint64_t size, uint64_t offset,
+                              exr_stream_error_func_ptr_t error_cb)
+{
+    reader *r = ud;
+    uint8_t *p = buffer;
+    uint64_t done = 0;
+    while (done < size) {
+        size_t n = size - done > (1u << 30) ? (1u << 30) : (size_t)(size - done);
+        ssize_t got = pread(r->fd, p + done, n, (off_t)(offset + done));
+        if (got < 0 && errno == EINTR) continue;
+        if (got < 0) {
+            if (error_cb) error_cb(ectx, EXR_ERR_READ_IO, "read from '%s' failed: %s", r->path, strerror(errno));
+            return -1;
+        }
+        if (got == 0) break; /* end of file: a short read, as pread gives */
+        done += (uint64_t)got;
+    }
+    return (int64_t)done;
+}
+
+static int64_t reader_size_fn(exr_const_context_t ectx, void *ud)
+{
+    (void)ectx;
+    return (int64_t)((reader *)ud)->file_size;
+}
+
+/* At most this many bytes of samples per byte of file for compression c: a
+ * larger claim cannot be true, and would only make us allocate for it. RLE:
+ * a 2-byte token gives at most 128 bytes; zlib (ZIP, ZIPS, PXR24) at most
+ * about 1032 per byte, PIZ's Huffman runs about 410, B44 11; DWA (lossy,
+ * zlib over DCT runs) is given room. */
+static uint64_t max_expansion(exr_compression_t c)
+{
+    switch (c) {
+    case EXR_COMPRESSION_NONE: return 1;
+    case EXR_COMPRESSION_RLE: return 64;
+    case EXR_COMPRESSION_DWAA:
+    case EXR_COMPRESSION_DWAB: return 1u << 17;
+    default: return 2048;
+    }
 }
 
 static clvox_status exr_fail(reader *r, exr_result_t rv, const char *what)
@@ -100,6 +145,54 @@ static clvox_status get_string(reader *r, const char *name, char *dst, size_t si
     return CLVOX_OK;
 }
 
+/* What the file can hold: the samples the header declares (all channels)
+ * at most max_expansion times the file size, the chunk offset table (8 bytes
+ * per chunk) inside the file; with clvox's own layouts (clvoxLayout and
+ * tiles X wide, as clvox writes them), tiles Y tall for "tile-per-slice" (so
+ * the tiles confirm clvoxDims' Y), fewer rows than Y for "row-chunks". Every buffer
+ * the reader allocates is bounded by the samples, so by the file size. */
+static clvox_status check_size(reader *r, const clvox_volume_info *info, uint64_t H)
+{
+    uint64_t pixel = 0;
+    for (int c = 0; c < r->chl->num_channels; c++)
+        pixel += r->chl->entries[c].pixel_type == EXR_PIXEL_HALF ? 2u : 4u;
+    const uint64_t X = info->dims[0], limit = max_expansion(r->compression) * r->file_size;
+    if (pixel == 0) pixel = 1;
+    if (X * H > limit / pixel) /* X*H < 2^62 */
+        return clvox__fail(r->ctx, CLVOX_ERR_EXR,
+                           "'%s' is corrupt: its header declares %llu x %llu pixels of %llu bytes, more than a "
+                           "%llu-byte file with %s compression can hold",
+                           r->path, (unsigned long long)X, (unsigned long long)H, (unsigned long long)pixel,
+                           (unsigned long long)r->file_size, info->compression);
+    int32_t chunks = 0;
+    exr_result_t rv = exr_get_chunk_count(r->exr, 0, &chunks);
+    if (rv != EXR_ERR_SUCCESS || chunks <= 0) return exr_fail(r, rv, "counting the chunks of");
+    if ((uint64_t)chunks * 8 > r->file_size)
+        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is corrupt: %d chunks do not fit in %llu bytes", r->path,
+                           (int)chunks, (unsigned long long)r->file_size);
+
+    int32_t len = 0;
+    const char *layout = NULL;
+    if (exr_attr_get_string(r->exr, 0, "clvoxLayout", &len, &layout) != EXR_ERR_SUCCESS || !layout) return CLVOX_OK;
+    const int per_slice = len >= 14 && strncmp(layout, "tile-per-slice", 14) == 0;
+    const int row_chunks = len >= 10 && strncmp(layout, "row-chunks", 10) == 0;
+    if (!per_slice && !row_chunks) return CLVOX_OK; /* a layout of some later version */
+    /* Only tiles X wide are clvox's: a file re-saved by another tool keeps
+     * the attribute with tiles (or scanlines) of its own, and is read as any
+     * other layout. */
+    int32_t tw = 0, th = 0;
+    exr_storage_t storage;
+    if (exr_get_storage(r->exr, 0, &storage) != EXR_ERR_SUCCESS || storage != EXR_STORAGE_TILED ||
+        exr_get_tile_sizes(r->exr, 0, 0, 0, &tw, &th) != EXR_ERR_SUCCESS || (uint64_t)tw != X)
+        return CLVOX_OK;
+    if ((per_slice && (uint32_t)th != info->dims[1]) || (row_chunks && (th <= 0 || (uint32_t)th >= info->dims[1])))
+        return clvox__fail(r->ctx, CLVOX_ERR_EXR,
+                           "'%s' is corrupt: %d x %d tiles do not fit clvoxDims %u x %u x %u in its layout \"%.*s\"",
+                           r->path, (int)tw, (int)th, info->dims[0], info->dims[1], info->dims[2],
+                           len > 40 ? 40 : (int)len, layout);
+    return CLVOX_OK;
+}
+
 /* Reads the header into info (every field but the counts) and checks the
  * image geometry. Channels are looked up afterwards (find_channel). */
 static clvox_status read_header(reader *r, clvox_volume_info *info)
@@ -129,6 +222,13 @@ static clvox_status read_header(reader *r, clvox_volume_info *info)
         if (dims.arr[i] <= 0)
             return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': clvoxDims %d x %d x %d is not a valid grid", r->path,
                                dims.x, dims.y, dims.z);
+        if (!isfinite(origin.arr[i]))
+            return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': clvoxOrigin (%g, %g, %g) is not finite", r->path,
+                               origin.x, origin.y, origin.z);
+        if (!isfinite(h.arr[i]) || !(h.arr[i] > 0))
+            return clvox__fail(r->ctx, CLVOX_ERR_EXR,
+                               "'%s': clvoxVoxelSize (%g, %g, %g) is not finite and positive", r->path, h.x, h.y,
+                               h.z);
         info->dims[i] = (uint32_t)dims.arr[i];
         info->origin[i] = origin.arr[i];
         info->voxel_size[i] = h.arr[i];
@@ -164,7 +264,7 @@ static clvox_status read_header(reader *r, clvox_volume_info *info)
                            "'%s': data window %lld x %lld does not match clvoxDims %u x %u x %u (expected %u x %llu)",
                            r->path, (long long)w, (long long)hgt, info->dims[0], info->dims[1], info->dims[2],
                            info->dims[0], (unsigned long long)info->dims[1] * info->dims[2]);
-    return CLVOX_OK;
+    return check_size(r, info, (uint64_t)hgt);
 }
 
 static const exr_attr_chlist_entry_t *find_channel(const reader *r, const char *name)
@@ -621,7 +721,7 @@ static clvox_status read_channel(reader *r, const clvox_volume_info *info, const
                     st = exr_fail(r, rv, "locating a tile of");
                     break;
                 }
-                if ((uint64_t)ci.height != rows || (uint64_t)ci.width > X - x0) {
+                if ((uint64_t)ci.height != rows || (uint64_t)ci.width > X - x0 || ci.packed_size > r->file_size) {
                     st = clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': tile (%d,%d) has an unexpected size %dx%d",
                                      r->path, tx, ty, ci.width, ci.height);
                     break;
@@ -634,7 +734,7 @@ static clvox_status read_channel(reader *r, const clvox_volume_info *info, const
                 st = exr_fail(r, rv, "locating a chunk of");
                 break;
             }
-            if ((uint64_t)ci.height != rows || (uint64_t)ci.width != X) {
+            if ((uint64_t)ci.height != rows || (uint64_t)ci.width != X || ci.packed_size > r->file_size) {
                 st = clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': chunk at row %llu has an unexpected size %dx%d",
                                  r->path, (unsigned long long)row0, ci.width, ci.height);
                 break;
@@ -653,6 +753,8 @@ static clvox_status read_channel(reader *r, const clvox_volume_info *info, const
 static void reader_close(reader *r)
 {
     if (r->exr) exr_finish(&r->exr);
+    if (r->fd >= 0) close(r->fd);
+    r->fd = -1;
     free(r->packed);
     free(r->tmp);
     free(r->raw);
@@ -665,18 +767,26 @@ static clvox_status reader_open(reader *r, clvox_context *ctx, const char *path,
     memset(r, 0, sizeof *r);
     r->ctx = ctx;
     r->path = path;
+    r->fd = -1;
     memset(info, 0, sizeof *info);
 
+    /* Opened once, without blocking (a FIFO would block in open), and only a
+     * regular file is read: the library reads through this descriptor. */
     struct stat sb;
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
-    int is_dir = fstat(fd, &sb) == 0 && S_ISDIR(sb.st_mode);
-    close(fd);
-    if (is_dir) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': it is a directory", path);
+    r->fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (r->fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+    if (fstat(r->fd, &sb) != 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
+    if (S_ISDIR(sb.st_mode)) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': it is a directory", path);
+    if (!S_ISREG(sb.st_mode))
+        return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': it is not a regular file (a device, FIFO or socket)",
+                           path);
+    r->file_size = (uint64_t)sb.st_size;
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = reader_error_handler;
     init.user_data = r;
+    init.read_fn = reader_read_fn;
+    init.size_fn = reader_size_fn;
     init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
     exr_result_t rv = exr_start_read(&r->exr, path, &init);
     if (rv != EXR_ERR_SUCCESS) {

@@ -38,12 +38,22 @@
  *
  * Writing
  * -------
- * The file is written to "<path>.tmp-<pid>-<n>" (created with O_EXCL in the
- * same directory, so a missing or unwritable directory fails in
- * clvox__exr_open, before any compute work) through our own write callback,
- * so OpenEXRCore never opens, truncates or deletes files itself. Only
- * clvox__exr_finish renames it to `path`, after checking that every chunk was
- * written and exr_finish succeeded; every other exit unlinks it.
+ * The file is created in clvox__exr_open (so a missing or unwritable
+ * directory fails before any compute work) in the directory of `path`, and
+ * written through our own write callback, so OpenEXRCore never opens,
+ * truncates or deletes files itself (see outfile_create):
+ *  - Linux: open(dir, O_TMPFILE), a file without a name: no exit, crash or
+ *    kill -9 can leave it behind. clvox__exr_finish, after checking that
+ *    every chunk was written and exr_finish succeeded, links it to `path`
+ *    (linkat through /proc/self/fd) when nothing is there, else to a short
+ *    unique name in the directory that is renamed over `path` at once.
+ *  - Where the file system has no O_TMPFILE (EOPNOTSUPP, EISDIR, EINVAL) or
+ *    /proc is missing: a named temporary ".clvox-<pid>-<n>.tmp" (O_EXCL; short,
+ *    so every valid output name works), renamed to `path` by finish and
+ *    unlinked on every other exit; only a kill -9 can leave it.
+ * Only regular files are replaced: anything else at `path` (directory,
+ * symbolic link, device node, FIFO, socket) is refused in open and again just
+ * before the rename; a symbolic link is neither replaced nor written through.
  *
  * Encoding runs in `threads` worker threads (0 = online CPUs), each chunk in
  * one of threads+2 ring slots; the calling thread writes the finished chunks
@@ -84,6 +94,9 @@
  * Library messages go to our error handler, never to stderr. The file is
  * fdatasync'ed before the rename.
  */
+#if defined(__linux__) && !defined(_GNU_SOURCE)
+#define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
+#endif
 #include "internal.h"
 
 #include <OpenEXR/openexr.h>
@@ -153,8 +166,11 @@ typedef struct exr_slot {
 struct clvox__exr_writer {
     clvox_context *ctx;
     exr_context_t exr;
-    char *path, *tmp;
+    char *path;
     int fd;
+    char *dir;   /* directory of path */
+    int unnamed; /* fd is an O_TMPFILE file (no name until finish) */
+    char *tmp;   /* named temporary (fallback), to unlink unless renamed; else NULL */
     uint32_t dims[3];
     int32_t height;       /* Y*Z image rows */
     int32_t tile_h;       /* rows per chunk */
@@ -221,7 +237,7 @@ static int64_t writer_write_fn(exr_const_context_t ectx, void *ud, const void *b
             pthread_mutex_lock(&w->mu);
             if (!w->io_errno) w->io_errno = e;
             pthread_mutex_unlock(&w->mu);
-            if (error_cb) error_cb(ectx, EXR_ERR_WRITE_IO, "write to '%s' failed: %s", w->tmp, strerror(e));
+            if (error_cb) error_cb(ectx, EXR_ERR_WRITE_IO, "write to '%s' failed: %s", w->path, strerror(e));
             return -1;
         }
         p += got;
@@ -830,19 +846,70 @@ static void writer_free(clvox__exr_writer *w)
         pthread_mutex_destroy(&w->mu);
     }
     free(w->path);
+    free(w->dir);
     free(w->tmp);
     free(w);
 }
 
-static clvox_status create_temp(clvox__exr_writer *w)
+int clvox__exr_no_tmpfile;
+
+/* Refuses an existing `path` that is not a regular file: clvox replaces
+ * regular files only (a symbolic link is neither replaced nor followed). */
+static clvox_status check_target(clvox_context *ctx, const char *path)
+{
+    struct stat sb;
+    if (lstat(path, &sb) != 0 || S_ISREG(sb.st_mode)) return CLVOX_OK; /* missing: the create tells */
+    if (S_ISDIR(sb.st_mode)) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot write '%s': it is a directory", path);
+    if (S_ISLNK(sb.st_mode))
+        return clvox__fail(ctx, CLVOX_ERR_IO,
+                           "cannot write '%s': it is a symbolic link (clvox replaces only regular files)", path);
+    return clvox__fail(ctx, CLVOX_ERR_IO,
+                       "cannot write '%s': it is not a regular file (a device, FIFO or socket; clvox replaces only "
+                       "regular files)",
+                       path);
+}
+
+/* "<dir>/.clvox-<pid>-<n>.tmp": at most 30 bytes past the directory. */
+static int temp_name(char *buf, size_t size, const char *dir)
 {
     static unsigned counter;
-    size_t n = strlen(w->path) + 64;
+    unsigned k = __atomic_fetch_add(&counter, 1u, __ATOMIC_RELAXED);
+    int n = snprintf(buf, size, "%s/.clvox-%ld-%u.tmp", dir, (long)getpid(), k);
+    return n > 0 && (size_t)n < size;
+}
+
+/* Creates the file being written (see "Writing" above). */
+static clvox_status outfile_create(clvox__exr_writer *w)
+{
+    const char *slash = strrchr(w->path, '/');
+    size_t dn = !slash ? 1 : slash == w->path ? 1 : (size_t)(slash - w->path);
+    w->dir = malloc(dn + 1);
+    if (!w->dir) return clvox__fail(w->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    memcpy(w->dir, !slash ? "." : w->path, dn);
+    w->dir[dn] = '\0';
+#ifdef O_TMPFILE
+    if (!clvox__exr_no_tmpfile) {
+        int fd = open(w->dir, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+        if (fd >= 0) {
+            char proc[64];
+            snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
+            if (access(proc, F_OK) == 0) { /* it can be given a name at the end */
+                w->fd = fd;
+                w->unnamed = 1;
+                return CLVOX_OK;
+            }
+            close(fd);
+        } else if (errno != EOPNOTSUPP && errno != EISDIR && errno != EINVAL) {
+            return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create output file '%s': %s", w->path,
+                               strerror(errno));
+        }
+    }
+#endif
+    size_t n = dn + 64;
     w->tmp = malloc(n);
     if (!w->tmp) return clvox__fail(w->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     for (int attempt = 0; attempt < 100; attempt++) {
-        unsigned k = __atomic_fetch_add(&counter, 1u, __ATOMIC_RELAXED);
-        snprintf(w->tmp, n, "%s.tmp-%ld-%u", w->path, (long)getpid(), k);
+        if (!temp_name(w->tmp, n, w->dir)) break;
         w->fd = open(w->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
         if (w->fd >= 0) return CLVOX_OK;
         if (errno != EEXIST) {
@@ -855,6 +922,54 @@ static clvox_status create_temp(clvox__exr_writer *w)
     free(w->tmp);
     w->tmp = NULL;
     return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create a temporary file next to '%s'", w->path);
+}
+
+#ifdef O_TMPFILE
+/* Gives the unnamed file fd the name `name` (fails with EEXIST if taken). */
+static int link_unnamed(int fd, const char *name)
+{
+    char proc[64];
+    snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
+    if (linkat(AT_FDCWD, proc, AT_FDCWD, name, AT_SYMLINK_FOLLOW) == 0) return 0;
+    if (errno != ENOENT) return -1;
+    return linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH); /* no /proc: needs CAP_DAC_READ_SEARCH */
+}
+#endif
+
+/* Puts the complete, synced file w->fd at w->path (see "Writing" above). On
+ * success nothing is left to unlink. */
+static clvox_status outfile_commit(clvox__exr_writer *w)
+{
+    clvox_status st = check_target(w->ctx, w->path); /* again: something may have appeared meanwhile */
+    if (st != CLVOX_OK) return st;
+#ifdef O_TMPFILE
+    if (w->unnamed) {
+        if (link_unnamed(w->fd, w->path) == 0) return CLVOX_OK; /* nothing was there */
+        if (errno != EEXIST)
+            return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create '%s': %s", w->path, strerror(errno));
+        /* replace the existing file: a unique name, renamed over it at once */
+        size_t n = strlen(w->dir) + 64;
+        w->tmp = malloc(n);
+        if (!w->tmp) return clvox__fail(w->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+        int linked = 0;
+        for (int attempt = 0; attempt < 100 && !linked; attempt++) {
+            if (!temp_name(w->tmp, n, w->dir)) break;
+            if (link_unnamed(w->fd, w->tmp) == 0) linked = 1;
+            else if (errno != EEXIST) break;
+        }
+        if (!linked) {
+            int e = errno;
+            free(w->tmp);
+            w->tmp = NULL;
+            return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot replace '%s': %s", w->path, strerror(e));
+        }
+    }
+#endif
+    if (rename(w->tmp, w->path) != 0)
+        return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot replace '%s': %s", w->path, strerror(errno));
+    free(w->tmp);
+    w->tmp = NULL; /* renamed: nothing to unlink */
+    return CLVOX_OK;
 }
 
 /* An uncompressed file has a known size: refuse it up front when the file
@@ -948,9 +1063,8 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
         return clvox__fail(ctx, CLVOX_ERR_GRID,
                            "grid %ux%ux%u does not fit in an EXR image: Y*Z = %llu rows (at most 2^31-1)", X, Y, Z,
                            (unsigned long long)Y * Z);
-    struct stat sb;
-    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode))
-        return clvox__fail(ctx, CLVOX_ERR_IO, "cannot write '%s': it is a directory", path);
+    clvox_status st = check_target(ctx, path);
+    if (st != CLVOX_OK) return st;
 
     clvox__exr_writer *w = calloc(1, sizeof *w);
     if (!w) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
@@ -1004,7 +1118,7 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
         }
     }
 
-    clvox_status st = create_temp(w);
+    st = outfile_create(w);
     if (st == CLVOX_OK) st = check_disk_space(w);
     if (st != CLVOX_OK) {
         writer_free(w);
@@ -1015,7 +1129,7 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     init.error_handler_fn = writer_error_handler;
     init.user_data = w;
     init.write_fn = writer_write_fn;
-    exr_result_t rv = exr_start_write(&w->exr, w->tmp, EXR_WRITE_FILE_DIRECTLY, &init);
+    exr_result_t rv = exr_start_write(&w->exr, w->path, EXR_WRITE_FILE_DIRECTLY, &init); /* the name: for messages only */
     if (rv != EXR_ERR_SUCCESS) {
         w->exr = NULL;
         st = exr_fail(w, rv, "starting to write");
@@ -1129,33 +1243,35 @@ clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes)
     }
     struct stat sb;
     if (fstat(w->fd, &sb) != 0 || sb.st_size <= 0) {
-        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: the temporary file '%s' is empty", w->path,
-                         w->tmp);
+        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: the file being written is empty", w->path);
         writer_free(w);
         return st;
     }
-    int fd = w->fd;
-    w->fd = -1;
     /* On disk before it gets its name: a crash never leaves a partial file at `path`. */
-    if (fdatasync(fd) != 0) {
-        int e = errno;
-        close(fd);
-        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", w->path, strerror(e));
-        writer_free(w);
-        return st;
-    }
-    if (close(fd) != 0) {
+    if (fdatasync(w->fd) != 0) {
         st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", w->path, strerror(errno));
         writer_free(w);
         return st;
     }
-    if (rename(w->tmp, w->path) != 0) {
-        st = clvox__fail(ctx, CLVOX_ERR_IO, "cannot rename '%s' to '%s': %s", w->tmp, w->path, strerror(errno));
+    if (!w->unnamed) { /* named: closed before the rename (an unnamed file is linked through its fd) */
+        int fd = w->fd;
+        w->fd = -1;
+        if (close(fd) != 0) {
+            st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", w->path, strerror(errno));
+            writer_free(w);
+            return st;
+        }
+    }
+    st = outfile_commit(w);
+    if (st != CLVOX_OK) {
         writer_free(w);
         return st;
     }
-    free(w->tmp);
-    w->tmp = NULL; /* renamed: nothing to unlink */
+    if (w->fd >= 0) {
+        int fd = w->fd;
+        w->fd = -1;
+        close(fd); /* synced and named: nothing is lost if close reports an error now */
+    }
     if (bytes) *bytes = (uint64_t)sb.st_size;
     writer_free(w);
     return CLVOX_OK;

@@ -1,5 +1,6 @@
 #include "exrgen.h"
 
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -29,8 +30,41 @@ static size_t type_bytes(exr_pixel_type_t t)
         }                                                                                 \
     } while (0)
 
+exrgen_attrs exrgen_default_attrs(uint32_t X, uint32_t Y, uint32_t Z)
+{
+    exrgen_attrs a = { { (int32_t)X, (int32_t)Y, (int32_t)Z },
+                       { EXRGEN_ORIGIN_X, EXRGEN_ORIGIN_Y, EXRGEN_ORIGIN_Z },
+                       { EXRGEN_H_X, EXRGEN_H_Y, EXRGEN_H_Z },
+                       NULL };
+    return a;
+}
+
+static exr_result_t set_attrs(exr_context_t e, int part, const exrgen_attrs *a)
+{
+    exr_attr_v3i_t d = { .arr = { a->dims[0], a->dims[1], a->dims[2] } };
+    exr_attr_v3d_t o = { .arr = { a->origin[0], a->origin[1], a->origin[2] } };
+    exr_attr_v3d_t h = { .arr = { a->voxel_size[0], a->voxel_size[1], a->voxel_size[2] } };
+    exr_result_t rv;
+    if ((rv = exr_attr_set_v3i(e, part, "clvoxDims", &d)) != EXR_ERR_SUCCESS) return rv;
+    if ((rv = exr_attr_set_v3d(e, part, "clvoxOrigin", &o)) != EXR_ERR_SUCCESS) return rv;
+    if ((rv = exr_attr_set_v3d(e, part, "clvoxVoxelSize", &h)) != EXR_ERR_SUCCESS) return rv;
+    if ((rv = exr_attr_set_string(e, part, "clvoxMethod", EXRGEN_METHOD)) != EXR_ERR_SUCCESS) return rv;
+    if ((rv = exr_attr_set_string(e, part, "clvoxParameters", "written by tests/exrgen.c")) != EXR_ERR_SUCCESS)
+        return rv;
+    if ((rv = exr_attr_set_string(e, part, "clvoxVersion", EXRGEN_VERSION)) != EXR_ERR_SUCCESS) return rv;
+    if (a->layout && (rv = exr_attr_set_string(e, part, "clvoxLayout", a->layout)) != EXR_ERR_SUCCESS) return rv;
+    return EXR_ERR_SUCCESS;
+}
+
 int exrgen_write(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const exrgen_channel *channels,
                  int channel_count, int tile_w, int tile_h, exr_compression_t comp, int attributes)
+{
+    exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+    return exrgen_write_ex(path, X, Y, Z, channels, channel_count, tile_w, tile_h, comp, attributes ? &a : NULL);
+}
+
+int exrgen_write_ex(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const exrgen_channel *channels,
+                    int channel_count, int tile_w, int tile_h, exr_compression_t comp, const exrgen_attrs *attrs)
 {
     exr_context_t e = NULL;
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -45,17 +79,7 @@ int exrgen_write(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const exr
                                     EXR_TILE_ROUND_DOWN));
     for (int c = 0; c < channel_count; c++)
         TRY(exr_add_channel(e, part, channels[c].name, channels[c].type, EXR_PERCEPTUALLY_LINEAR, 1, 1));
-    if (attributes) {
-        exr_attr_v3i_t d = { .arr = { (int32_t)X, (int32_t)Y, (int32_t)Z } };
-        exr_attr_v3d_t o = { .arr = { EXRGEN_ORIGIN_X, EXRGEN_ORIGIN_Y, EXRGEN_ORIGIN_Z } };
-        exr_attr_v3d_t h = { .arr = { EXRGEN_H_X, EXRGEN_H_Y, EXRGEN_H_Z } };
-        TRY(exr_attr_set_v3i(e, part, "clvoxDims", &d));
-        TRY(exr_attr_set_v3d(e, part, "clvoxOrigin", &o));
-        TRY(exr_attr_set_v3d(e, part, "clvoxVoxelSize", &h));
-        TRY(exr_attr_set_string(e, part, "clvoxMethod", EXRGEN_METHOD));
-        TRY(exr_attr_set_string(e, part, "clvoxParameters", "written by tests/exrgen.c"));
-        TRY(exr_attr_set_string(e, part, "clvoxVersion", EXRGEN_VERSION));
-    }
+    if (attrs) TRY(set_attrs(e, part, attrs));
     TRY(exr_write_header(e));
     int32_t lpc = 1;
     if (!tile_w) TRY(exr_get_scanlines_per_chunk(e, part, &lpc));
@@ -93,6 +117,62 @@ int exrgen_write(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const exr
 fail:
     if (enc_ready) exr_encoding_destroy(e, &enc);
     if (e) exr_finish(&e);
+    unlink(path);
+    return 0;
+}
+
+/* ---- header-only files ---- */
+
+typedef struct header_sink {
+    int fd;
+    int frozen; /* after the header: further writes (the chunk table) are dropped */
+} header_sink;
+
+static int64_t sink_write(exr_const_context_t c, void *ud, const void *buf, uint64_t size, uint64_t offset,
+                          exr_stream_error_func_ptr_t err)
+{
+    (void)c;
+    (void)err;
+    header_sink *k = ud;
+    if (k->frozen) return (int64_t)size;
+    return pwrite(k->fd, buf, (size_t)size, (off_t)offset) == (ssize_t)size ? (int64_t)size : -1;
+}
+
+int exrgen_write_header(const char *path, int64_t width, int64_t height, int tile_w, int tile_h,
+                        exr_compression_t comp, const exrgen_attrs *attrs, size_t extra_bytes)
+{
+    header_sink k = { -1, 0 };
+    exr_context_t e = NULL;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    int part = 0;
+    k.fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (k.fd < 0) return 0;
+    init.user_data = &k;
+    init.write_fn = sink_write;
+    TRY(exr_start_write(&e, path, EXR_WRITE_FILE_DIRECTLY, &init));
+    TRY(exr_add_part(e, NULL, tile_w ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part));
+    TRY(exr_initialize_required_attr_simple(e, part, (int32_t)width, (int32_t)height, comp));
+    if (tile_w)
+        TRY(exr_set_tile_descriptor(e, part, (uint32_t)tile_w, (uint32_t)tile_h, EXR_TILE_ONE_LEVEL,
+                                    EXR_TILE_ROUND_DOWN));
+    TRY(exr_add_channel(e, part, "occupancy", EXR_PIXEL_HALF, EXR_PERCEPTUALLY_LINEAR, 1, 1));
+    if (attrs) TRY(set_attrs(e, part, attrs));
+    TRY(exr_write_header(e));
+    k.frozen = 1;
+    exr_finish(&e);
+    off_t end = lseek(k.fd, 0, SEEK_END);
+    uint8_t zero[256] = { 0 };
+    for (size_t left = extra_bytes; left > 0;) {
+        size_t n = left < sizeof zero ? left : sizeof zero;
+        if (pwrite(k.fd, zero, n, end) != (ssize_t)n) goto fail;
+        end += (off_t)n;
+        left -= n;
+    }
+    close(k.fd);
+    return 1;
+fail:
+    if (e) exr_finish(&e);
+    if (k.fd >= 0) close(k.fd);
     unlink(path);
     return 0;
 }

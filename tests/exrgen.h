@@ -5,6 +5,7 @@
 #ifndef CLVOX_TEST_EXRGEN_H
 #define CLVOX_TEST_EXRGEN_H
 #include <OpenEXR/openexr.h>
+#include <stddef.h>
 #include <stdint.h>
 
 typedef struct exrgen_channel {
@@ -28,6 +29,23 @@ typedef struct exrgen_channel {
  * the file. */
 int exrgen_write(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const exrgen_channel *channels,
                  int channel_count, int tile_w, int tile_h, exr_compression_t comp, int attributes);
+
+/* The clvox attributes, to write them wrong on purpose. layout: clvoxLayout
+ * (NULL: not written). */
+typedef struct exrgen_attrs {
+    int32_t dims[3];
+    double origin[3], voxel_size[3];
+    const char *layout;
+} exrgen_attrs;
+/* dims X, Y, Z, origin EXRGEN_ORIGIN_*, voxel size EXRGEN_H_*, no layout. */
+exrgen_attrs exrgen_default_attrs(uint32_t X, uint32_t Y, uint32_t Z);
+/* exrgen_write with these attributes (NULL: none). */
+int exrgen_write_ex(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const exrgen_channel *channels,
+                    int channel_count, int tile_w, int tile_h, exr_compression_t comp, const exrgen_attrs *attrs);
+/* A header alone (one HALF channel "occupancy", a width x height image),
+ * then extra_bytes zero bytes; no chunk table, no chunks: a crafted file. */
+int exrgen_write_header(const char *path, int64_t width, int64_t height, int tile_w, int tile_h,
+                        exr_compression_t comp, const exrgen_attrs *attrs, size_t extra_bytes);
 
 /* The value of HALF bits, computed with ldexp (independent of clvox's conversion). */
 double exrgen_half_value(uint16_t h);

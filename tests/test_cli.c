@@ -1,3 +1,6 @@
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700 /* mknod */
+#endif
 /* End-to-end tests of the clvox command-line tool: runs the binary
  * ($CLVOX_BIN, default build/release/clvox) with fork/execve (no shell),
  * stdout and stderr captured into files, a 60 s limit per run, and checks
@@ -19,6 +22,7 @@
 #include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -180,8 +184,35 @@ static const char **make_env(const char *const *extra)
     return env;
 }
 
+/* What run_cli_ex sends after sigint_after seconds: g_signal (SIGINT unless
+ * set), g_signal_count times 0.2 s apart; with g_signal_when_open, only once
+ * the child has a file open in g_out (its output being written). */
+static int g_signal = SIGINT, g_signal_count = 1, g_signal_when_open;
+
+/* 1 when process pid has a descriptor open on a file under g_out. */
+static int has_output_open(pid_t pid)
+{
+    char fd_dir[64];
+    snprintf(fd_dir, sizeof fd_dir, "/proc/%ld/fd", (long)pid);
+    DIR *d = opendir(fd_dir);
+    if (!d) return 0;
+    int found = 0;
+    struct dirent *e;
+    size_t n = strlen(g_out);
+    while (!found && (e = readdir(d)) != NULL) {
+        char link[PATH_MAX + 64], target[PATH_MAX];
+        snprintf(link, sizeof link, "%s/%s", fd_dir, e->d_name);
+        ssize_t len = readlink(link, target, sizeof target - 1);
+        if (len <= 0) continue;
+        target[len] = '\0';
+        found = strncmp(target, g_out, n) == 0 && target[n] == '/';
+    }
+    closedir(d);
+    return found;
+}
+
 /* Runs clvox with `args` (argv[1..], NULL-terminated). cwd may be NULL.
- * If sigint_after > 0, sends SIGINT after that many seconds. */
+ * If sigint_after > 0, sends SIGINT (g_signal) after that many seconds. */
 static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_extra, const char *const *args,
                        double sigint_after)
 {
@@ -217,7 +248,7 @@ static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_ex
         _exit(127);
     }
     if (pid > 0) {
-        double start = now_s();
+        double start = now_s(), sent_at = 0;
         int sent = 0, status = 0;
         for (;;) {
             pid_t w = waitpid(pid, &status, WNOHANG);
@@ -228,9 +259,11 @@ static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_ex
             }
             if (w < 0 && errno != EINTR) break;
             double t = now_s() - start;
-            if (sigint_after > 0 && !sent && t >= sigint_after) {
-                kill(pid, SIGINT);
-                sent = 1;
+            if (sigint_after > 0 && sent < g_signal_count && t >= sigint_after && t >= sent_at + 0.2 &&
+                (sent || !g_signal_when_open || has_output_open(pid))) {
+                kill(pid, g_signal);
+                sent++;
+                sent_at = t;
             }
             if (t > RUN_TIMEOUT_S) {
                 kill(pid, SIGKILL);
@@ -693,6 +726,127 @@ static void test_cancel(void)
     run_free(&r);
 }
 
+/* A long run killed while its output is being written (g_signal_when_open)
+ * by `sig`, `count` times: exit `expected` (-1: killed by sig), and nothing
+ * at all left in the output directory. */
+static void killed_run(const char *what, int sig, int count, int expected)
+{
+    char cube[PATH_MAX], out[PATH_MAX];
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    path_join(out, sizeof out, g_out, "big.exr");
+    g_signal = sig;
+    g_signal_count = count;
+    g_signal_when_open = 1;
+    run_result r;
+    run_cli_ex(&r, NULL, NULL, ARGS(cube, "-r", "4000", "--slab", "1", "--compression", "zip", "-o", out), 0.3);
+    g_signal = SIGINT;
+    g_signal_count = 1;
+    g_signal_when_open = 0;
+    int want = expected < 0 ? 128 + sig : expected;
+    CHECK_MSG(r.code == want, "%s: exit %d, expected %d; stderr: %s", what, r.code, want, r.err);
+    if (expected >= 0)
+        CHECK_MSG(count_lines(r.err) == 1 && strncmp(r.err, "clvox: error: ", 14) == 0,
+                  "%s: stderr must be one error line: [%s]", what, r.err);
+    char left[1024];
+    dir_entries(g_out, left, sizeof left);
+    CHECK_MSG(left[0] == '\0', "%s: files left: %s", what, left);
+    rm_tree(g_out);
+    mkdir(g_out, 0777);
+    run_free(&r);
+}
+
+static void test_kill(void)
+{
+    killed_run("SIGHUP", SIGHUP, 1, 130);
+    killed_run("SIGTERM", SIGTERM, 1, 130);
+    killed_run("second SIGINT", SIGINT, 2, -1);
+    killed_run("kill -9", SIGKILL, 1, -1);
+}
+
+/* -o naming something that is not a regular file: exit 5, left as it is;
+ * clvox info on a FIFO: exit 4 at once; 250- and 255-byte output names. */
+static void test_special_outputs(void)
+{
+    char cube[PATH_MAX], p[PATH_MAX], exr[PATH_MAX], target[PATH_MAX];
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    path_join(exr, sizeof exr, g_dir, "special-in.exr");
+    run_result r;
+    run_cli(&r, NULL, ARGS(cube, "-r", "8", "-q", "-o", exr));
+    CHECK_MSG(r.code == 0, "special-in.exr: exit %d: %s", r.code, r.err);
+    run_free(&r);
+    struct stat sb;
+
+    for (int preview = 0; preview < 2; preview++) {
+        const char *ext = preview ? "png" : "exr";
+        char name[64];
+        /* FIFO (before: replaced by a regular file) */
+        snprintf(name, sizeof name, "fifo.%s", ext);
+        path_join(p, sizeof p, g_dir, name);
+        unlink(p);
+        CHECK(mkfifo(p, 0666) == 0);
+        if (preview) expect_failure("preview -o FIFO", 5, NULL, ARGS("preview", exr, "-o", p));
+        else expect_failure("-o FIFO", 5, NULL, ARGS(cube, "-r", "8", "-o", p));
+        CHECK_MSG(lstat(p, &sb) == 0 && S_ISFIFO(sb.st_mode), "-o FIFO (%s): the FIFO was replaced", ext);
+        unlink(p);
+        /* character device node (as root; else skipped) */
+        snprintf(name, sizeof name, "null.%s", ext);
+        path_join(p, sizeof p, g_dir, name);
+        unlink(p);
+        if (mknod(p, S_IFCHR | 0666, makedev(1, 3)) == 0) {
+            if (preview) expect_failure("preview -o char device", 5, NULL, ARGS("preview", exr, "-o", p));
+            else expect_failure("-o char device", 5, NULL, ARGS(cube, "-r", "8", "-o", p));
+            CHECK_MSG(lstat(p, &sb) == 0 && S_ISCHR(sb.st_mode), "-o device (%s): the node was replaced", ext);
+            unlink(p);
+        } else if (!preview) {
+            printf("skip: -o character device (mknod: %s)\n", strerror(errno));
+        }
+        /* symbolic link: refused, the link and its target untouched */
+        snprintf(name, sizeof name, "symlink.%s", ext);
+        path_join(p, sizeof p, g_dir, name);
+        path_join(target, sizeof target, g_dir, "symlink-target");
+        CHECK(write_text(g_dir, "symlink-target", "keep"));
+        unlink(p);
+        CHECK(symlink(target, p) == 0);
+        if (preview) expect_failure("preview -o symlink", 5, NULL, ARGS("preview", exr, "-o", p));
+        else expect_failure("-o symlink", 5, NULL, ARGS(cube, "-r", "8", "-o", p));
+        CHECK(lstat(p, &sb) == 0 && S_ISLNK(sb.st_mode) && file_size(target) == 4);
+        unlink(p);
+        unlink(target);
+
+        /* long names: 250 and 255 bytes (NAME_MAX), new and replacing */
+        for (int len = 250; len <= 255; len += 5) {
+            char longname[256];
+            memset(longname, 'x', (size_t)len);
+            memcpy(longname + len - 4, preview ? ".png" : ".exr", 4);
+            longname[len] = '\0';
+            path_join(p, sizeof p, g_out, longname);
+            for (int again = 0; again < 2; again++) {
+                if (preview) run_cli(&r, NULL, ARGS("preview", exr, "-o", p));
+                else run_cli(&r, NULL, ARGS(cube, "-r", "8", "-q", "-o", p));
+                CHECK_MSG(r.code == 0 && file_size(p) > 0, "%s output with a %d-byte name%s: exit %d: %s", ext,
+                          len, again ? ", replacing" : "", r.code, r.err);
+                run_free(&r);
+            }
+            char left[1024];
+            dir_entries(g_out, left, sizeof left);
+            CHECK_MSG(strstr(left, ".tmp") == NULL && strstr(left, ".clvox-") == NULL,
+                      "long names: temporary files left: %s", left);
+            unlink(p);
+        }
+    }
+
+    /* clvox info on a FIFO: refused at once (before: blocked in open) */
+    path_join(p, sizeof p, g_dir, "info-fifo.exr");
+    unlink(p);
+    CHECK(mkfifo(p, 0666) == 0);
+    double t0 = now_s();
+    expect_failure("info on a FIFO", 4, NULL, ARGS("info", p));
+    CHECK_MSG(now_s() - t0 < 10, "info on a FIFO took %.1f s", now_s() - t0);
+    expect_failure("preview of a FIFO", 4, NULL, ARGS("preview", p, "-o", exr));
+    unlink(p);
+    unlink(exr);
+}
+
 /* Absolute form of `path` (not normalised); 0 if it does not exist. */
 static int absolute_path(const char *path, char *out, size_t size)
 {
@@ -867,7 +1021,8 @@ static void check_preview(const char *what, const grey_volume *v, const char *ex
     /* nothing but the picture next to it */
     char left[1024];
     dir_entries(g_dir, left, sizeof left);
-    CHECK_MSG(strstr(left, ".tmp-") == NULL, "%s: temporary files left: %s", what, left);
+    CHECK_MSG(strstr(left, ".tmp") == NULL && strstr(left, ".clvox-") == NULL, "%s: temporary files left: %s", what,
+              left);
     free(got.rgb);
     free(want.rgb);
     unlink(png);
@@ -1072,7 +1227,8 @@ static void test_preview(void)
     CHECK(lstat(link_path, &sb) == 0 && S_ISLNK(sb.st_mode) && file_size(target) == 4);
     char left[1024];
     dir_entries(g_dir, left, sizeof left);
-    CHECK_MSG(strstr(left, ".tmp-") == NULL, "preview errors: temporary files left: %s", left);
+    CHECK_MSG(strstr(left, ".tmp") == NULL && strstr(left, ".clvox-") == NULL,
+              "preview errors: temporary files left: %s", left);
     expect_failure("preview output is the input", 2, NULL, ARGS("preview", cov_exr, "-o", cov_exr));
 
     free(gc.g);
@@ -1207,6 +1363,8 @@ int main(void)
     test_default_mesh();
     test_list_devices();
     test_preview();
+    test_special_outputs();
     test_cancel();
+    test_kill();
     return test_report();
 }

@@ -1,3 +1,6 @@
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700 /* mknod, S_IFCHR */
+#endif
 /* EXR writer and reader: round trips for every compression and several
  * grid shapes and slab splits, header attributes, exrheader, failure paths
  * (no file and no temporary file left), and bounded memory. No OpenCL. */
@@ -15,6 +18,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -44,7 +48,8 @@ static long long file_size(const char *path)
     return stat(path, &sb) == 0 ? (long long)sb.st_size : -1;
 }
 
-/* Number of files in dir whose name starts with "<base>.tmp-". */
+/* Number of temporary files in dir: the writer's ".clvox-*" names and the
+ * old "<base>.tmp-*" ones. */
 static int temp_files(const char *path)
 {
     const char *base = strrchr(path, '/');
@@ -56,7 +61,24 @@ static int temp_files(const char *path)
     if (!d) return -1;
     struct dirent *e;
     while ((e = readdir(d)) != NULL)
-        if (strncmp(e->d_name, prefix, strlen(prefix)) == 0) n++;
+        if (strncmp(e->d_name, prefix, strlen(prefix)) == 0 || strncmp(e->d_name, ".clvox-", 7) == 0) n++;
+    closedir(d);
+    return n;
+}
+
+/* Number of entries of dir (without . and ..); *longest = the longest name. */
+static int dir_count(const char *d_path, size_t *longest)
+{
+    DIR *d = opendir(d_path);
+    int n = 0;
+    if (longest) *longest = 0;
+    if (!d) return -1;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        n++;
+        if (longest && strlen(e->d_name) > *longest) *longest = strlen(e->d_name);
+    }
     closedir(d);
     return n;
 }
@@ -671,7 +693,7 @@ static void test_abort_and_incomplete(void)
         clvox__exr_writer *w = NULL;
         CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, threads, &w));
         CHECK(!exists(path));          /* not renamed while writing */
-        CHECK(temp_files(path) == 1);  /* the temporary file exists */
+        CHECK(temp_files(path) == 0);  /* the file being written has no name (O_TMPFILE) */
         CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 2, &(clvox__slab_planes){slab, NULL}));
         CHECK(!exists(path));
         clvox__exr_abort(w);
@@ -733,6 +755,126 @@ static void test_abort_and_incomplete(void)
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
     CHECK(info.filled_voxels == 80); /* 2 of every 3 of 120 */
     unlink(path);
+}
+
+/* Writes the 6x5x4 pattern to `path` through the writer; between open and
+ * finish the directory `d_path` must hold exactly `during` entries. */
+static clvox_status write_small(const char *path, const char *d_path, int during, const char *what)
+{
+    clvox_grid g = make_grid(6, 5, 4);
+    uint8_t pattern[6 * 5 * 4];
+    uint32_t slab[5 * 4];
+    for (size_t i = 0; i < sizeof pattern; i++) pattern[i] = (i % 3) != 0;
+    pack_bits(slab, pattern, 6, 5 * 4);
+    clvox__exr_writer *w = NULL;
+    clvox_status st = clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w);
+    if (st != CLVOX_OK) return st;
+    st = clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){ slab, NULL });
+    size_t longest = 0;
+    int n = dir_count(d_path, &longest);
+    CHECK_MSG(n == during, "%s: %d entries in the directory while writing, expected %d", what, n, during);
+    CHECK_MSG(longest <= 255, "%s: a %zu-byte name in the directory", what, longest);
+    if (st != CLVOX_OK) {
+        clvox__exr_abort(w);
+        return st;
+    }
+    return clvox__exr_finish(w, NULL);
+}
+
+/* Outputs that are not regular files are refused and left alone; the file
+ * being written is invisible (O_TMPFILE) or, in the fallback, one short
+ * hidden name; names up to NAME_MAX work, new or replacing a file. */
+static void test_output_files(void)
+{
+    char sub[1100], path[2048], target[2048];
+    snprintf(sub, sizeof sub, "%s/outfiles", dir);
+    mkdir(sub, 0777);
+    clvox_grid g = make_grid(4, 4, 4);
+    clvox__exr_writer *w = NULL;
+    struct stat sb;
+
+    for (int mode = 0; mode < 2; mode++) {
+        clvox__exr_no_tmpfile = mode; /* 1: the named fallback */
+        const char *m = mode ? "named temporary" : "O_TMPFILE";
+
+        /* invisible while written: nothing but what was there before */
+        snprintf(path, sizeof path, "%s/new.exr", sub);
+        CHECK_MSG(write_small(path, sub, mode ? 1 : 0, m) == CLVOX_OK, "%s: %s", m, clvox_context_error(ctx));
+        CHECK(exists(path) && dir_count(sub, NULL) == 1);
+        /* replacing an existing file: the same, and nothing else left */
+        CHECK_MSG(write_small(path, sub, mode ? 2 : 1, m) == CLVOX_OK, "%s: %s", m, clvox_context_error(ctx));
+        CHECK(dir_count(sub, NULL) == 1);
+        clvox_volume_info info;
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+        CHECK(info.filled_voxels == 80);
+        unlink(path);
+
+        /* a FIFO: refused at open, left as it is */
+        snprintf(path, sizeof path, "%s/fifo.exr", sub);
+        CHECK(mkfifo(path, 0666) == 0);
+        CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w), CLVOX_ERR_IO);
+        CHECK(w == NULL && strstr(clvox_context_error(ctx), "not a regular file") != NULL);
+        CHECK(lstat(path, &sb) == 0 && S_ISFIFO(sb.st_mode));
+        unlink(path);
+
+        /* a character device node (needs privileges: skipped otherwise) */
+        snprintf(path, sizeof path, "%s/null.exr", sub);
+        if (mknod(path, S_IFCHR | 0666, makedev(1, 3)) == 0) {
+            CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w),
+                         CLVOX_ERR_IO);
+            CHECK(lstat(path, &sb) == 0 && S_ISCHR(sb.st_mode));
+            unlink(path);
+        } else if (mode == 0) {
+            printf("skip: character device output (mknod: %s)\n", strerror(errno));
+        }
+
+        /* a symbolic link, to a regular file or dangling: refused, the link and its target untouched */
+        snprintf(target, sizeof target, "%s/target.exr", sub);
+        FILE *f = fopen(target, "w");
+        CHECK(f != NULL);
+        if (f) {
+            fputs("old", f);
+            fclose(f);
+        }
+        snprintf(path, sizeof path, "%s/link.exr", sub);
+        CHECK(symlink("target.exr", path) == 0);
+        CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w), CLVOX_ERR_IO);
+        CHECK(strstr(clvox_context_error(ctx), "symbolic link") != NULL);
+        CHECK(lstat(path, &sb) == 0 && S_ISLNK(sb.st_mode) && file_size(target) == 3);
+        unlink(target);
+        CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w), CLVOX_ERR_IO);
+        CHECK(lstat(path, &sb) == 0 && S_ISLNK(sb.st_mode) && !exists(target));
+        unlink(path);
+
+        /* a FIFO that appears while the file is written: refused at finish */
+        snprintf(path, sizeof path, "%s/late.exr", sub);
+        clvox_grid g6 = make_grid(6, 5, 4);
+        uint32_t slab[5 * 4] = { 0 };
+        CHECK_OK(ctx, clvox__exr_open(ctx, path, &g6, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){ slab, NULL }));
+        CHECK(mkfifo(path, 0666) == 0);
+        CHECK_STATUS(ctx, clvox__exr_finish(w, NULL), CLVOX_ERR_IO);
+        CHECK(lstat(path, &sb) == 0 && S_ISFIFO(sb.st_mode));
+        unlink(path);
+        CHECK_MSG(dir_count(sub, NULL) == 0, "%s: files left after the refusals", m);
+
+        /* 250- and 255-byte names (NAME_MAX): new, then replacing the file */
+        for (int len = 250; len <= 255; len += 5) {
+            char name[256];
+            memset(name, 'n', (size_t)len);
+            memcpy(name + len - 4, ".exr", 4);
+            name[len] = '\0';
+            snprintf(path, sizeof path, "%s/%s", sub, name);
+            CHECK_MSG(write_small(path, sub, mode ? 1 : 0, m) == CLVOX_OK, "%s, %d-byte name: %s", m, len,
+                      clvox_context_error(ctx));
+            CHECK_MSG(write_small(path, sub, mode ? 2 : 1, m) == CLVOX_OK, "%s, %d-byte name, replacing: %s", m,
+                      len, clvox_context_error(ctx));
+            CHECK(exists(path) && dir_count(sub, NULL) == 1);
+            unlink(path);
+        }
+    }
+    clvox__exr_no_tmpfile = 0;
+    CHECK_MSG(rmdir(sub) == 0, "%s is not empty", sub);
 }
 
 /* A write error (here: the file size limit, as for a full disk) is
@@ -1143,6 +1285,7 @@ int main(void)
     test_cxx_decoder();
     test_unwritable();
     test_abort_and_incomplete();
+    test_output_files();
     test_write_error();
     test_disk_space();
     test_reader_rejects();

@@ -10,6 +10,7 @@
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -340,6 +341,155 @@ static void test_errors_and_cancel(void)
     CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "coverage", &info, on_slice, &c), CLVOX_ERR_IO);
 }
 
+static long vm_kb(const char *key)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    long kb = -1;
+    size_t n = strlen(key);
+    if (!f) return -1;
+    while (fgets(line, sizeof line, f))
+        if (strncmp(line, key, n) == 0) kb = strtol(line + n, NULL, 10);
+    fclose(f);
+    return kb;
+}
+
+/* Resets VmHWM to the current RSS (Linux >= 4.0); *rss gets it. */
+static int peak_reset(long *rss)
+{
+    FILE *f = fopen("/proc/self/clear_refs", "w");
+    int ok = f && fputs("5", f) >= 0;
+    if (f && fclose(f) != 0) ok = 0;
+    *rss = vm_kb("VmRSS:");
+    return ok && *rss > 0;
+}
+
+/* Both readers refuse `path` with CLVOX_ERR_EXR and a message containing
+ * `needle` (NULL: any message), and the peak RSS grows by less than 32 MiB. */
+static void expect_corrupt(const char *what, const char *path, const char *needle)
+{
+    clvox_volume_info info;
+    long base = 0;
+    int reset = peak_reset(&base);
+    clvox_status st = clvox_volume_read(ctx, path, &info, NULL, 0);
+    if (!needle) needle = "'";
+    CHECK_MSG(st == CLVOX_ERR_EXR && strstr(clvox_context_error(ctx), needle), "%s: %s: %s", what,
+              clvox_status_string(st), clvox_context_error(ctx));
+    CHECK_MSG(strchr(clvox_context_error(ctx), '\n') == NULL, "%s: message on several lines", what);
+    float vol[1];
+    collect c = { 1, 1, 1, vol, 0, 0, 0, UINT32_MAX };
+    st = clvox_volume_read_slices(ctx, path, "occupancy", &info, on_slice, &c);
+    CHECK_MSG(st == CLVOX_ERR_EXR && strstr(clvox_context_error(ctx), needle) && c.calls == 0,
+              "%s (slices): %s: %s", what, clvox_status_string(st), clvox_context_error(ctx));
+    long grew = vm_kb("VmHWM:") - base;
+    if (reset) CHECK_MSG(grew < 32 * 1024, "%s: peak RSS grew by %ld kB", what, grew);
+}
+
+/* Crafted headers (tests/exrgen.c): sizes the file cannot hold, bad
+ * attributes, dims that contradict clvox's own tile layout; a FIFO. */
+static void test_crafted(void)
+{
+    char path[1200];
+    snprintf(path, sizeof path, "%s/crafted.exr", dir);
+#ifndef __SANITIZE_ADDRESS__
+    /* an address-space limit: a giant allocation fails as OUT_OF_MEMORY instead of ERR_EXR */
+    struct rlimit old, lim;
+    int limited = getrlimit(RLIMIT_AS, &old) == 0;
+    if (limited) {
+        lim = old;
+        long vm = vm_kb("VmSize:");
+        lim.rlim_cur = (rlim_t)(vm > 0 ? vm : 1 << 20) * 1024 + ((rlim_t)1 << 30); /* + 1 GiB */
+        limited = setrlimit(RLIMIT_AS, &lim) == 0;
+    }
+#endif
+    static const struct { exr_compression_t comp; int tw, th; } kinds[] = {
+        { EXR_COMPRESSION_PIZ, 0, 0 },  { EXR_COMPRESSION_RLE, 0, 0 },           { EXR_COMPRESSION_NONE, 0, 0 },
+        { EXR_COMPRESSION_ZIP, 0, 0 },  { EXR_COMPRESSION_RLE, 1 << 16, 1 }, { EXR_COMPRESSION_PIZ, 4096, 4096 },
+    };
+    for (size_t k = 0; k < sizeof kinds / sizeof kinds[0]; k++) {
+        char what[96];
+        /* 1e9 x 1e9 (grid 1e9 x 1e9 x 1), and 1e9 x 1 (one 2 GB row) */
+        for (int tall = 0; tall < 2; tall++) {
+            int64_t Wd = 1000000000, Hd = tall ? 1000000000 : 1;
+            exrgen_attrs a = exrgen_default_attrs((uint32_t)Wd, (uint32_t)Hd, 1);
+            CHECK(exrgen_write_header(path, Wd, Hd, kinds[k].tw, kinds[k].th, kinds[k].comp, &a, 64));
+            snprintf(what, sizeof what, "%s header %lld x %lld, compression %d, tiles %dx%d", tall ? "tall" : "wide",
+                     (long long)Wd, (long long)Hd, (int)kinds[k].comp, kinds[k].tw, kinds[k].th);
+            expect_corrupt(what, path, NULL); /* OpenEXRCore itself refuses some */
+        }
+    }
+#ifndef __SANITIZE_ADDRESS__
+    if (limited) setrlimit(RLIMIT_AS, &old);
+#endif
+
+    /* attributes: origin finite, voxel size finite and > 0 */
+    const uint32_t X = 5, Y = 4, Z = 6;
+    uint16_t occ[5 * 4 * 6];
+    for (size_t i = 0; i < sizeof occ / sizeof occ[0]; i++) occ[i] = (i % 3) ? 0x3C00 : 0;
+    exrgen_channel ch = { "occupancy", EXR_PIXEL_HALF, occ };
+    const double bad[] = { NAN, INFINITY, -INFINITY, -1.0, 0.0 };
+    for (size_t b = 0; b < sizeof bad / sizeof bad[0]; b++) {
+        for (int which = 0; which < 2; which++) {
+            exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+            if (which == 0 && (b >= 3)) continue; /* a negative or zero origin is fine */
+            if (which == 0) a.origin[b % 3] = bad[b];
+            else a.voxel_size[b % 3] = bad[b];
+            CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, 0, 0, EXR_COMPRESSION_NONE, &a));
+            char what[64];
+            snprintf(what, sizeof what, "%s %g", which ? "voxel size" : "origin", bad[b]);
+            expect_corrupt(what, path, which ? "clvoxVoxelSize" : "clvoxOrigin");
+        }
+    }
+    {
+        exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+        a.origin[0] = -7.5;
+        CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, 0, 0, EXR_COMPRESSION_NONE, &a));
+        clvox_volume_info info;
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+        CHECK(info.origin[0] == -7.5);
+    }
+
+    /* clvox's own layouts: tiles must agree with clvoxDims (Y*Z alone cannot tell 5x4x6 from 5x6x4) */
+    {
+        exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+        a.layout = "tile-per-slice: pixel (x, y + z*Y), tile X x Y = slice z";
+        CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, (int)X, (int)Y, EXR_COMPRESSION_RLE, &a));
+        clvox_volume_info info;
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0)); /* the right dims */
+        CHECK(info.dims[1] == Y && info.dims[2] == Z);
+        a.dims[1] = (int32_t)Z;
+        a.dims[2] = (int32_t)Y;
+        CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, (int)X, (int)Y, EXR_COMPRESSION_RLE, &a));
+        expect_corrupt("permuted clvoxDims, tile-per-slice", path, "tiles do not fit");
+        a = exrgen_default_attrs(X, Y, Z);
+        a.layout = "row-chunks: pixel (x, y + z*Y), tile X x 4 rows";
+        CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, (int)X, 4, EXR_COMPRESSION_RLE, &a));
+        expect_corrupt("row-chunks with tiles of a whole slice", path, "tiles do not fit");
+        a.layout = "tile-per-slice: pixel (x, y + z*Y), tile X x Y = slice z";
+        /* re-tiled by another tool (the attribute kept): read like any layout */
+        a = exrgen_default_attrs(X, Y, Z);
+        a.layout = "tile-per-slice: pixel (x, y + z*Y), tile X x Y = slice z";
+        CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, 2, 3, EXR_COMPRESSION_RLE, &a));
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+        CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, 0, 0, EXR_COMPRESSION_ZIP, &a));
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    }
+    unlink(path);
+
+    /* a FIFO: refused at once (alarm: a blocking open would hang the test) */
+    CHECK(mkfifo(path, 0666) == 0);
+    alarm(20);
+    clvox_volume_info info;
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, path, &info, NULL, 0), CLVOX_ERR_IO);
+    CHECK(strstr(clvox_context_error(ctx), "not a regular file") != NULL);
+    float vol[1];
+    collect c = { 1, 1, 1, vol, 0, 0, 0, UINT32_MAX };
+    CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "occupancy", &info, on_slice, &c), CLVOX_ERR_IO);
+    CHECK_STATUS(ctx, clvox_volume_read(ctx, "/dev/zero", &info, NULL, 0), CLVOX_ERR_IO);
+    alarm(0);
+    unlink(path);
+}
+
 int main(void)
 {
     clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
@@ -356,6 +506,7 @@ int main(void)
     test_special_values();
     test_exact_sum();
     test_errors_and_cancel();
+    test_crafted();
 
     CHECK_MSG(rmdir(dir) == 0, "%s is not empty: a file was left behind", dir);
     clvox_context_destroy(ctx);

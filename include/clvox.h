@@ -113,6 +113,9 @@ typedef struct clvox_mesh_report {
     int closed;                   /* 1 when boundary_edges == 0                  */
     double bbox_min[3], bbox_max[3];
     double enclosed_volume;       /* |sum of signed tetra volumes|; exact only when closed */
+    uint64_t duplicate_triangles; /* same three corner positions (any order or orientation)
+                                     as an earlier triangle, shared vertices or not; kept.
+                                     Coincident copies cancel under the parity rule */
 } clvox_mesh_report;
 
 /* Loads OBJ, OFF, PLY (ascii/binary), STL (ascii/binary), OM by extension.

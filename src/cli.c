@@ -117,6 +117,56 @@ static void format_duration(double s, char *buf, size_t size)
     else snprintf(buf, size, "%d h %02d min", (int)(s / 3600), (int)fmod(s / 60, 60));
 }
 
+/* count voxels of size h[0] x h[1] x h[2]: 0 for no voxel even when the
+ * voxel volume overflows (no 0 * inf = nan). */
+static double voxels_volume(double count, const double h[3])
+{
+    return count == 0 ? 0.0 : count * h[0] * h[1] * h[2];
+}
+
+/* A volume for the summary: %.*g, or words when it overflowed a double. */
+static void format_volume(double v, int digits, char *buf, size_t size)
+{
+    if (isfinite(v)) snprintf(buf, size, "%.*g", digits, v);
+    else snprintf(buf, size, "%s", "(too large for a double)");
+}
+
+/* Prints "clvox: warning: <message>" as one line on stderr. */
+static void warn(const char *fmt, ...) CLI_PRINTF(1, 2);
+static void warn(const char *fmt, ...)
+{
+    char buf[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    progress_erase();
+    fprintf(stderr, "clvox: warning: %s\n", buf);
+}
+
+/* fflush(stdout), keeping the first failure's errno (a later flush of an
+ * emptied buffer succeeds and would lose it). */
+static int g_stdout_errno;
+static void flush_stdout(void)
+{
+    if (fflush(stdout) != 0 && !g_stdout_errno) g_stdout_errno = errno ? errno : EIO;
+}
+
+/* Every command ends here: output that could not be written to stdout (a
+ * full disk, a closed pipe, > /dev/full) is an error, exit 1, unless the
+ * command already failed. `written` names the file a voxelization wrote. */
+static int finish_stdout(int rc, const char *written)
+{
+    flush_stdout();
+    if (!g_stdout_errno && !ferror(stdout)) return rc;
+    if (rc != EXIT_OK) return rc;
+    const char *why = g_stdout_errno ? strerror(g_stdout_errno) : "write error";
+    if (written)
+        return fail(EXIT_RUNTIME, "the volume was written to '%s', but the summary could not be written to stdout: %s",
+                    written, why);
+    return fail(EXIT_RUNTIME, "cannot write to stdout: %s", why);
+}
+
 static const char *path_basename(const char *path)
 {
     const char *slash = strrchr(path, '/');
@@ -534,8 +584,10 @@ static void print_help(void)
 "gives the exact layout). Needs no OpenCL device.\n"
 "\n"
 "After a run, one summary goes to stdout: mesh, grid, device, method, filled\n"
-"voxels and volume, rays, time per stage and output size. Rays with an odd\n"
-"number of crossings produce a warning on stderr (the mesh is not closed).\n"
+"voxels and volume, rays, time per stage and output size. A mesh that is not\n"
+"closed (boundary edges) or has duplicated triangles (coincident surfaces,\n"
+"which cancel under the parity rule) gets a warning on stderr, with either\n"
+"method; so do rays with an odd number of crossings on a closed mesh.\n"
 "\n"
 "Exit codes:\n"
 "  0    success\n"
@@ -691,7 +743,6 @@ static int cmd_info(int argc, char **argv)
     char size[48] = "?";
     if (stat(file, &sb) == 0) format_bytes((uint64_t)sb.st_size, size, sizeof size);
     uint64_t total = (uint64_t)info.dims[0] * info.dims[1] * info.dims[2];
-    double voxel_volume = info.voxel_size[0] * info.voxel_size[1] * info.voxel_size[2];
 
     printf(LABEL "%s (%s)\n", "file", file, size);
     print_grid_line(info.dims, info.origin, info.voxel_size);
@@ -701,10 +752,14 @@ static int cmd_info(int argc, char **argv)
     printf(LABEL "%s, channels %s\n", "compression", info.compression[0] ? info.compression : "?",
            info.channels[0] ? info.channels : "?");
     print_filled_line(info.filled_voxels, total);
-    if (has_channel(info.channels, "coverage"))
-        printf(LABEL "%.9g voxels (sum of coverage), estimated volume %.9g (sum x voxel volume)\n", "coverage",
-               info.coverage_sum, info.coverage_sum * voxel_volume);
-    printf(LABEL "%.6g (filled voxels x voxel volume)\n", "volume", (double)info.filled_voxels * voxel_volume);
+    char vol[48];
+    if (has_channel(info.channels, "coverage")) {
+        format_volume(voxels_volume(info.coverage_sum, info.voxel_size), 9, vol, sizeof vol);
+        printf(LABEL "%.9g voxels (sum of coverage), estimated volume %s (sum x voxel volume)\n", "coverage",
+               info.coverage_sum, vol);
+    }
+    format_volume(voxels_volume((double)info.filled_voxels, info.voxel_size), 6, vol, sizeof vol);
+    printf(LABEL "%s (filled voxels x voxel volume)\n", "volume", vol);
     return EXIT_OK;
 }
 
@@ -841,8 +896,11 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
         used += (size_t)snprintf(extra + used, sizeof extra - used, ", %llu polygons fanned",
                                  (unsigned long long)r->polygons_triangulated);
     if (r->nonmanifold_faces && used < sizeof extra)
-        snprintf(extra + used, sizeof extra - used, ", %llu non-manifold faces",
-                 (unsigned long long)r->nonmanifold_faces);
+        used += (size_t)snprintf(extra + used, sizeof extra - used, ", %llu non-manifold faces",
+                                 (unsigned long long)r->nonmanifold_faces);
+    if (r->duplicate_triangles && used < sizeof extra)
+        snprintf(extra + used, sizeof extra - used, ", %llu duplicate triangles",
+                 (unsigned long long)r->duplicate_triangles);
     char closed[64];
     if (r->closed) snprintf(closed, sizeof closed, "closed");
     else snprintf(closed, sizeof closed, "NOT closed (%llu boundary edges)", (unsigned long long)r->boundary_edges);
@@ -894,16 +952,19 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
     }
     print_filled_line(s->filled_voxels, s->total_voxels);
 
-    double voxel_volume = grid->voxel_size[0] * grid->voxel_size[1] * grid->voxel_size[2];
-    double filled_volume = (grey ? s->coverage_sum : (double)s->filled_voxels) * voxel_volume;
+    double filled_volume = voxels_volume(grey ? s->coverage_sum : (double)s->filled_voxels, grid->voxel_size);
     const char *what = grey ? "estimated (sum of coverage)" : "filled";
-    if (r->enclosed_volume > 0) {
+    char fv[48];
+    format_volume(filled_volume, 6, fv, sizeof fv);
+    if (r->enclosed_volume > 0 && isfinite(filled_volume)) {
         double rel = 100.0 * (filled_volume - r->enclosed_volume) / r->enclosed_volume;
         if (fabs(rel) < 0.005) rel = 0; /* no "-0.00 %" */
-        printf(LABEL "%.6g %s vs %.6g enclosed by the mesh (%+.2f %%)%s\n", "volume", filled_volume, what,
-               r->enclosed_volume, rel, r->closed ? "" : " (mesh not closed: approximate)");
+        printf(LABEL "%s %s vs %.6g enclosed by the mesh (%+.2f %%)%s\n", "volume", fv, what, r->enclosed_volume,
+               rel, r->closed ? "" : " (mesh not closed: approximate)");
+    } else if (r->enclosed_volume > 0) {
+        printf(LABEL "%s %s vs %.6g enclosed by the mesh\n", "volume", fv, what, r->enclosed_volume);
     } else {
-        printf(LABEL "%.6g %s (the mesh encloses no volume)\n", "volume", filled_volume, what);
+        printf(LABEL "%s %s (the mesh encloses no volume)\n", "volume", fv, what);
     }
     if (a->vox.method == CLVOX_METHOD_RAY || s->rays)
         printf(LABEL "%llu cast, %llu odd parity, %llu overflow redone, at most %u crossings per ray\n", "rays",
@@ -941,7 +1002,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
         if (!mesh_path) goto done;
         if (!a->quiet) {
             printf("clvox: no MESH given, using the default mesh %s\n", mesh_path);
-            fflush(stdout);
+            flush_stdout();
         }
     }
     output = a->output ? dup_string(a->output) : default_output(mesh_path);
@@ -1006,13 +1067,27 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     if (!a->quiet) {
         print_summary(mesh_path, report, &grid, clvox_context_device(dev), a, &stats, output, setup_seconds,
                       now_seconds() - wall_start);
-        fflush(stdout);
+        flush_stdout(); /* the summary before the warnings */
     }
-    if (stats.odd_parity_rays > 0)
-        fprintf(stderr,
-                "clvox: warning: %llu rays crossed the surface an odd number of times: the mesh is probably "
-                "not closed and the result may be wrong\n",
-                (unsigned long long)stats.odd_parity_rays);
+    /* Warnings come from the mesh report, whatever the method, one line each. */
+    if (!report->closed) {
+        char rays[96] = "";
+        if (stats.odd_parity_rays > 0)
+            snprintf(rays, sizeof rays, "; %llu rays crossed it an odd number of times",
+                     (unsigned long long)stats.odd_parity_rays);
+        warn("the mesh is not closed (%llu boundary edges%s): inside and outside are not defined everywhere and "
+             "the result may be wrong",
+             (unsigned long long)report->boundary_edges, rays);
+    } else if (stats.odd_parity_rays > 0) {
+        warn("%llu rays crossed the surface an odd number of times although the mesh is closed: the result may "
+             "be wrong",
+             (unsigned long long)stats.odd_parity_rays);
+    }
+    if (report->duplicate_triangles > 0)
+        warn("%llu triangles repeat the corners of another one (duplicated or coincident surfaces): the parity "
+             "rule cancels coincident copies, so a doubled shell voxelizes as empty",
+             (unsigned long long)report->duplicate_triangles);
+    rc = finish_stdout(rc, output);
 
 done:
     clvox_mesh_destroy(mesh);
@@ -1025,20 +1100,20 @@ done:
 
 int main(int argc, char **argv)
 {
-    if (argc >= 2 && strcmp(argv[1], "info") == 0) return cmd_info(argc - 2, argv + 2);
-    if (argc >= 2 && strcmp(argv[1], "preview") == 0) return cmd_preview(argc - 2, argv + 2);
+    if (argc >= 2 && strcmp(argv[1], "info") == 0) return finish_stdout(cmd_info(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "preview") == 0) return finish_stdout(cmd_preview(argc - 2, argv + 2), NULL);
 
     cli_args a;
     int rc = parse_args(argc, argv, &a);
     if (rc != EXIT_OK) return rc;
     if (a.help) {
         print_help();
-        return EXIT_OK;
+        return finish_stdout(EXIT_OK, NULL);
     }
     if (a.version) {
         print_version();
-        return EXIT_OK;
+        return finish_stdout(EXIT_OK, NULL);
     }
-    if (a.list_devices) return cmd_list_devices();
-    return cmd_voxelize(&a, argc > 0 ? argv[0] : NULL);
+    if (a.list_devices) return finish_stdout(cmd_list_devices(), NULL);
+    return cmd_voxelize(&a, argc > 0 ? argv[0] : NULL); /* checks stdout itself */
 }

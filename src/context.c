@@ -88,6 +88,16 @@ clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what)
     return clvox__fail(ctx, st, "%s: %s (%d)", what, clvox__cl_error_name(err), (int)err);
 }
 
+void clvox__format_size(uint64_t bytes, char *buf, size_t size)
+{
+    static const char *const units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
+    double v = (double)bytes;
+    int u = 0;
+    while (v >= 999.5 && u < 6) v /= 1000.0, u++; /* 999.6 KB is "1 MB", not "1e+03 KB" */
+    if (u == 0) snprintf(buf, size, "%llu bytes", (unsigned long long)bytes);
+    else snprintf(buf, size, "%.3g %s", v, units[u]);
+}
+
 double clvox__now(void)
 {
     struct timespec ts;

@@ -39,6 +39,11 @@ clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *op
     if (modes == 0) o.resolution = 256;
 
     double ext[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+    for (int a = 0; a < 3; a++)
+        if (!isfinite(ext[a]))
+            return clvox__fail(ctx, CLVOX_ERR_GRID,
+                               "the box extent on axis %c overflows a double (%.6g to %.6g): use a smaller box",
+                               "xyz"[a], lo[a], hi[a]);
     double longest = fmax(ext[0], fmax(ext[1], ext[2]));
     uint64_t dims[3];
     double h[3];
@@ -83,7 +88,7 @@ clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *op
             double n = ceil(ext[a] / s);
             if (n < 1) n = 1;
             if (n > CLVOX_MAX_AXIS)
-                return clvox__fail(ctx, CLVOX_ERR_GRID, "voxel size %g gives %.0f voxels on axis %c (maximum %u)",
+                return clvox__fail(ctx, CLVOX_ERR_GRID, "voxel size %.6g gives %.3g voxels on axis %c (maximum %u)",
                                    s, n, "xyz"[a], CLVOX_MAX_AXIS);
             dims[a] = (uint64_t)n;
             h[a] = s;
@@ -97,8 +102,13 @@ clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *op
         out->dims[a] = (uint32_t)d;
         out->voxel_size[a] = h[a];
         out->origin[a] = lo[a] - (double)o.padding * h[a];
-        if (!(h[a] > 0) || !isfinite(out->origin[a]))
-            return clvox__fail(ctx, CLVOX_ERR_GRID, "degenerate voxel size on axis %c", "xyz"[a]);
+        if (!(h[a] > 0) || !isfinite(h[a]))
+            return clvox__fail(ctx, CLVOX_ERR_GRID, "voxel size %.6g on axis %c is not representable (extent %.6g)",
+                               h[a], "xyz"[a], ext[a]);
+        if (!isfinite(out->origin[a]))
+            return clvox__fail(ctx, CLVOX_ERR_GRID,
+                               "the grid origin on axis %c overflows a double (box minimum %.6g, padding %u x %.6g)",
+                               "xyz"[a], lo[a], o.padding, h[a]);
     }
     /* Each factor <= 2^16, so the products cannot overflow 64 bits. */
     uint64_t total = (uint64_t)out->dims[0] * out->dims[1] * out->dims[2];

@@ -52,6 +52,8 @@ void clvox__release_mem(cl_mem *m);
 /* Seconds of device time an event took (0 if profiling info is missing). */
 double clvox__event_seconds(cl_event ev);
 double clvox__now(void); /* monotonic seconds */
+/* "512 bytes", "12.3 KB", "999 MB", "2.1 GB": decimal units, 3 digits, for messages. */
+void clvox__format_size(uint64_t bytes, char *buf, size_t size);
 
 /* Embedded kernel sources (generated from kernels/ at build time). */
 extern const char *const clvox__kernel_sources[];

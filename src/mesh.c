@@ -1206,6 +1206,120 @@ done:
     return rc;
 }
 
+/* 64-bit finaliser (MurmurHash3 fmix64): the slot comes from the low bits,
+ * a 32-bit tag from the high bits. */
+static uint64_t mix64(uint64_t h)
+{
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdull;
+    h ^= h >> 33;
+    h *= 0xc4ceb9fe1a85ec53ull;
+    h ^= h >> 33;
+    return h;
+}
+
+static uint64_t hash3(uint32_t a, uint32_t b, uint32_t c)
+{
+    return mix64(((uint64_t)a << 32 | b) * 0x9e3779b97f4a7c15ull ^ (uint64_t)c * 0xbf58476d1ce4e5b9ull);
+}
+
+static uint32_t float_key(float f)
+{
+    uint32_t u;
+    if (f == 0.0f) f = 0.0f; /* -0 and +0 are the same position */
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+/* Open-addressing table of 2^k slots for n entries (load <= 0.8). */
+static size_t table_size(size_t n)
+{
+    size_t t = 16;
+    while (t < n + n / 4) t *= 2;
+    return t;
+}
+
+/* Lexicographic order of two vertex positions (as float_key triples). */
+static int pos_less(const uint32_t *a, const uint32_t *b)
+{
+    if (a[0] != b[0]) return a[0] < b[0];
+    if (a[1] != b[1]) return a[1] < b[1];
+    return a[2] < b[2];
+}
+
+/* The corner positions of triangle t, sorted: the duplicate key. */
+static void sorted_corners(const float *xyz, const uint32_t *tris, size_t t, uint32_t k[3][3])
+{
+    for (int c = 0; c < 3; c++)
+        for (int a = 0; a < 3; a++) k[c][a] = float_key(xyz[3 * (size_t)tris[3 * t + c] + a]);
+    uint32_t s[3];
+#define SWAP_IF(i, j) \
+    if (pos_less(k[j], k[i])) memcpy(s, k[i], sizeof s), memcpy(k[i], k[j], sizeof s), memcpy(k[j], s, sizeof s)
+    SWAP_IF(0, 1);
+    SWAP_IF(1, 2);
+    SWAP_IF(0, 1);
+#undef SWAP_IF
+}
+
+/* Duplicate triangles: triangles whose three corner positions (in any order
+ * or orientation) are those of an earlier triangle, whether they share its
+ * vertices or repeat them. Each vertex gets a hash of its exact position; a
+ * triangle's hash is the mixed sum of its corners' (order does not matter),
+ * looked up in an open-addressing set of 8-byte slots (32-bit hash tag,
+ * index + 1); only a tag match compares the sorted corner positions.
+ * O(V + T) expected, one random access per triangle, prefetched in blocks.
+ * Copies of one triangle are never inserted, so they do not cluster.
+ * Returns -1 when memory runs out. */
+static int duplicate_analysis(const float *xyz, size_t nv, const uint32_t *tris, size_t nt, uint64_t *duplicates)
+{
+    size_t ts = table_size(nt), mask = ts - 1;
+    uint64_t *vh = malloc((nv ? nv : 1) * sizeof *vh);
+    uint64_t *slot = calloc(ts, sizeof *slot);
+    int rc = -1;
+    if (!vh || !slot) goto done;
+    for (size_t v = 0; v < nv; v++) {
+        const float *p = xyz + 3 * v;
+        vh[v] = hash3(float_key(p[0]), float_key(p[1]), float_key(p[2]));
+    }
+    enum { BLOCK = 64 };
+    uint64_t h[BLOCK], dup = 0;
+    for (size_t t0 = 0; t0 < nt; t0 += BLOCK) {
+        size_t nb = nt - t0 < BLOCK ? nt - t0 : BLOCK;
+        for (size_t j = 0; j < nb; j++) {
+            const uint32_t *u = tris + 3 * (t0 + j);
+            h[j] = mix64(vh[u[0]] + vh[u[1]] + vh[u[2]]);
+#if defined(__GNUC__)
+            __builtin_prefetch(&slot[(size_t)h[j] & mask], 1);
+#endif
+        }
+        for (size_t j = 0; j < nb; j++) {
+            size_t t = t0 + j;
+            uint64_t tag = h[j] >> 32;
+            int have_key = 0;
+            uint32_t k[3][3], q[3][3];
+            for (size_t i = (size_t)h[j] & mask;; i = (i + 1) & mask) {
+                if (!slot[i]) {
+                    slot[i] = tag << 32 | (uint64_t)(t + 1);
+                    break;
+                }
+                if (slot[i] >> 32 != tag) continue;
+                if (!have_key) sorted_corners(xyz, tris, t, k), have_key = 1;
+                sorted_corners(xyz, tris, (size_t)(uint32_t)slot[i] - 1, q);
+                if (!memcmp(k, q, sizeof k)) {
+                    dup++;
+                    break;
+                }
+            }
+        }
+    }
+    *duplicates = dup;
+    rc = 0;
+done:
+    free(vh);
+    free(slot);
+    return rc;
+}
+
 /* Takes ownership of xyz (freed on failure). sizes == NULL: all faces are
  * triangles. `what` names the source in messages. */
 static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz, size_t nv, const uint32_t *sizes,
@@ -1329,6 +1443,11 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
     }
     r.nonmanifold_faces = nonmanifold + loader_nonmanifold;
     r.closed = r.boundary_edges == 0;
+    if (duplicate_analysis(xyz, nv, tris, kept, &r.duplicate_triangles) != 0) {
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory looking for duplicate triangles in %zu triangles",
+                         what, kept);
+        goto fail;
+    }
 
     m = malloc(sizeof *m);
     if (!m) {

@@ -983,10 +983,13 @@ static clvox_status check_disk_space(clvox__exr_writer *w)
     uint64_t need = (uint64_t)w->dims[0] * w->dims[1] * w->dims[2] * w->pixel_bytes + 8ull * (uint64_t)w->chunk_count;
     uint64_t avail = (uint64_t)vfs.f_bavail * (uint64_t)(vfs.f_frsize ? vfs.f_frsize : vfs.f_bsize);
     if (need <= avail) return CLVOX_OK;
+    char need_s[32], avail_s[32];
+    clvox__format_size(need, need_s, sizeof need_s);
+    clvox__format_size(avail, avail_s, sizeof avail_s);
     return clvox__fail(w->ctx, CLVOX_ERR_IO,
-                       "not enough disk space for '%s': the uncompressed volume needs %.1f GB, %.1f GB are free "
+                       "not enough disk space for '%s': the uncompressed volume needs %s, %s are free "
                        "(compressed output, rle by default, is far smaller)",
-                       w->path, (double)need / 1e9, (double)avail / 1e9);
+                       w->path, need_s, avail_s);
 }
 
 static clvox_status define_header(clvox__exr_writer *w, const clvox_grid *grid, const clvox__exr_meta *meta,

@@ -46,6 +46,7 @@ static char g_in[PATH_MAX];   /* input meshes */
 static char g_out[PATH_MAX];  /* outputs of runs that must fail: stays empty */
 static char g_logs[PATH_MAX]; /* captured stdout/stderr */
 static unsigned g_run_id;
+static const char *g_stdout_file; /* when set, the child's stdout (e.g. /dev/full) */
 
 /* ---- files ---- */
 
@@ -240,7 +241,7 @@ static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_ex
         /* child: only async-signal-safe calls */
         if (cwd && chdir(cwd) != 0) _exit(126);
         int in = open("/dev/null", O_RDONLY);
-        int o = open(out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int o = g_stdout_file ? open(g_stdout_file, O_WRONLY) : open(out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (in < 0 || o < 0 || e < 0) _exit(126);
         if (dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
@@ -333,11 +334,14 @@ static long long filled_count(const char *text, long long *total)
 /* ---- the error contract ---- */
 
 /* Runs a command that must fail: exit code `expected` (-1: any non-zero),
- * exactly one stderr line "clvox: error: ...", and nothing in g_out. */
-static void expect_failure(const char *what, int expected, const char *const *env, const char *const *args)
+ * exactly one stderr line "clvox: error: ...", containing `needle` unless
+ * NULL, and nothing in g_out. */
+static void expect_failure_msg(const char *what, int expected, const char *const *env, const char *const *args,
+                               const char *needle)
 {
     run_result r;
     run_cli(&r, env, args);
+    if (needle) CHECK_MSG(strstr(r.err, needle) != NULL, "%s: stderr lacks '%s': %s", what, needle, r.err);
     if (expected < 0)
         CHECK_MSG(r.code > 0 && r.code != 127, "%s: exit %d, expected non-zero; stderr: %s", what, r.code, r.err);
     else
@@ -350,6 +354,11 @@ static void expect_failure(const char *what, int expected, const char *const *en
     rm_tree(g_out);
     mkdir(g_out, 0777);
     run_free(&r);
+}
+
+static void expect_failure(const char *what, int expected, const char *const *env, const char *const *args)
+{
+    expect_failure_msg(what, expected, env, args, NULL);
 }
 
 /* ---- inputs ---- */
@@ -429,6 +438,18 @@ static void make_inputs(void)
                      "endsolid inf\n"));
     CHECK(write_text(g_in, "badindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 99\n"));
     CHECK(write_text(g_in, "badindex.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 7\n"));
+    /* The cube without its top face; the cube twice, on the same or on its own vertices. */
+    CHECK(write_text(g_in, "open_cube.obj",
+                     "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                     "f 1 4 3 2\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"));
+    static const char faces[] = "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    static const char faces2[] = "f 9 12 11 10\nf 13 14 15 16\nf 9 10 14 13\nf 10 11 15 14\nf 11 12 16 15\nf 12 9 13 16\n";
+    static const char verts[] = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+    char text[1024];
+    snprintf(text, sizeof text, "%s%s%s", verts, faces, faces);
+    CHECK(write_text(g_in, "cube_twice_shared.obj", text));
+    snprintf(text, sizeof text, "%s%s%s%s", verts, verts, faces, faces2);
+    CHECK(write_text(g_in, "cube_twice.obj", text));
     char p[PATH_MAX];
     path_join(p, sizeof p, g_in, "adir.obj");
     CHECK(mkdir(p, 0777) == 0 || errno == EEXIST);
@@ -704,6 +725,138 @@ static void test_errors(void)
     expect_failure("info on a mesh", -1, NULL, ARGS("info", cube));
     expect_failure("info without file", 2, NULL, ARGS("info"));
     expect_failure("info with two files", 2, NULL, ARGS("info", cube, cube));
+}
+
+/* Number of lines of `text` that start with `prefix`. */
+static int lines_starting(const char *text, const char *prefix)
+{
+    int n = 0;
+    size_t len = strlen(prefix);
+    for (const char *line = text; line && *line;) {
+        if (strncmp(line, prefix, len) == 0) n++;
+        line = strchr(line, '\n');
+        if (line) line++;
+    }
+    return n;
+}
+
+/* Warnings come from the mesh report, with either method, one line each,
+ * and the run still succeeds. */
+static void test_warnings(void)
+{
+    char out[PATH_MAX], p[PATH_MAX];
+    path_join(out, sizeof out, g_dir, "warn.exr");
+    static const char *const methods[] = {"ray", "tetra"};
+    for (int m = 0; m < 2; m++) {
+        run_result r;
+        /* A doubled cube (shared or separate vertices) voxelizes as empty:
+         * the copies cancel. Say so. */
+        static const char *const twice[] = {"cube_twice.obj", "cube_twice_shared.obj"};
+        for (int k = 0; k < 2; k++) {
+            path_join(p, sizeof p, g_in, twice[k]);
+            run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], "-o", out));
+            CHECK_MSG(r.code == 0, "%s %s: exit %d: %s", twice[k], methods[m], r.code, r.err);
+            CHECK_MSG(filled_count(r.out, NULL) == 0, "%s %s: not empty:\n%s", twice[k], methods[m], r.out);
+            CHECK_MSG(count_lines(r.err) == 1 && lines_starting(r.err, "clvox: warning: ") == 1 &&
+                          strstr(r.err, "12 triangles repeat") && strstr(r.err, "cancel"),
+                      "%s %s: expected one duplicate warning, stderr: [%s]", twice[k], methods[m], r.err);
+            CHECK_MSG(strstr(r.out, ", 12 duplicate triangles") != NULL, "%s %s: summary lacks the duplicates:\n%s",
+                      twice[k], methods[m], r.out);
+            run_free(&r);
+        }
+        /* An open mesh: one warning from the report, for tetra too; the ray
+         * method's odd-parity count (rays along z miss the missing top face)
+         * stays in the summary and joins that line, no second warning. */
+        path_join(p, sizeof p, g_in, "open_cube.obj");
+        const char *axis = m == 0 ? "--axis=z" : "--slab=0";
+        run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], axis, "-o", out));
+        CHECK_MSG(r.code == 0, "open cube %s: exit %d: %s", methods[m], r.code, r.err);
+        CHECK_MSG(count_lines(r.err) == 1 &&
+                      lines_starting(r.err, "clvox: warning: the mesh is not closed (4 boundary edges") == 1,
+                  "open cube %s: expected one 'not closed' warning, stderr: [%s]", methods[m], r.err);
+        if (m == 0) {
+            const char *rays = find_field(r.out, "rays");
+            CHECK_MSG(strstr(r.err, "; 64 rays crossed it an odd number of times") && rays &&
+                          strstr(rays, " 64 odd parity"),
+                      "open cube ray: odd parity count missing: [%s]\n%s", r.err, r.out);
+        }
+        run_free(&r);
+        /* -q keeps the warning */
+        run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], "-o", out, "-q"));
+        CHECK_MSG(r.code == 0 && r.out[0] == '\0' && count_lines(r.err) == 1 && strstr(r.err, "not closed"),
+                  "open cube %s -q: exit %d [%s] [%s]", methods[m], r.code, r.out, r.err);
+        run_free(&r);
+    }
+    unlink(out);
+}
+
+/* Numbers in messages stay short; overflowing grids say so; a summary that
+ * can not be written is an error. */
+static void test_messages(void)
+{
+    char out[PATH_MAX], cube[PATH_MAX];
+    path_join(out, sizeof out, g_out, "x.exr");
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    run_result r;
+
+    run_cli(&r, NULL, ARGS(cube, "--voxel-size", "1e-300", "-o", out));
+    CHECK_MSG(r.code == 6 && count_lines(r.err) == 1 && strlen(r.err) < 160 && strstr(r.err, "1e+300 voxels"),
+              "--voxel-size 1e-300: exit %d, stderr [%s]", r.code, r.err);
+    run_free(&r);
+    expect_failure("--voxel-size 1e-300", 6, NULL, ARGS(cube, "--voxel-size", "1e-300", "-o", out));
+    expect_failure_msg("--box +-1e308", 6, NULL, ARGS(cube, "--box=-1e308,-1e308,-1e308,1e308,1e308,1e308", "-o", out),
+                       "extent on axis x overflows");
+    expect_failure_msg("--box near -DBL_MAX with --pad", 6, NULL,
+                       ARGS(cube, "--box=-1.7e308,0,0,1,1,1", "--pad", "1", "-r", "2", "-o", out),
+                       "origin on axis x overflows");
+
+    /* A voxel so large that its volume overflows: no nan in the summary. */
+    char big[PATH_MAX];
+    path_join(big, sizeof big, g_dir, "big.exr");
+    run_cli(&r, NULL, ARGS(cube, "--voxel-size", "1e300", "-o", big));
+    CHECK_MSG(r.code == 0 && find_field(r.out, "volume") && !strstr(r.out, "nan"), "--voxel-size 1e300: exit %d\n%s%s",
+              r.code, r.out, r.err);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS("info", big));
+    CHECK_MSG(r.code == 0 && find_field(r.out, "volume") && !strstr(r.out, "nan"), "info 1e300: exit %d\n%s%s",
+              r.code, r.out, r.err);
+    run_free(&r);
+    /* (A filled voxel whose volume overflows needs a mesh larger than float
+     * coordinates allow: the summary would say "too large for a double".) */
+    run_cli(&r, NULL, ARGS(cube, "--voxel-size", "1e300", "--box=-1e300,-1e300,-1e300,1e300,1e300,1e300", "-o", big));
+    CHECK_MSG(r.code == 0 && find_field(r.out, "volume") && !strstr(r.out, "nan"),
+              "--voxel-size 1e300, 8 voxels: exit %d\n%s%s", r.code, r.out, r.err);
+    run_free(&r);
+    unlink(big);
+
+    /* stdout that can not be written: exit 1, one error line; the volume is there. */
+    if (access("/dev/full", W_OK) != 0) {
+        printf("skip: no /dev/full\n");
+        return;
+    }
+    g_stdout_file = "/dev/full";
+    char vol[PATH_MAX];
+    path_join(vol, sizeof vol, g_dir, "full.exr");
+    unlink(vol);
+    run_cli(&r, NULL, ARGS(cube, "-r", "8", "-o", vol));
+    CHECK_MSG(r.code == 1 && count_lines(r.err) == 1 && strncmp(r.err, "clvox: error: ", 14) == 0 &&
+                  strstr(r.err, "volume was written") && strstr(r.err, "No space left"),
+              "> /dev/full: exit %d, stderr [%s]", r.code, r.err);
+    CHECK_MSG(file_exists(vol), "> /dev/full: the volume %s is missing", vol);
+    run_free(&r);
+    const char *const cmds[][3] = {{"--help", NULL, NULL}, {"--version", NULL, NULL}, {"info", vol, NULL}};
+    for (int i = 0; i < 3; i++) {
+        run_cli(&r, NULL, cmds[i]);
+        CHECK_MSG(r.code == 1 && count_lines(r.err) == 1 && strstr(r.err, "clvox: error: cannot write to stdout"),
+                  "%s > /dev/full: exit %d, stderr [%s]", cmds[i][0], r.code, r.err);
+        run_free(&r);
+    }
+    /* -q prints nothing: nothing to fail */
+    run_cli(&r, NULL, ARGS(cube, "-r", "8", "-o", vol, "-q"));
+    CHECK_MSG(r.code == 0 && r.err[0] == '\0', "-q > /dev/full: exit %d, stderr [%s]", r.code, r.err);
+    run_free(&r);
+    g_stdout_file = NULL;
+    unlink(vol);
 }
 
 static void test_cancel(void)
@@ -1359,6 +1512,8 @@ int main(void)
     test_errors();
     test_real_run();
     test_options();
+    test_warnings();
+    test_messages();
     test_coverage_options();
     test_default_mesh();
     test_list_devices();

@@ -2,6 +2,7 @@
  * streaming memory bound. */
 #include "meshgen.h"
 #include "test.h"
+#include "internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -21,6 +22,23 @@ static void test_status_strings(void)
     CHECK(strcmp(clvox_status_string(CLVOX_STATUS_COUNT), "unknown status") == 0);
     CHECK(strcmp(clvox_version(), CLVOX_VERSION_STRING) == 0);
     for (int s = 0; s < CLVOX_STAGE_COUNT; s++) CHECK(strcmp(clvox_stage_name((clvox_stage)s), "unknown") != 0);
+}
+
+/* Sizes in messages (the disk space check): the unit that keeps 3 digits,
+ * never "0.0 GB" for a small file system. */
+static void test_format_size(void)
+{
+    static const struct { uint64_t bytes; const char *text; } cases[] = {
+        {0, "0 bytes"}, {999, "999 bytes"}, {1000, "1 KB"}, {1500, "1.5 KB"}, {999499, "999 KB"},
+        {999500, "1 MB"}, {40960000, "41 MB"}, {12345678, "12.3 MB"}, {2100000000ull, "2.1 GB"},
+        {2199023255552ull, "2.2 TB"}, {UINT64_MAX, "18.4 EB"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char buf[32];
+        clvox__format_size(cases[i].bytes, buf, sizeof buf);
+        CHECK_MSG(strcmp(buf, cases[i].text) == 0, "%llu bytes: '%s', expected '%s'",
+                  (unsigned long long)cases[i].bytes, buf, cases[i].text);
+    }
 }
 
 static clvox_status create(const char *sel, clvox_context **ctx)
@@ -221,6 +239,7 @@ static void test_progress_cancel_and_memory(clvox_context *ctx)
 int main(void)
 {
     test_status_strings();
+    test_format_size();
     test_devices();
     clvox_context *ctx = test_context();
     test_progress_cancel_and_memory(ctx);

@@ -220,6 +220,8 @@ static void check_cube_report(const clvox_mesh *m, const char *what, uint64_t po
               "%s: nonmanifold %llu dropped %llu degenerate %llu", what, (unsigned long long)r->nonmanifold_faces,
               (unsigned long long)r->dropped_faces, (unsigned long long)r->degenerate_triangles);
     CHECK_MSG(r->enclosed_volume == 1.0, "%s: volume %.17g", what, r->enclosed_volume);
+    CHECK_MSG(r->duplicate_triangles == 0, "%s: %llu duplicate triangles", what,
+              (unsigned long long)r->duplicate_triangles);
     for (int a = 0; a < 3; a++)
         CHECK_MSG(r->bbox_min[a] == 0.0 && r->bbox_max[a] == 1.0, "%s: bbox axis %d [%g, %g]", what, a, r->bbox_min[a],
                   r->bbox_max[a]);
@@ -395,6 +397,85 @@ static void test_mesh_report(void)
     CHECK(clvox_mesh_vertices(NULL, &nv) == NULL && nv == 0);
     nt = 7;
     CHECK(clvox_mesh_triangles(NULL, &nt) == NULL && nt == 0);
+}
+
+/* Duplicated surfaces: the same three corner positions in any order or
+ * orientation, shared vertices or not, are counted; the copies cancel under
+ * parity, so the report must say so even though the mesh is "closed". */
+static uint64_t duplicates_of(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, int *closed)
+{
+    clvox_mesh *m = NULL;
+    CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, xyz, nv, tri, nt, &m));
+    const clvox_mesh_report *r = clvox_mesh_get_report(m);
+    uint64_t d = r ? r->duplicate_triangles : UINT64_MAX;
+    if (closed) *closed = r ? r->closed : -1;
+    clvox_mesh_destroy(m);
+    return d;
+}
+
+static void test_duplicates(void)
+{
+    float v[16][3];
+    uint32_t t[24][3];
+    memcpy(v, cube_v, sizeof cube_v);
+    cube_tris(t);
+    int closed = -1;
+    CHECK(duplicates_of(&v[0][0], 8, &t[0][0], 12, &closed) == 0 && closed);
+
+    /* Two copies on the same 8 vertices. */
+    memcpy(t[12], t[0], 12 * sizeof t[0]);
+    uint64_t d = duplicates_of(&v[0][0], 8, &t[0][0], 24, &closed);
+    CHECK_MSG(d == 12 && closed, "shared copy: %llu duplicates, closed %d", (unsigned long long)d, closed);
+
+    /* The copy on its own 8 vertices (one corner as -0.0), flipped and with
+     * its corners rotated. */
+    memcpy(v[8], cube_v, sizeof cube_v);
+    v[8][0] = -0.0f;
+    for (int f = 0; f < 12; f++) {
+        t[12 + f][0] = t[f][1] + 8;
+        t[12 + f][1] = t[f][0] + 8;
+        t[12 + f][2] = t[f][2] + 8;
+    }
+    d = duplicates_of(&v[0][0], 16, &t[0][0], 24, &closed);
+    CHECK_MSG(d == 12 && closed, "separate flipped copy: %llu duplicates, closed %d", (unsigned long long)d, closed);
+
+    /* Three copies: 24 repeat an earlier triangle. A copy moved by one ulp
+     * is not a duplicate. */
+    float v3[24][3];
+    uint32_t t3[36][3];
+    for (int k = 0; k < 3; k++) {
+        memcpy(v3[8 * k], cube_v, sizeof cube_v);
+        for (int f = 0; f < 12; f++)
+            for (int c = 0; c < 3; c++) t3[12 * k + f][c] = t[f][c] + 8u * (uint32_t)k;
+    }
+    CHECK(duplicates_of(&v3[0][0], 24, &t3[0][0], 36, NULL) == 24);
+    for (int i = 16; i < 24; i++) v3[i][2] = nextafterf(v3[i][2], 2.0f);
+    d = duplicates_of(&v3[0][0], 24, &t3[0][0], 36, NULL);
+    CHECK_MSG(d == 12, "two copies + one moved: %llu duplicates", (unsigned long long)d);
+
+    /* Distinct triangles on the same three vertex positions only when all
+     * three match: two triangles sharing an edge are not duplicates. */
+    float sq[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    uint32_t st[2][3] = {{0, 1, 2}, {0, 2, 3}};
+    CHECK(duplicates_of(&sq[0][0], 4, &st[0][0], 2, NULL) == 0);
+
+    /* From a file too (OBJ with the cube twice, separate vertices). */
+    char text[1024];
+    size_t n = 0;
+    for (int k = 0; k < 2; k++)
+        for (int i = 0; i < 8; i++)
+            n += (size_t)snprintf(text + n, sizeof text - n, "v %g %g %g\n", cube_v[i][0], cube_v[i][1], cube_v[i][2]);
+    for (int k = 0; k < 2; k++)
+        for (int f = 0; f < 12; f++)
+            n += (size_t)snprintf(text + n, sizeof text - n, "f %u %u %u\n", t[f][0] + 1 + 8u * k,
+                                  t[f][1] + 1 + 8u * k, t[f][2] + 1 + 8u * k);
+    clvox_mesh *m = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("cube_twice.obj", text), &m));
+    const clvox_mesh_report *r = clvox_mesh_get_report(m);
+    CHECK_MSG(r && r->triangles == 24 && r->duplicate_triangles == 12 && r->closed,
+              "cube_twice.obj: %llu triangles, %llu duplicates", r ? (unsigned long long)r->triangles : 0ull,
+              r ? (unsigned long long)r->duplicate_triangles : 0ull);
+    clvox_mesh_destroy(m);
 }
 
 static void fill_random(unsigned char *p, size_t n, uint64_t seed)
@@ -818,6 +899,7 @@ int main(void)
 
     test_formats();
     test_mesh_report();
+    test_duplicates();
     test_bad_files();
     test_bad_arrays();
     test_performance();

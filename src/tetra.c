@@ -97,7 +97,12 @@ struct clvox__method_state {
     size_t task_cap;     /* tasks the host and device buffers hold */
     cl_mem soup, tasks, filled; /* the presence bits live in the driver's slab buffer */
     cl_kernel k_raster, k_resolve;
+    int (*poll)(void *, double); /* clvox__run.poll */
+    void *poll_user;
 };
+
+/* Target duration of one raster chunk between polls (seconds). */
+#define RASTER_CHUNK_SECONDS 0.15
 
 static void tetra_release(clvox__method_state *s)
 {
@@ -259,12 +264,14 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
                                   const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
                                   clvox_stats *stats, clvox__method_state **out)
 {
-    (void)run; /* occupancy only: the driver refuses coverage for tetra */
+    /* occupancy only: the driver refuses coverage for tetra */
     (void)slab_depth; /* per-slab memory is the driver's slab buffer */
     *out = NULL;
     clvox__method_state *s = calloc(1, sizeof *s);
     if (!s) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     s->ctx = ctx;
+    s->poll = run->poll;
+    s->poll_user = run->poll_user;
     s->grid = *grid;
     s->origin_kind = opts->tetra_origin;
     s->tri_count = mesh->triangle_count;
@@ -441,10 +448,40 @@ static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz,
         if (err != CL_SUCCESS) {
             st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_raster)");
         } else {
-            size_t local = 64, global = (n + local - 1) / local * local;
-            err = clEnqueueNDRangeKernel(ctx->queue, s->k_raster, 1, NULL, &global, &local, 0, NULL,
-                                         &ev[EV_RASTER]);
-            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "enqueue clvox_tetra_raster");
+            /* Chunks of tasks, sized to take about RASTER_CHUNK_SECONDS each
+             * (the first is 1024 tasks, then sized from its time), with
+             * the driver polled between them: a slab of huge or coincident
+             * tetrahedra stays cancellable. */
+            const size_t local = 64;
+            size_t off = 0, chunk = n < 1024 ? n : 1024;
+            double raster = 0;
+            while (st == CLVOX_OK && off < n) {
+                size_t k = n - off < chunk ? n - off : chunk;
+                size_t global = (k + local - 1) / local * local, goff = off;
+                cl_event e = NULL;
+                double c0 = clvox__now();
+                err = clEnqueueNDRangeKernel(ctx->queue, s->k_raster, 1, &goff, &global, &local, 0, NULL, &e);
+                if (err != CL_SUCCESS) {
+                    st = clvox__cl_fail(ctx, err, "enqueue clvox_tetra_raster");
+                    break;
+                }
+                off += k;
+                if (off < n) { /* wait, adapt the chunk, ask whether to go on */
+                    err = clWaitForEvents(1, &e);
+                    if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running clvox_tetra_raster");
+                    double dt = clvox__now() - c0;
+                    raster += clvox__event_seconds(e);
+                    clReleaseEvent(e);
+                    double want = dt > 0 ? (double)chunk * RASTER_CHUNK_SECONDS / dt : (double)n;
+                    chunk = want < 256 ? 256 : want > (double)n ? n : (size_t)want;
+                    chunk = (chunk + local - 1) / local * local;
+                    if (st == CLVOX_OK && s->poll && !s->poll(s->poll_user, (double)off / (double)n))
+                        st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", z0);
+                } else {
+                    ev[EV_RASTER] = e; /* timed with the others below */
+                }
+            }
+            ss->classify_seconds += raster;
         }
     }
     if (st == CLVOX_OK) {

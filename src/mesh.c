@@ -487,7 +487,11 @@ static clvox_status check_off(clvox_context *ctx, const char *path, const unsign
         if (!tok_is(&k, "BINARY")) {
             counts_line = (text){rest, head.end, head.line};
         } else {
-            if (i || k.line != 1)
+            /* OpenMesh takes a file for binary only when "BINARY" starts at
+             * byte 4 (after "OFF" and one separator); otherwise it reads the
+             * binary body as ASCII and reserves and grows without bound
+             * ("OFF \rBINARY", "OFF  BINARY": a fuzz finding). */
+            if (i || k.line != 1 || n < 10 || memcmp(p, "OFF", 3) != 0 || memcmp(p + 4, "BINARY", 6) != 0)
                 return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
                                    "'%s': binary OFF must start with a plain 'OFF BINARY' line", path);
             if (tok_line(&head, &k))

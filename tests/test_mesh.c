@@ -293,6 +293,25 @@ static void test_formats(void)
         for (int c = 0; c < 3; c++) put_le32(&b, t[f][c]);
     }
     load_good(write_bytes("cube_bin.off", b.p, b.n), "off binary", 0);
+    /* OpenMesh reads these as ASCII (BINARY not at byte 4) and grew without
+     * bound on the binary body (fuzz finding): rejected before it. */
+    {
+        static const char *const heads[] = {"OFF \rBINARY\n", "OFF  BINARY\n", "OFF\t BINARY\n"};
+        for (int h = 0; h < 3; h++) {
+            bytes c = {0};
+            put_str(&c, heads[h]);
+            put(&c, b.p + 11, b.n - 11);
+            char name[32];
+            snprintf(name, sizeof name, "bin_head_%d.off", h);
+            expect_bad(write_bytes(name, c.p, c.n), CLVOX_ERR_MESH_FORMAT, name, "plain 'OFF BINARY'");
+            free(c.p);
+        }
+        bytes c = {0};
+        put_str(&c, "OFF\tBINARY\n"); /* one separator, any: binary for OpenMesh too */
+        put(&c, b.p + 11, b.n - 11);
+        load_good(write_bytes("bin_tab.off", c.p, c.n), "off binary, tab", 0);
+        free(c.p);
+    }
     load_good(write_bytes("cube.om", cube_om, sizeof cube_om), "om", 6);
     b.n -= 6;
     expect_bad(write_bytes("cube_bin_trunc.off", b.p, b.n), CLVOX_ERR_MESH_FORMAT, "truncated binary off", "truncated");

@@ -77,6 +77,12 @@ static int replay(const target *t, const unsigned char *data, size_t n, char *wh
     while (waitpid(pid, &status, 0) < 0) {
     }
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return 0;
+    /* A child that died inside the loader left its input file behind. */
+    char left[96];
+    snprintf(left, sizeof left, "/dev/shm/clvox-fuzz-%ld.%s", (long)pid, t->ext ? t->ext : "exr");
+    unlink(left);
+    snprintf(left, sizeof left, "/tmp/clvox-fuzz-%ld.%s", (long)pid, t->ext ? t->ext : "exr");
+    unlink(left);
     if (WIFSIGNALED(status))
         snprintf(why, why_size, "killed by signal %d%s", WTERMSIG(status),
                  WTERMSIG(status) == SIGALRM ? " (hang: over 30 s)" : "");

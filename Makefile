@@ -111,15 +111,20 @@ check: tests
 	$(Q)CLVOX_QUICK=1 CONFIG=$(CONFIG) sh tests/run_tests.sh $(BUILD)
 
 # libFuzzer targets (tests/fuzz/fuzz_*.c), built with clang over the library
-# sources (instrumented) and run briefly on their seed corpora:
+# sources (instrumented) and run briefly on their seed corpora
+# (tests/fuzz/seeds_<name>/) and past findings (tests/fuzz/regress_<name>/);
+# the corpus grows in build/fuzz/corpus_<name>/. `make test` replays seeds
+# and findings without libFuzzer (tests/test_fuzz_smoke.c).
 #   make fuzz                    build them
-#   make fuzz-run FUZZ_SECONDS=60   build and run each for FUZZ_SECONDS
+#   make fuzz-run FUZZ_SECONDS=60   build and run each, one after another, for FUZZ_SECONDS
+#   make fuzz-run FUZZ_ONLY="mesh_obj mesh_ply"   only these targets
 FUZZ_CC ?= clang
 FUZZ_CXX ?= clang++
 FUZZ_SECONDS ?= 30
+FUZZ_ONLY ?=
 FUZZ_FLAGS := -g -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
 FUZZ_DIR := build/fuzz
-FUZZ_SRCS := $(wildcard tests/fuzz/fuzz_*.c)
+FUZZ_SRCS := $(if $(FUZZ_ONLY),$(FUZZ_ONLY:%=tests/fuzz/fuzz_%.c),$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_BINS := $(FUZZ_SRCS:tests/fuzz/%.c=$(FUZZ_DIR)/%)
 FUZZ_LIB_OBJ := $(LIB_C:%.c=$(FUZZ_DIR)/%.o) $(LIB_CXX:%.cpp=$(FUZZ_DIR)/%.o) $(FUZZ_DIR)/gen/kernels_embedded.o
 
@@ -135,7 +140,7 @@ $(FUZZ_DIR)/gen/kernels_embedded.o: $(KERNEL_C)
 	@mkdir -p $(dir $@)
 	$(Q)$(FUZZ_CC) -std=c11 -fPIC -O1 -c $< -o $@
 
-$(FUZZ_DIR)/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ)
+$(FUZZ_DIR)/fuzz_%: tests/fuzz/fuzz_%.c $(wildcard tests/fuzz/*.h) $(FUZZ_LIB_OBJ)
 	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@.o
 	$(Q)$(FUZZ_CXX) -fsanitize=fuzzer,address,undefined -o $@ $@.o $(FUZZ_LIB_OBJ) $(LIBS)
 
@@ -145,7 +150,7 @@ fuzz: $(FUZZ_BINS)
 fuzz-run: fuzz
 	$(Q)for b in $(FUZZ_BINS); do n=$${b##*/fuzz_}; mkdir -p $(FUZZ_DIR)/corpus_$$n; \
 	  $$b -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=2048 -timeout=10 $(FUZZ_DIR)/corpus_$$n tests/fuzz/seeds_$$n \
-	  || exit 1; done
+	  $$(test -d tests/fuzz/regress_$$n && echo tests/fuzz/regress_$$n) || exit 1; done
 
 bench: all
 	$(Q)sh scripts/bench.sh

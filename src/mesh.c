@@ -11,10 +11,10 @@
  *   - OFF: ASCII files are parsed here, not by OpenMesh (its reader supports
  *     no comments, wants the counts on the second line and misreads face
  *     colours without a COFF header); binary ones are walked face by face;
- *   - OBJ and ASCII STL: every vertex line must hold three finite numbers
- *     (OpenMesh drops a "v nan 0 0" line and shifts every later index); an
- *     OBJ's material library must be a regular file if it exists (a FIFO
- *     blocks OpenMesh); an ASCII STL must end with endsolid;
+ *   - OBJ: parsed here, not by OpenMesh (its reader aborts on "f /1", wraps
+ *     bad indices, skips bad vertex lines and opens the material library);
+ *   - ASCII STL: every vertex line must hold three finite numbers and the
+ *     file must end with endsolid;
  *   - binary STL: the size must be exactly 84 + 50 n, coordinates finite;
  *     a file that is neither that nor a well-formed ASCII STL is rejected;
  *   - OM: the chunk sequence is walked as OpenMesh's reader consumes it (it
@@ -238,58 +238,6 @@ static clvox_status check_coord(clvox_context *ctx, const char *path, const tok 
                            (unsigned long long)k->line, where);
     return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': expected a number at line %llu (%s), found '%.*s'", path,
                        (unsigned long long)k->line, where, tok_print_len(k), k->s);
-}
-
-/* ---- OBJ ------------------------------------------------------------------------ */
-
-/* OpenMesh opens "mtllib <rest of line>" relative to the OBJ's directory; a
- * FIFO there blocks it forever, a device never ends. */
-static clvox_status check_mtllib(clvox_context *ctx, const char *path, text *t)
-{
-    const char *s = t->p, *e = memchr(t->p, '\n', (size_t)(t->end - t->p));
-    if (!e) e = t->end;
-    while (s < e && is_space(*s)) s++;
-    while (e > s && is_space(e[-1])) e--;
-    const char *slash = strrchr(path, '/');
-    size_t dir_len = slash ? (size_t)(slash + 1 - path) : 0;
-    char full[4096];
-    if (s == e || dir_len + (size_t)(e - s) + 3 > sizeof full) return CLVOX_OK;
-    if (slash) memcpy(full, path, dir_len);
-    else memcpy(full, "./", 2), dir_len = 2;
-    memcpy(full + dir_len, s, (size_t)(e - s));
-    full[dir_len + (size_t)(e - s)] = 0;
-    struct stat sb;
-    if (stat(full, &sb) == 0 && !S_ISREG(sb.st_mode))
-        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': material library '%s' (line %llu) is not a regular file",
-                           path, full, (unsigned long long)t->line);
-    return CLVOX_OK;
-}
-
-static clvox_status check_obj(clvox_context *ctx, const char *path, const char *p, size_t n, expect *ex)
-{
-    clvox_status st = check_text(ctx, path, p, n, "OBJ");
-    if (st) return st;
-    text t = {p, p + n, 1};
-    uint64_t vertices = 0;
-    tok k;
-    while (t.p < t.end) {
-        int have = tok_line(&t, &k);
-        if (have && tok_is(&k, "mtllib") && (st = check_mtllib(ctx, path, &t))) return st;
-        if (have && tok_is(&k, "v")) {
-            for (int c = 0; c < 3; c++) {
-                if (!tok_line(&t, &k))
-                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
-                                       "'%s': vertex at line %llu has fewer than 3 coordinates", path,
-                                       (unsigned long long)t.line);
-                if ((st = check_coord(ctx, path, &k, "vertex"))) return st;
-            }
-            vertices++;
-        }
-        skip_line(&t);
-    }
-    ex->have_vertices = 1;
-    ex->vertices = vertices;
-    return CLVOX_OK;
 }
 
 /* ---- STL ------------------------------------------------------------------------ */
@@ -539,7 +487,11 @@ static clvox_status check_off(clvox_context *ctx, const char *path, const unsign
         if (!tok_is(&k, "BINARY")) {
             counts_line = (text){rest, head.end, head.line};
         } else {
-            if (i || k.line != 1)
+            /* OpenMesh takes a file for binary only when "BINARY" starts at
+             * byte 4 (after "OFF" and one separator); otherwise it reads the
+             * binary body as ASCII and reserves and grows without bound
+             * ("OFF \rBINARY", "OFF  BINARY": a fuzz finding). */
+            if (i || k.line != 1 || n < 10 || memcmp(p, "OFF", 3) != 0 || memcmp(p + 4, "BINARY", 6) != 0)
                 return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
                                    "'%s': binary OFF must start with a plain 'OFF BINARY' line", path);
             if (tok_line(&head, &k))
@@ -582,6 +534,194 @@ static clvox_status check_off(clvox_context *ctx, const char *path, const unsign
     if (!c_locale) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot create the C locale to read '%s'", path);
     locale_t old = uselocale(c_locale);
     st = parse_off_ascii(ctx, path, &t, counts_line, normal, n, native);
+    uselocale(old);
+    freelocale(c_locale);
+    if (st) {
+        clvox__raw_mesh_free(native);
+        return st;
+    }
+    *parsed = 1;
+    return CLVOX_OK;
+}
+
+/* ---- OBJ ------------------------------------------------------------------------ */
+
+/* OBJ is read here, not by OpenMesh. Its reader aborts the whole process
+ * (assert) on a face corner that starts with '/' ("f /1"), reads an
+ * unparsable or overflowing index into an uninitialised or wrapped int,
+ * skips a malformed vertex line silently (every later index then points at
+ * the wrong vertex) and opens the material library (a FIFO there blocks it
+ * forever). Checking every line so that reader is safe would mean
+ * re-implementing it anyway; clvox needs only the geometry, and a native
+ * reader gives one-line errors with line numbers (as for OFF). What is read:
+ *   v x y z ...     three finite coordinates; extra values (w, colours) ignored
+ *   f c c c ...     corners v, v/vt, v//vn or v/vt/vn; indices start at 1,
+ *                   negative ones count back from the last vertex (texture
+ *                   coordinate, normal) read so far; positive ones may refer
+ *                   to later vertices (OpenMesh reads all vertices first)
+ *   '#' at the start of a token starts a comment; every other statement (vt, vn,
+ *   o, g, s, usemtl, mtllib, l, p, ...) is skipped, and no other file is
+ *   opened. vt/vn indices are checked against the vt/vn lines, never used.
+ * A face with no corners, a malformed corner, index 0 or an index out of
+ * range is an error; faces of one or two corners are dropped (reported) as
+ * for the other formats. Lines continued with '\' are not supported. */
+
+enum { OBJ_V, OBJ_VT, OBJ_VN, OBJ_KINDS };
+static const char *const obj_kind_name[OBJ_KINDS] = {"vertex", "texture coordinate", "normal"};
+
+/* Resolves OBJ index token part s[0..n) of kind `kind`: *out is 0-based. */
+static clvox_status obj_index(clvox_context *ctx, const char *path, const tok *corner, const char *s, size_t n,
+                              int kind, const uint64_t so_far[OBJ_KINDS], const uint64_t total[OBJ_KINDS],
+                              uint64_t *out)
+{
+    tok part = {s, n, corner->line};
+    int64_t v;
+    if (!n || !parse_int(&part, &v))
+        return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': invalid %s index in face corner '%.*s' at line %llu",
+                           path, obj_kind_name[kind], tok_print_len(corner), corner->s,
+                           (unsigned long long)corner->line);
+    if (v == 0)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                           "'%s': face corner '%.*s' at line %llu has %s index 0 (OBJ indices start at 1)", path,
+                           tok_print_len(corner), corner->s, (unsigned long long)corner->line, obj_kind_name[kind]);
+    if (v > 0 && (uint64_t)v > total[kind])
+        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                           "'%s': face at line %llu references %s %lld, the file has %llu", path,
+                           (unsigned long long)corner->line, obj_kind_name[kind], (long long)v,
+                           (unsigned long long)total[kind]);
+    if (v < 0 && (uint64_t)-(v + 1) >= so_far[kind]) /* -(v+1): no overflow at INT64_MIN */
+        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                           "'%s': face at line %llu references %s %lld (relative), only %llu precede it", path,
+                           (unsigned long long)corner->line, obj_kind_name[kind], (long long)v,
+                           (unsigned long long)so_far[kind]);
+    *out = v > 0 ? (uint64_t)v - 1 : so_far[kind] - (uint64_t)-(v + 1) - 1;
+    return CLVOX_OK;
+}
+
+/* Next OBJ line holding data, as next_data_line but a comment starts only at
+ * a '#' that begins a token ("v 0 1.#INF 0" is a non-finite coordinate, not
+ * a vertex with two coordinates). */
+static int obj_next_line(text *t, text *line)
+{
+    while (t->p < t->end) {
+        const char *s = t->p, *nl = memchr(s, '\n', (size_t)(t->end - s));
+        const char *e = nl ? nl : t->end, *c = s;
+        line->p = s;
+        line->line = t->line;
+        skip_line(t);
+        while (c < e && is_space(*c)) c++;
+        if (c == e || *c == '#') continue;
+        for (; c < e; c++)
+            if (*c == '#' && is_space(c[-1])) break;
+        line->end = c;
+        return 1;
+    }
+    return 0;
+}
+
+static int obj_kind_of(const tok *k)
+{
+    if (tok_is(k, "v")) return OBJ_V;
+    if (tok_is(k, "vt")) return OBJ_VT;
+    if (tok_is(k, "vn")) return OBJ_VN;
+    return -1;
+}
+
+static clvox_status parse_obj(clvox_context *ctx, const char *path, const char *p, size_t n, clvox__raw_mesh *raw)
+{
+    text t = {p, p + n, 1}, line;
+    tok k;
+    /* Pass 1: how many v / vt / vn lines (positive indices may point ahead). */
+    uint64_t total[OBJ_KINDS] = {0, 0, 0}, so_far[OBJ_KINDS] = {0, 0, 0};
+    while (obj_next_line(&t, &line)) {
+        tok_line(&line, &k);
+        int kind = obj_kind_of(&k);
+        if (kind >= 0) total[kind]++;
+    }
+    if (total[OBJ_V] > UINT32_MAX - 1)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "'%s' has %llu vertices, more than clvox supports", path,
+                           (unsigned long long)total[OBJ_V]);
+    raw->xyz = malloc((total[OBJ_V] ? total[OBJ_V] : 1) * 3 * sizeof *raw->xyz);
+    if (!raw->xyz) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+    raw->vertex_count = total[OBJ_V];
+    size_t cap_f = 0, cap_i = 0;
+
+    /* Pass 2: vertices and faces. */
+    t = (text){p, p + n, 1};
+    while (obj_next_line(&t, &line)) {
+        tok_line(&line, &k);
+        int kind = obj_kind_of(&k);
+        if (kind == OBJ_V) {
+            float *dst = raw->xyz + 3 * so_far[OBJ_V];
+            for (int c = 0; c < 3; c++) {
+                if (!tok_line(&line, &k))
+                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
+                                       "'%s': vertex at line %llu has fewer than 3 coordinates", path,
+                                       (unsigned long long)line.line);
+                clvox_status st = check_coord(ctx, path, &k, "vertex");
+                if (st) return st;
+                if (!token_float(&k, &dst[c]))
+                    return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': cannot convert '%.*s' at line %llu", path,
+                                       tok_print_len(&k), k.s, (unsigned long long)k.line);
+            }
+        }
+        if (kind >= 0) {
+            so_far[kind]++;
+            continue;
+        }
+        if (!tok_is(&k, "f")) continue;
+        uint32_t corners = 0;
+        while (tok_line(&line, &k)) {
+            /* v, v/vt, v//vn, v/vt/vn */
+            const char *s1 = memchr(k.s, '/', k.n), *end = k.s + k.n;
+            const char *s2 = s1 ? memchr(s1 + 1, '/', (size_t)(end - s1 - 1)) : NULL;
+            if (s2 && memchr(s2 + 1, '/', (size_t)(end - s2 - 1)))
+                return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': malformed face corner '%.*s' at line %llu "
+                                   "(expected v, v/vt, v//vn or v/vt/vn)", path, tok_print_len(&k), k.s,
+                                   (unsigned long long)k.line);
+            uint64_t vi, unused;
+            const char *ve = s1 ? s1 : end;
+            clvox_status st = obj_index(ctx, path, &k, k.s, (size_t)(ve - k.s), OBJ_V, so_far, total, &vi);
+            if (!st && s1) {
+                const char *te = s2 ? s2 : end;
+                /* v/vt needs vt; v//vn may leave it out, not both */
+                if (te > s1 + 1 || !s2) st = obj_index(ctx, path, &k, s1 + 1, (size_t)(te - s1 - 1), OBJ_VT, so_far,
+                                                        total, &unused);
+            }
+            if (!st && s2) st = obj_index(ctx, path, &k, s2 + 1, (size_t)(end - s2 - 1), OBJ_VN, so_far, total, &unused);
+            if (st) return st;
+            if (raw->index_count == cap_i) {
+                cap_i = cap_i ? 2 * cap_i : 1024;
+                uint32_t *grown = realloc(raw->face_indices, cap_i * sizeof *grown);
+                if (!grown) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+                raw->face_indices = grown;
+            }
+            raw->face_indices[raw->index_count++] = (uint32_t)vi;
+            corners++;
+        }
+        if (!corners)
+            return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': face at line %llu has no corners", path,
+                               (unsigned long long)line.line);
+        if (raw->face_count == cap_f) {
+            cap_f = cap_f ? 2 * cap_f : 1024;
+            uint32_t *grown = realloc(raw->face_sizes, cap_f * sizeof *grown);
+            if (!grown) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+            raw->face_sizes = grown;
+        }
+        raw->face_sizes[raw->face_count++] = corners;
+    }
+    return CLVOX_OK;
+}
+
+static clvox_status check_obj(clvox_context *ctx, const char *path, const char *p, size_t n, clvox__raw_mesh *native,
+                              int *parsed)
+{
+    clvox_status st = check_text(ctx, path, p, n, "OBJ");
+    if (st) return st;
+    locale_t c_locale = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
+    if (!c_locale) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot create the C locale to read '%s'", path);
+    locale_t old = uselocale(c_locale);
+    st = parse_obj(ctx, path, p, n, native);
     uselocale(old);
     freelocale(c_locale);
     if (st) {
@@ -1521,11 +1661,11 @@ clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **
     memset(&ex, 0, sizeof ex);
     clvox__raw_mesh raw;
     memset(&raw, 0, sizeof raw);
-    int parsed = 0; /* read here, not by OpenMesh (ASCII OFF) */
+    int parsed = 0; /* read here, not by OpenMesh (OBJ, ASCII OFF) */
     const unsigned char *p = map;
     clvox_status st;
     switch (fmt) {
-    case FMT_OBJ: st = check_obj(ctx, path, (const char *)p, n, &ex); break;
+    case FMT_OBJ: st = check_obj(ctx, path, (const char *)p, n, &raw, &parsed); break;
     case FMT_OFF: st = check_off(ctx, path, p, n, &ex, &raw, &parsed); break;
     case FMT_PLY: st = check_ply(ctx, path, p, n, &ex); break;
     case FMT_STL: st = check_stl(ctx, path, p, n); break;

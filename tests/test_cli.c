@@ -437,6 +437,8 @@ static void make_inputs(void)
                      "  endloop\n endfacet\n"
                      "endsolid inf\n"));
     CHECK(write_text(g_in, "badindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 99\n"));
+    /* 5 bytes that aborted OpenMesh's OBJ reader (assert, SIGABRT; issue 7). */
+    CHECK(write_text(g_in, "slash.obj", "f /1\n"));
     CHECK(write_text(g_in, "badindex.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 7\n"));
     /* The cube without its top face; the cube twice, on the same or on its own vertices. */
     CHECK(write_text(g_in, "open_cube.obj",
@@ -642,7 +644,7 @@ static void test_errors(void)
     static const char *const bad_meshes[] = {
         "nope.obj", "adir.obj", "cube.xyz", "empty.obj", "empty.off", "points.obj",
         "random.stl", "random.ply", "random.off", "random.obj", "truncated.stl", "noend.ply",
-        "nan.obj", "inf.stl", "badindex.obj", "badindex.off", NULL};
+        "nan.obj", "inf.stl", "badindex.obj", "badindex.off", "slash.obj", NULL};
     for (int i = 0; bad_meshes[i]; i++) {
         path_join(p, sizeof p, g_in, bad_meshes[i]);
         char what[128];

@@ -295,6 +295,25 @@ static void test_formats(void)
         for (int c = 0; c < 3; c++) put_le32(&b, t[f][c]);
     }
     load_good(write_bytes("cube_bin.off", b.p, b.n), "off binary", 0);
+    /* OpenMesh reads these as ASCII (BINARY not at byte 4) and grew without
+     * bound on the binary body (fuzz finding): rejected before it. */
+    {
+        static const char *const heads[] = {"OFF \rBINARY\n", "OFF  BINARY\n", "OFF\t BINARY\n"};
+        for (int h = 0; h < 3; h++) {
+            bytes c = {0};
+            put_str(&c, heads[h]);
+            put(&c, b.p + 11, b.n - 11);
+            char name[32];
+            snprintf(name, sizeof name, "bin_head_%d.off", h);
+            expect_bad(write_bytes(name, c.p, c.n), CLVOX_ERR_MESH_FORMAT, name, "plain 'OFF BINARY'");
+            free(c.p);
+        }
+        bytes c = {0};
+        put_str(&c, "OFF\tBINARY\n"); /* one separator, any: binary for OpenMesh too */
+        put(&c, b.p + 11, b.n - 11);
+        load_good(write_bytes("bin_tab.off", c.p, c.n), "off binary, tab", 0);
+        free(c.p);
+    }
     load_good(write_bytes("cube.om", cube_om, sizeof cube_om), "om", 6);
     b.n -= 6;
     expect_bad(write_bytes("cube_bin_trunc.off", b.p, b.n), CLVOX_ERR_MESH_FORMAT, "truncated binary off", "truncated");
@@ -631,10 +650,14 @@ static void test_bad_files(void)
         snprintf(name, sizeof name, "nonfinite_%zu.stl", i);
         expect_bad(write_text(name, text), CLVOX_ERR_MESH_INVALID, name, "line 6");
     }
-    /* OpenMesh opens the material library: a FIFO would block it forever. */
-    if (mkfifo(path_of("fifo.mtl"), 0666) == 0 || errno == EEXIST)
-        expect_bad(write_text("fifo_mtl.obj", "mtllib fifo.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
-                   CLVOX_ERR_MESH_FORMAT, "obj with a FIFO as material library", "material");
+    /* OpenMesh opened the material library (a FIFO blocked it forever); the
+     * native OBJ reader never opens another file. */
+    if (mkfifo(path_of("fifo.mtl"), 0666) == 0 || errno == EEXIST) {
+        m = NULL;
+        CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("fifo_mtl.obj", "mtllib fifo.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+                                      &m));
+        clvox_mesh_destroy(m);
+    }
     CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("missing_mtl.obj", "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
                                   &m));
     clvox_mesh_destroy(m);
@@ -757,6 +780,83 @@ static void test_bad_files(void)
     expect_bad(write_text("empty_mesh.ply", "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
                                             "property float y\nproperty float z\nend_header\n"),
                CLVOX_ERR_MESH_EMPTY, "ply with no vertices", NULL);
+}
+
+/* OBJ is read natively (mesh.c). The first entries aborted the process in
+ * OpenMesh's reader (assert !vhandles.empty(), issue 7); none may crash. */
+static void test_obj(void)
+{
+    static const char tri[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    static const struct { const char *body; clvox_status want; const char *needle; } bad[] = {
+        {"f /1\n", CLVOX_ERR_MESH_FORMAT, "'/1' at line 1"},
+        {"f /1 2 3\n", CLVOX_ERR_MESH_FORMAT, "'/1' at line 4"},
+        {"f /1/1\n", CLVOX_ERR_MESH_FORMAT, "vertex index"},
+        {"f 1 /2 3\n", CLVOX_ERR_MESH_FORMAT, "'/2'"},
+        {"f //1 2 3\n", CLVOX_ERR_MESH_FORMAT, "vertex index"},
+        {"f\n", CLVOX_ERR_MESH_FORMAT, "no corners"},
+        {"f # nothing\n", CLVOX_ERR_MESH_FORMAT, "no corners"},
+        {"f 1// 2// 3//\n", CLVOX_ERR_MESH_FORMAT, "normal index"},
+        {"f 1/ 2/ 3/\n", CLVOX_ERR_MESH_FORMAT, "texture coordinate index"},
+        {"f 1/1/1/1 2 3\n", CLVOX_ERR_MESH_FORMAT, "malformed"},
+        {"f 1 2 x\n", CLVOX_ERR_MESH_FORMAT, "'x' at line 4"},
+        {"f 1 2 3.0\n", CLVOX_ERR_MESH_FORMAT, "'3.0'"},
+        {"f 1 2 3 \\\n", CLVOX_ERR_MESH_FORMAT, "vertex index"},
+        {"f 0 1 2\n", CLVOX_ERR_MESH_INVALID, "index 0"},
+        {"f 1 2 4\n", CLVOX_ERR_MESH_INVALID, "vertex 4, the file has 3"},
+        {"f 1 2 4294967297\n", CLVOX_ERR_MESH_INVALID, "vertex 4294967297"},
+        {"f 1 2 9223372036854775807\n", CLVOX_ERR_MESH_INVALID, "vertex 9223372036854775807"},
+        {"f 1 2 99999999999999999999\n", CLVOX_ERR_MESH_FORMAT, "vertex index"},
+        {"f 1 2 -4\n", CLVOX_ERR_MESH_INVALID, "only 3 precede"},
+        {"f 1 2 -9223372036854775807\n", CLVOX_ERR_MESH_INVALID, "relative"},
+        {"f 1 2 -9223372036854775808\n", CLVOX_ERR_MESH_FORMAT, "vertex index"},
+        {"f 1/1 2/1 3/1\n", CLVOX_ERR_MESH_INVALID, "texture coordinate 1, the file has 0"},
+        {"vn 0 0 1\nf 1//2 2//1 3//1\n", CLVOX_ERR_MESH_INVALID, "normal 2"},
+        {"v 1 2\nf 1 2 3\n", CLVOX_ERR_MESH_FORMAT, "line 4"},
+        {"v 1 2 z\n", CLVOX_ERR_MESH_FORMAT, "'z'"},
+        {"v\n", CLVOX_ERR_MESH_FORMAT, "fewer than 3"},
+    };
+    char text[512], name[64];
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        int bare = i < 1 || (i == 2) || (i == 5); /* the minimal crashers, no vertices */
+        snprintf(text, sizeof text, "%s%s", bare ? "" : tri, bad[i].body);
+        snprintf(name, sizeof name, "bad_%zu.obj", i);
+        expect_bad(write_text(name, text), bad[i].want, name, bad[i].needle);
+        CHECK_MSG(!strchr(clvox_context_error(ctx), '\n'), "%s: message is one line", name);
+    }
+    /* Negative (relative) indices before a vertex exists. */
+    expect_bad(write_text("rel_early.obj", "v 0 0 0\nf -1 -2 -3\nv 1 0 0\nv 0 1 0\n"), CLVOX_ERR_MESH_INVALID,
+               "rel_early.obj", "only 1 precede");
+
+    /* The forms that are fine: every corner form, relative indices,
+     * forward references, comments, CRLF, other statements skipped, a
+     * polygon, a 2-corner face (dropped), extra vertex values. */
+    static const char *const good[] = {
+        "v 0 0 0\nv 2 0 0\nv 0 3 0\nv 0 0 4\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n",
+        "# tetra\nmtllib x.mtl\no t\ng g1\ns off\nusemtl m\nvt 0 0\nvt 1 0\nvn 0 0 1\n"
+        "v 0 0 0 1\nv 2 0 0 0.5 0.5 0.5\nv 0 3 0\nv 0 0 4 # last\n"
+        "f 1/1 3/2 2/1\nf 1//1 2//1 4//1\nf 2/1/1 3/2/1 4/-1/-1\nf -4/-2/-1 -1/-1/-1 -2/1/1\nl 1 2\np 1\n",
+        "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\nv 0 0 0\nv 2 0 0\nv 0 3 0\nv 0 0 4\n",
+        "v 0 0 0\r\nv 2 0 0\r\nv 0 3 0\r\nv 0 0 4\r\nf 1 3 2\r\nf 1 2 4\r\nf 2 3 4\r\nf 1 4 3\r\n",
+        "v 0 0 0\nv 2 0 0\nv 0 3 0\nv 0 0 4\nf -4 -2 -3\nf +1 +2 +4\n\tf 2 3 4\nf 1 4 3\nf 1 2\n",
+        "v 0 0 0\nv 2 0 0\nv 0 3 0\nv 0 0 4\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3",
+    };
+    for (size_t i = 0; i < sizeof good / sizeof good[0]; i++) {
+        snprintf(name, sizeof name, "good_%zu.obj", i);
+        clvox_mesh *m = NULL;
+        CHECK_OK(ctx, clvox_mesh_load(ctx, write_text(name, good[i]), &m));
+        const clvox_mesh_report *r = clvox_mesh_get_report(m);
+        CHECK_MSG(r && r->triangles == 4 && r->closed && r->enclosed_volume == 4.0 && r->vertices == 4,
+                  "%s: tetrahedron", name);
+        if (i == 4) CHECK_MSG(r && r->dropped_faces == 1 && r->input_faces == 5, "%s: 2-corner face dropped", name);
+        clvox_mesh_destroy(m);
+    }
+    /* A pentagon is fanned. */
+    clvox_mesh *m = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("penta.obj", "v 0 0 0\nv 1 0 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\n"
+                                                               "f 1 2 3 4 5\n"), &m));
+    const clvox_mesh_report *r = clvox_mesh_get_report(m);
+    CHECK(r && r->triangles == 3 && r->polygons_triangulated == 1);
+    clvox_mesh_destroy(m);
 }
 
 static void test_bad_arrays(void)
@@ -901,6 +1001,7 @@ int main(void)
     test_mesh_report();
     test_duplicates();
     test_bad_files();
+    test_obj();
     test_bad_arrays();
     test_performance();
 

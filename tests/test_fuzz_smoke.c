@@ -1,0 +1,137 @@
+/* Replays every fuzz seed corpus (tests/fuzz/seeds_<name>/) and every input a
+ * fuzzer or an issue once found (tests/fuzz/regress_<name>/) through the fuzz
+ * targets' own checks, without libFuzzer: the mesh targets' property check
+ * (fuzz/fuzz_mesh.h) and the EXR reader target, compiled here a second time
+ * with gcc. Each input runs in a child process with a time limit, so a crash,
+ * an abort inside OpenMesh, a hang or (under CONFIG=sanitize) a sanitizer
+ * report fails that input alone. Runs from the repository root (run_tests.sh). */
+#include "test.h"
+
+#include <dirent.h>
+#include <signal.h>
+#include <stdint.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "fuzz/fuzz_mesh.h"
+#include "fuzz/fuzz_volume_read.c" /* LLVMFuzzerTestOneInput of fuzz_volume_read */
+
+typedef struct target {
+    const char *name; /* fuzz_<name>.c, seeds_<name>/, regress_<name>/ */
+    const char *ext;  /* mesh extension; NULL: the EXR target */
+} target;
+
+static const target targets[] = {
+    {"volume_read", NULL}, {"mesh_obj", "obj"}, {"mesh_off", "off"},
+    {"mesh_ply", "ply"},   {"mesh_stl", "stl"}, {"mesh_om", "om"},
+};
+
+static unsigned char *read_all(const char *p, size_t *n)
+{
+    FILE *f = fopen(p, "rb");
+    if (!f) return NULL;
+    size_t cap = 4096, len = 0;
+    unsigned char *b = malloc(cap);
+    for (size_t got; b && (got = fread(b + len, 1, cap - len, f)) > 0;) {
+        len += got;
+        if (len == cap) {
+            unsigned char *g = realloc(b, cap *= 2);
+            if (!g) free(b);
+            b = g;
+        }
+    }
+    fclose(f);
+    *n = len;
+    return b;
+}
+
+/* The input being replayed: a global, so LeakSanitizer in the child sees it
+ * as reachable. */
+static unsigned char *g_input;
+
+/* One input in a child: 0 when it passed, else why not (in `why`). */
+static int replay(const target *t, const unsigned char *data, size_t n, char *why, size_t why_size)
+{
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid < 0) {
+        snprintf(why, why_size, "fork failed");
+        return 1;
+    }
+    if (pid == 0) {
+        alarm(30); /* a hang: SIGALRM */
+        if (t->ext) {
+            const char *w = fuzz_mesh_check(t->ext, data, n);
+            if (w) {
+                fprintf(stderr, "  property: %s\n", w);
+                exit(1);
+            }
+        } else {
+            LLVMFuzzerTestOneInput(data, n);
+        }
+        clvox_context_destroy(fuzz_mesh_ctx);
+        exit(0); /* exit, not _exit: LeakSanitizer checks the child */
+    }
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0) {
+    }
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return 0;
+    /* A child that died inside the loader left its input file behind. */
+    char left[96];
+    snprintf(left, sizeof left, "/dev/shm/clvox-fuzz-%ld.%s", (long)pid, t->ext ? t->ext : "exr");
+    unlink(left);
+    snprintf(left, sizeof left, "/tmp/clvox-fuzz-%ld.%s", (long)pid, t->ext ? t->ext : "exr");
+    unlink(left);
+    if (WIFSIGNALED(status))
+        snprintf(why, why_size, "killed by signal %d%s", WTERMSIG(status),
+                 WTERMSIG(status) == SIGALRM ? " (hang: over 30 s)" : "");
+    else
+        snprintf(why, why_size, "exit %d", WEXITSTATUS(status));
+    return 1;
+}
+
+/* Replays the files of dir; returns how many there were. */
+static int replay_dir(const target *t, const char *kind)
+{
+    char dir[256];
+    snprintf(dir, sizeof dir, "tests/fuzz/%s_%s", kind, t->name);
+    struct dirent **list = NULL;
+    int count = scandir(dir, &list, NULL, alphasort), files = 0;
+    for (int i = 0; i < count; i++) {
+        if (list[i]->d_name[0] != '.') {
+            char p[600], why[128];
+            snprintf(p, sizeof p, "%s/%s", dir, list[i]->d_name);
+            size_t n = 0;
+            g_input = read_all(p, &n);
+            CHECK_MSG(g_input != NULL, "cannot read %s", p);
+            if (g_input) {
+                int bad = replay(t, g_input, n, why, sizeof why);
+                CHECK_MSG(!bad, "%s: %s", p, why);
+                files++;
+            }
+            free(g_input);
+            g_input = NULL;
+        }
+        free(list[i]);
+    }
+    free(list);
+    return files;
+}
+
+int main(void)
+{
+    int shm = access("/dev/shm", W_OK) == 0;
+    for (size_t i = 0; i < sizeof targets / sizeof targets[0]; i++) {
+        const target *t = &targets[i];
+        if (!t->ext && !shm) {
+            printf("%s: skipped (/dev/shm is not writable)\n", t->name);
+            continue;
+        }
+        int seeds = replay_dir(t, "seeds");
+        int found = replay_dir(t, "regress");
+        CHECK_MSG(seeds > 0, "%s: no seeds in tests/fuzz/seeds_%s (run from the repository root)", t->name, t->name);
+        printf("%s: %d seeds, %d regression inputs\n", t->name, seeds, found);
+    }
+    return test_report();
+}

@@ -53,7 +53,10 @@ clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *op
             return clvox__fail(ctx, CLVOX_ERR_GRID, "resolution %u exceeds the maximum %u voxels per axis",
                                o.resolution, CLVOX_MAX_AXIS);
         if (!(longest > 0))
-            return clvox__fail(ctx, CLVOX_ERR_GRID, "the box has zero extent: give --dims or --voxel-size");
+            return clvox__fail(ctx, CLVOX_ERR_GRID,
+                               "the box has zero extent (at %.9g, %.9g, %.9g; vertices are 32-bit floats, so points "
+                               "closer than their spacing there coincide): give --box, --dims or --voxel-size",
+                               lo[0], lo[1], lo[2]);
         int la = ext[0] >= ext[1] ? (ext[0] >= ext[2] ? 0 : 2) : (ext[1] >= ext[2] ? 1 : 2);
         double hh = longest / o.resolution;
         for (int a = 0; a < 3; a++) {

@@ -1484,6 +1484,31 @@ static void test_coverage_options(void)
     }
 }
 
+/* A small mesh far from the origin: float32 vertex spacing coarser than the
+ * voxels gets a warning (issue 7); the same mesh near the origin does not. */
+static void test_precision_warning(void)
+{
+    static const char far_fmt[] =
+        "v %s 0 0\nv %s.1 0 0\nv %s.1 0.1 0\nv %s 0.1 0\nv %s 0 0.1\nv %s.1 0 0.1\nv %s.1 0.1 0.1\nv %s 0.1 0.1\n"
+        "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+    const char *where[2] = {"1000000", "1"};
+    for (int i = 0; i < 2; i++) {
+        char text[1024], name[32], mesh[PATH_MAX], out[PATH_MAX];
+        const char *w = where[i];
+        snprintf(text, sizeof text, far_fmt, w, w, w, w, w, w, w, w);
+        snprintf(name, sizeof name, "far%d.obj", i);
+        write_text(g_in, name, text);
+        path_join(mesh, sizeof mesh, g_in, name);
+        path_join(out, sizeof out, g_dir, "far.exr");
+        run_result r;
+        run_cli(&r, NULL, ARGS(mesh, "-r", "16", "-o", out, "-q"));
+        int warned = strstr(r.err, "clvox: warning: vertices are stored as 32-bit floats") != NULL;
+        CHECK_MSG(r.code == 0 && warned == (i == 0), "cube at x=%s: exit %d, stderr: %s", w, r.code, r.err);
+        run_free(&r);
+        unlink(out);
+    }
+}
+
 int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
@@ -1517,6 +1542,7 @@ int main(void)
     test_warnings();
     test_messages();
     test_coverage_options();
+    test_precision_warning();
     test_default_mesh();
     test_list_devices();
     test_preview();

@@ -130,8 +130,14 @@ clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t
                                     clvox_mesh **out);
 void clvox_mesh_destroy(clvox_mesh *mesh); /* NULL-safe */
 const clvox_mesh_report *clvox_mesh_get_report(const clvox_mesh *mesh);
-/* Borrowed views of the validated triangle soup (valid while the mesh lives). */
+/* Borrowed views of the validated triangle soup (valid while the mesh lives).
+ * The vertices are relative to clvox_mesh_vertex_offset: OFF and OBJ files
+ * are read in double and stored relative to their first vertex, so a mesh far
+ * from the origin keeps the precision of its file (a float at 1e6 is only
+ * 0.0625 precise); other formats (float32 in the file) and meshes from arrays
+ * have offset 0. The report's bounding box is absolute. */
 const float *clvox_mesh_vertices(const clvox_mesh *mesh, size_t *vertex_count);
+void clvox_mesh_vertex_offset(const clvox_mesh *mesh, double offset[3]);
 const uint32_t *clvox_mesh_triangles(const clvox_mesh *mesh, size_t *triangle_count);
 
 /* ---- grid ---------------------------------------------------------------- */

@@ -1083,11 +1083,14 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
              "be wrong",
              (unsigned long long)stats.odd_parity_rays);
     }
-    /* Vertices are 32-bit floats in absolute position (issue 7: not yet kept
-     * in the input's precision): say when that spacing is coarse for the grid. */
+    /* Vertices are 32-bit floats (relative to the first vertex for OFF and
+     * OBJ, absolute for the float formats): say when their spacing is coarse
+     * for the grid. */
     {
-        double far = 0, hmin = fmin(grid.voxel_size[0], fmin(grid.voxel_size[1], grid.voxel_size[2]));
-        for (int k = 0; k < 3; k++) far = fmax(far, fmax(fabs(report->bbox_min[k]), fabs(report->bbox_max[k])));
+        double far = 0, hmin = fmin(grid.voxel_size[0], fmin(grid.voxel_size[1], grid.voxel_size[2])), off[3];
+        clvox_mesh_vertex_offset(mesh, off); /* vertices are stored relative to it */
+        for (int k = 0; k < 3; k++)
+            far = fmax(far, fmax(fabs(report->bbox_min[k] - off[k]), fabs(report->bbox_max[k] - off[k])));
         float f = (float)far;
         double ulp = (double)nextafterf(f, INFINITY) - (double)f;
         if (isfinite(ulp) && hmin > 0 && ulp > hmin / 64)

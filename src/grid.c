@@ -147,11 +147,15 @@ clvox_status clvox__grid_space_soup(clvox_context *ctx, const clvox_mesh *mesh, 
         free(soup);
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles in grid space", nt);
     }
-    /* Each vertex transformed once (double, one rounding), permuted to u,v,w. */
+    /* Each vertex transformed once (double, one rounding), permuted to u,v,w.
+     * Vertices are relative to mesh->offset: the origin is moved instead
+     * (origin - offset, exactly the origin when the offset is 0). */
+    double o[3];
+    for (int a = 0; a < 3; a++) o[a] = grid->origin[a] - mesh->offset[a];
     for (size_t i = 0; i < nv; i++)
         for (int k = 0; k < 3; k++) {
             int a = axes.perm[k];
-            gv[i * 3 + k] = (float)(((double)mesh->xyz[i * 3 + a] - grid->origin[a]) / grid->voxel_size[a] - 0.5);
+            gv[i * 3 + k] = (float)(((double)mesh->xyz[i * 3 + a] - o[a]) / grid->voxel_size[a] - 0.5);
         }
     for (size_t t = 0; t < nt; t++)
         for (int c = 0; c < 3; c++)

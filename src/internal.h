@@ -63,7 +63,9 @@ extern const unsigned clvox__kernel_source_count;
 /* ---- mesh (mesh.c, mesh_openmesh.cpp) ---- */
 
 struct clvox_mesh {
-    float *xyz;          /* 3 per vertex */
+    float *xyz;          /* 3 per vertex, relative to offset */
+    double offset[3];    /* added to xyz: the first vertex of an OFF/OBJ file (read
+                            in double), else 0, so far-off meshes keep their precision */
     size_t vertex_count;
     uint32_t *tris;      /* 3 per triangle */
     size_t triangle_count;
@@ -72,7 +74,8 @@ struct clvox_mesh {
 
 /* What the OpenMesh shim hands back: polygons as read (not validated). */
 typedef struct clvox__raw_mesh {
-    float *xyz;               /* malloc'ed, 3 per vertex */
+    float *xyz;               /* malloc'ed, 3 per vertex, relative to offset */
+    double offset[3];         /* 0, or the first vertex (text readers parse in double) */
     size_t vertex_count;
     uint32_t *face_sizes;     /* malloc'ed, corners per face */
     uint32_t *face_indices;   /* malloc'ed, all corners concatenated */

@@ -355,15 +355,25 @@ static int next_data_line(text *t, text *line)
 
 /* A float token already accepted by classify_float, converted in the C
  * locale (as iostream does) whatever LC_NUMERIC the caller set. */
-static int token_float(const tok *k, float *out)
+/* A text coordinate in double, so that it keeps the file's precision until it
+ * is stored relative to the mesh's first vertex (build_mesh). Refused as
+ * before when it is not finite as a float. */
+static int token_double(const tok *k, double *out)
 {
     char buf[64];
     if (k->n >= sizeof buf) return 0;
     memcpy(buf, k->s, k->n);
     buf[k->n] = 0;
     char *end;
-    *out = strtof(buf, &end);
-    return end == buf + k->n && isfinite(*out);
+    *out = strtod(buf, &end);
+    return end == buf + k->n && isfinite((float)*out);
+}
+
+/* Stores coordinate c of vertex v relative to vertex 0 (which sets the offset). */
+static void store_coord(clvox__raw_mesh *raw, uint64_t v, int c, double x)
+{
+    if (v == 0) raw->offset[c] = x;
+    raw->xyz[3 * v + (size_t)c] = (float)(x - raw->offset[c]);
 }
 
 /* ASCII OFF is parsed here rather than by OpenMesh, whose reader supports no
@@ -414,9 +424,11 @@ static clvox_status parse_off_ascii(clvox_context *ctx, const char *path, text *
                                    path, (unsigned long long)v, (unsigned long long)line.line, normal ? 6 : 3);
             clvox_status st = check_coord(ctx, path, &k, "OFF vertex");
             if (st) return st;
-            if (c < 3 && !token_float(&k, &raw->xyz[3 * v + (size_t)c]))
+            double x = 0;
+            if (c < 3 && !token_double(&k, &x))
                 return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': cannot convert '%.*s' at line %llu", path,
                                    tok_print_len(&k), k.s, (unsigned long long)k.line);
+            if (c < 3) store_coord(raw, v, c, x);
         }
     }
     size_t ni = 0;
@@ -652,7 +664,6 @@ static clvox_status parse_obj(clvox_context *ctx, const char *path, const char *
         tok_line(&line, &k);
         int kind = obj_kind_of(&k);
         if (kind == OBJ_V) {
-            float *dst = raw->xyz + 3 * so_far[OBJ_V];
             for (int c = 0; c < 3; c++) {
                 if (!tok_line(&line, &k))
                     return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
@@ -660,9 +671,11 @@ static clvox_status parse_obj(clvox_context *ctx, const char *path, const char *
                                        (unsigned long long)line.line);
                 clvox_status st = check_coord(ctx, path, &k, "vertex");
                 if (st) return st;
-                if (!token_float(&k, &dst[c]))
+                double x;
+                if (!token_double(&k, &x))
                     return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': cannot convert '%.*s' at line %llu", path,
                                        tok_print_len(&k), k.s, (unsigned long long)k.line);
+                store_coord(raw, so_far[OBJ_V], c, x);
             }
         }
         if (kind >= 0) {
@@ -1462,9 +1475,9 @@ done:
 
 /* Takes ownership of xyz (freed on failure). sizes == NULL: all faces are
  * triangles. `what` names the source in messages. */
-static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz, size_t nv, const uint32_t *sizes,
-                               const uint32_t *idx, size_t nf, size_t index_count, uint64_t loader_nonmanifold,
-                               clvox_mesh **out)
+static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz, const double offset[3], size_t nv,
+                               const uint32_t *sizes, const uint32_t *idx, size_t nf, size_t index_count,
+                               uint64_t loader_nonmanifold, clvox_mesh **out)
 {
     clvox_status st = CLVOX_OK;
     uint32_t *tris = NULL;
@@ -1574,6 +1587,10 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
                 A[2] * (B[0] * C[1] - B[1] * C[0]);
     }
     r.enclosed_volume = fabs(vol6) / 6.0;
+    for (int a = 0; a < 3; a++) { /* the box in absolute coordinates */
+        r.bbox_min[a] += offset[a];
+        r.bbox_max[a] += offset[a];
+    }
 
     uint64_t nonmanifold = 0;
     if (edge_analysis(tris, kept, nv, &r.boundary_edges, &nonmanifold) != 0) {
@@ -1595,6 +1612,7 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
         goto fail;
     }
     m->xyz = xyz;
+    for (int a = 0; a < 3; a++) m->offset[a] = offset[a];
     m->vertex_count = nv;
     m->tris = tris;
     m->triangle_count = kept;
@@ -1695,7 +1713,7 @@ clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **
     snprintf(what, sizeof what, "'%s'", path);
     float *xyz = raw.xyz;
     raw.xyz = NULL; /* build_mesh owns it now */
-    st = build_mesh(ctx, what, xyz, raw.vertex_count, raw.face_sizes, raw.face_indices, raw.face_count,
+    st = build_mesh(ctx, what, xyz, raw.offset, raw.vertex_count, raw.face_sizes, raw.face_indices, raw.face_count,
                     raw.index_count, raw.nonmanifold_faces, out);
     clvox__raw_mesh_free(&raw);
     return st;
@@ -1715,7 +1733,8 @@ clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t
     float *copy = malloc((vertex_count ? vertex_count : 1) * 3 * sizeof *copy);
     if (!copy) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory copying %zu vertices", vertex_count);
     if (vertex_count) memcpy(copy, xyz, vertex_count * 3 * sizeof *copy);
-    return build_mesh(ctx, "mesh arrays", copy, vertex_count, NULL, triangles, triangle_count, 3 * triangle_count, 0,
+    static const double no_offset[3] = {0, 0, 0};
+    return build_mesh(ctx, "mesh arrays", copy, no_offset, vertex_count, NULL, triangles, triangle_count, 3 * triangle_count, 0,
                       out);
 }
 
@@ -1728,6 +1747,11 @@ void clvox_mesh_destroy(clvox_mesh *mesh)
 }
 
 const clvox_mesh_report *clvox_mesh_get_report(const clvox_mesh *mesh) { return mesh ? &mesh->report : NULL; }
+
+void clvox_mesh_vertex_offset(const clvox_mesh *mesh, double offset[3])
+{
+    for (int a = 0; a < 3; a++) offset[a] = mesh ? mesh->offset[a] : 0.0;
+}
 
 const float *clvox_mesh_vertices(const clvox_mesh *mesh, size_t *vertex_count)
 {

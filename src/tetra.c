@@ -118,7 +118,7 @@ static void tetra_release(clvox__method_state *s)
     free(s);
 }
 
-/* O in world coordinates. */
+/* O in world coordinates (the mesh's vertices are relative to mesh->offset). */
 static clvox_status choose_origin(clvox_context *ctx, const clvox_mesh *mesh, const clvox_voxelize_options *opts,
                                   double o[3])
 {
@@ -141,7 +141,7 @@ static clvox_status choose_origin(clvox_context *ctx, const clvox_mesh *mesh, co
                 if (x < lo[a]) lo[a] = x;
                 if (x > hi[a]) hi[a] = x;
             }
-        for (int a = 0; a < 3; a++) o[a] = 0.5 * (lo[a] + hi[a]);
+        for (int a = 0; a < 3; a++) o[a] = 0.5 * (lo[a] + hi[a]) + mesh->offset[a];
         return CLVOX_OK;
     }
     if (opts->tetra_origin != CLVOX_TETRA_ORIGIN_CENTROID)
@@ -164,7 +164,7 @@ static clvox_status choose_origin(clvox_context *ctx, const clvox_mesh *mesh, co
             mean[a] += c;
         }
     }
-    for (int a = 0; a < 3; a++) o[a] = area > 0 ? sum[a] / area : mean[a] / (double)nt;
+    for (int a = 0; a < 3; a++) o[a] = (area > 0 ? sum[a] / area : mean[a] / (double)nt) + mesh->offset[a];
     return CLVOX_OK;
 }
 

@@ -7,6 +7,7 @@
  * exit codes, the one-line error contract and that failed runs leave no
  * file behind. `clvox preview` pictures are decoded with libpng and compared
  * pixel by pixel with the layout its --help documents. */
+#include "meshgen.h"
 #include "test.h"
 #include "exrgen.h"
 
@@ -1484,14 +1485,17 @@ static void test_coverage_options(void)
     }
 }
 
-/* A small mesh far from the origin: float32 vertex spacing coarser than the
- * voxels gets a warning (issue 7); the same mesh near the origin does not. */
+/* A small mesh far from the origin (issue 7): a 0.1-unit cube at x = 1e6.
+ * OBJ (text) keeps its precision: exact volume, no warning, and the same
+ * voxels as the cube at x = 0. Binary STL holds float32: the spacing there is
+ * 0.0625, 1000 % of a voxel, which gets a warning. */
 static void test_precision_warning(void)
 {
     static const char far_fmt[] =
         "v %s 0 0\nv %s.1 0 0\nv %s.1 0.1 0\nv %s 0.1 0\nv %s 0 0.1\nv %s.1 0 0.1\nv %s.1 0.1 0.1\nv %s 0.1 0.1\n"
         "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
-    const char *where[2] = {"1000000", "1"};
+    const char *where[2] = {"1000000", "0"};
+    long long filled[2] = {-1, -2};
     for (int i = 0; i < 2; i++) {
         char text[1024], name[32], mesh[PATH_MAX], out[PATH_MAX];
         const char *w = where[i];
@@ -1501,12 +1505,26 @@ static void test_precision_warning(void)
         path_join(mesh, sizeof mesh, g_in, name);
         path_join(out, sizeof out, g_dir, "far.exr");
         run_result r;
-        run_cli(&r, NULL, ARGS(mesh, "-r", "16", "-o", out, "-q"));
-        int warned = strstr(r.err, "clvox: warning: vertices are stored as 32-bit floats") != NULL;
-        CHECK_MSG(r.code == 0 && warned == (i == 0), "cube at x=%s: exit %d, stderr: %s", w, r.code, r.err);
+        run_cli(&r, NULL, ARGS(mesh, "-r", "16", "--pad", "1", "-o", out));
+        CHECK_MSG(r.code == 0 && !strstr(r.err, "warning"), "OBJ cube at x=%s: exit %d, stderr: %s", w, r.code, r.err);
+        CHECK_MSG(strstr(r.out, "(+0.00 %)") != NULL, "OBJ cube at x=%s: %s", w, r.out);
+        filled[i] = filled_count(r.out, NULL);
         run_free(&r);
         unlink(out);
     }
+    CHECK_MSG(filled[0] == filled[1] && filled[0] == 16 * 16 * 16, "filled %lld at 1e6, %lld at 0", filled[0], filled[1]);
+    tmesh t = tmesh_box(1e6, 0, 0, 1e6 + 0.1, 0.1, 0.1);
+    char stl[PATH_MAX], out[PATH_MAX];
+    path_join(stl, sizeof stl, g_in, "far.stl");
+    path_join(out, sizeof out, g_dir, "far.exr");
+    CHECK(tmesh_write_stl_binary(&t, stl) == 0);
+    tmesh_free(&t);
+    run_result r;
+    run_cli(&r, NULL, ARGS(stl, "-r", "16", "-o", out, "-q"));
+    CHECK_MSG(r.code == 0 && strstr(r.err, "clvox: warning: vertices are stored as 32-bit floats"),
+              "STL cube at 1e6: exit %d, stderr: %s", r.code, r.err);
+    run_free(&r);
+    unlink(out);
 }
 
 int main(void)

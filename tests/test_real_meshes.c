@@ -12,6 +12,18 @@ static clvox_context *ctx;
 
 static size_t nvox(const clvox_grid *g) { return (size_t)g->dims[0] * g->dims[1] * g->dims[2]; }
 
+/* The vertices are relative to the mesh's offset (its first vertex for OFF
+ * files): the reference works on them with the origin moved likewise, which
+ * is exactly what the library computes (origin - offset, in double). */
+static clvox_grid reference_grid(const clvox_mesh *m, const clvox_grid *g)
+{
+    double off[3];
+    clvox_mesh_vertex_offset(m, off);
+    clvox_grid r = *g;
+    for (int a = 0; a < 3; a++) r.origin[a] = g->origin[a] - off[a];
+    return r;
+}
+
 static void check_mesh(const char *name, uint32_t n, int closed_expected)
 {
     char path[256];
@@ -35,6 +47,7 @@ static void check_mesh(const char *name, uint32_t n, int closed_expected)
     size_t nv, nt;
     const float *xyz = clvox_mesh_vertices(m, &nv);
     const uint32_t *tri = clvox_mesh_triangles(m, &nt);
+    clvox_grid gref = reference_grid(m, &g);
     uint8_t *ref = malloc(nvox(&g)), *dev[3];
     for (int a = 0; a < 3; a++) {
         clvox_axis axis = (clvox_axis)(CLVOX_AXIS_X + a);
@@ -43,7 +56,7 @@ static void check_mesh(const char *name, uint32_t n, int closed_expected)
         o.ray_axis = axis;
         clvox_stats s;
         CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, &g, &o, dev[a], nvox(&g), &s));
-        uint64_t odd = ref_voxelize(xyz, nv, tri, nt, &g, axis, ref);
+        uint64_t odd = ref_voxelize(xyz, nv, tri, nt, &gref, axis, ref);
         size_t diff = 0;
         for (size_t i = 0; i < nvox(&g); i++) diff += dev[a][i] != ref[i];
         CHECK_MSG(diff == 0, "%s at %u axis %c: %zu voxels differ from the CPU reference", name, n, "xyz"[a], diff);
@@ -90,7 +103,8 @@ static void check_coverage(const char *name, uint32_t n)
     o.stochastic = 1;
     o.seed = 99;
     CHECK_OK(ctx, clvox_voxelize_to_buffers(ctx, m, &g, &o, NULL, 0, cov, nvox(&g), NULL));
-    ref_coverage(xyz, nv, tri, nt, &g, CLVOX_AXIS_X, 2, 3, 1, 99, ref);
+    clvox_grid gref = reference_grid(m, &g);
+    ref_coverage(xyz, nv, tri, nt, &gref, CLVOX_AXIS_X, 2, 3, 1, 99, ref);
     size_t diff = 0;
     for (size_t i = 0; i < nvox(&g); i++) diff += cov[i] != (float)ref[i] / 12.0f;
     CHECK_MSG(diff == 0, "%s at %u: %zu coverage values differ from the CPU reference", name, n, diff);

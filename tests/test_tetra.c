@@ -102,13 +102,15 @@ static int ray_double(const clvox_mesh *mesh, const clvox_grid *g, size_t i, siz
     size_t nv, nt;
     const float *xyz = clvox_mesh_vertices(mesh, &nv);
     const uint32_t *tri = clvox_mesh_triangles(mesh, &nt);
+    double off[3]; /* vertices are relative to it (grid.c moves the origin) */
+    clvox_mesh_vertex_offset(mesh, off);
     int odd = 0;
     *dist = INFINITY;
     for (size_t t = 0; t < nt; t++) {
         double p[3][3];
         for (int c = 0; c < 3; c++)
             for (int a = 0; a < 3; a++)
-                p[c][a] = (float)(((double)xyz[(size_t)tri[3 * t + c] * 3 + a] - g->origin[a]) / g->voxel_size[a] -
+                p[c][a] = (float)(((double)xyz[(size_t)tri[3 * t + c] * 3 + a] - (g->origin[a] - off[a])) / g->voxel_size[a] -
                                   0.5);
         double A[2] = {p[0][1] - (double)j, p[0][2] - (double)k};
         double B[2] = {p[1][1] - (double)j, p[1][2] - (double)k};

@@ -130,11 +130,11 @@ FUZZ_LIB_OBJ := $(LIB_C:%.c=$(FUZZ_DIR)/%.o) $(LIB_CXX:%.cpp=$(FUZZ_DIR)/%.o) $(
 
 $(FUZZ_DIR)/%.o: %.c
 	@mkdir -p $(dir $@)
-	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@
+	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(FUZZ_FLAGS) -MMD -MP -c $< -o $@
 
 $(FUZZ_DIR)/%.o: %.cpp
 	@mkdir -p $(dir $@)
-	$(Q)$(FUZZ_CXX) $(BASE_CXXFLAGS) $(FUZZ_FLAGS) -c $< -o $@
+	$(Q)$(FUZZ_CXX) $(BASE_CXXFLAGS) $(FUZZ_FLAGS) -MMD -MP -c $< -o $@
 
 $(FUZZ_DIR)/gen/kernels_embedded.o: $(KERNEL_C)
 	@mkdir -p $(dir $@)
@@ -177,4 +177,4 @@ uninstall:
 clean:
 	rm -rf build
 
--include $(DEPS)
+-include $(DEPS) $(FUZZ_LIB_OBJ:.o=.d)

@@ -90,6 +90,10 @@ static const char *fuzz_mesh_check(const char *ext, const uint8_t *data, size_t 
     for (int a = 0; a < 3; a++)
         if (!isfinite(r->bbox_min[a]) || !isfinite(r->bbox_max[a]) || r->bbox_min[a] > r->bbox_max[a])
             FUZZ_FAIL("bounding box axis %d: [%g, %g]", a, r->bbox_min[a], r->bbox_max[a]);
+    double off[3];
+    clvox_mesh_vertex_offset(m, off);
+    for (int a = 0; a < 3; a++)
+        if (!isfinite(off[a])) FUZZ_FAIL("vertex offset axis %d is %g", a, off[a]);
     for (size_t i = 0; i < 3 * nv; i++)
         if (!isfinite(xyz[i])) FUZZ_FAIL("vertex %zu has a non-finite coordinate", i / 3);
     for (size_t t = 0; t < nt; t++) {
@@ -100,7 +104,7 @@ static const char *fuzz_mesh_check(const char *ext, const uint8_t *data, size_t 
             FUZZ_FAIL("triangle %zu (%u %u %u) repeats a vertex", t, c[0], c[1], c[2]);
         for (int k = 0; k < 3; k++)
             for (int a = 0; a < 3; a++) {
-                double v = xyz[3 * (size_t)c[k] + a];
+                double v = xyz[3 * (size_t)c[k] + a] + off[a]; /* vertices are relative to the offset */
                 if (v < r->bbox_min[a] || v > r->bbox_max[a])
                     FUZZ_FAIL("vertex %u outside the bounding box on axis %d", c[k], a);
             }

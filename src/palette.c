@@ -234,7 +234,7 @@ static clvox_status push(clvox_context *ctx, clvox_palette *p, const shape *s, c
         p->ncells++;
         first += s->cell_planes[c];
     }
-    memcpy(p->planes + p->nplanes, s->plane, s->nplanes * sizeof *s->plane);
+    if (s->nplanes) memcpy(p->planes + p->nplanes, s->plane, s->nplanes * sizeof *s->plane);
     p->nplanes += s->nplanes;
     if (tmp.basic == CLVOX_PALETTE_NONE) tmp.basic = (uint32_t)p->count;
     p->meta[p->count] = tmp;

@@ -45,6 +45,7 @@ typedef enum clvox_status {
     CLVOX_ERR_EXR,              /* OpenEXR encode/decode/format failure       */
     CLVOX_ERR_CANCELLED,        /* the progress callback asked to stop        */
     CLVOX_ERR_INTERNAL,         /* a bug in clvox                             */
+    CLVOX_ERR_PALETTE_FORMAT,   /* malformed palette file (line in message)   */
     CLVOX_STATUS_COUNT
 } clvox_status;
 
@@ -358,6 +359,56 @@ clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volum
 typedef int (*clvox_volume_slice_fn)(void *user, uint32_t z, const float *values);
 clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
                                       clvox_volume_info *info, clvox_volume_slice_fn fn, void *user);
+
+/* ---- palettes (palette.c) ----------------------------------------------- */
+/* A palette is an ordered set of sub-voxel elements for palette
+ * voxelization (Cavagnino & Gribaudo). Geometry, boundary rule and layout:
+ * kernels/palette.h; file format and built-ins: docs/design.md "Palettes".
+ * In every palette index 0 is the empty element and index 1 the full one.
+ * A palette is immutable and needs no OpenCL device (host_only contexts
+ * work); it does not keep the context. */
+typedef struct clvox_palette clvox_palette;
+
+#define CLVOX_PALETTE_NONE 0xFFFFFFFFu
+
+typedef struct clvox_palette_element_info {
+    char name[64];
+    double volume;          /* fraction of the unit voxel                              */
+    int volume_exact;       /* 1: exact (built-ins); 0: estimated from 64^3 offset points */
+    uint32_t basic;         /* index of the basic element this one is an image of
+                               (itself when it is not an image)                        */
+    uint32_t symmetry;      /* 0..47, which cube symmetry maps basic onto this; 0 = identity */
+    int32_t matrix[3][3];   /* that symmetry as a signed permutation S: this element is
+                               { S (p - 1/2) + 1/2 : p in basic }                     */
+    uint32_t complement_of; /* the element this one is the complement of, or CLVOX_PALETTE_NONE */
+    uint32_t cell_count;    /* convex cells in the union                              */
+    uint32_t plane_count;   /* half-spaces in all its cells                           */
+    int complement;         /* 1: the element is the complement of the union          */
+} clvox_palette_element_info;
+
+/* Names of the built-in palettes, i = 0, 1, ...; NULL past the last
+ * ("binary", "planar10", "paper46", "paper78"). */
+const char *clvox_palette_builtin_name(size_t i);
+/* A built-in palette by name; CLVOX_ERR_INVALID_ARGUMENT for an unknown name. */
+clvox_status clvox_palette_builtin(clvox_context *ctx, const char *name, clvox_palette **out);
+/* A user palette from a text file (docs/design.md "Palette files"): empty and
+ * full first, then the file's elements in order (symmetry images after their
+ * element), duplicates dropped. CLVOX_ERR_IO when unreadable,
+ * CLVOX_ERR_PALETTE_FORMAT with "PATH:LINE: why" for a malformed line. */
+clvox_status clvox_palette_load(clvox_context *ctx, const char *path, clvox_palette **out);
+/* Same from text in memory; `source` names it in messages. */
+clvox_status clvox_palette_parse(clvox_context *ctx, const char *source, const char *text, size_t size,
+                                 clvox_palette **out);
+void clvox_palette_destroy(clvox_palette *palette); /* NULL-safe */
+
+const char *clvox_palette_name(const clvox_palette *palette);
+size_t clvox_palette_count(const clvox_palette *palette);
+/* CLVOX_ERR_INVALID_ARGUMENT for an index past the count. */
+clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_palette *palette, size_t index,
+                                            clvox_palette_element_info *info);
+/* 1 when the point (x, y, z) of the unit voxel lies in element `index`
+ * (kernels/palette.h clvox_element_contains), 0 when not or the index is bad. */
+int clvox_palette_contains(const clvox_palette *palette, size_t index, float x, float y, float z);
 
 #ifdef __cplusplus
 }

@@ -4,6 +4,7 @@
  *   clvox [MESH] [options]        voxelize MESH into an OpenEXR volume
  *   clvox info FILE.exr           header, filled voxel count, coverage sum (no OpenCL needed)
  *   clvox preview FILE.exr -o OUT.png   slices as a PNG picture (cli_preview.c)
+ *   clvox palette list | show NAME|FILE  palettes of sub-voxel elements (cli_palette.c)
  *   clvox --list-devices | --help | --version
  *
  * Exit codes (also in --help):
@@ -486,6 +487,7 @@ static void print_help(void)
 "Usage: clvox [MESH] [options]\n"
 "       clvox info FILE.exr\n"
 "       clvox preview FILE.exr -o OUT.png [options]\n"
+"       clvox palette list | show NAME|FILE\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
 "Voxelizes a closed triangle mesh on an OpenCL device and writes the solid\n"
@@ -582,6 +584,10 @@ static void print_help(void)
 "clvox preview FILE.exr -o OUT.png: draws N evenly spaced z slices and the\n"
 "three central slices of a volume as a PNG picture (clvox preview --help\n"
 "gives the exact layout). Needs no OpenCL device.\n"
+"\n"
+"clvox palette list | show NAME|FILE: the built-in palettes of sub-voxel\n"
+"elements (binary, planar10, paper46, paper78), or the elements of one with\n"
+"their volumes and symmetries (clvox palette --help). Needs no OpenCL device.\n"
 "\n"
 "After a run, one summary goes to stdout: mesh, grid, device, method, filled\n"
 "voxels and volume, rays, time per stage and output size. A mesh that is not\n"
@@ -1117,6 +1123,7 @@ int main(int argc, char **argv)
 {
     if (argc >= 2 && strcmp(argv[1], "info") == 0) return finish_stdout(cmd_info(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "preview") == 0) return finish_stdout(cmd_preview(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "palette") == 0) return finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
 
     cli_args a;
     int rc = parse_args(argc, argv, &a);

@@ -82,7 +82,8 @@ int exit_code_for(clvox_status st, role r)
     case CLVOX_ERR_EXR: return r == ROLE_INPUT ? EXIT_INPUT : EXIT_RUNTIME;
     case CLVOX_ERR_MESH_FORMAT:
     case CLVOX_ERR_MESH_INVALID:
-    case CLVOX_ERR_MESH_EMPTY: return EXIT_INPUT;
+    case CLVOX_ERR_MESH_EMPTY:
+    case CLVOX_ERR_PALETTE_FORMAT: return EXIT_INPUT;
     case CLVOX_ERR_GRID: return EXIT_GRID;
     case CLVOX_ERR_NO_DEVICE: return EXIT_NO_DEVICE;
     case CLVOX_ERR_CANCELLED: return EXIT_CANCELLED;

@@ -87,5 +87,7 @@ int has_channel(const char *list, const char *name);
 
 /* clvox preview (cli_preview.c); argv after "preview". */
 int cmd_preview(int argc, char **argv);
+/* clvox palette (cli_palette.c); argv after "palette". */
+int cmd_palette(int argc, char **argv);
 
 #endif

@@ -23,6 +23,7 @@ static const char *const status_strings[CLVOX_STATUS_COUNT] = {
     [CLVOX_ERR_EXR] = "OpenEXR error",
     [CLVOX_ERR_CANCELLED] = "cancelled",
     [CLVOX_ERR_INTERNAL] = "internal error",
+    [CLVOX_ERR_PALETTE_FORMAT] = "malformed palette file",
 };
 
 const char *clvox_status_string(clvox_status status)

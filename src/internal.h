@@ -9,6 +9,7 @@
 
 #include "clvox.h"
 #include "../kernels/clvox_types.h"
+#include "../kernels/palette.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -54,6 +55,14 @@ double clvox__event_seconds(cl_event ev);
 double clvox__now(void); /* monotonic seconds */
 /* "512 bytes", "12.3 KB", "999 MB", "2.1 GB": decimal units, 3 digits, for messages. */
 void clvox__format_size(uint64_t bytes, char *buf, size_t size);
+
+/* ---- palettes (palette.c) ---- */
+
+/* The palette's flat arrays (kernels/palette.h layout), borrowed: valid
+ * while the palette lives; for upload to the scoring kernel. */
+void clvox__palette_arrays(const clvox_palette *p, const clvox_element **elements, size_t *element_count,
+                           const clvox_cell **cells, size_t *cell_count, const clvox_halfspace **planes,
+                           size_t *plane_count);
 
 /* Embedded kernel sources (generated from kernels/ at build time). */
 extern const char *const clvox__kernel_sources[];

@@ -1226,6 +1226,54 @@ static void coverage_grey(const coverage_file *cf, int which, grey_volume *v)
     }
 }
 
+/* ---- clvox palette ---- */
+
+/* Lines of `text` whose first non-blank character is a digit (table rows). */
+static int count_rows(const char *text)
+{
+    int n = 0;
+    for (const char *line = text; line && *line;) {
+        const char *c = line;
+        while (*c == ' ') c++;
+        n += *c >= '0' && *c <= '9';
+        line = strchr(line, '\n');
+        if (line) line++;
+    }
+    return n;
+}
+
+static void test_palette_cli(void)
+{
+    run_result r;
+    run_cli(&r, NULL, ARGS("palette", "list"));
+    CHECK_MSG(r.code == 0 && count_lines(r.out) == 5 && strstr(r.out, "paper78") && strstr(r.out, "planar10") &&
+                  r.err[0] == '\0',
+              "palette list: exit %d, out [%s] err [%s]", r.code, r.out, r.err);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS("palette", "show", "paper46"));
+    CHECK_MSG(r.code == 0 && count_rows(r.out) == 46 && strstr(r.out, "corner_s7") && strstr(r.out, "(1-x,1-y,1-z)"),
+              "palette show paper46: exit %d, %d rows, err [%s]", r.code, count_rows(r.out), r.err);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS("palette", "show", "palettes/blocks.txt"));
+    CHECK_MSG(r.code == 0 && count_rows(r.out) == 12 && strstr(r.out, "stairs_down_south"),
+              "palette show blocks.txt: exit %d, %d rows, err [%s]", r.code, count_rows(r.out), r.err);
+    run_free(&r);
+    run_cli(&r, NULL, ARGS("palette", "--help"));
+    CHECK(r.code == 0 && strstr(r.out, "palette show NAME|FILE"));
+    run_free(&r);
+    run_cli(&r, NULL, ARGS("--help"));
+    CHECK(r.code == 0 && strstr(r.out, "clvox palette list"));
+    run_free(&r);
+    expect_failure_msg("palette show unknown", 2, NULL, ARGS("palette", "show", "paper47"), "paper47");
+    expect_failure_msg("palette no subcommand", 2, NULL, ARGS("palette"), "palette");
+    expect_failure_msg("palette bad subcommand", 2, NULL, ARGS("palette", "draw"), "draw");
+    expect_failure_msg("palette show two", 2, NULL, ARGS("palette", "show", "binary", "paper46"), "more than one");
+    write_text(g_in, "bad_palette.txt", "element a\n  cell\n  1 0 0\nend\n");
+    char bad[PATH_MAX];
+    path_join(bad, sizeof bad, g_in, "bad_palette.txt");
+    expect_failure_msg("palette show bad file", 4, NULL, ARGS("palette", "show", bad), "bad_palette.txt:3:");
+}
+
 static void test_preview(void)
 {
     char p[PATH_MAX], mesh[PATH_MAX], occ_exr[PATH_MAX], cov_exr[PATH_MAX], both_exr[PATH_MAX];
@@ -1564,6 +1612,7 @@ int main(void)
     test_default_mesh();
     test_list_devices();
     test_preview();
+    test_palette_cli();
     test_special_outputs();
     test_cancel();
     test_kill();

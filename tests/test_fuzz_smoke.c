@@ -1,8 +1,8 @@
 /* Replays every fuzz seed corpus (tests/fuzz/seeds_<name>/) and every input a
  * fuzzer or an issue once found (tests/fuzz/regress_<name>/) through the fuzz
  * targets' own checks, without libFuzzer: the mesh targets' property check
- * (fuzz/fuzz_mesh.h) and the EXR reader target, compiled here a second time
- * with gcc. Each input runs in a child process with a time limit, so a crash,
+ * (fuzz/fuzz_mesh.h), the EXR reader target and the palette parser target,
+ * compiled here a second time with gcc. Each input runs in a child process with a time limit, so a crash,
  * an abort inside OpenMesh, a hang or (under CONFIG=sanitize) a sanitizer
  * report fails that input alone. Runs from the repository root (run_tests.sh). */
 #include "test.h"
@@ -16,15 +16,21 @@
 
 #include "fuzz/fuzz_mesh.h"
 #include "fuzz/fuzz_volume_read.c" /* LLVMFuzzerTestOneInput of fuzz_volume_read */
+#define LLVMFuzzerTestOneInput fuzz_palette_one_input
+#include "fuzz/fuzz_palette.c" /* the palette target, renamed */
+#undef LLVMFuzzerTestOneInput
 
 typedef struct target {
     const char *name; /* fuzz_<name>.c, seeds_<name>/, regress_<name>/ */
-    const char *ext;  /* mesh extension; NULL: the EXR target */
+    const char *ext;  /* mesh extension; NULL: a target with its own entry point */
+    int (*one)(const uint8_t *, size_t); /* that entry point */
+    int needs_shm;    /* writes its input to /dev/shm */
 } target;
 
 static const target targets[] = {
-    {"volume_read", NULL}, {"mesh_obj", "obj"}, {"mesh_off", "off"},
-    {"mesh_ply", "ply"},   {"mesh_stl", "stl"}, {"mesh_om", "om"},
+    {"volume_read", NULL, LLVMFuzzerTestOneInput, 1}, {"palette", NULL, fuzz_palette_one_input, 0},
+    {"mesh_obj", "obj", NULL, 0}, {"mesh_off", "off", NULL, 0}, {"mesh_ply", "ply", NULL, 0},
+    {"mesh_stl", "stl", NULL, 0}, {"mesh_om", "om", NULL, 0},
 };
 
 static unsigned char *read_all(const char *p, size_t *n)
@@ -68,9 +74,10 @@ static int replay(const target *t, const unsigned char *data, size_t n, char *wh
                 exit(1);
             }
         } else {
-            LLVMFuzzerTestOneInput(data, n);
+            t->one(data, n);
         }
         clvox_context_destroy(fuzz_mesh_ctx);
+        clvox_context_destroy(palette_ctx);
         exit(0); /* exit, not _exit: LeakSanitizer checks the child */
     }
     int status = 0;
@@ -124,7 +131,7 @@ int main(void)
     int shm = access("/dev/shm", W_OK) == 0;
     for (size_t i = 0; i < sizeof targets / sizeof targets[0]; i++) {
         const target *t = &targets[i];
-        if (!t->ext && !shm) {
+        if (t->needs_shm && !shm) {
             printf("%s: skipped (/dev/shm is not writable)\n", t->name);
             continue;
         }

@@ -271,12 +271,13 @@ static clvox_status push_trivial(clvox_context *ctx, clvox_palette *p)
 
 /* Pushes the images of basic shape s under the symmetries s for which
  * keep(sym) holds (all when keep is NULL), in increasing symmetry order.
- * Image names: the basic name, then "<name>_s<k>"; names[] (may be NULL)
- * overrides them in order. The basic element is the first image's index.
+ * Image names: the basic name, then "<name>_s<k>"; names[name_count] (may
+ * be NULL) overrides them for the new images, in order (a repeated image is
+ * not added, so it needs no name). The basic element is the first image's index.
  * *new_count gets how many were new. */
 static clvox_status push_images(clvox_context *ctx, clvox_palette *p, const shape *s, const char *name,
                                 double volume, int exact, int (*keep)(uint32_t), const char *const *names,
-                                uint32_t *new_count)
+                                uint32_t name_count, uint32_t *new_count)
 {
     uint32_t basic = CLVOX_PALETTE_NONE, n = 0;
     for (uint32_t sym = 0; sym < 48; sym++) {
@@ -284,7 +285,7 @@ static clvox_status push_images(clvox_context *ctx, clvox_palette *p, const shap
         shape img;
         sym_shape(sym, s, &img);
         char nm[64];
-        if (names) snprintf(nm, sizeof nm, "%s", names[n]);
+        if (names && n < name_count) snprintf(nm, sizeof nm, "%s", names[n]);
         else if (sym == 0) snprintf(nm, sizeof nm, "%s", name);
         else snprintf(nm, sizeof nm, "%s_s%u", name, (unsigned)sym);
         meta m = make_meta(nm, volume, exact);
@@ -346,24 +347,24 @@ static clvox_status build_paper46(clvox_context *ctx, clvox_palette *p)
     memset(&s, 0, sizeof s);
     add_cell(&s);
     add_plane(&s, 1, 1, 0, 1);
-    if (st == CLVOX_OK) st = push_images(ctx, p, &s, "wedge", 0.5, 1, NULL, NULL, NULL);
+    if (st == CLVOX_OK) st = push_images(ctx, p, &s, "wedge", 0.5, 1, NULL, NULL, 0, NULL);
     /* roof prism z <= 2x and z <= 2 - 2x */
     memset(&s, 0, sizeof s);
     add_cell(&s);
     add_plane(&s, -2, 0, 1, 0);
     add_plane(&s, 2, 0, 1, 2);
-    if (st == CLVOX_OK) st = push_images(ctx, p, &s, "roof", 0.5, 1, NULL, NULL, NULL);
+    if (st == CLVOX_OK) st = push_images(ctx, p, &s, "roof", 0.5, 1, NULL, NULL, 0, NULL);
     /* quarter column x <= 1/2 and y <= 1/2 */
     memset(&s, 0, sizeof s);
     add_cell(&s);
     add_plane(&s, 1, 0, 0, 0.5f);
     add_plane(&s, 0, 1, 0, 0.5f);
-    if (st == CLVOX_OK) st = push_images(ctx, p, &s, "column", 0.25, 1, NULL, NULL, NULL);
+    if (st == CLVOX_OK) st = push_images(ctx, p, &s, "column", 0.25, 1, NULL, NULL, 0, NULL);
     /* corner tetrahedron x + y + z <= 1 */
     memset(&s, 0, sizeof s);
     add_cell(&s);
     add_plane(&s, 1, 1, 1, 1);
-    if (st == CLVOX_OK) st = push_images(ctx, p, &s, "corner", 1.0 / 6.0, 1, NULL, NULL, NULL);
+    if (st == CLVOX_OK) st = push_images(ctx, p, &s, "corner", 1.0 / 6.0, 1, NULL, NULL, 0, NULL);
     return st;
 }
 
@@ -380,11 +381,11 @@ static clvox_status build_builtin(clvox_context *ctx, clvox_palette *p, int whic
         memset(&s, 0, sizeof s);
         add_cell(&s);
         add_plane(&s, 1, 0, 0, 0.5f);
-        if (st == CLVOX_OK) st = push_images(ctx, p, &s, "half", 0.5, 1, keeps_z, halves, NULL);
+        if (st == CLVOX_OK) st = push_images(ctx, p, &s, "half", 0.5, 1, keeps_z, halves, 4, NULL);
         memset(&s, 0, sizeof s);
         add_cell(&s);
         add_plane(&s, 1, 1, 0, 1);
-        if (st == CLVOX_OK) st = push_images(ctx, p, &s, "diag", 0.5, 1, keeps_z, diags, NULL);
+        if (st == CLVOX_OK) st = push_images(ctx, p, &s, "diag", 0.5, 1, keeps_z, diags, 4, NULL);
         return st;
     }
     case 2: return build_paper46(ctx, p);
@@ -497,7 +498,7 @@ static clvox_status finish_element(parser *ps)
         return st;
     }
     size_t before = p->count;
-    clvox_status st = push_images(ps->ctx, p, &ps->s, ps->name, 0.0, 0, NULL, NULL, NULL);
+    clvox_status st = push_images(ps->ctx, p, &ps->s, ps->name, 0.0, 0, NULL, NULL, 0, NULL);
     if (st == CLVOX_ERR_PALETTE_FORMAT) return PFAIL(ps, "%s", clvox_context_error(ps->ctx));
     if (st != CLVOX_OK) return st;
     /* generated names must not clash with earlier ones */

@@ -170,14 +170,23 @@ static void streaming_bound(clvox_context *ctx, const clvox_mesh *m, const clvox
     clvox_grid tall = {{64, 64, tall_z}, {0, 0, 0}, {1.0 / 64, 1.0 / 64, 1.0 / tall_z}};
     snprintf(path, sizeof path, "%s/stream.exr", test_tmpdir());
     CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &small, &o, path, &s)); /* warm-up */
-    long base = 0, grow_short = 0, grow_tall = 0;
-    int reset_ok = peak_reset(&base);
-    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &small, &o, path, &s));
-    grow_short = vm_kb("VmHWM:") - base;
-    reset_ok = reset_ok && peak_reset(&base);
-    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &tall, &o, path, &s));
-    grow_tall = vm_kb("VmHWM:") - base;
     long bound = (long)(16 * (uint64_t)(tall_z - short_z) / 1024) + 256;
+    long base = 0, grow_short = 0, grow_tall = 0;
+    int reset_ok = 1;
+    /* A second measurement only when the first is over the bound: a busy
+     * machine (lazily grown allocator arenas of other threads) can add a
+     * few hundred KiB once; a real per-slice cost shows in both. */
+    for (int attempt = 0; attempt < 2; attempt++) {
+        reset_ok = peak_reset(&base);
+        CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &small, &o, path, &s));
+        grow_short = vm_kb("VmHWM:") - base;
+        reset_ok = reset_ok && peak_reset(&base);
+        CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &tall, &o, path, &s));
+        grow_tall = vm_kb("VmHWM:") - base;
+        if (grow_tall - grow_short <= bound) break;
+        printf("streaming (%s): +%ld KiB over %u extra slices, measuring again\n", what, grow_tall - grow_short,
+               tall_z - short_z);
+    }
     CHECK_MSG(reset_ok, "cannot reset the peak RSS through /proc/self/clear_refs");
 #ifdef __SANITIZE_ADDRESS__
     /* ASan's quarantine holds freed memory back: RSS says nothing here. */

@@ -337,6 +337,33 @@ static clvox_status check_stl(clvox_context *ctx, const char *path, const unsign
 
 /* Next line holding data: '#' starts a comment, blank lines are skipped.
  * *line covers the data part of the line; t moves past it. */
+/* The native text readers run under the C numeric locale, so that strtod
+ * reads '.' decimals whatever the caller's locale is. */
+static clvox_status c_locale_begin(clvox_context *ctx, const char *path, locale_t *c, locale_t *old)
+{
+    *c = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
+    if (!*c) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot create the C locale to read '%s'", path);
+    *old = uselocale(*c);
+    return CLVOX_OK;
+}
+
+static void c_locale_end(locale_t c, locale_t old)
+{
+    uselocale(old);
+    freelocale(c);
+}
+
+/* Ends a native read: the partial mesh is freed on failure, *parsed set on success. */
+static clvox_status text_read_done(clvox_status st, clvox__raw_mesh *native, int *parsed)
+{
+    if (st) {
+        clvox__raw_mesh_free(native);
+        return st;
+    }
+    *parsed = 1;
+    return CLVOX_OK;
+}
+
 static int next_data_line(text *t, text *line)
 {
     while (t->p < t->end) {
@@ -542,18 +569,11 @@ static clvox_status check_off(clvox_context *ctx, const char *path, const unsign
 
     clvox_status st = check_text(ctx, path, p, n, "OFF");
     if (st) return st;
-    locale_t c_locale = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
-    if (!c_locale) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot create the C locale to read '%s'", path);
-    locale_t old = uselocale(c_locale);
+    locale_t c_locale = (locale_t)0, old = LC_GLOBAL_LOCALE;
+    if ((st = c_locale_begin(ctx, path, &c_locale, &old))) return st;
     st = parse_off_ascii(ctx, path, &t, counts_line, normal, n, native);
-    uselocale(old);
-    freelocale(c_locale);
-    if (st) {
-        clvox__raw_mesh_free(native);
-        return st;
-    }
-    *parsed = 1;
-    return CLVOX_OK;
+    c_locale_end(c_locale, old);
+    return text_read_done(st, native, parsed);
 }
 
 /* ---- OBJ ------------------------------------------------------------------------ */
@@ -731,18 +751,11 @@ static clvox_status check_obj(clvox_context *ctx, const char *path, const char *
 {
     clvox_status st = check_text(ctx, path, p, n, "OBJ");
     if (st) return st;
-    locale_t c_locale = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
-    if (!c_locale) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot create the C locale to read '%s'", path);
-    locale_t old = uselocale(c_locale);
+    locale_t c_locale = (locale_t)0, old = LC_GLOBAL_LOCALE;
+    if ((st = c_locale_begin(ctx, path, &c_locale, &old))) return st;
     st = parse_obj(ctx, path, p, n, native);
-    uselocale(old);
-    freelocale(c_locale);
-    if (st) {
-        clvox__raw_mesh_free(native);
-        return st;
-    }
-    *parsed = 1;
-    return CLVOX_OK;
+    c_locale_end(c_locale, old);
+    return text_read_done(st, native, parsed);
 }
 
 /* ---- PLY ------------------------------------------------------------------------ */

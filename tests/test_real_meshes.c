@@ -12,6 +12,18 @@ static clvox_context *ctx;
 
 static size_t nvox(const clvox_grid *g) { return (size_t)g->dims[0] * g->dims[1] * g->dims[2]; }
 
+/* N voxels along the longest axis of the mesh box, one empty voxel around. */
+static clvox_grid padded_grid(const clvox_mesh_report *r, uint32_t n)
+{
+    clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
+    go.resolution = n;
+    go.padding = 1;
+    clvox_grid g;
+    memset(&g, 0, sizeof g);
+    CHECK_OK(ctx, clvox_grid_compute(ctx, &go, r->bbox_min, r->bbox_max, &g));
+    return g;
+}
+
 /* The vertices are relative to the mesh's offset (its first vertex for OFF
  * files): the reference works on them with the origin moved likewise, which
  * is exactly what the library computes (origin - offset, in double). */
@@ -39,11 +51,7 @@ static void check_mesh(const char *name, uint32_t n, int closed_expected)
     const clvox_mesh_report *r = clvox_mesh_get_report(m);
     CHECK_MSG(r->closed == closed_expected, "%s: closed=%d, expected %d (%llu boundary edges)", name, r->closed,
               closed_expected, (unsigned long long)r->boundary_edges);
-    clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
-    go.resolution = n;
-    go.padding = 1;
-    clvox_grid g;
-    CHECK_OK(ctx, clvox_grid_compute(ctx, &go, r->bbox_min, r->bbox_max, &g));
+    clvox_grid g = padded_grid(r, n);
     size_t nv, nt;
     const float *xyz = clvox_mesh_vertices(m, &nv);
     const uint32_t *tri = clvox_mesh_triangles(m, &nt);
@@ -87,11 +95,7 @@ static void check_coverage(const char *name, uint32_t n)
         return;
     }
     const clvox_mesh_report *r = clvox_mesh_get_report(m);
-    clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
-    go.resolution = n;
-    go.padding = 1;
-    clvox_grid g;
-    CHECK_OK(ctx, clvox_grid_compute(ctx, &go, r->bbox_min, r->bbox_max, &g));
+    clvox_grid g = padded_grid(r, n);
     size_t nv, nt;
     const float *xyz = clvox_mesh_vertices(m, &nv);
     const uint32_t *tri = clvox_mesh_triangles(m, &nt);

@@ -220,6 +220,16 @@ const char *clvox_stage_name(clvox_stage stage);
  * cancel (the call then returns CLVOX_ERR_CANCELLED, no file is left). */
 typedef int (*clvox_progress_fn)(void *user, double fraction);
 
+typedef struct clvox_palette clvox_palette;
+
+/* Palette scoring metrics (Cavagnino & Gribaudo, Table 1). */
+typedef enum clvox_metric {
+    CLVOX_METRIC_NEAREST = 0, /* most sample points where element and object agree      */
+    CLVOX_METRIC_OUTER,       /* the same, among elements holding every object sample   */
+    CLVOX_METRIC_INNER,       /* the same, among elements holding no empty-space sample */
+    CLVOX_METRIC_COUNT
+} clvox_metric;
+
 typedef struct clvox_voxelize_options {
     size_t size;
     clvox_method method;
@@ -248,14 +258,32 @@ typedef struct clvox_voxelize_options {
                                       when oversampled with threshold_set */
     int threshold_set;             /* 1: occupancy = coverage > threshold when oversampled */
     double threshold;              /* in [0,1]; used when threshold_set (else 0.5)   */
+    /* Palette voxelization (Cavagnino & Gribaudo; ray method only). Each
+     * voxel gets the element of `palette` with the best score under
+     * `metric`, estimated from t = oversample^2 rays x p = oversample_points
+     * points per voxel (the coverage sampler; oversample 0 = t = p = 16).
+     * NULL: no palette scoring. Borrowed for the call. */
+    const clvox_palette *palette;
+    clvox_metric metric;
+    int palette_no_early_out;      /* 1: score every voxel, even wholly inside or outside ones */
+    /* Nearest only, off by default (the paper's alpha/beta shortcut): empty
+     * when fewer than alpha*t*p samples are inside, full when more than
+     * beta*t*p are, without scoring; 0 < alpha < beta < 1. */
+    int nearest_shortcut;
+    double shortcut_alpha, shortcut_beta;
 } clvox_voxelize_options;
 #define CLVOX_VOXELIZE_OPTIONS_INIT { sizeof(clvox_voxelize_options), CLVOX_METHOD_RAY, \
     CLVOX_AXIS_DEFAULT, 0, 0, 0, 0, CLVOX_COMPRESSION_DEFAULT, 0, CLVOX_TETRA_ORIGIN_CENTROID, \
-    {0,0,0}, NULL, NULL, 0, 0, 0, 0, 0, 0, 0.0 }
+    {0,0,0}, NULL, NULL, 0, 0, 0, 0, 0, 0, 0.0, NULL, CLVOX_METRIC_NEAREST, 0, 0, 0.0, 0.0 }
 
 /* Per-voxel channels a run can produce (clvox_voxelize_options.channels). */
 #define CLVOX_CHANNEL_OCCUPANCY 0x1u /* 0/1: inside (binary), or coverage > threshold */
 #define CLVOX_CHANNEL_COVERAGE 0x2u  /* fraction of the voxel's samples inside, [0,1] */
+#define CLVOX_CHANNEL_ELEMENT 0x4u   /* palette runs: index of the chosen element (0 = empty) */
+#define CLVOX_CHANNEL_SCORE 0x8u     /* palette runs: its score B_v in [0,1] (docs/design.md) */
+/* Palette runs take at most CLVOX_MAX_PALETTE_SAMPLES samples per voxel (the
+ * object's values at a voxel's samples are one bit mask on the device). */
+#define CLVOX_MAX_PALETTE_SAMPLES 4096u
 /* Limits of oversampling: at most CLVOX_MAX_OVERSAMPLE^2 = 256 rays per
  * column, CLVOX_MAX_POINTS points per voxel and CLVOX_MAX_SAMPLES samples per
  * voxel in all (counts are 16-bit on the device). */
@@ -281,6 +309,10 @@ typedef struct clvox_stats {
     uint32_t samples_per_voxel;    /* N^2 * M (1 when binary)                   */
     double coverage_sum;           /* sum of coverage over all voxels (voxel units; times the
                                       voxel volume = estimated volume); filled_voxels when binary */
+    /* palette runs: voxels decided by each step (they add up to total_voxels) */
+    uint64_t palette_early_voxels; /* all segments wholly inside or outside: full/empty unscored */
+    uint64_t palette_shortcut_voxels; /* alpha/beta shortcut (Nearest, when on)             */
+    uint64_t palette_scored_voxels;   /* every element scored                                */
 } clvox_stats;
 
 /* Receives consecutive slabs in increasing z: slices z0 .. z0+nz-1, each an
@@ -315,6 +347,8 @@ typedef struct clvox_slab {
     uint32_t z0, nz;
     const uint8_t *occupancy;  /* 0 or 1 */
     const float *coverage;     /* in [0,1] */
+    const uint16_t *element;   /* palette runs: element index */
+    const float *score;        /* palette runs: score in [0,1], exactly equivalences / samples */
 } clvox_slab;
 typedef int (*clvox_slab_channels_fn)(void *user, const clvox_slab *slab);
 
@@ -331,6 +365,13 @@ clvox_status clvox_voxelize_to_buffers(clvox_context *ctx, const clvox_mesh *mes
                                        size_t occupancy_count, float *coverage, size_t coverage_count,
                                        clvox_stats *stats);
 
+/* Dense palette results for small grids: element and/or score (X*Y*Z
+ * values each, x fastest; NULL = not wanted). options->palette must be set. */
+clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                               const clvox_voxelize_options *options, uint16_t *element,
+                                               size_t element_count, float *score, size_t score_count,
+                                               clvox_stats *stats);
+
 /* ---- reading volumes back ---------------------------------------------------- */
 
 typedef struct clvox_volume_info {
@@ -345,6 +386,10 @@ typedef struct clvox_volume_info {
     uint64_t filled_voxels;   /* counted by reading every slice: occupancy > 0.5, or
                                  coverage > 0.5 in a file without occupancy */
     double coverage_sum;      /* sum of coverage (voxel units), 0 without a coverage channel */
+    char palette[64];         /* palette runs: the palette's name, else ""          */
+    uint32_t palette_count;   /* its number of elements, else 0                     */
+    uint64_t palette_hash;    /* clvox_palette_hash of it, else 0                   */
+    char metric[16];          /* "nearest" | "outer" | "inner", else ""             */
 } clvox_volume_info;
 
 /* Reads the header and counts filled voxels slice by slice (bounded memory).
@@ -367,8 +412,6 @@ clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, cons
  * In every palette index 0 is the empty element and index 1 the full one.
  * A palette is immutable and needs no OpenCL device (host_only contexts
  * work); it does not keep the context. */
-typedef struct clvox_palette clvox_palette;
-
 #define CLVOX_PALETTE_NONE 0xFFFFFFFFu
 
 typedef struct clvox_palette_element_info {
@@ -409,6 +452,19 @@ clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_pale
 /* 1 when the point (x, y, z) of the unit voxel lies in element `index`
  * (kernels/palette.h clvox_element_contains), 0 when not or the index is bad. */
 int clvox_palette_contains(const clvox_palette *palette, size_t index, float x, float y, float z);
+/* 64-bit FNV-1a hash of the palette's geometry (its flat element, cell and
+ * half-space arrays, kernels/palette.h layout): equal hashes, same elements. */
+uint64_t clvox_palette_hash(const clvox_palette *palette);
+/* The text a palette was parsed from (NUL-terminated, borrowed), or NULL for
+ * a built-in palette. */
+const char *clvox_palette_source(const clvox_palette *palette);
+/* The palette a volume was scored with, rebuilt from the file's header (a
+ * built-in by name, or the palette file text the header carries) and
+ * checked against the hash recorded there. CLVOX_ERR_EXR when the file has
+ * no palette or the rebuilt one does not match. */
+clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_palette **out);
+/* "nearest", "outer", "inner"; NULL for a bad value. */
+const char *clvox_metric_name(clvox_metric metric);
 
 #ifdef __cplusplus
 }

@@ -148,26 +148,31 @@ static inline uint32_t clvox__row_words(uint32_t X) { return (X + 31u) / 32u; }
 typedef struct clvox__slab_out {
     cl_mem occupancy; /* bit rows (above) */
     cl_mem coverage;  /* HALF bits */
+    cl_mem element;   /* palette runs: uint16 element index per voxel, x fastest */
+    cl_mem score;     /* palette runs: HALF bits of the score (or the equivalence count) */
 } clvox__slab_out;
 
 /* The same planes mapped on the host, as the sinks get them. */
 typedef struct clvox__slab_planes {
     const uint32_t *occupancy_bits; /* bit rows, or NULL */
     const uint16_t *coverage_half;  /* HALF bits per voxel, or NULL */
+    const uint16_t *element;        /* element index per voxel, or NULL */
+    const uint16_t *score_half;     /* HALF bits of the score per voxel, or NULL */
 } clvox__slab_planes;
 
 typedef struct clvox__slab_stats {
     double cast_seconds, classify_seconds;
     uint64_t filled, rays, odd_parity_rays, overflow_rays;
     uint64_t coverage_count; /* samples inside, summed over the slab's voxels */
+    uint64_t palette_early, palette_shortcut, palette_scored; /* voxels decided by each step */
     uint32_t max_crossings;
 } clvox__slab_stats;
 
 /* What the driver asks of a method beyond the options. */
 typedef struct clvox__run {
     uint32_t channels;    /* CLVOX_CHANNEL_* planes the slabs must hold */
-    int coverage_counts;  /* 1: the coverage plane holds sample counts (uint16)
-                             rather than HALF bits of count / samples */
+    int coverage_counts;  /* 1: the coverage and score planes hold sample counts
+                             (uint16) rather than HALF bits of count / samples */
     /* Called between the batches of a long slab with the fraction of the
      * slab done, in (0, 1); returns 0 to stop, and the method then fails
      * with CLVOX_ERR_CANCELLED. NULL: never called. */
@@ -214,6 +219,8 @@ typedef struct clvox__exr_writer clvox__exr_writer;
 typedef struct clvox__exr_meta {
     const char *method;      /* "ray" | "tetra" */
     const char *parameters;  /* free text, e.g. "axis=x depth=9 leaf=8" */
+    const clvox_palette *palette; /* palette runs: recorded in the header, else NULL */
+    const char *metric;      /* palette runs: clvox_metric_name */
 } clvox__exr_meta;
 
 /* Opens `path` for streaming: the data goes to an unnamed file in the same

@@ -78,6 +78,7 @@ struct clvox_palette {
     clvox_halfspace *planes;
     size_t nplanes, planes_cap;
     uint64_t work;
+    char *source;        /* the text parsed (user palettes), NUL-terminated; NULL for built-ins */
 };
 
 /* One element under construction: cells of planes, in order. */
@@ -411,6 +412,7 @@ void clvox_palette_destroy(clvox_palette *palette)
     free(palette->meta);
     free(palette->cells);
     free(palette->planes);
+    free(palette->source);
     free(palette);
 }
 
@@ -629,6 +631,14 @@ clvox_status clvox_palette_parse(clvox_context *ctx, const char *source, const c
     }
     free(buf);
     free(ps);
+    if (st == CLVOX_OK) { /* kept verbatim: volumes record it in their header */
+        p->source = malloc(size + 1);
+        if (!p->source) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "palette: out of memory");
+        else {
+            if (size) memcpy(p->source, text, size);
+            p->source[size] = '\0';
+        }
+    }
     if (st != CLVOX_OK) {
         clvox_palette_destroy(p);
         return st;
@@ -704,6 +714,30 @@ clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_pale
     for (uint32_t c = 0; c < e->cell_count; c++) info->plane_count += palette->cells[e->first_cell + c].plane_count;
     info->complement = (int)e->complement;
     return CLVOX_OK;
+}
+
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *b = data;
+    for (size_t i = 0; i < n; i++) h = (h ^ b[i]) * 0x100000001B3ull;
+    return h;
+}
+
+uint64_t clvox_palette_hash(const clvox_palette *p)
+{
+    if (!p) return 0;
+    uint64_t h = 0xCBF29CE484222325ull;
+    h = fnv1a(h, p->elements, p->count * sizeof *p->elements);
+    h = fnv1a(h, p->cells, p->ncells * sizeof *p->cells);
+    return fnv1a(h, p->planes, p->nplanes * sizeof *p->planes);
+}
+
+const char *clvox_palette_source(const clvox_palette *p) { return p ? p->source : NULL; }
+
+const char *clvox_metric_name(clvox_metric m)
+{
+    static const char *const names[] = {"nearest", "outer", "inner"};
+    return (unsigned)m < CLVOX_METRIC_COUNT ? names[m] : NULL;
 }
 
 /* ---- internal ---- */

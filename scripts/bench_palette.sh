@@ -78,8 +78,15 @@ best_of() { # mesh n opts repeats -> best record
   echo "$best"
 }
 
-results="$outdir/palette.tsv"
+tools=build/tools
+mkdir -p "$tools"
+if [ ! -x "$tools/volume_diff" ] || [ scripts/volume_diff.c -nt "$tools/volume_diff" ] || [ build/release/libclvox.a -nt "$tools/volume_diff" ]; then
+  cc -std=c11 -O2 -Iinclude -o "$tools/volume_diff" scripts/volume_diff.c build/release/libclvox.a \
+    -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
+fi
+results="$outdir/palette.tsv" changes="$outdir/palette_shortcut.tsv"
 : >"$results"
+: >"$changes"
 for mesh in $meshes; do
   for n in $sizes; do
     for p in $palettes; do
@@ -100,6 +107,11 @@ for mesh in $meshes; do
       rec=$(best_of "$mesh" "$n" "$opts" "$repeat") || continue
       printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$mesh" "$n" "paper78" "nearest" "$extra" "$rec" >>"$results"
       log "$(printf '%-10s N=%-4s paper78 nearest %-10s %ss' "$mesh" "$n" "$extra" "${rec%%$'\t'*}")"
+      if [ "$extra" = shortcut ]; then # what the shortcut changes: elements against the exact run
+        mv "$tmp/out.exr" "$tmp/shortcut.exr"
+        run_one "$mesh" "$n" "--palette,paper78,--metric,nearest" >/dev/null
+        printf '%s\t%s\t%s\n' "$mesh" "$n" "$("$tools/volume_diff" "$tmp/out.exr" "$tmp/shortcut.exr" element)" >>"$changes"
+      fi
     done
   done
 done
@@ -135,13 +147,14 @@ binary512=""
     echo
     echo "paper78, Nearest, early-out on: uniform (masks) vs stochastic (per-sample evaluation) vs the alpha/beta shortcut:"
     echo
-    echo "| N | uniform | stochastic | shortcut auto | consumer s uniform / stochastic |"
-    echo "|---|---|---|---|---|"
-    awk -F '\t' -v mesh="$mesh" '$1 == mesh && $3 == "paper78" && $4 == "nearest" {
+    echo "| N | uniform | stochastic | shortcut auto | consumer s uniform / stochastic | elements the shortcut changed |"
+    echo "|---|---|---|---|---|---|"
+    awk -F '\t' -v mesh="$mesh" 'FNR == NR { if ($1 == mesh) c[$2] = $3; next }
+      $1 == mesh && $3 == "paper78" && $4 == "nearest" {
         t[$2, $5] = $6; k[$2, $5] = $7; if (!($2 in seen)) { seen[$2] = 1; order[++n] = $2 } }
       END { for (i = 1; i <= n; i++) { N = order[i]
-              printf "| %s | %.2f | %.2f | %.2f | %s / %s |\n", N, t[N, "on"], t[N, "stochastic"], t[N, "shortcut"],
-                     k[N, "on"], k[N, "stochastic"] } }' "$results"
+              printf "| %s | %.2f | %.2f | %.2f | %s / %s | %s |\n", N, t[N, "on"], t[N, "stochastic"], t[N, "shortcut"],
+                     k[N, "on"], k[N, "stochastic"], c[N] } }' "$changes" "$results"
     echo
   done
 } | tee "$outdir/palette.md"

@@ -1,0 +1,285 @@
+/* Element geometry (src/element_mesh.c) and the PLY export of palette
+ * volumes (src/element_ply.c).
+ *
+ * Geometry, for every element of binary, planar10, paper46, paper78,
+ * palettes/blocks.txt and a test palette of tilted, overlapping, redundant
+ * and empty cells: every piece closed and consistently oriented (each
+ * directed edge has its reverse in the piece, as often), its triangles using
+ * only its own vertices, all vertices in [0,1]^3, positive piece volumes
+ * adding up to the element's volume (exact volumes to 1e-9; sampled ones
+ * within the error bound of the 64^3 estimate, sqrt(3) * surface area / 64),
+ * and the pieces disjoint and covering the element: on a 16^3 offset lattice
+ * (points within 1e-7 of a plane of the element skipped: none for the
+ * built-ins and blocks.txt), every piece's winding number is 0 or 1, and the
+ * point is in exactly one piece when clvox_palette_contains says it is in
+ * the element, else in none.
+ */
+#include "test.h"
+#include "internal.h"
+#include "element_mesh.h"
+
+#include <math.h>
+#include <string.h>
+
+static clvox_context *ctx;
+
+/* ---- geometry ---- */
+
+static const char test_palette_text[] =
+    "element tilt\n  cell\n    0.3 0.7 -0.2 0.45\nend\n"
+    "element gem\n  cell\n    1 1 1 2.2\n    -1 1 0 0.6\n    1 -1 0.5 0.7\n    0 0 -1 -0.1\n    -2 -1 -1 -0.9\nend\n"
+    "element overlap\n  cell\n    1 0.2 0 0.7\n    0 1 -0.1 0.8\n  cell\n    -1 0.3 0 -0.3\n    0 -1 0.2 -0.2\nend\n"
+    "element not_overlap\n  cell\n    1 0.2 0 0.7\n    0 1 -0.1 0.8\n  cell\n    -1 0.3 0 -0.3\n    0 -1 0.2 -0.2\n"
+    "  complement\nend\n"
+    "element redundant\n  cell\n    1 0 0 2\n    1 1 0 2\n    -1 0 0 1\n    0.4 0 1 0.9\nend\n"
+    "element sliver\n  cell\n    1 0 0 0.001\nend\n"
+    "element three\n  cell\n    1 0 0 0.6\n  cell\n    0 1 0 0.6\n  cell\n    0 0 1 0.6\nend\n"
+    "element halves\n  cell\n    1 0 0 0.5\n    0 1 0 0.25\n  cell\n    -1 0 0 -0.5\n    0 1 0 0.25\nend\n"
+    "element outside_and_in\n  cell\n    1 0 0 -0.5\n  cell\n    0 1 0 0.3\nend\n"
+    "element not_two\n  cell\n    1 0 0 -0.5\n  cell\n    0 1 0 0.3\n  cell\n    0 0 1 0.25\n  complement\nend\n"
+    "element nested\n  cell\n    1 0 0 0.8\n  cell\n    1 0 0 0.3\n    0 1 0 0.3\n  cell\n    1 1 1 2.5\nend\n"
+    "element skew\n  cell\n    1 2 0 1.5\n    0 -1 1 0.25\n  symmetry\nend\n";
+
+/* The element's planes, for the on-plane test. */
+static void element_planes(const clvox_palette *p, size_t e, const clvox_halfspace **hs, size_t *n)
+{
+    const clvox_element *els;
+    const clvox_cell *cells;
+    const clvox_halfspace *planes;
+    size_t ne, nc, np;
+    clvox__palette_arrays(p, &els, &ne, &cells, &nc, &planes, &np);
+    const clvox_element *el = &els[e];
+    if (el->cell_count == 0) {
+        *hs = planes;
+        *n = 0;
+        return;
+    }
+    const clvox_cell *c0 = &cells[el->first_cell], *cl = &cells[el->first_cell + el->cell_count - 1];
+    *hs = planes + c0->first_plane; /* an element's planes are consecutive */
+    *n = cl->first_plane + cl->plane_count - c0->first_plane;
+}
+
+static double solid_angle(const double *p, const double *A, const double *B, const double *C)
+{
+    double a[3], b[3], c[3];
+    for (int k = 0; k < 3; k++) a[k] = A[k] - p[k], b[k] = B[k] - p[k], c[k] = C[k] - p[k];
+    double la = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    double lb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    double lc = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    double det = a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+    double ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2], ac = a[0] * c[0] + a[1] * c[1] + a[2] * c[2],
+           bc = b[0] * c[0] + b[1] * c[1] + b[2] * c[2];
+    return 2.0 * atan2(det, la * lb * lc + ab * lc + ac * lb + bc * la);
+}
+
+static double tri_area(const double *a, const double *b, const double *c)
+{
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    double x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2], z = u[0] * v[1] - u[1] * v[0];
+    return 0.5 * sqrt(x * x + y * y + z * z);
+}
+
+static double tri_volume(const double *a, const double *b, const double *c)
+{
+    return (a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) + a[2] * (b[0] * c[1] - b[1] * c[0])) /
+           6.0;
+}
+
+/* Every directed edge of triangles [t0, t1) has its reverse as often (O(n^2)). */
+static int piece_closed(const clvox__element_mesh *m, size_t t0, size_t t1)
+{
+    for (size_t t = t0; t < t1; t++)
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = m->tris[3 * t + k], b = m->tris[3 * t + (k + 1) % 3];
+            size_t fwd = 0, rev = 0;
+            for (size_t u = t0; u < t1; u++)
+                for (int q = 0; q < 3; q++) {
+                    uint32_t c = m->tris[3 * u + q], d = m->tris[3 * u + (q + 1) % 3];
+                    fwd += c == a && d == b;
+                    rev += c == b && d == a;
+                }
+            if (fwd != rev || a == b) return 0;
+        }
+    return 1;
+}
+
+#define LAT 16u
+
+static float lat(uint32_t i, int axis)
+{
+    static const int off[3] = {33, 35, 41};
+    return (float)((double)(i * 64u + (uint32_t)off[axis]) / (64.0 * LAT));
+}
+
+typedef struct geo_stats {
+    size_t elements, pieces, triangles, skipped_points, bad_points, bad_winding;
+    double worst_volume_error;
+} geo_stats;
+
+static void check_element(const clvox_palette *p, size_t e, geo_stats *gs)
+{
+    clvox_palette_element_info info;
+    CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, e, &info));
+    clvox__element_mesh m;
+    clvox_status st = clvox__element_mesh_build(ctx, p, e, &m);
+    CHECK_MSG(st == CLVOX_OK, "%s element %zu %s: %s", clvox_palette_name(p), e, info.name, clvox_context_error(ctx));
+    if (st != CLVOX_OK) return;
+    gs->elements++;
+    gs->pieces += m.piece_count;
+    gs->triangles += m.triangle_count;
+    CHECK(m.piece_vertex[0] == 0 && m.piece_triangle[0] == 0);
+    CHECK(m.piece_vertex[m.piece_count] == m.vertex_count && m.piece_triangle[m.piece_count] == m.triangle_count);
+    int inside_cube = 1, own_vertices = 1, closed = 1, positive = 1;
+    for (size_t v = 0; v < 3 * m.vertex_count; v++) inside_cube &= m.xyz[v] >= 0.0 && m.xyz[v] <= 1.0;
+    double total = 0, area = 0;
+    for (size_t q = 0; q < m.piece_count; q++) {
+        size_t v0 = m.piece_vertex[q], v1 = m.piece_vertex[q + 1], t0 = m.piece_triangle[q], t1 = m.piece_triangle[q + 1];
+        for (size_t t = 3 * t0; t < 3 * t1; t++) own_vertices &= m.tris[t] >= v0 && m.tris[t] < v1;
+        if (!own_vertices) break;
+        closed &= piece_closed(&m, t0, t1) && t1 - t0 >= 4;
+        double vol = 0;
+        for (size_t t = t0; t < t1; t++) {
+            const double *a = &m.xyz[3 * m.tris[3 * t]], *b = &m.xyz[3 * m.tris[3 * t + 1]], *c = &m.xyz[3 * m.tris[3 * t + 2]];
+            vol += tri_volume(a, b, c);
+            area += tri_area(a, b, c);
+        }
+        positive &= vol > 0;
+        total += vol;
+    }
+    CHECK_MSG(inside_cube, "%s %s: a vertex outside [0,1]^3", clvox_palette_name(p), info.name);
+    CHECK_MSG(own_vertices, "%s %s: a piece uses another piece's vertex", clvox_palette_name(p), info.name);
+    if (!own_vertices) goto done;
+    CHECK_MSG(closed, "%s %s: a piece is not closed and consistently oriented", clvox_palette_name(p), info.name);
+    CHECK_MSG(positive, "%s %s: a piece has no positive volume (inward?)", clvox_palette_name(p), info.name);
+    CHECK_MSG(fabs(total - m.volume) < 1e-12, "%s %s: volume %.17g vs reported %.17g", clvox_palette_name(p), info.name,
+              total, m.volume);
+    double err = fabs(total - info.volume), tol = info.volume_exact ? 1e-9 : sqrt(3.0) * area / 64.0 + 1e-12;
+    if (err > gs->worst_volume_error) gs->worst_volume_error = err;
+    CHECK_MSG(err <= tol, "%s %s: mesh volume %.12f, element volume %.12f (%s), tolerance %.3g", clvox_palette_name(p),
+              info.name, total, info.volume, info.volume_exact ? "exact" : "sampled", tol);
+    if (info.volume_exact && e < 2) CHECK(m.piece_count == e); /* empty: nothing; full: the cube */
+
+    const clvox_halfspace *hs;
+    size_t nh;
+    element_planes(p, e, &hs, &nh);
+    size_t bad = 0, badw = 0;
+    for (uint32_t k = 0; k < LAT; k++)
+        for (uint32_t j = 0; j < LAT; j++)
+            for (uint32_t i = 0; i < LAT; i++) {
+                float fx = lat(i, 0), fy = lat(j, 1), fz = lat(k, 2);
+                double pt[3] = {fx, fy, fz};
+                int near = 0;
+                for (size_t h = 0; h < nh && !near; h++) {
+                    double s = (double)hs[h].a * pt[0] + (double)hs[h].b * pt[1] + (double)hs[h].c * pt[2] - hs[h].d;
+                    double n = sqrt((double)hs[h].a * hs[h].a + (double)hs[h].b * hs[h].b + (double)hs[h].c * hs[h].c);
+                    near = fabs(s) <= 1e-7 * n;
+                }
+                if (near) {
+                    gs->skipped_points++;
+                    continue;
+                }
+                int in_pieces = 0;
+                for (size_t q = 0; q < m.piece_count; q++) {
+                    double w = 0;
+                    for (size_t t = m.piece_triangle[q]; t < m.piece_triangle[q + 1]; t++)
+                        w += solid_angle(pt, &m.xyz[3 * m.tris[3 * t]], &m.xyz[3 * m.tris[3 * t + 1]],
+                                         &m.xyz[3 * m.tris[3 * t + 2]]);
+                    w /= 4.0 * 3.14159265358979323846;
+                    if (fabs(w - 1.0) < 1e-6) in_pieces++;
+                    else if (fabs(w) >= 1e-6) badw++;
+                }
+                int want = clvox_palette_contains(p, e, fx, fy, fz);
+                if (in_pieces != want) bad++;
+            }
+    gs->bad_points += bad;
+    gs->bad_winding += badw;
+    CHECK_MSG(bad == 0, "%s %s: %zu lattice points in the wrong number of pieces", clvox_palette_name(p), info.name, bad);
+    CHECK_MSG(badw == 0, "%s %s: %zu winding numbers neither 0 nor 1", clvox_palette_name(p), info.name, badw);
+done:
+    clvox__element_mesh_free(&m);
+}
+
+static void check_palette(clvox_palette *p, int expect_no_skips)
+{
+    if (!p) return;
+    geo_stats gs;
+    memset(&gs, 0, sizeof gs);
+    for (size_t e = 0; e < clvox_palette_count(p); e++) check_element(p, e, &gs);
+    CHECK(gs.elements == clvox_palette_count(p));
+    if (expect_no_skips) CHECK_MSG(gs.skipped_points == 0, "%s: %zu lattice points on planes", clvox_palette_name(p), gs.skipped_points);
+    printf("geometry %-10s %4zu elements, %5zu pieces, %6zu triangles, worst volume error %.2g, %zu lattice points "
+           "on planes skipped\n",
+           clvox_palette_name(p), gs.elements, gs.pieces, gs.triangles, gs.worst_volume_error, gs.skipped_points);
+    clvox_palette_destroy(p);
+}
+
+static clvox_palette *builtin(const char *name)
+{
+    clvox_palette *p = NULL;
+    CHECK_OK(ctx, clvox_palette_builtin(ctx, name, &p));
+    return p;
+}
+
+/* Exact counts of a few meshes: the shapes are what they should be. */
+static void check_counts(void)
+{
+    clvox_palette *p = builtin("paper78");
+    if (!p) return;
+    static const struct {
+        const char *name;
+        size_t pieces, vertices, triangles;
+    } want[] = {
+        {"full", 1, 8, 12},  {"wedge", 1, 6, 8},           {"corner", 1, 4, 4},         {"column", 1, 8, 12},
+        {"roof", 1, 6, 8},   {"not_column", 2, 16, 24},    {"not_corner", 1, 7, 10},  {"not_roof", 2, 12, 16},
+    };
+    for (size_t w = 0; w < sizeof want / sizeof want[0]; w++) {
+        size_t e = 0;
+        clvox_palette_element_info info;
+        for (; e < clvox_palette_count(p); e++)
+            if (clvox_palette_element_info_get(ctx, p, e, &info) == CLVOX_OK && strcmp(info.name, want[w].name) == 0) break;
+        CHECK_MSG(e < clvox_palette_count(p), "paper78 has no %s", want[w].name);
+        clvox__element_mesh m;
+        if (e == clvox_palette_count(p) || clvox__element_mesh_build(ctx, p, e, &m) != CLVOX_OK) continue;
+        CHECK_MSG(m.piece_count == want[w].pieces && m.vertex_count == want[w].vertices &&
+                      m.triangle_count == want[w].triangles,
+                  "%s: %zu pieces, %zu vertices, %zu triangles; expected %zu, %zu, %zu", want[w].name, m.piece_count,
+                  m.vertex_count, m.triangle_count, want[w].pieces, want[w].vertices, want[w].triangles);
+        clvox__element_mesh_free(&m);
+    }
+    /* bad arguments */
+    clvox__element_mesh m;
+    CHECK_STATUS(ctx, clvox__element_mesh_build(ctx, p, clvox_palette_count(p), &m), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(m.xyz == NULL && m.piece_count == 0);
+    CHECK_STATUS(ctx, clvox__element_mesh_build(ctx, NULL, 0, &m), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox__element_mesh_build(ctx, p, 0, NULL), CLVOX_ERR_INVALID_ARGUMENT);
+    clvox__element_mesh_free(NULL);
+    clvox_palette_destroy(p);
+}
+
+static void test_geometry(void)
+{
+    check_counts();
+    static const char *const names[] = {"binary", "planar10", "paper46", "paper78"};
+    for (size_t i = 0; i < 4; i++) check_palette(builtin(names[i]), 1);
+    clvox_palette *p = NULL;
+    CHECK_OK(ctx, clvox_palette_load(ctx, "palettes/blocks.txt", &p));
+    CHECK(p && clvox_palette_count(p) == 12);
+    check_palette(p, 1);
+    p = NULL;
+    CHECK_OK(ctx, clvox_palette_parse(ctx, "tilted.txt", test_palette_text, strlen(test_palette_text), &p));
+    CHECK(p && clvox_palette_count(p) > 14);
+    check_palette(p, 0);
+}
+
+int main(void)
+{
+    clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
+    o.host_only = 1;
+    if (clvox_context_create(&o, &ctx) != CLVOX_OK) {
+        printf("0 passed, 1 failed\n");
+        return 1;
+    }
+    test_geometry();
+    clvox_context_destroy(ctx);
+    return test_report();
+}

@@ -18,8 +18,12 @@
 #include "internal.h"
 #include "element_mesh.h"
 
+#include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 static clvox_context *ctx;
 
@@ -271,6 +275,282 @@ static void test_geometry(void)
     check_palette(p, 0);
 }
 
+
+/* ---- PLY export ---- */
+
+typedef struct file_sink {
+    int fd;
+    int fail_after; /* > 0: the n-th write fails with ENOSPC */
+    int writes;
+} file_sink;
+
+static int sink_write_at(void *user, uint64_t offset, const void *data, size_t size)
+{
+    file_sink *s = user;
+    if (s->fail_after && ++s->writes >= s->fail_after) return ENOSPC;
+    const char *p = data;
+    while (size) {
+        ssize_t n = pwrite(s->fd, p, size, (off_t)offset);
+        if (n < 0) {
+            if (errno == EINTR) continue;
+            return errno;
+        }
+        p += n;
+        size -= (size_t)n;
+        offset += (uint64_t)n;
+    }
+    return 0;
+}
+
+/* A test volume: element (i * 7 + j * 3 + k * 5) % count, every 4th voxel empty. */
+static float test_element(uint32_t i, uint32_t j, uint32_t k, size_t count)
+{
+    uint32_t n = i * 7u + j * 3u + k * 5u;
+    return n % 4u == 3u ? 0.0f : (float)(n % count);
+}
+
+typedef struct volume {
+    uint32_t dims[3];
+    double origin[3], h[3];
+} volume;
+
+static float *test_slice(const volume *v, uint32_t k, size_t count)
+{
+    float *s = malloc((size_t)v->dims[0] * v->dims[1] * sizeof *s);
+    for (uint32_t j = 0; j < v->dims[1]; j++)
+        for (uint32_t i = 0; i < v->dims[0]; i++) s[(size_t)j * v->dims[0] + i] = test_element(i, j, k, count);
+    return s;
+}
+
+/* Exports the test volume to path; 0 on success. */
+static clvox_status export_volume(const clvox_palette *p, const volume *v, int ascii, const char *path,
+                                  clvox__ply_totals *t)
+{
+    clvox__ply_export *x = NULL;
+    clvox_status st = clvox__ply_export_create(ctx, p, v->dims, v->origin, v->h, ascii, &x);
+    for (uint32_t k = 0; k < v->dims[2] && st == CLVOX_OK; k++) {
+        float *s = test_slice(v, v->dims[2] - 1 - k, clvox_palette_count(p)); /* any order */
+        st = clvox__ply_export_count(x, v->dims[2] - 1 - k, s);
+        free(s);
+    }
+    if (st == CLVOX_OK) st = clvox__ply_export_totals(x, t);
+    file_sink sink = {open(path, O_WRONLY | O_CREAT | O_TRUNC, 0644), 0, 0};
+    if (sink.fd < 0) st = CLVOX_ERR_IO;
+    if (st == CLVOX_OK) st = clvox__ply_export_begin(x, sink_write_at, &sink);
+    for (uint32_t k = 0; k < v->dims[2] && st == CLVOX_OK; k++) {
+        float *s = test_slice(v, k, clvox_palette_count(p));
+        st = clvox__ply_export_slice(x, k, s);
+        free(s);
+    }
+    if (st == CLVOX_OK) st = clvox__ply_export_finish(x);
+    if (sink.fd >= 0) close(sink.fd);
+    clvox__ply_export_destroy(x);
+    return st;
+}
+
+static long file_size(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 ? (long)sb.st_size : -1;
+}
+
+static void test_export_file(clvox_palette *p, const volume *v)
+{
+    char bin[4096], asc[4096];
+    snprintf(bin, sizeof bin, "%s/element_mesh_%s.ply", test_tmpdir(), clvox_palette_name(p));
+    snprintf(asc, sizeof asc, "%s/element_mesh_%s_ascii.ply", test_tmpdir(), clvox_palette_name(p));
+    clvox__ply_totals tb, ta;
+    CHECK_OK(ctx, export_volume(p, v, 0, bin, &tb));
+    CHECK_OK(ctx, export_volume(p, v, 1, asc, &ta));
+    CHECK((long)tb.bytes == file_size(bin) && (long)ta.bytes == file_size(asc));
+    CHECK(tb.voxels == ta.voxels && tb.vertices == ta.vertices && tb.triangles == ta.triangles);
+
+    /* expected totals, vertices and volume from the element meshes */
+    size_t count = clvox_palette_count(p);
+    clvox__element_mesh *m = calloc(count, sizeof *m);
+    for (size_t e = 0; e < count; e++) CHECK_OK(ctx, clvox__element_mesh_build(ctx, p, e, &m[e]));
+    uint64_t voxels = 0, nv = 0, nt = 0;
+    double expect_volume = 0;
+    for (uint32_t k = 0; k < v->dims[2]; k++)
+        for (uint32_t j = 0; j < v->dims[1]; j++)
+            for (uint32_t i = 0; i < v->dims[0]; i++) {
+                size_t e = (size_t)test_element(i, j, k, count);
+                voxels += e != 0;
+                nv += m[e].vertex_count;
+                nt += m[e].triangle_count;
+                expect_volume += m[e].volume * v->h[0] * v->h[1] * v->h[2];
+            }
+    CHECK(tb.voxels == voxels && tb.vertices == nv && tb.triangles == nt);
+    CHECK(tb.bytes == tb.header_bytes + 12 * nv + 13 * nt && ta.bytes == ta.header_bytes + 48 * nv + 35 * nt);
+
+    FILE *f = fopen(bin, "rb");
+    char head[1024] = {0};
+    if (f) {
+        CHECK(fread(head, 1, sizeof head - 1, f) > 0);
+        fclose(f);
+    }
+    CHECK(strncmp(head, "ply\nformat binary_little_endian 1.0\ncomment clvox ", 50) == 0);
+    char want[128];
+    snprintf(want, sizeof want, "element vertex %llu\n", (unsigned long long)nv);
+    CHECK(strstr(head, want) != NULL);
+
+    clvox_mesh *mb = NULL, *ma = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, bin, &mb));
+    CHECK_OK(ctx, clvox_mesh_load(ctx, asc, &ma));
+    if (mb && ma) {
+        const clvox_mesh_report *r = clvox_mesh_get_report(mb);
+        CHECK(r->vertices == nv && r->triangles == nt && r->dropped_faces == 0);
+        CHECK_MSG(r->boundary_edges == 0 && r->closed && r->nonmanifold_faces == 0,
+                  "%llu boundary edges, %llu non-manifold", (unsigned long long)r->boundary_edges,
+                  (unsigned long long)r->nonmanifold_faces);
+        CHECK_MSG(fabs(r->enclosed_volume - expect_volume) <= 1e-5 * expect_volume, "enclosed %.9g, expected %.9g",
+                  r->enclosed_volume, expect_volume);
+        int in_box = 1;
+        for (int a = 0; a < 3; a++) {
+            double lo = v->origin[a], hi = v->origin[a] + v->dims[a] * v->h[a], slack = 1e-6 * (fabs(lo) + fabs(hi));
+            in_box &= r->bbox_min[a] >= lo - slack && r->bbox_max[a] <= hi + slack;
+        }
+        CHECK(in_box);
+        printf("export %-8s %llu voxels, %llu vertices, %llu triangles, %llu + %llu bytes; mesh report: %llu "
+               "boundary edges, %llu duplicate triangles, closed %d\n",
+               clvox_palette_name(p), (unsigned long long)voxels, (unsigned long long)nv, (unsigned long long)nt,
+               (unsigned long long)tb.bytes, (unsigned long long)ta.bytes, (unsigned long long)r->boundary_edges,
+               (unsigned long long)r->duplicate_triangles, r->closed);
+        /* ASCII and binary hold the same floats and indices */
+        size_t na, nb, ta_n, tb_n;
+        const float *xa = clvox_mesh_vertices(ma, &na), *xb = clvox_mesh_vertices(mb, &nb);
+        const uint32_t *ia = clvox_mesh_triangles(ma, &ta_n), *ib = clvox_mesh_triangles(mb, &tb_n);
+        CHECK(na == nb && ta_n == tb_n && memcmp(xa, xb, 3 * na * sizeof *xa) == 0 &&
+              memcmp(ia, ib, 3 * ta_n * sizeof *ia) == 0);
+        /* every vertex is origin + (cell + u) * h, rounded once; triangles in mesh order */
+        size_t vi = 0, ti = 0;
+        int exact = 1, order = 1;
+        for (uint32_t k = 0; k < v->dims[2]; k++)
+            for (uint32_t j = 0; j < v->dims[1]; j++)
+                for (uint32_t i = 0; i < v->dims[0]; i++) {
+                    const clvox__element_mesh *em = &m[(size_t)test_element(i, j, k, count)];
+                    double cell[3] = {i, j, k};
+                    for (size_t q = 0; q < em->triangle_count && ti < tb_n; q++, ti++)
+                        for (int c = 0; c < 3; c++) order &= ib[3 * ti + c] == vi + em->tris[3 * q + c];
+                    for (size_t q = 0; q < em->vertex_count && vi < nb; q++, vi++)
+                        for (int a = 0; a < 3; a++)
+                            exact &= xb[3 * vi + a] == (float)(v->origin[a] + (cell[a] + em->xyz[3 * q + a]) * v->h[a]);
+                }
+        CHECK(exact && order && vi == nb && ti == tb_n);
+    }
+    clvox_mesh_destroy(mb);
+    clvox_mesh_destroy(ma);
+    for (size_t e = 0; e < count; e++) clvox__element_mesh_free(&m[e]);
+    free(m);
+}
+
+static void test_export_errors(clvox_palette *p)
+{
+    volume v = {{3, 2, 2}, {0, 0, 0}, {1, 1, 1}};
+    clvox__ply_export *x = NULL;
+    double bad_h[3] = {1, 0, 1}, huge[3] = {1e39, 0, 0}, one[3] = {1, 1, 1};
+    uint32_t zero_dims[3] = {3, 0, 2};
+    CHECK_STATUS(ctx, clvox__ply_export_create(ctx, p, v.dims, v.origin, bad_h, 0, &x), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(x == NULL);
+    CHECK_STATUS(ctx, clvox__ply_export_create(ctx, p, v.dims, huge, one, 0, &x), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox__ply_export_create(ctx, p, zero_dims, v.origin, one, 0, &x), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox__ply_export_create(ctx, NULL, v.dims, v.origin, one, 0, &x), CLVOX_ERR_INVALID_ARGUMENT);
+    clvox__ply_export_destroy(NULL);
+
+    /* values that are not element indices */
+    const float bad[] = {(float)clvox_palette_count(p), 1.5f, -1.0f, NAN, INFINITY, 1e30f};
+    for (size_t b = 0; b < sizeof bad / sizeof bad[0]; b++) {
+        CHECK_OK(ctx, clvox__ply_export_create(ctx, p, v.dims, v.origin, v.h, 0, &x));
+        float s[6] = {0, 1, 2, 3, 4, 5};
+        s[4] = bad[b];
+        CHECK_STATUS(ctx, clvox__ply_export_count(x, 0, s), CLVOX_ERR_EXR);
+        CHECK_MSG(strstr(clvox_context_error(ctx), "voxel (1, 1, 0) has element") != NULL, "%s", clvox_context_error(ctx));
+        clvox__ply_export_destroy(x);
+        x = NULL;
+    }
+
+    /* pass order: totals need every slice, slices once and in order */
+    float a[6] = {0, 1, 2, 3, 4, 5}, more[6] = {6, 1, 2, 3, 4, 5}, fewer[6] = {0, 0, 2, 3, 4, 5};
+    clvox__ply_totals t;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/element_mesh_errors.ply", test_tmpdir());
+    file_sink sink = {open(path, O_WRONLY | O_CREAT | O_TRUNC, 0644), 0, 0};
+    CHECK(sink.fd >= 0);
+    CHECK_OK(ctx, clvox__ply_export_create(ctx, p, v.dims, v.origin, v.h, 0, &x));
+    CHECK_OK(ctx, clvox__ply_export_count(x, 1, a));
+    CHECK_STATUS(ctx, clvox__ply_export_count(x, 1, a), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox__ply_export_count(x, 2, a), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox__ply_export_totals(x, &t), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox__ply_export_slice(x, 0, a), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_OK(ctx, clvox__ply_export_count(x, 0, a));
+    CHECK_OK(ctx, clvox__ply_export_totals(x, &t));
+    CHECK(t.voxels == 10);
+    CHECK_OK(ctx, clvox__ply_export_begin(x, sink_write_at, &sink));
+    CHECK_STATUS(ctx, clvox__ply_export_count(x, 0, a), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox__ply_export_slice(x, 1, a), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox__ply_export_finish(x), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_OK(ctx, clvox__ply_export_slice(x, 0, a));
+    CHECK_STATUS(ctx, clvox__ply_export_slice(x, 1, more), CLVOX_ERR_IO); /* the volume changed */
+    CHECK(strstr(clvox_context_error(ctx), "changed") != NULL);
+    clvox__ply_export_destroy(x);
+
+    CHECK_OK(ctx, clvox__ply_export_create(ctx, p, v.dims, v.origin, v.h, 0, &x));
+    CHECK_OK(ctx, clvox__ply_export_count(x, 0, a));
+    CHECK_OK(ctx, clvox__ply_export_count(x, 1, a));
+    CHECK_OK(ctx, clvox__ply_export_begin(x, sink_write_at, &sink));
+    CHECK_OK(ctx, clvox__ply_export_slice(x, 0, a));
+    CHECK_OK(ctx, clvox__ply_export_slice(x, 1, fewer));
+    CHECK_STATUS(ctx, clvox__ply_export_finish(x), CLVOX_ERR_IO);
+    clvox__ply_export_destroy(x);
+
+    /* a failing write (the header, then a buffer flush) */
+    for (int n = 1; n <= 2; n++) {
+        CHECK_OK(ctx, clvox__ply_export_create(ctx, p, v.dims, v.origin, v.h, 0, &x));
+        CHECK_OK(ctx, clvox__ply_export_count(x, 0, a));
+        CHECK_OK(ctx, clvox__ply_export_count(x, 1, a));
+        sink.fail_after = n;
+        sink.writes = 0;
+        clvox_status st = clvox__ply_export_begin(x, sink_write_at, &sink);
+        if (st == CLVOX_OK) st = clvox__ply_export_slice(x, 0, a);
+        if (st == CLVOX_OK) st = clvox__ply_export_slice(x, 1, a);
+        if (st == CLVOX_OK) st = clvox__ply_export_finish(x);
+        CHECK_MSG(st == CLVOX_ERR_IO && strstr(clvox_context_error(ctx), strerror(ENOSPC)), "write %d: %s", n,
+                  clvox_context_error(ctx));
+        clvox__ply_export_destroy(x);
+    }
+    sink.fail_after = 0;
+
+    /* an empty volume: a valid PLY with no vertices and no faces */
+    float empty[6] = {0};
+    CHECK_OK(ctx, clvox__ply_export_create(ctx, p, v.dims, v.origin, v.h, 1, &x));
+    CHECK_OK(ctx, clvox__ply_export_count(x, 0, empty));
+    CHECK_OK(ctx, clvox__ply_export_count(x, 1, empty));
+    CHECK_OK(ctx, clvox__ply_export_totals(x, &t));
+    CHECK(t.voxels == 0 && t.vertices == 0 && t.triangles == 0 && t.bytes == t.header_bytes);
+    CHECK(ftruncate(sink.fd, 0) == 0);
+    CHECK_OK(ctx, clvox__ply_export_begin(x, sink_write_at, &sink));
+    CHECK_OK(ctx, clvox__ply_export_slice(x, 0, empty));
+    CHECK_OK(ctx, clvox__ply_export_slice(x, 1, empty));
+    CHECK_OK(ctx, clvox__ply_export_finish(x));
+    clvox__ply_export_destroy(x);
+    close(sink.fd);
+    CHECK(file_size(path) == (long)t.header_bytes);
+}
+
+static void test_export(void)
+{
+    clvox_palette *p = builtin("paper78");
+    volume v = {{5, 4, 3}, {-1.5, 0.25, 2.0}, {0.5, 0.25, 1.0}};
+    if (p) test_export_file(p, &v);
+    if (p) test_export_errors(p);
+    clvox_palette_destroy(p);
+    p = NULL;
+    CHECK_OK(ctx, clvox_palette_load(ctx, "palettes/blocks.txt", &p));
+    volume w = {{6, 5, 4}, {10.0, -3.0, 0.1}, {0.3, 0.7, 0.2}}; /* not dyadic: rounding only */
+    if (p) test_export_file(p, &w);
+    clvox_palette_destroy(p);
+}
+
 int main(void)
 {
     clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
@@ -280,6 +560,7 @@ int main(void)
         return 1;
     }
     test_geometry();
+    test_export();
     clvox_context_destroy(ctx);
     return test_report();
 }

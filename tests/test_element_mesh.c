@@ -551,6 +551,166 @@ static void test_export(void)
     clvox_palette_destroy(p);
 }
 
+/* ---- the export voxelized again ---- */
+
+/* Element membership of p moved by an infinitesimal step that is largest
+ * along axis ord[0], then ord[1], then ord[2] (p + e1 u0 + e2 u1 + e3 u2,
+ * e1 >> e2 >> e3 > 0): the classification the ray method's tie rules give a
+ * point on a face, for rays along ord[0] (docs/design.md "Inside test").
+ * Exact for the dyadic points and planes used here. */
+static int perturbed_contains(const clvox_palette *p, size_t e, const double pt[3], const int ord[3])
+{
+    const clvox_element *els;
+    const clvox_cell *cells;
+    const clvox_halfspace *planes;
+    size_t ne, nc, np;
+    clvox__palette_arrays(p, &els, &ne, &cells, &nc, &planes, &np);
+    const clvox_element *el = &els[e];
+    int in = 0;
+    for (uint32_t c = 0; c < el->cell_count && !in; c++) {
+        const clvox_cell *cell = &cells[el->first_cell + c];
+        int all = 1;
+        for (uint32_t k = 0; k < cell->plane_count && all; k++) {
+            const clvox_halfspace *h = &planes[cell->first_plane + k];
+            double a[3] = {h->a, h->b, h->c};
+            double s = a[0] * pt[0] + a[1] * pt[1] + a[2] * pt[2] - h->d;
+            if (s == 0) s = a[ord[0]] != 0 ? a[ord[0]] : a[ord[1]] != 0 ? a[ord[1]] : a[ord[2]];
+            all = s < 0;
+        }
+        in = all;
+    }
+    return el->complement ? !in : in;
+}
+
+static int on_plane(const clvox_palette *p, size_t e, const double pt[3])
+{
+    const clvox_halfspace *hs;
+    size_t nh;
+    element_planes(p, e, &hs, &nh);
+    for (size_t h = 0; h < nh; h++)
+        if ((double)hs[h].a * pt[0] + (double)hs[h].b * pt[1] + (double)hs[h].c * pt[2] == (double)hs[h].d) return 1;
+    return 0;
+}
+
+#define FINE 4u
+
+/* Writes a volume holding every element of p, exports it, loads the PLY and
+ * voxelizes it with the binary ray method on the grid FINE times finer (same
+ * box): each sub-voxel centre ((a + 1/2) / FINE per axis in its voxel) must
+ * be inside exactly where the voxel's element holds it. Centres on a plane
+ * of the element (x + y = 1 meets (a + 1/2)/4 + (b + 1/2)/4 for a + b = 3)
+ * are counted apart and compared with the tie rule of the ray axis. */
+static void test_revoxelize(clvox_context *dev, clvox_palette *p)
+{
+    size_t count = clvox_palette_count(p);
+    volume v = {{8, 5, 4}, {-2.0, 0.25, 8.0}, {1.0, 0.5, 2.0}}; /* dyadic: every coordinate exact in float */
+    uint32_t X = v.dims[0], Y = v.dims[1], Z = v.dims[2];
+    size_t nvox = (size_t)X * Y * Z;
+    float *el = malloc(nvox * sizeof *el);
+    unsigned char *seen = calloc(count, 1);
+    for (size_t n = 0; n < nvox; n++) {
+        el[n] = n % 7 == 6 ? 0.0f : (float)((n * 37 + 3) % count);
+        seen[(size_t)el[n]] = 1;
+    }
+    size_t missing = 0;
+    for (size_t e = 0; e < count; e++) missing += !seen[e];
+    CHECK_MSG(missing == 0, "%s: %zu elements not in the test volume", clvox_palette_name(p), missing);
+
+    char path[4096];
+    snprintf(path, sizeof path, "%s/element_mesh_revox_%s.ply", test_tmpdir(), clvox_palette_name(p));
+    clvox__ply_export *x = NULL;
+    clvox__ply_totals t;
+    clvox_status st = clvox__ply_export_create(ctx, p, v.dims, v.origin, v.h, 0, &x);
+    for (uint32_t k = 0; k < Z && st == CLVOX_OK; k++) st = clvox__ply_export_count(x, k, el + (size_t)k * X * Y);
+    if (st == CLVOX_OK) st = clvox__ply_export_totals(x, &t);
+    file_sink sink = {open(path, O_WRONLY | O_CREAT | O_TRUNC, 0644), 0, 0};
+    if (st == CLVOX_OK) st = sink.fd >= 0 ? clvox__ply_export_begin(x, sink_write_at, &sink) : CLVOX_ERR_IO;
+    for (uint32_t k = 0; k < Z && st == CLVOX_OK; k++) st = clvox__ply_export_slice(x, k, el + (size_t)k * X * Y);
+    if (st == CLVOX_OK) st = clvox__ply_export_finish(x);
+    CHECK_OK(ctx, st);
+    if (sink.fd >= 0) close(sink.fd);
+    clvox__ply_export_destroy(x);
+
+    clvox_mesh *mesh = NULL;
+    CHECK_OK(dev, clvox_mesh_load(dev, path, &mesh));
+    clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
+    go.use_box = 1;
+    for (int a = 0; a < 3; a++) {
+        go.dims[a] = v.dims[a] * FINE;
+        go.box_min[a] = v.origin[a];
+        go.box_max[a] = v.origin[a] + v.dims[a] * v.h[a];
+    }
+    clvox_grid g;
+    CHECK_OK(dev, clvox_grid_compute(dev, &go, go.box_min, go.box_max, &g));
+    int aligned = 1;
+    for (int a = 0; a < 3; a++) aligned &= g.origin[a] == v.origin[a] && g.voxel_size[a] == v.h[a] / FINE;
+    CHECK(aligned);
+    size_t nfine = (size_t)g.dims[0] * g.dims[1] * g.dims[2];
+    uint8_t *occ = malloc(nfine);
+    static const int orders[3][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}}; /* x rays: (x, y, z); y: (y, z, x); z: (z, x, y) */
+    static const clvox_axis axes[3] = {CLVOX_AXIS_X, CLVOX_AXIS_Y, CLVOX_AXIS_Z};
+    for (int ax = 0; ax < 3 && mesh && aligned; ax++) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.ray_axis = axes[ax];
+        clvox_stats stats;
+        memset(occ, 0, nfine);
+        CHECK_OK(dev, clvox_voxelize_to_memory(dev, mesh, &g, &o, occ, nfine, &stats));
+        CHECK(stats.odd_parity_rays == 0);
+        size_t off_plane = 0, off_bad = 0, on = 0, on_bad = 0, inside = 0;
+        for (uint32_t K = 0; K < g.dims[2]; K++)
+            for (uint32_t J = 0; J < g.dims[1]; J++)
+                for (uint32_t I = 0; I < g.dims[0]; I++) {
+                    size_t e = (size_t)el[((size_t)(K / FINE) * Y + J / FINE) * X + I / FINE];
+                    double pt[3] = {(I % FINE + 0.5) / FINE, (J % FINE + 0.5) / FINE, (K % FINE + 0.5) / FINE};
+                    int got = occ[((size_t)K * g.dims[1] + J) * g.dims[0] + I];
+                    inside += (size_t)got;
+                    if (on_plane(p, e, pt)) {
+                        on++;
+                        on_bad += got != perturbed_contains(p, e, pt, orders[ax]);
+                    } else {
+                        off_plane++;
+                        off_bad += got != clvox_palette_contains(p, e, (float)pt[0], (float)pt[1], (float)pt[2]);
+                    }
+                }
+        CHECK_MSG(off_bad == 0, "%s, %c rays: %zu of %zu sub-voxel centres off the planes differ",
+                  clvox_palette_name(p), "xyz"[ax], off_bad, off_plane);
+        CHECK_MSG(on_bad == 0, "%s, %c rays: %zu of %zu sub-voxel centres on element planes differ from the tie rule",
+                  clvox_palette_name(p), "xyz"[ax], on_bad, on);
+        if (ax == 0)
+            printf("revoxelized %-8s at %ux: %zu sub-voxel centres, %zu inside; %zu off the planes (%zu differ), %zu on an "
+                   "element plane (%zu differ from the tie rule)\n",
+                   clvox_palette_name(p), FINE, nfine, inside, off_plane, off_bad, on, on_bad);
+    }
+    if (mesh) {
+        const clvox_mesh_report *r = clvox_mesh_get_report(mesh);
+        CHECK(r->boundary_edges == 0 && r->closed && r->vertices == t.vertices && r->triangles == t.triangles);
+    }
+    free(occ);
+    clvox_mesh_destroy(mesh);
+    free(el);
+    free(seen);
+}
+
+static void test_revoxelize_all(void)
+{
+    clvox_context *dev = NULL;
+    clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
+    CHECK_OK(dev, clvox_context_create(&o, &dev));
+    if (dev && clvox_context_device(dev)) {
+        static const char *const names[] = {"planar10", "paper78"};
+        for (size_t i = 0; i < 2; i++) {
+            clvox_palette *p = builtin(names[i]);
+            if (p) test_revoxelize(dev, p);
+            clvox_palette_destroy(p);
+        }
+        clvox_palette *p = NULL;
+        CHECK_OK(ctx, clvox_palette_load(ctx, "palettes/blocks.txt", &p));
+        if (p) test_revoxelize(dev, p);
+        clvox_palette_destroy(p);
+    }
+    clvox_context_destroy(dev);
+}
+
 int main(void)
 {
     clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
@@ -561,6 +721,7 @@ int main(void)
     }
     test_geometry();
     test_export();
+    test_revoxelize_all();
     clvox_context_destroy(ctx);
     return test_report();
 }

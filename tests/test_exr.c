@@ -1150,19 +1150,37 @@ static void test_threads_identical(void)
         free(cov);
         return;
     }
+    uint16_t *elem = malloc(n * 2), *score = malloc(n * 2);
+    if (!elem || !score) {
+        CHECK(!"out of memory");
+        free(vol);
+        free(cov);
+        free(elem);
+        free(score);
+        return;
+    }
     fill_structured(vol, X, Y, Z);
     fill_coverage(cov, X, Y, Z, 0);
+    fill_elements(elem, X, Y, Z, 0);
+    fill_coverage(score, X, Y, Z, 1);
     clvox_grid g = make_grid(X, Y, Z);
     static const uint32_t depths[] = { 7, 1, 12 };
     char p1[2048], p2[2048];
-    for (int k = 0; k < 2 * CLVOX_COMPRESSION_COUNT; k++) {
+    const uint32_t all = CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE;
+    for (int k = 0; k < 4 * CLVOX_COMPRESSION_COUNT; k++) {
         int c = k % CLVOX_COMPRESSION_COUNT;
-        uint32_t channels = k < CLVOX_COMPRESSION_COUNT ? 0 : CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY;
-        const uint16_t *cv = channels ? cov : NULL;
+        const uint32_t sets[4] = { CLVOX_CHANNEL_OCCUPANCY, CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY,
+                                   CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE, all };
+        uint32_t channels = sets[k / CLVOX_COMPRESSION_COUNT];
+        const test_planes tp = { .occ = channels & CLVOX_CHANNEL_OCCUPANCY ? vol : NULL,
+                                 .cov = channels & CLVOX_CHANNEL_COVERAGE ? cov : NULL,
+                                 .elem = channels & CLVOX_CHANNEL_ELEMENT ? elem : NULL,
+                                 .score = channels & CLVOX_CHANNEL_SCORE ? score : NULL };
+        const clvox__exr_meta *meta = channels & CLVOX_CHANNEL_ELEMENT ? &meta_blocks : &test_meta;
         snprintf(p1, sizeof p1, "%s/thr1.exr", dir);
         snprintf(p2, sizeof p2, "%s/thr4.exr", dir);
-        CHECK_OK(ctx, write_planes(p1, &g, channels, (clvox_compression)c, 1, vol, cv, depths, 3, NULL));
-        CHECK_OK(ctx, write_planes(p2, &g, channels, (clvox_compression)c, 4, vol, cv, depths, 3, NULL));
+        CHECK_OK(ctx, write_all(p1, &g, meta, channels, (clvox_compression)c, 1, &tp, depths, 3, NULL));
+        CHECK_OK(ctx, write_all(p2, &g, meta, channels, (clvox_compression)c, 4, &tp, depths, 3, NULL));
         FILE *a = fopen(p1, "rb"), *b = fopen(p2, "rb");
         int same = a && b;
         while (same) {
@@ -1178,6 +1196,8 @@ static void test_threads_identical(void)
     }
     free(vol);
     free(cov);
+    free(elem);
+    free(score);
 }
 
 static void test_exrheader(void)

@@ -313,6 +313,9 @@ typedef struct clvox_stats {
     uint64_t palette_early_voxels; /* all segments wholly inside or outside: full/empty unscored */
     uint64_t palette_shortcut_voxels; /* alpha/beta shortcut (Nearest, when on)             */
     uint64_t palette_scored_voxels;   /* every element scored                                */
+    uint64_t palette_nonempty_voxels; /* voxels given an element other than empty            */
+    double palette_volume;            /* sum of the chosen elements' volumes, voxel units (times
+                                         the voxel volume: the volume of the element approximation) */
 } clvox_stats;
 
 /* Receives consecutive slabs in increasing z: slices z0 .. z0+nz-1, each an

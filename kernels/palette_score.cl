@@ -33,8 +33,10 @@
  * Outputs per voxel (NULL planes are skipped): element index, score and
  * coverage as value_of_count[count] (HALF bits of count / S, or the count),
  * occupancy bit when the inside count >= occ_min (coverage's threshold).
- * Per column: sum of inside counts, occupied voxels, and the voxels decided
- * by early-out / shortcut / scoring (pstats[3*gid + 0..2]). Columns with an
+ * Per column: sum of inside counts, occupied voxels, the voxels decided by
+ * early-out / shortcut / scoring and the non-empty ones (pstats[4*gid +
+ * 0..3]), and the sum of the chosen elements' volumes (col_volume, in units
+ * of 2^-32 voxel: volume_fixed[e] = round(volume(e) * 2^32)). Columns with an
  * overflowed ray are skipped (the host redoes them). */
 #define CLVOX_PALETTE_MAX_RAYS 256      /* CLVOX_MAX_OVERSAMPLE^2 */
 #define CLVOX_PALETTE_MAX_WORDS 128     /* CLVOX_MAX_PALETTE_SAMPLES / 32 */
@@ -64,7 +66,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                                 global const ushort *value_of_count, uint occ_min, uint X, uint W,
                                 uint vox_stride, uint out_stride, global ushort *element_out,
                                 global ushort *score_out, global ushort *coverage, global uint *occupancy,
-                                global ulong *col_sum, global uint *col_filled, global uint *pstats)
+                                global const ulong *volume_fixed, global ulong *col_sum, global uint *col_filled,
+                                global uint *pstats, global ulong *col_volume)
 {
     const uint gid = get_global_id(0);
     const uint R = N * N, S = R * M, words = (S + 31u) / 32u;
@@ -92,7 +95,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
         k[r] = 0;
     }
     ulong sum = 0;
-    uint filled = 0, word = 0, n_early = 0, n_short = 0, n_scored = 0;
+    uint filled = 0, word = 0, n_early = 0, n_short = 0, n_scored = 0, nonempty = 0;
+    ulong volume = 0;
     uint j = 0;
     while (j < u_count) {
         const uint u = u_begin + j;
@@ -213,6 +217,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
             if (coverage) coverage[at] = vc;
         }
         if (occ) filled += len;
+        if (elem) nonempty += len;
+        volume += volume_fixed[elem] * len;
         if (o) {
             if (out_stride == 0) {
                 clvox_row_bits(o, &word, j, end, occ);
@@ -225,7 +231,9 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
     if (o && out_stride == 0 && (j & 31u)) o[j >> 5] = word;
     col_sum[gid] = sum;
     col_filled[gid] = filled;
-    pstats[3 * gid + 0] = n_early;
-    pstats[3 * gid + 1] = n_short;
-    pstats[3 * gid + 2] = n_scored;
+    pstats[4 * gid + 0] = n_early;
+    pstats[4 * gid + 1] = n_short;
+    pstats[4 * gid + 2] = n_scored;
+    pstats[4 * gid + 3] = nonempty;
+    col_volume[gid] = volume;
 }

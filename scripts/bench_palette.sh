@@ -143,7 +143,7 @@ binary512=""
         if (!(k in seen)) { seen[k] = 1; order[++n] = k } }
       END { for (i = 1; i <= n; i++) { k = order[i]; split(k, f, SUBSEP)
               printf "| %s | %s | %s | %.2f | %.2f | %.1f | %s |\n", f[1], f[2], f[3], t[k, "on"], t[k, "off"],
-                     t[k, "on"] > 0 ? t[k, "off"] / t[k, "on"] : 0, e[k, "on"] } }' "$results"
+                     (t[k, "on"] > 0 ? t[k, "off"] / t[k, "on"] : 0), e[k, "on"] } }' "$results"
     echo
     echo "paper78, Nearest, early-out on: uniform (masks) vs stochastic (per-sample evaluation) vs the alpha/beta shortcut:"
     echo

@@ -17,7 +17,8 @@
  * voxel has the same sample positions, so the host computes each element's
  * mask E_v once (`masks`, words per element) and scoring an element is
  * S/32 XORs and popcounts: 78 elements at t = p = 16 are 624 word
- * operations. Stochastic samples move from voxel to voxel, so e_v is
+ * operations (use_masks; uniform runs only). Stochastic samples move from
+ * voxel to voxel, so e_v is
  * evaluated at every sample of every element still in the race (an element
  * leaves it at its first -inf sample, or under Nearest when its count plus
  * the samples left cannot reach the best count so far).
@@ -61,7 +62,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                                 global const clvox_real *hits, global const uint *counts, uint capacity,
                                 uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi, uint axis,
                                 global const clvox_element *elements, global const clvox_cell *cells,
-                                global const clvox_halfspace *planes, uint n_elements, global const uint *masks,
+                                global const clvox_halfspace *planes, uint n_elements, uint use_masks,
+                                global const uint *masks,
                                 uint metric, uint early_out, uint sc_lo, uint sc_hi,
                                 global const ushort *value_of_count, uint occ_min, uint X, uint W,
                                 uint vox_stride, uint out_stride, global ushort *element_out,
@@ -126,7 +128,7 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
             score = S;
             n_early += end - j;
         } else {
-            if (next > j && early_out && !stochastic) end = next; /* same O, same masks: one result */
+            if (next > j && early_out && use_masks) end = next; /* same O, same masks: one result */
             /* O: the object at every sample of voxel j */
             for (uint w = 0; w < words; w++) O[w] = 0;
             for (uint r = 0; r < R; r++) {
@@ -155,7 +157,7 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                 elem = cnt < sc_lo ? 0u : 1u; /* alpha/beta shortcut */
                 score = cnt < sc_lo ? S - cnt : cnt;
                 n_short += end - j;
-            } else if (!stochastic) {
+            } else if (use_masks) { /* uniform samples: the host's masks */
                 int best = -1;
                 for (uint e = 0; e < n_elements; e++) {
                     global const uint *E = masks + (size_t)e * words;
@@ -177,8 +179,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                     for (uint m = 0; m < M; m++) {
                         const uint s = r * M + m;
                         const uint in = (O[s >> 5] >> (s & 31u)) & 1u;
-                        if ((m & 3u) == 0) clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
-                        float fu = (float)clvox_stratum(m, M, 1, bits[m & 3u]);
+                        if (stochastic && (m & 3u) == 0) clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
+                        float fu = (float)clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
                         float px, py, pz;
                         clvox_unit_xyz(axis, fu, fv[r], fw[r], &px, &py, &pz);
                         for (uint e = 0; e < n_elements; e++) {

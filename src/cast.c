@@ -78,6 +78,7 @@ struct clvox__method_state {
     uint32_t n_elements;
     cl_mem p_elements, p_cells, p_planes, p_masks, p_volume;
     cl_uint metric, early_out, sc_lo, sc_hi;
+    cl_uint use_masks;           /* uniform samples: score with the precomputed element masks */
     char palette_name[64];
 };
 
@@ -239,8 +240,13 @@ static clvox_status palette_prepare(clvox__method_state *s, const clvox_voxelize
     if (st == CLVOX_OK)
         s->p_planes = clvox__buffer(ctx, np ? ro : CL_MEM_READ_ONLY, np * sizeof *planes, np ? (void *)planes : NULL,
                                     &st, "palette planes");
+    /* CLVOX_BENCH_NO_MASKS=1 (benchmarks and tests only) scores uniform
+     * samples one by one as stochastic ones are: same result, the cost the
+     * masks save. */
+    const char *no_masks = getenv("CLVOX_BENCH_NO_MASKS");
+    s->use_masks = !s->stochastic && !(no_masks && strcmp(no_masks, "1") == 0);
     uint32_t *masks = NULL;
-    if (st == CLVOX_OK && !s->stochastic) {
+    if (st == CLVOX_OK && s->use_masks) {
         masks = calloc((size_t)ne * words, sizeof *masks);
         if (!masks) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for palette masks");
         for (size_t e = 0; st == CLVOX_OK && e < ne; e++)
@@ -446,6 +452,7 @@ static clvox_status palette_enqueue(clvox__method_state *s, const batch_mem *m, 
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_cells);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_planes);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->n_elements);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->use_masks);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_masks);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->metric);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->early_out);
@@ -769,9 +776,9 @@ static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
         }
         if (s->palette && (size_t)n < size) {
             static const char *const metric[] = {"nearest", "outer", "inner"};
-            snprintf(buf + n, size - (size_t)n, " palette=%s elements=%u metric=%s early_out=%s shortcut=%u..%u",
+            snprintf(buf + n, size - (size_t)n, " palette=%s elements=%u metric=%s early_out=%s shortcut=%u..%u%s",
                      s->palette_name, s->n_elements, metric[s->metric % 3], s->early_out ? "on" : "off", s->sc_lo,
-                     s->sc_hi);
+                     s->sc_hi, s->stochastic || s->use_masks ? "" : " masks=off");
         }
     }
 }

@@ -211,6 +211,19 @@ static void test_early_outs(void)
             result_free(&a);
             result_free(&b);
         }
+    /* uniform samples scored with the element masks == one by one */
+    for (int metric = 0; metric < 3; metric++) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.palette = pal[metric == 0 ? 3 : 2];
+        o.metric = (clvox_metric)metric;
+        result a = run(ctx, m, &g, &o);
+        setenv("CLVOX_BENCH_NO_MASKS", "1", 1);
+        result b = run(ctx, m, &g, &o);
+        unsetenv("CLVOX_BENCH_NO_MASKS");
+        CHECK_MSG(same(&a, &b, nvox(&g)), "masks changed the result (metric %d)", metric);
+        result_free(&a);
+        result_free(&b);
+    }
     /* the alpha/beta shortcut: only for Nearest; decides some voxels */
     clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
     o.palette = pal[3];

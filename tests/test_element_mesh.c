@@ -18,11 +18,13 @@
 #include "internal.h"
 #include "element_mesh.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 static clvox_context *ctx;
@@ -705,6 +707,8 @@ static void test_revoxelize(clvox_context *dev, clvox_palette *p)
     free(seen);
 }
 
+static void test_cli(clvox_context *dev); /* below */
+
 static void test_revoxelize_all(void)
 {
     clvox_context *dev = NULL;
@@ -721,8 +725,232 @@ static void test_revoxelize_all(void)
         CHECK_OK(ctx, clvox_palette_load(ctx, "palettes/blocks.txt", &p));
         if (p) test_revoxelize(dev, p);
         clvox_palette_destroy(p);
+        test_cli(dev);
     }
     clvox_context_destroy(dev);
+}
+
+/* ---- clvox mesh, end to end ---- */
+
+typedef struct cli_run {
+    int code;        /* exit status, -1 when it did not exit */
+    char out[4096];  /* stdout (truncated) */
+    char err[4096];  /* stderr (truncated) */
+} cli_run;
+
+/* dst = dir/name; aborts when it does not fit. */
+static void join(char *dst, size_t size, const char *dir, const char *name)
+{
+    int n = snprintf(dst, size, "%s/%s", dir, name);
+    if (n < 0 || (size_t)n >= size) {
+        fprintf(stderr, "path too long: %s/%s\n", dir, name);
+        abort();
+    }
+}
+
+static void read_text(const char *path, char *buf, size_t size)
+{
+    buf[0] = '\0';
+    FILE *f = fopen(path, "rb");
+    if (!f) return;
+    size_t n = fread(buf, 1, size - 1, f);
+    buf[n] = '\0';
+    fclose(f);
+}
+
+/* Runs $CLVOX_BIN (default build/release/clvox) with args (NULL-terminated), no shell. */
+static void run_clvox(cli_run *r, const char *const *args)
+{
+    const char *bin = getenv("CLVOX_BIN");
+    if (!bin || !*bin) bin = "build/release/clvox";
+    const char *argv[32];
+    size_t n = 0;
+    argv[n++] = bin;
+    for (size_t i = 0; args[i] && n < 31; i++) argv[n++] = args[i];
+    argv[n] = NULL;
+    char out_path[4096], err_path[4096];
+    snprintf(out_path, sizeof out_path, "%s/element_mesh_cli.out", test_tmpdir());
+    snprintf(err_path, sizeof err_path, "%s/element_mesh_cli.err", test_tmpdir());
+    fflush(stdout);
+    fflush(stderr);
+    r->code = -1;
+    pid_t pid = fork();
+    if (pid == 0) {
+        int o = open(out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644), e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (o < 0 || e < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
+        execv(bin, (char *const *)argv);
+        _exit(127);
+    }
+    int status = 0;
+    if (pid > 0 && waitpid(pid, &status, 0) == pid && WIFEXITED(status)) r->code = WEXITSTATUS(status);
+    read_text(out_path, r->out, sizeof r->out);
+    read_text(err_path, r->err, sizeof r->err);
+}
+
+static int one_line(const char *s)
+{
+    size_t n = strlen(s);
+    return n > 0 && s[n - 1] == '\n' && memchr(s, '\n', n - 1) == NULL;
+}
+
+/* Names in dir other than those listed (NULL-terminated): leftovers. */
+static size_t other_entries(const char *dir, const char *const *keep)
+{
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    size_t n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        int kept = 0;
+        for (size_t i = 0; keep[i]; i++) kept |= strcmp(e->d_name, keep[i]) == 0;
+        if (!kept) {
+            fprintf(stderr, "leftover: %s/%s\n", dir, e->d_name);
+            n++;
+        }
+    }
+    closedir(d);
+    return n;
+}
+
+typedef struct element_volume {
+    volume v;
+    float *el;
+    size_t n, filled;
+} element_volume;
+
+static int grab_slice(void *user, uint32_t z, const float *values)
+{
+    element_volume *ev = user;
+    size_t s = (size_t)ev->v.dims[0] * ev->v.dims[1];
+    memcpy(ev->el + (size_t)z * s, values, s * sizeof *values);
+    for (size_t i = 0; i < s; i++) ev->filled += values[i] != 0.0f;
+    return 0;
+}
+
+/* One palette run of the bundled mesh on a dyadic grid, then clvox mesh. */
+static void e2e_palette(clvox_context *dev, const char *dir, const char *palette_arg)
+{
+    char vol[4096], ply[4096], asc[4096];
+    join(vol, sizeof vol, dir, "vol.exr");
+    join(ply, sizeof ply, dir, "vol.ply");
+    join(asc, sizeof asc, dir, "vol_ascii.ply");
+    cli_run r;
+    run_clvox(&r, (const char *const[]){"tests/data/default.obj", "--box", "-2,-2,-1,2,2,1", "--dims", "16,16,8",
+                                         "--palette", palette_arg, "-q", "-o", vol, NULL});
+    CHECK_MSG(r.code == 0, "palette run: exit %d: %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", ply, NULL});
+    CHECK_MSG(r.code == 0 && one_line(r.out) && r.err[0] == '\0', "clvox mesh: exit %d: %s%s", r.code, r.out, r.err);
+    printf("clvox mesh (%s): %s", palette_arg, r.out);
+    run_clvox(&r, (const char *const[]){"mesh", "--ascii", vol, "--output", asc, NULL});
+    CHECK_MSG(r.code == 0 && strstr(r.out, "(ascii)") != NULL, "clvox mesh --ascii: exit %d: %s%s", r.code, r.out, r.err);
+
+    element_volume ev;
+    memset(&ev, 0, sizeof ev);
+    clvox_volume_info info;
+    clvox_palette *p = NULL;
+    CHECK_OK(ctx, clvox_volume_palette(ctx, vol, &p));
+    CHECK_OK(ctx, clvox_volume_read(ctx, vol, &info, NULL, 0));
+    for (int a = 0; a < 3; a++) {
+        ev.v.dims[a] = info.dims[a];
+        ev.v.origin[a] = info.origin[a];
+        ev.v.h[a] = info.voxel_size[a];
+    }
+    ev.n = (size_t)info.dims[0] * info.dims[1] * info.dims[2];
+    ev.el = calloc(ev.n, sizeof *ev.el);
+    CHECK(info.dims[0] == 16 && info.dims[1] == 16 && info.dims[2] == 8 && info.voxel_size[0] == 0.25);
+    CHECK_OK(ctx, clvox_volume_read_slices(ctx, vol, "element", NULL, grab_slice, &ev));
+    char want[128];
+    snprintf(want, sizeof want, ": %zu voxels of 16 x 16 x 8 (palette %s, ", ev.filled, p ? clvox_palette_name(p) : "?");
+    CHECK_MSG(strstr(r.out, want) != NULL, "summary '%s' lacks '%s'", r.out, want);
+    CHECK(ev.filled > 0);
+    if (p) check_revoxelized(dev, p, &ev.v, ev.el, ply, 1);
+
+    clvox_mesh *mb = NULL, *ma = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, ply, &mb));
+    CHECK_OK(ctx, clvox_mesh_load(ctx, asc, &ma));
+    if (mb && ma) {
+        size_t nb, na, tb, ta;
+        const float *xb = clvox_mesh_vertices(mb, &nb), *xa = clvox_mesh_vertices(ma, &na);
+        const uint32_t *ib = clvox_mesh_triangles(mb, &tb), *ia = clvox_mesh_triangles(ma, &ta);
+        CHECK(nb == na && tb == ta && !memcmp(xb, xa, 3 * nb * sizeof *xb) && !memcmp(ib, ia, 3 * tb * sizeof *ib));
+    }
+    clvox_mesh_destroy(mb);
+    clvox_mesh_destroy(ma);
+    clvox_palette_destroy(p);
+    free(ev.el);
+}
+
+static void test_cli(clvox_context *dev)
+{
+    char dir[4096], out[4096], vol[4096], plain[4096], link_path[4096], target[4096], fifo[4096];
+    snprintf(dir, sizeof dir, "%s/element_mesh_cli", test_tmpdir());
+    mkdir(dir, 0777);
+    join(vol, sizeof vol, dir, "vol.exr");
+    join(plain, sizeof plain, dir, "plain.exr");
+    join(out, sizeof out, dir, "out");
+    mkdir(out, 0777);
+    e2e_palette(dev, dir, "paper78");
+    e2e_palette(dev, dir, "palettes/blocks.txt");
+
+    /* failures: one line on stderr, the documented exit code, nothing left in out/ */
+    cli_run r;
+    char bad_out[4096], missing_dir[4096], missing_vol[4096];
+    join(bad_out, sizeof bad_out, out, "x.ply");
+    join(missing_dir, sizeof missing_dir, dir, "no/such/dir/x.ply");
+    join(missing_vol, sizeof missing_vol, dir, "missing.exr");
+    run_clvox(&r, (const char *const[]){"tests/data/default.obj", "-r", "12", "-q", "-o", plain, NULL});
+    CHECK(r.code == 0);
+    run_clvox(&r, (const char *const[]){"mesh", plain, "-o", bad_out, NULL});
+    CHECK_MSG(r.code == 4 && one_line(r.err) && strstr(r.err, "no element channel (channels: occupancy)"), "%d %s",
+              r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", missing_vol, "-o", bad_out, NULL});
+    CHECK_MSG(r.code == 4 && one_line(r.err), "%d %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", missing_dir, NULL});
+    CHECK_MSG(r.code == 5 && one_line(r.err), "%d %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", out, NULL});
+    CHECK_MSG(r.code == 5 && one_line(r.err) && strstr(r.err, "directory"), "%d %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", vol, NULL});
+    CHECK_MSG(r.code == 2 && one_line(r.err) && strstr(r.err, "input"), "%d %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", vol, NULL});
+    CHECK_MSG(r.code == 2 && one_line(r.err) && strstr(r.err, "-o"), "%d %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", "-o", bad_out, NULL});
+    CHECK_MSG(r.code == 2 && one_line(r.err), "%d %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", vol, vol, "-o", bad_out, NULL});
+    CHECK_MSG(r.code == 2 && one_line(r.err), "%d %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", bad_out, "--binary", NULL});
+    CHECK_MSG(r.code == 2 && one_line(r.err) && strstr(r.err, "--binary"), "%d %s", r.code, r.err);
+    run_clvox(&r, (const char *const[]){"mesh", "--help", NULL});
+    CHECK(r.code == 0 && strstr(r.out, "Usage: clvox mesh VOLUME.exr -o OUT.ply"));
+    /* not a regular file at OUT: refused and left alone */
+    join(target, sizeof target, out, "target.txt");
+    join(link_path, sizeof link_path, out, "link.ply");
+    join(fifo, sizeof fifo, out, "fifo.ply");
+    FILE *f = fopen(target, "w");
+    if (f) {
+        fputs("keep\n", f);
+        fclose(f);
+    }
+    unlink(link_path);
+    CHECK(symlink("target.txt", link_path) == 0);
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", link_path, NULL});
+    CHECK_MSG(r.code == 5 && one_line(r.err) && strstr(r.err, "symbolic link"), "%d %s", r.code, r.err);
+    char kept[16];
+    read_text(target, kept, sizeof kept);
+    CHECK(strcmp(kept, "keep\n") == 0);
+    unlink(fifo);
+    CHECK(mkfifo(fifo, 0644) == 0);
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", fifo, NULL});
+    CHECK_MSG(r.code == 5 && one_line(r.err), "%d %s", r.code, r.err);
+    CHECK(other_entries(out, (const char *const[]){"target.txt", "link.ply", "fifo.ply", NULL}) == 0);
+    /* an existing regular file is replaced */
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", target, NULL});
+    CHECK(r.code == 0);
+    read_text(target, kept, sizeof kept);
+    CHECK(strncmp(kept, "ply\n", 4) == 0);
+    CHECK(other_entries(out, (const char *const[]){"target.txt", "link.ply", "fifo.ply", NULL}) == 0);
+    unlink(fifo);
+    unlink(link_path);
 }
 
 int main(void)

@@ -603,9 +603,11 @@ static int on_plane(const clvox_palette *p, size_t e, const double pt[3])
  * element (x + y = 1 meets (a + 1/2)/4 + (b + 1/2)/4 for a + b = 3; no fine
  * factor avoids it, the lattice is symmetric about 1/2) are counted apart
  * and, when exact_ties (a dyadic grid: every coordinate exact in float),
- * compared with the tie rule of the ray axis; off the planes a centre is at
- * least 1/8 of a plane's |a| from it, far above float rounding. Rays along
- * x, y and z. */
+ * compared with the tie rule (the point moved by +e along the ray axis,
+ * then less along the other two in cyclic order; the tetra method moves it
+ * along x, then y, then z). Off the planes, for integer coefficients and d
+ * in halves (built-ins, blocks.txt), a.p - d is a non-zero multiple of 1/8,
+ * far above float rounding. Rays along x, y and z, and the tetra method. */
 static void check_revoxelized(clvox_context *dev, const clvox_palette *p, const volume *v, const float *el,
                               const char *ply, int exact_ties)
 {
@@ -631,15 +633,18 @@ static void check_revoxelized(clvox_context *dev, const clvox_palette *p, const 
     CHECK(aligned);
     size_t nfine = (size_t)g.dims[0] * g.dims[1] * g.dims[2];
     uint8_t *occ = malloc(nfine);
-    static const int orders[3][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}}; /* x rays: (x, y, z); y: (y, z, x); z: (z, x, y) */
-    static const clvox_axis axes[3] = {CLVOX_AXIS_X, CLVOX_AXIS_Y, CLVOX_AXIS_Z};
-    for (int ax = 0; ax < 3 && occ && aligned; ax++) {
+    /* x rays: (x, y, z); y: (y, z, x); z: (z, x, y); tetra: (x, y, z) */
+    static const int orders[4][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 1, 2}};
+    static const clvox_axis axes[4] = {CLVOX_AXIS_X, CLVOX_AXIS_Y, CLVOX_AXIS_Z, CLVOX_AXIS_DEFAULT};
+    static const char *const what[4] = {"x rays", "y rays", "z rays", "tetra"};
+    for (int ax = 0; ax < 4 && occ && aligned; ax++) {
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.ray_axis = axes[ax];
+        if (ax == 3) o.method = CLVOX_METHOD_TETRA;
         clvox_stats stats;
         memset(occ, 0, nfine);
         CHECK_OK(dev, clvox_voxelize_to_memory(dev, mesh, &g, &o, occ, nfine, &stats));
-        CHECK(stats.odd_parity_rays == 0);
+        CHECK(ax == 3 || stats.odd_parity_rays == 0);
         size_t off_plane = 0, off_bad = 0, on = 0, on_bad = 0, inside = 0;
         for (uint32_t K = 0; K < g.dims[2]; K++)
             for (uint32_t J = 0; J < g.dims[1]; J++)
@@ -656,11 +661,11 @@ static void check_revoxelized(clvox_context *dev, const clvox_palette *p, const 
                         off_bad += got != clvox_palette_contains(p, e, (float)pt[0], (float)pt[1], (float)pt[2]);
                     }
                 }
-        CHECK_MSG(off_bad == 0, "%s, %c rays: %zu of %zu sub-voxel centres off the planes differ",
-                  clvox_palette_name(p), "xyz"[ax], off_bad, off_plane);
+        CHECK_MSG(off_bad == 0, "%s, %s: %zu of %zu sub-voxel centres off the planes differ", clvox_palette_name(p),
+                  what[ax], off_bad, off_plane);
         if (exact_ties)
-            CHECK_MSG(on_bad == 0, "%s, %c rays: %zu of %zu sub-voxel centres on element planes differ from the tie rule",
-                      clvox_palette_name(p), "xyz"[ax], on_bad, on);
+            CHECK_MSG(on_bad == 0, "%s, %s: %zu of %zu sub-voxel centres on element planes differ from the tie rule",
+                      clvox_palette_name(p), what[ax], on_bad, on);
         if (ax == 0)
             printf("revoxelized %-8s at %ux: %zu sub-voxel centres, %zu inside; %zu off the planes (%zu differ), %zu on an "
                    "element plane (%zu differ from the tie rule%s)\n",

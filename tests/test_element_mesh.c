@@ -275,6 +275,34 @@ static void test_geometry(void)
     CHECK_OK(ctx, clvox_palette_parse(ctx, "tilted.txt", test_palette_text, strlen(test_palette_text), &p));
     CHECK(p && clvox_palette_count(p) > 14);
     check_palette(p, 0);
+    /* many overlapping cells of random planes (a fixed LCG): hundreds of pieces */
+    static const struct {
+        unsigned cells, planes, complement;
+    } shape[] = {{16, 4, 0}, {8, 8, 0}, {16, 4, 1}, {6, 10, 1}};
+    char *text = malloc(1 << 16);
+    size_t n = 0;
+    uint32_t seed = 12345;
+#define RND() ((seed = seed * 1664525u + 1013904223u) >> 8) / 16777216.0 /* [0, 1) */
+    for (size_t e = 0; e < sizeof shape / sizeof shape[0] && text; e++) {
+        n += (size_t)snprintf(text + n, (1 << 16) - n, "element random%zu\n", e);
+        for (unsigned c = 0; c < shape[e].cells; c++) {
+            double centre[3] = {0.2 + 0.6 * RND(), 0.2 + 0.6 * RND(), 0.2 + 0.6 * RND()};
+            n += (size_t)snprintf(text + n, (1 << 16) - n, "  cell\n");
+            for (unsigned k = 0; k < shape[e].planes; k++) {
+                double a[3] = {RND() - 0.5, RND() - 0.5, RND() - 0.5};
+                double d = a[0] * centre[0] + a[1] * centre[1] + a[2] * centre[2] + 0.1 * RND() + 0.02;
+                n += (size_t)snprintf(text + n, (1 << 16) - n, "    %.5f %.5f %.5f %.5f\n", a[0], a[1], a[2], d);
+            }
+        }
+        n += (size_t)snprintf(text + n, (1 << 16) - n, "%send\n", shape[e].complement ? "  complement\n" : "");
+    }
+#undef RND
+    p = NULL;
+    CHECK(text && n < (1 << 16));
+    if (text) CHECK_OK(ctx, clvox_palette_parse(ctx, "random.txt", text, n, &p));
+    CHECK(p && clvox_palette_count(p) == 6);
+    check_palette(p, 0);
+    free(text);
 }
 
 

@@ -216,7 +216,7 @@ static const char *parse_u64(const char *s, uint64_t *out)
     return NULL;
 }
 
-/* "occupancy,coverage" -> CLVOX_CHANNEL_* mask. */
+/* "occupancy,coverage,element,score" -> CLVOX_CHANNEL_* mask. */
 static const char *parse_channels(const char *s, uint32_t *out)
 {
     uint32_t mask = 0;
@@ -224,6 +224,8 @@ static const char *parse_channels(const char *s, uint32_t *out)
         size_t n = strcspn(s, ",");
         if (n == 9 && strncmp(s, "occupancy", 9) == 0) mask |= CLVOX_CHANNEL_OCCUPANCY;
         else if (n == 8 && strncmp(s, "coverage", 8) == 0) mask |= CLVOX_CHANNEL_COVERAGE;
+        else if (n == 7 && strncmp(s, "element", 7) == 0) mask |= CLVOX_CHANNEL_ELEMENT;
+        else if (n == 5 && strncmp(s, "score", 5) == 0) mask |= CLVOX_CHANNEL_SCORE;
         else return "unknown channel";
         s += n;
         if (*s == ',' && *++s == '\0') return "empty channel name";
@@ -281,6 +283,9 @@ typedef struct cli_args {
     const char *device;
     int list_devices, quiet, no_progress, help, version;
     int seed_given;
+    const char *palette;       /* --palette NAME|FILE */
+    const char *samples_opt;   /* "--samples" or "--oversample", whichever set them */
+    int metric_given;
 } cli_args;
 
 static int set_grid_kind(cli_args *a, int kind, const char *name)
@@ -415,8 +420,58 @@ static int parse_args(int argc, char **argv, cli_args *a)
                     return usage_error("--tetra-origin '%s': expected centroid, bbox or x,y,z", v);
                 a->vox.tetra_origin = CLVOX_TETRA_ORIGIN_POINT;
             }
+        } else if (VALUE_OPT(NULL, "--palette")) {
+            NEED_VALUE("--palette");
+            if (*v == '\0') return usage_error("--palette: empty name");
+            a->palette = v;
+        } else if (VALUE_OPT(NULL, "--metric")) {
+            NEED_VALUE("--metric");
+            if (strcmp(v, "nearest") == 0) a->vox.metric = CLVOX_METRIC_NEAREST;
+            else if (strcmp(v, "outer") == 0) a->vox.metric = CLVOX_METRIC_OUTER;
+            else if (strcmp(v, "inner") == 0) a->vox.metric = CLVOX_METRIC_INNER;
+            else return usage_error("--metric '%s': expected nearest, outer or inner", v);
+            a->metric_given = 1;
+        } else if (VALUE_OPT(NULL, "--samples")) {
+            NEED_VALUE("--samples");
+            uint32_t tp[2] = {0, 0};
+            if ((why = parse_u32_list(v, 1, tp, 2)))
+                return usage_error("--samples '%s': %s (expected T,P: T rays per voxel column, P points per voxel)", v,
+                                   why);
+            uint32_t n = 1;
+            while ((n + 1) * (n + 1) <= tp[0]) n++;
+            if (n * n != tp[0] || n > CLVOX_MAX_OVERSAMPLE)
+                return usage_error("--samples '%s': T = %u rays is not the square of 1 .. %u (the rays form an N x N "
+                                   "grid per voxel column: 1, 4, 9, 16, ..., 256)",
+                                   v, tp[0], CLVOX_MAX_OVERSAMPLE);
+            if (tp[1] > CLVOX_MAX_POINTS) return usage_error("--samples '%s': at most %u points per voxel", v, CLVOX_MAX_POINTS);
+            if ((uint64_t)tp[0] * tp[1] > CLVOX_MAX_PALETTE_SAMPLES)
+                return usage_error("--samples '%s': %llu samples per voxel, at most %u", v,
+                                   (unsigned long long)tp[0] * tp[1], CLVOX_MAX_PALETTE_SAMPLES);
+            if (a->samples_opt && strcmp(a->samples_opt, "--oversample") == 0)
+                return usage_error("--samples and --oversample both set the samples: give one");
+            a->samples_opt = "--samples";
+            a->vox.oversample = n;
+            a->vox.oversample_points = tp[1];
+        } else if (strcmp(arg, "--no-early-out") == 0) {
+            a->vox.palette_no_early_out = 1;
+        } else if (VALUE_OPT(NULL, "--shortcut")) {
+            NEED_VALUE("--shortcut");
+            a->vox.nearest_shortcut = 1;
+            if (strcmp(v, "auto") != 0) {
+                double ab[2];
+                int n = 0;
+                if ((why = parse_double_list(v, 0, ab, 2, &n)) || n != 2)
+                    return usage_error("--shortcut '%s': expected auto or ALPHA,BETA", v);
+                if (!(ab[0] > 0 && ab[0] < ab[1] && ab[1] < 1))
+                    return usage_error("--shortcut '%s': needs 0 < ALPHA < BETA < 1", v);
+                a->vox.shortcut_alpha = ab[0];
+                a->vox.shortcut_beta = ab[1];
+            }
         } else if (VALUE_OPT(NULL, "--oversample")) {
             NEED_VALUE("--oversample");
+            if (a->samples_opt && strcmp(a->samples_opt, "--samples") == 0)
+                return usage_error("--samples and --oversample both set the samples: give one");
+            a->samples_opt = "--oversample";
             uint32_t nm[2] = {0, 0};
             if (strchr(v, ',')) {
                 if ((why = parse_u32_list(v, 1, nm, 2)))
@@ -451,8 +506,9 @@ static int parse_args(int argc, char **argv, cli_args *a)
         } else if (VALUE_OPT(NULL, "--channels")) {
             NEED_VALUE("--channels");
             if ((why = parse_channels(v, &a->vox.channels)))
-                return usage_error("--channels '%s': %s (expected a comma-separated list of occupancy, coverage)", v,
-                                   why);
+                return usage_error("--channels '%s': %s (expected a comma-separated list of occupancy, coverage, "
+                                   "element, score)",
+                                   v, why);
         } else if (VALUE_OPT(NULL, "--threads")) {
             NEED_VALUE("--threads");
             if ((why = parse_u32(v, 0, &a->vox.threads, NULL))) return usage_error("--threads '%s': %s", v, why);
@@ -467,7 +523,24 @@ static int parse_args(int argc, char **argv, cli_args *a)
 #undef NEED_VALUE
     }
     /* combinations the library would also refuse, said in CLI terms */
-    if (!a->vox.oversample) {
+    if (!a->palette) {
+        if (a->metric_given) return usage_error("--metric needs --palette");
+        if (a->samples_opt && strcmp(a->samples_opt, "--samples") == 0) return usage_error("--samples needs --palette");
+        if (a->vox.palette_no_early_out) return usage_error("--no-early-out needs --palette");
+        if (a->vox.nearest_shortcut) return usage_error("--shortcut needs --palette");
+        if (a->vox.channels & (CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE))
+            return usage_error("--channels element,score need --palette");
+    } else {
+        if (a->vox.method == CLVOX_METHOD_TETRA)
+            return usage_error("--palette: palette scoring samples rays (use --method ray)");
+        if (a->vox.nearest_shortcut && a->vox.metric != CLVOX_METRIC_NEAREST)
+            return usage_error("--shortcut is for --metric nearest only");
+        if (a->vox.oversample && (uint64_t)a->vox.oversample * a->vox.oversample *
+                                         (a->vox.oversample_points ? a->vox.oversample_points : a->vox.oversample) >
+                                     CLVOX_MAX_PALETTE_SAMPLES)
+            return usage_error("--oversample with --palette: at most %u samples per voxel", CLVOX_MAX_PALETTE_SAMPLES);
+    }
+    if (!a->vox.oversample && !a->palette) {
         if (a->vox.stochastic) return usage_error("--stochastic needs --oversample");
         if (a->seed_given) return usage_error("--seed needs --oversample --stochastic");
         if (a->vox.threshold_set) return usage_error("--threshold needs --oversample (binary runs are already 0/1)");
@@ -552,6 +625,32 @@ static void print_help(void)
 "                           --channels occupancy,coverage (T = 0.5 unless given)\n"
 "  The paper's bytes 0-255 are round(255 * coverage).\n"
 "\n"
+"\n", stdout);
+    fputs(
+"Palette voxelization (Cavagnino & Gribaudo; ray method):\n"
+"  --palette NAME|FILE      replace each voxel by the best-matching element of a\n"
+"                           palette: binary, planar10, paper46, paper78 (clvox\n"
+"                           palette list), or a palette file; writes the channels\n"
+"                           \"element\" (UINT index, 0 = empty, 1 = full) and \"score\"\n"
+"                           (HALF, the fraction of samples where element and\n"
+"                           object agree)\n"
+"  --metric nearest|outer|inner\n"
+"                           nearest: most agreeing samples; outer: the same among\n"
+"                           elements that hold every inside sample; inner: among\n"
+"                           elements that hold no outside sample (default nearest)\n"
+"  --samples T,P            T rays per voxel column (a square: an N x N grid) x P\n"
+"                           points per voxel; at most 4096 samples (default 16,16;\n"
+"                           --oversample N,M says the same as --samples N*N,M).\n"
+"                           Uniform unless --stochastic (then --seed applies)\n"
+"  --no-early-out           score every voxel, also those wholly inside or outside\n"
+"                           (same result, slower; for measurements)\n"
+"  --shortcut auto|A,B      nearest only: empty when fewer than A*T*P samples are\n"
+"                           inside, full when more than B*T*P, unscored (auto: A =\n"
+"                           smallest element volume / 10, B = 1 - (1 - largest)/10;\n"
+"                           off by default: it can change elements)\n"
+"  --channels also takes element and score; coverage and occupancy are those of\n"
+"  the same samples (occupancy = coverage > --threshold, 0.5 by default).\n"
+"\n"
 "Output encoding:\n"
 "  --compression none|rle|zip|zips|piz\n"
 "                           EXR compression (default rle: fastest to write)\n"
@@ -576,6 +675,9 @@ static void print_help(void)
 "  130); a second Ctrl-C stops at once.\n"
 "\n", stdout);
     fputs(
+"A mesh must be closed for parity (inside) to mean anything; palette runs need\n"
+"it too.\n"
+"\n"
 "clvox info FILE.exr: prints the grid, method, parameters, compression and the\n"
 "filled voxel count of a volume written by clvox (occupancy > 0.5, or coverage\n"
 "> 0.5 without occupancy); with a coverage channel also the coverage sum and\n"
@@ -892,9 +994,21 @@ static char *default_output(const char *mesh)
 
 /* ---- the run --------------------------------------------------------------------- */
 
+/* "coverage, element, occupancy, score" (those in the mask). */
+static const char *channel_list(uint32_t mask)
+{
+    static char buf[64];
+    static const char *const names[] = {"occupancy", "coverage", "element", "score"};
+    size_t n = 0;
+    buf[0] = '\0';
+    for (int i = 0; i < 4; i++)
+        if (mask & (1u << i)) n += (size_t)snprintf(buf + n, sizeof buf - n, "%s%s", n ? ", " : "", names[i]);
+    return buf;
+}
+
 static void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
-                          const clvox_device_info *dev, const cli_args *a, const clvox_stats *s,
-                          const char *output, double setup_seconds, double wall_seconds)
+                          const clvox_device_info *dev, const cli_args *a, const clvox_palette *pal,
+                          const clvox_stats *s, const char *output, double setup_seconds, double wall_seconds)
 {
     char extra[256] = "";
     size_t used = 0;
@@ -943,7 +1057,25 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
     }
 
     const int grey = (s->channels & CLVOX_CHANNEL_COVERAGE) != 0;
-    if (a->vox.oversample) {
+    if (pal) {
+        uint32_t N = a->vox.oversample ? a->vox.oversample : 4, M = a->vox.oversample_points ? a->vox.oversample_points
+                                                                    : a->vox.oversample ? N : 16;
+        char seed[48] = "";
+        if (a->vox.stochastic) snprintf(seed, sizeof seed, ", seed %llu", (unsigned long long)a->vox.seed);
+        printf(LABEL "%s (%zu elements), metric %s, %u rays x %u points per voxel (%u samples), %s%s\n", "palette",
+               clvox_palette_name(pal), clvox_palette_count(pal), clvox_metric_name(a->vox.metric), N * N, M,
+               (unsigned)s->samples_per_voxel, a->vox.stochastic ? "stratified jitter" : "uniform", seed);
+        double T = s->total_voxels ? (double)s->total_voxels : 1.0;
+        char sc[96] = "";
+        if (a->vox.nearest_shortcut)
+            snprintf(sc, sizeof sc, ", %llu (%.1f %%) by the shortcut", (unsigned long long)s->palette_shortcut_voxels,
+                     100.0 * (double)s->palette_shortcut_voxels / T);
+        printf(LABEL "%llu voxels (%.1f %%) decided by early-out (wholly inside or outside)%s, %llu (%.1f %%) "
+                     "scored\n",
+               "", (unsigned long long)s->palette_early_voxels, 100.0 * (double)s->palette_early_voxels / T, sc,
+               (unsigned long long)s->palette_scored_voxels, 100.0 * (double)s->palette_scored_voxels / T);
+        printf(LABEL "%s\n", "channels", channel_list(s->channels));
+    } else if (a->vox.oversample) {
         uint32_t N = a->vox.oversample, M = a->vox.oversample_points ? a->vox.oversample_points : N;
         char seed[48] = "";
         if (a->vox.stochastic) snprintf(seed, sizeof seed, ", seed %llu", (unsigned long long)a->vox.seed);
@@ -996,6 +1128,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     char *mesh_path = NULL, *output = NULL;
     clvox_context *host = NULL, *dev = NULL;
     clvox_mesh *mesh = NULL;
+    clvox_palette *palette = NULL;
     clvox_status st;
 
     install_signal_handlers();
@@ -1025,6 +1158,19 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     clvox_context_options ho = CLVOX_CONTEXT_OPTIONS_INIT;
     ho.host_only = 1;
     if ((st = clvox_context_create(&ho, &host)) != CLVOX_OK) { rc = fail_status(host, st, ROLE_OTHER); goto done; }
+
+    if (a->palette) { /* a built-in name, else a palette file */
+        int builtin = 0;
+        for (size_t i = 0; clvox_palette_builtin_name(i); i++) builtin |= strcmp(a->palette, clvox_palette_builtin_name(i)) == 0;
+        if (builtin) st = clvox_palette_builtin(host, a->palette, &palette);
+        else if (!is_readable_file(a->palette)) {
+            rc = usage_error("--palette '%s': not a built-in palette (binary, planar10, paper46, paper78) and not a "
+                             "readable file",
+                             a->palette);
+            goto done;
+        } else st = clvox_palette_load(host, a->palette, &palette);
+        if (st != CLVOX_OK) { rc = fail_status(host, st, ROLE_INPUT); goto done; }
+    }
 
     double t0 = now_seconds();
     if ((st = clvox_mesh_load(host, mesh_path, &mesh)) != CLVOX_OK) {
@@ -1058,6 +1204,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     prog.last_draw = prog.start - PROGRESS_INTERVAL_S;
 
     clvox_voxelize_options vo = a->vox;
+    vo.palette = palette;
     vo.progress = on_progress;
     vo.progress_user = &prog;
     clvox_stats stats;
@@ -1071,7 +1218,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     stats.seconds[CLVOX_STAGE_LOAD] = load_seconds;
 
     if (!a->quiet) {
-        print_summary(mesh_path, report, &grid, clvox_context_device(dev), a, &stats, output, setup_seconds,
+        print_summary(mesh_path, report, &grid, clvox_context_device(dev), a, palette, &stats, output, setup_seconds,
                       now_seconds() - wall_start);
         flush_stdout(); /* the summary before the warnings */
     }
@@ -1112,6 +1259,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
 
 done:
     clvox_mesh_destroy(mesh);
+    clvox_palette_destroy(palette);
     clvox_context_destroy(dev);
     clvox_context_destroy(host);
     free(output);

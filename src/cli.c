@@ -5,6 +5,7 @@
  *   clvox info FILE.exr           header, filled voxel count, coverage sum (no OpenCL needed)
  *   clvox preview FILE.exr -o OUT.png   slices as a PNG picture (cli_preview.c)
  *   clvox palette list | show NAME|FILE  palettes of sub-voxel elements (cli_palette.c)
+ *   clvox instances VOLUME.exr -o OUT.csv  instances of a palette volume, for rendering (cli_instances.c)
  *   clvox --list-devices | --help | --version
  *
  * Exit codes (also in --help):
@@ -561,6 +562,7 @@ static void print_help(void)
 "       clvox info FILE.exr\n"
 "       clvox preview FILE.exr -o OUT.png [options]\n"
 "       clvox palette list | show NAME|FILE\n"
+"       clvox instances VOLUME.exr -o OUT.csv [--render-map MAP]\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
 "Voxelizes a closed triangle mesh on an OpenCL device and writes the solid\n"
@@ -690,6 +692,10 @@ static void print_help(void)
 "clvox palette list | show NAME|FILE: the built-in palettes of sub-voxel\n"
 "elements (binary, planar10, paper46, paper78), or the elements of one with\n"
 "their volumes and symmetries (clvox palette --help). Needs no OpenCL device.\n"
+"\n"
+"clvox instances VOLUME.exr -o OUT.csv: one CSV row per non-empty voxel of a\n"
+"palette volume (position, size, element, symmetry, score, render object from\n"
+"--render-map), for scripts/blender_instances.py (clvox instances --help).\n"
 "\n"
 "After a run, one summary goes to stdout: mesh, grid, device, method, filled\n"
 "voxels and volume, rays, time per stage and output size. A mesh that is not\n"
@@ -1272,6 +1278,7 @@ int main(int argc, char **argv)
     if (argc >= 2 && strcmp(argv[1], "info") == 0) return finish_stdout(cmd_info(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "preview") == 0) return finish_stdout(cmd_preview(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "palette") == 0) return finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "instances") == 0) return finish_stdout(cmd_instances(argc - 2, argv + 2), NULL);
 
     cli_args a;
     int rc = parse_args(argc, argv, &a);

@@ -341,6 +341,16 @@ static int parse_threshold(const char *s, double *out)
     return 1;
 }
 
+/* The shortest "%.Ng" text that reads back as v (thresholds in messages). */
+static const char *num(char *buf, size_t size, double v)
+{
+    for (int p = 1; p <= 17; p++) {
+        snprintf(buf, size, "%.*g", p, v);
+        if (strtod(buf, NULL) == v) break;
+    }
+    return buf;
+}
+
 /* The open rule is complete: it has objects and its last threshold is 0. */
 static clvox_status close_rule(parser *ps)
 {
@@ -354,8 +364,9 @@ static clvox_status close_rule(parser *ps)
         st = parse_fail(ps, "%s has no 'object' line", ps->what);
     } else if (ps->m->steps[r->first + r->count - 1].threshold != 0.0) {
         ps->line = ps->last_object_line;
-        st = parse_fail(ps, "the last object of %s has threshold %.17g: the last threshold must be 0", ps->what,
-                        ps->m->steps[r->first + r->count - 1].threshold);
+        char b[32];
+        st = parse_fail(ps, "the last object of %s has threshold %s: the last threshold must be 0", ps->what,
+                        num(b, sizeof b, ps->m->steps[r->first + r->count - 1].threshold));
     }
     ps->line = line;
     return st;
@@ -412,7 +423,8 @@ static clvox_status object_line(parser *ps, const char *name, const char *value)
         return parse_fail(ps, "bad object name '%.64s' (1-%u characters of A-Z a-z 0-9 _ - .)", name, RM_MAX_NAME);
     double d = 0;
     if (!parse_threshold(value, &d)) return parse_fail(ps, "threshold '%.64s' is not a decimal number", value);
-    if (!(d < 1.0)) return parse_fail(ps, "threshold %.17g is not below 1 (D_0 = 1)", d);
+    char b1[32], b2[32];
+    if (!(d < 1.0)) return parse_fail(ps, "threshold %s is not below 1 (D_0 = 1)", num(b1, sizeof b1, d));
     const rm_rule *r = &ps->m->rules[ps->rule];
     if (r->count) {
         double prev = ps->m->steps[r->first + r->count - 1].threshold;
@@ -420,8 +432,8 @@ static clvox_status object_line(parser *ps, const char *name, const char *value)
             return parse_fail(ps, "%s already ended with threshold 0 (line %u): nothing can follow it", ps->what,
                               ps->last_object_line);
         if (!(d < prev))
-            return parse_fail(ps, "threshold %.17g is not below the previous one, %.17g (thresholds decrease "
-                              "strictly to 0)", d, prev);
+            return parse_fail(ps, "threshold %s is not below the previous one, %s (thresholds decrease "
+                              "strictly to 0)", num(b1, sizeof b1, d), num(b2, sizeof b2, prev));
     }
     if (r->count >= RM_MAX_RULE_OBJECTS) return parse_fail(ps, "more than %u objects in %s", RM_MAX_RULE_OBJECTS, ps->what);
     uint32_t obj = 0;

@@ -388,7 +388,7 @@ def build(args, rows):
         if not os.path.isfile(args.objects):
             fail("cannot open library '%s'" % args.objects)
         try:
-            with bpy.data.libraries.load(args.objects, link=False) as (src, dst):
+            with bpy.data.libraries.load(os.path.abspath(args.objects), link=False) as (src, dst):
                 have_obj, have_coll = set(src.objects), set(src.collections)
                 dst.objects = [n for n in names if n in have_obj]
                 dst.collections = [n for n in names if n not in have_obj and n in have_coll]
@@ -552,5 +552,12 @@ if __name__ == "__main__":
         main(argv)
     except Failure as e:
         sys.stderr.write("%s: error: %s\n" % (PROG, str(e).replace("\n", " | ")))
+        sys.stderr.flush()
+        sys.exit(1)
+    except Exception as e:  # Blender exits 0 after an uncaught exception: say so and fail
+        import traceback
+        traceback.print_exc()
+        sys.stderr.write("%s: error: internal error: %s: %s\n"
+                         % (PROG, type(e).__name__, str(e).splitlines()[0] if str(e) else ""))
         sys.stderr.flush()
         sys.exit(1)

@@ -213,10 +213,11 @@ static const char CHECK_PY[] =
     "by_data = {o.data.name: o.name for o in (srcs.objects if srcs else []) if o.data}\n"
     "print('CLVOX COUNT %d' % len(obs))\n"
     "print('CLVOX SOURCES %d' % (len(srcs.objects) if srcs else -1))\n"
-    "print('CLVOX MESHES %d' % len({o.data.name for o in obs if o.data}))\n"
+    "print('CLVOX MESHES %d' % len({o.data.name if o.data else 'c:' + o.instance_collection.name for o in obs}))\n"
     "print('CLVOX CAMERA %d' % (bpy.context.scene.camera is not None))\n"
     "for o in obs:\n"
-    "    src = by_data.get(o.data.name, '?') if o.data else '?'\n"
+    "    src = by_data.get(o.data.name, '?') if o.data else ('collection:' + o.instance_collection.name\n"
+    "                                                         if o.instance_collection else '?')\n"
     "    m = o.matrix_world\n"
     "    print('CLVOX ROW %d %s %s' % (o['clvox_row'], src, ' '.join('%.9g' % m[i][j] for i in range(4) for j in range(4))))\n";
 
@@ -249,7 +250,8 @@ static void check_scene(const char *blend, const row *rows, int nrows, int objec
     if ((v = find_line(r.out, "CLVOX CAMERA "))) camera = atoi(v);
     CHECK_MSG(count == nrows, "%d instances in the .blend, %d rows in the CSV", count, nrows);
     CHECK_MSG(sources == sources_expected && meshes == objects,
-              "%d sources (%d expected), %d meshes shared by the instances, %d objects in the CSV", sources,
+              "%d sources (%d expected), %d meshes or collections shared by the instances, %d objects in the CSV",
+              sources,
               sources_expected, meshes, objects);
     CHECK(camera == 1);
     int seen = 0, bad = 0;
@@ -271,9 +273,10 @@ static void check_scene(const char *blend, const row *rows, int nrows, int objec
             got++;
         }
         const row *w = &rows[idx];
-        char want_src[96];
+        char want_src[96], want_coll[96];
         snprintf(want_src, sizeof want_src, "clvox_src_%s", w->object);
-        int ok = got == 16 && strcmp(src, want_src) == 0;
+        snprintf(want_coll, sizeof want_coll, "collection:%s", w->object);
+        int ok = got == 16 && (strcmp(src, want_src) == 0 || strcmp(src, want_coll) == 0);
         const double c[3] = {w->x, w->y, w->z};
         int basic = strcmp(w->frame, "basic") == 0;
         for (int i = 0; i < 3 && ok; i++) {
@@ -430,6 +433,37 @@ int main(void)
               r.code, r.out, r.err);
     spawn_free(&r);
     CHECK(check_png(png, 160, 120, &distinct) && distinct > 160 * 120 / 50);
+
+    /* a library: a mesh object "cheese" and a collection "tent" (two objects in it) */
+    static const char MAKE_LIB_PY[] =
+        "import bpy, os, sys\n"
+        "for o in list(bpy.data.objects): bpy.data.objects.remove(o, do_unlink=True)\n"
+        "bpy.ops.mesh.primitive_cone_add(radius1=0.5, depth=1.0)\n"
+        "bpy.context.object.name = 'cheese'\n"
+        "c = bpy.data.collections.new('tent')\n"
+        "bpy.context.scene.collection.children.link(c)\n"
+        "for x in (-0.25, 0.25):\n"
+        "    bpy.ops.mesh.primitive_cube_add(size=0.4, location=(x, 0, 0))\n"
+        "    ob = bpy.context.object\n"
+        "    for cc in list(ob.users_collection): cc.objects.unlink(ob)\n"
+        "    c.objects.link(ob)\n"
+        "bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(sys.argv[sys.argv.index('--') + 1]))\n";
+    char lib_py[PATH_MAX], lib[PATH_MAX];
+    path_join(lib_py, sizeof lib_py, g_dir, "make_lib.py");
+    path_join(lib, sizeof lib, g_dir, "lib.blend");
+    unlink(lib);
+    CHECK(write_text(lib_py, MAKE_LIB_PY));
+    run_blender(&r, NULL, lib_py, ARGS(lib), NULL);
+    CHECK_MSG(r.code == 0, "making lib.blend: exit %d: %s", r.code, r.err);
+    spawn_free(&r);
+    unlink(blend);
+    run_blender(&r, NULL, g_script, ARGS("--csv", csv, "--objects", lib, "--palette", "paper46", "--save", blend),
+                &secs);
+    printf("blender: the scene with library objects, saved only, took %.1f s\n", secs);
+    CHECK_MSG(r.code == 0 && strstr(r.out, "24 instances of 8 objects (2 from the library, 6 exact, 0 stand-ins)"),
+              "library: exit %d: %s%s", r.code, r.out, r.err);
+    spawn_free(&r);
+    check_scene(blend, g_rows, g_rows_n, distinct_objects(), distinct_objects() - 1); /* tent: no source object */
 
     /* failures: one error line, nothing left behind */
     char out_blend[PATH_MAX], out_png[PATH_MAX], bad_csv[PATH_MAX];

@@ -313,6 +313,9 @@ typedef struct clvox_stats {
     uint64_t palette_early_voxels; /* all segments wholly inside or outside: full/empty unscored */
     uint64_t palette_shortcut_voxels; /* alpha/beta shortcut (Nearest, when on)             */
     uint64_t palette_scored_voxels;   /* every element scored                                */
+    uint64_t palette_nonempty_voxels; /* voxels given an element other than empty            */
+    double palette_volume;            /* sum of the chosen elements' volumes, voxel units (times
+                                         the voxel volume: the volume of the element approximation) */
 } clvox_stats;
 
 /* Receives consecutive slabs in increasing z: slices z0 .. z0+nz-1, each an
@@ -384,7 +387,8 @@ typedef struct clvox_volume_info {
     char compression[16];
     char channels[64];        /* comma-separated channel names           */
     uint64_t filled_voxels;   /* counted by reading every slice: occupancy > 0.5, or
-                                 coverage > 0.5 in a file without occupancy */
+                                 coverage > 0.5 in a file without occupancy, or
+                                 element != 0 in a file with neither (palette runs) */
     double coverage_sum;      /* sum of coverage (voxel units), 0 without a coverage channel */
     char palette[64];         /* palette runs: the palette's name, else ""          */
     uint32_t palette_count;   /* its number of elements, else 0                     */
@@ -393,7 +397,9 @@ typedef struct clvox_volume_info {
 } clvox_volume_info;
 
 /* Reads the header and counts filled voxels slice by slice (bounded memory).
- * If occupancy is not NULL it must hold X*Y*Z bytes and receives 0/1 values. */
+ * If occupancy is not NULL it must hold X*Y*Z bytes and receives 0/1 values
+ * (filled as in info->filled_voxels). The file must have an "occupancy",
+ * "coverage" or "element" channel. */
 clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
                                uint8_t *occupancy, size_t occupancy_size);
 

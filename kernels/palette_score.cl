@@ -17,7 +17,8 @@
  * voxel has the same sample positions, so the host computes each element's
  * mask E_v once (`masks`, words per element) and scoring an element is
  * S/32 XORs and popcounts: 78 elements at t = p = 16 are 624 word
- * operations. Stochastic samples move from voxel to voxel, so e_v is
+ * operations (use_masks; uniform runs only). Stochastic samples move from
+ * voxel to voxel, so e_v is
  * evaluated at every sample of every element still in the race (an element
  * leaves it at its first -inf sample, or under Nearest when its count plus
  * the samples left cannot reach the best count so far).
@@ -33,8 +34,10 @@
  * Outputs per voxel (NULL planes are skipped): element index, score and
  * coverage as value_of_count[count] (HALF bits of count / S, or the count),
  * occupancy bit when the inside count >= occ_min (coverage's threshold).
- * Per column: sum of inside counts, occupied voxels, and the voxels decided
- * by early-out / shortcut / scoring (pstats[3*gid + 0..2]). Columns with an
+ * Per column: sum of inside counts, occupied voxels, the voxels decided by
+ * early-out / shortcut / scoring and the non-empty ones (pstats[4*gid +
+ * 0..3]), and the sum of the chosen elements' volumes (col_volume, in units
+ * of 2^-32 voxel: volume_fixed[e] = round(volume(e) * 2^32)). Columns with an
  * overflowed ray are skipped (the host redoes them). */
 #define CLVOX_PALETTE_MAX_RAYS 256      /* CLVOX_MAX_OVERSAMPLE^2 */
 #define CLVOX_PALETTE_MAX_WORDS 128     /* CLVOX_MAX_PALETTE_SAMPLES / 32 */
@@ -59,12 +62,14 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                                 global const clvox_real *hits, global const uint *counts, uint capacity,
                                 uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi, uint axis,
                                 global const clvox_element *elements, global const clvox_cell *cells,
-                                global const clvox_halfspace *planes, uint n_elements, global const uint *masks,
+                                global const clvox_halfspace *planes, uint n_elements, uint use_masks,
+                                global const uint *masks,
                                 uint metric, uint early_out, uint sc_lo, uint sc_hi,
                                 global const ushort *value_of_count, uint occ_min, uint X, uint W,
                                 uint vox_stride, uint out_stride, global ushort *element_out,
                                 global ushort *score_out, global ushort *coverage, global uint *occupancy,
-                                global ulong *col_sum, global uint *col_filled, global uint *pstats)
+                                global const ulong *volume_fixed, global ulong *col_sum, global uint *col_filled,
+                                global uint *pstats, global ulong *col_volume)
 {
     const uint gid = get_global_id(0);
     const uint R = N * N, S = R * M, words = (S + 31u) / 32u;
@@ -92,7 +97,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
         k[r] = 0;
     }
     ulong sum = 0;
-    uint filled = 0, word = 0, n_early = 0, n_short = 0, n_scored = 0;
+    uint filled = 0, word = 0, n_early = 0, n_short = 0, n_scored = 0, nonempty = 0;
+    ulong volume = 0;
     uint j = 0;
     while (j < u_count) {
         const uint u = u_begin + j;
@@ -122,7 +128,7 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
             score = S;
             n_early += end - j;
         } else {
-            if (next > j && early_out && !stochastic) end = next; /* same O, same masks: one result */
+            if (next > j && early_out && use_masks) end = next; /* same O, same masks: one result */
             /* O: the object at every sample of voxel j */
             for (uint w = 0; w < words; w++) O[w] = 0;
             for (uint r = 0; r < R; r++) {
@@ -151,7 +157,7 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                 elem = cnt < sc_lo ? 0u : 1u; /* alpha/beta shortcut */
                 score = cnt < sc_lo ? S - cnt : cnt;
                 n_short += end - j;
-            } else if (!stochastic) {
+            } else if (use_masks) { /* uniform samples: the host's masks */
                 int best = -1;
                 for (uint e = 0; e < n_elements; e++) {
                     global const uint *E = masks + (size_t)e * words;
@@ -173,8 +179,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                     for (uint m = 0; m < M; m++) {
                         const uint s = r * M + m;
                         const uint in = (O[s >> 5] >> (s & 31u)) & 1u;
-                        if ((m & 3u) == 0) clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
-                        float fu = (float)clvox_stratum(m, M, 1, bits[m & 3u]);
+                        if (stochastic && (m & 3u) == 0) clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
+                        float fu = (float)clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
                         float px, py, pz;
                         clvox_unit_xyz(axis, fu, fv[r], fw[r], &px, &py, &pz);
                         for (uint e = 0; e < n_elements; e++) {
@@ -213,6 +219,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
             if (coverage) coverage[at] = vc;
         }
         if (occ) filled += len;
+        if (elem) nonempty += len;
+        volume += volume_fixed[elem] * len;
         if (o) {
             if (out_stride == 0) {
                 clvox_row_bits(o, &word, j, end, occ);
@@ -225,7 +233,9 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
     if (o && out_stride == 0 && (j & 31u)) o[j >> 5] = word;
     col_sum[gid] = sum;
     col_filled[gid] = filled;
-    pstats[3 * gid + 0] = n_early;
-    pstats[3 * gid + 1] = n_short;
-    pstats[3 * gid + 2] = n_scored;
+    pstats[4 * gid + 0] = n_early;
+    pstats[4 * gid + 1] = n_short;
+    pstats[4 * gid + 2] = n_scored;
+    pstats[4 * gid + 3] = nonempty;
+    col_volume[gid] = volume;
 }

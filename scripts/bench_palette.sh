@@ -100,11 +100,15 @@ for mesh in $meshes; do
         done
       done
     done
-    for extra in stochastic shortcut; do
+    for extra in nomasks stochastic shortcut; do
       opts="--palette,paper78,--metric,nearest"
       [ "$extra" = stochastic ] && opts="$opts,--stochastic"
       [ "$extra" = shortcut ] && opts="$opts,--shortcut,auto"
-      rec=$(best_of "$mesh" "$n" "$opts" "$repeat") || continue
+      if [ "$extra" = nomasks ]; then
+        rec=$(CLVOX_BENCH_NO_MASKS=1 best_of "$mesh" "$n" "$opts" "$repeat") || continue
+      else
+        rec=$(best_of "$mesh" "$n" "$opts" "$repeat") || continue
+      fi
       printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$mesh" "$n" "paper78" "nearest" "$extra" "$rec" >>"$results"
       log "$(printf '%-10s N=%-4s paper78 nearest %-10s %ss' "$mesh" "$n" "$extra" "${rec%%$'\t'*}")"
       if [ "$extra" = shortcut ]; then # what the shortcut changes: elements against the exact run
@@ -143,18 +147,21 @@ binary512=""
         if (!(k in seen)) { seen[k] = 1; order[++n] = k } }
       END { for (i = 1; i <= n; i++) { k = order[i]; split(k, f, SUBSEP)
               printf "| %s | %s | %s | %.2f | %.2f | %.1f | %s |\n", f[1], f[2], f[3], t[k, "on"], t[k, "off"],
-                     t[k, "on"] > 0 ? t[k, "off"] / t[k, "on"] : 0, e[k, "on"] } }' "$results"
+                     (t[k, "on"] > 0 ? t[k, "off"] / t[k, "on"] : 0), e[k, "on"] } }' "$results"
     echo
-    echo "paper78, Nearest, early-out on: uniform (masks) vs stochastic (per-sample evaluation) vs the alpha/beta shortcut:"
+    echo "paper78, Nearest, early-out on: uniform samples scored with element bit masks, the same samples scored one"
+    echo "by one (CLVOX_BENCH_NO_MASKS=1: same result), stochastic samples (one by one: no shared masks), and the"
+    echo "alpha/beta shortcut (auto constants) with the number of voxels whose element it changed:"
     echo
-    echo "| N | uniform | stochastic | shortcut auto | consumer s uniform / stochastic | elements the shortcut changed |"
-    echo "|---|---|---|---|---|---|"
+    echo "| N | uniform, masks | uniform, one by one | stochastic | shortcut auto | scoring kernel s: masks / one by one / stochastic | elements the shortcut changed |"
+    echo "|---|---|---|---|---|---|---|"
     awk -F '\t' -v mesh="$mesh" 'FNR == NR { if ($1 == mesh) c[$2] = $3; next }
       $1 == mesh && $3 == "paper78" && $4 == "nearest" {
         t[$2, $5] = $6; k[$2, $5] = $7; if (!($2 in seen)) { seen[$2] = 1; order[++n] = $2 } }
       END { for (i = 1; i <= n; i++) { N = order[i]
-              printf "| %s | %.2f | %.2f | %.2f | %s / %s | %s |\n", N, t[N, "on"], t[N, "stochastic"], t[N, "shortcut"],
-                     k[N, "on"], k[N, "stochastic"], c[N] } }' "$changes" "$results"
+              printf "| %s | %.2f | %.2f | %.2f | %.2f | %s / %s / %s | %s |\n", N, t[N, "on"], t[N, "nomasks"],
+                     t[N, "stochastic"], t[N, "shortcut"], k[N, "on"], k[N, "nomasks"], k[N, "stochastic"], c[N] } }' \
+      "$changes" "$results"
     echo
   done
 } | tee "$outdir/palette.md"

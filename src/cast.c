@@ -36,7 +36,7 @@
 
 /* Device buffers of one batch. */
 typedef struct batch_mem {
-    cl_mem rays, cols, leaf, hits, counts, filled, sums, pstats;
+    cl_mem rays, cols, leaf, hits, counts, filled, sums, pstats, pvolume;
     size_t max_rays, max_items; /* items: rays (binary) or columns (coverage) */
     cl_uint capacity;
 } batch_mem;
@@ -62,7 +62,8 @@ struct clvox__method_state {
     uint32_t *counts_host;       /* max_rays */
     uint32_t *filled_host;       /* max_items */
     uint64_t *sums_host;         /* column runs: max_items */
-    uint32_t *pstats_host;       /* palette: 3 per item (early, shortcut, scored voxels) */
+    uint32_t *pstats_host;       /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
+    uint64_t *pvolume_host;      /* palette: per item, element volumes in 2^-32 voxels */
     /* coverage and palette (column runs) */
     int coverage;                /* 1: a column run (the coverage or the palette consumer) */
     uint32_t N, M, R;            /* R = N*N rays per column, M points per voxel */
@@ -75,8 +76,9 @@ struct clvox__method_state {
     /* palette */
     int palette;                 /* 1: the palette consumer */
     uint32_t n_elements;
-    cl_mem p_elements, p_cells, p_planes, p_masks;
+    cl_mem p_elements, p_cells, p_planes, p_masks, p_volume;
     cl_uint metric, early_out, sc_lo, sc_hi;
+    cl_uint use_masks;           /* uniform samples: score with the precomputed element masks */
     char palette_name[64];
 };
 
@@ -97,6 +99,7 @@ static void batch_mem_release(batch_mem *m)
     clvox__release_mem(&m->filled);
     clvox__release_mem(&m->sums);
     clvox__release_mem(&m->pstats);
+    clvox__release_mem(&m->pvolume);
 }
 
 static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max_rays, size_t max_items,
@@ -122,7 +125,9 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max
     if (st == CLVOX_OK && coverage)
         m->sums = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * sizeof(cl_ulong), NULL, &st, "column sums");
     if (st == CLVOX_OK && palette)
-        m->pstats = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * 3 * sizeof(cl_uint), NULL, &st, "column tallies");
+        m->pstats = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * 4 * sizeof(cl_uint), NULL, &st, "column tallies");
+    if (st == CLVOX_OK && palette)
+        m->pvolume = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * sizeof(cl_ulong), NULL, &st, "column volumes");
     if (st != CLVOX_OK) batch_mem_release(m);
     return st;
 }
@@ -138,6 +143,7 @@ static void ray_release(clvox__method_state *s)
     clvox__release_mem(&s->p_cells);
     clvox__release_mem(&s->p_planes);
     clvox__release_mem(&s->p_masks);
+    clvox__release_mem(&s->p_volume);
     batch_mem_release(&s->mem);
     if (s->k_lookup) clReleaseKernel(s->k_lookup);
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
@@ -152,6 +158,7 @@ static void ray_release(clvox__method_state *s)
     free(s->filled_host);
     free(s->sums_host);
     free(s->pstats_host);
+    free(s->pvolume_host);
     free(s);
 }
 
@@ -233,8 +240,13 @@ static clvox_status palette_prepare(clvox__method_state *s, const clvox_voxelize
     if (st == CLVOX_OK)
         s->p_planes = clvox__buffer(ctx, np ? ro : CL_MEM_READ_ONLY, np * sizeof *planes, np ? (void *)planes : NULL,
                                     &st, "palette planes");
+    /* CLVOX_BENCH_NO_MASKS=1 (benchmarks and tests only) scores uniform
+     * samples one by one as stochastic ones are: same result, the cost the
+     * masks save. */
+    const char *no_masks = getenv("CLVOX_BENCH_NO_MASKS");
+    s->use_masks = !s->stochastic && !(no_masks && strcmp(no_masks, "1") == 0);
     uint32_t *masks = NULL;
-    if (st == CLVOX_OK && !s->stochastic) {
+    if (st == CLVOX_OK && s->use_masks) {
         masks = calloc((size_t)ne * words, sizeof *masks);
         if (!masks) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for palette masks");
         for (size_t e = 0; st == CLVOX_OK && e < ne; e++)
@@ -250,6 +262,16 @@ static clvox_status palette_prepare(clvox__method_state *s, const clvox_voxelize
         s->p_masks = clvox__buffer(ctx, masks ? ro : CL_MEM_READ_ONLY, masks ? ne * words * sizeof *masks : 0, masks,
                                    &st, "palette masks");
     free(masks);
+    /* element volumes in 2^-32 voxels, for the run's volume estimate */
+    uint64_t *vol = malloc(ne * sizeof *vol);
+    if (st == CLVOX_OK && !vol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    for (size_t e = 0; st == CLVOX_OK && e < ne; e++) {
+        clvox_palette_element_info info;
+        st = clvox_palette_element_info_get(ctx, o->palette, e, &info);
+        if (st == CLVOX_OK) vol[e] = (uint64_t)llround(info.volume * 4294967296.0);
+    }
+    if (st == CLVOX_OK) s->p_volume = clvox__buffer(ctx, ro, ne * sizeof *vol, vol, &st, "element volumes");
+    free(vol);
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_palette_score", &s->k_palette);
     return st;
 }
@@ -340,9 +362,12 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
             s->cols_host = malloc(max_items * sizeof *s->cols_host);
             s->sums_host = malloc(max_items * sizeof *s->sums_host);
         }
-        if (s->palette) s->pstats_host = malloc(max_items * 3 * sizeof *s->pstats_host);
+        if (s->palette) {
+            s->pstats_host = malloc(max_items * 4 * sizeof *s->pstats_host);
+            s->pvolume_host = malloc(max_items * sizeof *s->pvolume_host);
+        }
         if (!s->rays_host || !s->counts_host || !s->filled_host || (s->coverage && (!s->cols_host || !s->sums_host)) ||
-            (s->palette && !s->pstats_host))
+            (s->palette && (!s->pstats_host || !s->pvolume_host)))
             st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", max_rays);
     }
     if (stats) {
@@ -427,6 +452,7 @@ static clvox_status palette_enqueue(clvox__method_state *s, const batch_mem *m, 
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_cells);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_planes);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->n_elements);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->use_masks);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_masks);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->metric);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->early_out);
@@ -442,9 +468,11 @@ static clvox_status palette_enqueue(clvox__method_state *s, const batch_mem *m, 
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), sc ? &sc : NULL);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), cov ? &cov : NULL);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), occ ? &occ : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_volume);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->sums);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->pstats);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->pvolume);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_palette_score)");
     size_t local = 64, global = ((size_t)n_cols + local - 1) / local * local;
     err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
@@ -458,7 +486,8 @@ static clvox_status palette_enqueue(clvox__method_state *s, const batch_mem *m, 
  * count sum of every column. */
 static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const clvox_ray *rays, cl_uint n,
                                const clvox_column *cols, cl_uint n_cols, const slab_target *t, uint32_t *counts,
-                               uint32_t *filled, uint64_t *sums, uint32_t *pstats, clvox__slab_stats *ss)
+                               uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
+                               clvox__slab_stats *ss)
 {
     clvox_context *ctx = s->ctx;
     size_t local = 64, global = ((size_t)n + local - 1) / local * local;
@@ -521,7 +550,10 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
         if (err == CL_SUCCESS && s->coverage)
             err = clEnqueueReadBuffer(ctx->queue, m->sums, CL_FALSE, 0, items * sizeof *sums, sums, 0, NULL, NULL);
         if (err == CL_SUCCESS && s->palette)
-            err = clEnqueueReadBuffer(ctx->queue, m->pstats, CL_FALSE, 0, items * 3 * sizeof *pstats, pstats, 0, NULL,
+            err = clEnqueueReadBuffer(ctx->queue, m->pstats, CL_FALSE, 0, items * 4 * sizeof *pstats, pstats, 0, NULL,
+                                      NULL);
+        if (err == CL_SUCCESS && s->palette)
+            err = clEnqueueReadBuffer(ctx->queue, m->pvolume, CL_FALSE, 0, items * sizeof *pvolume, pvolume, 0, NULL,
                                       NULL);
         if (err == CL_SUCCESS) err = clFinish(ctx->queue);
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the cast kernels");
@@ -543,11 +575,13 @@ static int poll_ok(const clvox__method_state *s, double slab_fraction)
     return s->poll(s->poll_user, slab_fraction);
 }
 
-static void tally_palette(clvox__slab_stats *ss, const uint32_t *p)
+static void tally_palette(clvox__slab_stats *ss, const uint32_t *p, uint64_t volume)
 {
     ss->palette_early += p[0];
     ss->palette_shortcut += p[1];
     ss->palette_scored += p[2];
+    ss->palette_nonempty += p[3];
+    ss->palette_volume += (double)volume * (1.0 / 4294967296.0);
 }
 
 /* Items (rays, or columns of R rays) whose crossings did not fit: cast
@@ -574,13 +608,13 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     batch_mem m;
     clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage, s->palette);
     if (st != CLVOX_OK) return st;
-    uint32_t *cnt = malloc(per * R * sizeof *cnt), *fil = malloc(per * sizeof *fil), *pst = malloc(per * 3 * sizeof *pst);
-    uint64_t *sum = malloc(per * sizeof *sum);
-    if (!cnt || !fil || !sum || !pst) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", items);
+    uint32_t *cnt = malloc(per * R * sizeof *cnt), *fil = malloc(per * sizeof *fil), *pst = malloc(per * 4 * sizeof *pst);
+    uint64_t *sum = malloc(per * sizeof *sum), *pvol = malloc(per * sizeof *pvol);
+    if (!cnt || !fil || !sum || !pst || !pvol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", items);
     for (size_t i0 = 0; st == CLVOX_OK && i0 < items; i0 += per) {
         size_t k = items - i0 < per ? items - i0 : per;
         st = cast_batch(s, &m, rays + i0 * R, (cl_uint)(k * R), cols ? cols + i0 : NULL, (cl_uint)k, t, cnt, fil, sum,
-                        pst, ss);
+                        pst, pvol, ss);
         for (size_t i = 0; st == CLVOX_OK && i < k * R; i++)
             if (cnt[i] != expect[i0 * R + i])
                 st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "overflow redo counted %u crossings instead of %u", cnt[i],
@@ -588,7 +622,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
         for (size_t i = 0; st == CLVOX_OK && i < k; i++) {
             ss->filled += fil[i];
             if (s->coverage) ss->coverage_count += sum[i];
-            if (s->palette) tally_palette(ss, pst + 3 * i);
+            if (s->palette) tally_palette(ss, pst + 4 * i, pvol[i]);
         }
         if (st == CLVOX_OK && i0 + k < items && !poll_ok(s, f0 + (f1 - f0) * (double)(i0 + k) / (double)items))
             st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled while redoing rays with many crossings");
@@ -598,6 +632,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     free(fil);
     free(sum);
     free(pst);
+    free(pvol);
     return st;
 }
 
@@ -676,7 +711,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
             }
         }
         st = cast_batch(s, &s->mem, s->rays_host, (cl_uint)(k * R), s->cols_host, (cl_uint)k, &t, s->counts_host,
-                        s->filled_host, s->sums_host, s->pstats_host, ss);
+                        s->filled_host, s->sums_host, s->pstats_host, s->pvolume_host, ss);
         if (st != CLVOX_OK) break;
 
         /* Tally; compact the items that overflowed to the front (in place:
@@ -699,7 +734,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
             if (!overflowed) {
                 ss->filled += s->filled_host[i];
                 if (s->coverage) ss->coverage_count += s->sums_host[i];
-                if (s->palette) tally_palette(ss, s->pstats_host + 3 * i);
+                if (s->palette) tally_palette(ss, s->pstats_host + 4 * i, s->pvolume_host[i]);
                 continue;
             }
             if (over != i) {
@@ -741,9 +776,9 @@ static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
         }
         if (s->palette && (size_t)n < size) {
             static const char *const metric[] = {"nearest", "outer", "inner"};
-            snprintf(buf + n, size - (size_t)n, " palette=%s elements=%u metric=%s early_out=%s shortcut=%u..%u",
+            snprintf(buf + n, size - (size_t)n, " palette=%s elements=%u metric=%s early_out=%s shortcut=%u..%u%s",
                      s->palette_name, s->n_elements, metric[s->metric % 3], s->early_out ? "on" : "off", s->sc_lo,
-                     s->sc_hi);
+                     s->sc_hi, s->stochastic || s->use_masks ? "" : " masks=off");
         }
     }
 }

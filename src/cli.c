@@ -1094,10 +1094,19 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
                grey && (s->channels & CLVOX_CHANNEL_OCCUPANCY) ? "coverage, occupancy" : grey ? "coverage" : "occupancy",
                occ);
     }
-    print_filled_line(s->filled_voxels, s->total_voxels);
+    if (pal) {
+        double pct = s->total_voxels ? 100.0 * (double)s->palette_nonempty_voxels / (double)s->total_voxels : 0.0;
+        printf(LABEL "%llu of %llu voxels (%.2f %%) got an element other than empty\n", "filled",
+               (unsigned long long)s->palette_nonempty_voxels, (unsigned long long)s->total_voxels, pct);
+    } else {
+        print_filled_line(s->filled_voxels, s->total_voxels);
+    }
 
-    double filled_volume = voxels_volume(grey ? s->coverage_sum : (double)s->filled_voxels, grid->voxel_size);
-    const char *what = grey ? "estimated (sum of coverage)" : "filled";
+    double filled_volume = voxels_volume(pal    ? s->palette_volume
+                                         : grey ? s->coverage_sum
+                                                : (double)s->filled_voxels,
+                                         grid->voxel_size);
+    const char *what = pal ? "of the elements" : grey ? "estimated (sum of coverage)" : "filled";
     char fv[48];
     format_volume(filled_volume, 6, fv, sizeof fv);
     if (r->enclosed_volume > 0 && isfinite(filled_volume)) {

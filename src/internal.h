@@ -165,6 +165,8 @@ typedef struct clvox__slab_stats {
     uint64_t filled, rays, odd_parity_rays, overflow_rays;
     uint64_t coverage_count; /* samples inside, summed over the slab's voxels */
     uint64_t palette_early, palette_shortcut, palette_scored; /* voxels decided by each step */
+    uint64_t palette_nonempty; /* voxels whose element is not empty */
+    double palette_volume;     /* sum of the chosen elements' volumes (voxel units) */
     uint32_t max_crossings;
 } clvox__slab_stats;
 
@@ -228,14 +230,17 @@ typedef struct clvox__exr_meta {
  * it), given the name `path` by clvox__exr_finish. Anything at `path` that
  * is not a regular file (directory, symbolic link, device, FIFO, socket) is
  * refused with CLVOX_ERR_IO, here and again just before the rename. `channels` is a
- * CLVOX_CHANNEL_* mask (0 = occupancy): "occupancy" HALF 0.0/1.0 and/or
- * "coverage" HALF. Layout: see README "EXR layout". */
+ * CLVOX_CHANNEL_* mask (0 = occupancy), any combination of "occupancy" HALF
+ * 0.0/1.0, "coverage" HALF, "element" UINT and "score" HALF. meta->palette
+ * adds the palette attributes (a palette whose text does not fit an EXR
+ * string is refused here). Layout: see README "Output format (EXR)". */
 clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
                              const clvox__exr_meta *meta, uint32_t channels, clvox_compression compression,
                              uint32_t threads, clvox__exr_writer **out);
 /* Slices must arrive in increasing z, without gaps. planes holds the
  * channels the writer was opened with: occupancy as Y*nz bit rows (the slab
- * format above; the file gets HALF 0.0 / 1.0), coverage as X*Y*nz HALF bits. */
+ * format above; the file gets HALF 0.0 / 1.0), coverage and score as X*Y*nz
+ * HALF bits, element as X*Y*nz uint16 indices (the file gets UINT). */
 clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz,
                                    const clvox__slab_planes *planes);
 /* Completes the file and renames it into place; *bytes = file size. Frees w. */

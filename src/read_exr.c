@@ -16,7 +16,9 @@
  *    user's function each time a slice is complete (a band may end inside a
  *    slice or span several: rows are placed by their own z and y).
  * A voxel is filled when its "occupancy" sample is > 0.5, or, in a file
- * without occupancy, its "coverage" sample.
+ * without occupancy, its "coverage" sample; in a file with neither (a
+ * palette run's element and score), when its "element" is not 0 (index 0
+ * is the empty element in every palette).
  *
  * Coverage sum. HALF samples are multiples of 2^-24 and finite ones are below
  * 2^16, so each is an integer times 2^-24 with |integer| < 2^40: they are
@@ -61,6 +63,7 @@ typedef struct reader {
     uint32_t pixel_bytes, ch_offset; /* per pixel: all channels, channels before the selected one */
     uint8_t *packed, *tmp, *raw;
     size_t packed_size, tmp_size, raw_size;
+    int has_palette_hash, has_palette_count; /* the header has clvoxPaletteHash, clvoxPaletteCount */
 } reader;
 
 static void reader_error_handler(exr_const_context_t ectx, exr_result_t code, const char *msg)
@@ -145,6 +148,69 @@ static clvox_status get_string(reader *r, const char *name, char *dst, size_t si
     return CLVOX_OK;
 }
 
+/* An optional string attribute: *present = 0 when the header lacks it;
+ * else it must be a string of fewer than `size` bytes without a NUL. */
+static clvox_status optional_string(reader *r, const char *name, char *dst, size_t size, int *present)
+{
+    const exr_attribute_t *a = NULL;
+    *present = 0;
+    dst[0] = '\0';
+    exr_result_t rv = exr_get_attribute_by_name(r->exr, 0, name, &a);
+    if (rv == EXR_ERR_NO_ATTR_BY_NAME) return CLVOX_OK;
+    if (rv != EXR_ERR_SUCCESS || !a) return exr_fail(r, rv, "reading the header of");
+    if (a->type != EXR_ATTR_STRING || !a->string || a->string->length < 0 || !a->string->str)
+        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is corrupt: attribute %s is not a string", r->path, name);
+    size_t n = (size_t)a->string->length;
+    if (n >= size || memchr(a->string->str, '\0', n))
+        return clvox__fail(r->ctx, CLVOX_ERR_EXR,
+                           "'%s' is corrupt: attribute %s is %s (at most %zu bytes, no NUL)", r->path, name,
+                           n >= size ? "too long" : "not text", size - 1);
+    copy_str(dst, size, a->string->str, a->string->length);
+    *present = 1;
+    return CLVOX_OK;
+}
+
+/* The palette attributes of a palette run (write_exr.c), each optional:
+ * clvoxPalette, clvoxPaletteCount (int, 1..65536), clvoxPaletteHash (16
+ * lower-case hex digits), clvoxMetric. Present but malformed: corrupt. */
+static clvox_status read_palette_attrs(reader *r, clvox_volume_info *info)
+{
+    int present = 0;
+    clvox_status st = optional_string(r, "clvoxPalette", info->palette, sizeof info->palette, &present);
+    if (st == CLVOX_OK) st = optional_string(r, "clvoxMetric", info->metric, sizeof info->metric, &present);
+    if (st != CLVOX_OK) return st;
+    char hash[17];
+    st = optional_string(r, "clvoxPaletteHash", hash, sizeof hash, &present);
+    if (st != CLVOX_OK) return st;
+    if (present) {
+        uint64_t h = 0;
+        size_t i = 0;
+        for (; hash[i]; i++) {
+            char c = hash[i];
+            if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) break;
+            h = h << 4 | (uint64_t)(c <= '9' ? c - '0' : c - 'a' + 10);
+        }
+        if (i != 16 || hash[i])
+            return clvox__fail(r->ctx, CLVOX_ERR_EXR,
+                               "'%s' is corrupt: attribute clvoxPaletteHash \"%s\" is not 16 lower-case hex digits",
+                               r->path, hash);
+        info->palette_hash = h;
+        r->has_palette_hash = 1;
+    }
+    const exr_attribute_t *a = NULL;
+    exr_result_t rv = exr_get_attribute_by_name(r->exr, 0, "clvoxPaletteCount", &a);
+    if (rv == EXR_ERR_SUCCESS && a) {
+        if (a->type != EXR_ATTR_INT || a->i < 1 || a->i > 65536)
+            return clvox__fail(r->ctx, CLVOX_ERR_EXR,
+                               "'%s' is corrupt: attribute clvoxPaletteCount is not an int in 1..65536", r->path);
+        info->palette_count = (uint32_t)a->i;
+        r->has_palette_count = 1;
+    } else if (rv != EXR_ERR_NO_ATTR_BY_NAME) {
+        return exr_fail(r, rv, "reading the header of");
+    }
+    return CLVOX_OK;
+}
+
 /* What the file can hold: the samples the header declares (all channels)
  * at most max_expansion times the file size, the chunk offset table (8 bytes
  * per chunk) inside the file; with clvox's own layouts (clvoxLayout and
@@ -218,6 +284,7 @@ static clvox_status read_header(reader *r, clvox_volume_info *info)
     if ((st = get_string(r, "clvoxParameters", info->parameters, sizeof info->parameters)) != CLVOX_OK)
         return st;
     if ((st = get_string(r, "clvoxVersion", info->version, sizeof info->version)) != CLVOX_OK) return st;
+    if ((st = read_palette_attrs(r, info)) != CLVOX_OK) return st;
     for (int i = 0; i < 3; i++) {
         if (dims.arr[i] <= 0)
             return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': clvoxDims %d x %d x %d is not a valid grid", r->path,
@@ -807,14 +874,16 @@ clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volum
 
     reader r;
     clvox_status st = reader_open(&r, ctx, path, info);
-    const exr_attr_chlist_entry_t *occ = NULL, *cov = NULL;
+    const exr_attr_chlist_entry_t *occ = NULL, *cov = NULL, *elem = NULL;
     if (st == CLVOX_OK) {
         occ = find_channel(&r, "occupancy");
         cov = find_channel(&r, "coverage");
-        if (!occ && !cov)
+        elem = find_channel(&r, "element");
+        if (!occ && !cov && !elem)
             st = clvox__fail(ctx, CLVOX_ERR_EXR,
-                             "'%s' is not a clvox volume: no channel \"occupancy\" or \"coverage\" (has: %s)", path,
-                             info->channels);
+                             "'%s' is not a clvox volume: no channel \"occupancy\", \"coverage\" or \"element\" "
+                             "(has: %s)",
+                             path, info->channels);
     }
     if (st == CLVOX_OK && occupancy) {
         uint64_t total = (uint64_t)info->dims[0] * info->dims[1] * info->dims[2];
@@ -826,9 +895,10 @@ clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volum
     coverage_sum sum = { 0, 0, 0.0 };
     count_state cs = { info->dims[0], occupancy, 0, NULL };
     if (st == CLVOX_OK) {
-        /* Filled voxels from occupancy, else from coverage (summed in the same pass). */
-        if (!occ) cs.sum = &sum;
-        st = read_channel(&r, info, occ ? occ : cov, count_band, &cs);
+        /* Filled voxels from occupancy, else from coverage (summed in the
+         * same pass), else from element (UINT > 0: element != 0). */
+        if (!occ && cov) cs.sum = &sum;
+        st = read_channel(&r, info, occ ? occ : cov ? cov : elem, count_band, &cs);
     }
     if (st == CLVOX_OK && occ && cov) {
         /* Both channels: a second pass over the file for the coverage sum. It
@@ -880,4 +950,72 @@ clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, cons
     free(slice);
     reader_close(&r);
     return st;
+}
+
+/* ---- the palette of a palette run ----------------------------------------------- */
+
+clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_palette **out)
+{
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_palette: out is NULL");
+    *out = NULL;
+    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_palette: no path");
+    clvox_volume_info info;
+    reader r;
+    clvox_status st = reader_open(&r, ctx, path, &info);
+    if (st != CLVOX_OK) {
+        reader_close(&r);
+        return st;
+    }
+    if (!info.palette[0] || !r.has_palette_hash) {
+        reader_close(&r);
+        return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' has no palette: attribute %s is missing (not a palette run)",
+                           path, info.palette[0] ? "clvoxPaletteHash" : "clvoxPalette");
+    }
+    const exr_attribute_t *a = NULL;
+    exr_result_t rv = exr_get_attribute_by_name(r.exr, 0, "clvoxPaletteSource", &a);
+    clvox_palette *p = NULL;
+    char why[512];
+    if (rv == EXR_ERR_NO_ATTR_BY_NAME) { /* a built-in palette, by name */
+        st = clvox_palette_builtin(ctx, info.palette, &p);
+        if (st != CLVOX_OK)
+            st = clvox__fail(ctx, CLVOX_ERR_EXR,
+                             "'%s': its palette \"%s\" is not a built-in palette, and the file has no "
+                             "clvoxPaletteSource to rebuild it from",
+                             path, info.palette);
+    } else if (rv != EXR_ERR_SUCCESS || !a) {
+        st = exr_fail(&r, rv, "reading the header of");
+    } else if (a->type != EXR_ATTR_STRING || !a->string || a->string->length < 0 ||
+               (a->string->length > 0 && !a->string->str)) {
+        st = clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' is corrupt: attribute clvoxPaletteSource is not a string", path);
+    } else {
+        /* named so that the rebuilt palette gets the recorded name (the
+         * parser drops the last extension) and messages say where the text is */
+        char source[sizeof info.palette + 32];
+        snprintf(source, sizeof source, "%s.clvoxPaletteSource", info.palette);
+        st = clvox_palette_parse(ctx, source, a->string->str, (size_t)a->string->length, &p);
+        if (st != CLVOX_OK) {
+            snprintf(why, sizeof why, "%s", clvox_context_error(ctx));
+            st = clvox__fail(ctx, CLVOX_ERR_EXR, "'%s': the palette text in its header is not a valid palette: %s",
+                             path, why);
+        }
+    }
+    reader_close(&r);
+    if (st != CLVOX_OK) {
+        clvox_palette_destroy(p);
+        return st;
+    }
+    const uint64_t h = clvox_palette_hash(p);
+    const size_t count = clvox_palette_count(p);
+    if (h != info.palette_hash || (r.has_palette_count && count != info.palette_count)) {
+        st = clvox__fail(ctx, CLVOX_ERR_EXR,
+                         "'%s': palette \"%s\" rebuilt from its header (%zu elements, hash %016llx) is not the one the "
+                         "file was written with (%u elements, hash %016llx)",
+                         path, info.palette, count, (unsigned long long)h, info.palette_count,
+                         (unsigned long long)info.palette_hash);
+        clvox_palette_destroy(p);
+        return st;
+    }
+    *out = p;
+    return CLVOX_OK;
 }

@@ -280,6 +280,8 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         stats.palette_early_voxels += ss.palette_early;
         stats.palette_shortcut_voxels += ss.palette_shortcut;
         stats.palette_scored_voxels += ss.palette_scored;
+        stats.palette_nonempty_voxels += ss.palette_nonempty;
+        stats.palette_volume += ss.palette_volume;
         if (ss.max_crossings > stats.max_crossings) stats.max_crossings = ss.max_crossings;
 
         void *host[4] = {NULL, NULL, NULL, NULL};

@@ -27,13 +27,19 @@
  *    encoder slots (threads + 2), whatever Z is.
  *  - Channels: those the writer was opened with (CLVOX_CHANNEL_* mask, any
  *    non-empty subset), in one part, in name order as EXR requires:
- *    "coverage" HALF (the caller's HALF bits, stored as given), "occupancy"
- *    HALF 0.0 (outside) or 1.0 (inside) (the caller gives bits). The channel
- *    table below is where further channels (element UINT, score HALF/FLOAT)
- *    will go; everything else walks the writer's list of channels.
+ *    "coverage" HALF (the caller's HALF bits, stored as given), "element"
+ *    UINT (the caller's uint16 palette indices, widened to 32 bits),
+ *    "occupancy" HALF 0.0 (outside) or 1.0 (inside) (the caller gives bits),
+ *    "score" HALF (the caller's HALF bits). The channel table below lists
+ *    them; everything else walks the writer's list of channels.
  *  - Attributes: clvoxDims (v3i X,Y,Z), clvoxOrigin (v3d, corner of voxel
  *    (0,0,0)), clvoxVoxelSize (v3d), clvoxMethod, clvoxParameters,
- *    clvoxVersion, clvoxLayout (strings).
+ *    clvoxVersion, clvoxLayout (strings); palette runs (meta->palette) add
+ *    clvoxPalette (its name), clvoxPaletteCount (int), clvoxPaletteHash (16
+ *    lower-case hex digits of clvox_palette_hash), clvoxPaletteSource (the
+ *    palette file's text; user palettes only, built-ins are rebuilt by name)
+ *    and clvoxMetric (strings). A string attribute holds up to INT32_MAX - 1
+ *    bytes (OpenEXRCore; checked at open, before any file is made).
  *  - Limits: Y*Z <= 2^31-1 (EXR coordinates are int32), else CLVOX_ERR_GRID.
  *
  * Writing
@@ -59,15 +65,20 @@
  * one of threads+2 ring slots; the calling thread writes the finished chunks
  * strictly in order with exr_write_tile_chunk (packed data), then returns when
  * the whole slab is in the file. The input is occupancy bits (the slab format
- * of internal.h) and coverage HALF bits (X*Y per slice). A chunk is "packed"
- * as the file stores it uncompressed: per image row, each channel's X samples
- * in file order (bits expanded to HALF); coverage alone needs no copy.
+ * of internal.h), coverage and score HALF bits and uint16 element indices
+ * (X*Y per slice). A chunk is "packed" as the file stores it uncompressed:
+ * per image row, each channel's X samples in file order (bits expanded to
+ * HALF, indices widened to UINT); coverage or score alone needs no copy.
  * Per compression:
  *  - RLE (the default): clvox's own encoders, same format as OpenEXR's.
  *    Occupancy alone: straight from the bits (rle_encode_bits: the tokens
  *    follow from where a bit changes; no HALF sample is ever made). Any
  *    other channel set: from the packed chunk (rle_encode_packed, which
- *    skips runs of equal bytes 32 input bytes at a time).
+ *    skips runs of equal bytes 32 input bytes at a time). EXR's RLE splits
+ *    the chunk's bytes into even and odd ones whatever the sample size, so
+ *    a UINT element e in 1..255 alternates e, 0 in the even half: a run of
+ *    a non-zero element is about 2 bytes per voxel there (zeros, element 0,
+ *    compress like any run; ZIP compresses both).
  *  - NONE: the packed chunk.
  *  - ZIP, ZIPS, PIZ: the chunk packed in host order, each channel of
  *    OpenEXRCore's encode pipeline pointed at its part of the packed rows,
@@ -129,20 +140,26 @@ typedef struct exr_channel_def {
     uint32_t mask;  /* CLVOX_CHANNEL_* */
     exr_pixel_type_t type;
     uint32_t bytes; /* per sample in the file */
+    uint32_t src_bytes; /* per sample as the caller gives it (bytes < src_bytes never; bytes > src_bytes:
+                           widened, a uint16 index stored as UINT) */
     int bits;       /* the caller gives bit rows (clvox__row_words words per row, bit 1 = 1.0), not samples */
     const void *(*plane)(const clvox__slab_planes *p); /* the caller's data for one slab */
 } exr_channel_def;
 
 static const void *plane_occupancy(const clvox__slab_planes *p) { return p->occupancy_bits; }
 static const void *plane_coverage(const clvox__slab_planes *p) { return p->coverage_half; }
+static const void *plane_element(const clvox__slab_planes *p) { return p->element; }
+static const void *plane_score(const clvox__slab_planes *p) { return p->score_half; }
 
 /* Every channel clvox can write; a writer keeps those it was opened with, in
  * file order (sorted by name, as EXR requires). Add entries here (and a
- * plane in clvox__slab_planes) to store more per-voxel values: element UINT,
- * score HALF/FLOAT. Everything else walks the writer's list. */
+ * plane in clvox__slab_planes) to store more per-voxel values. Everything
+ * else walks the writer's list. */
 static const exr_channel_def channel_table[] = {
-    { "coverage", CLVOX_CHANNEL_COVERAGE, EXR_PIXEL_HALF, 2, 0, plane_coverage },
-    { "occupancy", CLVOX_CHANNEL_OCCUPANCY, EXR_PIXEL_HALF, 2, 1, plane_occupancy },
+    { "coverage", CLVOX_CHANNEL_COVERAGE, EXR_PIXEL_HALF, 2, 2, 0, plane_coverage },
+    { "element", CLVOX_CHANNEL_ELEMENT, EXR_PIXEL_UINT, 4, 2, 0, plane_element },
+    { "occupancy", CLVOX_CHANNEL_OCCUPANCY, EXR_PIXEL_HALF, 2, 0, 1, plane_occupancy },
+    { "score", CLVOX_CHANNEL_SCORE, EXR_PIXEL_HALF, 2, 2, 0, plane_score },
 };
 #define CHANNEL_TABLE_SIZE (sizeof channel_table / sizeof channel_table[0])
 _Static_assert(CHANNEL_TABLE_SIZE <= CLVOX__EXR_MAX_CHANNELS, "too many EXR channels");
@@ -294,7 +311,7 @@ static int grow(uint8_t **buf, size_t *size, size_t need)
 static size_t source_row_bytes(const clvox__exr_writer *w, size_t t)
 {
     if (w->ch[t]->bits) return (size_t)clvox__row_words(w->dims[0]) * 4;
-    return (size_t)w->dims[0] * w->ch[t]->bytes;
+    return (size_t)w->dims[0] * w->ch[t]->src_bytes;
 }
 
 /* Channel t's data for image row `row` of the current slab (or of the
@@ -328,15 +345,37 @@ static void expand_bits_row(uint16_t *dst, const uint32_t *bits, size_t X)
     for (; x < X; x++) dst[x] = (bits[x / 32] >> (x % 32)) & 1u ? 0x3C00 : 0x0000;
 }
 
-/* A chunk of a single sample channel in that byte order is the caller's
- * data itself (see packed_chunk). */
+/* Element indices (uint16 from the caller) as the file's UINT samples: in
+ * host order (native), else little-endian. dst need not be 4-byte aligned
+ * (a HALF channel before it in an odd-width row). */
+static void widen_row(uint8_t *dst, const uint8_t *src, size_t X, int native, int little_endian)
+{
+    const uint16_t *in = (const uint16_t *)(const void *)src;
+    if (native || little_endian) {
+        for (size_t x = 0; x < X; x++) {
+            uint32_t v = in[x];
+            memcpy(dst + 4 * x, &v, 4);
+        }
+    } else {
+        for (size_t x = 0; x < X; x++) {
+            dst[4 * x] = (uint8_t)(in[x] & 0xFFu);
+            dst[4 * x + 1] = (uint8_t)(in[x] >> 8);
+            dst[4 * x + 2] = dst[4 * x + 3] = 0;
+        }
+    }
+}
+
+/* A chunk of a single sample channel, stored as given, in that byte order
+ * is the caller's data itself (see packed_chunk). */
 static int chunk_is_source(const clvox__exr_writer *w, int native)
 {
-    return w->nch == 1 && !w->ch[0]->bits && (w->ch[0]->bytes == 1 || native || w->little_endian);
+    return w->nch == 1 && !w->ch[0]->bits && w->ch[0]->bytes == w->ch[0]->src_bytes &&
+           (w->ch[0]->bytes == 1 || native || w->little_endian);
 }
 
 /* The uncompressed chunk: per image row, each channel in file (name-sorted)
- * order, as samples (bit channels expanded); little-endian as the file
+ * order, as samples (bit channels expanded, uint16 indices widened to
+ * UINT); little-endian as the file
  * stores it, or in host order with `native` (what OpenEXRCore's encoder
  * reads). A single sample channel already in that order is the caller's
  * data itself: no copy. Either way image row y of the chunk starts at
@@ -364,6 +403,8 @@ static exr_result_t packed_chunk(clvox__exr_writer *w, exr_slot *s, uint64_t row
                         dst[i] = dst[i + 1];
                         dst[i + 1] = tmp;
                     }
+            } else if (w->ch[t]->bytes != w->ch[t]->src_bytes) { /* uint16 -> UINT */
+                widen_row(dst, src, X, native, w->little_endian);
             } else if (native || w->little_endian) {
                 memcpy(dst, src, n);
             } else {
@@ -992,6 +1033,36 @@ static clvox_status check_disk_space(clvox__exr_writer *w)
                        w->path, need_s, avail_s);
 }
 
+/* Largest clvoxPaletteSource: an EXR attribute's size is an int32, and
+ * OpenEXRCore refuses strings from INT32_MAX bytes on (a user palette file is
+ * at most 4 MiB, docs/design.md "Palette files": far below). */
+#define CLVOX__EXR_MAX_STRING ((size_t)INT32_MAX - 1)
+
+/* The header the writer would record for meta, checked before any file is
+ * made: refused here rather than written broken. */
+static clvox_status check_meta(clvox_context *ctx, const char *path, const clvox__exr_meta *meta)
+{
+    if (!meta || !meta->palette) return CLVOX_OK;
+    const clvox_palette *p = meta->palette;
+    size_t count = clvox_palette_count(p);
+    if (count == 0 || count > 65536u)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                           "cannot write '%s': palette \"%s\" has %zu elements (the element channel holds indices "
+                           "0..65535)",
+                           path, clvox_palette_name(p), count);
+    const char *src = clvox_palette_source(p);
+    size_t len = src ? strlen(src) : 0;
+    if (len > CLVOX__EXR_MAX_STRING)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                           "cannot write '%s': the text of palette \"%s\" is %zu bytes, more than an EXR string "
+                           "attribute (clvoxPaletteSource) can hold (%zu)",
+                           path, clvox_palette_name(p), len, CLVOX__EXR_MAX_STRING);
+    if (meta->metric && strlen(meta->metric) >= sizeof ((clvox_volume_info *)0)->metric)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "cannot write '%s': metric name '%.40s' is too long",
+                           path, meta->metric);
+    return CLVOX_OK;
+}
+
 static clvox_status define_header(clvox__exr_writer *w, const clvox_grid *grid, const clvox__exr_meta *meta,
                                   clvox_compression compression)
 {
@@ -1031,6 +1102,20 @@ static clvox_status define_header(clvox__exr_writer *w, const clvox_grid *grid, 
             "setting clvoxParameters in");
     EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxVersion", CLVOX_VERSION_STRING), "setting clvoxVersion in");
     EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxLayout", layout), "setting clvoxLayout in");
+    if (meta && meta->palette) { /* sizes checked by check_meta */
+        const clvox_palette *p = meta->palette;
+        char hash[24];
+        snprintf(hash, sizeof hash, "%016llx", (unsigned long long)clvox_palette_hash(p));
+        EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxPalette", clvox_palette_name(p)), "setting clvoxPalette in");
+        EXR_TRY(exr_attr_set_int(w->exr, part, "clvoxPaletteCount", (int32_t)clvox_palette_count(p)),
+                "setting clvoxPaletteCount in");
+        EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxPaletteHash", hash), "setting clvoxPaletteHash in");
+        if (clvox_palette_source(p))
+            EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxPaletteSource", clvox_palette_source(p)),
+                    "setting clvoxPaletteSource in");
+        EXR_TRY(exr_attr_set_string(w->exr, part, "clvoxMetric", meta->metric ? meta->metric : ""),
+                "setting clvoxMetric in");
+    }
     EXR_TRY(exr_write_header(w->exr), "writing the header of");
 #undef EXR_TRY
     return CLVOX_OK;
@@ -1055,8 +1140,12 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
     for (size_t t = 0; t < CHANNEL_TABLE_SIZE; t++) known |= channel_table[t].mask;
     if (channels & ~known)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
-                           "clvox__exr_open: channels 0x%x: the EXR writer knows occupancy (0x%x) and coverage (0x%x)",
-                           channels, CLVOX_CHANNEL_OCCUPANCY, CLVOX_CHANNEL_COVERAGE);
+                           "clvox__exr_open: channels 0x%x: the EXR writer knows occupancy (0x%x), coverage (0x%x), "
+                           "element (0x%x) and score (0x%x)",
+                           channels, CLVOX_CHANNEL_OCCUPANCY, CLVOX_CHANNEL_COVERAGE, CLVOX_CHANNEL_ELEMENT,
+                           CLVOX_CHANNEL_SCORE);
+    clvox_status st = check_meta(ctx, path, meta);
+    if (st != CLVOX_OK) return st;
     if ((unsigned)compression >= CLVOX_COMPRESSION_COUNT)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown compression %d", (int)compression);
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
@@ -1066,7 +1155,7 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
         return clvox__fail(ctx, CLVOX_ERR_GRID,
                            "grid %ux%ux%u does not fit in an EXR image: Y*Z = %llu rows (at most 2^31-1)", X, Y, Z,
                            (unsigned long long)Y * Z);
-    clvox_status st = check_target(ctx, path);
+    st = check_target(ctx, path);
     if (st != CLVOX_OK) return st;
 
     clvox__exr_writer *w = calloc(1, sizeof *w);

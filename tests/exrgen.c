@@ -35,7 +35,9 @@ exrgen_attrs exrgen_default_attrs(uint32_t X, uint32_t Y, uint32_t Z)
     exrgen_attrs a = { { (int32_t)X, (int32_t)Y, (int32_t)Z },
                        { EXRGEN_ORIGIN_X, EXRGEN_ORIGIN_Y, EXRGEN_ORIGIN_Z },
                        { EXRGEN_H_X, EXRGEN_H_Y, EXRGEN_H_Z },
-                       NULL };
+                       NULL,
+                       NULL,
+                       0 };
     return a;
 }
 
@@ -53,6 +55,11 @@ static exr_result_t set_attrs(exr_context_t e, int part, const exrgen_attrs *a)
         return rv;
     if ((rv = exr_attr_set_string(e, part, "clvoxVersion", EXRGEN_VERSION)) != EXR_ERR_SUCCESS) return rv;
     if (a->layout && (rv = exr_attr_set_string(e, part, "clvoxLayout", a->layout)) != EXR_ERR_SUCCESS) return rv;
+    for (int i = 0; i < a->extra_count; i++) {
+        const exrgen_extra *x = &a->extra[i];
+        rv = x->string ? exr_attr_set_string(e, part, x->name, x->string) : exr_attr_set_int(e, part, x->name, x->value);
+        if (rv != EXR_ERR_SUCCESS) return rv;
+    }
     return EXR_ERR_SUCCESS;
 }
 

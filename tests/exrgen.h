@@ -30,14 +30,23 @@ typedef struct exrgen_channel {
 int exrgen_write(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const exrgen_channel *channels,
                  int channel_count, int tile_w, int tile_h, exr_compression_t comp, int attributes);
 
+/* One more header attribute: a string when `string` is set, else an int. */
+typedef struct exrgen_extra {
+    const char *name;
+    const char *string;
+    int32_t value;
+} exrgen_extra;
+
 /* The clvox attributes, to write them wrong on purpose. layout: clvoxLayout
- * (NULL: not written). */
+ * (NULL: not written); extra: extra_count more attributes (e.g. clvoxPalette*). */
 typedef struct exrgen_attrs {
     int32_t dims[3];
     double origin[3], voxel_size[3];
     const char *layout;
+    const exrgen_extra *extra;
+    int extra_count;
 } exrgen_attrs;
-/* dims X, Y, Z, origin EXRGEN_ORIGIN_*, voxel size EXRGEN_H_*, no layout. */
+/* dims X, Y, Z, origin EXRGEN_ORIGIN_*, voxel size EXRGEN_H_*, no layout, no extras. */
 exrgen_attrs exrgen_default_attrs(uint32_t X, uint32_t Y, uint32_t Z);
 /* exrgen_write with these attributes (NULL: none). */
 int exrgen_write_ex(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const exrgen_channel *channels,

@@ -5,6 +5,7 @@
  * grid shapes and slab splits, header attributes, exrheader, failure paths
  * (no file and no temporary file left), and bounded memory. No OpenCL. */
 #include "test.h"
+#include "exrgen.h"
 #include "internal.h"
 
 #include <OpenEXR/openexr.h>
@@ -98,7 +99,8 @@ static clvox_grid make_grid(uint32_t X, uint32_t Y, uint32_t Z)
     return g;
 }
 
-static const clvox__exr_meta test_meta = { "ray", "axis=x depth=9 leaf=8 \"quoted\" utf8: \xc3\xa9" };
+static const clvox__exr_meta test_meta = { .method = "ray",
+                                            .parameters = "axis=x depth=9 leaf=8 \"quoted\" utf8: \xc3\xa9" };
 
 /* Packs rows of X bytes 0/1 into the slab format's bit rows. */
 static void pack_bits(uint32_t *dst, const uint8_t *vol, uint32_t X, size_t rows)
@@ -110,15 +112,23 @@ static void pack_bits(uint32_t *dst, const uint8_t *vol, uint32_t X, size_t rows
             if (vol[r * X + x]) dst[r * W + x / 32] |= 1u << (x % 32);
 }
 
-/* Writes the planes given, vol (X*Y*Z bytes 0/1) as occupancy and cov
- * (X*Y*Z HALF bits) as coverage, in slabs of the given depths (cycled);
- * channels: the mask to open the writer with. */
-static clvox_status write_planes(const char *path, const clvox_grid *g, uint32_t channels, clvox_compression comp,
-                                 uint32_t threads, const uint8_t *vol, const uint16_t *cov, const uint32_t *depths,
-                                 size_t ndepths, uint64_t *bytes)
+/* The per-voxel data of a test volume, X*Y*Z values each, x fastest; NULL:
+ * that plane is not given. */
+typedef struct test_planes {
+    const uint8_t *occ;    /* 0/1 bytes (given to the writer as bit rows) */
+    const uint16_t *cov;   /* HALF bits */
+    const uint16_t *elem;  /* element indices */
+    const uint16_t *score; /* HALF bits */
+} test_planes;
+
+/* Writes the planes of tp in slabs of the given depths (cycled); channels:
+ * the mask to open the writer with, meta: its header. */
+static clvox_status write_all(const char *path, const clvox_grid *g, const clvox__exr_meta *meta, uint32_t channels,
+                              clvox_compression comp, uint32_t threads, const test_planes *tp, const uint32_t *depths,
+                              size_t ndepths, uint64_t *bytes)
 {
     clvox__exr_writer *w = NULL;
-    clvox_status st = clvox__exr_open(ctx, path, g, &test_meta, channels, comp, threads, &w);
+    clvox_status st = clvox__exr_open(ctx, path, g, meta, channels, comp, threads, &w);
     if (st != CLVOX_OK) return st;
     const size_t XY = (size_t)g->dims[0] * g->dims[1], WY = (size_t)clvox__row_words(g->dims[0]) * g->dims[1];
     uint32_t *bits = NULL;
@@ -136,9 +146,13 @@ static clvox_status write_planes(const char *path, const clvox_grid *g, uint32_t
                 return CLVOX_ERR_OUT_OF_MEMORY;
             }
         }
-        if (vol) pack_bits(bits, vol + (size_t)z0 * XY, g->dims[0], (size_t)g->dims[1] * nz);
-        st = clvox__exr_write_slab(w, z0, nz,
-                                   &(clvox__slab_planes){vol ? bits : NULL, cov ? cov + (size_t)z0 * XY : NULL});
+        const size_t at = (size_t)z0 * XY;
+        if (tp->occ) pack_bits(bits, tp->occ + at, g->dims[0], (size_t)g->dims[1] * nz);
+        clvox__slab_planes planes = { .occupancy_bits = tp->occ ? bits : NULL,
+                                      .coverage_half = tp->cov ? tp->cov + at : NULL,
+                                      .element = tp->elem ? tp->elem + at : NULL,
+                                      .score_half = tp->score ? tp->score + at : NULL };
+        st = clvox__exr_write_slab(w, z0, nz, &planes);
         if (st != CLVOX_OK) {
             free(bits);
             clvox__exr_abort(w);
@@ -148,6 +162,16 @@ static clvox_status write_planes(const char *path, const clvox_grid *g, uint32_t
     }
     free(bits);
     return clvox__exr_finish(w, bytes);
+}
+
+/* Writes vol (X*Y*Z bytes 0/1) as occupancy and cov (X*Y*Z HALF bits) as
+ * coverage, those given (write_all with test_meta). */
+static clvox_status write_planes(const char *path, const clvox_grid *g, uint32_t channels, clvox_compression comp,
+                                 uint32_t threads, const uint8_t *vol, const uint16_t *cov, const uint32_t *depths,
+                                 size_t ndepths, uint64_t *bytes)
+{
+    const test_planes tp = { .occ = vol, .cov = cov };
+    return write_all(path, g, &test_meta, channels, comp, threads, &tp, depths, ndepths, bytes);
 }
 
 /* Writes vol (X*Y*Z bytes 0/1) as an occupancy-only file. */
@@ -401,6 +425,287 @@ done:
     free(vol);
 }
 
+/* ---- element (UINT) and score (HALF): decoded by OpenEXRCore and by clvox ---- */
+
+/* Element test data (uint16 indices). pattern 0: runs of random length (1
+ * to 3000) of 0, 1, palette-sized indices, indices with a high byte, and
+ * ramps; pattern 1: a sphere: 0 outside, 1 inside, a shell of indices 2..45
+ * by position. */
+static void fill_elements(uint16_t *elem, uint32_t X, uint32_t Y, uint32_t Z, int pattern)
+{
+    static const uint16_t special[] = { 0x0100, 0x00FF, 0xFFFF, 0x8000, 0x0101, 0xFF00 };
+    const size_t n = (size_t)X * Y * Z;
+    if (pattern == 1) {
+        double c[3] = { X / 2.0, Y / 2.0, Z / 2.0 };
+        double r = (X < Y ? (X < Z ? X : Z) : (Y < Z ? Y : Z)) / 2.5 + 0.5;
+        for (uint32_t z = 0; z < Z; z++)
+            for (uint32_t y = 0; y < Y; y++)
+                for (uint32_t x = 0; x < X; x++) {
+                    double dx = x + 0.5 - c[0], dy = y + 0.5 - c[1], dz = z + 0.5 - c[2];
+                    double d = sqrt(dx * dx + dy * dy + dz * dz);
+                    elem[((size_t)z * Y + y) * X + x] =
+                        d < r - 0.5 ? 1 : d < r + 0.5 ? (uint16_t)(2 + (x + 3 * y + 7 * z) % 44) : 0;
+                }
+        return;
+    }
+    for (size_t i = 0; i < n;) {
+        uint32_t r = rnd() % 8, k = rnd() % 16;
+        size_t len = r < 3 ? 1 + rnd() % 3 : r < 6 ? 1 + rnd() % 40 : 100 + rnd() % 2900;
+        uint16_t v = k < 5 ? 0 : k < 9 ? 1 : k < 12 ? (uint16_t)(2 + rnd() % 76) : k < 14 ? special[rnd() % 6]
+                                                                                     : (uint16_t)rnd();
+        for (size_t j = 0; j < len && i < n; j++, i++) elem[i] = k == 15 ? (uint16_t)(v + j) : v;
+    }
+}
+
+/* One channel to decode: n samples of `type` (HALF as uint16 bits, UINT as
+ * uint32) into dst (NULL: skipped). */
+typedef struct decoded {
+    const char *name;
+    exr_pixel_type_t type;
+    void *dst;
+} decoded;
+
+/* Decodes a clvox file with OpenEXRCore's generic decoding pipeline (not
+ * clvox's reader) into the channels of d: every channel of the file must be
+ * one of them, of that type. names: the file's channels, comma-separated;
+ * *tile_h: the tile height. Returns 1 when the file is one tiled part of n
+ * pixels and everything decoded. */
+static int decode_channels(const char *path, size_t n, const decoded *d, size_t nd, char *names, size_t names_size,
+                           uint32_t *tile_h)
+{
+    exr_context_t e = NULL;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    if (exr_start_read(&e, path, &init) != EXR_ERR_SUCCESS) return 0;
+    int count = 0;
+    const exr_attr_chlist_t *chl = NULL;
+    exr_attr_box2i_t dw;
+    uint32_t tw = 0, th = 0;
+    exr_tile_level_mode_t lm;
+    exr_tile_round_mode_t rm;
+    int ok = exr_get_count(e, &count) == EXR_ERR_SUCCESS && count == 1 &&
+             exr_get_channels(e, 0, &chl) == EXR_ERR_SUCCESS && exr_get_data_window(e, 0, &dw) == EXR_ERR_SUCCESS &&
+             exr_get_tile_descriptor(e, 0, &tw, &th, &lm, &rm) == EXR_ERR_SUCCESS && tw > 0 && th > 0 &&
+             lm == EXR_TILE_ONE_LEVEL;
+    const int64_t W = ok ? (int64_t)dw.max.x - dw.min.x + 1 : 0, H = ok ? (int64_t)dw.max.y - dw.min.y + 1 : 0;
+    ok = ok && dw.min.x == 0 && dw.min.y == 0 && (uint64_t)W * (uint64_t)H == n;
+    names[0] = '\0';
+    for (int i = 0; ok && i < chl->num_channels; i++) {
+        size_t len = strlen(names);
+        snprintf(names + len, names_size - len, "%s%s", i ? "," : "", chl->entries[i].name.str);
+        int known = 0;
+        for (size_t k = 0; k < nd; k++)
+            known |= strcmp(chl->entries[i].name.str, d[k].name) == 0 && chl->entries[i].pixel_type == d[k].type;
+        ok = known;
+    }
+    if (tile_h) *tile_h = th;
+    const int32_t ntx = ok ? (int32_t)((W + tw - 1) / tw) : 0, nty = ok ? (int32_t)((H + th - 1) / th) : 0;
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    int initialized = 0;
+    for (int32_t ty = 0; ok && ty < nty; ty++)
+        for (int32_t tx = 0; ok && tx < ntx; tx++) {
+            exr_chunk_info_t ci;
+            ok = exr_read_tile_chunk_info(e, 0, tx, ty, 0, 0, &ci) == EXR_ERR_SUCCESS;
+            if (ok) ok = (initialized ? exr_decoding_update(e, 0, &ci, &dec)
+                                      : exr_decoding_initialize(e, 0, &ci, &dec)) == EXR_ERR_SUCCESS;
+            if (!ok) break;
+            initialized = 1;
+            for (int16_t c = 0; c < dec.channel_count; c++) {
+                exr_coding_channel_info_t *ch = &dec.channels[c];
+                const decoded *want = NULL;
+                for (size_t k = 0; k < nd; k++)
+                    if (strcmp(ch->channel_name, d[k].name) == 0) want = &d[k];
+                const size_t b = want && want->type == EXR_PIXEL_HALF ? 2 : 4;
+                /* (ci.start_x/y of a tile are tile indices in OpenEXRCore 3.1.5, not pixels) */
+                size_t at = (size_t)ty * th * (size_t)W + (size_t)tx * tw;
+                ch->decode_to_ptr = want && want->dst ? (uint8_t *)want->dst + at * b : NULL;
+                ch->user_pixel_stride = (int32_t)b;
+                ch->user_line_stride = (int32_t)(b * (size_t)W);
+                ch->user_bytes_per_element = (int16_t)b;
+                ch->user_data_type = (uint16_t)(want ? want->type : EXR_PIXEL_UINT);
+            }
+            ok = exr_decoding_choose_default_routines(e, 0, &dec) == EXR_ERR_SUCCESS &&
+                 exr_decoding_run(e, 0, &dec) == EXR_ERR_SUCCESS;
+        }
+    if (initialized) exr_decoding_destroy(e, &dec);
+    exr_finish(&e);
+    return ok;
+}
+
+/* A channel as clvox_volume_read_slices hands it out, into a dense volume. */
+typedef struct slices {
+    size_t XY;
+    uint32_t Z, calls;
+    float *vol;
+} slices;
+
+static int on_slice(void *user, uint32_t z, const float *values)
+{
+    slices *s = user;
+    if (z >= s->Z || z != s->calls) return 1;
+    memcpy(s->vol + (size_t)z * s->XY, values, s->XY * sizeof *values);
+    s->calls++;
+    return 0;
+}
+
+static int same_value(float got, double want)
+{
+    return isnan(want) ? isnan(got) : (double)got == want;
+}
+
+/* Reads `channel` with clvox's reader and compares every value with want
+ * (n doubles); 1 when all agree. */
+static int clvox_reads(const char *path, const char *channel, const clvox_grid *g, const double *want)
+{
+    const size_t XY = (size_t)g->dims[0] * g->dims[1], n = XY * g->dims[2];
+    slices s = { XY, g->dims[2], 0, malloc(n * sizeof(float)) };
+    if (!s.vol) return 0;
+    clvox_status st = clvox_volume_read_slices(ctx, path, channel, NULL, on_slice, &s);
+    CHECK_MSG(st == CLVOX_OK && s.calls == g->dims[2], "%s: reading %s: %s: %s", path, channel,
+              clvox_status_string(st), clvox_context_error(ctx));
+    size_t bad = 0, first = 0;
+    for (size_t i = 0; st == CLVOX_OK && i < n; i++)
+        if (!same_value(s.vol[i], want[i]) && bad++ == 0) first = i;
+    CHECK_MSG(bad == 0, "%s: %s: %zu values differ, first at %zu: %.9g instead of %.9g", path, channel, bad, first,
+              bad ? (double)s.vol[first] : 0.0, bad ? want[first] : 0.0);
+    free(s.vol);
+    return st == CLVOX_OK && bad == 0;
+}
+
+/* Writes the channel set `channels` (element and/or score with any of
+ * occupancy and coverage) and compares every sample: bit for bit as
+ * OpenEXRCore decodes it, value for value as clvox's reader returns it;
+ * the filled count and the header (meta's palette). row_chunks: the layout
+ * expected. */
+static void palette_round_trip(uint32_t X, uint32_t Y, uint32_t Z, uint32_t channels, int pattern,
+                               clvox_compression comp, uint32_t threads, const uint32_t *depths, size_t ndepths,
+                               const clvox__exr_meta *meta, int row_chunks)
+{
+    char path[2048], names[256], want_names[256] = "";
+    snprintf(path, sizeof path, "%s/pal_%ux%ux%u_%u_%d_%d_%u.exr", dir, X, Y, Z, channels, pattern, (int)comp,
+             threads);
+    const size_t n = (size_t)X * Y * Z;
+    const int with_occ = (channels & CLVOX_CHANNEL_OCCUPANCY) != 0, with_cov = (channels & CLVOX_CHANNEL_COVERAGE) != 0;
+    const int with_elem = (channels & CLVOX_CHANNEL_ELEMENT) != 0, with_score = (channels & CLVOX_CHANNEL_SCORE) != 0;
+    uint16_t *cov = malloc(n * 2), *elem = malloc(n * 2), *score = malloc(n * 2);
+    uint16_t *cov_back = malloc(n * 2), *occ_back = malloc(n * 2), *score_back = malloc(n * 2);
+    uint32_t *elem_back = malloc(n * 4);
+    uint8_t *vol = malloc(n), *filled = malloc(n + 1), *filled_back = malloc(n + 1);
+    double *want = malloc(n * sizeof(double));
+    if (!cov || !elem || !score || !cov_back || !occ_back || !score_back || !elem_back || !vol || !filled ||
+        !filled_back || !want) {
+        CHECK(!"out of memory");
+        goto done;
+    }
+    fill_coverage(cov, X, Y, Z, pattern);
+    fill_elements(elem, X, Y, Z, pattern);
+    fill_coverage(score, X, Y, Z, 0); /* any HALF bits, NaN and infinities included */
+    if (pattern == 1)
+        for (size_t i = 0; i < n; i++) vol[i] = elem[i] != 0;
+    else
+        fill_random(vol, n);
+    clvox_grid g = make_grid(X, Y, Z);
+    const test_planes tp = { .occ = with_occ ? vol : NULL, .cov = with_cov ? cov : NULL,
+                             .elem = with_elem ? elem : NULL, .score = with_score ? score : NULL };
+    uint64_t bytes = 0;
+    clvox_status st = write_all(path, &g, meta, channels, comp, threads, &tp, depths, ndepths, &bytes);
+    CHECK_MSG(st == CLVOX_OK, "%s: %s: %s", path, clvox_status_string(st), clvox_context_error(ctx));
+    if (st != CLVOX_OK) goto done;
+    CHECK(bytes > 0 && (long long)bytes == file_size(path) && temp_files(path) == 0);
+
+    /* OpenEXRCore: the raw samples */
+    memset(cov_back, 0xEE, n * 2);
+    memset(occ_back, 0xEE, n * 2);
+    memset(score_back, 0xEE, n * 2);
+    memset(elem_back, 0xEE, n * 4);
+    const decoded d[] = { { "coverage", EXR_PIXEL_HALF, cov_back },
+                          { "element", EXR_PIXEL_UINT, elem_back },
+                          { "occupancy", EXR_PIXEL_HALF, occ_back },
+                          { "score", EXR_PIXEL_HALF, score_back } };
+    uint32_t th = 0;
+    CHECK_MSG(decode_channels(path, n, d, 4, names, sizeof names, &th), "%s: OpenEXRCore cannot decode it", path);
+    static const char *const order[4] = { "coverage", "element", "occupancy", "score" };
+    const int has[4] = { with_cov, with_elem, with_occ, with_score };
+    for (int k = 0; k < 4; k++)
+        if (has[k]) snprintf(want_names + strlen(want_names), sizeof want_names - strlen(want_names), "%s%s",
+                             want_names[0] ? "," : "", order[k]);
+    CHECK_MSG(strcmp(names, want_names) == 0, "%s: channels '%s', expected '%s'", path, names, want_names);
+    CHECK_MSG((th < Y) == (row_chunks != 0), "%s: tile height %u for Y = %u", path, th, Y);
+    size_t bad = 0, first = 0;
+    if (with_cov) CHECK_MSG((first = first_diff(cov, cov_back, n)) == n, "%s: coverage differs at %zu", path, first);
+    if (with_score)
+        CHECK_MSG((first = first_diff(score, score_back, n)) == n, "%s: score differs at %zu: %#x, read %#x", path,
+                  first, first < n ? score[first] : 0, first < n ? score_back[first] : 0);
+    if (with_elem) {
+        for (size_t i = 0; i < n; i++)
+            if (elem_back[i] != elem[i] && bad++ == 0) first = i;
+        CHECK_MSG(bad == 0, "%s: %zu elements differ, first at %zu: %u, read %u", path, bad, first,
+                  bad ? elem[first] : 0, bad ? elem_back[first] : 0);
+    }
+    if (with_occ) {
+        bad = 0;
+        for (size_t i = 0; i < n; i++) bad += occ_back[i] != (vol[i] ? 0x3C00 : 0x0000);
+        CHECK_MSG(bad == 0, "%s: %zu occupancy samples differ", path, bad);
+    }
+
+    /* clvox's reader: every channel as floats (element indices exactly) */
+    if (with_cov) {
+        for (size_t i = 0; i < n; i++) want[i] = exrgen_half_value(cov[i]);
+        clvox_reads(path, "coverage", &g, want);
+    }
+    if (with_elem) {
+        for (size_t i = 0; i < n; i++) want[i] = elem[i];
+        clvox_reads(path, "element", &g, want);
+    }
+    if (with_occ) {
+        for (size_t i = 0; i < n; i++) want[i] = vol[i];
+        clvox_reads(path, "occupancy", &g, want);
+    }
+    if (with_score) {
+        for (size_t i = 0; i < n; i++) want[i] = exrgen_half_value(score[i]);
+        clvox_reads(path, "score", &g, want);
+    }
+
+    /* filled voxels: occupancy, else coverage > 0.5, else element != 0 */
+    uint64_t want_filled = 0;
+    for (size_t i = 0; i < n; i++) {
+        filled[i] = with_occ ? vol[i] : with_cov ? exrgen_half_value(cov[i]) > 0.5 : elem[i] != 0;
+        want_filled += filled[i];
+    }
+    clvox_volume_info info;
+    memset(filled_back, 0xAB, n + 1);
+    st = clvox_volume_read(ctx, path, &info, filled_back, n);
+    if (!with_occ && !with_cov && !with_elem) {
+        CHECK_MSG(st == CLVOX_ERR_EXR && strstr(clvox_context_error(ctx), "element"), "%s: score only: %s: %s", path,
+                  clvox_status_string(st), clvox_context_error(ctx));
+        CHECK(strcmp(info.channels, "score") == 0); /* the header still given */
+    } else {
+        CHECK_MSG(st == CLVOX_OK, "%s: %s: %s", path, clvox_status_string(st), clvox_context_error(ctx));
+        CHECK_MSG(info.filled_voxels == want_filled, "%s: filled %llu, expected %llu", path,
+                  (unsigned long long)info.filled_voxels, (unsigned long long)want_filled);
+        CHECK_MSG(memcmp(filled, filled_back, n) == 0 && filled_back[n] == 0xAB, "%s: filled voxels differ", path);
+        CHECK(strcmp(info.channels, want_names) == 0);
+    }
+    const clvox_palette *p = meta ? meta->palette : NULL;
+    CHECK(strcmp(info.palette, p ? clvox_palette_name(p) : "") == 0);
+    CHECK(info.palette_count == (p ? clvox_palette_count(p) : 0));
+    CHECK(info.palette_hash == (p ? clvox_palette_hash(p) : 0));
+    CHECK(strcmp(info.metric, p && meta->metric ? meta->metric : "") == 0);
+    CHECK(strcmp(info.method, meta->method) == 0 && strcmp(info.compression, comp_names[comp]) == 0);
+    unlink(path);
+done:
+    free(cov);
+    free(elem);
+    free(score);
+    free(cov_back);
+    free(occ_back);
+    free(score_back);
+    free(elem_back);
+    free(vol);
+    free(filled);
+    free(filled_back);
+    free(want);
+}
+
 /* ---- tests ---- */
 
 static void test_round_trips(void)
@@ -474,6 +779,273 @@ static void test_coverage_row_chunks(void)
     coverage_round_trip(1500, 1500, 2, CLVOX_CHANNEL_COVERAGE, 0, CLVOX_COMPRESSION_RLE, 2, d1, 1, 0);
 }
 
+/* Palette runs' headers: a built-in and a user palette (set up by main). */
+static clvox_palette *pal46, *pal_blocks;
+static clvox__exr_meta meta46, meta_blocks;
+
+/* Element and score alone, together, and with occupancy and/or coverage;
+ * every compression, tile-per-slice, slabs of varying depth; odd widths (a
+ * UINT row after a HALF one starts at an odd multiple of 2 bytes). */
+static void test_palette_channels(void)
+{
+    static const uint32_t dims[][3] = { { 1, 1, 1 }, { 17, 5, 9 }, { 64, 48, 20 }, { 3, 2, 31 }, { 300, 7, 3 },
+                                        { 33, 1, 7 } };
+    const uint32_t E = CLVOX_CHANNEL_ELEMENT, S = CLVOX_CHANNEL_SCORE, O = CLVOX_CHANNEL_OCCUPANCY,
+                   C = CLVOX_CHANNEL_COVERAGE;
+    const uint32_t sets[] = { E, S, E | S, E | S | O, E | S | C, E | O, S | C, E | C, E | S | O | C };
+    static const uint32_t one[] = { 1 }, mixed[] = { 2, 1, 5, 3 }, big[] = { 1000 };
+    for (size_t d = 0; d < sizeof dims / sizeof dims[0]; d++)
+        for (size_t k = 0; k < sizeof sets / sizeof sets[0]; k++)
+            for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+                const int pattern = (int)((d + k + (size_t)c) % 2);
+                const uint32_t *dp = pattern ? mixed : (c & 1 ? one : big);
+                const uint32_t threads = (uint32_t)((d + k + (size_t)c) % 4);
+                const clvox__exr_meta *meta = (k + (size_t)c) % 3 == 0 ? &test_meta : (k % 2 ? &meta46 : &meta_blocks);
+                palette_round_trip(dims[d][0], dims[d][1], dims[d][2], sets[k], pattern, (clvox_compression)c, threads,
+                                   dp, pattern ? 4 : 1, meta, 0);
+            }
+}
+
+/* Row chunks with element: all four channels are 10 bytes per voxel, so a
+ * 1000 x 1000 slice (10 MB) is split in tiles of 838 rows that straddle
+ * slices and slabs; element alone at 1500 x 1500 (9 MB) too. */
+static void test_palette_row_chunks(void)
+{
+    static const uint32_t d12[] = { 1, 2 }, d1[] = { 1 };
+    static const clvox_compression comps[] = { CLVOX_COMPRESSION_RLE, CLVOX_COMPRESSION_NONE, CLVOX_COMPRESSION_ZIP,
+                                               CLVOX_COMPRESSION_PIZ };
+    const uint32_t all = CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE;
+    for (size_t c = 0; c < sizeof comps / sizeof comps[0]; c++)
+        palette_round_trip(1000, 1000, 3, all, (int)(c & 1), comps[c], (uint32_t)(c % 3), d12, 2, &meta46, 1);
+    palette_round_trip(1500, 1500, 2, CLVOX_CHANNEL_ELEMENT, 0, CLVOX_COMPRESSION_RLE, 2, d1, 1, &meta_blocks, 1);
+    palette_round_trip(1500, 1500, 2, CLVOX_CHANNEL_ELEMENT, 1, CLVOX_COMPRESSION_ZIPS, 1, d1, 1, &meta_blocks, 1);
+}
+
+/* Reads a whole file; *n its size. */
+static uint8_t *slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    long long size = file_size(path);
+    uint8_t *b = f && size >= 0 ? malloc((size_t)size + 1) : NULL;
+    *n = b && fread(b, 1, (size_t)size, f) == (size_t)size ? (size_t)size : 0;
+    if (f) fclose(f);
+    return b;
+}
+
+static int spill(const char *path, const uint8_t *b, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    int ok = f && fwrite(b, 1, n, f) == n;
+    if (f && fclose(f) != 0) ok = 0;
+    return ok;
+}
+
+/* Replaces the first `from` in the file's bytes by `to` (same length). */
+static int tamper(const char *path, const char *from, const char *to)
+{
+    size_t n = 0, len = strlen(from);
+    uint8_t *b = slurp(path, &n);
+    int done = 0;
+    for (size_t i = 0; b && !done && i + len <= n; i++)
+        if (memcmp(b + i, from, len) == 0) {
+            memcpy(b + i, to, len);
+            done = 1;
+        }
+    done = done && spill(path, b, n);
+    free(b);
+    return done;
+}
+
+/* The palette is the one written: same count, hash, source and element names. */
+static void check_same_palette(const char *what, const clvox_palette *want, const clvox_palette *got)
+{
+    CHECK_MSG(got != NULL, "%s: no palette", what);
+    if (!got) return;
+    CHECK_MSG(strcmp(clvox_palette_name(got), clvox_palette_name(want)) == 0, "%s: name '%s', expected '%s'", what,
+              clvox_palette_name(got), clvox_palette_name(want));
+    CHECK(clvox_palette_count(got) == clvox_palette_count(want));
+    CHECK(clvox_palette_hash(got) == clvox_palette_hash(want));
+    const char *a = clvox_palette_source(want), *b = clvox_palette_source(got);
+    CHECK_MSG(a ? b && strcmp(a, b) == 0 : b == NULL, "%s: the palette text differs", what);
+    size_t bad = 0;
+    for (size_t i = 0; i < clvox_palette_count(want) && i < clvox_palette_count(got); i++) {
+        clvox_palette_element_info x, y;
+        if (clvox_palette_element_info_get(ctx, want, i, &x) != CLVOX_OK ||
+            clvox_palette_element_info_get(ctx, got, i, &y) != CLVOX_OK || strcmp(x.name, y.name) != 0 ||
+            x.volume != y.volume)
+            bad++;
+    }
+    CHECK_MSG(bad == 0, "%s: %zu elements differ", what, bad);
+}
+
+/* Writes a small element + score file with `meta`. */
+static clvox_status write_palette_file(const char *path, const clvox__exr_meta *meta, clvox_compression comp)
+{
+    const uint32_t X = 7, Y = 3, Z = 4;
+    uint16_t elem[7 * 3 * 4], score[7 * 3 * 4];
+    for (size_t i = 0; i < sizeof elem / sizeof elem[0]; i++) {
+        elem[i] = (uint16_t)(i % 5 == 0 ? 0 : i % 12);
+        score[i] = (uint16_t)(0x3800 + i);
+    }
+    clvox_grid g = make_grid(X, Y, Z);
+    const test_planes tp = { .elem = elem, .score = score };
+    static const uint32_t depths[] = { 3 };
+    return write_all(path, &g, meta, CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE, comp, 2, &tp, depths, 1, NULL);
+}
+
+/* clvoxPalette* and clvoxMetric: written, read into clvox_volume_info, and
+ * the palette rebuilt by clvox_volume_palette (a built-in by name, a user
+ * palette from its text, a 4 MiB palette text); tampered headers (hash,
+ * geometry, syntax) and files without a palette fail with one line. */
+static void test_palette_header(void)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/palette.exr", dir);
+    const clvox__exr_meta *metas[2] = { &meta46, &meta_blocks };
+    for (int m = 0; m < 2; m++)
+        for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
+            const clvox__exr_meta *meta = metas[m];
+            CHECK_OK(ctx, write_palette_file(path, meta, (clvox_compression)c));
+            clvox_volume_info info;
+            CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+            CHECK(strcmp(info.palette, clvox_palette_name(meta->palette)) == 0);
+            CHECK(info.palette_count == clvox_palette_count(meta->palette));
+            CHECK(info.palette_hash == clvox_palette_hash(meta->palette));
+            CHECK(strcmp(info.metric, meta->metric) == 0);
+            CHECK(strcmp(info.channels, "element,score") == 0);
+            CHECK(info.filled_voxels == 84 - 22); /* element 0: i % 5 == 0 (17 of 84) or i % 12 == 0 (7, 2 of them
+                                                     already counted) */
+            clvox_palette *p = (clvox_palette *)&p;
+            CHECK_OK(ctx, clvox_volume_palette(ctx, path, &p));
+            check_same_palette(meta == &meta46 ? "paper46" : "blocks", meta->palette, p);
+            clvox_palette_destroy(p);
+        }
+    /* the user palette's text is in the file; the built-in's is not */
+    size_t n = 0;
+    uint8_t *bytes = slurp(path, &n);
+    const char *text = clvox_palette_source(pal_blocks);
+    int found = 0;
+    for (size_t i = 0; bytes && text && i + strlen(text) <= n && !found; i++)
+        found = memcmp(bytes + i, text, strlen(text)) == 0;
+    CHECK_MSG(found, "the palette text of blocks.txt is not in the file");
+    free(bytes);
+
+    /* exrheader (the C++ library) sees the attributes and channel types */
+    char cmd[2200], line[512];
+    if (system("command -v exrheader >/dev/null 2>&1") == 0) {
+        for (int m = 0; m < 2; m++) {
+            CHECK_OK(ctx, write_palette_file(path, metas[m], CLVOX_COMPRESSION_RLE));
+            char hash[32];
+            snprintf(hash, sizeof hash, "\"%016llx\"", (unsigned long long)clvox_palette_hash(metas[m]->palette));
+            snprintf(cmd, sizeof cmd, "exrheader '%s' 2>&1", path);
+            FILE *pp = popen(cmd, "r");
+            int seen = 0;
+            while (pp && fgets(line, sizeof line, pp)) {
+                if (strstr(line, "clvoxPalette (type string)") &&
+                    strstr(line, m ? "\"blocks\"" : "\"paper46\""))
+                    seen |= 1;
+                if (strstr(line, "clvoxPaletteCount (type int)") && strstr(line, m ? ": 12" : ": 46")) seen |= 2;
+                if (strstr(line, "clvoxPaletteHash (type string)") && strstr(line, hash)) seen |= 4;
+                if (strstr(line, "clvoxPaletteSource (type string)")) seen |= 8;
+                if (strstr(line, "clvoxMetric (type string)") && strstr(line, metas[m]->metric)) seen |= 16;
+                if (strstr(line, "element, 32-bit unsigned integer")) seen |= 32;
+                if (strstr(line, "score, 16-bit floating-point")) seen |= 64;
+            }
+            int rc = pp ? pclose(pp) : -1;
+            CHECK_MSG(rc != -1 && WIFEXITED(rc) && WEXITSTATUS(rc) == 0, "exrheader exit status %d", rc);
+            int want = 1 | 2 | 4 | (m ? 8 : 0) | 16 | 32 | 64;
+            CHECK_MSG(seen == want, "exrheader: attributes mask %#x, expected %#x", seen, want);
+        }
+    } else {
+        printf("skip: exrheader is not installed\n");
+    }
+
+    /* a palette text of 4 MiB (the palette files' limit) round trips */
+    const size_t big = 4u << 20;
+    char *huge = malloc(big + 1);
+    if (huge && text) {
+        size_t len = strlen(text);
+        memcpy(huge, text, len);
+        for (size_t i = len; i < big; i++) { /* comment lines of 80 bytes */
+            size_t col = (i - len) % 80;
+            huge[i] = col == 0 ? '#' : col == 79 ? '\n' : 'x';
+        }
+        huge[big - 1] = '\n';
+        huge[big] = '\0';
+        clvox_palette *hp = NULL, *back = NULL;
+        CHECK_OK(ctx, clvox_palette_parse(ctx, "palettes/huge.txt", huge, big, &hp));
+        clvox__exr_meta meta = { .method = "ray", .parameters = "", .palette = hp, .metric = "nearest" };
+        CHECK_OK(ctx, write_palette_file(path, &meta, CLVOX_COMPRESSION_ZIP));
+        CHECK_MSG(file_size(path) > (long long)big, "a %lld-byte file holds a 4 MiB text", file_size(path));
+        CHECK_OK(ctx, clvox_volume_palette(ctx, path, &back));
+        check_same_palette("4 MiB palette", hp, back);
+        if (system("command -v exrheader >/dev/null 2>&1") == 0) {
+            snprintf(cmd, sizeof cmd, "exrheader '%s' >/dev/null 2>&1", path);
+            int rc = system(cmd);
+            CHECK_MSG(rc != -1 && WIFEXITED(rc) && WEXITSTATUS(rc) == 0, "exrheader on a 4 MiB attribute: %d", rc);
+        }
+        clvox_palette_destroy(back);
+        clvox_palette_destroy(hp);
+    } else {
+        CHECK(!"out of memory");
+    }
+    free(huge);
+
+    /* tampered: the hash, the geometry, the syntax of the text */
+    for (int m = 0; m < 2; m++) {
+        CHECK_OK(ctx, write_palette_file(path, metas[m], CLVOX_COMPRESSION_RLE));
+        char hash[32], other[32];
+        snprintf(hash, sizeof hash, "%016llx", (unsigned long long)clvox_palette_hash(metas[m]->palette));
+        snprintf(other, sizeof other, "%s", hash);
+        other[7] = other[7] == '0' ? '1' : '0';
+        CHECK(tamper(path, hash, other));
+        clvox_volume_info info;
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0)); /* still a volume */
+        CHECK(info.palette_hash != clvox_palette_hash(metas[m]->palette));
+        clvox_palette *p = (clvox_palette *)&p;
+        CHECK_STATUS(ctx, clvox_volume_palette(ctx, path, &p), CLVOX_ERR_EXR);
+        CHECK(p == NULL);
+        CHECK_MSG(strstr(clvox_context_error(ctx), "is not the one") && strstr(clvox_context_error(ctx), other) &&
+                      !strchr(clvox_context_error(ctx), '\n'),
+                  "tampered hash: %s", clvox_context_error(ctx));
+    }
+    CHECK_OK(ctx, write_palette_file(path, &meta_blocks, CLVOX_COMPRESSION_NONE));
+    CHECK(tamper(path, "0 0 1 0.5", "0 0 1 0.4")); /* slab_bottom is lower: same text size, other geometry */
+    clvox_palette *p = NULL;
+    CHECK_STATUS(ctx, clvox_volume_palette(ctx, path, &p), CLVOX_ERR_EXR);
+    CHECK(p == NULL && strstr(clvox_context_error(ctx), "is not the one"));
+    CHECK_OK(ctx, write_palette_file(path, &meta_blocks, CLVOX_COMPRESSION_NONE));
+    CHECK(tamper(path, "element slab_top", "elemenX slab_top"));
+    CHECK_STATUS(ctx, clvox_volume_palette(ctx, path, &p), CLVOX_ERR_EXR);
+    CHECK_MSG(p == NULL && strstr(clvox_context_error(ctx), "not a valid palette") &&
+                  strstr(clvox_context_error(ctx), "blocks.clvoxPaletteSource:") &&
+                  !strchr(clvox_context_error(ctx), '\n'),
+              "tampered text: %s", clvox_context_error(ctx));
+
+    /* not a palette run; bad arguments */
+    CHECK_OK(ctx, write_palette_file(path, &test_meta, CLVOX_COMPRESSION_RLE));
+    clvox_volume_info info;
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+    CHECK(info.palette[0] == '\0' && info.palette_count == 0 && info.palette_hash == 0 && info.metric[0] == '\0');
+    p = (clvox_palette *)&p;
+    CHECK_STATUS(ctx, clvox_volume_palette(ctx, path, &p), CLVOX_ERR_EXR);
+    CHECK(p == NULL && strstr(clvox_context_error(ctx), "has no palette"));
+    CHECK_STATUS(ctx, clvox_volume_palette(ctx, path, NULL), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, clvox_volume_palette(ctx, NULL, &p), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(NULL, clvox_volume_palette(NULL, path, &p), CLVOX_ERR_INVALID_ARGUMENT);
+    unlink(path);
+    CHECK_STATUS(ctx, clvox_volume_palette(ctx, path, &p), CLVOX_ERR_IO);
+    /* a header the writer refuses: before any file is made */
+    clvox__exr_meta bad = meta46;
+    bad.metric = "a-metric-name-far-too-long";
+    clvox_grid g = make_grid(4, 4, 4);
+    clvox__exr_writer *w = (clvox__exr_writer *)&w;
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &bad, CLVOX_CHANNEL_ELEMENT, CLVOX_COMPRESSION_RLE, 1, &w),
+                 CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(w == NULL && !exists(path) && temp_files(path) == 0);
+}
+
+
 /* A plane missing for a channel of the writer, or given for a channel it
  * was not opened with, is CLVOX_ERR_INVALID_ARGUMENT; the writer has failed
  * then and leaves no file. Unknown channel bits are refused at open. */
@@ -504,16 +1076,44 @@ static void test_bad_planes(void)
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         for (uint32_t threads = 1; threads <= 2; threads++) {
             clvox__exr_writer *w = NULL;
-            clvox__slab_planes good = { bad[i].channels & CLVOX_CHANNEL_COVERAGE ? NULL : bits,
-                                        bad[i].channels & CLVOX_CHANNEL_COVERAGE ? cov : NULL };
+            clvox__slab_planes good = { .occupancy_bits = bad[i].channels & CLVOX_CHANNEL_COVERAGE ? NULL : bits,
+                                        .coverage_half = bad[i].channels & CLVOX_CHANNEL_COVERAGE ? cov : NULL };
             if (bad[i].channels == (CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY)) good.occupancy_bits = bits;
-            clvox__slab_planes planes = { bad[i].bits ? bits : NULL, bad[i].cov ? cov : NULL };
+            clvox__slab_planes planes = { .occupancy_bits = bad[i].bits ? bits : NULL,
+                                          .coverage_half = bad[i].cov ? cov : NULL };
             CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, bad[i].channels, CLVOX_COMPRESSION_RLE, threads,
                                           &w));
             CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &good)); /* a good slab first: the bad one is the second */
             CHECK_STATUS(ctx, clvox__exr_write_slab(w, 1, 1, &planes), CLVOX_ERR_INVALID_ARGUMENT);
             CHECK_MSG(strstr(clvox_context_error(ctx), "plane") != NULL, "case %zu: %s", i, clvox_context_error(ctx));
             CHECK(clvox__exr_write_slab(w, 1, 3, &good) != CLVOX_OK); /* the writer has failed */
+            CHECK_STATUS(ctx, clvox__exr_finish(w, NULL), CLVOX_ERR_INVALID_ARGUMENT);
+            CHECK(!exists(path) && temp_files(path) == 0);
+        }
+    /* every channel set, with one plane too many or missing: element and
+     * score planes are checked like the others */
+    uint16_t elem[6 * 5 * 4] = { 0 }, score[6 * 5 * 4] = { 0 };
+    for (uint32_t set = 1; set < 16; set++)
+        for (uint32_t flip = 1; flip < 16; flip <<= 1) {
+            const uint32_t given = set ^ flip;
+            clvox__slab_planes good = { .occupancy_bits = set & CLVOX_CHANNEL_OCCUPANCY ? bits : NULL,
+                                        .coverage_half = set & CLVOX_CHANNEL_COVERAGE ? cov : NULL,
+                                        .element = set & CLVOX_CHANNEL_ELEMENT ? elem : NULL,
+                                        .score_half = set & CLVOX_CHANNEL_SCORE ? score : NULL };
+            clvox__slab_planes planes = { .occupancy_bits = given & CLVOX_CHANNEL_OCCUPANCY ? bits : NULL,
+                                          .coverage_half = given & CLVOX_CHANNEL_COVERAGE ? cov : NULL,
+                                          .element = given & CLVOX_CHANNEL_ELEMENT ? elem : NULL,
+                                          .score_half = given & CLVOX_CHANNEL_SCORE ? score : NULL };
+            clvox__exr_writer *w = NULL;
+            CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, set, CLVOX_COMPRESSION_ZIP, 1 + (set & 1), &w));
+            CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &good));
+            CHECK_STATUS(ctx, clvox__exr_write_slab(w, 1, 1, &planes), CLVOX_ERR_INVALID_ARGUMENT);
+            const char *name = flip == CLVOX_CHANNEL_OCCUPANCY ? "occupancy"
+                               : flip == CLVOX_CHANNEL_COVERAGE ? "coverage"
+                               : flip == CLVOX_CHANNEL_ELEMENT  ? "element"
+                                                                : "score";
+            CHECK_MSG(strstr(clvox_context_error(ctx), name) != NULL, "set %#x given %#x: %s", set, given,
+                      clvox_context_error(ctx));
             CHECK_STATUS(ctx, clvox__exr_finish(w, NULL), CLVOX_ERR_INVALID_ARGUMENT);
             CHECK(!exists(path) && temp_files(path) == 0);
         }
@@ -525,8 +1125,10 @@ static void test_bad_planes(void)
     CHECK(!exists(path) && temp_files(path) == 0);
     /* channels the writer does not know */
     w = (clvox__exr_writer *)&w;
-    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0x4, CLVOX_COMPRESSION_RLE, 1, &w),
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0x10, CLVOX_COMPRESSION_RLE, 1, &w),
                  CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_MSG(strstr(clvox_context_error(ctx), "element") && strstr(clvox_context_error(ctx), "score"), "%s",
+              clvox_context_error(ctx));
     CHECK(w == NULL && !exists(path) && temp_files(path) == 0);
     CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &test_meta, CLVOX_CHANNEL_COVERAGE | 0x80000000u,
                                       CLVOX_COMPRESSION_RLE, 1, &w),
@@ -548,19 +1150,37 @@ static void test_threads_identical(void)
         free(cov);
         return;
     }
+    uint16_t *elem = malloc(n * 2), *score = malloc(n * 2);
+    if (!elem || !score) {
+        CHECK(!"out of memory");
+        free(vol);
+        free(cov);
+        free(elem);
+        free(score);
+        return;
+    }
     fill_structured(vol, X, Y, Z);
     fill_coverage(cov, X, Y, Z, 0);
+    fill_elements(elem, X, Y, Z, 0);
+    fill_coverage(score, X, Y, Z, 1);
     clvox_grid g = make_grid(X, Y, Z);
     static const uint32_t depths[] = { 7, 1, 12 };
     char p1[2048], p2[2048];
-    for (int k = 0; k < 2 * CLVOX_COMPRESSION_COUNT; k++) {
+    const uint32_t all = CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE;
+    for (int k = 0; k < 4 * CLVOX_COMPRESSION_COUNT; k++) {
         int c = k % CLVOX_COMPRESSION_COUNT;
-        uint32_t channels = k < CLVOX_COMPRESSION_COUNT ? 0 : CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY;
-        const uint16_t *cv = channels ? cov : NULL;
+        const uint32_t sets[4] = { CLVOX_CHANNEL_OCCUPANCY, CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY,
+                                   CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE, all };
+        uint32_t channels = sets[k / CLVOX_COMPRESSION_COUNT];
+        const test_planes tp = { .occ = channels & CLVOX_CHANNEL_OCCUPANCY ? vol : NULL,
+                                 .cov = channels & CLVOX_CHANNEL_COVERAGE ? cov : NULL,
+                                 .elem = channels & CLVOX_CHANNEL_ELEMENT ? elem : NULL,
+                                 .score = channels & CLVOX_CHANNEL_SCORE ? score : NULL };
+        const clvox__exr_meta *meta = channels & CLVOX_CHANNEL_ELEMENT ? &meta_blocks : &test_meta;
         snprintf(p1, sizeof p1, "%s/thr1.exr", dir);
         snprintf(p2, sizeof p2, "%s/thr4.exr", dir);
-        CHECK_OK(ctx, write_planes(p1, &g, channels, (clvox_compression)c, 1, vol, cv, depths, 3, NULL));
-        CHECK_OK(ctx, write_planes(p2, &g, channels, (clvox_compression)c, 4, vol, cv, depths, 3, NULL));
+        CHECK_OK(ctx, write_all(p1, &g, meta, channels, (clvox_compression)c, 1, &tp, depths, 3, NULL));
+        CHECK_OK(ctx, write_all(p2, &g, meta, channels, (clvox_compression)c, 4, &tp, depths, 3, NULL));
         FILE *a = fopen(p1, "rb"), *b = fopen(p2, "rb");
         int same = a && b;
         while (same) {
@@ -576,6 +1196,8 @@ static void test_threads_identical(void)
     }
     free(vol);
     free(cov);
+    free(elem);
+    free(score);
 }
 
 static void test_exrheader(void)
@@ -694,7 +1316,7 @@ static void test_abort_and_incomplete(void)
         CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, threads, &w));
         CHECK(!exists(path));          /* not renamed while writing */
         CHECK(temp_files(path) == 0);  /* the file being written has no name (O_TMPFILE) */
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 2, &(clvox__slab_planes){slab, NULL}));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 2, &(clvox__slab_planes){ .occupancy_bits = slab }));
         CHECK(!exists(path));
         clvox__exr_abort(w);
         CHECK(!exists(path));
@@ -702,7 +1324,7 @@ static void test_abort_and_incomplete(void)
 
         /* finish with missing slices */
         CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_ZIP, threads, &w));
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 3, &(clvox__slab_planes){slab, NULL}));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 3, &(clvox__slab_planes){ .occupancy_bits = slab }));
         uint64_t bytes = 123;
         clvox_status st = clvox__exr_finish(w, &bytes);
         CHECK(st != CLVOX_OK);
@@ -717,14 +1339,14 @@ static void test_abort_and_incomplete(void)
 
         /* slices out of order: error, then finish fails, nothing left */
         CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, threads, &w));
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &(clvox__slab_planes){slab, NULL}));
-        CHECK(clvox__exr_write_slab(w, 2, 1, &(clvox__slab_planes){slab, NULL}) != CLVOX_OK);  /* gap */
-        CHECK(clvox__exr_write_slab(w, 1, 3, &(clvox__slab_planes){slab, NULL}) != CLVOX_OK);  /* writer has failed */
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &(clvox__slab_planes){ .occupancy_bits = slab }));
+        CHECK(clvox__exr_write_slab(w, 2, 1, &(clvox__slab_planes){ .occupancy_bits = slab }) != CLVOX_OK);  /* gap */
+        CHECK(clvox__exr_write_slab(w, 1, 3, &(clvox__slab_planes){ .occupancy_bits = slab }) != CLVOX_OK);  /* writer has failed */
         CHECK(clvox__exr_finish(w, NULL) != CLVOX_OK);
         CHECK(!exists(path) && temp_files(path) == 0);
 
         CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, threads, &w));
-        CHECK(clvox__exr_write_slab(w, 0, 5, &(clvox__slab_planes){slab, NULL}) != CLVOX_OK);  /* past Z */
+        CHECK(clvox__exr_write_slab(w, 0, 5, &(clvox__slab_planes){ .occupancy_bits = slab }) != CLVOX_OK);  /* past Z */
         clvox__exr_abort(w);
         CHECK(!exists(path) && temp_files(path) == 0);
     }
@@ -739,13 +1361,13 @@ static void test_abort_and_incomplete(void)
     }
     clvox__exr_writer *w = NULL;
     CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 2, &w));
-    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){slab, NULL}));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){ .occupancy_bits = slab }));
     CHECK(file_size(path) == 3);
     clvox__exr_abort(w);
     CHECK(file_size(path) == 3); /* abort keeps the old file */
     CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 2, &w));
-    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &(clvox__slab_planes){slab, NULL}));
-    CHECK_OK(ctx, clvox__exr_write_slab(w, 1, 3, &(clvox__slab_planes){slab + 5, NULL}));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 1, &(clvox__slab_planes){ .occupancy_bits = slab }));
+    CHECK_OK(ctx, clvox__exr_write_slab(w, 1, 3, &(clvox__slab_planes){ .occupancy_bits = slab + 5 }));
     CHECK(file_size(path) == 3);
     uint64_t bytes = 0;
     CHECK_OK(ctx, clvox__exr_finish(w, &bytes));
@@ -769,7 +1391,7 @@ static clvox_status write_small(const char *path, const char *d_path, int during
     clvox__exr_writer *w = NULL;
     clvox_status st = clvox__exr_open(ctx, path, &g, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w);
     if (st != CLVOX_OK) return st;
-    st = clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){ slab, NULL });
+    st = clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){ .occupancy_bits = slab });
     size_t longest = 0;
     int n = dir_count(d_path, &longest);
     CHECK_MSG(n == during, "%s: %d entries in the directory while writing, expected %d", what, n, during);
@@ -851,7 +1473,7 @@ static void test_output_files(void)
         clvox_grid g6 = make_grid(6, 5, 4);
         uint32_t slab[5 * 4] = { 0 };
         CHECK_OK(ctx, clvox__exr_open(ctx, path, &g6, &test_meta, 0, CLVOX_COMPRESSION_RLE, 1, &w));
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){ slab, NULL }));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, 4, &(clvox__slab_planes){ .occupancy_bits = slab }));
         CHECK(mkfifo(path, 0666) == 0);
         CHECK_STATUS(ctx, clvox__exr_finish(w, NULL), CLVOX_ERR_IO);
         CHECK(lstat(path, &sb) == 0 && S_ISFIFO(sb.st_mode));
@@ -1127,7 +1749,7 @@ static void test_reader_layouts(void)
     pack_bits(bits, want, X, (size_t)Y * Z);
     for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
         CHECK_OK(ctx, clvox__exr_open(ctx, path, &g, &test_meta, 0, (clvox_compression)c, 2, &w));
-        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, Z, &(clvox__slab_planes){bits, NULL}));
+        CHECK_OK(ctx, clvox__exr_write_slab(w, 0, Z, &(clvox__slab_planes){ .occupancy_bits = bits }));
         CHECK_OK(ctx, clvox__exr_finish(w, NULL));
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, sizeof back));
         CHECK(info.filled_voxels == filled && memcmp(back, want, n) == 0);
@@ -1204,7 +1826,7 @@ static clvox_status stream_sphere(const char *path, uint32_t Z, uint32_t *slab)
                     uint32_t *word = &slab[((size_t)k * Y + y) * W + x / 32], bit = 1u << (x % 32);
                     *word = dx * dx + dy * dy + dz * dz < 100.0 * 100.0 ? *word | bit : *word & ~bit;
                 }
-        st = clvox__exr_write_slab(w, z0, NZ, &(clvox__slab_planes){slab, NULL});
+        st = clvox__exr_write_slab(w, z0, NZ, &(clvox__slab_planes){ .occupancy_bits = slab });
         if (st != CLVOX_OK) {
             clvox__exr_abort(w);
             return st;
@@ -1279,6 +1901,18 @@ int main(void)
     test_row_chunks();
     test_coverage();
     test_coverage_row_chunks();
+    if (clvox_palette_builtin(ctx, "paper46", &pal46) != CLVOX_OK ||
+        clvox_palette_load(ctx, "palettes/blocks.txt", &pal_blocks) != CLVOX_OK) {
+        fprintf(stderr, "FAIL: palettes: %s\n", clvox_context_error(ctx));
+        test_failed++;
+    } else {
+        meta46 = (clvox__exr_meta){ .method = "ray", .parameters = "p46", .palette = pal46, .metric = "outer" };
+        meta_blocks = (clvox__exr_meta){ .method = "ray", .parameters = "blocks", .palette = pal_blocks,
+                                         .metric = "inner" };
+        test_palette_channels();
+        test_palette_row_chunks();
+        test_palette_header();
+    }
     test_bad_planes();
     test_threads_identical();
     test_exrheader();
@@ -1293,6 +1927,8 @@ int main(void)
     test_peak_memory();
 
     CHECK_MSG(rmdir(dir) == 0, "%s is not empty: a file was left behind", dir);
+    clvox_palette_destroy(pal46);
+    clvox_palette_destroy(pal_blocks);
     clvox_context_destroy(ctx);
     return test_report();
 }

@@ -125,6 +125,19 @@ static void compare_reference(const tmesh *t, const clvox_grid *g, clvox_axis ax
         scored += el[i] > 1;
         mixed += in[i] > 0 && in[i] < N * N * M;
     }
+    /* the run's tallies: non-empty voxels and the elements' volume */
+    uint64_t nonempty = 0;
+    double volume = 0;
+    for (size_t i = 0; i < n; i++) {
+        clvox_palette_element_info info;
+        if (clvox_palette_element_info_get(ctx, p, r.element[i], &info) != CLVOX_OK) info.volume = NAN;
+        nonempty += r.element[i] != 0;
+        volume += info.volume;
+    }
+    CHECK_MSG(r.stats.palette_nonempty_voxels == nonempty && fabs(r.stats.palette_volume - volume) < 1e-6 * (volume + 1),
+              "%s: stats say %llu non-empty, volume %.9g; the elements %llu, %.9g", what,
+              (unsigned long long)r.stats.palette_nonempty_voxels, r.stats.palette_volume, (unsigned long long)nonempty,
+              volume);
     CHECK_MSG(bad_e == 0 && bad_s == 0 && bad_c == 0,
               "%s: %zu elements, %zu scores, %zu coverages differ from the reference (of %zu voxels)", what, bad_e,
               bad_s, bad_c, n);
@@ -198,6 +211,19 @@ static void test_early_outs(void)
             result_free(&a);
             result_free(&b);
         }
+    /* uniform samples scored with the element masks == one by one */
+    for (int metric = 0; metric < 3; metric++) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.palette = pal[metric == 0 ? 3 : 2];
+        o.metric = (clvox_metric)metric;
+        result a = run(ctx, m, &g, &o);
+        setenv("CLVOX_BENCH_NO_MASKS", "1", 1);
+        result b = run(ctx, m, &g, &o);
+        unsetenv("CLVOX_BENCH_NO_MASKS");
+        CHECK_MSG(same(&a, &b, nvox(&g)), "masks changed the result (metric %d)", metric);
+        result_free(&a);
+        result_free(&b);
+    }
     /* the alpha/beta shortcut: only for Nearest; decides some voxels */
     clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
     o.palette = pal[3];

@@ -317,10 +317,21 @@ static void test_errors_and_cancel(void)
     CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "element", NULL, on_slice, &c), CLVOX_ERR_CANCELLED);
     CHECK(c.calls == Z);
 
-    /* neither occupancy nor coverage: not a clvox volume for clvox_volume_read, still streamable */
+    /* element without occupancy or coverage (a palette run): filled = element != 0 */
     CHECK(exrgen_write(path, X, Y, Z, &ch[1], 1, 0, 0, EXR_COMPRESSION_NONE, 1));
+    uint8_t filled[5 * 4 * 9];
+    memset(filled, 7, sizeof filled);
+    CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, filled, sizeof filled));
+    CHECK(info.filled_voxels == n - 1 && filled[0] == 0 && filled[1] == 1 && filled[n - 1] == 1);
+    CHECK(info.coverage_sum == 0.0 && strcmp(info.channels, "element") == 0);
+    /* none of the three: not a clvox volume for clvox_volume_read, still streamable */
+    float score[5 * 4 * 9];
+    for (size_t i = 0; i < n; i++) score[i] = (float)i;
+    exrgen_channel sc = { "score", EXR_PIXEL_FLOAT, score };
+    CHECK(exrgen_write(path, X, Y, Z, &sc, 1, 0, 0, EXR_COMPRESSION_NONE, 1));
     CHECK_STATUS(ctx, clvox_volume_read(ctx, path, &info, NULL, 0), CLVOX_ERR_EXR);
-    CHECK(strstr(clvox_context_error(ctx), "has: element") != NULL);
+    CHECK(strstr(clvox_context_error(ctx), "has: score") != NULL);
+    CHECK(exrgen_write(path, X, Y, Z, &ch[1], 1, 0, 0, EXR_COMPRESSION_NONE, 1));
     c.calls = c.next_z = 0;
     c.cancel_at = UINT32_MAX;
     CHECK_OK(ctx, clvox_volume_read_slices(ctx, path, "element", NULL, on_slice, &c));
@@ -490,6 +501,156 @@ static void test_crafted(void)
     unlink(path);
 }
 
+/* The palette attributes as another writer puts them (tests/exrgen.c):
+ * read into clvox_volume_info and rebuilt by clvox_volume_palette when
+ * right; every malformed one refused with one line, never a crash. */
+static void test_palette_attrs(void)
+{
+    const uint32_t X = 6, Y = 5, Z = 3;
+    const size_t n = (size_t)X * Y * Z;
+    uint32_t elem[6 * 5 * 3];
+    uint16_t score[6 * 5 * 3];
+    uint64_t nonzero = 0;
+    for (size_t i = 0; i < n; i++) {
+        elem[i] = (uint32_t)(i % 7 == 0 ? 0 : i % 46);
+        score[i] = (uint16_t)(0x3400 + i);
+        nonzero += elem[i] != 0;
+    }
+    const exrgen_channel ch[] = { { "element", EXR_PIXEL_UINT, elem }, { "score", EXR_PIXEL_HALF, score } };
+    clvox_palette *p46 = NULL, *blocks = NULL;
+    CHECK_OK(ctx, clvox_palette_builtin(ctx, "paper46", &p46));
+    CHECK_OK(ctx, clvox_palette_load(ctx, "palettes/blocks.txt", &blocks));
+    if (!p46 || !blocks) {
+        clvox_palette_destroy(p46);
+        clvox_palette_destroy(blocks);
+        return;
+    }
+    char h46[32], hblocks[32], path[1200];
+    snprintf(h46, sizeof h46, "%016llx", (unsigned long long)clvox_palette_hash(p46));
+    snprintf(hblocks, sizeof hblocks, "%016llx", (unsigned long long)clvox_palette_hash(blocks));
+    snprintf(path, sizeof path, "%s/palette.exr", dir);
+
+    /* right: a built-in by name, a user palette from its text */
+    const exrgen_extra good46[] = { { "clvoxPalette", "paper46", 0 }, { "clvoxPaletteCount", NULL, 46 },
+                                    { "clvoxPaletteHash", h46, 0 }, { "clvoxMetric", "nearest", 0 } };
+    const exrgen_extra good_blocks[] = { { "clvoxPalette", "blocks", 0 }, { "clvoxPaletteCount", NULL, 12 },
+                                         { "clvoxPaletteHash", hblocks, 0 },
+                                         { "clvoxPaletteSource", clvox_palette_source(blocks), 0 },
+                                         { "clvoxMetric", "outer", 0 } };
+    for (int k = 0; k < 2; k++) {
+        exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+        a.extra = k ? good_blocks : good46;
+        a.extra_count = k ? 5 : 4;
+        CHECK(exrgen_write_ex(path, X, Y, Z, ch, 2, k ? 6 : 0, 5, EXR_COMPRESSION_RLE, &a));
+        clvox_volume_info info;
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+        CHECK(strcmp(info.palette, k ? "blocks" : "paper46") == 0 && info.palette_count == (k ? 12u : 46u));
+        CHECK(info.palette_hash == clvox_palette_hash(k ? blocks : p46));
+        CHECK(strcmp(info.metric, k ? "outer" : "nearest") == 0);
+        CHECK(info.filled_voxels == nonzero && strcmp(info.channels, "element,score") == 0);
+        clvox_palette *p = NULL;
+        CHECK_OK(ctx, clvox_volume_palette(ctx, path, &p));
+        CHECK(p && clvox_palette_hash(p) == clvox_palette_hash(k ? blocks : p46));
+        CHECK(p && strcmp(clvox_palette_name(p), k ? "blocks" : "paper46") == 0);
+        CHECK(p && (k ? clvox_palette_source(p) && strcmp(clvox_palette_source(p), clvox_palette_source(blocks)) == 0
+                      : clvox_palette_source(p) == NULL));
+        clvox_palette_destroy(p);
+    }
+    /* a name with a dot keeps it (the text is parsed under that name) */
+    {
+        const exrgen_extra x[] = { { "clvoxPalette", "my.blocks", 0 }, { "clvoxPaletteHash", hblocks, 0 },
+                                   { "clvoxPaletteSource", clvox_palette_source(blocks), 0 } };
+        exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+        a.extra = x;
+        a.extra_count = 3;
+        CHECK(exrgen_write_ex(path, X, Y, Z, ch, 2, 0, 0, EXR_COMPRESSION_NONE, &a));
+        clvox_palette *p = NULL;
+        CHECK_OK(ctx, clvox_volume_palette(ctx, path, &p));
+        CHECK(p && strcmp(clvox_palette_name(p), "my.blocks") == 0);
+        clvox_palette_destroy(p);
+    }
+
+    /* malformed attributes: clvox_volume_read refuses the file */
+    static const struct {
+        exrgen_extra x;
+        const char *needle;
+    } corrupt[] = {
+        { { "clvoxPaletteHash", "0123456789ABCDEF", 0 }, "clvoxPaletteHash" },
+        { { "clvoxPaletteHash", "0123456789abcde", 0 }, "clvoxPaletteHash" },
+        { { "clvoxPaletteHash", "0123456789abcdef0", 0 }, "clvoxPaletteHash" },
+        { { "clvoxPaletteHash", "0x23456789abcdef", 0 }, "clvoxPaletteHash" },
+        { { "clvoxPaletteHash", "", 0 }, "clvoxPaletteHash" },
+        { { "clvoxPaletteHash", NULL, 5 }, "clvoxPaletteHash" },
+        { { "clvoxPaletteCount", NULL, 0 }, "clvoxPaletteCount" },
+        { { "clvoxPaletteCount", NULL, -46 }, "clvoxPaletteCount" },
+        { { "clvoxPaletteCount", NULL, 65537 }, "clvoxPaletteCount" },
+        { { "clvoxPaletteCount", "46", 0 }, "clvoxPaletteCount" },
+        { { "clvoxPalette", NULL, 46 }, "clvoxPalette" },
+        { { "clvoxPalette", "a-palette-name-of-sixty-four-bytes-or-more-which-is-one-too-many-for-it", 0 }, "too long" },
+        { { "clvoxMetric", "nearest-and-more", 0 }, "clvoxMetric" },
+        { { "clvoxMetric", NULL, 1 }, "clvoxMetric" },
+    };
+    for (size_t i = 0; i < sizeof corrupt / sizeof corrupt[0]; i++) {
+        exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+        a.extra = &corrupt[i].x;
+        a.extra_count = 1;
+        CHECK(exrgen_write_ex(path, X, Y, Z, ch, 2, 0, 0, EXR_COMPRESSION_ZIP, &a));
+        char what[96];
+        snprintf(what, sizeof what, "corrupt palette attribute %zu (%s)", i, corrupt[i].x.name);
+        expect_corrupt(what, path, corrupt[i].needle);
+        clvox_palette *p = (clvox_palette *)&p;
+        CHECK_STATUS(ctx, clvox_volume_palette(ctx, path, &p), CLVOX_ERR_EXR);
+        CHECK(p == NULL);
+    }
+
+    /* well formed, but no palette to be had: clvox_volume_read is fine, clvox_volume_palette is not */
+    static const char bad_text[] = "element a\n  cell\n    1 0 0\nend\n";
+    const exrgen_extra wrong_hash[] = { { "clvoxPalette", "paper46", 0 }, { "clvoxPaletteHash", hblocks, 0 } };
+    const exrgen_extra wrong_count[] = { { "clvoxPalette", "paper46", 0 }, { "clvoxPaletteCount", NULL, 45 },
+                                         { "clvoxPaletteHash", h46, 0 } };
+    const exrgen_extra unknown[] = { { "clvoxPalette", "paper47", 0 }, { "clvoxPaletteHash", h46, 0 } };
+    const exrgen_extra bad_source[] = { { "clvoxPalette", "mine", 0 }, { "clvoxPaletteHash", h46, 0 },
+                                        { "clvoxPaletteSource", bad_text, 0 } };
+    const exrgen_extra other_source[] = { { "clvoxPalette", "blocks", 0 }, { "clvoxPaletteHash", h46, 0 },
+                                          { "clvoxPaletteSource", clvox_palette_source(blocks), 0 } };
+    const exrgen_extra empty_source[] = { { "clvoxPalette", "e", 0 }, { "clvoxPaletteHash", h46, 0 },
+                                          { "clvoxPaletteSource", "", 0 } };
+    const exrgen_extra no_hash[] = { { "clvoxPalette", "paper46", 0 }, { "clvoxPaletteCount", NULL, 46 } };
+    const exrgen_extra no_name[] = { { "clvoxPaletteHash", h46, 0 }, { "clvoxPaletteCount", NULL, 46 } };
+    const struct {
+        const exrgen_extra *x;
+        int count;
+        const char *needle;
+    } fails[] = {
+        { wrong_hash, 2, "is not the one" },       { wrong_count, 3, "is not the one" },
+        { unknown, 2, "not a built-in palette" },  { bad_source, 3, "mine.clvoxPaletteSource:3:" },
+        { other_source, 3, "is not the one" },     { empty_source, 3, "is not the one" },
+        { no_hash, 2, "clvoxPaletteHash is missing" }, { no_name, 2, "clvoxPalette is missing" },
+        { NULL, 0, "has no palette" },
+    };
+    for (size_t i = 0; i < sizeof fails / sizeof fails[0]; i++) {
+        exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+        a.extra = fails[i].x;
+        a.extra_count = fails[i].count;
+        /* (tiles of 3 x 2 would make chunks OpenEXRCore 3.1.5 compresses to exactly their raw size, which it
+         * then mis-reads: see write_exr.c store_raw_if_not_smaller) */
+        CHECK(exrgen_write_ex(path, X, Y, Z, ch, 2, 3, 2, EXR_COMPRESSION_NONE, &a));
+        clvox_volume_info info;
+        CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
+        CHECK_MSG(info.filled_voxels == nonzero, "palette case %zu: filled %llu, expected %llu", i,
+                  (unsigned long long)info.filled_voxels, (unsigned long long)nonzero);
+        clvox_palette *p = (clvox_palette *)&p;
+        clvox_status st = clvox_volume_palette(ctx, path, &p);
+        const char *msg = clvox_context_error(ctx);
+        CHECK_MSG(st == CLVOX_ERR_EXR && p == NULL && strstr(msg, fails[i].needle) && !strchr(msg, '\n') &&
+                      strstr(msg, path),
+                  "palette case %zu: %s: %s", i, clvox_status_string(st), msg);
+    }
+    unlink(path);
+    clvox_palette_destroy(p46);
+    clvox_palette_destroy(blocks);
+}
+
 int main(void)
 {
     clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
@@ -507,6 +668,7 @@ int main(void)
     test_exact_sum();
     test_errors_and_cancel();
     test_crafted();
+    test_palette_attrs();
 
     CHECK_MSG(rmdir(dir) == 0, "%s is not empty: a file was left behind", dir);
     clvox_context_destroy(ctx);

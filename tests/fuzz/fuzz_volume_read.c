@@ -1,5 +1,7 @@
-/* libFuzzer target: clvox's EXR volume reader (clvox_volume_read and
- * clvox_volume_read_slices) on arbitrary bytes. Every input must give either
+/* libFuzzer target: clvox's EXR volume reader (clvox_volume_read,
+ * clvox_volume_read_slices of every channel clvox writes, and
+ * clvox_volume_palette, which parses a palette text from the header) on
+ * arbitrary bytes. Every input must give either
  * a volume or a status with a message; never a crash, a hang, an
  * out-of-bounds access or an allocation far beyond what the file describes.
  * Build and run: make fuzz; build/fuzz/fuzz_volume_read -max_total_time=60 tests/fuzz/corpus_exr */
@@ -50,8 +52,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
     }
     double sum = 0;
-    clvox_volume_read_slices(ctx, path, "coverage", NULL, count_slice, &sum);
-    clvox_volume_read_slices(ctx, path, "occupancy", NULL, count_slice, &sum);
+    static const char *const channels[] = { "coverage", "occupancy", "element", "score" };
+    for (size_t i = 0; i < sizeof channels / sizeof channels[0]; i++) {
+        st = clvox_volume_read_slices(ctx, path, channels[i], NULL, count_slice, &sum);
+        if (st != CLVOX_OK && !clvox_context_error(ctx)[0]) abort();
+    }
+    clvox_palette *p = NULL;
+    st = clvox_volume_palette(ctx, path, &p);
+    if ((st == CLVOX_OK) != (p != NULL)) abort(); /* a palette exactly on success */
+    if (st != CLVOX_OK && !clvox_context_error(ctx)[0]) abort();
+    clvox_palette_destroy(p);
     unlink(path);
     return 0;
 }

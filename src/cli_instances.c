@@ -313,15 +313,6 @@ static int same_file(const char *a, const char *b)
     return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
 }
 
-/* TEMPORARY until read_exr.c provides it (branch exr-palette): removed at the merge. */
-__attribute__((weak)) clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_palette **out)
-{
-    (void)ctx;
-    (void)path;
-    *out = NULL;
-    return CLVOX_ERR_EXR;
-}
-
 static int load_palette(clvox_context *ctx, const char *volume, const char *given, clvox_palette **out)
 {
     clvox_status st;

@@ -11,8 +11,10 @@
  *    several slices, errors (bad map with its line, values that are no
  *    element, scores outside [0,1], missing channels, outputs that cannot be
  *    written) with one-line messages and no file left behind;
- *  - end to end: a mesh voxelized with --palette, then instances, against the
- *    volume's own element and score channels. */
+ *  - end to end: a mesh voxelized with --palette (paper46, paper78,
+ *    palettes/blocks.txt) through the CLI, then instances with the palette
+ *    from the header, against the volume's own element and score channels;
+ *    a --palette other than the header's refused. */
 #ifndef _XOPEN_SOURCE
 #define _XOPEN_SOURCE 700 /* realpath, symlink */
 #endif
@@ -462,6 +464,7 @@ typedef struct expect {
     const uint32_t *element;
     const uint16_t *score;
     double origin[3], h[3];
+    const float *score_f; /* instead of score (HALF bits): the reader's floats */
 } expect;
 
 /* Every row against the volume: rows in z, y, x order, exactly the non-empty voxels. */
@@ -482,7 +485,7 @@ static void check_rows(const char *what, const csv_row *rows, int n, const expec
                 clvox_palette_element_info info, basic;
                 clvox_palette_element_info_get(g_ctx, e->palette, el, &info);
                 clvox_palette_element_info_get(g_ctx, e->palette, info.basic, &basic);
-                float score = (float)exrgen_half_value(e->score[at]);
+                float score = e->score_f ? e->score_f[at] : (float)exrgen_half_value(e->score[at]);
                 int ok = row->i == i && row->j == j && row->k == k && row->element == el &&
                          row->x == e->origin[0] + (i + 0.5) * e->h[0] && row->y == e->origin[1] + (j + 0.5) * e->h[1] &&
                          row->z == e->origin[2] + (k + 0.5) * e->h[2] && row->hx == e->h[0] && row->hy == e->h[1] &&
@@ -559,7 +562,7 @@ static void test_cli_handmade(void)
     path_join(map, sizeof map, g_dir, "hand.render");
     CHECK(make_volume(vol, X, Y, Z, element, score));
     expect e = {p, NULL, X, Y, Z, element, score, {EXRGEN_ORIGIN_X, EXRGEN_ORIGIN_Y, EXRGEN_ORIGIN_Z},
-                {EXRGEN_H_X, EXRGEN_H_Y, EXRGEN_H_Z}};
+                {EXRGEN_H_X, EXRGEN_H_Y, EXRGEN_H_Z}, NULL};
     run_ok("no map", ARGS("instances", vol, "--palette", "paper46", "-o", csv), csv, &e, 8);
     /* the symmetry images really carry their own matrices (not the identity) */
     int mirrors = 0;
@@ -742,7 +745,7 @@ static void test_cli_slices(void)
     clvox_render_map *m = NULL;
     CHECK_OK(g_ctx, clvox_render_map_load(g_ctx, "palettes/blocks.render", blocks, &m));
     expect e = {blocks, m, X, Y, Z, element, score, {EXRGEN_ORIGIN_X, EXRGEN_ORIGIN_Y, EXRGEN_ORIGIN_Z},
-                {EXRGEN_H_X, EXRGEN_H_Y, EXRGEN_H_Z}};
+                {EXRGEN_H_X, EXRGEN_H_Y, EXRGEN_H_Z}, NULL};
     CHECK(nonempty < sizeof g_rows / sizeof g_rows[0]);
     run_ok("40 slices, blocks.render",
            ARGS("instances", vol, "--palette", "palettes/blocks.txt", "--render-map", "palettes/blocks.render", "-o",
@@ -750,6 +753,113 @@ static void test_cli_slices(void)
            csv, &e, (int)nonempty);
     clvox_render_map_destroy(m);
     clvox_palette_destroy(blocks);
+}
+
+/* ---- end to end: clvox --palette, then instances ------------------------------------- */
+
+typedef struct dense {
+    uint32_t X, Y;
+    uint32_t *element;
+    float *score;
+    int which; /* 0 element, 1 score */
+} dense;
+
+static int on_dense(void *user, uint32_t z, const float *v)
+{
+    dense *d = user;
+    size_t n = (size_t)d->X * d->Y;
+    for (size_t q = 0; q < n; q++) {
+        if (d->which == 0) d->element[(size_t)z * n + q] = (uint32_t)v[q];
+        else d->score[(size_t)z * n + q] = v[q];
+    }
+    return 0;
+}
+
+static void end_to_end(const char *what, const char *palette_arg, const char *map_path, const char *stem)
+{
+    char vol[PATH_MAX], csv[PATH_MAX], name[64];
+    snprintf(name, sizeof name, "%s.exr", stem);
+    path_join(vol, sizeof vol, g_dir, name);
+    snprintf(name, sizeof name, "%s.csv", stem);
+    path_join(csv, sizeof csv, g_dir, name);
+    spawn_result r;
+    spawn_run(&r, ARGS("tests/data/default.obj", "-r", "14", "--palette", palette_arg, "-q", "-o", vol), 120);
+    CHECK_MSG(r.code == 0, "%s: voxelize: exit %d: %s", what, r.code, r.err);
+    spawn_free(&r);
+    if (r.code != 0) return;
+    /* what the volume holds, read back by the library */
+    clvox_volume_info info;
+    memset(&info, 0, sizeof info);
+    dense d = {0, 0, NULL, NULL, 0};
+    clvox_palette *p = NULL;
+    CHECK_OK(g_ctx, clvox_volume_palette(g_ctx, vol, &p));
+    clvox_status st = clvox_volume_read(g_ctx, vol, &info, NULL, 0);
+    CHECK_OK(g_ctx, st);
+    if (!p || st != CLVOX_OK) {
+        clvox_palette_destroy(p);
+        return;
+    }
+    size_t n = (size_t)info.dims[0] * info.dims[1] * info.dims[2];
+    d.X = info.dims[0];
+    d.Y = info.dims[1];
+    d.element = calloc(n, sizeof *d.element);
+    d.score = calloc(n, sizeof *d.score);
+    if (!d.element || !d.score) abort();
+    CHECK_OK(g_ctx, clvox_volume_read_slices(g_ctx, vol, "element", NULL, on_dense, &d));
+    d.which = 1;
+    CHECK_OK(g_ctx, clvox_volume_read_slices(g_ctx, vol, "score", NULL, on_dense, &d));
+    int nonempty = 0, images = 0;
+    for (size_t q = 0; q < n; q++)
+        if (d.element[q]) {
+            nonempty++;
+            clvox_palette_element_info ei;
+            if (clvox_palette_element_info_get(g_ctx, p, d.element[q], &ei) == CLVOX_OK) images += ei.symmetry != 0;
+        }
+    CHECK_MSG(nonempty > 0 && nonempty == (int)info.filled_voxels && (size_t)nonempty < n,
+              "%s: %d non-empty voxels, %llu filled, %zu in all", what, nonempty,
+              (unsigned long long)info.filled_voxels, n);
+    clvox_render_map *m = NULL;
+    if (map_path) CHECK_OK(g_ctx, clvox_render_map_load(g_ctx, map_path, p, &m));
+    expect e = {p, m, info.dims[0], info.dims[1], info.dims[2], d.element, NULL,
+                {info.origin[0], info.origin[1], info.origin[2]},
+                {info.voxel_size[0], info.voxel_size[1], info.voxel_size[2]}, d.score};
+    CHECK(nonempty < (int)(sizeof g_rows / sizeof g_rows[0]));
+    /* the palette comes from the header */
+    if (map_path) run_ok(what, ARGS("instances", vol, "--render-map", map_path, "-o", csv), csv, &e, nonempty);
+    else run_ok(what, ARGS("instances", vol, "-o", csv), csv, &e, nonempty);
+    if (strcmp(palette_arg, "paper46") == 0)
+        CHECK_MSG(images > 0, "%s: no voxel got a symmetry image (the S check would be trivial)", what);
+    /* ... and a palette given that is not the header's is refused */
+    char out[PATH_MAX];
+    path_join(out, sizeof out, g_out, "x.csv");
+    run_fail("another palette than the header's", 4, "was scored with palette",
+             ARGS("instances", vol, "--palette", strcmp(palette_arg, "paper78") ? "paper78" : "paper46", "-o", out));
+    /* the same one is accepted */
+    run_ok(what, ARGS("instances", vol, "--palette", palette_arg, "-o", csv), csv, &(expect){p, NULL, e.X, e.Y, e.Z,
+           d.element, NULL, {e.origin[0], e.origin[1], e.origin[2]}, {e.h[0], e.h[1], e.h[2]}, d.score}, nonempty);
+    clvox_render_map_destroy(m);
+    clvox_palette_destroy(p);
+    free(d.element);
+    free(d.score);
+}
+
+static void test_end_to_end(void)
+{
+    end_to_end("paper46 end to end", "paper46", "palettes/paper46.render", "e2e46");
+    end_to_end("blocks.txt end to end (the palette text in the header)", "palettes/blocks.txt",
+               "palettes/blocks.render", "e2eblocks");
+    end_to_end("paper78, no map", "paper78", NULL, "e2e78");
+    /* a volume without a palette: instances needs one */
+    char vol[PATH_MAX], out[PATH_MAX];
+    path_join(vol, sizeof vol, g_dir, "binary.exr");
+    path_join(out, sizeof out, g_out, "x.csv");
+    spawn_result r;
+    spawn_run(&r, ARGS("tests/data/default.obj", "-r", "8", "-q", "-o", vol), 120);
+    CHECK_MSG(r.code == 0, "binary voxelize: exit %d: %s", r.code, r.err);
+    spawn_free(&r);
+    run_fail("a binary volume", 4, NULL, ARGS("instances", vol, "-o", out));
+    run_fail("a binary volume with --palette", 4, "has no element channel",
+             ARGS("instances", vol, "--palette", "paper46", "-o", out));
 }
 
 int main(void)
@@ -777,6 +887,7 @@ int main(void)
     test_map_errors();
     test_cli_handmade();
     test_cli_slices();
+    test_end_to_end();
     clvox_context_destroy(g_ctx);
     return test_report();
 }

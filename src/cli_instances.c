@@ -338,18 +338,25 @@ static int load_elements(clvox_context *ctx, const clvox_palette *p, element_row
     size_t n = clvox_palette_count(p);
     element_row *rows = calloc(n ? n : 1, sizeof *rows);
     if (!rows) return fail(EXIT_RUNTIME, "out of memory");
-    for (size_t e = 0; e < n; e++) {
-        clvox_palette_element_info info, basic;
+    uint32_t *basic = malloc((n ? n : 1) * sizeof *basic);
+    if (!basic) {
+        free(rows);
+        return fail(EXIT_RUNTIME, "out of memory");
+    }
+    for (size_t e = 0; e < n; e++) { /* once per element: a file palette's volume is sampled each call */
+        clvox_palette_element_info info;
         clvox_status st = clvox_palette_element_info_get(ctx, p, e, &info);
-        if (st == CLVOX_OK) st = clvox_palette_element_info_get(ctx, p, info.basic, &basic);
         if (st != CLVOX_OK) {
+            free(basic);
             free(rows);
             return fail_status(ctx, st, ROLE_OTHER);
         }
         snprintf(rows[e].name, sizeof rows[e].name, "%s", info.name);
-        snprintf(rows[e].basic, sizeof rows[e].basic, "%s", basic.name);
         memcpy(rows[e].s, info.matrix, sizeof rows[e].s);
+        basic[e] = info.basic < n ? info.basic : (uint32_t)e;
     }
+    for (size_t e = 0; e < n; e++) memcpy(rows[e].basic, rows[basic[e]].name, sizeof rows[e].basic);
+    free(basic);
     *out = rows;
     return EXIT_OK;
 }

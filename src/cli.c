@@ -5,6 +5,7 @@
  *   clvox info FILE.exr           header, filled voxel count, coverage sum (no OpenCL needed)
  *   clvox preview FILE.exr -o OUT.png   slices as a PNG picture (cli_preview.c)
  *   clvox palette list | show NAME|FILE  palettes of sub-voxel elements (cli_palette.c)
+ *   clvox instances VOLUME.exr -o OUT.csv  instances of a palette volume, for rendering (cli_instances.c)
  *   clvox mesh VOLUME.exr -o OUT.ply  a palette volume's geometry as a PLY mesh (cli_mesh.c)
  *   clvox --list-devices | --help | --version
  *
@@ -562,6 +563,7 @@ static void print_help(void)
 "       clvox info FILE.exr\n"
 "       clvox preview FILE.exr -o OUT.png [options]\n"
 "       clvox palette list | show NAME|FILE\n"
+"       clvox instances VOLUME.exr -o OUT.csv [--render-map MAP]\n"
 "       clvox mesh VOLUME.exr -o OUT.ply [--ascii]\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
@@ -692,6 +694,10 @@ static void print_help(void)
 "clvox palette list | show NAME|FILE: the built-in palettes of sub-voxel\n"
 "elements (binary, planar10, paper46, paper78), or the elements of one with\n"
 "their volumes and symmetries (clvox palette --help). Needs no OpenCL device.\n"
+"\n"
+"clvox instances VOLUME.exr -o OUT.csv: one CSV row per non-empty voxel of a\n"
+"palette volume (position, size, element, symmetry, score, render object from\n"
+"--render-map), for scripts/blender_instances.py (clvox instances --help).\n"
 "\n"
 "clvox mesh VOLUME.exr -o OUT.ply: the geometry of a palette volume as a PLY\n"
 "mesh, each voxel replaced by its element's exact shape (clvox mesh --help).\n"
@@ -1287,6 +1293,7 @@ int main(int argc, char **argv)
     if (argc >= 2 && strcmp(argv[1], "info") == 0) return finish_stdout(cmd_info(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "preview") == 0) return finish_stdout(cmd_preview(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "palette") == 0) return finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "instances") == 0) return finish_stdout(cmd_instances(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "mesh") == 0) return finish_stdout(cmd_mesh(argc - 2, argv + 2), NULL);
 
     cli_args a;

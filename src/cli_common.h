@@ -89,6 +89,8 @@ int has_channel(const char *list, const char *name);
 int cmd_preview(int argc, char **argv);
 /* clvox palette (cli_palette.c); argv after "palette". */
 int cmd_palette(int argc, char **argv);
+/* clvox instances (cli_instances.c); argv after "instances". */
+int cmd_instances(int argc, char **argv);
 /* clvox mesh (cli_mesh.c); argv after "mesh". */
 int cmd_mesh(int argc, char **argv);
 

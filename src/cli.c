@@ -1274,7 +1274,8 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     }
     if (report->duplicate_triangles > 0)
         warn("%llu triangles repeat the corners of another one (duplicated or coincident surfaces): the parity "
-             "rule cancels coincident copies, so a doubled shell voxelizes as empty",
+             "rule cancels coincident copies, which is right where two solids touch face to face (clvox mesh "
+             "exports) but makes a doubled shell voxelize as empty",
              (unsigned long long)report->duplicate_triangles);
     rc = finish_stdout(rc, output);
 

@@ -31,6 +31,8 @@ LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
 # libpng (Debian libpng-dev) only for `clvox preview` in the CLI and for the
 # tests that decode its pictures; the library does not use it.
 PNG_LIBS := -lpng
+# GMP (Debian libgmp-dev) only for the tests: exact rational references.
+TEST_LIBS := -lgmp
 FINAL_LDFLAGS := $(SAN_LDFLAGS) $(LDFLAGS)
 
 ifeq ($(V),1)
@@ -95,7 +97,7 @@ $(CLI_BIN): $(CLI_OBJ) $(STATIC_LIB)
 $(BUILD)/tests/%: tests/%.c $(TEST_SUPPORT_OBJ) $(STATIC_LIB)
 	@mkdir -p $(dir $@)
 	@$(if $(filter 0,$(V)),echo "  TEST  $<")
-	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS)
+	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS) $(TEST_LIBS)
 
 tests: all $(TEST_BINS)
 

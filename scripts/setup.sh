@@ -9,7 +9,7 @@ set -eu
 
 pkgs="build-essential pkg-config ca-certificates time \
 pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo \
-libopenexr-dev openexr libopenmesh-dev libpng-dev"
+libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev"
 peers=0
 for arg in "$@"; do
   case "$arg" in

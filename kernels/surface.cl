@@ -19,36 +19,48 @@
 /* One separating-axis predicate: the sign of an affine function of the
  * cell centre c, which must be >= 0 (want > 0) or <= 0 (want < 0) for the
  * cell to meet the triangle on that side of the axis.
- * kind 0: clvox_e2_sign in projection (s, t) of vertex points a, b, c0 and
- *         the corner c + (os, ot); kind 1: clvox_o3_sign at corner c + o. */
+ * kind 0: clvox_e2_sign(a, b, c0, c + o) in the projection (s, t), with
+ *         ds, dt = b - a rounded as clvox_e2_sign rounds them;
+ * kind 1: clvox_o3_sign(v0, v1, v2, c + o). */
 typedef struct clvox_spred {
-    double gx, gy, gz, h; /* approximate affine value (for the roots only) */
-    float o[3];           /* corner offset, -+0.5 per axis */
+    double ds, dt, cs, ct; /* kind 0: b - a (rounded), c0 in (s, t) */
+    double r0, ry, rz;     /* approximate root along x: r0 + ry*y + rz*z (x-dependent ones) */
+    float o[3];            /* corner offset, -+0.5 per axis */
     uchar kind, s, t, a, b, c0;
     char want;
     uchar pad;
 } clvox_spred;
 
-inline int clvox_spred_holds(const clvox_spred *p, const double *v, double cx, double cy, double cz)
+inline double clvox_coord(uint axis, double x, double y, double z) { return axis == 0 ? x : axis == 1 ? y : z; }
+
+inline int clvox_spred_holds(const clvox_spred *p, const double *v, double x, double y, double z)
 {
-    double c[3] = {cx + (double)p->o[0], cy + (double)p->o[1], cz + (double)p->o[2]};
     int sg;
     if (p->kind == 0) {
-        const uint s = p->s, t = p->t;
-        sg = clvox_e2_sign(v[3 * p->a + s], v[3 * p->a + t], v[3 * p->b + s], v[3 * p->b + t], v[3 * p->c0 + s],
-                           v[3 * p->c0 + t], c[s], c[t]);
+        /* clvox_e2_sign with the differences b - a already taken */
+        const double Cs = clvox_coord(p->s, x, y, z) + (double)p->o[p->s];
+        const double Ct = clvox_coord(p->t, x, y, z) + (double)p->o[p->t];
+        const double l = p->ds * (Ct - p->ct), r = p->dt * (Cs - p->cs);
+        const double det = l - r, bound = CLVOX_OV_E2_ERR * (fabs(l) + fabs(r));
+        if (det > bound) sg = 1;
+        else if (-det > bound) sg = -1;
+        else
+            sg = clvox_e2_exact(v[3 * p->a + p->s], v[3 * p->a + p->t], v[3 * p->b + p->s], v[3 * p->b + p->t], p->cs,
+                                p->ct, Cs, Ct);
     } else {
-        sg = clvox_o3_sign(v, c[0], c[1], c[2]);
+        sg = clvox_o3_sign(v, x + (double)p->o[0], y + (double)p->o[1], z + (double)p->o[2]);
     }
     return p->want > 0 ? sg >= 0 : sg <= 0;
 }
 
-/* All predicates of one group hold at cell x of the row. */
-inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, const double *v, int x, double y,
-                             double z)
+/* All predicates of one group hold at cell x of the row (idx[first] tried first). */
+inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v, int x,
+                             double y, double z)
 {
+    const double xd = (double)x;
+    if (n && !clvox_spred_holds(&p[idx[first]], v, xd, y, z)) return 0;
     for (int i = 0; i < n; i++)
-        if (!clvox_spred_holds(&p[idx[i]], v, (double)x, y, z)) return 0;
+        if (i != first && !clvox_spred_holds(&p[idx[i]], v, xd, y, z)) return 0;
     return 1;
 }
 
@@ -151,8 +163,9 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 double g[3] = {0.0, 0.0, 0.0};
                 g[s] = -dt;
                 g[t] = ds;
-                q->gx = g[0], q->gy = g[1], q->gz = g[2];
-                q->h = ds * ((double)ot - v[3 * q->c0 + t]) - dt * ((double)os - v[3 * q->c0 + s]);
+                const double h = ds * ((double)ot - v[3 * q->c0 + t]) - dt * ((double)os - v[3 * q->c0 + s]);
+                q->ds = ds, q->dt = dt, q->cs = v[3 * q->c0 + s], q->ct = v[3 * q->c0 + t];
+                q->r0 = -h / g[0], q->ry = -g[1] / g[0], q->rz = -g[2] / g[0]; /* inf/NaN when g[0] == 0: unused */
                 /* exact slope along x: ds when t is x, -dt when s is x, none when k is x */
                 const int slope = t == 0 ? gt : s == 0 ? gs : 0;
                 const int incr = slope * q->want; /* > 0: holds from some x on */
@@ -172,8 +185,10 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
             q->kind = 1;
             q->s = q->t = q->a = q->b = q->c0 = 0;
             q->want = (char)(side ? -1 : 1);
-            q->gx = na[0], q->gy = na[1], q->gz = na[2];
-            q->h = na[0] * ((double)q->o[0] - v[0]) + na[1] * ((double)q->o[1] - v[1]) + na[2] * ((double)q->o[2] - v[2]);
+            const double h = na[0] * ((double)q->o[0] - v[0]) + na[1] * ((double)q->o[1] - v[1]) +
+                             na[2] * ((double)q->o[2] - v[2]);
+            q->ds = q->dt = q->cs = q->ct = 0.0;
+            q->r0 = -h / na[0], q->ry = -na[1] / na[0], q->rz = -na[2] / na[0];
             const int incr = sn[0] * q->want;
             if (incr == 0) cst[ncst++] = (uchar)np;
             else if (incr > 0) lower[nlo++] = (uchar)np;
@@ -190,33 +205,38 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
         global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
         for (int j = j0; j <= j1; j++) {
             const double yd = (double)j;
-            if (!clvox_group_holds(p, cst, ncst, v, xlo, yd, kd)) continue;
-            /* L: first x of [xlo, xhi] where every lower predicate holds */
+            if (!clvox_group_holds(p, cst, ncst, 0, v, xlo, yd, kd)) continue;
+            /* L: first x of [xlo, xhi] where every lower predicate holds;
+             * the one with the largest approximate root is tried first */
             double guess = xlod;
+            int first = 0;
             for (int i = 0; i < nlo; i++) {
                 const clvox_spred *q = &p[lower[i]];
-                guess = fmax(guess, -(q->gy * yd + q->gz * kd + q->h) / q->gx); /* NaN ignored */
+                double root = q->r0 + q->ry * yd + q->rz * kd;
+                if (root > guess) guess = root, first = i; /* NaN ignored */
             }
             int L = (int)ceil(fmin(guess, xhid));
-            if (clvox_group_holds(p, lower, nlo, v, L, yd, kd)) {
-                while (L > xlo && clvox_group_holds(p, lower, nlo, v, L - 1, yd, kd)) L--;
+            if (clvox_group_holds(p, lower, nlo, first, v, L, yd, kd)) {
+                while (L > xlo && clvox_group_holds(p, lower, nlo, first, v, L - 1, yd, kd)) L--;
             } else {
                 do L++;
-                while (L <= xhi && !clvox_group_holds(p, lower, nlo, v, L, yd, kd));
+                while (L <= xhi && !clvox_group_holds(p, lower, nlo, first, v, L, yd, kd));
                 if (L > xhi) continue;
             }
             /* U: last x of [L, xhi] where every upper predicate holds */
             guess = xhid;
+            first = 0;
             for (int i = 0; i < nup; i++) {
                 const clvox_spred *q = &p[upper[i]];
-                guess = fmin(guess, -(q->gy * yd + q->gz * kd + q->h) / q->gx);
+                double root = q->r0 + q->ry * yd + q->rz * kd;
+                if (root < guess) guess = root, first = i;
             }
             int U = (int)floor(fmax(guess, (double)L));
-            if (clvox_group_holds(p, upper, nup, v, U, yd, kd)) {
-                while (U < xhi && clvox_group_holds(p, upper, nup, v, U + 1, yd, kd)) U++;
+            if (clvox_group_holds(p, upper, nup, first, v, U, yd, kd)) {
+                while (U < xhi && clvox_group_holds(p, upper, nup, first, v, U + 1, yd, kd)) U++;
             } else {
                 do U--;
-                while (U >= L && !clvox_group_holds(p, upper, nup, v, U, yd, kd));
+                while (U >= L && !clvox_group_holds(p, upper, nup, first, v, U, yd, kd));
                 if (U < L) continue;
             }
             clvox_row_or(slice + (size_t)j * words_per_row, L, U);

@@ -237,6 +237,8 @@ typedef enum clvox_mode {
     CLVOX_MODE_CONSERVATIVE, /* solid or surface: every voxel the solid touches */
     CLVOX_MODE_COUNT
 } clvox_mode;
+/* "solid", "surface", "conservative"; NULL for a bad value. */
+const char *clvox_mode_name(clvox_mode mode);
 
 typedef struct clvox_voxelize_options {
     size_t size;
@@ -478,8 +480,6 @@ const char *clvox_palette_source(const clvox_palette *palette);
 clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_palette **out);
 /* "nearest", "outer", "inner"; NULL for a bad value. */
 const char *clvox_metric_name(clvox_metric metric);
-/* "solid", "surface", "conservative"; NULL for a bad value. */
-const char *clvox_mode_name(clvox_mode mode);
 
 #ifdef __cplusplus
 }

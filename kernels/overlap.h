@@ -132,19 +132,40 @@ CLVOX_OV_FN int clvox_o3_exact(const double *v, double qx, double qy, double qz)
     return clvox_exact_sum_sign(t, n);
 }
 
-CLVOX_OV_FN int clvox_o3_sign(const double *v, double qx, double qy, double qz)
+/* The triangle's part of the 3x3 filter: the rounded minors of
+ * a = v1 - v0, b = v2 - v0 (m) and their absolute products (pm), for
+ * clvox_o3_sign_pre. */
+CLVOX_OV_FN void clvox_o3_setup(const double *v, double *m, double *pm)
 {
     double ax = v[3] - v[0], ay = v[4] - v[1], az = v[5] - v[2];
     double bx = v[6] - v[0], by = v[7] - v[1], bz = v[8] - v[2];
-    double wx = qx - v[0], wy = qy - v[1], wz = qz - v[2];
     double aybz = ay * bz, azby = az * by, azbx = az * bx, axbz = ax * bz, axby = ax * by, aybx = ay * bx;
-    double det = wx * (aybz - azby) + wy * (azbx - axbz) + wz * (axby - aybx);
-    double perm = fabs(wx) * (fabs(aybz) + fabs(azby)) + fabs(wy) * (fabs(azbx) + fabs(axbz)) +
-                  fabs(wz) * (fabs(axby) + fabs(aybx));
+    m[0] = aybz - azby;
+    m[1] = azbx - axbz;
+    m[2] = axby - aybx;
+    pm[0] = fabs(aybz) + fabs(azby);
+    pm[1] = fabs(azbx) + fabs(axbz);
+    pm[2] = fabs(axby) + fabs(aybx);
+}
+
+/* clvox_o3_sign with clvox_o3_setup's values (the same operations). */
+CLVOX_OV_FN int clvox_o3_sign_pre(const double *v, const double *m, const double *pm, double qx, double qy,
+                                  double qz)
+{
+    double wx = qx - v[0], wy = qy - v[1], wz = qz - v[2];
+    double det = wx * m[0] + wy * m[1] + wz * m[2];
+    double perm = fabs(wx) * pm[0] + fabs(wy) * pm[1] + fabs(wz) * pm[2];
     double bound = CLVOX_OV_O3_ERR * perm;
     if (det > bound) return 1;
     if (-det > bound) return -1;
     return clvox_o3_exact(v, qx, qy, qz);
+}
+
+CLVOX_OV_FN int clvox_o3_sign(const double *v, double qx, double qy, double qz)
+{
+    double m[3], pm[3];
+    clvox_o3_setup(v, m, pm);
+    return clvox_o3_sign_pre(v, m, pm, qx, qy, qz);
 }
 
 #endif /* !__OPENCL_VERSION__ || cl_khr_fp64 */

@@ -33,7 +33,7 @@ typedef struct clvox_spred {
 
 inline double clvox_coord(uint axis, double x, double y, double z) { return axis == 0 ? x : axis == 1 ? y : z; }
 
-inline int clvox_spred_holds(const clvox_spred *p, const double *v, double x, double y, double z)
+inline int clvox_spred_holds(const clvox_spred *p, const double *v, const double *om, double x, double y, double z)
 {
     int sg;
     if (p->kind == 0) {
@@ -48,19 +48,19 @@ inline int clvox_spred_holds(const clvox_spred *p, const double *v, double x, do
             sg = clvox_e2_exact(v[3 * p->a + p->s], v[3 * p->a + p->t], v[3 * p->b + p->s], v[3 * p->b + p->t], p->cs,
                                 p->ct, Cs, Ct);
     } else {
-        sg = clvox_o3_sign(v, x + (double)p->o[0], y + (double)p->o[1], z + (double)p->o[2]);
+        sg = clvox_o3_sign_pre(v, om, om + 3, x + (double)p->o[0], y + (double)p->o[1], z + (double)p->o[2]);
     }
     return p->want > 0 ? sg >= 0 : sg <= 0;
 }
 
 /* All predicates of one group hold at cell x of the row (idx[first] tried first). */
-inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v, int x,
-                             double y, double z)
+inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v,
+                             const double *om, int x, double y, double z)
 {
     const double xd = (double)x;
-    if (n && !clvox_spred_holds(&p[idx[first]], v, xd, y, z)) return 0;
+    if (n && !clvox_spred_holds(&p[idx[first]], v, om, xd, y, z)) return 0;
     for (int i = 0; i < n; i++)
-        if (i != first && !clvox_spred_holds(&p[idx[i]], v, xd, y, z)) return 0;
+        if (i != first && !clvox_spred_holds(&p[idx[i]], v, om, xd, y, z)) return 0;
     return 1;
 }
 
@@ -165,7 +165,8 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 g[t] = ds;
                 const double h = ds * ((double)ot - v[3 * q->c0 + t]) - dt * ((double)os - v[3 * q->c0 + s]);
                 q->ds = ds, q->dt = dt, q->cs = v[3 * q->c0 + s], q->ct = v[3 * q->c0 + t];
-                q->r0 = -h / g[0], q->ry = -g[1] / g[0], q->rz = -g[2] / g[0]; /* inf/NaN when g[0] == 0: unused */
+                const double inv = -1.0 / g[0]; /* inf when g[0] == 0: then unused */
+                q->r0 = h * inv, q->ry = g[1] * inv, q->rz = g[2] * inv;
                 /* exact slope along x: ds when t is x, -dt when s is x, none when k is x */
                 const int slope = t == 0 ? gt : s == 0 ? gs : 0;
                 const int incr = slope * q->want; /* > 0: holds from some x on */
@@ -188,7 +189,8 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
             const double h = na[0] * ((double)q->o[0] - v[0]) + na[1] * ((double)q->o[1] - v[1]) +
                              na[2] * ((double)q->o[2] - v[2]);
             q->ds = q->dt = q->cs = q->ct = 0.0;
-            q->r0 = -h / na[0], q->ry = -na[1] / na[0], q->rz = -na[2] / na[0];
+            const double inv = -1.0 / na[0];
+            q->r0 = h * inv, q->ry = na[1] * inv, q->rz = na[2] * inv;
             const int incr = sn[0] * q->want;
             if (incr == 0) cst[ncst++] = (uchar)np;
             else if (incr > 0) lower[nlo++] = (uchar)np;
@@ -197,6 +199,8 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
         }
     }
 
+    double om[6]; /* the triangle's part of the plane predicates' filter */
+    clvox_o3_setup(v, om, om + 3);
     const uint jr = task[3];
     const int j0 = (int)(jr & 0xFFFFu), j1 = (int)(jr >> 16);
     const double xlod = (double)xlo, xhid = (double)xhi;
@@ -205,7 +209,7 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
         global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
         for (int j = j0; j <= j1; j++) {
             const double yd = (double)j;
-            if (!clvox_group_holds(p, cst, ncst, 0, v, xlo, yd, kd)) continue;
+            if (!clvox_group_holds(p, cst, ncst, 0, v, om, xlo, yd, kd)) continue;
             /* L: first x of [xlo, xhi] where every lower predicate holds;
              * the one with the largest approximate root is tried first */
             double guess = xlod;
@@ -216,11 +220,11 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 if (root > guess) guess = root, first = i; /* NaN ignored */
             }
             int L = (int)ceil(fmin(guess, xhid));
-            if (clvox_group_holds(p, lower, nlo, first, v, L, yd, kd)) {
-                while (L > xlo && clvox_group_holds(p, lower, nlo, first, v, L - 1, yd, kd)) L--;
+            if (clvox_group_holds(p, lower, nlo, first, v, om, L, yd, kd)) {
+                while (L > xlo && clvox_group_holds(p, lower, nlo, first, v, om, L - 1, yd, kd)) L--;
             } else {
                 do L++;
-                while (L <= xhi && !clvox_group_holds(p, lower, nlo, first, v, L, yd, kd));
+                while (L <= xhi && !clvox_group_holds(p, lower, nlo, first, v, om, L, yd, kd));
                 if (L > xhi) continue;
             }
             /* U: last x of [L, xhi] where every upper predicate holds */
@@ -232,11 +236,11 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 if (root < guess) guess = root, first = i;
             }
             int U = (int)floor(fmax(guess, (double)L));
-            if (clvox_group_holds(p, upper, nup, first, v, U, yd, kd)) {
-                while (U < xhi && clvox_group_holds(p, upper, nup, first, v, U + 1, yd, kd)) U++;
+            if (clvox_group_holds(p, upper, nup, first, v, om, U, yd, kd)) {
+                while (U < xhi && clvox_group_holds(p, upper, nup, first, v, om, U + 1, yd, kd)) U++;
             } else {
                 do U--;
-                while (U >= L && !clvox_group_holds(p, upper, nup, first, v, U, yd, kd));
+                while (U >= L && !clvox_group_holds(p, upper, nup, first, v, om, U, yd, kd));
                 if (U < L) continue;
             }
             clvox_row_or(slice + (size_t)j * words_per_row, L, U);

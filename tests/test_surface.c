@@ -619,6 +619,12 @@ static void test_real_meshes(void)
 
 /* ---- API and CLI ------------------------------------------------------------ */
 
+static int cancel_at_once(void *user, double fraction)
+{
+    (void)user, (void)fraction;
+    return 0;
+}
+
 static void test_api(void)
 {
     tmesh m = tmesh_octahedron(8, 8, 8, 5);
@@ -669,6 +675,16 @@ static void test_api(void)
                   (unsigned long long)info.filled_voxels, (unsigned long long)st.filled_voxels);
         remove(path);
     }
+    /* cancel from the progress callback: the documented status, no file left */
+    snprintf(path, sizeof path, "%s/surface_cancel.exr", test_tmpdir());
+    remove(path);
+    clvox_voxelize_options e = CLVOX_VOXELIZE_OPTIONS_INIT;
+    e.mode = CLVOX_MODE_SURFACE;
+    e.slab_depth = 2;
+    e.progress = cancel_at_once;
+    CHECK_STATUS(ctx, clvox_voxelize_to_exr(ctx, mesh, &g, &e, path, NULL), CLVOX_ERR_CANCELLED);
+    struct stat sb;
+    CHECK(stat(path, &sb) != 0);
     free(buf);
     clvox_mesh_destroy(mesh);
     tmesh_free(&m);

@@ -385,6 +385,12 @@ static int parse_args(int argc, char **argv, cli_args *a)
             if (strcmp(v, "ray") == 0) a->vox.method = CLVOX_METHOD_RAY;
             else if (strcmp(v, "tetra") == 0) a->vox.method = CLVOX_METHOD_TETRA;
             else return usage_error("--method '%s': expected ray or tetra", v);
+        } else if (VALUE_OPT(NULL, "--mode")) {
+            NEED_VALUE("--mode");
+            if (strcmp(v, "solid") == 0) a->vox.mode = CLVOX_MODE_SOLID;
+            else if (strcmp(v, "surface") == 0) a->vox.mode = CLVOX_MODE_SURFACE;
+            else if (strcmp(v, "conservative") == 0) a->vox.mode = CLVOX_MODE_CONSERVATIVE;
+            else return usage_error("--mode '%s': expected solid, surface or conservative", v);
         } else if (VALUE_OPT(NULL, "--axis")) {
             NEED_VALUE("--axis");
             if (strcmp(v, "x") == 0) a->vox.ray_axis = CLVOX_AXIS_X;
@@ -551,6 +557,13 @@ static int parse_args(int argc, char **argv, cli_args *a)
         return usage_error("--oversample: the tetra method does not compute coverage (use --method ray)");
     }
     if (a->seed_given && !a->vox.stochastic) return usage_error("--seed needs --stochastic");
+    if (a->vox.mode != CLVOX_MODE_SOLID) {
+        const char *mode = clvox_mode_name(a->vox.mode);
+        if (a->palette) return usage_error("--mode %s: --palette needs --mode solid", mode);
+        if (a->vox.oversample) return usage_error("--mode %s is binary: --oversample needs --mode solid", mode);
+        if (a->vox.channels & ~CLVOX_CHANNEL_OCCUPANCY)
+            return usage_error("--mode %s writes occupancy only", mode);
+    }
     return 0;
 }
 
@@ -593,6 +606,19 @@ static void print_help(void)
 "\n",
         DEFAULT_RESOLUTION, DEFAULT_RESOLUTION, CLVOX_MAX_AXIS, (unsigned long long)CLVOX_MAX_VOXELS);
     fputs(
+"Mode (what a voxel holds; default solid):\n"
+"  --mode solid|surface|conservative\n"
+"                           solid: the voxel centre is inside the mesh (parity;\n"
+"                           the mesh must be closed); surface: the voxel's closed\n"
+"                           cell meets a triangle (exact: a triangle touching a\n"
+"                           cell's face, edge or corner marks it, so a face on the\n"
+"                           plane between two cells marks both; degenerate\n"
+"                           triangles mark what they touch; no parity, so open\n"
+"                           meshes and triangle soups are fine; --method and its\n"
+"                           options do not apply); conservative: solid or surface\n"
+"                           (solid by --method, closed mesh). Both are binary\n"
+"                           (occupancy; no --oversample, --palette)\n"
+"\n"
 "Method:\n"
 "  --method ray|tetra       ray: quadtree + ray parity (Thon et al.); tetra: XOR\n"
 "                           of the tetrahedra from one origin to every triangle\n"
@@ -1047,7 +1073,10 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
 
     char slab[32];
     snprintf(slab, sizeof slab, "%u", (unsigned)s->slab_depth);
-    if (a->vox.method == CLVOX_METHOD_TETRA) {
+    if (a->vox.mode == CLVOX_MODE_SURFACE) {
+        printf(LABEL "surface: closed cells meeting a triangle (exact), slab %s slices, %s compression\n", "method",
+               slab, compression_name(a->vox.compression));
+    } else if (a->vox.method == CLVOX_METHOD_TETRA) {
         char origin[128];
         if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_BBOX_CENTER) snprintf(origin, sizeof origin, "bbox centre");
         else if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_POINT)
@@ -1067,6 +1096,8 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
                "method", axes[ax >= 0 && ax <= 3 ? ax : 0], (unsigned)s->quadtree_depth, depth,
                (unsigned long long)s->quadtree_leaves, leaf, slab, compression_name(a->vox.compression));
     }
+    if (a->vox.mode == CLVOX_MODE_CONSERVATIVE)
+        printf(LABEL "conservative: the solid above OR the surface (closed cells meeting a triangle, exact)\n", "mode");
 
     const int grey = (s->channels & CLVOX_CHANNEL_COVERAGE) != 0;
     if (pal) {
@@ -1125,7 +1156,7 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
     } else {
         printf(LABEL "%s %s (the mesh encloses no volume)\n", "volume", fv, what);
     }
-    if (a->vox.method == CLVOX_METHOD_RAY || s->rays)
+    if ((a->vox.method == CLVOX_METHOD_RAY && a->vox.mode != CLVOX_MODE_SURFACE) || s->rays)
         printf(LABEL "%llu cast, %llu odd parity, %llu overflow redone, at most %u crossings per ray\n", "rays",
                (unsigned long long)s->rays, (unsigned long long)s->odd_parity_rays,
                (unsigned long long)s->overflow_rays, (unsigned)s->max_crossings);
@@ -1243,8 +1274,10 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
                       now_seconds() - wall_start);
         flush_stdout(); /* the summary before the warnings */
     }
-    /* Warnings come from the mesh report, whatever the method, one line each. */
-    if (!report->closed) {
+    /* Warnings come from the mesh report, whatever the method, one line each
+     * (surface mode has no inside: open meshes and duplicates are fine). */
+    const int solid = a->vox.mode != CLVOX_MODE_SURFACE;
+    if (solid && !report->closed) {
         char rays[96] = "";
         if (stats.odd_parity_rays > 0)
             snprintf(rays, sizeof rays, "; %llu rays crossed it an odd number of times",
@@ -1252,7 +1285,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
         warn("the mesh is not closed (%llu boundary edges%s): inside and outside are not defined everywhere and "
              "the result may be wrong",
              (unsigned long long)report->boundary_edges, rays);
-    } else if (stats.odd_parity_rays > 0) {
+    } else if (solid && stats.odd_parity_rays > 0) {
         warn("%llu rays crossed the surface an odd number of times although the mesh is closed: the result may "
              "be wrong",
              (unsigned long long)stats.odd_parity_rays);
@@ -1272,7 +1305,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
                  "so the volume is only that precise (move the mesh near the origin for a finer grid)",
                  far, ulp, 100.0 * ulp / hmin);
     }
-    if (report->duplicate_triangles > 0)
+    if (solid && report->duplicate_triangles > 0)
         warn("%llu triangles repeat the corners of another one (duplicated or coincident surfaces): the parity "
              "rule cancels coincident copies, which is right where two solids touch face to face (clvox mesh "
              "exports) but makes a doubled shell voxelize as empty",

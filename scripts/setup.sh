@@ -10,7 +10,7 @@
 set -eu
 
 pkgs="build-essential pkg-config ca-certificates time \
-pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo \
+pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo zlib1g-dev python3-numpy python3-venv \
 libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev"
 peers=0
 blender=0

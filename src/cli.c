@@ -588,6 +588,8 @@ static void print_help(void)
 "       clvox palette list | show NAME|FILE\n"
 "       clvox instances VOLUME.exr -o OUT.csv [--render-map MAP]\n"
 "       clvox mesh VOLUME.exr -o OUT.ply [--ascii]\n"
+"       clvox convert IN.exr OUT.{npy,nrrd,binvox,exr} [--format F] [--channel NAME]...\n"
+"                     [--compression C] [--npy-bits] [--npy-float32] [--npy-uint32]\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
 "Voxelizes a closed triangle mesh on an OpenCL device and writes the solid\n"
@@ -1362,6 +1364,7 @@ int main(int argc, char **argv)
     if (argc >= 2 && strcmp(argv[1], "palette") == 0) return finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "instances") == 0) return finish_stdout(cmd_instances(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "mesh") == 0) return finish_stdout(cmd_mesh(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "convert") == 0) return finish_stdout(cmd_convert(argc - 2, argv + 2), NULL);
 
     cli_args a;
     int rc = parse_args(argc, argv, &a);

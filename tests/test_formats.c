@@ -16,6 +16,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#define EXIT_INPUT_CODE 4
 static char g_dir[2048], g_python[4096];
 
 static const char *tmp(const char *name)
@@ -204,6 +205,52 @@ int main(void)
         unlink(tmp("out.dat"));
         unlink(tmp("out.json"));
         CHECK_MSG(entries() == 1, "%d files left", entries());
+    }
+    /* clvox convert: an EXR volume into every format, compared with the same reference */
+    clear_dir();
+    CHECK(write_raw(tmp("ref.u8"), occ, n));
+    CHECK(write_raw(tmp("ref.f32"), cov, n * sizeof *cov));
+    clvox_voxelize_options two = cv;
+    two.channels = CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE;
+    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, mesh, &g, &vo, tmp("in.exr"), NULL));
+    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, mesh, &g, &two, tmp("in2.exr"), NULL));
+    if (bin) {
+        static const char *const outs[] = {"conv.npy", "conv.nrrd", "conv.binvox", "conv.exr"};
+        for (int k = 0; k < 4; k++) {
+            const char *a[] = {bin, "convert", tmp("in.exr"), tmp(outs[k]), NULL};
+            spawn_result r;
+            CHECK_MSG(spawn_run(&r, a, 60) == 0, "%s: %s", outs[k], r.err);
+            spawn_free(&r);
+        }
+        CHECK(check_py("npy", tmp("conv.npy"), tmp("ref.u8"), "u8", &g, 0));
+        CHECK(check_py("nrrd", tmp("conv.nrrd"), tmp("ref.u8"), "u8", &g, 0));
+        CHECK(check_py("binvox", tmp("conv.binvox"), tmp("ref.u8"), "u8", &g, 0));
+        uint8_t *back = malloc(n);
+        clvox_volume_info info;
+        CHECK_OK(ctx, clvox_volume_read(ctx, tmp("conv.exr"), &info, back, n));
+        CHECK(memcmp(back, occ, n) == 0);
+        free(back);
+        const char *a2[] = {bin, "convert", tmp("in2.exr"), tmp("conv2.npy"), NULL};
+        spawn_result r;
+        CHECK(spawn_run(&r, a2, 60) == 0);
+        spawn_free(&r);
+        CHECK(check_py("npy", tmp("conv2.coverage.npy"), tmp("ref.f32"), "f32", &g, 0));
+        /* bad requests: nothing left */
+        int before = entries();
+        const char *b1[] = {bin, "convert", tmp("in2.exr"), tmp("bad.binvox"), "--channel", "coverage", NULL};
+        CHECK(spawn_run(&r, b1, 60) != 0 && strstr(r.err, "binvox holds no coverage"));
+        spawn_free(&r);
+        const char *b2[] = {bin, "convert", tmp("in2.exr"), tmp("bad.exr"), "--channel", "coverage", "--channel",
+                            "occupancy", NULL};
+        CHECK(spawn_run(&r, b2, 60) != 0 && strstr(r.err, "one channel at a time"));
+        spawn_free(&r);
+        const char *b3[] = {bin, "convert", tmp("in.exr"), tmp("bad.npy"), "--channel", "coverage", NULL};
+        CHECK(spawn_run(&r, b3, 60) == EXIT_INPUT_CODE && strstr(r.err, "has no coverage channel"));
+        spawn_free(&r);
+        const char *b4[] = {bin, "convert", tmp("in.exr"), tmp("bad.vol"), NULL};
+        CHECK(spawn_run(&r, b4, 60) == 2);
+        spawn_free(&r);
+        CHECK_MSG(entries() == before, "%d files, %d before", entries(), before);
     }
     clvox_mesh_destroy(mesh);
     tmesh_free(&t);

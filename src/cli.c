@@ -1220,6 +1220,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     output = a->output ? dup_string(a->output)
                        : default_output(mesh_path, format ? clvox_format_name(format) : "exr");
     if (!output) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
+    if ((rc = check_output(output)) != EXIT_OK) goto done;
     if (!format) format = clvox_format_from_path(output);
     if (!format) {
         rc = usage_error("cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd or "
@@ -1227,7 +1228,6 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
                          output);
         goto done;
     }
-    if ((rc = check_output(output)) != EXIT_OK) goto done;
     struct stat in_sb, out_sb;
     if (stat(mesh_path, &in_sb) == 0 && stat(output, &out_sb) == 0 && in_sb.st_dev == out_sb.st_dev &&
         in_sb.st_ino == out_sb.st_ino) {

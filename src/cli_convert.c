@@ -83,14 +83,14 @@ int cmd_convert(int argc, char **argv)
         }
     }
     if (!in || !out) return usage_error("convert: usage: clvox convert IN.exr OUT.{npy,nrrd,binvox,exr}");
+    int rc = check_output(out);
+    if (rc != EXIT_OK) return rc;
     clvox_format format = oo.format ? oo.format : clvox_format_from_path(out);
     if (!format)
         return usage_error("convert: cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd "
                            "or .binvox, or --format",
                            out);
     oo.format = format;
-    int rc = check_output(out);
-    if (rc != EXIT_OK) return rc;
     struct stat si, so;
     if (stat(in, &si) == 0 && stat(out, &so) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
         return usage_error("convert: the output '%s' is the input", out);

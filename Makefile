@@ -27,7 +27,7 @@ endif
 # User flags come last so they win (redis FINAL_CFLAGS).
 FINAL_CFLAGS := $(BASE_CFLAGS) $(OPT) $(CFLAGS)
 FINAL_CXXFLAGS := $(BASE_CXXFLAGS) $(OPT) -Wno-maybe-uninitialized $(CXXFLAGS)
-LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
+LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lz -lstdc++ -lm -lpthread
 # libpng (Debian libpng-dev) only for `clvox preview` in the CLI and for the
 # tests that decode its pictures; the library does not use it.
 PNG_LIBS := -lpng
@@ -41,7 +41,7 @@ else
   Q := @
 endif
 
-CLI_SRC := src/cli.c src/cli_common.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c
+CLI_SRC := src/cli.c src/cli_common.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c src/cli_convert.c
 LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
 LIB_CXX := $(wildcard src/*.cpp)
 # Kernel program = shared types + prelude + sampler + palette + overlap + one file per stage.

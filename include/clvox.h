@@ -390,6 +390,71 @@ clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, const clvox_m
                                                size_t element_count, float *score, size_t score_count,
                                                clvox_stats *stats);
 
+/* ---- other output formats (output.c, write_npy.c, write_nrrd.c, write_binvox.c) ---- */
+/* Besides EXR (the default, clvox_voxelize_to_exr): NumPy .npy, NRRD and
+ * binvox, streamed slab by slab except binvox (a bit per voxel held until the
+ * end: its voxel order runs x slowest). What each holds, file names, headers
+ * and the voxel-centre conventions: README "Output formats". */
+typedef enum clvox_format {
+    CLVOX_FORMAT_AUTO = 0, /* from the path's extension: .exr .npy .nrrd .binvox (any case) */
+    CLVOX_FORMAT_EXR,
+    CLVOX_FORMAT_NPY,
+    CLVOX_FORMAT_NRRD,
+    CLVOX_FORMAT_BINVOX,
+    CLVOX_FORMAT_COUNT
+} clvox_format;
+/* "exr", "npy", "nrrd", "binvox"; NULL for AUTO or a bad value. */
+const char *clvox_format_name(clvox_format format);
+/* The format named `name` ("npy", ...) or, with from_path, the format of the
+ * path's extension; CLVOX_FORMAT_AUTO when it is none of them. */
+clvox_format clvox_format_from_name(const char *name);
+clvox_format clvox_format_from_path(const char *path);
+
+/* clvox_output_options.flags */
+#define CLVOX_OUTPUT_PACK_BITS 0x1u /* npy occupancy: 8 voxels per byte along x, bit x%8 of byte x/8
+                                       (shape (Z, Y, ceil(X/8)); np.unpackbits(a, axis=2, bitorder='little')) */
+#define CLVOX_OUTPUT_FLOAT32 0x2u   /* npy coverage and score as float32 (exactly count/samples) instead of float16 */
+#define CLVOX_OUTPUT_UINT32 0x4u    /* npy element as uint32 instead of uint16 */
+
+typedef struct clvox_output_options {
+    size_t size;
+    clvox_format format;           /* AUTO: from the path's extension */
+    uint32_t flags;                /* CLVOX_OUTPUT_* */
+    /* 0 = default. EXR: as clvox_voxelize_options.compression. NRRD: NONE =
+     * raw, DEFAULT / ZIP / ZIPS = gzip (zlib level 1); RLE and PIZ are refused. npy and
+     * binvox: DEFAULT or NONE only. clvox_voxelize_to_file takes the voxelize
+     * options' compression when this is DEFAULT. */
+    clvox_compression compression;
+    uint32_t threads;              /* EXR encoder threads (0 = cores) */
+    const char *method;            /* for the file's header / sidecar (clvox_volume_writer only) */
+    const char *parameters;
+} clvox_output_options;
+#define CLVOX_OUTPUT_OPTIONS_INIT { sizeof(clvox_output_options), CLVOX_FORMAT_AUTO, 0, CLVOX_COMPRESSION_DEFAULT, 0, NULL, NULL }
+
+/* Voxelizes into `path` in the format of `output` (NULL: by extension).
+ * A format that cannot hold the channels the options produce is refused
+ * before any work (CLVOX_ERR_INVALID_ARGUMENT); a failed or cancelled run
+ * leaves no file. EXR is clvox_voxelize_to_exr. */
+clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    const clvox_voxelize_options *options, const clvox_output_options *output,
+                                    const char *path, clvox_stats *stats);
+
+/* Writes a volume from float slices (clvox convert): open with the grid and
+ * the CLVOX_CHANNEL_* mask, give every slice of every channel, finish. Each
+ * channel's slices come in increasing z from 0. npy and NRRD, one file per
+ * channel, take the channels one after another or interleaved; EXR and
+ * binvox take exactly one channel. Values: occupancy is filled where > 0.5,
+ * element is rounded to 0..65535, coverage and score are in [0, 1] (EXR and
+ * npy float16 hold them as HALF). Nothing is left at `path` unless finish succeeds. */
+typedef struct clvox_volume_writer clvox_volume_writer;
+clvox_status clvox_volume_writer_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
+                                      uint32_t channels, const clvox_output_options *output,
+                                      clvox_volume_writer **out);
+clvox_status clvox_volume_writer_slice(clvox_volume_writer *w, uint32_t channel, uint32_t z, const float *values);
+/* *bytes (may be NULL) = size of the main file. Frees w, also on failure. */
+clvox_status clvox_volume_writer_finish(clvox_volume_writer *w, uint64_t *bytes);
+void clvox_volume_writer_abort(clvox_volume_writer *w); /* NULL-safe; removes everything */
+
 /* ---- reading volumes back ---------------------------------------------------- */
 
 typedef struct clvox_volume_info {

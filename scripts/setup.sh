@@ -10,7 +10,7 @@
 set -eu
 
 pkgs="build-essential pkg-config ca-certificates time \
-pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo \
+pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo zlib1g-dev python3-numpy python3-venv \
 libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev"
 peers=0
 blender=0
@@ -32,6 +32,19 @@ if ! command -v dpkg-query >/dev/null 2>&1 || ! command -v apt-get >/dev/null 2>
   exit 1
 fi
 
+# The independent readers of tests/test_formats.c that Debian 12 does not
+# package (pynrrd for NRRD, trimesh's binvox loader): PyPI, pinned, into a
+# virtual environment in build/ that sees Debian's NumPy.
+root=$(cd "$(dirname "$0")/.." && pwd)
+python_readers() {
+  venv="$root/build/venv-formats"
+  if "$venv/bin/python" -c "import nrrd, trimesh" >/dev/null 2>&1; then return 0; fi
+  echo "setup.sh: installing pynrrd and trimesh into build/venv-formats"
+  python3 -m venv --system-site-packages "$venv" && \
+    "$venv/bin/pip" install -q --disable-pip-version-check pynrrd==1.1.3 trimesh==5.2.0 || {
+      echo "setup.sh: pip install of pynrrd/trimesh failed" >&2; return 1; }
+}
+
 missing=""
 for p in $pkgs; do
   st=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
@@ -39,7 +52,8 @@ for p in $pkgs; do
 done
 if [ -z "$missing" ]; then
   echo "setup.sh: all packages present"
-  exit 0
+  python_readers
+  exit $?
 fi
 
 echo "setup.sh: installing:$missing"
@@ -62,4 +76,5 @@ if ! { $sudo apt-get update -qq && \
   exit 1
 fi
 rm -f "$log"
+python_readers
 echo "setup.sh: done"

@@ -288,6 +288,7 @@ typedef struct cli_args {
     const char *palette;       /* --palette NAME|FILE */
     const char *samples_opt;   /* "--samples" or "--oversample", whichever set them */
     int metric_given;
+    clvox_output_options out;  /* --format, --npy-bits, --npy-float32, --npy-uint32 */
 } cli_args;
 
 static int set_grid_kind(cli_args *a, int kind, const char *name)
@@ -313,6 +314,8 @@ static int parse_args(int argc, char **argv, cli_args *a)
     memset(a, 0, sizeof *a);
     a->grid = g0;
     a->vox = v0;
+    clvox_output_options o0 = CLVOX_OUTPUT_OPTIONS_INIT;
+    a->out = o0;
     int options_done = 0;
 
     for (int i = 1; i < argc; i++) {
@@ -335,6 +338,9 @@ static int parse_args(int argc, char **argv, cli_args *a)
         if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) { a->quiet = 1; continue; }
         if (strcmp(arg, "--no-progress") == 0) { a->no_progress = 1; continue; }
         if (strcmp(arg, "--list-devices") == 0) { a->list_devices = 1; continue; }
+        if (strcmp(arg, "--npy-bits") == 0) { a->out.flags |= CLVOX_OUTPUT_PACK_BITS; continue; }
+        if (strcmp(arg, "--npy-float32") == 0) { a->out.flags |= CLVOX_OUTPUT_FLOAT32; continue; }
+        if (strcmp(arg, "--npy-uint32") == 0) { a->out.flags |= CLVOX_OUTPUT_UINT32; continue; }
 
 #define VALUE_OPT(sn, ln) match_value(argc, argv, &i, (sn), (ln), &v, &missing)
 #define NEED_VALUE(name) \
@@ -344,6 +350,10 @@ static int parse_args(int argc, char **argv, cli_args *a)
             NEED_VALUE("-o");
             if (*v == '\0') return usage_error("-o: empty file name");
             a->output = v;
+        } else if (VALUE_OPT(NULL, "--format")) {
+            NEED_VALUE("--format");
+            if ((a->out.format = clvox_format_from_name(v)) == CLVOX_FORMAT_AUTO)
+                return usage_error("--format '%s': one of exr, npy, nrrd, binvox", v);
         } else if (VALUE_OPT("-r", "--resolution")) {
             NEED_VALUE("-r");
             if (set_grid_kind(a, GRID_BY_RESOLUTION, "-r")) return EXIT_USAGE;
@@ -578,6 +588,8 @@ static void print_help(void)
 "       clvox palette list | show NAME|FILE\n"
 "       clvox instances VOLUME.exr -o OUT.csv [--render-map MAP]\n"
 "       clvox mesh VOLUME.exr -o OUT.ply [--ascii]\n"
+"       clvox convert IN.exr OUT.{npy,nrrd,binvox,exr} [--format F] [--channel NAME]...\n"
+"                     [--compression C] [--npy-bits] [--npy-float32] [--npy-uint32]\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
 "Voxelizes a closed triangle mesh on an OpenCL device and writes the solid\n"
@@ -589,7 +601,13 @@ static void print_help(void)
 "                           Environment below); the mesh used is printed\n"
 "  -o, --output OUT.exr     output file (default: <MESH name without extension>.exr\n"
 "                           in the current directory); written to a temporary name\n"
-"                           and renamed on success, so a failed run leaves no file\n"
+"                           and renamed on success, so a failed run leaves no file.\n"
+"                           The extension picks the format: .exr, .npy (+ OUT.json),\n"
+"                           .nrrd, .binvox (README \"Output formats\")\n"
+"  --format exr|npy|nrrd|binvox  the output format whatever the extension\n"
+"  --npy-bits               npy occupancy packed 8 voxels per byte along x\n"
+"  --npy-float32            npy coverage/score as float32 (default float16)\n"
+"  --npy-uint32             npy element as uint32 (default uint16)\n"
 "\n"
 "Grid (at most one of -r, --dims, --voxel-size; default -r %u):\n"
 "  -r, --resolution N       N voxels along the longest axis of the box, cubic\n"
@@ -1012,8 +1030,8 @@ static char *find_default_mesh(const char *argv0, int *rc)
     return NULL;
 }
 
-/* "<basename of mesh without extension>.exr" in the current directory. */
-static char *default_output(const char *mesh)
+/* "<basename of mesh without extension>.<ext>" in the current directory. */
+static char *default_output(const char *mesh, const char *ext)
 {
     const char *base = path_basename(mesh);
     size_t n = strlen(base);
@@ -1023,10 +1041,12 @@ static char *default_output(const char *mesh)
         base = "volume";
         n = strlen(base);
     }
-    char *out = malloc(n + 5);
+    size_t e = strlen(ext);
+    char *out = malloc(n + e + 2);
     if (!out) return NULL;
     memcpy(out, base, n);
-    memcpy(out + n, ".exr", 5);
+    out[n] = '.';
+    memcpy(out + n + 1, ext, e + 1);
     return out;
 }
 
@@ -1196,9 +1216,18 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
             flush_stdout();
         }
     }
-    output = a->output ? dup_string(a->output) : default_output(mesh_path);
+    clvox_format format = a->out.format;
+    output = a->output ? dup_string(a->output)
+                       : default_output(mesh_path, format ? clvox_format_name(format) : "exr");
     if (!output) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
     if ((rc = check_output(output)) != EXIT_OK) goto done;
+    if (!format) format = clvox_format_from_path(output);
+    if (!format) {
+        rc = usage_error("cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd or "
+                         ".binvox, or --format",
+                         output);
+        goto done;
+    }
     struct stat in_sb, out_sb;
     if (stat(mesh_path, &in_sb) == 0 && stat(output, &out_sb) == 0 && in_sb.st_dev == out_sb.st_dev &&
         in_sb.st_ino == out_sb.st_ino) {
@@ -1261,7 +1290,13 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     vo.progress_user = &prog;
     clvox_stats stats;
     memset(&stats, 0, sizeof stats);
-    st = clvox_voxelize_to_exr(dev, mesh, &grid, &vo, output, &stats);
+    if (format == CLVOX_FORMAT_EXR && !a->out.flags) {
+        st = clvox_voxelize_to_exr(dev, mesh, &grid, &vo, output, &stats);
+    } else {
+        clvox_output_options oo = a->out;
+        oo.format = format;
+        st = clvox_voxelize_to_file(dev, mesh, &grid, &vo, &oo, output, &stats);
+    }
     progress_erase();
     if (st != CLVOX_OK) {
         rc = fail_status(dev, st, ROLE_OUTPUT);
@@ -1329,6 +1364,7 @@ int main(int argc, char **argv)
     if (argc >= 2 && strcmp(argv[1], "palette") == 0) return finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "instances") == 0) return finish_stdout(cmd_instances(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "mesh") == 0) return finish_stdout(cmd_mesh(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "convert") == 0) return finish_stdout(cmd_convert(argc - 2, argv + 2), NULL);
 
     cli_args a;
     int rc = parse_args(argc, argv, &a);

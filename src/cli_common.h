@@ -93,5 +93,7 @@ int cmd_palette(int argc, char **argv);
 int cmd_instances(int argc, char **argv);
 /* clvox mesh (cli_mesh.c); argv after "mesh". */
 int cmd_mesh(int argc, char **argv);
+/* clvox convert (cli_convert.c); argv after "convert". */
+int cmd_convert(int argc, char **argv);
 
 #endif

@@ -256,6 +256,88 @@ void clvox__exr_abort(clvox__exr_writer *w);
  * fallback for file systems without O_TMPFILE). */
 extern int clvox__exr_no_tmpfile;
 
+/* ---- output files (outfile.c) ---- */
+
+/* A file written without a name and named only when complete (outfile.c). */
+typedef struct clvox__outfile {
+    clvox_context *ctx; /* NULL until created, and again after discard */
+    char *path, *dir, *tmp;
+    int fd, unnamed;
+    uint64_t written;   /* bytes written by clvox__outfile_write */
+} clvox__outfile;
+/* Refuses an existing `path` that is not a regular file. */
+clvox_status clvox__outfile_check_target(clvox_context *ctx, const char *path);
+/* Creates the unnamed file in the directory of `path` (CLVOX_ERR_IO). */
+clvox_status clvox__outfile_create(clvox__outfile *f, clvox_context *ctx, const char *path);
+/* Appends (every byte checked); pwrite at an offset. */
+clvox_status clvox__outfile_write(clvox__outfile *f, const void *data, size_t size);
+clvox_status clvox__outfile_pwrite(clvox__outfile *f, const void *data, size_t size, uint64_t offset);
+/* Syncs the complete file and names it `path`; *bytes = its size. Discards
+ * it on failure; either way nothing is left to discard. */
+clvox_status clvox__outfile_finish(clvox__outfile *f, uint64_t *bytes);
+/* Closes and removes the unnamed file. NULL-safe, idempotent. */
+void clvox__outfile_discard(clvox__outfile *f);
+
+/* ---- other output formats (output.c, write_npy.c, write_nrrd.c, write_binvox.c) ---- */
+
+/* One slab as the format writers take it: any plane may be NULL (not in this
+ * slab). coverage and score come both as HALF bits and as floats. */
+typedef struct clvox__fmt_slab {
+    uint32_t z0, nz;
+    const uint32_t *occupancy_bits; /* bit rows (the slab format above) */
+    const uint16_t *coverage_half;
+    const float *coverage;
+    const uint16_t *element;
+    const uint16_t *score_half;
+    const float *score;
+} clvox__fmt_slab;
+
+typedef struct clvox__fmt_info {
+    const char *path;
+    const clvox_grid *grid;
+    uint32_t channels;    /* CLVOX_CHANNEL_* */
+    uint32_t flags;       /* CLVOX_OUTPUT_* */
+    clvox_compression compression;
+    const char *method, *parameters;
+} clvox__fmt_info;
+
+typedef struct clvox__fmt_ops {
+    const char *name;
+    uint32_t channels;    /* the channels the format can hold */
+    int one_channel;      /* 1: one channel per file */
+    clvox_status (*open)(clvox_context *ctx, const clvox__fmt_info *info, void **state);
+    clvox_status (*write)(void *state, const clvox__fmt_slab *slab);
+    clvox_status (*finish)(void *state, uint64_t *bytes);
+    void (*abort)(void *state);
+} clvox__fmt_ops;
+extern const clvox__fmt_ops clvox__fmt_npy, clvox__fmt_nrrd, clvox__fmt_binvox;
+
+/* Sample types of the raster formats (npy, NRRD). */
+typedef enum clvox__dtype { CLVOX__U8, CLVOX__BITS, CLVOX__F16, CLVOX__F32, CLVOX__U16, CLVOX__U32 } clvox__dtype;
+size_t clvox__dtype_row_bytes(clvox__dtype t, uint32_t X);
+/* Rows of the slab's `channel` as the file stores them (little-endian): rows
+ * = Y*nz, each clvox__dtype_row_bytes; 0 when the slab lacks that plane. */
+int clvox__encode_rows(const clvox__fmt_slab *s, uint32_t channel, clvox__dtype t, uint32_t X, size_t rows,
+                       uint8_t *out);
+/* "occupancy", "coverage", "element", "score" for one CLVOX_CHANNEL_* bit. */
+const char *clvox__channel_name(uint32_t channel);
+/* The file's main channel: occupancy, else element, else coverage, else score. */
+uint32_t clvox__main_channel(uint32_t channels);
+/* The file of `channel`: `path` for the main channel, else the channel's name
+ * before the extension ("out.npy" -> "out.coverage.npy"); malloc'ed, NULL when out of memory. */
+char *clvox__channel_path(const char *path, uint32_t channel, uint32_t channels);
+/* `path` with its extension replaced by `ext` ("out.npy" -> "out.json"). */
+char *clvox__replace_ext(const char *path, const char *ext);
+
+/* The pipeline for output.c: coverage and score as sample counts (samples
+ * per voxel in *samples), the sink opened once the method is prepared. */
+typedef clvox_status (*clvox__open_fn)(void *user, const char *method, const char *params);
+typedef clvox_status (*clvox__sink_fn)(void *user, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes);
+clvox_status clvox__voxelize_counts(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    const clvox_voxelize_options *options, clvox__open_fn open_sink,
+                                    clvox__sink_fn sink, void *user, uint32_t *channels, uint32_t *samples,
+                                    clvox_stats *stats);
+
 #ifdef __cplusplus
 }
 #endif

@@ -15,7 +15,7 @@
  * memory does not grow with the grid (the slab's bits take 2 MiB). */
 #define SLAB_TARGET_VOXELS (16u << 20)
 
-typedef clvox_status (*sink_fn)(void *user, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes);
+typedef clvox__sink_fn sink_fn;
 
 static uint32_t auto_slab_depth(const clvox_grid *g)
 {
@@ -179,7 +179,7 @@ static clvox_status check_inputs(clvox_context *ctx, const clvox_mesh *mesh, con
 
 /* The pipeline. `open_sink` (may be NULL) is called once the method is
  * prepared, with its parameter text, before any slab is computed. */
-typedef clvox_status (*open_fn)(void *user, const char *method, const char *params);
+typedef clvox__open_fn open_fn;
 
 /* What a sink asks of the run: the channels it needs beyond those the
  * options produce (forced), and coverage as counts rather than HALF bits. */
@@ -622,4 +622,13 @@ clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, const clvox_m
     if (!o.channels) o.channels = forced;
     user_sink s = {.ctx = ctx, .dense_element = element, .dense_score = score, .X = grid->dims[0], .Y = grid->dims[1]};
     return run_user(ctx, mesh, grid, &o, forced, &s, stats);
+}
+
+clvox_status clvox__voxelize_counts(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    const clvox_voxelize_options *options, clvox__open_fn open_sink,
+                                    clvox__sink_fn sink, void *user, uint32_t *channels, uint32_t *samples,
+                                    clvox_stats *stats)
+{
+    sink_needs needs = {0, 1, channels, samples};
+    return run(ctx, mesh, grid, options, &needs, open_sink, sink, user, stats);
 }

@@ -47,7 +47,7 @@
  * The file is created in clvox__exr_open (so a missing or unwritable
  * directory fails before any compute work) in the directory of `path`, and
  * written through our own write callback, so OpenEXRCore never opens,
- * truncates or deletes files itself (see outfile_create):
+ * truncates or deletes files itself (src/outfile.c):
  *  - Linux: open(dir, O_TMPFILE), a file without a name: no exit, crash or
  *    kill -9 can leave it behind. clvox__exr_finish, after checking that
  *    every chunk was written and exr_finish succeeded, links it to `path`
@@ -184,10 +184,7 @@ struct clvox__exr_writer {
     clvox_context *ctx;
     exr_context_t exr;
     char *path;
-    int fd;
-    char *dir;   /* directory of path */
-    int unnamed; /* fd is an O_TMPFILE file (no name until finish) */
-    char *tmp;   /* named temporary (fallback), to unlink unless renamed; else NULL */
+    clvox__outfile of; /* the file being written (outfile.c) */
     uint32_t dims[3];
     int32_t height;       /* Y*Z image rows */
     int32_t tile_h;       /* rows per chunk */
@@ -247,7 +244,7 @@ static int64_t writer_write_fn(exr_const_context_t ectx, void *ud, const void *b
     uint64_t left = size;
     while (left > 0) {
         size_t n = left > (1u << 30) ? (1u << 30) : (size_t)left;
-        ssize_t got = pwrite(w->fd, p, n, (off_t)offset);
+        ssize_t got = pwrite(w->of.fd, p, n, (off_t)offset);
         if (got < 0 && errno == EINTR) continue;
         if (got <= 0) {
             int e = got < 0 ? errno : EIO;
@@ -877,8 +874,7 @@ static void writer_free(clvox__exr_writer *w)
         exr_finish(&w->exr); /* our write_fn: nothing is deleted or renamed by the library */
     }
     free(w->slots);
-    if (w->fd >= 0) close(w->fd);
-    if (w->tmp) unlink(w->tmp);
+    clvox__outfile_discard(&w->of);
     for (size_t t = 0; t < CLVOX__EXR_MAX_CHANNELS; t++) free(w->carry[t]);
     free(w->threads);
     if (w->mu_ready) {
@@ -887,130 +883,7 @@ static void writer_free(clvox__exr_writer *w)
         pthread_mutex_destroy(&w->mu);
     }
     free(w->path);
-    free(w->dir);
-    free(w->tmp);
     free(w);
-}
-
-int clvox__exr_no_tmpfile;
-
-/* Refuses an existing `path` that is not a regular file: clvox replaces
- * regular files only (a symbolic link is neither replaced nor followed). */
-static clvox_status check_target(clvox_context *ctx, const char *path)
-{
-    struct stat sb;
-    if (lstat(path, &sb) != 0 || S_ISREG(sb.st_mode)) return CLVOX_OK; /* missing: the create tells */
-    if (S_ISDIR(sb.st_mode)) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot write '%s': it is a directory", path);
-    if (S_ISLNK(sb.st_mode))
-        return clvox__fail(ctx, CLVOX_ERR_IO,
-                           "cannot write '%s': it is a symbolic link (clvox replaces only regular files)", path);
-    return clvox__fail(ctx, CLVOX_ERR_IO,
-                       "cannot write '%s': it is not a regular file (a device, FIFO or socket; clvox replaces only "
-                       "regular files)",
-                       path);
-}
-
-/* "<dir>/.clvox-<pid>-<n>.tmp": at most 30 bytes past the directory. */
-static int temp_name(char *buf, size_t size, const char *dir)
-{
-    static unsigned counter;
-    unsigned k = __atomic_fetch_add(&counter, 1u, __ATOMIC_RELAXED);
-    int n = snprintf(buf, size, "%s/.clvox-%ld-%u.tmp", dir, (long)getpid(), k);
-    return n > 0 && (size_t)n < size;
-}
-
-/* Creates the file being written (see "Writing" above). */
-static clvox_status outfile_create(clvox__exr_writer *w)
-{
-    const char *slash = strrchr(w->path, '/');
-    size_t dn = !slash ? 1 : slash == w->path ? 1 : (size_t)(slash - w->path);
-    w->dir = malloc(dn + 1);
-    if (!w->dir) return clvox__fail(w->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-    memcpy(w->dir, !slash ? "." : w->path, dn);
-    w->dir[dn] = '\0';
-#ifdef O_TMPFILE
-    if (!clvox__exr_no_tmpfile) {
-        int fd = open(w->dir, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
-        if (fd >= 0) {
-            char proc[64];
-            snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
-            if (access(proc, F_OK) == 0) { /* it can be given a name at the end */
-                w->fd = fd;
-                w->unnamed = 1;
-                return CLVOX_OK;
-            }
-            close(fd);
-        } else if (errno != EOPNOTSUPP && errno != EISDIR && errno != EINVAL) {
-            return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create output file '%s': %s", w->path,
-                               strerror(errno));
-        }
-    }
-#endif
-    size_t n = dn + 64;
-    w->tmp = malloc(n);
-    if (!w->tmp) return clvox__fail(w->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-    for (int attempt = 0; attempt < 100; attempt++) {
-        if (!temp_name(w->tmp, n, w->dir)) break;
-        w->fd = open(w->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (w->fd >= 0) return CLVOX_OK;
-        if (errno != EEXIST) {
-            int e = errno;
-            free(w->tmp);
-            w->tmp = NULL; /* nothing to unlink */
-            return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create output file '%s': %s", w->path, strerror(e));
-        }
-    }
-    free(w->tmp);
-    w->tmp = NULL;
-    return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create a temporary file next to '%s'", w->path);
-}
-
-#ifdef O_TMPFILE
-/* Gives the unnamed file fd the name `name` (fails with EEXIST if taken). */
-static int link_unnamed(int fd, const char *name)
-{
-    char proc[64];
-    snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
-    if (linkat(AT_FDCWD, proc, AT_FDCWD, name, AT_SYMLINK_FOLLOW) == 0) return 0;
-    if (errno != ENOENT) return -1;
-    return linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH); /* no /proc: needs CAP_DAC_READ_SEARCH */
-}
-#endif
-
-/* Puts the complete, synced file w->fd at w->path (see "Writing" above). On
- * success nothing is left to unlink. */
-static clvox_status outfile_commit(clvox__exr_writer *w)
-{
-    clvox_status st = check_target(w->ctx, w->path); /* again: something may have appeared meanwhile */
-    if (st != CLVOX_OK) return st;
-#ifdef O_TMPFILE
-    if (w->unnamed) {
-        if (link_unnamed(w->fd, w->path) == 0) return CLVOX_OK; /* nothing was there */
-        if (errno != EEXIST)
-            return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot create '%s': %s", w->path, strerror(errno));
-        /* replace the existing file: a unique name, renamed over it at once */
-        size_t n = strlen(w->dir) + 64;
-        w->tmp = malloc(n);
-        if (!w->tmp) return clvox__fail(w->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-        int linked = 0;
-        for (int attempt = 0; attempt < 100 && !linked; attempt++) {
-            if (!temp_name(w->tmp, n, w->dir)) break;
-            if (link_unnamed(w->fd, w->tmp) == 0) linked = 1;
-            else if (errno != EEXIST) break;
-        }
-        if (!linked) {
-            int e = errno;
-            free(w->tmp);
-            w->tmp = NULL;
-            return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot replace '%s': %s", w->path, strerror(e));
-        }
-    }
-#endif
-    if (rename(w->tmp, w->path) != 0)
-        return clvox__fail(w->ctx, CLVOX_ERR_IO, "cannot replace '%s': %s", w->path, strerror(errno));
-    free(w->tmp);
-    w->tmp = NULL; /* renamed: nothing to unlink */
-    return CLVOX_OK;
 }
 
 /* An uncompressed file has a known size: refuse it up front when the file
@@ -1020,7 +893,7 @@ static clvox_status check_disk_space(clvox__exr_writer *w)
 {
     if (w->compression != EXR_COMPRESSION_NONE) return CLVOX_OK;
     struct statvfs vfs;
-    if (fstatvfs(w->fd, &vfs) != 0) return CLVOX_OK; /* unknown: let the writes tell */
+    if (fstatvfs(w->of.fd, &vfs) != 0) return CLVOX_OK; /* unknown: let the writes tell */
     uint64_t need = (uint64_t)w->dims[0] * w->dims[1] * w->dims[2] * w->pixel_bytes + 8ull * (uint64_t)w->chunk_count;
     uint64_t avail = (uint64_t)vfs.f_bavail * (uint64_t)(vfs.f_frsize ? vfs.f_frsize : vfs.f_bsize);
     if (need <= avail) return CLVOX_OK;
@@ -1155,13 +1028,13 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
         return clvox__fail(ctx, CLVOX_ERR_GRID,
                            "grid %ux%ux%u does not fit in an EXR image: Y*Z = %llu rows (at most 2^31-1)", X, Y, Z,
                            (unsigned long long)Y * Z);
-    st = check_target(ctx, path);
+    st = clvox__outfile_check_target(ctx, path);
     if (st != CLVOX_OK) return st;
 
     clvox__exr_writer *w = calloc(1, sizeof *w);
     if (!w) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     w->ctx = ctx;
-    w->fd = -1;
+    w->of.fd = -1;
     w->dims[0] = X;
     w->dims[1] = Y;
     w->dims[2] = Z;
@@ -1210,7 +1083,7 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
         }
     }
 
-    st = outfile_create(w);
+    st = clvox__outfile_create(&w->of, ctx, path);
     if (st == CLVOX_OK) st = check_disk_space(w);
     if (st != CLVOX_OK) {
         writer_free(w);
@@ -1333,40 +1206,9 @@ clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes)
         writer_free(w);
         return st;
     }
-    struct stat sb;
-    if (fstat(w->fd, &sb) != 0 || sb.st_size <= 0) {
-        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: the file being written is empty", w->path);
-        writer_free(w);
-        return st;
-    }
-    /* On disk before it gets its name: a crash never leaves a partial file at `path`. */
-    if (fdatasync(w->fd) != 0) {
-        st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", w->path, strerror(errno));
-        writer_free(w);
-        return st;
-    }
-    if (!w->unnamed) { /* named: closed before the rename (an unnamed file is linked through its fd) */
-        int fd = w->fd;
-        w->fd = -1;
-        if (close(fd) != 0) {
-            st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", w->path, strerror(errno));
-            writer_free(w);
-            return st;
-        }
-    }
-    st = outfile_commit(w);
-    if (st != CLVOX_OK) {
-        writer_free(w);
-        return st;
-    }
-    if (w->fd >= 0) {
-        int fd = w->fd;
-        w->fd = -1;
-        close(fd); /* synced and named: nothing is lost if close reports an error now */
-    }
-    if (bytes) *bytes = (uint64_t)sb.st_size;
+    st = clvox__outfile_finish(&w->of, bytes); /* syncs, names it `path`; or removes it */
     writer_free(w);
-    return CLVOX_OK;
+    return st;
 }
 
 void clvox__exr_abort(clvox__exr_writer *w)

@@ -1,0 +1,261 @@
+/* Output formats (npy, NRRD, binvox; README "Output formats"): each file
+ * read back by an independent reader (NumPy, pynrrd, trimesh's binvox loader;
+ * tests/formats_check.py, run with build/venv-formats/bin/python from
+ * scripts/setup.sh) and compared voxel by voxel with
+ * clvox_voxelize_to_buffers; bad requests (unknown extension, a channel the
+ * format cannot hold, a non-cubic binvox grid, a FIFO target, a cancelled
+ * run) fail with a message and leave nothing behind. */
+#include "meshgen.h"
+#include "spawn.h"
+#include "test.h"
+
+#include <dirent.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define EXIT_INPUT_CODE 4
+static char g_dir[2048], g_python[4096];
+
+static const char *tmp(const char *name)
+{
+    static char buf[8][2400];
+    static int k;
+    char *b = buf[k++ & 7];
+    snprintf(b, sizeof buf[0], "%s/%s", g_dir, name);
+    return b;
+}
+
+static int entries(void) /* files in the scratch directory */
+{
+    DIR *d = opendir(g_dir);
+    int n = 0;
+    struct dirent *e;
+    while (d && (e = readdir(d)))
+        if (e->d_name[0] != '.') n++;
+    if (d) closedir(d);
+    return n;
+}
+
+static void clear_dir(void)
+{
+    DIR *d = opendir(g_dir);
+    struct dirent *e;
+    while (d && (e = readdir(d))) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        unlink(tmp(e->d_name));
+    }
+    if (d) closedir(d);
+}
+
+static int write_raw(const char *path, const void *data, size_t bytes)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return 0;
+    int ok = fwrite(data, 1, bytes, f) == bytes;
+    return fclose(f) == 0 && ok;
+}
+
+/* Runs formats_check.py; 1 when it printed OK. */
+static int check_py(const char *fmt, const char *file, const char *ref, const char *dt, const clvox_grid *g,
+                    int bits)
+{
+    char a[7][64];
+    snprintf(a[0], 64, "%u", g->dims[0]);
+    snprintf(a[1], 64, "%u", g->dims[1]);
+    snprintf(a[2], 64, "%u", g->dims[2]);
+    for (int i = 0; i < 3; i++) snprintf(a[3 + i], 64, "%.17g", g->origin[i]);
+    snprintf(a[6], 64, "%.17g", g->voxel_size[0]);
+    const char *argv[] = {g_python, "tests/formats_check.py", fmt, file, ref, dt, a[0], a[1], a[2], a[3], a[4],
+                          a[5], a[6], bits ? "bits" : NULL, NULL};
+    spawn_result r;
+    spawn_run(&r, argv, 120);
+    int ok = r.code == 0 && strstr(r.out, "OK") != NULL;
+    if (!ok) fprintf(stderr, "formats_check %s %s: exit %d: %s%s\n", fmt, file, r.code, r.out, r.err);
+    spawn_free(&r);
+    return ok;
+}
+
+static clvox_status to_file(clvox_context *ctx, clvox_mesh *m, const clvox_grid *g, const clvox_voxelize_options *vo,
+                            uint32_t flags, clvox_compression c, const char *path)
+{
+    clvox_output_options oo = CLVOX_OUTPUT_OPTIONS_INIT;
+    oo.flags = flags;
+    oo.compression = c;
+    return clvox_voxelize_to_file(ctx, m, g, vo, &oo, path, NULL);
+}
+
+static int cancel_at_once(void *user, double f)
+{
+    (void)user, (void)f;
+    return 0;
+}
+
+int main(void)
+{
+    snprintf(g_dir, sizeof g_dir, "%s/formats", test_tmpdir());
+    mkdir(g_dir, 0777);
+    clear_dir();
+    if (access("build/venv-formats/bin/python", X_OK) == 0) snprintf(g_python, sizeof g_python, "build/venv-formats/bin/python");
+    else snprintf(g_python, sizeof g_python, "python3");
+    clvox_context *ctx = test_context();
+    tmesh t = tmesh_torus(0.05, -0.02, 0.01, 0.7, 0.3, 48, 24);
+    clvox_mesh *mesh = NULL;
+    CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, t.xyz, t.nv, t.tri, t.nt, &mesh));
+    clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
+    go.resolution = 40;
+    go.use_box = 1;
+    for (int a = 0; a < 3; a++) go.box_min[a] = -1.2, go.box_max[a] = 1.2;
+    clvox_grid g;
+    CHECK_OK(ctx, clvox_grid_compute(ctx, &go, go.box_min, go.box_max, &g));
+    const size_t n = (size_t)g.dims[0] * g.dims[1] * g.dims[2];
+    uint8_t *occ = malloc(n);
+    float *cov = malloc(n * sizeof *cov);
+    clvox_voxelize_options vo = CLVOX_VOXELIZE_OPTIONS_INIT;
+    vo.slab_depth = 7; /* several slabs, the last one short */
+    CHECK_OK(ctx, clvox_voxelize_to_buffers(ctx, mesh, &g, &vo, occ, n, NULL, 0, NULL));
+    CHECK(write_raw(tmp("ref.u8"), occ, n));
+    size_t filled = 0;
+    for (size_t i = 0; i < n; i++) filled += occ[i];
+    CHECK(filled > n / 20 && filled < n / 2);
+
+    /* occupancy in every format */
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("occ.npy")));
+    CHECK(check_py("npy", tmp("occ.npy"), tmp("ref.u8"), "u8", &g, 0));
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &vo, CLVOX_OUTPUT_PACK_BITS, 0, tmp("bits.npy")));
+    CHECK(check_py("npy", tmp("bits.npy"), tmp("ref.u8"), "u8", &g, 1));
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("occ.nrrd")));
+    CHECK(check_py("nrrd", tmp("occ.nrrd"), tmp("ref.u8"), "u8", &g, 0));
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &vo, 0, CLVOX_COMPRESSION_NONE, tmp("raw.nrrd")));
+    CHECK(check_py("nrrd", tmp("raw.nrrd"), tmp("ref.u8"), "u8", &g, 0));
+    struct stat sg, sr;
+    CHECK(stat(tmp("occ.nrrd"), &sg) == 0 && stat(tmp("raw.nrrd"), &sr) == 0 && sg.st_size < sr.st_size / 4);
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("occ.binvox")));
+    CHECK(check_py("binvox", tmp("occ.binvox"), tmp("ref.u8"), "u8", &g, 0));
+
+    /* coverage: float32 exact, float16 to HALF, NRRD float; two channels -> two files */
+    clvox_voxelize_options cv = vo;
+    cv.oversample = 2;
+    CHECK_OK(ctx, clvox_voxelize_to_buffers(ctx, mesh, &g, &cv, NULL, 0, cov, n, NULL));
+    CHECK(write_raw(tmp("ref.f32"), cov, n * sizeof *cov));
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &cv, CLVOX_OUTPUT_FLOAT32, 0, tmp("cov32.npy")));
+    CHECK(check_py("npy", tmp("cov32.npy"), tmp("ref.f32"), "f32", &g, 0));
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &cv, 0, 0, tmp("cov16.npy")));
+    CHECK(check_py("npy", tmp("cov16.npy"), tmp("ref.f32"), "f32", &g, 0));
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &cv, 0, 0, tmp("cov.nrrd")));
+    CHECK(check_py("nrrd", tmp("cov.nrrd"), tmp("ref.f32"), "f32", &g, 0));
+    clvox_voxelize_options both = cv;
+    both.channels = CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE;
+    both.threshold_set = 1;
+    both.threshold = 0.5;
+    uint8_t *occ2 = malloc(n);
+    CHECK_OK(ctx, clvox_voxelize_to_buffers(ctx, mesh, &g, &both, occ2, n, NULL, 0, NULL));
+    CHECK(write_raw(tmp("ref2.u8"), occ2, n));
+    CHECK_OK(ctx, to_file(ctx, mesh, &g, &both, CLVOX_OUTPUT_FLOAT32, 0, tmp("two.npy")));
+    CHECK(check_py("npy", tmp("two.npy"), tmp("ref2.u8"), "u8", &g, 0));
+    CHECK(check_py("npy", tmp("two.coverage.npy"), tmp("ref.f32"), "f32", &g, 0));
+    CHECK(access(tmp("two.json"), F_OK) == 0);
+    free(occ2);
+
+    /* bad requests leave nothing */
+    clear_dir();
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &cv, 0, 0, tmp("cov.binvox")), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(strstr(clvox_context_error(ctx), "binvox holds no coverage") != NULL);
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("x.vox")), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &vo, 0, CLVOX_COMPRESSION_PIZ, tmp("x.nrrd")), CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &vo, CLVOX_OUTPUT_PACK_BITS, 0, tmp("x.nrrd")), CLVOX_ERR_INVALID_ARGUMENT);
+    clvox_grid flat = g;
+    flat.dims[2] = 20;
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &flat, &vo, 0, 0, tmp("flat.binvox")), CLVOX_ERR_GRID);
+    CHECK(strstr(clvox_context_error(ctx), "cubic") != NULL);
+    clvox_voxelize_options cancel = both;
+    cancel.progress = cancel_at_once;
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &cancel, 0, 0, tmp("c.npy")), CLVOX_ERR_CANCELLED);
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &cancel, 0, 0, tmp("c.nrrd")), CLVOX_ERR_CANCELLED);
+    cancel = vo;
+    cancel.progress = cancel_at_once;
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &cancel, 0, 0, tmp("c.binvox")), CLVOX_ERR_CANCELLED);
+    CHECK_MSG(entries() == 0, "%d files left", entries());
+    CHECK(mkfifo(tmp("fifo.npy"), 0666) == 0);
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("fifo.npy")), CLVOX_ERR_IO);
+    CHECK(mkdir(tmp("d.nrrd"), 0777) == 0);
+    CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("d.nrrd")), CLVOX_ERR_IO);
+    struct stat sb;
+    CHECK(lstat(tmp("fifo.npy"), &sb) == 0 && S_ISFIFO(sb.st_mode));
+    CHECK(entries() == 2);
+    unlink(tmp("fifo.npy"));
+    rmdir(tmp("d.nrrd"));
+
+    /* the CLI: one-line errors, non-zero exit, nothing left */
+    const char *bin = getenv("CLVOX_BIN");
+    CHECK(tmesh_write_off(&t, tmp("torus.off")) == 0);
+    if (bin) {
+        const char *a1[] = {bin, tmp("torus.off"), "-r", "16", "-o", tmp("out.vox"), "-q", NULL};
+        spawn_result r;
+        CHECK(spawn_run(&r, a1, 60) == 2 && strstr(r.err, "cannot tell the output format") && !strchr(strchr(r.err, '\n') + 1, '\n'));
+        spawn_free(&r);
+        const char *a2[] = {bin, tmp("torus.off"), "-r", "16", "-o", tmp("out.binvox"), "-q", NULL};
+        CHECK(spawn_run(&r, a2, 60) != 0 && strstr(r.err, "binvox needs a cubic grid"));
+        spawn_free(&r);
+        const char *a3[] = {bin, tmp("torus.off"), "-r", "16", "--format", "npy", "-o", tmp("out.dat"), "-q", NULL};
+        CHECK(spawn_run(&r, a3, 60) == 0 && access(tmp("out.dat"), F_OK) == 0 && access(tmp("out.json"), F_OK) == 0);
+        spawn_free(&r);
+        unlink(tmp("out.dat"));
+        unlink(tmp("out.json"));
+        CHECK_MSG(entries() == 1, "%d files left", entries());
+    }
+    /* clvox convert: an EXR volume into every format, compared with the same reference */
+    clear_dir();
+    CHECK(write_raw(tmp("ref.u8"), occ, n));
+    CHECK(write_raw(tmp("ref.f32"), cov, n * sizeof *cov));
+    clvox_voxelize_options two = cv;
+    two.channels = CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE;
+    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, mesh, &g, &vo, tmp("in.exr"), NULL));
+    CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, mesh, &g, &two, tmp("in2.exr"), NULL));
+    if (bin) {
+        static const char *const outs[] = {"conv.npy", "conv.nrrd", "conv.binvox", "conv.exr"};
+        for (int k = 0; k < 4; k++) {
+            const char *a[] = {bin, "convert", tmp("in.exr"), tmp(outs[k]), NULL};
+            spawn_result r;
+            CHECK_MSG(spawn_run(&r, a, 60) == 0, "%s: %s", outs[k], r.err);
+            spawn_free(&r);
+        }
+        CHECK(check_py("npy", tmp("conv.npy"), tmp("ref.u8"), "u8", &g, 0));
+        CHECK(check_py("nrrd", tmp("conv.nrrd"), tmp("ref.u8"), "u8", &g, 0));
+        CHECK(check_py("binvox", tmp("conv.binvox"), tmp("ref.u8"), "u8", &g, 0));
+        uint8_t *back = malloc(n);
+        clvox_volume_info info;
+        CHECK_OK(ctx, clvox_volume_read(ctx, tmp("conv.exr"), &info, back, n));
+        CHECK(memcmp(back, occ, n) == 0);
+        free(back);
+        const char *a2[] = {bin, "convert", tmp("in2.exr"), tmp("conv2.npy"), NULL};
+        spawn_result r;
+        CHECK(spawn_run(&r, a2, 60) == 0);
+        spawn_free(&r);
+        CHECK(check_py("npy", tmp("conv2.coverage.npy"), tmp("ref.f32"), "f32", &g, 0));
+        /* bad requests: nothing left */
+        int before = entries();
+        const char *b1[] = {bin, "convert", tmp("in2.exr"), tmp("bad.binvox"), "--channel", "coverage", NULL};
+        CHECK(spawn_run(&r, b1, 60) != 0 && strstr(r.err, "binvox holds no coverage"));
+        spawn_free(&r);
+        const char *b2[] = {bin, "convert", tmp("in2.exr"), tmp("bad.exr"), "--channel", "coverage", "--channel",
+                            "occupancy", NULL};
+        CHECK(spawn_run(&r, b2, 60) != 0 && strstr(r.err, "one channel at a time"));
+        spawn_free(&r);
+        const char *b3[] = {bin, "convert", tmp("in.exr"), tmp("bad.npy"), "--channel", "coverage", NULL};
+        CHECK(spawn_run(&r, b3, 60) == EXIT_INPUT_CODE && strstr(r.err, "has no coverage channel"));
+        spawn_free(&r);
+        const char *b4[] = {bin, "convert", tmp("in.exr"), tmp("bad.vol"), NULL};
+        CHECK(spawn_run(&r, b4, 60) == 2);
+        spawn_free(&r);
+        CHECK_MSG(entries() == before, "%d files, %d before", entries(), before);
+    }
+    clvox_mesh_destroy(mesh);
+    tmesh_free(&t);
+    free(occ);
+    free(cov);
+    clvox_context_destroy(ctx);
+    return test_report();
+}

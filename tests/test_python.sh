@@ -35,5 +35,5 @@ cp "$out"/tmp/clvox/_clvox*.so "$out/clvox/" || exit 1
 cd "$repo/python/tests" || exit 1
 tmp="${CLVOX_TEST_TMP:-$build/test-tmp}"
 mkdir -p "$tmp"
-PYTHONPATH="$out" PYTHONDONTWRITEBYTECODE=1 CLVOX_BIN="${CLVOX_BIN:-$build/clvox}" \
+PYTHONPATH="$out" PYTHONDONTWRITEBYTECODE=1 CLVOX_LIB="$build/libclvox.a" CLVOX_INCLUDE="$repo/include" CLVOX_BIN="${CLVOX_BIN:-$build/clvox}" \
   "$py" -m pytest -q -p no:cacheprovider --basetemp="$tmp/pytest" .

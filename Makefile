@@ -99,7 +99,12 @@ $(BUILD)/tests/%: tests/%.c $(TEST_SUPPORT_OBJ) $(STATIC_LIB)
 	@$(if $(filter 0,$(V)),echo "  TEST  $<")
 	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS) $(TEST_LIBS)
 
-tests: all $(TEST_BINS)
+# The Python package's tests (python/tests) run as one more test program.
+$(BUILD)/tests/test_python: tests/test_python.sh
+	@mkdir -p $(dir $@)
+	$(Q)cp $< $@ && chmod +x $@
+
+tests: all $(TEST_BINS) $(BUILD)/tests/test_python
 
 # Keep the support objects (make would delete them as intermediates).
 .SECONDARY: $(TEST_SUPPORT_OBJ)

@@ -1,6 +1,6 @@
 #!/bin/sh
 # Installs the Debian 12 packages clvox needs to build, run and test.
-#   scripts/setup.sh           build + test dependencies
+#   scripts/setup.sh           build + test dependencies (Python: the binding in python/ and its tests)
 #   scripts/setup.sh --peers   also VTK, OpenVDB and NumPy for scripts/bench.sh --peers
 #   scripts/setup.sh --with-blender   also Blender, for scripts/blender_instances.py
 #                              and tests/test_blender.c (or CLVOX_WITH_BLENDER=1)
@@ -10,8 +10,9 @@
 set -eu
 
 pkgs="build-essential pkg-config ca-certificates time \
-pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo zlib1g-dev python3-numpy python3-venv \
-libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev"
+pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo zlib1g-dev \
+libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev \
+python3 python3-dev python3-cffi python3-numpy python3-pytest python3-setuptools python3-wheel python3-pip python3-venv"
 peers=0
 blender=0
 [ "${CLVOX_WITH_BLENDER:-0}" = 1 ] && blender=1
@@ -23,7 +24,7 @@ for arg in "$@"; do
     *) echo "setup.sh: unknown option '$arg' (try --help)" >&2; exit 2 ;;
   esac
 done
-[ "$peers" -eq 1 ] && pkgs="$pkgs python3 python3-numpy python3-vtk9 python3-openvdb"
+[ "$peers" -eq 1 ] && pkgs="$pkgs python3-vtk9 python3-openvdb"
 # Debian's Blender 3.4 (about 140 packages; Cycles renders on the CPU).
 [ "$blender" -eq 1 ] && pkgs="$pkgs blender"
 

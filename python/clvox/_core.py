@@ -1,0 +1,786 @@
+"""clvox Python binding (cffi, API mode). See python/README.md."""
+import os
+import queue
+import threading
+
+import numpy as np
+
+from ._clvox import ffi, lib
+
+__all__ = ["Context", "Mesh", "Volume", "Slab", "Error", "InvalidError", "CancelledError",
+           "devices", "read", "read_info", "palettes", "version", "STATUS"]
+
+# status value -> name: 0 "ok", 1 "invalid_argument", ..., 5 "mesh_invalid", ... (clvox.h)
+STATUS = {int(getattr(lib, n)): n.replace("CLVOX_ERR_", "").replace("CLVOX_", "").lower() for n in dir(lib)
+          if n.startswith("CLVOX_ERR_") or n == "CLVOX_OK"}
+
+_CHANNELS = (("occupancy", lib.CLVOX_CHANNEL_OCCUPANCY), ("coverage", lib.CLVOX_CHANNEL_COVERAGE),
+             ("element", lib.CLVOX_CHANNEL_ELEMENT), ("score", lib.CLVOX_CHANNEL_SCORE))
+_METHODS = {"ray": lib.CLVOX_METHOD_RAY, "tetra": lib.CLVOX_METHOD_TETRA}
+_MODES = {"solid": lib.CLVOX_MODE_SOLID, "surface": lib.CLVOX_MODE_SURFACE,
+          "conservative": lib.CLVOX_MODE_CONSERVATIVE}
+_AXES = {None: lib.CLVOX_AXIS_DEFAULT, "x": lib.CLVOX_AXIS_X, "y": lib.CLVOX_AXIS_Y, "z": lib.CLVOX_AXIS_Z}
+_METRICS = {"nearest": lib.CLVOX_METRIC_NEAREST, "outer": lib.CLVOX_METRIC_OUTER,
+            "inner": lib.CLVOX_METRIC_INNER}
+_COMPRESSIONS = {None: lib.CLVOX_COMPRESSION_DEFAULT, "none": lib.CLVOX_COMPRESSION_NONE,
+                 "rle": lib.CLVOX_COMPRESSION_RLE, "zips": lib.CLVOX_COMPRESSION_ZIPS,
+                 "zip": lib.CLVOX_COMPRESSION_ZIP, "piz": lib.CLVOX_COMPRESSION_PIZ}
+
+
+def _fn(name):
+    """A C function pointer to one of the binding's helpers (API mode needs addressof)."""
+    return ffi.addressof(lib, name)
+
+
+def version():
+    """The C library's version string."""
+    return ffi.string(lib.clvox_version()).decode()
+
+
+# ---- errors -------------------------------------------------------------------
+
+class Error(Exception):
+    """A clvox failure: .status (int, clvox_status), .status_name ("mesh_invalid", ...),
+    .message (the library's detail message)."""
+
+    def __init__(self, status, message):
+        self.status = int(status)
+        self.status_name = STATUS.get(self.status, str(status))
+        self.message = message
+        text = ffi.string(lib.clvox_status_string(status)).decode()
+        super().__init__(f"{message} ({text})" if message else text)
+
+
+class InvalidError(Error, ValueError):
+    """Bad input from the caller: invalid argument, mesh invalid/empty, bad grid, bad
+    palette file. Also a ValueError."""
+
+
+class CancelledError(Error):
+    """The progress callback returned False (the run was cancelled, no file left)."""
+
+
+_INVALID = {lib.CLVOX_ERR_INVALID_ARGUMENT, lib.CLVOX_ERR_MESH_INVALID, lib.CLVOX_ERR_MESH_EMPTY,
+            lib.CLVOX_ERR_GRID, lib.CLVOX_ERR_MESH_FORMAT, lib.CLVOX_ERR_PALETTE_FORMAT}
+
+
+def _error(status, ctx_ptr):
+    msg = ffi.string(lib.clvox_context_error(ctx_ptr)).decode("utf-8", "replace") if ctx_ptr != ffi.NULL else ""
+    if status == lib.CLVOX_ERR_IO and "No such file" in msg:
+        return FileNotFoundError(2, msg)
+    if status == lib.CLVOX_ERR_OUT_OF_MEMORY:
+        return MemoryError(msg)
+    cls = InvalidError if status in _INVALID else CancelledError if status == lib.CLVOX_ERR_CANCELLED else Error
+    return cls(status, msg)
+
+
+# ---- devices ------------------------------------------------------------------
+
+def _device(d):
+    return {"index": int(d.index), "name": ffi.string(d.name).decode(), "platform": ffi.string(d.platform).decode(),
+            "type": ffi.string(d.type).decode(), "version": ffi.string(d.version).decode(),
+            "compute_units": int(d.compute_units), "global_mem_bytes": int(d.global_mem_bytes),
+            "max_alloc_bytes": int(d.max_alloc_bytes)}
+
+
+def devices():
+    """OpenCL devices clvox can use, as dicts (index, name, platform, type, ...); [] when none."""
+    count = ffi.new("size_t *")
+    st = lib.clvox_list_devices(ffi.NULL, 0, count)
+    if st == lib.CLVOX_ERR_NO_DEVICE or count[0] == 0:
+        return []
+    arr = ffi.new("clvox_device_info[]", count[0])
+    st = lib.clvox_list_devices(arr, count[0], count)
+    if st != lib.CLVOX_OK:
+        raise Error(st, "clvox_list_devices failed")
+    return [_device(arr[i]) for i in range(min(count[0], len(arr)))]
+
+
+def palettes():
+    """Names of the built-in palettes."""
+    out, i = [], 0
+    while True:
+        p = lib.clvox_palette_builtin_name(i)
+        if p == ffi.NULL:
+            return out
+        out.append(ffi.string(p).decode())
+        i += 1
+
+
+# ---- results --------------------------------------------------------------------
+
+_REPORT_FIELDS = ("input_vertices", "input_faces", "polygons_triangulated", "vertices", "triangles",
+                  "dropped_faces", "degenerate_triangles", "nonmanifold_faces", "boundary_edges",
+                  "duplicate_triangles", "enclosed_volume")
+_STATS_FIELDS = ("filled_voxels", "total_voxels", "rays", "odd_parity_rays", "overflow_rays", "max_crossings",
+                 "quadtree_depth", "quadtree_leaves", "quadtree_refs", "slab_depth", "peak_slab_bytes",
+                 "output_bytes", "samples_per_voxel", "coverage_sum", "palette_early_voxels",
+                 "palette_shortcut_voxels", "palette_scored_voxels", "palette_nonempty_voxels", "palette_volume")
+_STAGES = [ffi.string(lib.clvox_stage_name(i)).decode() for i in range(lib.CLVOX_STAGE_COUNT)]
+
+
+def _report_dict(r):
+    d = {f: getattr(r, f) for f in _REPORT_FIELDS}
+    d["closed"] = bool(r.closed)
+    d["bbox_min"] = tuple(r.bbox_min)
+    d["bbox_max"] = tuple(r.bbox_max)
+    return d
+
+
+def _stats_dict(s):
+    d = {f: getattr(s, f) for f in _STATS_FIELDS}
+    d["channels"] = [n for n, bit in _CHANNELS if s.channels & bit]
+    d["seconds"] = {_STAGES[i]: s.seconds[i] for i in range(lib.CLVOX_STAGE_COUNT)}
+    return d
+
+
+class _GridMixin:
+    def to_world(self, index):
+        """World coordinates (x, y, z) of voxel centres. `index`: integer array (..., 3) in
+        array order (z, y, x), as np.argwhere(vol.occupancy) gives."""
+        idx = np.asarray(index, dtype=np.float64)
+        if idx.shape[-1:] != (3,):
+            raise ValueError("index must have shape (..., 3), in array order (z, y, x)")
+        o = np.asarray(self.origin)
+        h = np.asarray(self.voxel_size)
+        return o + (idx[..., ::-1] + 0.5) * h
+
+    def index_of(self, points):
+        """Array indices (z, y, x) (int64, shape (..., 3)) of the voxels holding world points
+        (x, y, z) (..., 3); voxel (i, j, k) covers [origin + (i,j,k) h, origin + (i+1,j+1,k+1) h).
+        Points outside the grid give indices outside [0, shape)."""
+        p = np.asarray(points, dtype=np.float64)
+        if p.shape[-1:] != (3,):
+            raise ValueError("points must have shape (..., 3), as (x, y, z)")
+        ijk = np.floor((p - np.asarray(self.origin)) / np.asarray(self.voxel_size)).astype(np.int64)
+        return ijk[..., ::-1]
+
+    @property
+    def shape(self):
+        """(Z, Y, X): the arrays' shape; dims is (X, Y, Z)."""
+        return (self.dims[2], self.dims[1], self.dims[0])
+
+
+class Volume(_GridMixin):
+    """A voxel volume in memory. Arrays have shape (Z, Y, X), C order, so
+    vol.occupancy[k, j, i] is voxel (i, j, k) (x fastest, as in the library and the EXR file):
+      occupancy  bool   (binary runs, thresholded coverage, or when asked for)
+      coverage   float32 in [0, 1] (oversampled runs), exactly inside/samples
+      element    uint16 (palette runs; 0 empty, 1 full)
+      score      float32 in [0, 1] (palette runs)
+    Channels a run did not produce are None. dims (X, Y, Z), origin (corner of voxel 0,0,0) and
+    voxel_size are tuples in x, y, z order. stats / report are dicts (None for clvox.read)."""
+
+    def __init__(self, dims, origin, voxel_size, occupancy=None, coverage=None, element=None, score=None,
+                 stats=None, report=None, info=None):
+        self.dims = tuple(int(d) for d in dims)
+        self.origin = tuple(float(v) for v in origin)
+        self.voxel_size = tuple(float(v) for v in voxel_size)
+        self.occupancy, self.coverage, self.element, self.score = occupancy, coverage, element, score
+        self.stats, self.report, self.info = stats, report, info
+
+    @property
+    def channels(self):
+        return [n for n, _ in _CHANNELS if getattr(self, n) is not None]
+
+    def __repr__(self):
+        return (f"<clvox.Volume {self.dims[0]}x{self.dims[1]}x{self.dims[2]} (X,Y,Z) "
+                f"channels={','.join(self.channels)} voxel_size={self.voxel_size}>")
+
+
+class Slab:
+    """Slices z0 .. z0+nz-1 of a run: arrays of shape (nz, Y, X) (None for a channel not produced)."""
+
+    def __init__(self, z0, occupancy, coverage, element, score):
+        self.z0 = z0
+        self.occupancy, self.coverage, self.element, self.score = occupancy, coverage, element, score
+
+    @property
+    def nz(self):
+        for a in (self.occupancy, self.coverage, self.element, self.score):
+            if a is not None:
+                return a.shape[0]
+        return 0
+
+    def __repr__(self):
+        return f"<clvox.Slab z0={self.z0} nz={self.nz}>"
+
+
+# ---- meshes ---------------------------------------------------------------------
+
+class Mesh:
+    """A validated triangle mesh owned by the library (loaded once, voxelized many times).
+    Made by Context.mesh(); .report is the library's mesh report as a dict."""
+
+    def __init__(self, ptr, source):
+        self._ptr = ffi.gc(ptr, lib.clvox_mesh_destroy)
+        self.source = source
+        self.report = _report_dict(lib.clvox_mesh_get_report(self._ptr))
+
+    def close(self):
+        if self._ptr is not None:
+            ffi.release(self._ptr)
+            self._ptr = None
+
+    def __repr__(self):
+        r = self.report
+        return f"<clvox.Mesh {r['triangles']} triangles, {r['vertices']} vertices, closed={r['closed']}>"
+
+
+def _as_arrays(vertices, faces):
+    """(V, 3) float32 and (F, 3) uint32 C-contiguous arrays, copying only when the input is not
+    already such (one copy at most: dtype and layout are changed together)."""
+    v = np.asarray(vertices)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise ValueError(f"vertices must have shape (V, 3), got {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise ValueError(f"faces must have shape (F, 3) (triangles), got {f.shape}")
+    if v.dtype.kind != "f":
+        raise ValueError(f"vertices must be floating point (float32 or float64), got {v.dtype}")
+    if f.dtype.kind not in "iu":
+        raise ValueError(f"faces must be integer (int32, int64, uint32, ...), got {f.dtype}")
+    if f.size and f.dtype != np.uint32:
+        lo, hi = int(f.min()), int(f.max())
+        if lo < 0:
+            raise ValueError(f"faces: negative vertex index {lo}")
+        if hi > 0xFFFFFFFF:
+            raise ValueError(f"faces: vertex index {hi} does not fit in 32 bits")
+    v = np.ascontiguousarray(v, dtype=np.float32)
+    f = np.ascontiguousarray(f, dtype=np.uint32)
+    return v, f
+
+
+# ---- context --------------------------------------------------------------------
+
+class _Run:
+    """State of one library call seen from the progress callback."""
+
+    def __init__(self, progress):
+        self.progress = progress
+        self.exc = None
+        self.c = ffi.new("pyclvox_run *")
+        self.handle = ffi.new_handle(self)
+        self.c.handle = self.handle
+        self.c.call_python = 1
+
+
+def _progress_onerror(exc_type, exc_value, tb):
+    # an exception in pyclvox_py_progress (KeyboardInterrupt from Ctrl-C, or the user's callback
+    # raising): keep it, cancel the run, raise it once the library has cleaned up.
+    run = _current_run.get(threading.get_ident())
+    if run is not None and run.exc is None:
+        run.exc = exc_value if exc_value is not None else exc_type()
+    return 0
+
+
+_current_run = {}
+
+
+@ffi.def_extern(onerror=_progress_onerror)
+def pyclvox_py_progress(handle, fraction):
+    run = ffi.from_handle(handle)
+    if run.progress is not None and run.progress(fraction) is False:
+        return 0
+    return 1
+
+
+def _channels_mask(channels):
+    if channels is None:
+        return 0
+    if isinstance(channels, str):
+        channels = [c.strip() for c in channels.split(",") if c.strip()]
+    names = dict(_CHANNELS)
+    mask = 0
+    for c in channels:
+        if c not in names:
+            raise ValueError(f"unknown channel {c!r} (occupancy, coverage, element, score)")
+        mask |= names[c]
+    return mask
+
+
+def _choice(table, value, what):
+    try:
+        return table[value]
+    except (KeyError, TypeError):
+        raise ValueError(f"{what} must be one of {', '.join(str(k) for k in table if k is not None)}, "
+                         f"got {value!r}") from None
+
+
+class Context:
+    """An OpenCL device with clvox's kernels built, kept for many calls.
+
+    device: None (CLVOX_DEVICE, else "auto": first GPU, else first CPU device), "gpu", "cpu",
+    an index from clvox.devices(), or a substring of the device or platform name.
+    host_only=True opens no device (reading volumes, loading meshes).
+
+    Thread safety: a Context runs one call at a time; a second call made while one is running
+    (from another thread, or inside a slab iterator's loop) raises RuntimeError. Use one
+    Context per thread; calls on different contexts run in parallel (the GIL is released
+    while the library works)."""
+
+    def __init__(self, device=None, host_only=False):
+        opts = ffi.new("clvox_context_options *")
+        opts.size = ffi.sizeof("clvox_context_options")
+        dev = None if device is None else str(device).encode()
+        keep = ffi.new("char[]", dev) if dev is not None else ffi.NULL
+        opts.device = keep
+        opts.host_only = 1 if host_only else 0
+        out = ffi.new("clvox_context **")
+        st = lib.clvox_context_create(opts, out)
+        if st != lib.CLVOX_OK:
+            err = _error(st, out[0])
+            lib.clvox_context_destroy(out[0])
+            raise err
+        self._ptr = ffi.gc(out[0], lib.clvox_context_destroy)
+        self._lock = threading.Lock()
+        self.host_only = bool(host_only)
+        d = lib.clvox_context_device(self._ptr)
+        self.device = _device(d) if d != ffi.NULL and not host_only else None
+
+    def close(self):
+        """Releases the device now (otherwise when the Context is garbage collected)."""
+        with self._busy():
+            if self._ptr is not None:
+                ffi.release(self._ptr)
+                self._ptr = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self):
+        return f"<clvox.Context {self.device['name'] if self.device else 'host only'}>"
+
+    # -- internals --
+    class _Busy:
+        def __init__(self, ctx):
+            self.ctx = ctx
+
+        def __enter__(self):
+            if not self.ctx._lock.acquire(blocking=False):
+                raise RuntimeError("this clvox.Context is running another call (use one Context per thread; "
+                                   "a slab iterator holds its Context until it is exhausted or closed)")
+            if self.ctx._ptr is None:
+                self.ctx._lock.release()
+                raise ValueError("the clvox.Context is closed")
+
+        def __exit__(self, *exc):
+            self.ctx._lock.release()
+
+    def _busy(self):
+        return Context._Busy(self)
+
+    def _check(self, st):
+        if st != lib.CLVOX_OK:
+            raise _error(st, self._ptr)
+
+    def _mesh(self, mesh):
+        if isinstance(mesh, Mesh):
+            return mesh
+        out = ffi.new("clvox_mesh **")
+        if isinstance(mesh, (str, bytes, os.PathLike)):
+            path = os.fsencode(mesh)
+            st = lib.clvox_mesh_load(self._ptr, path, out)
+            self._check(st)
+            return Mesh(out[0], os.fsdecode(path))
+        if isinstance(mesh, tuple) and len(mesh) == 2:
+            vertices, faces = mesh
+        elif hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+            vertices, faces = mesh.vertices, mesh.faces
+        else:
+            raise TypeError("mesh must be a path, a (vertices, faces) tuple, an object with .vertices and "
+                            ".faces (trimesh), or a clvox.Mesh")
+        v, f = _as_arrays(vertices, faces)
+        st = lib.clvox_mesh_from_arrays(self._ptr, ffi.from_buffer("float[]", v), v.shape[0],
+                                        ffi.from_buffer("uint32_t[]", f), f.shape[0], out)
+        self._check(st)
+        return Mesh(out[0], "arrays")
+
+    def _grid(self, m, resolution, dims, voxel_size, box, pad):
+        g = ffi.new("clvox_grid_options *")
+        g.size = ffi.sizeof("clvox_grid_options")
+        if resolution is not None:
+            g.resolution = int(resolution)
+        if dims is not None:
+            d = tuple(int(x) for x in dims)
+            if len(d) != 3:
+                raise ValueError("dims must be (X, Y, Z)")
+            g.dims = d
+        if voxel_size is not None:
+            vs = np.broadcast_to(np.asarray(voxel_size, dtype=np.float64), (3,))
+            g.voxel_size = tuple(float(x) for x in vs)
+        if box is not None:
+            b = np.asarray(box, dtype=np.float64).reshape(-1)
+            if b.shape != (6,):
+                raise ValueError("box must be (x0, y0, z0, x1, y1, z1) or ((x0, y0, z0), (x1, y1, z1))")
+            g.use_box = 1
+            g.box_min = tuple(b[:3])
+            g.box_max = tuple(b[3:])
+        g.padding = int(pad)
+        rep = lib.clvox_mesh_get_report(m._ptr)
+        grid = ffi.new("clvox_grid *")
+        self._check(lib.clvox_grid_compute(self._ptr, g, rep.bbox_min, rep.bbox_max, grid))
+        return grid
+
+    def _options(self, run, *, mode="solid", method="ray", axis=None, oversample=None, stochastic=False, seed=0,
+                 threshold=None, channels=None, palette=None, metric="nearest", no_early_out=False,
+                 shortcut=None, slab_depth=0, depth=0, leaf=0, compression=None, threads=0):
+        o = ffi.new("clvox_voxelize_options *")
+        o.size = ffi.sizeof("clvox_voxelize_options")
+        o.mode = _choice(_MODES, mode, "mode")
+        o.method = _choice(_METHODS, method, "method")
+        o.ray_axis = _choice(_AXES, axis, "axis")
+        o.compression = _choice(_COMPRESSIONS, compression, "compression")
+        o.metric = _choice(_METRICS, metric, "metric")
+        if oversample is not None:
+            if isinstance(oversample, (tuple, list)):
+                n, m = (int(x) for x in oversample)
+            else:
+                n = m = int(oversample)
+            if n < 1 or m < 1:
+                raise ValueError("oversample must be >= 1 (K, or (N, M))")
+            o.oversample, o.oversample_points = n, m
+        o.stochastic = 1 if stochastic else 0
+        o.seed = int(seed)
+        if threshold is not None:
+            o.threshold_set, o.threshold = 1, float(threshold)
+        o.channels = _channels_mask(channels)
+        o.palette_no_early_out = 1 if no_early_out else 0
+        if shortcut is not None:
+            o.nearest_shortcut = 1
+            if shortcut != "auto":
+                o.shortcut_alpha, o.shortcut_beta = (float(x) for x in shortcut)
+        o.slab_depth, o.quadtree_max_depth, o.quadtree_leaf_size = int(slab_depth), int(depth), int(leaf)
+        o.threads = int(threads)
+        o.progress = _fn('pyclvox_progress')
+        o.progress_user = run.c
+        pal = None
+        if palette is not None:
+            pal = self._palette(palette)
+            o.palette = pal
+        return o, pal
+
+    def _palette(self, palette):
+        out = ffi.new("clvox_palette **")
+        name = os.fsencode(palette)
+        if name.decode(errors="replace") in palettes():
+            st = lib.clvox_palette_builtin(self._ptr, name, out)
+        else:
+            st = lib.clvox_palette_load(self._ptr, name, out)
+        self._check(st)
+        return ffi.gc(out[0], lib.clvox_palette_destroy)
+
+    def _call(self, run, fn, *args):
+        tid = threading.get_ident()
+        _current_run[tid] = run
+        try:
+            st = fn(*args)  # cffi releases the GIL for the call
+        finally:
+            _current_run.pop(tid, None)
+        if run.exc is not None:
+            raise run.exc
+        if st == lib.CLVOX_ERR_CANCELLED and run.c.out_of_memory:
+            raise MemoryError("clvox: out of memory for the result arrays")
+        self._check(st)
+
+    def _prepare(self, mesh, resolution, dims, voxel_size, box, pad, progress, kw):
+        if self.host_only:
+            raise RuntimeError("a host_only Context can not voxelize")
+        m = self._mesh(mesh)
+        grid = self._grid(m, resolution, dims, voxel_size, box, pad)
+        run = _Run(progress)
+        opts, pal = self._options(run, **kw)
+        return m, grid, run, opts, pal
+
+    # -- public --
+    def mesh(self, mesh):
+        """Loads (path: OBJ, OFF, PLY, STL, OM) or copies ((V, F) arrays, or an object with
+        .vertices and .faces) and validates a mesh once, for several voxelize calls."""
+        with self._busy():
+            return self._mesh(mesh)
+
+    def voxelize(self, mesh, *, resolution=None, dims=None, voxel_size=None, box=None, pad=0, progress=None,
+                 **options):
+        """Voxelizes `mesh` into a Volume in memory (arrays of shape (Z, Y, X)).
+
+        mesh: a path, (vertices (V,3) float, faces (F,3) int), an object with .vertices/.faces
+        (trimesh), or a clvox.Mesh. Vertices are used as float32 (as clvox_mesh_from_arrays
+        takes them); OFF/OBJ paths are read in double by the library.
+        Grid (at most one of resolution / dims / voxel_size; none: resolution 256):
+          resolution=N, dims=(X, Y, Z), voxel_size=s or (sx, sy, sz),
+          box=(x0, y0, z0, x1, y1, z1) replaces the mesh's bounding box, pad=N empty voxels.
+        Options (as the CLI's): mode="solid"|"surface"|"conservative", method="ray"|"tetra",
+          axis=None|"x"|"y"|"z", oversample=K or (N, M), stochastic=False, seed=0,
+          threshold=None|T, channels=None|"occupancy,coverage"|[...], palette=None|name|path,
+          metric="nearest"|"outer"|"inner", no_early_out, shortcut=None|"auto"|(a, b),
+          slab_depth, depth, leaf, threads.
+        progress: None or f(fraction) -> False to cancel (CancelledError); called from this
+          thread at most ~10 times a second. Ctrl-C raises KeyboardInterrupt (main thread)."""
+        with self._busy():
+            m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options)
+            X, Y, Z = grid.dims
+            run.c.X, run.c.Y, run.c.Z = X, Y, Z
+            stats = ffi.new("clvox_stats *")
+            try:
+                self._call(run, lib.clvox_voxelize_slabs, self._ptr, m._ptr, grid, opts,
+                           _fn('pyclvox_slab_to_dense'), run.c, stats)
+            except BaseException:
+                for name in ("occupancy", "coverage", "element", "score"):
+                    p = getattr(run.c, name)
+                    if p != ffi.NULL:
+                        lib.free(p)
+                raise
+            arrays = {}
+            for name, ctype, dtype in (("occupancy", "uint8_t", np.bool_), ("coverage", "float", np.float32),
+                                       ("element", "uint16_t", np.uint16), ("score", "float", np.float32)):
+                p = getattr(run.c, name)
+                if p == ffi.NULL:
+                    arrays[name] = None
+                    continue
+                owned = ffi.gc(p, lib.free)  # the array's buffer keeps the malloc'd block alive
+                n = X * Y * Z * np.dtype(dtype).itemsize
+                arrays[name] = np.frombuffer(ffi.buffer(owned, n), dtype=dtype).reshape(Z, Y, X)
+            del pal
+            return Volume(grid.dims, grid.origin, grid.voxel_size, stats=_stats_dict(stats),
+                          report=dict(m.report), **arrays)
+
+    def voxelize_to_file(self, mesh, path, *, resolution=None, dims=None, voxel_size=None, box=None, pad=0,
+                         progress=None, **options):
+        """Streams the volume to `path` slab by slab (memory: a slab, whatever the grid).
+        Only OpenEXR (.exr) for now: the library's writer, the same file as the CLI's
+        (other formats come with the library's multi-format writer). compression=None|"none"|
+        "rle"|"zips"|"zip"|"piz". Returns the stats dict. A failure, cancel or Ctrl-C leaves no file."""
+        p = os.fsencode(path)
+        if not p.lower().endswith(b".exr"):
+            raise ValueError(f"{os.fsdecode(p)!r}: only .exr output is supported by the Python binding so far")
+        with self._busy():
+            m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options)
+            stats = ffi.new("clvox_stats *")
+            self._call(run, lib.clvox_voxelize_to_exr, self._ptr, m._ptr, grid, opts, p, stats)
+            del pal
+            d = _stats_dict(stats)
+            d["report"] = dict(m.report)
+            return d
+
+    def iter_slabs(self, mesh, *, resolution=None, dims=None, voxel_size=None, box=None, pad=0, progress=None,
+                   prefetch=1, **options):
+        """Yields Slab objects (z0 and (nz, Y, X) arrays) in increasing z while the library runs
+        in a worker thread, for volumes larger than memory: at most `prefetch` slabs wait
+        in the queue. Leaving the loop early (break, an exception, close()) cancels the run.
+        The Context is busy until the iterator is exhausted or closed. The grid is the
+        iterator's .grid attribute ((X, Y, Z), origin, voxel_size) once created."""
+        return _SlabIterator(self, mesh, dict(resolution=resolution, dims=dims, voxel_size=voxel_size, box=box,
+                                              pad=pad), progress, prefetch, options)
+
+    def read(self, path, channels=None):
+        """Reads a clvox volume (EXR) into a Volume; see clvox.read."""
+        with self._busy():
+            return _read(self._ptr, path, channels)
+
+
+class _SlabIterator:
+    _DONE = object()
+
+    def __init__(self, ctx, mesh, grid_kw, progress, prefetch, options):
+        if not ctx._lock.acquire(blocking=False):
+            raise RuntimeError("this clvox.Context is running another call")
+        try:
+            if ctx._ptr is None:
+                raise ValueError("the clvox.Context is closed")
+            self.ctx = ctx
+            self.m, grid, self.run, self.opts, self.pal = ctx._prepare(mesh, grid_kw["resolution"], grid_kw["dims"],
+                                                                       grid_kw["voxel_size"], grid_kw["box"],
+                                                                       grid_kw["pad"], progress, options)
+        except BaseException:
+            ctx._lock.release()
+            raise
+        self.run.c.call_python = 0  # the worker thread gets no signals; the consumer sees them
+        self.grid_c = grid
+        self.dims = tuple(grid.dims)
+        self.origin = tuple(grid.origin)
+        self.voxel_size = tuple(grid.voxel_size)
+        self.queue = queue.Queue(maxsize=max(1, int(prefetch)))
+        self.stats = None
+        self.status = None
+        self.closed = False
+        self.run.slab_handle = ffi.new_handle(self)
+        self.thread = threading.Thread(target=self._work, daemon=True)
+        self.thread.start()
+
+    def _work(self):
+        stats = ffi.new("clvox_stats *")
+        try:
+            st = lib.clvox_voxelize_slabs(self.ctx._ptr, self.m._ptr, self.grid_c, self.opts, _fn('pyclvox_py_slab'),
+                                          self.run.slab_handle, stats)
+            self.status = st
+            self.stats = _stats_dict(stats)
+        except BaseException as e:  # pragma: no cover - defensive
+            self.status = e
+        finally:
+            self._put(self._DONE)
+
+    def _put(self, item):
+        while True:
+            if self.closed and item is not self._DONE:
+                return False
+            try:
+                self.queue.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        if self.closed:
+            raise StopIteration
+        while True:
+            try:
+                item = self.queue.get(timeout=0.1)  # a timeout, so that Ctrl-C is seen here
+                break
+            except queue.Empty:
+                continue
+        if item is self._DONE:
+            self._finish()
+            st = self.status
+            if isinstance(st, BaseException):
+                raise st
+            if st != lib.CLVOX_OK:
+                raise _error(st, self.ctx._ptr)
+            raise StopIteration
+        if self.run.progress is not None and self.run.progress((item.z0 + item.nz) / self.dims[2]) is False:
+            self.close()
+            raise CancelledError(lib.CLVOX_ERR_CANCELLED, "cancelled by the progress callback")
+        return item
+
+    def _finish(self):
+        if not self.closed:
+            self.closed = True
+            self.thread.join()
+            self.ctx._lock.release()
+
+    def close(self):
+        """Cancels the run (if still going) and frees the Context."""
+        if self.closed:
+            return
+        self.run.c.cancel = 1
+        self.closed = True
+        while self.thread.is_alive():
+            try:
+                self.queue.get(timeout=0.05)
+            except queue.Empty:
+                pass
+        self.thread.join()
+        self.ctx._lock.release()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+@ffi.def_extern()
+def pyclvox_py_slab(user, slab):
+    it = ffi.from_handle(user)
+    if it.run.c.cancel:
+        return 1
+    X, Y = it.dims[0], it.dims[1]
+    nz = slab.nz
+    n = X * Y * nz
+
+    def take(ptr, ctype, dtype):
+        if ptr == ffi.NULL:
+            return None
+        return np.frombuffer(ffi.buffer(ffi.cast(ctype + " *", ptr), n * np.dtype(dtype).itemsize),
+                             dtype=dtype).reshape(nz, Y, X).copy()
+
+    s = Slab(int(slab.z0), take(slab.occupancy, "uint8_t", np.bool_), take(slab.coverage, "float", np.float32),
+             take(slab.element, "uint16_t", np.uint16), take(slab.score, "float", np.float32))
+    return 0 if it._put(s) else 1
+
+
+# ---- reading volumes --------------------------------------------------------------
+
+def _info_dict(info):
+    s = lambda a: ffi.string(a).decode("utf-8", "replace")  # noqa: E731
+    return {"dims": tuple(info.dims), "origin": tuple(info.origin), "voxel_size": tuple(info.voxel_size),
+            "method": s(info.method), "parameters": s(info.parameters), "version": s(info.version),
+            "compression": s(info.compression), "channels": [c for c in s(info.channels).split(",") if c],
+            "palette": s(info.palette), "palette_count": int(info.palette_count),
+            "palette_hash": int(info.palette_hash), "metric": s(info.metric)}
+
+
+def _read_header(ctx_ptr, p):
+    info = ffi.new("clvox_volume_info *")
+    # A missing-channel read fills the header and stops (read_exr.c documents this).
+    st = lib.clvox_volume_read_slices(ctx_ptr, p, b"\x01", info, _fn('pyclvox_slice_probe'), ffi.NULL)
+    if st != lib.CLVOX_ERR_EXR or info.dims[0] == 0:
+        if st != lib.CLVOX_OK:
+            raise _error(st, ctx_ptr)
+    return info
+
+
+def _read(ctx_ptr, path, channels=None):
+    p = os.fsencode(path)
+    info = _read_header(ctx_ptr, p)
+    d = _info_dict(info)
+    have = d["channels"]
+    want = have if channels is None else ([channels] if isinstance(channels, str) else list(channels))
+    X, Y, Z = d["dims"]
+    arrays = {}
+    for name in want:
+        if name not in have:
+            raise ValueError(f"{os.fsdecode(p)!r} has no channel {name!r} (has: {', '.join(have)})")
+        buf = np.empty((Z, Y, X), dtype=np.float32)
+        run = ffi.new("pyclvox_run *")
+        run.X, run.Y, run.Z = X, Y, Z
+        run.read_dest = ffi.from_buffer("float[]", buf)
+        st = lib.clvox_volume_read_slices(ctx_ptr, p, name.encode(), ffi.NULL, _fn('pyclvox_slice_to_dense'), run)
+        if st != lib.CLVOX_OK:
+            raise _error(st, ctx_ptr)
+        if name == "occupancy":
+            buf = buf > 0.5
+        elif name == "element":
+            buf = buf.astype(np.uint16)
+        if name in ("occupancy", "coverage", "element", "score"):
+            arrays[name] = buf
+    return Volume(d["dims"], d["origin"], d["voxel_size"], info=d, **arrays)
+
+
+_host = threading.local()
+
+
+def _host_ctx():
+    """A host_only Context per thread, for clvox.read / read_info."""
+    ctx = getattr(_host, "ctx", None)
+    if ctx is None:
+        ctx = _host.ctx = Context(host_only=True)
+    return ctx
+
+
+def read(path, channels=None):
+    """Reads a clvox volume file (OpenEXR) into a Volume: arrays (Z, Y, X) for each channel
+    (or only `channels`): occupancy bool (> 0.5), coverage/score float32 (the file's HALF
+    values), element uint16; .info has the header (method, parameters, palette, ...).
+    Needs no OpenCL device."""
+    ctx = _host_ctx()
+    with ctx._busy():
+        return _read(ctx._ptr, path, channels)
+
+
+def read_info(path):
+    """A clvox volume's header as a dict (dims, origin, voxel_size, channels, method, ...)."""
+    ctx = _host_ctx()
+    with ctx._busy():
+        return _info_dict(_read_header(ctx._ptr, os.fsencode(path)))

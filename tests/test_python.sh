@@ -1,0 +1,39 @@
+#!/bin/sh
+# The Python package's tests (python/tests, pytest), run by tests/run_tests.sh
+# like the C test programs: the Makefile copies this script to
+# build/$CONFIG/tests/test_python. It compiles the cffi extension against
+# build/$CONFIG/libclvox.a into build/$CONFIG/python (about 3 s), runs pytest
+# there and ends with one "N passed, N failed" line (python/tests/conftest.py).
+# The interpreter: $CLVOX_PYTHON, else /usr/bin/python3 (Debian's, with the
+# python3-cffi/-numpy/-pytest packages scripts/setup.sh installs), else python3.
+set -u
+here=$(cd "$(dirname "$0")" && pwd)          # build/CONFIG/tests
+build=$(dirname "$here")
+repo=$(cd "$build/../.." && pwd)
+case "${CONFIG:-release}" in
+  release|debug) ;;
+  *) echo "SKIP python tests: CONFIG=${CONFIG} (the sanitizer runtime is not loaded into python)"
+     echo "0 passed, 0 failed"; exit 0 ;;
+esac
+py=""
+for c in ${CLVOX_PYTHON:-} /usr/bin/python3 python3; do
+  if "$c" -c "import cffi, numpy, pytest" >/dev/null 2>&1; then py=$c; break; fi
+done
+if [ -z "$py" ]; then
+  echo "FAIL: no python3 with cffi, numpy and pytest (run scripts/setup.sh)"
+  echo "0 passed, 1 failed"; exit 1
+fi
+out="$build/python"
+rm -rf "$out/clvox"
+mkdir -p "$out/clvox"
+cp "$repo"/python/clvox/*.py "$out/clvox/" || exit 1
+if ! CLVOX_LIB="$build/libclvox.a" CLVOX_INCLUDE="$repo/include" "$py" "$repo/python/build_clvox.py" "$out/tmp" \
+     > "$out/build.log" 2>&1; then
+  tail -n 20 "$out/build.log"; echo "FAIL: building the cffi extension"; echo "0 passed, 1 failed"; exit 1
+fi
+cp "$out"/tmp/clvox/_clvox*.so "$out/clvox/" || exit 1
+cd "$repo/python/tests" || exit 1
+tmp="${CLVOX_TEST_TMP:-$build/test-tmp}"
+mkdir -p "$tmp"
+PYTHONPATH="$out" PYTHONDONTWRITEBYTECODE=1 CLVOX_LIB="$build/libclvox.a" CLVOX_INCLUDE="$repo/include" CLVOX_BIN="${CLVOX_BIN:-$build/clvox}" \
+  "$py" -m pytest -q -p no:cacheprovider --basetemp="$tmp/pytest" .

@@ -313,6 +313,11 @@ static int add_manifest(batch_list *l, const char *path, const cli_args *a)
         char *mesh = next_field(&cur, &why);
         if (!mesh && !why) continue; /* blank */
         if (mesh && mesh[0] == '#' && line[strspn(line, " \t")] == '#') continue; /* comment */
+        if (mesh && mesh[0] == '-') {
+            rc = fail(EXIT_USAGE, "%s:%u: the line must start with the mesh, not '%s' (write ./%s for a file of that name)",
+                      path, lineno, mesh, mesh);
+            break;
+        }
         char *out = NULL;
         int grid_by = 0;
         clvox_grid_options grid = a->grid;
@@ -346,11 +351,6 @@ static int add_manifest(batch_list *l, const char *path, const cli_args *a)
         }
         if (why) {
             rc = fail(EXIT_USAGE, "%s:%u: %s", path, lineno, why);
-            break;
-        }
-        if (mesh[0] == '-') {
-            rc = fail(EXIT_USAGE, "%s:%u: the line must start with the mesh, not '%s' (write ./%s for a file of that name)",
-                      path, lineno, mesh, mesh);
             break;
         }
         batch_item *it = list_add(l, mesh);

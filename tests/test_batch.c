@@ -519,7 +519,6 @@ static void test_like(void)
     expect_failure("--like no value", 2, NULL, ARGS(cube, "-o", out, "--like"));
 }
 
-/* BATCH_TESTS */
 
 static int absolute_path(const char *path, char *out, size_t size)
 {
@@ -529,6 +528,320 @@ static int absolute_path(const char *path, char *out, size_t size)
     if (ok) strcpy(out, p);
     free(p);
     return ok;
+}
+
+/* ---- clvox batch ---- */
+
+static long long filled_of(const char *exr)
+{
+    run_result r;
+    run_cli(&r, ARGS("info", exr));
+    long long f = -1;
+    const char *p = strstr(r.out, "filled");
+    if (r.code == 0 && p) sscanf(p + 6, " %lld", &f);
+    run_free(&r);
+    return f;
+}
+
+static void test_batch_basic(void)
+{
+    char cube[PATH_MAX], box[PATH_MAX], open_cube[PATH_MAX], tpl[PATH_MAX], p[PATH_MAX];
+    in_path(cube, "cube.obj");
+    in_path(box, "box.obj");
+    in_path(open_cube, "open_cube.obj");
+    out_path(tpl, "{stem}_{n}.exr");
+    run_result r;
+    run_cli(&r, ARGS("batch", cube, box, open_cube, "-r", "8", "-o", tpl, "--json"));
+    CHECK_MSG(r.code == 0, "batch: exit %d: %s", r.code, r.err);
+    CHECK_MSG(lines_starting(r.err, "clvox: [") == 3 && lines_starting(r.err, "clvox: warning: ") == 1 &&
+                  count_lines(r.err) == 4,
+              "batch: stderr: %s", r.err);
+    CHECK_MSG(count_lines(r.out) == 4, "batch: 3 records and the batch record: %s", r.out);
+    out_path(p, "cube_0.exr");
+    CHECK(filled_of(p) == 512);
+    out_path(p, "box_1.exr");
+    CHECK(filled_of(p) == 8 * 4 * 4);
+    out_path(p, "open_cube_2.exr");
+    CHECK(file_exists(p));
+    py_check("batch records", r.out_path,
+             "m = recs[:3]\n"
+             "assert [x['n'] for x in m] == [0, 1, 2] and all(x['status'] == 'ok' for x in m), m\n"
+             "assert [x['input'] for x in m] == A[0:3], m\n"
+             "assert m[1]['grid']['dims'] == [8, 4, 4] and m[0]['filled_voxels'] == 512\n"
+             "assert m[0]['seconds']['setup'] > 0 and m[1]['seconds']['setup'] == 0 == m[2]['seconds']['setup']\n"
+             "assert len(m[2]['warnings']) == 1\n"
+             "b = recs[3]\n"
+             "assert b['type'] == 'batch' and b['meshes'] == 3 and b['ok'] == 3 and b['failed'] == 0, b\n"
+             "assert b['skipped'] == 0 and b['not_run'] == 0 and b['cancelled'] is False and b['exit_code'] == 0, b\n"
+             "assert b['shard'] == [0, 1] and b['meshes_per_second'] > 0\n",
+             cube, box, open_cube, NULL);
+    run_free(&r);
+
+    /* --skip-existing: nothing is voxelized again */
+    out_path(p, "cube_0.exr");
+    struct stat before, after;
+    CHECK(stat(p, &before) == 0);
+    run_cli(&r, ARGS("batch", cube, box, open_cube, "-r", "8", "-o", tpl, "--skip-existing"));
+    CHECK_MSG(r.code == 0 && strstr(r.out, "3 meshes: 0 ok, 0 failed, 3 skipped, 0 not run"),
+              "--skip-existing: exit %d: %s", r.code, r.out);
+    CHECK(stat(p, &after) == 0 && after.st_ino == before.st_ino && after.st_mtime == before.st_mtime);
+    CHECK_MSG(lines_starting(r.err, "clvox: [") == 3 && strstr(r.err, "skipped"), "skip: %s", r.err);
+    run_free(&r);
+    /* -q: nothing but errors */
+    unlink(p);
+    run_cli(&r, ARGS("batch", cube, box, open_cube, "-r", "8", "-o", tpl, "--skip-existing", "-q"));
+    CHECK_MSG(r.code == 0 && r.out[0] == '\0' && lines_starting(r.err, "clvox: [") == 0, "-q: %s %s", r.out, r.err);
+    CHECK(filled_of(p) == 512);
+    run_free(&r);
+    reset_out();
+
+    /* a fixed --box: one frame for all */
+    run_cli(&r, ARGS("batch", cube, box, "-r", "4", "--box", "0,0,0,2,2,2", "-o", tpl, "--json"));
+    py_check("batch --box", r.out_path,
+             "assert recs[0]['grid'] == recs[1]['grid'] and recs[0]['grid']['dims'] == [4, 4, 4], recs\n"
+             "assert recs[0]['filled_voxels'] == 8 and recs[1]['filled_voxels'] == 16\n",
+             NULL);
+    run_free(&r);
+    reset_out();
+
+    run_cli(&r, ARGS("batch", "--help"));
+    CHECK_MSG(r.code == 0 && strncmp(r.out, "Usage: clvox batch", 18) == 0 && r.err[0] == '\0', "batch --help: %s",
+              r.err);
+    static const char *const needed[] = {"--dir", "--manifest", "--shard", "--skip-existing", "--keep-going",
+                                         "--no-keep-going", "{stem}", "{dir}", "{n}", "--json"};
+    for (size_t i = 0; i < sizeof needed / sizeof needed[0]; i++)
+        CHECK_MSG(strstr(r.out, needed[i]) != NULL, "batch --help lacks %s", needed[i]);
+    run_free(&r);
+}
+
+static void test_batch_failures(void)
+{
+    char cube[PATH_MAX], box[PATH_MAX], empty[PATH_MAX], missing[PATH_MAX], tpl[PATH_MAX], p[PATH_MAX];
+    in_path(cube, "cube.obj");
+    in_path(box, "box.obj");
+    in_path(empty, "empty.obj");
+    in_path(missing, "missing.obj");
+    out_path(tpl, "{stem}.exr");
+    run_result r;
+    /* keep going (default): the bad meshes are recorded, the rest written */
+    run_cli(&r, ARGS("batch", cube, empty, missing, box, "-r", "4", "-o", tpl, "--json"));
+    CHECK_MSG(r.code == 4, "keep going: exit %d: %s", r.code, r.err);
+    CHECK_MSG(lines_starting(r.err, "clvox: error: ") == 2, "keep going: two error lines: %s", r.err);
+    CHECK_MSG(strstr(r.err, "clvox: error: ") && strstr(r.err, empty), "the error names the mesh: %s", r.err);
+    CHECK(dir_count(g_out) == 2);
+    py_check("keep going", r.out_path,
+             "s = [x['status'] for x in recs[:4]]\n"
+             "assert s == ['ok', 'failed', 'failed', 'ok'], s\n"
+             "assert recs[1]['exit_code'] == 4 and recs[1]['error'] and recs[1]['output_size'] is None\n"
+             "assert 'missing.obj' in recs[2]['error']\n"
+             "b = recs[4]\n"
+             "assert b['ok'] == 2 and b['failed'] == 2 and b['exit_code'] == 4, b\n",
+             NULL);
+    run_free(&r);
+    reset_out();
+    /* --no-keep-going: stops at the first failure */
+    run_cli(&r, ARGS("batch", cube, empty, box, "-r", "4", "-o", tpl, "--no-keep-going"));
+    CHECK_MSG(r.code == 4 && strstr(r.out, "3 meshes: 1 ok, 1 failed, 0 skipped, 1 not run"),
+              "--no-keep-going: exit %d: %s", r.code, r.out);
+    out_path(p, "box.exr");
+    CHECK(!file_exists(p));
+    run_free(&r);
+    reset_out();
+    /* an unwritable output is that mesh's failure */
+    char sub[PATH_MAX];
+    out_path(sub, "cube.exr");
+    mkdir(sub, 0777); /* a directory where cube's output goes */
+    run_cli(&r, ARGS("batch", cube, box, "-r", "4", "-o", tpl));
+    CHECK_MSG(r.code == 5 && strstr(r.out, "2 meshes: 1 ok, 1 failed"), "unwritable: exit %d: %s", r.code, r.out);
+    run_free(&r);
+    reset_out();
+
+    /* bad arguments: one line, exit 2, nothing written */
+    char t_bad[PATH_MAX], t_brace[PATH_MAX];
+    out_path(t_bad, "{foo}.exr");
+    out_path(t_brace, "a}.exr");
+    expect_failure("unknown template field", 2, "unknown field", ARGS("batch", cube, "-o", t_bad));
+    expect_failure("single brace", 2, "'}'", ARGS("batch", cube, "-o", t_brace));
+    expect_failure("unclosed field", 2, "unknown field", ARGS("batch", cube, "-o", "x{stem"));
+    static const char *const shards[] = {"1/0", "2/2", "a/b", "1", "-1/2", "1/2/3", "/2", ""};
+    for (size_t i = 0; i < sizeof shards / sizeof shards[0]; i++) {
+        char what[64];
+        snprintf(what, sizeof what, "--shard '%s'", shards[i]);
+        expect_failure(what, 2, "--shard", ARGS("batch", cube, "--shard", shards[i], "-o", tpl));
+    }
+    expect_failure("no meshes", 2, "no meshes", ARGS("batch", "-o", tpl));
+    char nodir[PATH_MAX];
+    in_path(nodir, "nodir");
+    expect_failure("missing --dir", 4, "nodir", ARGS("batch", "--dir", nodir, "-o", tpl));
+    expect_failure("missing --manifest", 4, "nodir", ARGS("batch", "--manifest", nodir, "-o", tpl));
+    /* two meshes, one output */
+    char d2[PATH_MAX], cube2[PATH_MAX];
+    in_path(d2, "d2");
+    mkdir(d2, 0777);
+    path_join(cube2, sizeof cube2, d2, "cube.obj");
+    CHECK(write_text(cube2, CUBE_OBJ));
+    expect_failure("same output", 2, "would both be written", ARGS("batch", cube, cube2, "-o", tpl));
+    expect_failure("unknown batch option", 2, "--frobnicate", ARGS("batch", cube, "--frobnicate"));
+    expect_failure("--dir twice", 2, "twice", ARGS("batch", "--dir", g_in, "--dir", g_in, "-o", tpl));
+}
+
+static void test_batch_lists(void)
+{
+    char tpl[PATH_MAX], man[PATH_MAX], p[PATH_MAX];
+    out_path(tpl, "{n}_{stem}.exr");
+    run_result r;
+    /* --dir: the mesh files, sorted; shards split them with stable names */
+    char d[PATH_MAX];
+    in_path(d, "set");
+    mkdir(d, 0777);
+    static const char *const names[] = {"b.obj", "a.OBJ", "c.obj", "d.obj", "e.obj"};
+    for (size_t i = 0; i < 5; i++) {
+        path_join(p, sizeof p, d, names[i]);
+        CHECK(write_text(p, CUBE_OBJ));
+    }
+    path_join(p, sizeof p, d, "notes.txt");
+    CHECK(write_text(p, "not a mesh"));
+    run_cli(&r, ARGS("batch", "--dir", d, "-r", "2", "-o", tpl, "--shard", "0/2", "-q"));
+    CHECK_MSG(r.code == 0, "shard 0/2: exit %d: %s", r.code, r.err);
+    run_free(&r);
+    run_cli(&r, ARGS("batch", "--dir", d, "-r", "2", "-o", tpl, "--shard", "1/2", "--json"));
+    CHECK_MSG(r.code == 0, "shard 1/2: exit %d: %s", r.code, r.err);
+    py_check("shard 1/2", r.out_path,
+             "assert [x['n'] for x in recs[:-1]] == [1, 3], recs\n"
+             "assert recs[-1]['listed'] == 5 and recs[-1]['meshes'] == 2 and recs[-1]['shard'] == [1, 2]\n",
+             NULL);
+    run_free(&r);
+    static const char *const expect[] = {"0_a.exr", "1_b.exr", "2_c.exr", "3_d.exr", "4_e.exr"};
+    CHECK(dir_count(g_out) == 5);
+    for (size_t i = 0; i < 5; i++) {
+        out_path(p, expect[i]);
+        CHECK_MSG(file_exists(p), "missing %s", expect[i]);
+    }
+    reset_out();
+
+    /* a manifest: overrides, comments, quotes, a missing mesh recorded with its line */
+    char cube[PATH_MAX], box[PATH_MAX], spaced[PATH_MAX], o1[PATH_MAX];
+    in_path(cube, "cube.obj");
+    in_path(box, "box.obj");
+    in_path(spaced, "with space.obj");
+    CHECK(write_text(spaced, CUBE_OBJ));
+    out_path(o1, "own name.exr");
+    static char text[6 * PATH_MAX + 256];
+    snprintf(text, sizeof text,
+             "# meshes\n"
+             "%s -r 4\n"
+             "\n"
+             "   \t\n"
+             "\"%s\" -o \"%s\"\r\n"
+             "%s --dims 2,2,2\n"
+             "%s/missing.obj\n",
+             cube, spaced, o1, box, g_in);
+    in_path(man, "list.txt");
+    CHECK(write_text(man, text));
+    run_cli(&r, ARGS("batch", "--manifest", man, "-r", "8", "-o", tpl, "--json"));
+    CHECK_MSG(r.code == 4, "manifest: exit %d: %s", r.code, r.err);
+    char needle[PATH_MAX + 64];
+    snprintf(needle, sizeof needle, "clvox: error: %s:7: ", man);
+    CHECK_MSG(strstr(r.err, needle) != NULL, "manifest: the error has FILE:LINE: %s", r.err);
+    py_check("manifest", r.out_path,
+             "m = recs[:-1]\n"
+             "assert [x['line'] for x in m] == [2, 5, 6, 7], m\n"
+             "assert m[0]['grid']['dims'] == [4, 4, 4] and m[1]['grid']['dims'] == [8, 8, 8], m\n"
+             "assert m[2]['grid']['dims'] == [2, 2, 2] and m[1]['output'] == A[0], m\n"
+             "assert m[1]['input'].endswith('with space.obj')\n"
+             "assert [x['status'] for x in m] == ['ok', 'ok', 'ok', 'failed']\n"
+             "assert m[3]['manifest'] == A[1] + ':7'\n",
+             o1, man, NULL);
+    run_free(&r);
+    reset_out();
+
+    /* malformed lines: FILE:LINE, exit 2, nothing voxelized */
+    char ref[PATH_MAX];
+    in_path(ref, "ref.exr");
+    static const char *const bad[][2] = {
+        {"%s -x 3\n", "unknown option"},
+        {"%s -o\n", "needs a value"},
+        {"\"%s -r 4\n", "unterminated"},
+        {"%s -r 4 --dims 2,2,2\n", "more than one"},
+        {"%s -r 0\n", "-r '0'"},
+        {"%s -o a.exr -o b.exr\n", "twice"},
+        {"-r 4 %s\n", "must start with the mesh"},
+        {"", "NUL"}, /* written below: "x\0y" */
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char line[2 * PATH_MAX + 128];
+        int n = snprintf(line, sizeof line, "%s\n", cube); /* a good first line */
+        n += snprintf(line + n, sizeof line - (size_t)n, bad[i][0], cube);
+        if (i == 7) {
+            memcpy(line + n, "x\0y\n", 4);
+            n += 4;
+        }
+        FILE *f = fopen(man, "wb");
+        CHECK(f && fwrite(line, 1, (size_t)n, f) == (size_t)n && fclose(f) == 0);
+        char what[64], where[PATH_MAX + 64];
+        snprintf(what, sizeof what, "manifest line %zu", i);
+        snprintf(where, sizeof where, "%s:2: ", man);
+        run_cli(&r, ARGS("batch", "--manifest", man, "-o", tpl));
+        CHECK_MSG(r.code == 2 && count_lines(r.err) == 1 && strstr(r.err, where) && strstr(r.err, bad[i][1]),
+                  "%s: exit %d: %s", what, r.code, r.err);
+        CHECK_MSG(dir_count(g_out) == 0, "%s: files written", what);
+        run_free(&r);
+        reset_out();
+    }
+    snprintf(text, sizeof text, "%s -r 4\n", cube);
+    CHECK(write_text(man, text));
+    run_cli(&r, ARGS("batch", "--manifest", man, "--like", ref, "-o", tpl));
+    CHECK_MSG(r.code == 2 && strstr(r.err, ":1: ") && strstr(r.err, "--like"), "override with --like: %d %s", r.code,
+              r.err);
+    run_free(&r);
+    reset_out();
+}
+
+/* Ctrl-C in the middle of a batch: exit 130, the summary says so, every
+ * file left is a complete volume, no temporary. */
+static void test_batch_cancel(void)
+{
+    char man[PATH_MAX], tpl[PATH_MAX], mesh[PATH_MAX];
+    const char *def = getenv("CLVOX_TEST_MESH");
+    if (!def || !*def) def = "tests/data/default.obj";
+    if (!absolute_path(def, mesh, sizeof mesh)) {
+        printf("SKIP: no %s for the cancel test\n", def);
+        return;
+    }
+    in_path(man, "many.txt");
+    FILE *f = fopen(man, "w");
+    CHECK(f != NULL);
+    if (!f) return;
+    for (int i = 0; i < 400; i++) fprintf(f, "%s\n", mesh);
+    CHECK(fclose(f) == 0);
+    out_path(tpl, "{n}.exr");
+    run_result r;
+    run_cli_ex(&r, NULL, ARGS("batch", "--manifest", man, "-r", "96", "-o", tpl), 0.5);
+    CHECK_MSG(r.code == 130, "cancel: exit %d: %s", r.code, r.err);
+    CHECK_MSG(strstr(r.out, "(cancelled)") != NULL, "cancel: summary: %s", r.out);
+    int n = dir_count(g_out);
+    CHECK_MSG(n > 0 && n < 400, "cancel: %d files", n);
+    DIR *d = opendir(g_out);
+    struct dirent *e;
+    int bad = 0, checked = 0;
+    while (d && (e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.') {
+            bad += strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0;
+            continue;
+        }
+        const char *dot = strrchr(e->d_name, '.');
+        if (!dot || strcmp(dot, ".exr") != 0) bad++;
+        else if (checked < 3) { /* the last ones written are complete */
+            char p[PATH_MAX];
+            out_path(p, e->d_name);
+            CHECK_MSG(filled_of(p) > 0, "cancel: %s is not a complete volume", e->d_name);
+            checked++;
+        }
+    }
+    if (d) closedir(d);
+    CHECK_MSG(bad == 0, "cancel: %d stray files", bad);
+    run_free(&r);
+    reset_out();
 }
 
 static void make_inputs(void)
@@ -600,6 +913,9 @@ int main(void)
     test_json_failure();
     test_info_json();
     test_like();
-    /* BATCH_CALLS */
+    test_batch_basic();
+    test_batch_failures();
+    test_batch_lists();
+    test_batch_cancel();
     return test_report();
 }

@@ -35,6 +35,8 @@
 
 #include "clvox.h"
 #include "cli_common.h"
+#include "cli_json.h"
+#include "cli_vox.h"
 
 #include <errno.h>
 #include <math.h>
@@ -273,23 +275,6 @@ static const char *parse_double_list(const char *s, int positive, double *out, i
 
 /* ---- arguments ------------------------------------------------------------ */
 
-enum { GRID_BY_RESOLUTION = 1, GRID_BY_DIMS = 2, GRID_BY_VOXEL_SIZE = 4 };
-
-typedef struct cli_args {
-    const char *mesh;
-    const char *output;
-    clvox_grid_options grid;
-    int grid_by;        /* GRID_BY_* bits */
-    const char *grid_opt[3];
-    clvox_voxelize_options vox;
-    const char *device;
-    int list_devices, quiet, no_progress, help, version;
-    int seed_given;
-    const char *palette;       /* --palette NAME|FILE */
-    const char *samples_opt;   /* "--samples" or "--oversample", whichever set them */
-    int metric_given;
-    clvox_output_options out;  /* --format, --npy-bits, --npy-float32, --npy-uint32 */
-} cli_args;
 
 static int set_grid_kind(cli_args *a, int kind, const char *name)
 {
@@ -307,7 +292,7 @@ static int set_grid_kind(cli_args *a, int kind, const char *name)
     return 0;
 }
 
-static int parse_args(int argc, char **argv, cli_args *a)
+int parse_args(int argc, char **argv, int first, int multi, cli_extra_opt_fn extra, void *user, cli_args *a)
 {
     clvox_grid_options g0 = CLVOX_GRID_OPTIONS_INIT;
     clvox_voxelize_options v0 = CLVOX_VOXELIZE_OPTIONS_INIT;
@@ -318,14 +303,23 @@ static int parse_args(int argc, char **argv, cli_args *a)
     a->out = o0;
     int options_done = 0;
 
-    for (int i = 1; i < argc; i++) {
+    for (int i = first; i < argc; i++) {
         const char *arg = argv[i];
         const char *v = NULL;
         const char *why = NULL;
         int missing = 0;
 
         if (options_done || arg[0] != '-' || arg[1] == '\0') {
-            if (a->mesh) return usage_error("more than one mesh given: '%s' and '%s'", a->mesh, arg);
+            if (multi) {
+                const char **grown = realloc(a->meshes, (a->mesh_count + 1) * sizeof *grown);
+                if (!grown) return fail(EXIT_RUNTIME, "out of memory");
+                a->meshes = grown;
+                a->meshes[a->mesh_count++] = arg;
+                continue;
+            }
+            if (a->mesh)
+                return usage_error("more than one mesh given: '%s' and '%s' (clvox batch voxelizes several)",
+                                   a->mesh, arg);
             a->mesh = arg;
             continue;
         }
@@ -341,6 +335,7 @@ static int parse_args(int argc, char **argv, cli_args *a)
         if (strcmp(arg, "--npy-bits") == 0) { a->out.flags |= CLVOX_OUTPUT_PACK_BITS; continue; }
         if (strcmp(arg, "--npy-float32") == 0) { a->out.flags |= CLVOX_OUTPUT_FLOAT32; continue; }
         if (strcmp(arg, "--npy-uint32") == 0) { a->out.flags |= CLVOX_OUTPUT_UINT32; continue; }
+        if (strcmp(arg, "--json") == 0) { a->json = 1; continue; }
 
 #define VALUE_OPT(sn, ln) match_value(argc, argv, &i, (sn), (ln), &v, &missing)
 #define NEED_VALUE(name) \
@@ -390,6 +385,11 @@ static int parse_args(int argc, char **argv, cli_args *a)
         } else if (VALUE_OPT(NULL, "--pad")) {
             NEED_VALUE("--pad");
             if ((why = parse_u32(v, 0, &a->grid.padding, NULL))) return usage_error("--pad '%s': %s", v, why);
+            a->pad_given = 1;
+        } else if (VALUE_OPT(NULL, "--like")) {
+            NEED_VALUE("--like");
+            if (*v == '\0') return usage_error("--like: empty file name");
+            a->like = v;
         } else if (VALUE_OPT(NULL, "--method")) {
             NEED_VALUE("--method");
             if (strcmp(v, "ray") == 0) a->vox.method = CLVOX_METHOD_RAY;
@@ -535,10 +535,24 @@ static int parse_args(int argc, char **argv, cli_args *a)
             if (*v == '\0') return usage_error("--device: empty selector");
             a->device = v;
         } else {
-            return usage_error("unknown option '%s'", arg);
+            int took = extra ? extra(user, argc, argv, &i) : 0;
+            if (took < 0) return EXIT_USAGE;
+            if (took == 0) return usage_error("unknown option '%s'", arg);
         }
 #undef VALUE_OPT
 #undef NEED_VALUE
+    }
+    if (a->like) { /* the whole grid comes from the file */
+        const char *other = a->grid_opt[0]   ? a->grid_opt[0]
+                            : a->grid_opt[1] ? a->grid_opt[1]
+                            : a->grid_opt[2] ? a->grid_opt[2]
+                            : a->grid.use_box ? "--box"
+                            : a->pad_given   ? "--pad"
+                                             : NULL;
+        if (other)
+            return usage_error("--like and %s can not be combined: --like takes the dims, origin and voxel size "
+                               "from '%s'",
+                               other, a->like);
     }
     /* combinations the library would also refuse, said in CLI terms */
     if (!a->palette) {
@@ -583,7 +597,8 @@ static void print_help(void)
 {
     printf(
 "Usage: clvox [MESH] [options]\n"
-"       clvox info FILE.exr\n"
+"       clvox batch [MESH...] [--dir DIR] [--manifest FILE] [options]\n"
+"       clvox info FILE.exr [--json]\n"
 "       clvox preview FILE.exr -o OUT.png [options]\n"
 "       clvox palette list | show NAME|FILE\n"
 "       clvox instances VOLUME.exr -o OUT.csv [--render-map MAP]\n"
@@ -618,6 +633,9 @@ static void print_help(void)
 "                           voxels per axis\n"
 "  --box x0,y0,z0,x1,y1,z1  box to voxelize (default: the mesh bounding box)\n"
 "  --pad N                  empty voxels added on every side (default 0)\n"
+"  --like FILE              the grid (dims, origin, voxel size) of an existing\n"
+"                           clvox volume (.exr), e.g. of a scan or another mesh;\n"
+"                           not with -r, --dims, --voxel-size, --box or --pad\n"
 "  Voxel (i,j,k) covers [origin + (i,j,k)*h, origin + (i+1,j+1,k+1)*h) and is\n"
 "  inside when its centre origin + (i+0.5,j+0.5,k+0.5)*h is inside the mesh.\n"
 "  Limits: at most %u voxels per axis and %llu voxels in all.\n"
@@ -717,6 +735,13 @@ static void print_help(void)
 "                           still go to stderr)\n"
 "  --no-progress            no progress bar (it is drawn on stderr only when\n"
 "                           stderr is a terminal)\n"
+"  --json                   instead of the summary, one JSON object on one line\n"
+"                           on stdout: input, grid, method, mesh report, filled\n"
+"                           voxels, volumes, seconds per stage, output, status\n"
+"                           and error (README \"Machine-readable results\"); a\n"
+"                           run that fails after its arguments were accepted\n"
+"                           prints one too (status \"failed\"); errors and\n"
+"                           warnings still go to stderr\n"
 "  -h, --help               print this help and exit\n"
 "  -V, --version            print the version and exit\n"
 "  Ctrl-C (or SIGTERM, SIGHUP) cancels cleanly: no output file is left (exit\n"
@@ -729,7 +754,12 @@ static void print_help(void)
 "clvox info FILE.exr: prints the grid, method, parameters, compression and the\n"
 "filled voxel count of a volume written by clvox (occupancy > 0.5, or coverage\n"
 "> 0.5 without occupancy); with a coverage channel also the coverage sum and\n"
-"the estimated volume (sum x voxel volume). Needs no OpenCL device.\n"
+"the estimated volume (sum x voxel volume); --json: the same as one JSON\n"
+"object (README \"Machine-readable results\"). Needs no OpenCL device.\n"
+"\n"
+"clvox batch: many meshes in one process, one OpenCL context and one kernel\n"
+"build; output names from a template, --shard I/N, --skip-existing, a failed\n"
+"mesh recorded and the batch going on (clvox batch --help).\n"
 "\n"
 "clvox preview FILE.exr -o OUT.png: draws N evenly spaced z slices and the\n"
 "three central slices of a volume as a PNG picture (clvox preview --help\n"
@@ -869,14 +899,75 @@ static void auto_or_value(uint32_t v, char *buf, size_t size)
 
 /* ---- info --------------------------------------------------------------------- */
 
+static void info_json(const char *file, const clvox_volume_info *info, int have_size, uint64_t file_size)
+{
+    jbuf b;
+    jb_init(&b);
+    uint64_t total = (uint64_t)info->dims[0] * info->dims[1] * info->dims[2];
+    jb_obj_begin(&b, NULL);
+    jb_str(&b, "type", "volume");
+    jb_path(&b, "file", file);
+    if (have_size) jb_u64(&b, "file_size", file_size);
+    else jb_null(&b, "file_size");
+    jb_obj_begin(&b, "grid");
+    jb_u32x3(&b, "dims", info->dims);
+    jb_num3(&b, "origin", info->origin);
+    jb_num3(&b, "voxel_size", info->voxel_size);
+    jb_u64(&b, "voxels", total);
+    jb_obj_end(&b);
+    jb_str(&b, "method", info->method);
+    jb_str(&b, "parameters", info->parameters);
+    jb_str(&b, "version", info->version);
+    jb_str(&b, "compression", info->compression);
+    jb_arr_begin(&b, "channels");
+    for (const char *p = info->channels; *p;) {
+        size_t n = strcspn(p, ",");
+        char name[64];
+        snprintf(name, sizeof name, "%.*s", (int)(n < 63 ? n : 63), p);
+        jb_str(&b, NULL, name);
+        p += n;
+        if (*p == ',') p++;
+    }
+    jb_arr_end(&b);
+    jb_u64(&b, "filled_voxels", info->filled_voxels);
+    jb_u64(&b, "total_voxels", total);
+    const int cov = has_channel(info->channels, "coverage");
+    if (cov) jb_num(&b, "coverage_sum", info->coverage_sum);
+    else jb_null(&b, "coverage_sum");
+    jb_obj_begin(&b, "volume");
+    jb_num(&b, "voxels", voxels_volume((double)info->filled_voxels, info->voxel_size));
+    if (cov) jb_num(&b, "coverage", voxels_volume(info->coverage_sum, info->voxel_size));
+    jb_obj_end(&b);
+    if (info->palette[0]) {
+        char hash[24];
+        snprintf(hash, sizeof hash, "%016llx", (unsigned long long)info->palette_hash);
+        jb_obj_begin(&b, "palette");
+        jb_str(&b, "name", info->palette);
+        jb_u64(&b, "elements", info->palette_count);
+        jb_str(&b, "hash", hash);
+        jb_str(&b, "metric", info->metric);
+        jb_obj_end(&b);
+    } else {
+        jb_null(&b, "palette");
+    }
+    jb_obj_end(&b);
+    if (jb_write_line(&b) != 0 && b.oom) fail(EXIT_RUNTIME, "out of memory");
+    jb_free(&b);
+}
+
 static int cmd_info(int argc, char **argv)
 {
     const char *file = NULL;
+    int json = 0;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
             print_help();
             return EXIT_OK;
+        }
+        if (strcmp(a, "--json") == 0) {
+            json = 1;
+            continue;
         }
         if (a[0] == '-' && a[1] != '\0') return usage_error("info: unknown option '%s'", a);
         if (file) return usage_error("info: more than one file given: '%s' and '%s'", file, a);
@@ -905,7 +996,12 @@ static int cmd_info(int argc, char **argv)
 
     struct stat sb;
     char size[48] = "?";
-    if (stat(file, &sb) == 0) format_bytes((uint64_t)sb.st_size, size, sizeof size);
+    int have_size = stat(file, &sb) == 0;
+    if (have_size) format_bytes((uint64_t)sb.st_size, size, sizeof size);
+    if (json) {
+        info_json(file, &info, have_size, have_size ? (uint64_t)sb.st_size : 0);
+        return EXIT_OK;
+    }
     uint64_t total = (uint64_t)info.dims[0] * info.dims[1] * info.dims[2];
 
     printf(LABEL "%s (%s)\n", "file", file, size);
@@ -1193,17 +1289,486 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
     printf(LABEL "%s (%s)\n", "output", output, size);
 }
 
+/* ---- one mesh's run (shared with clvox batch, cli_batch.c) ------------------------ */
+
+int cli_interrupted(void) { return g_interrupted != 0; }
+void cli_flush_stdout(void) { flush_stdout(); }
+int cli_finish_stdout(int rc, const char *written) { return finish_stdout(rc, written); }
+double cli_now(void) { return now_seconds(); }
+
+const char *grid_option_parse(const char *opt, const char *value, clvox_grid_options *g, int *grid_by)
+{
+    static char msg[320];
+    const char *why = NULL;
+    g->resolution = 0;
+    memset(g->dims, 0, sizeof g->dims);
+    memset(g->voxel_size, 0, sizeof g->voxel_size);
+    if (strcmp(opt, "-r") == 0 || strcmp(opt, "--resolution") == 0) {
+        if ((why = parse_u32(value, 1, &g->resolution, NULL))) goto bad;
+        *grid_by = GRID_BY_RESOLUTION;
+    } else if (strcmp(opt, "--dims") == 0) {
+        if ((why = parse_u32_list(value, 1, g->dims, 3))) goto bad;
+        *grid_by = GRID_BY_DIMS;
+    } else if (strcmp(opt, "--voxel-size") == 0) {
+        int n = 0;
+        if ((why = parse_double_list(value, 1, g->voxel_size, 3, &n))) goto bad;
+        if (n != 1 && n != 3) {
+            why = "give one or three values";
+            goto bad;
+        }
+        if (n == 1) g->voxel_size[1] = g->voxel_size[2] = g->voxel_size[0];
+        *grid_by = GRID_BY_VOXEL_SIZE;
+    } else {
+        snprintf(msg, sizeof msg, "unknown grid option '%s'", opt);
+        return msg;
+    }
+    return NULL;
+bad:
+    snprintf(msg, sizeof msg, "%s '%.200s': %s", opt, value, why);
+    return msg;
+}
+
+static int stop_at_first_slice(void *user, uint32_t z, const float *values)
+{
+    (void)user, (void)z, (void)values;
+    return 1;
+}
+
+/* --like FILE: dims, origin and voxel size of an existing volume.
+ *
+ * Hook for further formats: one branch per extension, each filling `out`
+ * from its own header or failing with one line (fail(EXIT_INPUT, ...)). A
+ * clvox EXR is read here (its header, and the first slice of one channel);
+ * NRRD (.nrrd/.nhdr: "space origin", "space directions", "sizes") and the
+ * NumPy sidecar (.json next to a .npy: origin, voxel size, shape) are to be
+ * added by the writers of those formats (src/write_nrrd.c, src/write_npy.c):
+ * until then they get the "not supported yet" error below. */
+static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out)
+{
+    const char *base = path_basename(path);
+    const char *dot = strrchr(base, '.');
+    char ext[16] = "";
+    if (dot && dot != base && strlen(dot + 1) < sizeof ext)
+        for (size_t i = 0; dot[i + 1]; i++) ext[i] = (char)(dot[i + 1] >= 'A' && dot[i + 1] <= 'Z' ? dot[i + 1] + 32 : dot[i + 1]);
+    if (strcmp(ext, "nrrd") == 0 || strcmp(ext, "nhdr") == 0 || strcmp(ext, "npy") == 0 || strcmp(ext, "json") == 0)
+        return fail(EXIT_INPUT, "--like '%s': reading the grid of .%s files is not supported yet (use a clvox .exr volume)",
+                    path, ext);
+    if (strcmp(ext, "exr") != 0)
+        return fail(EXIT_INPUT, "--like '%s': expected a clvox volume (.exr)", path);
+    static const char *const channels[] = {"occupancy", "coverage", "element"};
+    clvox_volume_info info;
+    clvox_status st = CLVOX_ERR_EXR;
+    for (size_t c = 0; c < 3; c++) {
+        memset(&info, 0, sizeof info);
+        st = clvox_volume_read_slices(host, path, channels[c], &info, stop_at_first_slice, NULL);
+        if (st == CLVOX_OK || st == CLVOX_ERR_CANCELLED) break;
+    }
+    if (st != CLVOX_OK && st != CLVOX_ERR_CANCELLED) {
+        const char *msg = clvox_context_error(host);
+        return fail(EXIT_INPUT, "--like: %s", msg && *msg ? msg : clvox_status_string(st));
+    }
+    memset(out, 0, sizeof *out);
+    for (int k = 0; k < 3; k++) {
+        out->dims[k] = info.dims[k];
+        out->origin[k] = info.origin[k];
+        out->voxel_size[k] = info.voxel_size[k];
+    }
+    return EXIT_OK;
+}
+
+int vox_session_open(vox_session *s, const cli_args *a)
+{
+    memset(s, 0, sizeof *s);
+    s->a = a;
+    install_signal_handlers();
+    clvox_status st;
+    clvox_context_options ho = CLVOX_CONTEXT_OPTIONS_INIT;
+    ho.host_only = 1; /* mesh and grid errors need no device */
+    if ((st = clvox_context_create(&ho, &s->host)) != CLVOX_OK) return fail_status(s->host, st, ROLE_OTHER);
+    if (a->palette) { /* a built-in name, else a palette file */
+        int builtin = 0;
+        for (size_t i = 0; clvox_palette_builtin_name(i); i++) builtin |= strcmp(a->palette, clvox_palette_builtin_name(i)) == 0;
+        if (builtin) st = clvox_palette_builtin(s->host, a->palette, &s->palette);
+        else if (!is_readable_file(a->palette))
+            return usage_error("--palette '%s': not a built-in palette (binary, planar10, paper46, paper78) and not a "
+                               "readable file",
+                               a->palette);
+        else st = clvox_palette_load(s->host, a->palette, &s->palette);
+        if (st != CLVOX_OK) return fail_status(s->host, st, ROLE_INPUT);
+    }
+    if (a->like) {
+        int rc = like_read_grid(s->host, a->like, &s->like);
+        if (rc != EXIT_OK) return rc;
+        s->have_like = 1;
+    }
+    return EXIT_OK;
+}
+
+void vox_session_close(vox_session *s)
+{
+    clvox_palette_destroy(s->palette);
+    clvox_context_destroy(s->dev);
+    clvox_context_destroy(s->host);
+    memset(s, 0, sizeof *s);
+}
+
+static void record_warning(vox_result *res, const char *fmt, ...) CLI_PRINTF(2, 3);
+static void record_warning(vox_result *res, const char *fmt, ...)
+{
+    if (res->warning_count >= VOX_MAX_WARNINGS) return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(res->warnings[res->warning_count++], sizeof res->warnings[0], fmt, ap);
+    va_end(ap);
+}
+
+int vox_run(vox_session *s, const vox_job *job, vox_result *res)
+{
+    const cli_args *a = s->a;
+    double wall_start = now_seconds();
+    memset(res, 0, sizeof *res);
+    res->status = "failed";
+    clvox_mesh *mesh = NULL;
+    clvox_status st;
+    int rc;
+    const char *saved_prefix = g_fail_prefix;
+    if (s->batch) g_fail_prefix = job->source ? job->source : job->mesh;
+
+    if ((rc = check_output(job->output)) != EXIT_OK) goto done;
+    clvox_format format = a->out.format ? a->out.format : clvox_format_from_path(job->output);
+    if (!format) {
+        rc = usage_error("cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd or "
+                         ".binvox, or --format",
+                         job->output);
+        goto done;
+    }
+    struct stat in_sb, out_sb;
+    if (stat(job->mesh, &in_sb) == 0 && stat(job->output, &out_sb) == 0 && in_sb.st_dev == out_sb.st_dev &&
+        in_sb.st_ino == out_sb.st_ino) {
+        rc = usage_error("the output '%s' is the input mesh", job->output);
+        goto done;
+    }
+
+    double t0 = now_seconds();
+    if ((st = clvox_mesh_load(s->host, job->mesh, &mesh)) != CLVOX_OK) {
+        rc = fail_status(s->host, st, ROLE_INPUT);
+        goto done;
+    }
+    res->load_seconds = now_seconds() - t0;
+    if (g_interrupted) { rc = fail_message(EXIT_CANCELLED, "cancelled"); goto done; }
+    const clvox_mesh_report *report = clvox_mesh_get_report(mesh);
+    res->report = *report;
+    res->have_report = 1;
+
+    if (s->have_like) {
+        res->grid = s->like;
+    } else {
+        clvox_grid_options go = job->grid_by ? job->grid : a->grid;
+        if (!(job->grid_by ? job->grid_by : a->grid_by)) go.resolution = DEFAULT_RESOLUTION;
+        if ((st = clvox_grid_compute(s->host, &go, report->bbox_min, report->bbox_max, &res->grid)) != CLVOX_OK) {
+            rc = fail_status(s->host, st, ROLE_OTHER);
+            goto done;
+        }
+    }
+    res->have_grid = 1;
+
+    if (!s->dev) { /* once per session: the kernel build is paid by the first mesh */
+        double t1 = now_seconds();
+        clvox_context_options dco = CLVOX_CONTEXT_OPTIONS_INIT;
+        dco.device = a->device;
+        if ((st = clvox_context_create(&dco, &s->dev)) != CLVOX_OK) {
+            rc = fail_status(s->dev, st, ROLE_OTHER);
+            clvox_context_destroy(s->dev);
+            s->dev = NULL;
+            res->fatal = 1; /* every further mesh would fail the same way */
+            goto done;
+        }
+        s->setup_seconds = now_seconds() - t1;
+        res->setup_seconds = s->setup_seconds;
+    }
+    if (g_interrupted) { rc = fail_message(EXIT_CANCELLED, "cancelled"); goto done; }
+
+    progress_state prog;
+    memset(&prog, 0, sizeof prog);
+    prog.draw = !s->batch && !a->quiet && !a->no_progress && isatty(STDERR_FILENO);
+    prog.start = now_seconds();
+    prog.last_draw = prog.start - PROGRESS_INTERVAL_S;
+
+    clvox_voxelize_options vo = a->vox;
+    vo.palette = s->palette;
+    vo.progress = on_progress;
+    vo.progress_user = &prog;
+    if (format == CLVOX_FORMAT_EXR && !a->out.flags) {
+        st = clvox_voxelize_to_exr(s->dev, mesh, &res->grid, &vo, job->output, &res->stats);
+    } else {
+        clvox_output_options oo = a->out;
+        oo.format = format;
+        st = clvox_voxelize_to_file(s->dev, mesh, &res->grid, &vo, &oo, job->output, &res->stats);
+    }
+    progress_erase();
+    if (st != CLVOX_OK) {
+        rc = fail_status(s->dev, st, ROLE_OUTPUT);
+        goto done;
+    }
+    res->stats.seconds[CLVOX_STAGE_LOAD] = res->load_seconds;
+    res->have_stats = 1;
+    res->output_size = res->stats.output_bytes;
+    if (res->output_size == 0 && stat(job->output, &out_sb) == 0) res->output_size = (uint64_t)out_sb.st_size;
+
+    /* Warnings come from the mesh report, whatever the method, one line each
+     * (surface mode has no inside: open meshes and duplicates are fine). */
+    const int solid = a->vox.mode != CLVOX_MODE_SURFACE;
+    if (solid && !report->closed) {
+        char rays[96] = "";
+        if (res->stats.odd_parity_rays > 0)
+            snprintf(rays, sizeof rays, "; %llu rays crossed it an odd number of times",
+                     (unsigned long long)res->stats.odd_parity_rays);
+        record_warning(res,
+                       "the mesh is not closed (%llu boundary edges%s): inside and outside are not defined "
+                       "everywhere and the result may be wrong",
+                       (unsigned long long)report->boundary_edges, rays);
+    } else if (solid && res->stats.odd_parity_rays > 0) {
+        record_warning(res,
+                       "%llu rays crossed the surface an odd number of times although the mesh is closed: the "
+                       "result may be wrong",
+                       (unsigned long long)res->stats.odd_parity_rays);
+    }
+    /* Vertices are 32-bit floats (relative to the first vertex for OFF and
+     * OBJ, absolute for the float formats): say when their spacing is coarse
+     * for the grid. */
+    {
+        const clvox_grid *grid = &res->grid;
+        double far = 0, hmin = fmin(grid->voxel_size[0], fmin(grid->voxel_size[1], grid->voxel_size[2])), off[3];
+        clvox_mesh_vertex_offset(mesh, off); /* vertices are stored relative to it */
+        for (int k = 0; k < 3; k++)
+            far = fmax(far, fmax(fabs(report->bbox_min[k] - off[k]), fabs(report->bbox_max[k] - off[k])));
+        float f = (float)far;
+        double ulp = (double)nextafterf(f, INFINITY) - (double)f;
+        if (isfinite(ulp) && hmin > 0 && ulp > hmin / 64)
+            record_warning(res,
+                           "vertices are stored as 32-bit floats: near %.6g they lie on a %.3g spacing, %.0f %% of a "
+                           "voxel, so the volume is only that precise (move the mesh near the origin for a finer "
+                           "grid)",
+                           far, ulp, 100.0 * ulp / hmin);
+    }
+    if (solid && report->duplicate_triangles > 0)
+        record_warning(res,
+                       "%llu triangles repeat the corners of another one (duplicated or coincident surfaces): the "
+                       "parity rule cancels coincident copies, which is right where two solids touch face to face "
+                       "(clvox mesh exports) but makes a doubled shell voxelize as empty",
+                       (unsigned long long)report->duplicate_triangles);
+    res->status = "ok";
+
+done:
+    res->rc = rc;
+    if (rc != EXIT_OK) {
+        snprintf(res->error, sizeof res->error, "%s", cli_last_error());
+        res->status = rc == EXIT_CANCELLED ? "cancelled" : "failed";
+        if (rc == EXIT_CANCELLED) res->fatal = 1;
+    }
+    g_fail_prefix = saved_prefix;
+    clvox_mesh_destroy(mesh);
+    res->wall_seconds = now_seconds() - wall_start;
+    return rc;
+}
+
+void vox_print_warnings(const vox_session *s, const vox_job *job, const vox_result *res)
+{
+    for (int i = 0; i < res->warning_count; i++) {
+        if (s->batch) warn("%s: %s", job->source ? job->source : job->mesh, res->warnings[i]);
+        else warn("%s", res->warnings[i]);
+    }
+}
+
+/* ---- --json ------------------------------------------------------------------------ */
+
+static void json_channels(jbuf *b, const char *key, uint32_t mask)
+{
+    static const char *const names[] = {"occupancy", "coverage", "element", "score"};
+    jb_arr_begin(b, key);
+    for (int i = 0; i < 4; i++)
+        if (mask & (1u << i)) jb_str(b, NULL, names[i]);
+    jb_arr_end(b);
+}
+
+void vox_result_json(const vox_session *s, const vox_job *job, const vox_result *res, jbuf *b)
+{
+    const cli_args *a = s->a;
+    const clvox_stats *st = &res->stats;
+    const clvox_mesh_report *r = &res->report;
+    jb_obj_begin(b, NULL);
+    jb_str(b, "type", "mesh");
+    if (job->n >= 0) jb_i64(b, "n", job->n);
+    else jb_null(b, "n");
+    jb_str(b, "status", res->status);
+    jb_i64(b, "exit_code", res->rc);
+    jb_str(b, "error", res->rc != EXIT_OK ? res->error : NULL);
+    jb_path(b, "input", job->mesh);
+    if (job->line) {
+        jb_path(b, "manifest", job->source); /* "FILE:LINE" */
+        jb_u64(b, "line", job->line);
+    }
+    jb_path(b, "output", job->output);
+    if (res->have_stats) jb_u64(b, "output_size", res->output_size);
+    else jb_null(b, "output_size");
+
+    if (res->have_report) {
+        jb_obj_begin(b, "mesh");
+        jb_u64(b, "vertices", r->vertices);
+        jb_u64(b, "triangles", r->triangles);
+        jb_u64(b, "input_vertices", r->input_vertices);
+        jb_u64(b, "input_faces", r->input_faces);
+        jb_u64(b, "polygons_triangulated", r->polygons_triangulated);
+        jb_u64(b, "dropped_faces", r->dropped_faces);
+        jb_u64(b, "degenerate_triangles", r->degenerate_triangles);
+        jb_u64(b, "nonmanifold_faces", r->nonmanifold_faces);
+        jb_u64(b, "boundary_edges", r->boundary_edges);
+        jb_u64(b, "duplicate_triangles", r->duplicate_triangles);
+        jb_bool(b, "closed", r->closed);
+        jb_num3(b, "bbox_min", r->bbox_min);
+        jb_num3(b, "bbox_max", r->bbox_max);
+        jb_num(b, "enclosed_volume", r->enclosed_volume);
+        jb_obj_end(b);
+    } else {
+        jb_null(b, "mesh");
+    }
+    if (res->have_grid) {
+        jb_obj_begin(b, "grid");
+        jb_u32x3(b, "dims", res->grid.dims);
+        jb_num3(b, "origin", res->grid.origin);
+        jb_num3(b, "voxel_size", res->grid.voxel_size);
+        jb_u64(b, "voxels", (uint64_t)res->grid.dims[0] * res->grid.dims[1] * res->grid.dims[2]);
+        jb_path(b, "like", a->like);
+        jb_obj_end(b);
+    } else {
+        jb_null(b, "grid");
+    }
+
+    static const char *const axes[] = {"x", "x", "y", "z"};
+    int ax = (int)a->vox.ray_axis;
+    jb_str(b, "mode", clvox_mode_name(a->vox.mode));
+    jb_str(b, "method", a->vox.mode == CLVOX_MODE_SURFACE ? "surface"
+                        : a->vox.method == CLVOX_METHOD_TETRA ? "tetra"
+                                                               : "ray");
+    jb_obj_begin(b, "parameters");
+    jb_str(b, "axis", axes[ax >= 0 && ax <= 3 ? ax : 0]);
+    jb_u64(b, "max_depth", a->vox.quadtree_max_depth);
+    jb_u64(b, "leaf_size", a->vox.quadtree_leaf_size);
+    jb_u64(b, "slab", a->vox.slab_depth);
+    jb_str(b, "compression", compression_name(a->vox.compression));
+    if (a->vox.method == CLVOX_METHOD_TETRA) {
+        if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_POINT) jb_num3(b, "tetra_origin", a->vox.tetra_point);
+        else jb_str(b, "tetra_origin", a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_BBOX_CENTER ? "bbox" : "centroid");
+    }
+    if (a->vox.oversample || s->palette) {
+        uint32_t N = a->vox.oversample ? a->vox.oversample : 4;
+        uint32_t M = a->vox.oversample_points ? a->vox.oversample_points : a->vox.oversample ? N : 16;
+        jb_u64(b, "oversample", N);
+        jb_u64(b, "oversample_points", M);
+        jb_bool(b, "stochastic", a->vox.stochastic);
+        jb_u64(b, "seed", a->vox.seed);
+    }
+    if (a->vox.threshold_set) jb_num(b, "threshold", a->vox.threshold);
+    if (s->palette) {
+        jb_str(b, "palette", clvox_palette_name(s->palette));
+        jb_str(b, "metric", clvox_metric_name(a->vox.metric));
+    }
+    jb_obj_end(b);
+
+    const clvox_device_info *dev = s->dev ? clvox_context_device(s->dev) : NULL;
+    if (dev && res->have_stats) {
+        jb_obj_begin(b, "device");
+        jb_str(b, "name", dev->name);
+        jb_str(b, "type", dev->type);
+        jb_str(b, "platform", dev->platform);
+        jb_obj_end(b);
+    } else {
+        jb_null(b, "device");
+    }
+
+    if (res->have_stats) {
+        const int grey = (st->channels & CLVOX_CHANNEL_COVERAGE) != 0;
+        json_channels(b, "channels", st->channels);
+        jb_u64(b, "filled_voxels", s->palette ? st->palette_nonempty_voxels : st->filled_voxels);
+        jb_u64(b, "total_voxels", st->total_voxels);
+        jb_obj_begin(b, "volume");
+        jb_num(b, "voxels", voxels_volume((double)st->filled_voxels, res->grid.voxel_size));
+        if (grey) jb_num(b, "coverage", voxels_volume(st->coverage_sum, res->grid.voxel_size));
+        if (s->palette) jb_num(b, "elements", voxels_volume(st->palette_volume, res->grid.voxel_size));
+        jb_num(b, "mesh", r->enclosed_volume);
+        jb_obj_end(b);
+        jb_u64(b, "samples_per_voxel", st->samples_per_voxel);
+        if (grey) jb_num(b, "coverage_sum", st->coverage_sum);
+        else jb_null(b, "coverage_sum");
+        if (s->palette) {
+            jb_obj_begin(b, "palette");
+            jb_str(b, "name", clvox_palette_name(s->palette));
+            jb_u64(b, "elements", clvox_palette_count(s->palette));
+            jb_str(b, "metric", clvox_metric_name(a->vox.metric));
+            jb_u64(b, "early_voxels", st->palette_early_voxels);
+            jb_u64(b, "shortcut_voxels", st->palette_shortcut_voxels);
+            jb_u64(b, "scored_voxels", st->palette_scored_voxels);
+            jb_u64(b, "nonempty_voxels", st->palette_nonempty_voxels);
+            jb_num(b, "volume", st->palette_volume);
+            jb_obj_end(b);
+        } else {
+            jb_null(b, "palette");
+        }
+        jb_obj_begin(b, "rays");
+        jb_u64(b, "cast", st->rays);
+        jb_u64(b, "odd_parity", st->odd_parity_rays);
+        jb_u64(b, "overflow", st->overflow_rays);
+        jb_u64(b, "max_crossings", st->max_crossings);
+        jb_obj_end(b);
+        jb_obj_begin(b, "quadtree");
+        jb_u64(b, "depth", st->quadtree_depth);
+        jb_u64(b, "leaves", st->quadtree_leaves);
+        jb_u64(b, "refs", st->quadtree_refs);
+        jb_obj_end(b);
+        jb_u64(b, "slab_depth", st->slab_depth);
+    } else {
+        static const char *const absent[] = {"channels", "filled_voxels", "total_voxels", "volume",
+                                             "samples_per_voxel", "coverage_sum", "palette", "rays", "quadtree",
+                                             "slab_depth"};
+        for (size_t i = 0; i < sizeof absent / sizeof absent[0]; i++) jb_null(b, absent[i]);
+    }
+    jb_obj_begin(b, "seconds");
+    jb_num(b, "load", res->load_seconds);
+    jb_num(b, "setup", res->setup_seconds);
+    jb_num(b, "partition", st->seconds[CLVOX_STAGE_PARTITION]);
+    jb_num(b, "cast", st->seconds[CLVOX_STAGE_CAST]);
+    jb_num(b, "classify", st->seconds[CLVOX_STAGE_CLASSIFY]);
+    jb_num(b, "write", st->seconds[CLVOX_STAGE_WRITE]);
+    jb_num(b, "total", st->seconds[CLVOX_STAGE_TOTAL]);
+    jb_num(b, "wall", res->wall_seconds);
+    jb_obj_end(b);
+    jb_arr_begin(b, "warnings");
+    for (int i = 0; i < res->warning_count; i++) jb_str(b, NULL, res->warnings[i]);
+    jb_arr_end(b);
+    jb_obj_end(b);
+}
+
+/* Prints one record as a line on stdout; 0 or -1 (out of memory, write error). */
+static int emit_json(const vox_session *s, const vox_job *job, const vox_result *res)
+{
+    jbuf b;
+    jb_init(&b);
+    vox_result_json(s, job, res, &b);
+    int ok = jb_write_line(&b);
+    jb_free(&b);
+    flush_stdout();
+    return ok;
+}
+
 static int cmd_voxelize(const cli_args *a, const char *argv0)
 {
     double wall_start = now_seconds();
     int rc = EXIT_OK;
     char *mesh_path = NULL, *output = NULL;
-    clvox_context *host = NULL, *dev = NULL;
-    clvox_mesh *mesh = NULL;
-    clvox_palette *palette = NULL;
-    clvox_status st;
-
-    install_signal_handlers();
+    vox_session s;
+    vox_result *res = calloc(1, sizeof *res);
+    memset(&s, 0, sizeof s);
+    if (!res) return fail(EXIT_RUNTIME, "out of memory");
 
     if (a->mesh) {
         mesh_path = dup_string(a->mesh);
@@ -1211,8 +1776,8 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     } else {
         mesh_path = find_default_mesh(argv0, &rc);
         if (!mesh_path) goto done;
-        if (!a->quiet) {
-            printf("clvox: no MESH given, using the default mesh %s\n", mesh_path);
+        if (!a->quiet) { /* with --json stdout holds only records */
+            fprintf(a->json ? stderr : stdout, "clvox: no MESH given, using the default mesh %s\n", mesh_path);
             flush_stdout();
         }
     }
@@ -1220,138 +1785,32 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     output = a->output ? dup_string(a->output)
                        : default_output(mesh_path, format ? clvox_format_name(format) : "exr");
     if (!output) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
-    if ((rc = check_output(output)) != EXIT_OK) goto done;
-    if (!format) format = clvox_format_from_path(output);
-    if (!format) {
-        rc = usage_error("cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd or "
-                         ".binvox, or --format",
-                         output);
+
+    vox_job job = {mesh_path, output, 0, CLVOX_GRID_OPTIONS_INIT, -1, NULL, 0};
+    if ((rc = vox_session_open(&s, a)) != EXIT_OK) {
+        res->rc = rc;
+        res->status = rc == EXIT_CANCELLED ? "cancelled" : "failed";
+        snprintf(res->error, sizeof res->error, "%s", cli_last_error());
+        if (a->json) emit_json(&s, &job, res);
         goto done;
     }
-    struct stat in_sb, out_sb;
-    if (stat(mesh_path, &in_sb) == 0 && stat(output, &out_sb) == 0 && in_sb.st_dev == out_sb.st_dev &&
-        in_sb.st_ino == out_sb.st_ino) {
-        rc = usage_error("the output '%s' is the input mesh", output);
-        goto done;
+    rc = vox_run(&s, &job, res);
+    if (a->json) {
+        res->wall_seconds = now_seconds() - wall_start;
+        if (emit_json(&s, &job, res) != 0 && rc == EXIT_OK && !g_stdout_errno) rc = fail(EXIT_RUNTIME, "out of memory");
     }
-
-    /* Mesh and grid on a host-only context: their errors need no device. */
-    clvox_context_options ho = CLVOX_CONTEXT_OPTIONS_INIT;
-    ho.host_only = 1;
-    if ((st = clvox_context_create(&ho, &host)) != CLVOX_OK) { rc = fail_status(host, st, ROLE_OTHER); goto done; }
-
-    if (a->palette) { /* a built-in name, else a palette file */
-        int builtin = 0;
-        for (size_t i = 0; clvox_palette_builtin_name(i); i++) builtin |= strcmp(a->palette, clvox_palette_builtin_name(i)) == 0;
-        if (builtin) st = clvox_palette_builtin(host, a->palette, &palette);
-        else if (!is_readable_file(a->palette)) {
-            rc = usage_error("--palette '%s': not a built-in palette (binary, planar10, paper46, paper78) and not a "
-                             "readable file",
-                             a->palette);
-            goto done;
-        } else st = clvox_palette_load(host, a->palette, &palette);
-        if (st != CLVOX_OK) { rc = fail_status(host, st, ROLE_INPUT); goto done; }
-    }
-
-    double t0 = now_seconds();
-    if ((st = clvox_mesh_load(host, mesh_path, &mesh)) != CLVOX_OK) {
-        rc = fail_status(host, st, ROLE_INPUT);
-        goto done;
-    }
-    double load_seconds = now_seconds() - t0;
-    if (g_interrupted) { rc = fail_message(EXIT_CANCELLED, "cancelled"); goto done; }
-
-    const clvox_mesh_report *report = clvox_mesh_get_report(mesh);
-    clvox_grid_options go = a->grid;
-    if (!a->grid_by) go.resolution = DEFAULT_RESOLUTION;
-    clvox_grid grid;
-    memset(&grid, 0, sizeof grid);
-    if ((st = clvox_grid_compute(host, &go, report->bbox_min, report->bbox_max, &grid)) != CLVOX_OK) {
-        rc = fail_status(host, st, ROLE_OTHER);
-        goto done;
-    }
-
-    double t1 = now_seconds();
-    clvox_context_options dco = CLVOX_CONTEXT_OPTIONS_INIT;
-    dco.device = a->device;
-    if ((st = clvox_context_create(&dco, &dev)) != CLVOX_OK) { rc = fail_status(dev, st, ROLE_OTHER); goto done; }
-    double setup_seconds = now_seconds() - t1;
-    if (g_interrupted) { rc = fail_message(EXIT_CANCELLED, "cancelled"); goto done; }
-
-    progress_state prog;
-    memset(&prog, 0, sizeof prog);
-    prog.draw = !a->quiet && !a->no_progress && isatty(STDERR_FILENO);
-    prog.start = now_seconds();
-    prog.last_draw = prog.start - PROGRESS_INTERVAL_S;
-
-    clvox_voxelize_options vo = a->vox;
-    vo.palette = palette;
-    vo.progress = on_progress;
-    vo.progress_user = &prog;
-    clvox_stats stats;
-    memset(&stats, 0, sizeof stats);
-    if (format == CLVOX_FORMAT_EXR && !a->out.flags) {
-        st = clvox_voxelize_to_exr(dev, mesh, &grid, &vo, output, &stats);
-    } else {
-        clvox_output_options oo = a->out;
-        oo.format = format;
-        st = clvox_voxelize_to_file(dev, mesh, &grid, &vo, &oo, output, &stats);
-    }
-    progress_erase();
-    if (st != CLVOX_OK) {
-        rc = fail_status(dev, st, ROLE_OUTPUT);
-        goto done;
-    }
-    stats.seconds[CLVOX_STAGE_LOAD] = load_seconds;
-
-    if (!a->quiet) {
-        print_summary(mesh_path, report, &grid, clvox_context_device(dev), a, palette, &stats, output, setup_seconds,
-                      now_seconds() - wall_start);
+    if (rc != EXIT_OK) goto done;
+    if (!a->quiet && !a->json) {
+        print_summary(mesh_path, &res->report, &res->grid, clvox_context_device(s.dev), a, s.palette, &res->stats,
+                      output, res->setup_seconds, now_seconds() - wall_start);
         flush_stdout(); /* the summary before the warnings */
     }
-    /* Warnings come from the mesh report, whatever the method, one line each
-     * (surface mode has no inside: open meshes and duplicates are fine). */
-    const int solid = a->vox.mode != CLVOX_MODE_SURFACE;
-    if (solid && !report->closed) {
-        char rays[96] = "";
-        if (stats.odd_parity_rays > 0)
-            snprintf(rays, sizeof rays, "; %llu rays crossed it an odd number of times",
-                     (unsigned long long)stats.odd_parity_rays);
-        warn("the mesh is not closed (%llu boundary edges%s): inside and outside are not defined everywhere and "
-             "the result may be wrong",
-             (unsigned long long)report->boundary_edges, rays);
-    } else if (solid && stats.odd_parity_rays > 0) {
-        warn("%llu rays crossed the surface an odd number of times although the mesh is closed: the result may "
-             "be wrong",
-             (unsigned long long)stats.odd_parity_rays);
-    }
-    /* Vertices are 32-bit floats (relative to the first vertex for OFF and
-     * OBJ, absolute for the float formats): say when their spacing is coarse
-     * for the grid. */
-    {
-        double far = 0, hmin = fmin(grid.voxel_size[0], fmin(grid.voxel_size[1], grid.voxel_size[2])), off[3];
-        clvox_mesh_vertex_offset(mesh, off); /* vertices are stored relative to it */
-        for (int k = 0; k < 3; k++)
-            far = fmax(far, fmax(fabs(report->bbox_min[k] - off[k]), fabs(report->bbox_max[k] - off[k])));
-        float f = (float)far;
-        double ulp = (double)nextafterf(f, INFINITY) - (double)f;
-        if (isfinite(ulp) && hmin > 0 && ulp > hmin / 64)
-            warn("vertices are stored as 32-bit floats: near %.6g they lie on a %.3g spacing, %.0f %% of a voxel, "
-                 "so the volume is only that precise (move the mesh near the origin for a finer grid)",
-                 far, ulp, 100.0 * ulp / hmin);
-    }
-    if (solid && report->duplicate_triangles > 0)
-        warn("%llu triangles repeat the corners of another one (duplicated or coincident surfaces): the parity "
-             "rule cancels coincident copies, which is right where two solids touch face to face (clvox mesh "
-             "exports) but makes a doubled shell voxelize as empty",
-             (unsigned long long)report->duplicate_triangles);
+    vox_print_warnings(&s, &job, res);
     rc = finish_stdout(rc, output);
 
 done:
-    clvox_mesh_destroy(mesh);
-    clvox_palette_destroy(palette);
-    clvox_context_destroy(dev);
-    clvox_context_destroy(host);
+    vox_session_close(&s);
+    free(res);
     free(output);
     free(mesh_path);
     return rc;
@@ -1366,8 +1825,10 @@ int main(int argc, char **argv)
     if (argc >= 2 && strcmp(argv[1], "mesh") == 0) return finish_stdout(cmd_mesh(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "convert") == 0) return finish_stdout(cmd_convert(argc - 2, argv + 2), NULL);
 
+    if (argc >= 2 && strcmp(argv[1], "batch") == 0) return cmd_batch(argc - 2, argv + 2); /* checks stdout itself */
+
     cli_args a;
-    int rc = parse_args(argc, argv, &a);
+    int rc = parse_args(argc, argv, 1, 0, NULL, NULL, &a);
     if (rc != EXIT_OK) return rc;
     if (a.help) {
         print_help();

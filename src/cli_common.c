@@ -38,10 +38,21 @@ void progress_erase(void)
 /* Prints "clvox: error: <message>" as exactly one line (newlines in the
  * message, e.g. a kernel build log, become " | "; other control bytes "?")
  * and returns `code`. */
+const char *g_fail_prefix;
+static char g_last_error[1024];
+
+const char *cli_last_error(void) { return g_last_error; }
+
 int fail_message(int code, const char *message)
 {
     progress_erase();
     fputs("clvox: error: ", stderr);
+    if (g_fail_prefix && *g_fail_prefix) {
+        for (const char *p = g_fail_prefix; *p; p++)
+            fputc(((unsigned char)*p < 0x20 || *p == 0x7f) ? '?' : *p, stderr);
+        fputs(": ", stderr);
+    }
+    size_t kept = 0;
     const char *s = message && *message ? message : "unknown error";
     size_t n = strlen(s);
     while (n > 0 && (s[n - 1] == '\n' || s[n - 1] == '\r' || s[n - 1] == ' ')) n--;
@@ -54,11 +65,18 @@ int fail_message(int code, const char *message)
         }
         if (pending_break) {
             fputs(" | ", stderr);
+            if (kept + 3 < sizeof g_last_error) {
+                memcpy(g_last_error + kept, " | ", 3);
+                kept += 3;
+            }
             pending_break = 0;
         }
         /* control bytes (from file names or file contents) would garble the line */
-        fputc(c == '\t' ? ' ' : ((unsigned char)c < 0x20 || c == 0x7f) ? '?' : c, stderr);
+        char out = c == '\t' ? ' ' : ((unsigned char)c < 0x20 || c == 0x7f) ? '?' : c;
+        fputc(out, stderr);
+        if (kept + 1 < sizeof g_last_error) g_last_error[kept++] = out;
     }
+    g_last_error[kept] = '\0';
     fputc('\n', stderr);
     return code;
 }

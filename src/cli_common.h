@@ -36,6 +36,12 @@ void progress_erase(void);
  * message, e.g. a kernel build log, become " | "; other control bytes "?")
  * and returns `code`. */
 int fail_message(int code, const char *message);
+/* When set, fail_message prints "clvox: error: <prefix>: <message>" (batch
+ * runs name the mesh). */
+extern const char *g_fail_prefix;
+/* The last message fail_message printed (without "clvox: error: " and the
+ * prefix), control bytes replaced as on stderr; "" before any. */
+const char *cli_last_error(void);
 int fail(int code, const char *fmt, ...) CLI_PRINTF(2, 3);
 /* fail(EXIT_USAGE, "<message> (see clvox --help)") */
 int usage_error(const char *fmt, ...) CLI_PRINTF(1, 2);

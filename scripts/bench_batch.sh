@@ -1,0 +1,52 @@
+#!/bin/sh
+# Batch throughput: COUNT small meshes voxelized by one `clvox batch` process
+# vs one `clvox` process per mesh, at each resolution in RES.
+#   scripts/bench_batch.sh [COUNT [PER_PROCESS_COUNT]]   (defaults 1000 1000)
+# The meshes are the CGAL meshes in data/meshes with 100 to 20000 triangles
+# (scripts/fetch_meshes.sh), repeated in a manifest up to COUNT lines. The
+# per-process side runs the first PER_PROCESS_COUNT of them (a smaller count
+# shortens the run on a slow machine; meshes per second is per mesh either
+# way). Prints meshes per second of both and the ratio. RES="64 128" by
+# default; MESH_DIR=data/meshes;
+# BIN=build/release/clvox.
+set -eu
+here=$(cd "$(dirname "$0")/.." && pwd)
+BIN=${BIN:-$here/build/release/clvox}
+COUNT=${1:-1000}
+PER=${2:-$COUNT}
+RES=${RES:-"64 128"}
+export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
+mkdir -p "$POCL_CACHE_DIR"
+work=$(mktemp -d "${TMPDIR:-/tmp}/clvox-bench-batch.XXXXXX")
+trap 'rm -rf "$work"' EXIT
+meshes=$work/meshes.txt
+MESH_DIR=${MESH_DIR:-$here/data/meshes}
+for f in "$MESH_DIR"/*.off; do
+  t=$(awk 'NR==1 && $1 != "OFF" { exit } NR==1 { next } /^[ \t]*(#|$)/ { next } { print $2; exit }' "$f" 2>/dev/null || true)
+  case $t in ''|*[!0-9]*) continue;; esac
+  [ "$t" -ge 100 ] && [ "$t" -le 20000 ] || continue
+  "$BIN" "$f" -r 8 -q -o "$work/probe.exr" 2>/dev/null || continue   # only meshes clvox takes
+  echo "$f" >> "$meshes"
+done
+[ -s "$meshes" ] || { echo "bench_batch: no meshes in data/meshes (run scripts/fetch_meshes.sh)" >&2; exit 1; }
+distinct=$(wc -l < "$meshes")
+awk -v n="$COUNT" '{ m[NR] = $0 } END { for (i = 0; i < n; i++) print m[i % NR + 1] }' "$meshes" > "$work/manifest.txt"
+now() { date +%s.%N; }
+echo "meshes: $COUNT from $distinct distinct CGAL meshes (100-20000 triangles); per-process side: $PER; $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
+"$BIN" "$(head -n 1 "$meshes")" -r 8 -q -o "$work/warm.exr"   # PoCL kernel cache warm for both sides
+for r in $RES; do
+  rm -rf "$work/out"; mkdir "$work/out"
+  t0=$(now)
+  "$BIN" batch --manifest "$work/manifest.txt" -r "$r" -o "$work/out/{n}.exr" -q
+  t1=$(now)
+  rm -rf "$work/out"; mkdir "$work/out"
+  i=0
+  head -n "$PER" "$work/manifest.txt" | while IFS= read -r m; do
+    "$BIN" "$m" -r "$r" -q -o "$work/out/$i.exr"; i=$((i + 1))
+  done
+  t2=$(now)
+  awk -v r="$r" -v n="$COUNT" -v p="$PER" -v a="$t0" -v b="$t1" -v c="$t2" 'BEGIN {
+    bt = b - a; pt = c - b; bm = n / bt; pm = p / pt;
+    printf "%4d^3  batch: %d meshes in %.2f s = %.1f meshes/s   per process: %d in %.2f s = %.2f meshes/s   ratio %.1fx\n",
+           r, n, bt, bm, p, pt, pm, bm / pm }'
+done

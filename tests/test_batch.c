@@ -1,0 +1,921 @@
+/* End-to-end tests of --json, clvox info --json, --like and clvox batch: runs
+ * the binary ($CLVOX_BIN, default build/release/clvox) with fork/execve,
+ * stdout and stderr captured into files, and parses the JSON records with
+ * Python's json module (an independent, strict parser: NaN/Infinity
+ * refused, the bytes must be valid UTF-8). Failed runs must give one
+ * "clvox: error:" line and leave no file behind. Without python3 the JSON
+ * checks print SKIP and count as neither passed nor failed. */
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700
+#endif
+#include "exrgen.h"
+#include "test.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#define ARGS(...) ((const char *const[]){__VA_ARGS__, NULL})
+#define RUN_TIMEOUT_S 120.0
+
+static char g_bin[PATH_MAX], g_dir[PATH_MAX], g_in[PATH_MAX], g_out[PATH_MAX], g_logs[PATH_MAX];
+static unsigned g_run_id;
+static int g_have_python;
+
+typedef struct run_result {
+    int code;
+    char *out, *err;
+    char out_path[PATH_MAX]; /* the captured stdout, for the Python checks */
+} run_result;
+
+static void path_join(char *dst, size_t size, const char *dir, const char *name)
+{
+    int n = snprintf(dst, size, "%s/%s", dir, name);
+    if (n < 0 || (size_t)n >= size) abort();
+}
+
+static int write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return 0;
+    size_t n = strlen(text);
+    int ok = fwrite(text, 1, n, f) == n;
+    ok &= fclose(f) == 0;
+    return ok;
+}
+
+static char *read_all(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    size_t cap = 4096, n = 0;
+    char *buf = malloc(cap);
+    if (!buf) abort();
+    if (f) {
+        size_t got;
+        while ((got = fread(buf + n, 1, cap - n - 1, f)) > 0) {
+            n += got;
+            if (cap - n - 1 == 0) {
+                char *g = realloc(buf, cap *= 2);
+                if (!g) abort();
+                buf = g;
+            }
+        }
+        fclose(f);
+    }
+    buf[n] = '\0';
+    return buf;
+}
+
+static int file_exists(const char *path)
+{
+    struct stat sb;
+    return lstat(path, &sb) == 0;
+}
+
+static long long file_size(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 ? (long long)sb.st_size : -1;
+}
+
+static void rm_tree(const char *path)
+{
+    struct stat sb;
+    if (lstat(path, &sb) != 0) return;
+    if (S_ISDIR(sb.st_mode)) {
+        DIR *d = opendir(path);
+        if (d) {
+            struct dirent *e;
+            while ((e = readdir(d)) != NULL) {
+                if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+                char sub[PATH_MAX];
+                path_join(sub, sizeof sub, path, e->d_name);
+                rm_tree(sub);
+            }
+            closedir(d);
+        }
+        rmdir(path);
+    } else {
+        unlink(path);
+    }
+}
+
+static int dir_count(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return -1;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL)
+        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0) n++;
+    closedir(d);
+    return n;
+}
+
+static void reset_out(void)
+{
+    rm_tree(g_out);
+    mkdir(g_out, 0777);
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Runs argv (argv[0] is the program) in cwd (NULL: ours). sigint_after > 0:
+ * SIGINT once that many seconds have passed and a file under g_out exists
+ * or is open (the batch is under way). */
+static void run_prog(run_result *r, const char *cwd, const char *const *argv, double sigint_after)
+{
+    char err_path[PATH_MAX], name[32];
+    unsigned id = ++g_run_id;
+    snprintf(name, sizeof name, "run%03u.out", id);
+    path_join(r->out_path, sizeof r->out_path, g_logs, name);
+    snprintf(name, sizeof name, "run%03u.err", id);
+    path_join(err_path, sizeof err_path, g_logs, name);
+    fflush(stdout);
+    fflush(stderr);
+    r->code = -1;
+    pid_t pid = fork();
+    if (pid == 0) {
+        if (cwd && chdir(cwd) != 0) _exit(126);
+        int in = open("/dev/null", O_RDONLY);
+        int o = open(r->out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (in < 0 || o < 0 || e < 0 || dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
+        execvp(argv[0], (char *const *)argv);
+        _exit(127);
+    }
+    if (pid > 0) {
+        double start = now_s();
+        int sent = 0, status = 0;
+        for (;;) {
+            pid_t w = waitpid(pid, &status, WNOHANG);
+            if (w == pid) {
+                if (WIFEXITED(status)) r->code = WEXITSTATUS(status);
+                else if (WIFSIGNALED(status)) r->code = 128 + WTERMSIG(status);
+                break;
+            }
+            if (w < 0 && errno != EINTR) break;
+            double t = now_s() - start;
+            if (sigint_after > 0 && !sent && t >= sigint_after && dir_count(g_out) > 0) {
+                kill(pid, SIGINT);
+                sent = 1;
+            }
+            if (t > RUN_TIMEOUT_S) {
+                kill(pid, SIGKILL);
+                waitpid(pid, &status, 0);
+                fprintf(stderr, "TIMEOUT: %s %s\n", argv[0], argv[1] ? argv[1] : "");
+                break;
+            }
+            struct timespec ts = {0, 5 * 1000 * 1000};
+            nanosleep(&ts, NULL);
+        }
+    }
+    r->out = read_all(r->out_path);
+    r->err = read_all(err_path);
+}
+
+static void run_cli_ex(run_result *r, const char *cwd, const char *const *args, double sigint_after)
+{
+    size_t na = 0;
+    while (args[na]) na++;
+    const char **argv = malloc((na + 2) * sizeof *argv);
+    if (!argv) abort();
+    argv[0] = g_bin;
+    for (size_t i = 0; i < na; i++) argv[i + 1] = args[i];
+    argv[na + 1] = NULL;
+    run_prog(r, cwd, argv, sigint_after);
+    free(argv);
+}
+
+static void run_cli(run_result *r, const char *const *args) { run_cli_ex(r, NULL, args, 0); }
+
+static void run_free(run_result *r)
+{
+    free(r->out);
+    free(r->err);
+    r->out = r->err = NULL;
+}
+
+static int count_lines(const char *s)
+{
+    int n = 0;
+    for (; *s; s++) n += *s == '\n';
+    return n;
+}
+
+static int lines_starting(const char *text, const char *prefix)
+{
+    int n = 0;
+    size_t len = strlen(prefix);
+    for (const char *l = text; l && *l;) {
+        if (strncmp(l, prefix, len) == 0) n++;
+        l = strchr(l, '\n');
+        if (l) l++;
+    }
+    return n;
+}
+
+/* Runs a Python check: the script gets the records file as sys.argv[1] and
+ * the extra arguments after it; it must exit 0. Every record line is parsed
+ * strictly (recs: a list of dicts) before the script's own statements. */
+static void py_check(const char *what, const char *file, const char *script, ...)
+{
+    if (!g_have_python) return;
+    static const char prelude[] =
+        "import json, sys\n"
+        "def bad(c): raise ValueError('non-finite number ' + c)\n"
+        "raw = open(sys.argv[1], 'rb').read()\n"
+        "text = raw.decode('utf-8')\n"
+        "assert text == '' or text.endswith('\\n'), 'last record without a newline'\n"
+        "recs = [json.loads(l, parse_constant=bad) for l in text.split('\\n') if l != '']\n"
+        "assert all(isinstance(r, dict) for r in recs)\n"
+        "A = sys.argv[2:]\n";
+    size_t n = strlen(prelude) + strlen(script) + 2;
+    char *code = malloc(n);
+    if (!code) abort();
+    snprintf(code, n, "%s%s\n", prelude, script);
+    const char *argv[16] = {"python3", "-c", code, file};
+    int k = 4;
+    va_list ap;
+    va_start(ap, script);
+    const char *extra;
+    while (k < 15 && (extra = va_arg(ap, const char *)) != NULL) argv[k++] = extra;
+    va_end(ap);
+    argv[k] = NULL;
+    run_result r;
+    run_prog(&r, NULL, argv, 0);
+    CHECK_MSG(r.code == 0, "%s: the Python check failed (exit %d): %s", what, r.code, r.err);
+    run_free(&r);
+    free(code);
+}
+
+/* A run that must fail: exit `expected`, one "clvox: error:" line holding
+ * `needle`, nothing left in g_out. */
+static void expect_failure(const char *what, int expected, const char *needle, const char *const *args)
+{
+    run_result r;
+    run_cli(&r, args);
+    CHECK_MSG(r.code == expected, "%s: exit %d, expected %d; stderr: %s", what, r.code, expected, r.err);
+    CHECK_MSG(count_lines(r.err) == 1 && strncmp(r.err, "clvox: error: ", 14) == 0,
+              "%s: stderr must be one 'clvox: error:' line, got: [%s]", what, r.err);
+    if (needle) CHECK_MSG(strstr(r.err, needle) != NULL, "%s: stderr lacks '%s': %s", what, needle, r.err);
+    CHECK_MSG(dir_count(g_out) == 0, "%s: files left in the output directory", what);
+    reset_out();
+    run_free(&r);
+}
+
+static const char CUBE_OBJ[] =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+    "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+/* A box [0,2]x[0,1]x[0,1]. */
+static const char BOX_OBJ[] =
+    "v 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 0 0 1\nv 2 0 1\nv 2 1 1\nv 0 1 1\n"
+    "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+static void in_path(char *dst, const char *name) { path_join(dst, PATH_MAX, g_in, name); }
+static void out_path(char *dst, const char *name) { path_join(dst, PATH_MAX, g_out, name); }
+
+/* ---- --json ---- */
+
+static void test_json_single(void)
+{
+    char cube[PATH_MAX], out[PATH_MAX];
+    in_path(cube, "cube.obj");
+    out_path(out, "cube.exr");
+    run_result r;
+    run_cli(&r, ARGS(cube, "-r", "8", "-o", out, "--json"));
+    CHECK_MSG(r.code == 0, "--json: exit %d: %s", r.code, r.err);
+    CHECK_MSG(count_lines(r.out) == 1, "--json: stdout must be one line, got: %s", r.out);
+    CHECK_MSG(r.err[0] == '\0', "--json: stderr: %s", r.err);
+    char size[32];
+    snprintf(size, sizeof size, "%lld", file_size(out));
+    py_check("--json single", r.out_path,
+             "assert len(recs) == 1, recs\n"
+             "r = recs[0]\n"
+             "assert r['type'] == 'mesh' and r['status'] == 'ok' and r['exit_code'] == 0 and r['error'] is None, r\n"
+             "assert r['input'] == A[0] and r['output'] == A[1] and r['output_size'] == int(A[2]), r\n"
+             "assert r['n'] is None\n"
+             "g = r['grid']\n"
+             "assert g['dims'] == [8, 8, 8] and g['origin'] == [0, 0, 0] and g['voxel_size'] == [0.125] * 3, g\n"
+             "assert g['voxels'] == 512 and g['like'] is None\n"
+             "assert r['filled_voxels'] == 512 and r['total_voxels'] == 512, r\n"
+             "assert r['volume']['voxels'] == 1.0 and abs(r['volume']['mesh'] - 1.0) < 1e-12, r['volume']\n"
+             "m = r['mesh']\n"
+             "assert m['triangles'] == 12 and m['vertices'] == 8 and m['closed'] is True, m\n"
+             "assert m['bbox_min'] == [0, 0, 0] and m['bbox_max'] == [1, 1, 1], m\n"
+             "assert r['mode'] == 'solid' and r['method'] == 'ray' and r['parameters']['axis'] == 'x', r\n"
+             "assert r['channels'] == ['occupancy'] and r['coverage_sum'] is None and r['palette'] is None\n"
+             "assert r['rays']['cast'] == 64 and r['rays']['odd_parity'] == 0, r['rays']\n"
+             "assert r['device']['type'] in ('cpu', 'gpu', 'accelerator', 'other'), r['device']\n"
+             "s = r['seconds']\n"
+             "assert set(s) == {'load','setup','partition','cast','classify','write','total','wall'}, s\n"
+             "assert all(isinstance(v, (int, float)) and v >= 0 for v in s.values()), s\n"
+             "assert r['warnings'] == []\n",
+             cube, out, size, NULL);
+    run_free(&r);
+    reset_out();
+
+    /* coverage and tetra: their parameters and fields */
+    run_cli(&r, ARGS(cube, "-r", "8", "-o", out, "--json", "--oversample", "2", "--stochastic", "--seed", "5"));
+    CHECK_MSG(r.code == 0, "--json --oversample: exit %d: %s", r.code, r.err);
+    py_check("--json coverage", r.out_path,
+             "r = recs[0]\n"
+             "p = r['parameters']\n"
+             "assert p['oversample'] == 2 and p['oversample_points'] == 2 and p['stochastic'] is True, p\n"
+             "assert p['seed'] == 5 and r['samples_per_voxel'] == 8 and r['channels'] == ['coverage'], r\n"
+             "assert abs(r['coverage_sum'] - 512) < 1e-9 and abs(r['volume']['coverage'] - 1) < 1e-9, r\n",
+             NULL);
+    run_free(&r);
+    reset_out();
+
+    /* an open mesh: the warning on stderr and in the record */
+    char open_cube[PATH_MAX];
+    in_path(open_cube, "open_cube.obj");
+    run_cli(&r, ARGS(open_cube, "-r", "4", "-o", out, "--json", "--method", "tetra"));
+    CHECK_MSG(r.code == 0 && lines_starting(r.err, "clvox: warning: the mesh is not closed") == 1,
+              "--json open mesh: exit %d: %s", r.code, r.err);
+    py_check("--json warnings", r.out_path,
+             "r = recs[0]\n"
+             "assert r['method'] == 'tetra' and r['parameters']['tetra_origin'] == 'centroid', r\n"
+             "assert len(r['warnings']) == 1 and r['warnings'][0].startswith('the mesh is not closed'), r\n"
+             "assert r['mesh']['closed'] is False and r['mesh']['boundary_edges'] == 4, r['mesh']\n",
+             NULL);
+    run_free(&r);
+    reset_out();
+}
+
+/* Names with a quote, a backslash, a control byte and a byte that is not
+ * UTF-8: the record is valid JSON and UTF-8, the name comes back exactly
+ * through "<key>_hex". */
+static void test_json_escaping(void)
+{
+    static const char name[] = "we\"ird\\na me\x01\x7f\xff\xc3\xa9.obj"; /* é is valid UTF-8 */
+    char mesh[PATH_MAX], out[PATH_MAX];
+    in_path(mesh, name);
+    out_path(out, "we\"ird\\\t\xfe.exr");
+    CHECK(write_text(mesh, CUBE_OBJ));
+    run_result r;
+    run_cli(&r, ARGS(mesh, "-r", "4", "-o", out, "--json"));
+    CHECK_MSG(r.code == 0, "odd names: exit %d: %s", r.code, r.err);
+    CHECK_MSG(count_lines(r.out) == 1, "odd names: one line: %s", r.out);
+    py_check("--json escaping", r.out_path,
+             "import os\n"
+             "r = recs[0]\n"
+             "assert os.fsencode(A[0]) == bytes.fromhex(r['input_hex']), r\n"
+             "assert os.fsencode(A[1]) == bytes.fromhex(r['output_hex']), r\n"
+             "assert r['input'].endswith('we\"ird\\\\na me\\x01\\x7f\\ufffd\\u00e9.obj'), ascii(r['input'])\n"
+             "assert r['output'].endswith('we\"ird\\\\\\t\\ufffd.exr'), ascii(r['output'])\n"
+             "assert '\\x01' not in raw.decode() or '\\\\u0001' in raw.decode()\n"
+             "assert b'\\x01' not in raw and b'\\x7f' not in raw and b'\\t' not in raw\n",
+             mesh, out, NULL);
+    /* a valid UTF-8 name has no _hex member */
+    char plain[PATH_MAX];
+    in_path(plain, "cube.obj");
+    run_free(&r);
+    run_cli(&r, ARGS(plain, "-r", "4", "-o", out, "--json"));
+    py_check("--json no _hex", r.out_path, "assert 'input_hex' not in recs[0] and 'output_hex' in recs[0]\n", NULL);
+    run_free(&r);
+    unlink(mesh);
+    reset_out();
+}
+
+static void test_json_failure(void)
+{
+    char missing[PATH_MAX], out[PATH_MAX], cube[PATH_MAX];
+    in_path(missing, "missing.obj");
+    in_path(cube, "cube.obj");
+    out_path(out, "x.exr");
+    run_result r;
+    run_cli(&r, ARGS(missing, "-o", out, "--json"));
+    CHECK_MSG(r.code == 4, "--json missing mesh: exit %d", r.code);
+    CHECK_MSG(count_lines(r.err) == 1 && strncmp(r.err, "clvox: error: ", 14) == 0, "--json missing: %s", r.err);
+    CHECK_MSG(dir_count(g_out) == 0, "--json missing: files left");
+    py_check("--json failed record", r.out_path,
+             "assert len(recs) == 1\n"
+             "r = recs[0]\n"
+             "assert r['status'] == 'failed' and r['exit_code'] == 4 and 'missing.obj' in r['error'], r\n"
+             "assert r['mesh'] is None and r['grid'] is None and r['filled_voxels'] is None, r\n"
+             "assert r['output_size'] is None and r['device'] is None\n",
+             NULL);
+    run_free(&r);
+    /* a grid error: the mesh is known, the grid is not */
+    run_cli(&r, ARGS(cube, "--dims", "70000,1,1", "-o", out, "--json"));
+    CHECK_MSG(r.code == 6, "--json grid error: exit %d: %s", r.code, r.err);
+    py_check("--json grid error", r.out_path,
+             "r = recs[0]\n"
+             "assert r['status'] == 'failed' and r['exit_code'] == 6 and r['mesh']['triangles'] == 12, r\n"
+             "assert r['grid'] is None\n",
+             NULL);
+    run_free(&r);
+    /* usage errors print no record */
+    run_cli(&r, ARGS(cube, "-r", "x", "--json"));
+    CHECK_MSG(r.code == 2 && r.out[0] == '\0', "--json usage error: exit %d, stdout %s", r.code, r.out);
+    run_free(&r);
+    reset_out();
+}
+
+static void test_info_json(void)
+{
+    char box[PATH_MAX], out[PATH_MAX];
+    in_path(box, "box.obj");
+    out_path(out, "box.exr");
+    run_result r;
+    run_cli(&r, ARGS(box, "-r", "8", "-o", out, "--oversample", "2", "--channels", "occupancy,coverage", "-q"));
+    CHECK_MSG(r.code == 0, "box: exit %d: %s", r.code, r.err);
+    run_free(&r);
+    run_cli(&r, ARGS("info", out, "--json"));
+    CHECK_MSG(r.code == 0 && count_lines(r.out) == 1, "info --json: exit %d: %s %s", r.code, r.out, r.err);
+    char size[32];
+    snprintf(size, sizeof size, "%lld", file_size(out));
+    py_check("info --json", r.out_path,
+             "r = recs[0]\n"
+             "assert r['type'] == 'volume' and r['file'] == A[0] and r['file_size'] == int(A[1]), r\n"
+             "g = r['grid']\n"
+             "assert g['dims'] == [8, 4, 4] and g['origin'] == [0, 0, 0] and g['voxel_size'] == [0.25] * 3, g\n"
+             "assert r['channels'] == ['coverage', 'occupancy'], r['channels']\n"
+             "assert r['filled_voxels'] == 128 and r['total_voxels'] == 128 and r['coverage_sum'] == 128, r\n"
+             "assert r['volume'] == {'voxels': 2, 'coverage': 2}, r['volume']\n"
+             "assert r['method'] == 'ray' and r['version'] and r['compression'] == 'rle' and r['palette'] is None\n",
+             out, size, NULL);
+    run_free(&r);
+    reset_out();
+    char random_exr[PATH_MAX];
+    in_path(random_exr, "random.exr");
+    expect_failure("info --json on garbage", 4, NULL, ARGS("info", random_exr, "--json"));
+    reset_out();
+}
+
+/* ---- --like ---- */
+
+static void test_like(void)
+{
+    char box[PATH_MAX], cube[PATH_MAX], ref[PATH_MAX], out[PATH_MAX];
+    in_path(box, "box.obj");
+    in_path(cube, "cube.obj");
+    in_path(ref, "ref.exr"); /* kept in g_in: g_out must stay empty after failures */
+    out_path(out, "aligned.exr");
+    run_result r;
+    run_cli(&r, ARGS(box, "--dims", "9,5,3", "--pad", "1", "-o", ref, "-q"));
+    CHECK_MSG(r.code == 0, "like ref: exit %d: %s", r.code, r.err);
+    run_free(&r);
+    run_cli(&r, ARGS("info", ref, "--json"));
+    char ref_json[PATH_MAX];
+    snprintf(ref_json, sizeof ref_json, "%s", r.out_path);
+    run_result r2;
+    run_cli(&r2, ARGS(cube, "--like", ref, "-o", out, "--json"));
+    CHECK_MSG(r2.code == 0, "--like: exit %d: %s", r2.code, r2.err);
+    py_check("--like grid", r2.out_path,
+             "ref = json.loads(open(A[0]).read())['grid']\n"
+             "g = recs[0]['grid']\n"
+             "assert g['dims'] == ref['dims'] == [11, 7, 5], (g, ref)\n"
+             "assert g['origin'] == ref['origin'] and g['voxel_size'] == ref['voxel_size'], (g, ref)\n"
+             "assert g['like'] == A[1]\n",
+             ref_json, ref, NULL);
+    run_free(&r2);
+    run_cli(&r2, ARGS("info", out, "--json"));
+    py_check("--like file", r2.out_path,
+             "ref = json.loads(open(A[0]).read())['grid']\n"
+             "assert recs[0]['grid'] == ref, (recs[0]['grid'], ref)\n",
+             ref_json, NULL);
+    run_free(&r2);
+    run_free(&r);
+    reset_out();
+
+    /* conflicts, files without a grid, formats not read yet */
+    static const char *const conflicts[][2] = {{"-r", "8"}, {"--dims", "2,2,2"}, {"--voxel-size", "0.5"},
+                                               {"--box", "0,0,0,1,1,1"}, {"--pad", "0"}};
+    for (size_t i = 0; i < sizeof conflicts / sizeof conflicts[0]; i++) {
+        char what[64];
+        snprintf(what, sizeof what, "--like with %s", conflicts[i][0]);
+        expect_failure(what, 2, "can not be combined", ARGS(cube, "--like", ref, conflicts[i][0], conflicts[i][1], "-o", out));
+        expect_failure(what, 2, "can not be combined", ARGS(cube, conflicts[i][0], conflicts[i][1], "--like", ref, "-o", out));
+    }
+    char random_exr[PATH_MAX], plain_exr[PATH_MAX], nrrd[PATH_MAX], missing[PATH_MAX];
+    in_path(random_exr, "random.exr");
+    in_path(plain_exr, "plain.exr");
+    in_path(nrrd, "scan.nrrd");
+    in_path(missing, "missing.exr");
+    expect_failure("--like garbage", 4, "--like", ARGS(cube, "--like", random_exr, "-o", out));
+    expect_failure("--like EXR without a grid", 4, "not a clvox volume", ARGS(cube, "--like", plain_exr, "-o", out));
+    expect_failure("--like NRRD", 4, "not supported yet", ARGS(cube, "--like", nrrd, "-o", out));
+    expect_failure("--like mesh", 4, "expected a clvox volume", ARGS(cube, "--like", cube, "-o", out));
+    expect_failure("--like missing", 4, "missing.exr", ARGS(cube, "--like", missing, "-o", out));
+    expect_failure("--like empty", 2, NULL, ARGS(cube, "--like", "", "-o", out));
+    expect_failure("--like no value", 2, NULL, ARGS(cube, "-o", out, "--like"));
+}
+
+
+static int absolute_path(const char *path, char *out, size_t size)
+{
+    char *p = realpath(path, NULL);
+    if (!p) return 0;
+    int ok = strlen(p) < size;
+    if (ok) strcpy(out, p);
+    free(p);
+    return ok;
+}
+
+/* ---- clvox batch ---- */
+
+static long long filled_of(const char *exr)
+{
+    run_result r;
+    run_cli(&r, ARGS("info", exr));
+    long long f = -1;
+    const char *p = strstr(r.out, "filled");
+    if (r.code == 0 && p) sscanf(p + 6, " %lld", &f);
+    run_free(&r);
+    return f;
+}
+
+static void test_batch_basic(void)
+{
+    char cube[PATH_MAX], box[PATH_MAX], open_cube[PATH_MAX], tpl[PATH_MAX], p[PATH_MAX];
+    in_path(cube, "cube.obj");
+    in_path(box, "box.obj");
+    in_path(open_cube, "open_cube.obj");
+    out_path(tpl, "{stem}_{n}.exr");
+    run_result r;
+    run_cli(&r, ARGS("batch", cube, box, open_cube, "-r", "8", "-o", tpl, "--json"));
+    CHECK_MSG(r.code == 0, "batch: exit %d: %s", r.code, r.err);
+    CHECK_MSG(lines_starting(r.err, "clvox: [") == 3 && lines_starting(r.err, "clvox: warning: ") == 1 &&
+                  count_lines(r.err) == 4,
+              "batch: stderr: %s", r.err);
+    CHECK_MSG(count_lines(r.out) == 4, "batch: 3 records and the batch record: %s", r.out);
+    out_path(p, "cube_0.exr");
+    CHECK(filled_of(p) == 512);
+    out_path(p, "box_1.exr");
+    CHECK(filled_of(p) == 8 * 4 * 4);
+    out_path(p, "open_cube_2.exr");
+    CHECK(file_exists(p));
+    py_check("batch records", r.out_path,
+             "m = recs[:3]\n"
+             "assert [x['n'] for x in m] == [0, 1, 2] and all(x['status'] == 'ok' for x in m), m\n"
+             "assert [x['input'] for x in m] == A[0:3], m\n"
+             "assert m[1]['grid']['dims'] == [8, 4, 4] and m[0]['filled_voxels'] == 512\n"
+             "assert m[0]['seconds']['setup'] > 0 and m[1]['seconds']['setup'] == 0 == m[2]['seconds']['setup']\n"
+             "assert len(m[2]['warnings']) == 1\n"
+             "b = recs[3]\n"
+             "assert b['type'] == 'batch' and b['meshes'] == 3 and b['ok'] == 3 and b['failed'] == 0, b\n"
+             "assert b['skipped'] == 0 and b['not_run'] == 0 and b['cancelled'] is False and b['exit_code'] == 0, b\n"
+             "assert b['shard'] == [0, 1] and b['meshes_per_second'] > 0\n",
+             cube, box, open_cube, NULL);
+    run_free(&r);
+
+    /* --skip-existing: nothing is voxelized again */
+    out_path(p, "cube_0.exr");
+    struct stat before, after;
+    CHECK(stat(p, &before) == 0);
+    run_cli(&r, ARGS("batch", cube, box, open_cube, "-r", "8", "-o", tpl, "--skip-existing"));
+    CHECK_MSG(r.code == 0 && strstr(r.out, "3 meshes: 0 ok, 0 failed, 3 skipped, 0 not run"),
+              "--skip-existing: exit %d: %s", r.code, r.out);
+    CHECK(stat(p, &after) == 0 && after.st_ino == before.st_ino && after.st_mtime == before.st_mtime);
+    CHECK_MSG(lines_starting(r.err, "clvox: [") == 3 && strstr(r.err, "skipped"), "skip: %s", r.err);
+    run_free(&r);
+    /* -q: nothing but errors */
+    unlink(p);
+    run_cli(&r, ARGS("batch", cube, box, open_cube, "-r", "8", "-o", tpl, "--skip-existing", "-q"));
+    CHECK_MSG(r.code == 0 && r.out[0] == '\0' && lines_starting(r.err, "clvox: [") == 0, "-q: %s %s", r.out, r.err);
+    CHECK(filled_of(p) == 512);
+    run_free(&r);
+    reset_out();
+
+    /* a fixed --box: one frame for all */
+    run_cli(&r, ARGS("batch", cube, box, "-r", "4", "--box", "0,0,0,2,2,2", "-o", tpl, "--json"));
+    py_check("batch --box", r.out_path,
+             "assert recs[0]['grid'] == recs[1]['grid'] and recs[0]['grid']['dims'] == [4, 4, 4], recs\n"
+             "assert recs[0]['filled_voxels'] == 8 and recs[1]['filled_voxels'] == 16\n",
+             NULL);
+    run_free(&r);
+    reset_out();
+
+    run_cli(&r, ARGS("batch", "--help"));
+    CHECK_MSG(r.code == 0 && strncmp(r.out, "Usage: clvox batch", 18) == 0 && r.err[0] == '\0', "batch --help: %s",
+              r.err);
+    static const char *const needed[] = {"--dir", "--manifest", "--shard", "--skip-existing", "--keep-going",
+                                         "--no-keep-going", "{stem}", "{dir}", "{n}", "--json"};
+    for (size_t i = 0; i < sizeof needed / sizeof needed[0]; i++)
+        CHECK_MSG(strstr(r.out, needed[i]) != NULL, "batch --help lacks %s", needed[i]);
+    run_free(&r);
+}
+
+static void test_batch_failures(void)
+{
+    char cube[PATH_MAX], box[PATH_MAX], empty[PATH_MAX], missing[PATH_MAX], tpl[PATH_MAX], p[PATH_MAX];
+    in_path(cube, "cube.obj");
+    in_path(box, "box.obj");
+    in_path(empty, "empty.obj");
+    in_path(missing, "missing.obj");
+    out_path(tpl, "{stem}.exr");
+    run_result r;
+    /* keep going (default): the bad meshes are recorded, the rest written */
+    run_cli(&r, ARGS("batch", cube, empty, missing, box, "-r", "4", "-o", tpl, "--json"));
+    CHECK_MSG(r.code == 4, "keep going: exit %d: %s", r.code, r.err);
+    CHECK_MSG(lines_starting(r.err, "clvox: error: ") == 2, "keep going: two error lines: %s", r.err);
+    CHECK_MSG(strstr(r.err, "clvox: error: ") && strstr(r.err, empty), "the error names the mesh: %s", r.err);
+    CHECK(dir_count(g_out) == 2);
+    py_check("keep going", r.out_path,
+             "s = [x['status'] for x in recs[:4]]\n"
+             "assert s == ['ok', 'failed', 'failed', 'ok'], s\n"
+             "assert recs[1]['exit_code'] == 4 and recs[1]['error'] and recs[1]['output_size'] is None\n"
+             "assert 'missing.obj' in recs[2]['error']\n"
+             "b = recs[4]\n"
+             "assert b['ok'] == 2 and b['failed'] == 2 and b['exit_code'] == 4, b\n",
+             NULL);
+    run_free(&r);
+    reset_out();
+    /* --no-keep-going: stops at the first failure */
+    run_cli(&r, ARGS("batch", cube, empty, box, "-r", "4", "-o", tpl, "--no-keep-going"));
+    CHECK_MSG(r.code == 4 && strstr(r.out, "3 meshes: 1 ok, 1 failed, 0 skipped, 1 not run"),
+              "--no-keep-going: exit %d: %s", r.code, r.out);
+    out_path(p, "box.exr");
+    CHECK(!file_exists(p));
+    run_free(&r);
+    reset_out();
+    /* an unwritable output is that mesh's failure */
+    char sub[PATH_MAX];
+    out_path(sub, "cube.exr");
+    mkdir(sub, 0777); /* a directory where cube's output goes */
+    run_cli(&r, ARGS("batch", cube, box, "-r", "4", "-o", tpl));
+    CHECK_MSG(r.code == 5 && strstr(r.out, "2 meshes: 1 ok, 1 failed"), "unwritable: exit %d: %s", r.code, r.out);
+    run_free(&r);
+    reset_out();
+
+    /* bad arguments: one line, exit 2, nothing written */
+    char t_bad[PATH_MAX], t_brace[PATH_MAX];
+    out_path(t_bad, "{foo}.exr");
+    out_path(t_brace, "a}.exr");
+    expect_failure("unknown template field", 2, "unknown field", ARGS("batch", cube, "-o", t_bad));
+    expect_failure("single brace", 2, "'}'", ARGS("batch", cube, "-o", t_brace));
+    expect_failure("unclosed field", 2, "unknown field", ARGS("batch", cube, "-o", "x{stem"));
+    static const char *const shards[] = {"1/0", "2/2", "a/b", "1", "-1/2", "1/2/3", "/2", ""};
+    for (size_t i = 0; i < sizeof shards / sizeof shards[0]; i++) {
+        char what[64];
+        snprintf(what, sizeof what, "--shard '%s'", shards[i]);
+        expect_failure(what, 2, "--shard", ARGS("batch", cube, "--shard", shards[i], "-o", tpl));
+    }
+    expect_failure("no meshes", 2, "no meshes", ARGS("batch", "-o", tpl));
+    char nodir[PATH_MAX];
+    in_path(nodir, "nodir");
+    expect_failure("missing --dir", 4, "nodir", ARGS("batch", "--dir", nodir, "-o", tpl));
+    expect_failure("missing --manifest", 4, "nodir", ARGS("batch", "--manifest", nodir, "-o", tpl));
+    /* two meshes, one output */
+    char d2[PATH_MAX], cube2[PATH_MAX];
+    in_path(d2, "d2");
+    mkdir(d2, 0777);
+    path_join(cube2, sizeof cube2, d2, "cube.obj");
+    CHECK(write_text(cube2, CUBE_OBJ));
+    expect_failure("same output", 2, "would both be written", ARGS("batch", cube, cube2, "-o", tpl));
+    expect_failure("unknown batch option", 2, "--frobnicate", ARGS("batch", cube, "--frobnicate"));
+    expect_failure("--dir twice", 2, "twice", ARGS("batch", "--dir", g_in, "--dir", g_in, "-o", tpl));
+}
+
+static void test_batch_lists(void)
+{
+    char tpl[PATH_MAX], man[PATH_MAX], p[PATH_MAX];
+    out_path(tpl, "{n}_{stem}.exr");
+    run_result r;
+    /* --dir: the mesh files, sorted; shards split them with stable names */
+    char d[PATH_MAX];
+    in_path(d, "set");
+    mkdir(d, 0777);
+    static const char *const names[] = {"b.obj", "a.OBJ", "c.obj", "d.obj", "e.obj"};
+    for (size_t i = 0; i < 5; i++) {
+        path_join(p, sizeof p, d, names[i]);
+        CHECK(write_text(p, CUBE_OBJ));
+    }
+    path_join(p, sizeof p, d, "notes.txt");
+    CHECK(write_text(p, "not a mesh"));
+    run_cli(&r, ARGS("batch", "--dir", d, "-r", "2", "-o", tpl, "--shard", "0/2", "-q"));
+    CHECK_MSG(r.code == 0, "shard 0/2: exit %d: %s", r.code, r.err);
+    run_free(&r);
+    run_cli(&r, ARGS("batch", "--dir", d, "-r", "2", "-o", tpl, "--shard", "1/2", "--json"));
+    CHECK_MSG(r.code == 0, "shard 1/2: exit %d: %s", r.code, r.err);
+    py_check("shard 1/2", r.out_path,
+             "assert [x['n'] for x in recs[:-1]] == [1, 3], recs\n"
+             "assert recs[-1]['listed'] == 5 and recs[-1]['meshes'] == 2 and recs[-1]['shard'] == [1, 2]\n",
+             NULL);
+    run_free(&r);
+    static const char *const expect[] = {"0_a.exr", "1_b.exr", "2_c.exr", "3_d.exr", "4_e.exr"};
+    CHECK(dir_count(g_out) == 5);
+    for (size_t i = 0; i < 5; i++) {
+        out_path(p, expect[i]);
+        CHECK_MSG(file_exists(p), "missing %s", expect[i]);
+    }
+    reset_out();
+
+    /* a manifest: overrides, comments, quotes, a missing mesh recorded with its line */
+    char cube[PATH_MAX], box[PATH_MAX], spaced[PATH_MAX], o1[PATH_MAX];
+    in_path(cube, "cube.obj");
+    in_path(box, "box.obj");
+    in_path(spaced, "with space.obj");
+    CHECK(write_text(spaced, CUBE_OBJ));
+    out_path(o1, "own name.exr");
+    static char text[6 * PATH_MAX + 256];
+    snprintf(text, sizeof text,
+             "# meshes\n"
+             "%s -r 4\n"
+             "\n"
+             "   \t\n"
+             "\"%s\" -o \"%s\"\r\n"
+             "%s --dims 2,2,2\n"
+             "%s/missing.obj\n",
+             cube, spaced, o1, box, g_in);
+    in_path(man, "list.txt");
+    CHECK(write_text(man, text));
+    run_cli(&r, ARGS("batch", "--manifest", man, "-r", "8", "-o", tpl, "--json"));
+    CHECK_MSG(r.code == 4, "manifest: exit %d: %s", r.code, r.err);
+    char needle[PATH_MAX + 64];
+    snprintf(needle, sizeof needle, "clvox: error: %s:7: ", man);
+    CHECK_MSG(strstr(r.err, needle) != NULL, "manifest: the error has FILE:LINE: %s", r.err);
+    py_check("manifest", r.out_path,
+             "m = recs[:-1]\n"
+             "assert [x['line'] for x in m] == [2, 5, 6, 7], m\n"
+             "assert m[0]['grid']['dims'] == [4, 4, 4] and m[1]['grid']['dims'] == [8, 8, 8], m\n"
+             "assert m[2]['grid']['dims'] == [2, 2, 2] and m[1]['output'] == A[0], m\n"
+             "assert m[1]['input'].endswith('with space.obj')\n"
+             "assert [x['status'] for x in m] == ['ok', 'ok', 'ok', 'failed']\n"
+             "assert m[3]['manifest'] == A[1] + ':7'\n",
+             o1, man, NULL);
+    run_free(&r);
+    reset_out();
+
+    /* malformed lines: FILE:LINE, exit 2, nothing voxelized */
+    char ref[PATH_MAX];
+    in_path(ref, "ref.exr");
+    static const char *const bad[][2] = {
+        {"%s -x 3\n", "unknown option"},
+        {"%s -o\n", "needs a value"},
+        {"\"%s -r 4\n", "unterminated"},
+        {"%s -r 4 --dims 2,2,2\n", "more than one"},
+        {"%s -r 0\n", "-r '0'"},
+        {"%s -o a.exr -o b.exr\n", "twice"},
+        {"-r 4 %s\n", "must start with the mesh"},
+        {"", "NUL"}, /* written below: "x\0y" */
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char line[2 * PATH_MAX + 128];
+        int n = snprintf(line, sizeof line, "%s\n", cube); /* a good first line */
+        n += snprintf(line + n, sizeof line - (size_t)n, bad[i][0], cube);
+        if (i == 7) {
+            memcpy(line + n, "x\0y\n", 4);
+            n += 4;
+        }
+        FILE *f = fopen(man, "wb");
+        CHECK(f && fwrite(line, 1, (size_t)n, f) == (size_t)n && fclose(f) == 0);
+        char what[64], where[PATH_MAX + 64];
+        snprintf(what, sizeof what, "manifest line %zu", i);
+        snprintf(where, sizeof where, "%s:2: ", man);
+        run_cli(&r, ARGS("batch", "--manifest", man, "-o", tpl));
+        CHECK_MSG(r.code == 2 && count_lines(r.err) == 1 && strstr(r.err, where) && strstr(r.err, bad[i][1]),
+                  "%s: exit %d: %s", what, r.code, r.err);
+        CHECK_MSG(dir_count(g_out) == 0, "%s: files written", what);
+        run_free(&r);
+        reset_out();
+    }
+    snprintf(text, sizeof text, "%s -r 4\n", cube);
+    CHECK(write_text(man, text));
+    run_cli(&r, ARGS("batch", "--manifest", man, "--like", ref, "-o", tpl));
+    CHECK_MSG(r.code == 2 && strstr(r.err, ":1: ") && strstr(r.err, "--like"), "override with --like: %d %s", r.code,
+              r.err);
+    run_free(&r);
+    reset_out();
+}
+
+/* Ctrl-C in the middle of a batch: exit 130, the summary says so, every
+ * file left is a complete volume, no temporary. */
+static void test_batch_cancel(void)
+{
+    char man[PATH_MAX], tpl[PATH_MAX], mesh[PATH_MAX];
+    const char *def = getenv("CLVOX_TEST_MESH");
+    if (!def || !*def) def = "tests/data/default.obj";
+    if (!absolute_path(def, mesh, sizeof mesh)) {
+        printf("SKIP: no %s for the cancel test\n", def);
+        return;
+    }
+    in_path(man, "many.txt");
+    FILE *f = fopen(man, "w");
+    CHECK(f != NULL);
+    if (!f) return;
+    for (int i = 0; i < 400; i++) fprintf(f, "%s\n", mesh);
+    CHECK(fclose(f) == 0);
+    out_path(tpl, "{n}.exr");
+    run_result r;
+    run_cli_ex(&r, NULL, ARGS("batch", "--manifest", man, "-r", "96", "-o", tpl), 0.5);
+    CHECK_MSG(r.code == 130, "cancel: exit %d: %s", r.code, r.err);
+    CHECK_MSG(strstr(r.out, "(cancelled)") != NULL, "cancel: summary: %s", r.out);
+    int n = dir_count(g_out);
+    CHECK_MSG(n > 0 && n < 400, "cancel: %d files", n);
+    DIR *d = opendir(g_out);
+    struct dirent *e;
+    int bad = 0, checked = 0;
+    while (d && (e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.') {
+            bad += strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0;
+            continue;
+        }
+        const char *dot = strrchr(e->d_name, '.');
+        if (!dot || strcmp(dot, ".exr") != 0) bad++;
+        else if (checked < 3) { /* the last ones written are complete */
+            char p[PATH_MAX];
+            out_path(p, e->d_name);
+            CHECK_MSG(filled_of(p) > 0, "cancel: %s is not a complete volume", e->d_name);
+            checked++;
+        }
+    }
+    if (d) closedir(d);
+    CHECK_MSG(bad == 0, "cancel: %d stray files", bad);
+    run_free(&r);
+    reset_out();
+}
+
+static void make_inputs(void)
+{
+    char p[PATH_MAX];
+    in_path(p, "cube.obj");
+    CHECK(write_text(p, CUBE_OBJ));
+    in_path(p, "box.obj");
+    CHECK(write_text(p, BOX_OBJ));
+    in_path(p, "open_cube.obj");
+    CHECK(write_text(p, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                        "f 1 4 3 2\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"));
+    in_path(p, "empty.obj");
+    CHECK(write_text(p, ""));
+    in_path(p, "scan.nrrd");
+    CHECK(write_text(p, "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n"));
+    unsigned char junk[3000];
+    uint32_t x = 0x9e3779b9u;
+    for (size_t i = 0; i < sizeof junk; i++) {
+        x ^= x << 13, x ^= x >> 17, x ^= x << 5;
+        junk[i] = (unsigned char)x;
+    }
+    in_path(p, "random.exr");
+    FILE *f = fopen(p, "wb");
+    CHECK(f && fwrite(junk, 1, sizeof junk, f) == sizeof junk && fclose(f) == 0);
+    /* an OpenEXR file without clvox's grid attributes */
+    uint16_t half_one[8] = {0x3C00, 0x3C00, 0x3C00, 0x3C00, 0x3C00, 0x3C00, 0x3C00, 0x3C00};
+    exrgen_channel ch = {"occupancy", EXR_PIXEL_HALF, half_one};
+    in_path(p, "plain.exr");
+    CHECK(exrgen_write(p, 2, 2, 2, &ch, 1, 0, 0, EXR_COMPRESSION_NONE, 0));
+}
+
+int main(void)
+{
+    const char *bin = getenv("CLVOX_BIN");
+    if (!bin || !*bin) bin = "build/release/clvox";
+    if (!absolute_path(bin, g_bin, sizeof g_bin)) {
+        fprintf(stderr, "FAIL: clvox binary '%s' not found (set CLVOX_BIN)\n", bin);
+        test_failed++;
+        return test_report();
+    }
+    char tmp[PATH_MAX];
+    if (!absolute_path(test_tmpdir(), tmp, sizeof tmp)) {
+        fprintf(stderr, "FAIL: no test directory\n");
+        test_failed++;
+        return test_report();
+    }
+    path_join(g_dir, sizeof g_dir, tmp, "batch");
+    rm_tree(g_dir);
+    mkdir(g_dir, 0777);
+    path_join(g_in, sizeof g_in, g_dir, "in");
+    path_join(g_out, sizeof g_out, g_dir, "out");
+    path_join(g_logs, sizeof g_logs, g_dir, "logs");
+    mkdir(g_in, 0777);
+    mkdir(g_out, 0777);
+    mkdir(g_logs, 0777);
+
+    {
+        const char *argv[] = {"python3", "-c", "import json", NULL};
+        run_result r;
+        run_prog(&r, NULL, argv, 0);
+        g_have_python = r.code == 0;
+        run_free(&r);
+        if (!g_have_python) printf("SKIP: no python3: the JSON records are not parsed\n");
+    }
+    make_inputs();
+    test_json_single();
+    test_json_escaping();
+    test_json_failure();
+    test_info_json();
+    test_like();
+    test_batch_basic();
+    test_batch_failures();
+    test_batch_lists();
+    test_batch_cancel();
+    return test_report();
+}

@@ -39,7 +39,7 @@ else
   Q := @
 endif
 
-CLI_SRC := src/cli.c src/cli_common.c src/cli_preview.c src/cli_palette.c
+CLI_SRC := src/cli.c src/cli_common.c src/cli_preview.c src/cli_palette.c src/cli_instances.c
 LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
 LIB_CXX := $(wildcard src/*.cpp)
 # Kernel program = shared types + prelude + sampler + palette + one file per stage.

@@ -45,7 +45,7 @@ typedef enum clvox_status {
     CLVOX_ERR_EXR,              /* OpenEXR encode/decode/format failure       */
     CLVOX_ERR_CANCELLED,        /* the progress callback asked to stop        */
     CLVOX_ERR_INTERNAL,         /* a bug in clvox                             */
-    CLVOX_ERR_PALETTE_FORMAT,   /* malformed palette file (line in message)   */
+    CLVOX_ERR_PALETTE_FORMAT,   /* malformed palette or render map file (line in message) */
     CLVOX_STATUS_COUNT
 } clvox_status;
 
@@ -313,6 +313,9 @@ typedef struct clvox_stats {
     uint64_t palette_early_voxels; /* all segments wholly inside or outside: full/empty unscored */
     uint64_t palette_shortcut_voxels; /* alpha/beta shortcut (Nearest, when on)             */
     uint64_t palette_scored_voxels;   /* every element scored                                */
+    uint64_t palette_nonempty_voxels; /* voxels given an element other than empty            */
+    double palette_volume;            /* sum of the chosen elements' volumes, voxel units (times
+                                         the voxel volume: the volume of the element approximation) */
 } clvox_stats;
 
 /* Receives consecutive slabs in increasing z: slices z0 .. z0+nz-1, each an
@@ -468,6 +471,53 @@ const char *clvox_palette_source(const clvox_palette *palette);
 clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_palette **out);
 /* "nearest", "outer", "inner"; NULL for a bad value. */
 const char *clvox_metric_name(clvox_metric metric);
+
+/* ---- render maps (render_map.c) ------------------------------------------ */
+/* A render map gives each element E_v of a palette an ordered list of render
+ * objects R_v,1 .. R_v,T with thresholds 1 = D_v,0 > D_v,1 > ... > D_v,T = 0
+ * (Cavagnino & Gribaudo, section 4): a voxel of element v and score B_v is
+ * drawn with R_v,j when D_v,j <= B_v < D_v,j-1, the top interval closed (B_v
+ * = 1 gets R_v,1). Objects are names; how they look is up to the renderer
+ * (scripts/blender_instances.py). File format, precedence of the rules and
+ * the default object: docs/design.md "Render maps, instances and Blender".
+ * A map is bound to the palette it was read for (element names resolved to
+ * indices), immutable, and keeps neither the palette nor the context. */
+typedef struct clvox_render_map clvox_render_map;
+
+/* How an object is modelled, hence how an instance is placed. */
+typedef enum clvox_render_frame {
+    CLVOX_RENDER_FRAME_BASIC = 0, /* as the element's basic element: the instance applies the
+                                     element's symmetry S (clvox_palette_element_info.matrix) */
+    CLVOX_RENDER_FRAME_ELEMENT    /* as the element itself: the instance applies no symmetry */
+} clvox_render_frame;
+
+/* Reads a render map file for `palette` (borrowed for the call).
+ * CLVOX_ERR_IO when unreadable, CLVOX_ERR_PALETTE_FORMAT with
+ * "PATH:LINE: why" for a malformed line or a name the palette lacks. */
+clvox_status clvox_render_map_load(clvox_context *ctx, const char *path, const clvox_palette *palette,
+                                   clvox_render_map **out);
+/* Same from text in memory; `source` names it in messages. */
+clvox_status clvox_render_map_parse(clvox_context *ctx, const char *source, const char *text, size_t size,
+                                    const clvox_palette *palette, clvox_render_map **out);
+/* The map used without a file: every element is drawn with one object named
+ * after its basic element (frame BASIC), whatever its score. */
+clvox_status clvox_render_map_default(clvox_context *ctx, const clvox_palette *palette, clvox_render_map **out);
+void clvox_render_map_destroy(clvox_render_map *map); /* NULL-safe */
+
+/* Distinct object names, in order of first use (the file's objects, then the
+ * default ones the map falls back on); names are 1-63 of A-Z a-z 0-9 _ - . */
+size_t clvox_render_map_object_count(const clvox_render_map *map);
+/* NULL past the count. */
+const char *clvox_render_map_object_name(const clvox_render_map *map, size_t object);
+/* The object for a voxel of element `element` with score `score`: the first
+ * R_j with score >= D_j. A score above 1 counts as 1; below 0 or NaN as 0
+ * (the last object). CLVOX_PALETTE_NONE for element 0 (empty: nothing is
+ * drawn) or an index past the palette. frame (may be NULL) gets the frame of
+ * the rule used. */
+uint32_t clvox_render_map_choose(const clvox_render_map *map, uint32_t element, double score,
+                                 clvox_render_frame *frame);
+/* The line of the rule used for `element` (0: the built-in default). */
+unsigned clvox_render_map_rule_line(const clvox_render_map *map, uint32_t element);
 
 #ifdef __cplusplus
 }

@@ -1,14 +1,18 @@
 /* Stage cast, and the ray method that strings partition -> cast -> consumer
  * together for one slab (Thon et al. 3.3).
  *
- * One cast, two consumers. A batch is a list of rays (any (v,w) positions)
+ * One cast, three consumers. A batch is a list of rays (any (v,w) positions)
  * that the device runs through leaf lookup, intersection and sort; the
  * sorted crossing lists then go to the consumer kernel:
  *  - classify (binary): one ray per voxel column, at the column centre;
  *    the parity of the crossings beyond each centre gives occupancy bits;
  *  - coverage (grey levels, 3.3.4): N x N rays per column (positions from
  *    kernels/sampler.h), and kernels/coverage.cl counts the points inside
- *    per voxel over the column's rays.
+ *    per voxel over the column's rays;
+ *  - palette scoring (Cavagnino & Gribaudo): the same rays and points, and
+ *    kernels/palette_score.cl picks each voxel's best palette element.
+ * Coverage and palette runs are "column runs": their batches hold whole
+ * columns of R rays.
  * A binary slab is one batch unless its work is large. A coverage slab is
  * cut into batches of at most max_rays rays (whole columns), so the ray and
  * crossing buffers are those of the binary run whatever N is. Batches are
@@ -23,6 +27,7 @@
 #include "classify.h"
 #include "../kernels/sampler.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,7 +36,7 @@
 
 /* Device buffers of one batch. */
 typedef struct batch_mem {
-    cl_mem rays, cols, leaf, hits, counts, filled, sums;
+    cl_mem rays, cols, leaf, hits, counts, filled, sums, pstats, pvolume;
     size_t max_rays, max_items; /* items: rays (binary) or columns (coverage) */
     cl_uint capacity;
 } batch_mem;
@@ -44,7 +49,7 @@ struct clvox__method_state {
     uint32_t dim_u, dim_v, dim_w;
     clvox__quadtree qt;
     cl_mem soup, nodes, refs;
-    cl_kernel k_lookup, k_intersect, k_sort, k_classify, k_coverage;
+    cl_kernel k_lookup, k_intersect, k_sort, k_classify, k_coverage, k_palette;
     uint32_t leaf_size;
     uint64_t leaf_max;           /* most triangles in one quadtree leaf */
     batch_mem mem;               /* the fast pass */
@@ -56,9 +61,11 @@ struct clvox__method_state {
     clvox_column *cols_host;     /* coverage: max_items */
     uint32_t *counts_host;       /* max_rays */
     uint32_t *filled_host;       /* max_items */
-    uint64_t *sums_host;         /* coverage: max_items */
-    /* coverage */
-    int coverage;                /* 1: the coverage consumer */
+    uint64_t *sums_host;         /* column runs: max_items */
+    uint32_t *pstats_host;       /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
+    uint64_t *pvolume_host;      /* palette: per item, element volumes in 2^-32 voxels */
+    /* coverage and palette (column runs) */
+    int coverage;                /* 1: a column run (the coverage or the palette consumer) */
     uint32_t N, M, R;            /* R = N*N rays per column, M points per voxel */
     int stochastic;
     uint32_t seed_lo, seed_hi;
@@ -66,6 +73,13 @@ struct clvox__method_state {
     uint32_t occ_min;            /* ... i.e. count >= occ_min */
     cl_mem value_of_count;       /* ushort[R*M+1]: HALF bits, or the count itself */
     uint32_t channels;
+    /* palette */
+    int palette;                 /* 1: the palette consumer */
+    uint32_t n_elements;
+    cl_mem p_elements, p_cells, p_planes, p_masks, p_volume;
+    cl_uint metric, early_out, sc_lo, sc_hi;
+    cl_uint use_masks;           /* uniform samples: score with the precomputed element masks */
+    char palette_name[64];
 };
 
 /* Where one batch's voxels go in the slab. */
@@ -84,10 +98,12 @@ static void batch_mem_release(batch_mem *m)
     clvox__release_mem(&m->counts);
     clvox__release_mem(&m->filled);
     clvox__release_mem(&m->sums);
+    clvox__release_mem(&m->pstats);
+    clvox__release_mem(&m->pvolume);
 }
 
 static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max_rays, size_t max_items,
-                                    cl_uint capacity, int coverage)
+                                    cl_uint capacity, int coverage, int palette)
 {
     clvox_status st = CLVOX_OK;
     memset(m, 0, sizeof *m);
@@ -108,6 +124,10 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max
         m->cols = clvox__buffer(ctx, CL_MEM_READ_ONLY, max_items * sizeof(clvox_column), NULL, &st, "columns");
     if (st == CLVOX_OK && coverage)
         m->sums = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * sizeof(cl_ulong), NULL, &st, "column sums");
+    if (st == CLVOX_OK && palette)
+        m->pstats = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * 4 * sizeof(cl_uint), NULL, &st, "column tallies");
+    if (st == CLVOX_OK && palette)
+        m->pvolume = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * sizeof(cl_ulong), NULL, &st, "column volumes");
     if (st != CLVOX_OK) batch_mem_release(m);
     return st;
 }
@@ -119,18 +139,26 @@ static void ray_release(clvox__method_state *s)
     clvox__release_mem(&s->nodes);
     clvox__release_mem(&s->refs);
     clvox__release_mem(&s->value_of_count);
+    clvox__release_mem(&s->p_elements);
+    clvox__release_mem(&s->p_cells);
+    clvox__release_mem(&s->p_planes);
+    clvox__release_mem(&s->p_masks);
+    clvox__release_mem(&s->p_volume);
     batch_mem_release(&s->mem);
     if (s->k_lookup) clReleaseKernel(s->k_lookup);
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
     if (s->k_sort) clReleaseKernel(s->k_sort);
     if (s->k_classify) clReleaseKernel(s->k_classify);
     if (s->k_coverage) clReleaseKernel(s->k_coverage);
+    if (s->k_palette) clReleaseKernel(s->k_palette);
     clvox__quadtree_free(&s->qt);
     free(s->rays_host);
     free(s->cols_host);
     free(s->counts_host);
     free(s->filled_host);
     free(s->sums_host);
+    free(s->pstats_host);
+    free(s->pvolume_host);
     free(s);
 }
 
@@ -164,7 +192,87 @@ static clvox_status coverage_prepare(clvox__method_state *s, const clvox_voxeliz
     s->value_of_count = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ((size_t)S + 1) * sizeof *table,
                                       table, &st, "coverage table");
     free(table);
-    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_coverage", &s->k_coverage);
+    if (st == CLVOX_OK && !o->palette) st = clvox__kernel(ctx, "clvox_coverage", &s->k_coverage);
+    return st;
+}
+
+/* Unit-voxel position of sample (ray r, point m) under uniform sampling,
+ * as (x, y, z) for the run's ray axis: the kernel's clvox_unit_xyz. */
+static void uniform_sample_xyz(const clvox__method_state *s, uint32_t r, uint32_t m, float p[3])
+{
+    float fu = (float)clvox_stratum(m, s->M, 0, 0);
+    float fv = (float)clvox_stratum(r % s->N, s->N, 0, 0), fw = (float)clvox_stratum(r / s->N, s->N, 0, 0);
+    p[s->axes.perm[0]] = fu;
+    p[s->axes.perm[1]] = fv;
+    p[s->axes.perm[2]] = fw;
+}
+
+/* The palette consumer: elements on the device, each element's mask over
+ * the uniform sample positions (the same in every voxel), the metric and
+ * the shortcut's counts. */
+static clvox_status palette_prepare(clvox__method_state *s, const clvox_voxelize_options *o)
+{
+    clvox_context *ctx = s->ctx;
+    const clvox_element *el;
+    const clvox_cell *cells;
+    const clvox_halfspace *planes;
+    size_t ne, nc, np;
+    clvox__palette_arrays(o->palette, &el, &ne, &cells, &nc, &planes, &np);
+    s->palette = 1;
+    s->n_elements = (uint32_t)ne;
+    snprintf(s->palette_name, sizeof s->palette_name, "%s", clvox_palette_name(o->palette));
+    s->metric = (cl_uint)o->metric;
+    s->early_out = !o->palette_no_early_out;
+    const uint32_t S = s->R * s->M, words = (S + 31u) / 32u;
+    s->sc_lo = 0;
+    s->sc_hi = S;
+    if (o->nearest_shortcut && o->metric == CLVOX_METRIC_NEAREST) {
+        s->sc_lo = (cl_uint)ceil(o->shortcut_alpha * S);  /* cnt < alpha S */
+        s->sc_hi = (cl_uint)floor(o->shortcut_beta * S);  /* cnt > beta S  */
+    }
+    clvox_status st = CLVOX_OK;
+    cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
+    /* (an empty array gets a small unused buffer: binary has no planes) */
+    s->p_elements = clvox__buffer(ctx, ro, ne * sizeof *el, (void *)el, &st, "palette elements");
+    if (st == CLVOX_OK)
+        s->p_cells = clvox__buffer(ctx, nc ? ro : CL_MEM_READ_ONLY, nc * sizeof *cells, nc ? (void *)cells : NULL, &st,
+                                   "palette cells");
+    if (st == CLVOX_OK)
+        s->p_planes = clvox__buffer(ctx, np ? ro : CL_MEM_READ_ONLY, np * sizeof *planes, np ? (void *)planes : NULL,
+                                    &st, "palette planes");
+    /* CLVOX_BENCH_NO_MASKS=1 (benchmarks and tests only) scores uniform
+     * samples one by one as stochastic ones are: same result, the cost the
+     * masks save. */
+    const char *no_masks = getenv("CLVOX_BENCH_NO_MASKS");
+    s->use_masks = !s->stochastic && !(no_masks && strcmp(no_masks, "1") == 0);
+    uint32_t *masks = NULL;
+    if (st == CLVOX_OK && s->use_masks) {
+        masks = calloc((size_t)ne * words, sizeof *masks);
+        if (!masks) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for palette masks");
+        for (size_t e = 0; st == CLVOX_OK && e < ne; e++)
+            for (uint32_t r = 0; r < s->R; r++)
+                for (uint32_t m = 0; m < s->M; m++) {
+                    float p[3];
+                    uniform_sample_xyz(s, r, m, p);
+                    uint32_t b = r * s->M + m;
+                    if (clvox_palette_contains(o->palette, e, p[0], p[1], p[2])) masks[e * words + b / 32] |= 1u << (b % 32);
+                }
+    }
+    if (st == CLVOX_OK)
+        s->p_masks = clvox__buffer(ctx, masks ? ro : CL_MEM_READ_ONLY, masks ? ne * words * sizeof *masks : 0, masks,
+                                   &st, "palette masks");
+    free(masks);
+    /* element volumes in 2^-32 voxels, for the run's volume estimate */
+    uint64_t *vol = malloc(ne * sizeof *vol);
+    if (st == CLVOX_OK && !vol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    for (size_t e = 0; st == CLVOX_OK && e < ne; e++) {
+        clvox_palette_element_info info;
+        st = clvox_palette_element_info_get(ctx, o->palette, e, &info);
+        if (st == CLVOX_OK) vol[e] = (uint64_t)llround(info.volume * 4294967296.0);
+    }
+    if (st == CLVOX_OK) s->p_volume = clvox__buffer(ctx, ro, ne * sizeof *vol, vol, &st, "element volumes");
+    free(vol);
+    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_palette_score", &s->k_palette);
     return st;
 }
 
@@ -196,6 +304,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
 
     clvox_status st = CLVOX_OK;
     if (opts->oversample) st = coverage_prepare(s, opts, run);
+    if (st == CLVOX_OK && opts->palette) st = palette_prepare(s, opts);
     float *soup = NULL;
     double t0 = clvox__now();
     if (st == CLVOX_OK) st = clvox__grid_space_soup(ctx, mesh, grid, s->axes, &soup);
@@ -244,7 +353,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         uint64_t k = CLVOX__BATCH_TESTS / per_item;
         s->batch_items = k < 1 ? 1 : k > max_items ? max_items : (size_t)k;
     }
-    if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage);
+    if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage, s->palette);
     if (st == CLVOX_OK) {
         s->rays_host = malloc(max_rays * sizeof *s->rays_host);
         s->counts_host = malloc(max_rays * sizeof *s->counts_host);
@@ -253,7 +362,12 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
             s->cols_host = malloc(max_items * sizeof *s->cols_host);
             s->sums_host = malloc(max_items * sizeof *s->sums_host);
         }
-        if (!s->rays_host || !s->counts_host || !s->filled_host || (s->coverage && (!s->cols_host || !s->sums_host)))
+        if (s->palette) {
+            s->pstats_host = malloc(max_items * 4 * sizeof *s->pstats_host);
+            s->pvolume_host = malloc(max_items * sizeof *s->pvolume_host);
+        }
+        if (!s->rays_host || !s->counts_host || !s->filled_host || (s->coverage && (!s->cols_host || !s->sums_host)) ||
+            (s->palette && (!s->pstats_host || !s->pvolume_host)))
             st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", max_rays);
     }
     if (stats) {
@@ -310,13 +424,70 @@ static clvox_status coverage_enqueue(clvox__method_state *s, const batch_mem *m,
     return CLVOX_OK;
 }
 
+static clvox_status palette_enqueue(clvox__method_state *s, const batch_mem *m, cl_uint n_cols,
+                                    const slab_target *t, cl_event *ev)
+{
+    clvox_context *ctx = s->ctx;
+    const cl_uint X = s->grid.dims[0], Y = s->grid.dims[1], W = clvox__row_words(X);
+    const cl_uint vox_stride = s->axis == CLVOX_AXIS_X ? 0 : s->axis == CLVOX_AXIS_Y ? X : X * Y;
+    cl_uint N = s->N, M = s->M, st_flag = (cl_uint)s->stochastic, axis = (cl_uint)s->axis;
+    cl_mem el = t->out->element, sc = t->out->score, cov = t->out->coverage, occ = t->out->occupancy;
+    cl_int err = 0;
+    cl_uint i = 0;
+    cl_kernel k = s->k_palette;
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->cols);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &n_cols);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &N);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &M);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->hits);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->counts);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &m->capacity);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_begin);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_count);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &st_flag);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->seed_lo);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->seed_hi);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &axis);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_elements);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_cells);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_planes);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->n_elements);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->use_masks);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_masks);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->metric);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->early_out);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->sc_lo);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->sc_hi);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->value_of_count);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->occ_min);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &X);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &W);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &vox_stride);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->out_stride);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), el ? &el : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), sc ? &sc : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), cov ? &cov : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), occ ? &occ : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_volume);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->sums);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->pstats);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->pvolume);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_palette_score)");
+    size_t local = 64, global = ((size_t)n_cols + local - 1) / local * local;
+    err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_palette_score");
+    return CLVOX_OK;
+}
+
 /* Uploads a batch (n rays; coverage: n_cols columns of R rays each), runs
  * lookup, intersect, sort and the consumer, and reads back the crossing
  * count of every ray, the filled voxels of every item and (coverage) the
  * count sum of every column. */
 static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const clvox_ray *rays, cl_uint n,
                                const clvox_column *cols, cl_uint n_cols, const slab_target *t, uint32_t *counts,
-                               uint32_t *filled, uint64_t *sums, clvox__slab_stats *ss)
+                               uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
+                               clvox__slab_stats *ss)
 {
     clvox_context *ctx = s->ctx;
     size_t local = 64, global = ((size_t)n + local - 1) / local * local;
@@ -360,7 +531,9 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "enqueue clvox_sort");
     }
     if (st == CLVOX_OK) {
-        if (s->coverage) {
+        if (s->palette) {
+            st = palette_enqueue(s, m, n_cols, t, &ev[3]);
+        } else if (s->coverage) {
             st = coverage_enqueue(s, m, n_cols, t, &ev[3]);
         } else {
             clvox__classify_args a = {m->rays, n, m->hits, m->counts, capacity, t->u_begin, t->u_count,
@@ -376,6 +549,12 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
                                       NULL);
         if (err == CL_SUCCESS && s->coverage)
             err = clEnqueueReadBuffer(ctx->queue, m->sums, CL_FALSE, 0, items * sizeof *sums, sums, 0, NULL, NULL);
+        if (err == CL_SUCCESS && s->palette)
+            err = clEnqueueReadBuffer(ctx->queue, m->pstats, CL_FALSE, 0, items * 4 * sizeof *pstats, pstats, 0, NULL,
+                                      NULL);
+        if (err == CL_SUCCESS && s->palette)
+            err = clEnqueueReadBuffer(ctx->queue, m->pvolume, CL_FALSE, 0, items * sizeof *pvolume, pvolume, 0, NULL,
+                                      NULL);
         if (err == CL_SUCCESS) err = clFinish(ctx->queue);
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the cast kernels");
     }
@@ -394,6 +573,15 @@ static int poll_ok(const clvox__method_state *s, double slab_fraction)
     if (!s->poll) return 1;
     if (slab_fraction <= 0.0 || slab_fraction >= 1.0) return 1;
     return s->poll(s->poll_user, slab_fraction);
+}
+
+static void tally_palette(clvox__slab_stats *ss, const uint32_t *p, uint64_t volume)
+{
+    ss->palette_early += p[0];
+    ss->palette_shortcut += p[1];
+    ss->palette_scored += p[2];
+    ss->palette_nonempty += p[3];
+    ss->palette_volume += (double)volume * (1.0 / 4294967296.0);
 }
 
 /* Items (rays, or columns of R rays) whose crossings did not fit: cast
@@ -418,15 +606,15 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     if (per > s->batch_items) per = s->batch_items;
     if (per > items) per = items;
     batch_mem m;
-    clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage);
+    clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage, s->palette);
     if (st != CLVOX_OK) return st;
-    uint32_t *cnt = malloc(per * R * sizeof *cnt), *fil = malloc(per * sizeof *fil);
-    uint64_t *sum = malloc(per * sizeof *sum);
-    if (!cnt || !fil || !sum) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", items);
+    uint32_t *cnt = malloc(per * R * sizeof *cnt), *fil = malloc(per * sizeof *fil), *pst = malloc(per * 4 * sizeof *pst);
+    uint64_t *sum = malloc(per * sizeof *sum), *pvol = malloc(per * sizeof *pvol);
+    if (!cnt || !fil || !sum || !pst || !pvol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", items);
     for (size_t i0 = 0; st == CLVOX_OK && i0 < items; i0 += per) {
         size_t k = items - i0 < per ? items - i0 : per;
         st = cast_batch(s, &m, rays + i0 * R, (cl_uint)(k * R), cols ? cols + i0 : NULL, (cl_uint)k, t, cnt, fil, sum,
-                        ss);
+                        pst, pvol, ss);
         for (size_t i = 0; st == CLVOX_OK && i < k * R; i++)
             if (cnt[i] != expect[i0 * R + i])
                 st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "overflow redo counted %u crossings instead of %u", cnt[i],
@@ -434,6 +622,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
         for (size_t i = 0; st == CLVOX_OK && i < k; i++) {
             ss->filled += fil[i];
             if (s->coverage) ss->coverage_count += sum[i];
+            if (s->palette) tally_palette(ss, pst + 4 * i, pvol[i]);
         }
         if (st == CLVOX_OK && i0 + k < items && !poll_ok(s, f0 + (f1 - f0) * (double)(i0 + k) / (double)items))
             st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled while redoing rays with many crossings");
@@ -442,6 +631,8 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     free(cnt);
     free(fil);
     free(sum);
+    free(pst);
+    free(pvol);
     return st;
 }
 
@@ -520,7 +711,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
             }
         }
         st = cast_batch(s, &s->mem, s->rays_host, (cl_uint)(k * R), s->cols_host, (cl_uint)k, &t, s->counts_host,
-                        s->filled_host, s->sums_host, ss);
+                        s->filled_host, s->sums_host, s->pstats_host, s->pvolume_host, ss);
         if (st != CLVOX_OK) break;
 
         /* Tally; compact the items that overflowed to the front (in place:
@@ -543,6 +734,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
             if (!overflowed) {
                 ss->filled += s->filled_host[i];
                 if (s->coverage) ss->coverage_count += s->sums_host[i];
+                if (s->palette) tally_palette(ss, s->pstats_host + 4 * i, s->pvolume_host[i]);
                 continue;
             }
             if (over != i) {
@@ -578,8 +770,16 @@ static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
                          s->N, s->N, s->M, s->stochastic ? "stratified-jitter" : "uniform",
                          (unsigned long long)s->seed_lo | ((unsigned long long)s->seed_hi << 32));
         n += m > 0 ? m : 0;
-        if ((s->channels & CLVOX_CHANNEL_OCCUPANCY) && (size_t)n < size)
-            snprintf(buf + n, size - (size_t)n, " occupancy=coverage>%.17g", s->threshold);
+        if ((s->channels & CLVOX_CHANNEL_OCCUPANCY) && (size_t)n < size) {
+            m = snprintf(buf + n, size - (size_t)n, " occupancy=coverage>%.17g", s->threshold);
+            n += m > 0 ? m : 0;
+        }
+        if (s->palette && (size_t)n < size) {
+            static const char *const metric[] = {"nearest", "outer", "inner"};
+            snprintf(buf + n, size - (size_t)n, " palette=%s elements=%u metric=%s early_out=%s shortcut=%u..%u%s",
+                     s->palette_name, s->n_elements, metric[s->metric % 3], s->early_out ? "on" : "off", s->sc_lo,
+                     s->sc_hi, s->stochastic || s->use_masks ? "" : " masks=off");
+        }
     }
 }
 

@@ -5,6 +5,7 @@
  *   clvox info FILE.exr           header, filled voxel count, coverage sum, elements (no OpenCL needed)
  *   clvox preview FILE.exr -o OUT.png   slices as a PNG picture (cli_preview.c)
  *   clvox palette list | show NAME|FILE  palettes of sub-voxel elements (cli_palette.c)
+ *   clvox instances VOLUME.exr -o OUT.csv  instances of a palette volume, for rendering (cli_instances.c)
  *   clvox --list-devices | --help | --version
  *
  * Exit codes (also in --help):
@@ -216,7 +217,7 @@ static const char *parse_u64(const char *s, uint64_t *out)
     return NULL;
 }
 
-/* "occupancy,coverage" -> CLVOX_CHANNEL_* mask. */
+/* "occupancy,coverage,element,score" -> CLVOX_CHANNEL_* mask. */
 static const char *parse_channels(const char *s, uint32_t *out)
 {
     uint32_t mask = 0;
@@ -224,6 +225,8 @@ static const char *parse_channels(const char *s, uint32_t *out)
         size_t n = strcspn(s, ",");
         if (n == 9 && strncmp(s, "occupancy", 9) == 0) mask |= CLVOX_CHANNEL_OCCUPANCY;
         else if (n == 8 && strncmp(s, "coverage", 8) == 0) mask |= CLVOX_CHANNEL_COVERAGE;
+        else if (n == 7 && strncmp(s, "element", 7) == 0) mask |= CLVOX_CHANNEL_ELEMENT;
+        else if (n == 5 && strncmp(s, "score", 5) == 0) mask |= CLVOX_CHANNEL_SCORE;
         else return "unknown channel";
         s += n;
         if (*s == ',' && *++s == '\0') return "empty channel name";
@@ -281,6 +284,9 @@ typedef struct cli_args {
     const char *device;
     int list_devices, quiet, no_progress, help, version;
     int seed_given;
+    const char *palette;       /* --palette NAME|FILE */
+    const char *samples_opt;   /* "--samples" or "--oversample", whichever set them */
+    int metric_given;
 } cli_args;
 
 static int set_grid_kind(cli_args *a, int kind, const char *name)
@@ -415,8 +421,58 @@ static int parse_args(int argc, char **argv, cli_args *a)
                     return usage_error("--tetra-origin '%s': expected centroid, bbox or x,y,z", v);
                 a->vox.tetra_origin = CLVOX_TETRA_ORIGIN_POINT;
             }
+        } else if (VALUE_OPT(NULL, "--palette")) {
+            NEED_VALUE("--palette");
+            if (*v == '\0') return usage_error("--palette: empty name");
+            a->palette = v;
+        } else if (VALUE_OPT(NULL, "--metric")) {
+            NEED_VALUE("--metric");
+            if (strcmp(v, "nearest") == 0) a->vox.metric = CLVOX_METRIC_NEAREST;
+            else if (strcmp(v, "outer") == 0) a->vox.metric = CLVOX_METRIC_OUTER;
+            else if (strcmp(v, "inner") == 0) a->vox.metric = CLVOX_METRIC_INNER;
+            else return usage_error("--metric '%s': expected nearest, outer or inner", v);
+            a->metric_given = 1;
+        } else if (VALUE_OPT(NULL, "--samples")) {
+            NEED_VALUE("--samples");
+            uint32_t tp[2] = {0, 0};
+            if ((why = parse_u32_list(v, 1, tp, 2)))
+                return usage_error("--samples '%s': %s (expected T,P: T rays per voxel column, P points per voxel)", v,
+                                   why);
+            uint32_t n = 1;
+            while ((n + 1) * (n + 1) <= tp[0]) n++;
+            if (n * n != tp[0] || n > CLVOX_MAX_OVERSAMPLE)
+                return usage_error("--samples '%s': T = %u rays is not the square of 1 .. %u (the rays form an N x N "
+                                   "grid per voxel column: 1, 4, 9, 16, ..., 256)",
+                                   v, tp[0], CLVOX_MAX_OVERSAMPLE);
+            if (tp[1] > CLVOX_MAX_POINTS) return usage_error("--samples '%s': at most %u points per voxel", v, CLVOX_MAX_POINTS);
+            if ((uint64_t)tp[0] * tp[1] > CLVOX_MAX_PALETTE_SAMPLES)
+                return usage_error("--samples '%s': %llu samples per voxel, at most %u", v,
+                                   (unsigned long long)tp[0] * tp[1], CLVOX_MAX_PALETTE_SAMPLES);
+            if (a->samples_opt && strcmp(a->samples_opt, "--oversample") == 0)
+                return usage_error("--samples and --oversample both set the samples: give one");
+            a->samples_opt = "--samples";
+            a->vox.oversample = n;
+            a->vox.oversample_points = tp[1];
+        } else if (strcmp(arg, "--no-early-out") == 0) {
+            a->vox.palette_no_early_out = 1;
+        } else if (VALUE_OPT(NULL, "--shortcut")) {
+            NEED_VALUE("--shortcut");
+            a->vox.nearest_shortcut = 1;
+            if (strcmp(v, "auto") != 0) {
+                double ab[2];
+                int n = 0;
+                if ((why = parse_double_list(v, 0, ab, 2, &n)) || n != 2)
+                    return usage_error("--shortcut '%s': expected auto or ALPHA,BETA", v);
+                if (!(ab[0] > 0 && ab[0] < ab[1] && ab[1] < 1))
+                    return usage_error("--shortcut '%s': needs 0 < ALPHA < BETA < 1", v);
+                a->vox.shortcut_alpha = ab[0];
+                a->vox.shortcut_beta = ab[1];
+            }
         } else if (VALUE_OPT(NULL, "--oversample")) {
             NEED_VALUE("--oversample");
+            if (a->samples_opt && strcmp(a->samples_opt, "--samples") == 0)
+                return usage_error("--samples and --oversample both set the samples: give one");
+            a->samples_opt = "--oversample";
             uint32_t nm[2] = {0, 0};
             if (strchr(v, ',')) {
                 if ((why = parse_u32_list(v, 1, nm, 2)))
@@ -451,8 +507,9 @@ static int parse_args(int argc, char **argv, cli_args *a)
         } else if (VALUE_OPT(NULL, "--channels")) {
             NEED_VALUE("--channels");
             if ((why = parse_channels(v, &a->vox.channels)))
-                return usage_error("--channels '%s': %s (expected a comma-separated list of occupancy, coverage)", v,
-                                   why);
+                return usage_error("--channels '%s': %s (expected a comma-separated list of occupancy, coverage, "
+                                   "element, score)",
+                                   v, why);
         } else if (VALUE_OPT(NULL, "--threads")) {
             NEED_VALUE("--threads");
             if ((why = parse_u32(v, 0, &a->vox.threads, NULL))) return usage_error("--threads '%s': %s", v, why);
@@ -467,7 +524,24 @@ static int parse_args(int argc, char **argv, cli_args *a)
 #undef NEED_VALUE
     }
     /* combinations the library would also refuse, said in CLI terms */
-    if (!a->vox.oversample) {
+    if (!a->palette) {
+        if (a->metric_given) return usage_error("--metric needs --palette");
+        if (a->samples_opt && strcmp(a->samples_opt, "--samples") == 0) return usage_error("--samples needs --palette");
+        if (a->vox.palette_no_early_out) return usage_error("--no-early-out needs --palette");
+        if (a->vox.nearest_shortcut) return usage_error("--shortcut needs --palette");
+        if (a->vox.channels & (CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE))
+            return usage_error("--channels element,score need --palette");
+    } else {
+        if (a->vox.method == CLVOX_METHOD_TETRA)
+            return usage_error("--palette: palette scoring samples rays (use --method ray)");
+        if (a->vox.nearest_shortcut && a->vox.metric != CLVOX_METRIC_NEAREST)
+            return usage_error("--shortcut is for --metric nearest only");
+        if (a->vox.oversample && (uint64_t)a->vox.oversample * a->vox.oversample *
+                                         (a->vox.oversample_points ? a->vox.oversample_points : a->vox.oversample) >
+                                     CLVOX_MAX_PALETTE_SAMPLES)
+            return usage_error("--oversample with --palette: at most %u samples per voxel", CLVOX_MAX_PALETTE_SAMPLES);
+    }
+    if (!a->vox.oversample && !a->palette) {
         if (a->vox.stochastic) return usage_error("--stochastic needs --oversample");
         if (a->seed_given) return usage_error("--seed needs --oversample --stochastic");
         if (a->vox.threshold_set) return usage_error("--threshold needs --oversample (binary runs are already 0/1)");
@@ -488,6 +562,7 @@ static void print_help(void)
 "       clvox info FILE.exr\n"
 "       clvox preview FILE.exr -o OUT.png [options]\n"
 "       clvox palette list | show NAME|FILE\n"
+"       clvox instances VOLUME.exr -o OUT.csv [--render-map MAP]\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
 "Voxelizes a closed triangle mesh on an OpenCL device and writes the solid\n"
@@ -552,6 +627,32 @@ static void print_help(void)
 "                           --channels occupancy,coverage (T = 0.5 unless given)\n"
 "  The paper's bytes 0-255 are round(255 * coverage).\n"
 "\n"
+"\n", stdout);
+    fputs(
+"Palette voxelization (Cavagnino & Gribaudo; ray method):\n"
+"  --palette NAME|FILE      replace each voxel by the best-matching element of a\n"
+"                           palette: binary, planar10, paper46, paper78 (clvox\n"
+"                           palette list), or a palette file; writes the channels\n"
+"                           \"element\" (UINT index, 0 = empty, 1 = full) and \"score\"\n"
+"                           (HALF, the fraction of samples where element and\n"
+"                           object agree)\n"
+"  --metric nearest|outer|inner\n"
+"                           nearest: most agreeing samples; outer: the same among\n"
+"                           elements that hold every inside sample; inner: among\n"
+"                           elements that hold no outside sample (default nearest)\n"
+"  --samples T,P            T rays per voxel column (a square: an N x N grid) x P\n"
+"                           points per voxel; at most 4096 samples (default 16,16;\n"
+"                           --oversample N,M says the same as --samples N*N,M).\n"
+"                           Uniform unless --stochastic (then --seed applies)\n"
+"  --no-early-out           score every voxel, also those wholly inside or outside\n"
+"                           (same result, slower; for measurements)\n"
+"  --shortcut auto|A,B      nearest only: empty when fewer than A*T*P samples are\n"
+"                           inside, full when more than B*T*P, unscored (auto: A =\n"
+"                           smallest element volume / 10, B = 1 - (1 - largest)/10;\n"
+"                           off by default: it can change elements)\n"
+"  --channels also takes element and score; coverage and occupancy are those of\n"
+"  the same samples (occupancy = coverage > --threshold, 0.5 by default).\n"
+"\n"
 "Output encoding:\n"
 "  --compression none|rle|zip|zips|piz\n"
 "                           EXR compression (default rle: fastest to write)\n"
@@ -576,6 +677,9 @@ static void print_help(void)
 "  130); a second Ctrl-C stops at once.\n"
 "\n", stdout);
     fputs(
+"A mesh must be closed for parity (inside) to mean anything; palette runs need\n"
+"it too.\n"
+"\n"
 "clvox info FILE.exr: prints the grid, method, parameters, compression and the\n"
 "filled voxel count of a volume written by clvox (occupancy > 0.5, or coverage\n"
 "> 0.5 without occupancy, or element != 0 without either); with a coverage\n"
@@ -591,6 +695,10 @@ static void print_help(void)
 "clvox palette list | show NAME|FILE: the built-in palettes of sub-voxel\n"
 "elements (binary, planar10, paper46, paper78), or the elements of one with\n"
 "their volumes and symmetries (clvox palette --help). Needs no OpenCL device.\n"
+"\n"
+"clvox instances VOLUME.exr -o OUT.csv: one CSV row per non-empty voxel of a\n"
+"palette volume (position, size, element, symmetry, score, render object from\n"
+"--render-map), for scripts/blender_instances.py (clvox instances --help).\n"
 "\n"
 "After a run, one summary goes to stdout: mesh, grid, device, method, filled\n"
 "voxels and volume, rays, time per stage and output size. A mesh that is not\n"
@@ -988,9 +1096,21 @@ static char *default_output(const char *mesh)
 
 /* ---- the run --------------------------------------------------------------------- */
 
+/* "coverage, element, occupancy, score" (those in the mask). */
+static const char *channel_list(uint32_t mask)
+{
+    static char buf[64];
+    static const char *const names[] = {"occupancy", "coverage", "element", "score"};
+    size_t n = 0;
+    buf[0] = '\0';
+    for (int i = 0; i < 4; i++)
+        if (mask & (1u << i)) n += (size_t)snprintf(buf + n, sizeof buf - n, "%s%s", n ? ", " : "", names[i]);
+    return buf;
+}
+
 static void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
-                          const clvox_device_info *dev, const cli_args *a, const clvox_stats *s,
-                          const char *output, double setup_seconds, double wall_seconds)
+                          const clvox_device_info *dev, const cli_args *a, const clvox_palette *pal,
+                          const clvox_stats *s, const char *output, double setup_seconds, double wall_seconds)
 {
     char extra[256] = "";
     size_t used = 0;
@@ -1039,7 +1159,25 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
     }
 
     const int grey = (s->channels & CLVOX_CHANNEL_COVERAGE) != 0;
-    if (a->vox.oversample) {
+    if (pal) {
+        uint32_t N = a->vox.oversample ? a->vox.oversample : 4, M = a->vox.oversample_points ? a->vox.oversample_points
+                                                                    : a->vox.oversample ? N : 16;
+        char seed[48] = "";
+        if (a->vox.stochastic) snprintf(seed, sizeof seed, ", seed %llu", (unsigned long long)a->vox.seed);
+        printf(LABEL "%s (%zu elements), metric %s, %u rays x %u points per voxel (%u samples), %s%s\n", "palette",
+               clvox_palette_name(pal), clvox_palette_count(pal), clvox_metric_name(a->vox.metric), N * N, M,
+               (unsigned)s->samples_per_voxel, a->vox.stochastic ? "stratified jitter" : "uniform", seed);
+        double T = s->total_voxels ? (double)s->total_voxels : 1.0;
+        char sc[96] = "";
+        if (a->vox.nearest_shortcut)
+            snprintf(sc, sizeof sc, ", %llu (%.1f %%) by the shortcut", (unsigned long long)s->palette_shortcut_voxels,
+                     100.0 * (double)s->palette_shortcut_voxels / T);
+        printf(LABEL "%llu voxels (%.1f %%) decided by early-out (wholly inside or outside)%s, %llu (%.1f %%) "
+                     "scored\n",
+               "", (unsigned long long)s->palette_early_voxels, 100.0 * (double)s->palette_early_voxels / T, sc,
+               (unsigned long long)s->palette_scored_voxels, 100.0 * (double)s->palette_scored_voxels / T);
+        printf(LABEL "%s\n", "channels", channel_list(s->channels));
+    } else if (a->vox.oversample) {
         uint32_t N = a->vox.oversample, M = a->vox.oversample_points ? a->vox.oversample_points : N;
         char seed[48] = "";
         if (a->vox.stochastic) snprintf(seed, sizeof seed, ", seed %llu", (unsigned long long)a->vox.seed);
@@ -1052,10 +1190,19 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
                grey && (s->channels & CLVOX_CHANNEL_OCCUPANCY) ? "coverage, occupancy" : grey ? "coverage" : "occupancy",
                occ);
     }
-    print_filled_line(s->filled_voxels, s->total_voxels);
+    if (pal) {
+        double pct = s->total_voxels ? 100.0 * (double)s->palette_nonempty_voxels / (double)s->total_voxels : 0.0;
+        printf(LABEL "%llu of %llu voxels (%.2f %%) got an element other than empty\n", "filled",
+               (unsigned long long)s->palette_nonempty_voxels, (unsigned long long)s->total_voxels, pct);
+    } else {
+        print_filled_line(s->filled_voxels, s->total_voxels);
+    }
 
-    double filled_volume = voxels_volume(grey ? s->coverage_sum : (double)s->filled_voxels, grid->voxel_size);
-    const char *what = grey ? "estimated (sum of coverage)" : "filled";
+    double filled_volume = voxels_volume(pal    ? s->palette_volume
+                                         : grey ? s->coverage_sum
+                                                : (double)s->filled_voxels,
+                                         grid->voxel_size);
+    const char *what = pal ? "of the elements" : grey ? "estimated (sum of coverage)" : "filled";
     char fv[48];
     format_volume(filled_volume, 6, fv, sizeof fv);
     if (r->enclosed_volume > 0 && isfinite(filled_volume)) {
@@ -1092,6 +1239,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     char *mesh_path = NULL, *output = NULL;
     clvox_context *host = NULL, *dev = NULL;
     clvox_mesh *mesh = NULL;
+    clvox_palette *palette = NULL;
     clvox_status st;
 
     install_signal_handlers();
@@ -1121,6 +1269,19 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     clvox_context_options ho = CLVOX_CONTEXT_OPTIONS_INIT;
     ho.host_only = 1;
     if ((st = clvox_context_create(&ho, &host)) != CLVOX_OK) { rc = fail_status(host, st, ROLE_OTHER); goto done; }
+
+    if (a->palette) { /* a built-in name, else a palette file */
+        int builtin = 0;
+        for (size_t i = 0; clvox_palette_builtin_name(i); i++) builtin |= strcmp(a->palette, clvox_palette_builtin_name(i)) == 0;
+        if (builtin) st = clvox_palette_builtin(host, a->palette, &palette);
+        else if (!is_readable_file(a->palette)) {
+            rc = usage_error("--palette '%s': not a built-in palette (binary, planar10, paper46, paper78) and not a "
+                             "readable file",
+                             a->palette);
+            goto done;
+        } else st = clvox_palette_load(host, a->palette, &palette);
+        if (st != CLVOX_OK) { rc = fail_status(host, st, ROLE_INPUT); goto done; }
+    }
 
     double t0 = now_seconds();
     if ((st = clvox_mesh_load(host, mesh_path, &mesh)) != CLVOX_OK) {
@@ -1154,6 +1315,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     prog.last_draw = prog.start - PROGRESS_INTERVAL_S;
 
     clvox_voxelize_options vo = a->vox;
+    vo.palette = palette;
     vo.progress = on_progress;
     vo.progress_user = &prog;
     clvox_stats stats;
@@ -1167,7 +1329,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     stats.seconds[CLVOX_STAGE_LOAD] = load_seconds;
 
     if (!a->quiet) {
-        print_summary(mesh_path, report, &grid, clvox_context_device(dev), a, &stats, output, setup_seconds,
+        print_summary(mesh_path, report, &grid, clvox_context_device(dev), a, palette, &stats, output, setup_seconds,
                       now_seconds() - wall_start);
         flush_stdout(); /* the summary before the warnings */
     }
@@ -1208,6 +1370,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
 
 done:
     clvox_mesh_destroy(mesh);
+    clvox_palette_destroy(palette);
     clvox_context_destroy(dev);
     clvox_context_destroy(host);
     free(output);
@@ -1220,6 +1383,7 @@ int main(int argc, char **argv)
     if (argc >= 2 && strcmp(argv[1], "info") == 0) return finish_stdout(cmd_info(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "preview") == 0) return finish_stdout(cmd_preview(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "palette") == 0) return finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "instances") == 0) return finish_stdout(cmd_instances(argc - 2, argv + 2), NULL);
 
     cli_args a;
     int rc = parse_args(argc, argv, &a);

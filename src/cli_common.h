@@ -89,5 +89,7 @@ int has_channel(const char *list, const char *name);
 int cmd_preview(int argc, char **argv);
 /* clvox palette (cli_palette.c); argv after "palette". */
 int cmd_palette(int argc, char **argv);
+/* clvox instances (cli_instances.c); argv after "instances". */
+int cmd_instances(int argc, char **argv);
 
 #endif

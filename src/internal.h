@@ -165,6 +165,8 @@ typedef struct clvox__slab_stats {
     uint64_t filled, rays, odd_parity_rays, overflow_rays;
     uint64_t coverage_count; /* samples inside, summed over the slab's voxels */
     uint64_t palette_early, palette_shortcut, palette_scored; /* voxels decided by each step */
+    uint64_t palette_nonempty; /* voxels whose element is not empty */
+    double palette_volume;     /* sum of the chosen elements' volumes (voxel units) */
     uint32_t max_crossings;
 } clvox__slab_stats;
 

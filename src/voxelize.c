@@ -5,6 +5,7 @@
 #include "internal.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,12 +26,69 @@ static uint32_t auto_slab_depth(const clvox_grid *g)
     return (uint32_t)d;
 }
 
-/* Oversampling, channels and threshold. */
-static clvox_status check_sampling(clvox_context *ctx, const clvox_voxelize_options *o)
+/* Palette runs: t = p = 16 samples unless the caller says (N = 4). */
+#define PALETTE_DEFAULT_N 4u
+#define PALETTE_DEFAULT_M 16u
+
+/* The palette, metric and shortcut of a palette run; fills the sampling
+ * defaults and the shortcut's default constants into o. */
+static clvox_status check_palette(clvox_context *ctx, clvox_voxelize_options *o)
 {
-    const uint32_t N = o->oversample, M = o->oversample_points ? o->oversample_points : o->oversample;
-    if (o->channels & ~(CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE))
+    if (!o->palette) {
+        if (o->channels & (CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE))
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "the element and score channels need a palette");
+        return CLVOX_OK;
+    }
+    if (o->method == CLVOX_METHOD_TETRA)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "palette voxelization needs the ray method (its samples are rays)");
+    if ((unsigned)o->metric >= CLVOX_METRIC_COUNT)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown metric %d", (int)o->metric);
+    size_t n = clvox_palette_count(o->palette);
+    if (n < 2 || n > 1024)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "palette with %zu elements (2 .. 1024)", n);
+    if (!o->oversample) {
+        if (o->oversample_points)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "points per voxel given without rays (oversample)");
+        o->oversample = PALETTE_DEFAULT_N;
+        o->oversample_points = PALETTE_DEFAULT_M;
+    }
+    const uint32_t N = o->oversample, M = o->oversample_points ? o->oversample_points : N;
+    if ((uint64_t)N * N * M > CLVOX_MAX_PALETTE_SAMPLES)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                           "%u rays x %u points = %llu samples per voxel: palette scoring takes at most %u",
+                           N * N, M, (unsigned long long)N * N * M, CLVOX_MAX_PALETTE_SAMPLES);
+    if (o->nearest_shortcut) {
+        if (o->metric != CLVOX_METRIC_NEAREST)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "the alpha/beta shortcut is for the nearest metric only");
+        if (o->shortcut_alpha == 0.0 && o->shortcut_beta == 0.0) {
+            /* alpha << p_min, beta >> p_max (3.1): a tenth of the way */
+            double pmin = 0.5, pmax = 0.5;
+            if (n > 2) pmin = 1.0, pmax = 0.0;
+            for (size_t i = 2; i < n; i++) {
+                clvox_palette_element_info info;
+                clvox_status st = clvox_palette_element_info_get(ctx, o->palette, i, &info);
+                if (st != CLVOX_OK) return st;
+                if (info.volume < pmin) pmin = info.volume;
+                if (info.volume > pmax) pmax = info.volume;
+            }
+            o->shortcut_alpha = pmin / 10.0;
+            o->shortcut_beta = 1.0 - (1.0 - pmax) / 10.0;
+        }
+        if (!(o->shortcut_alpha > 0.0 && o->shortcut_alpha < o->shortcut_beta && o->shortcut_beta < 1.0))
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "shortcut needs 0 < alpha (%g) < beta (%g) < 1",
+                               o->shortcut_alpha, o->shortcut_beta);
+    }
+    return CLVOX_OK;
+}
+
+/* Oversampling, channels and threshold. */
+static clvox_status check_sampling(clvox_context *ctx, clvox_voxelize_options *o)
+{
+    if (o->channels & ~(CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE))
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown channels 0x%x", o->channels);
+    clvox_status pst = check_palette(ctx, o);
+    if (pst != CLVOX_OK) return pst;
+    const uint32_t N = o->oversample, M = o->oversample_points ? o->oversample_points : o->oversample;
     if (N == 0) {
         if (o->oversample_points || o->stochastic)
             return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "points per voxel and stochastic sampling need oversample >= 1");
@@ -58,6 +116,7 @@ static clvox_status check_sampling(clvox_context *ctx, const clvox_voxelize_opti
 static uint32_t auto_channels(const clvox_voxelize_options *o)
 {
     if (o->channels) return o->channels;
+    if (o->palette) return CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE;
     if (!o->oversample) return CLVOX_CHANNEL_OCCUPANCY;
     /* the paper's use of a threshold: a binary volume from the grey levels */
     return o->threshold_set ? CLVOX_CHANNEL_OCCUPANCY : CLVOX_CHANNEL_COVERAGE;
@@ -116,6 +175,7 @@ typedef struct sink_needs {
     uint32_t forced;
     int counts;
     uint32_t *channels_out; /* receives the channels produced (may be NULL) */
+    uint32_t *samples_out;  /* receives the samples per voxel (may be NULL) */
 } sink_needs;
 
 /* Progress between the batches of a slab: the caller's callback with the
@@ -152,12 +212,21 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     clvox__run req = {auto_channels(&o) | needs->forced, needs->counts, poll_progress, &poll};
     o.channels = req.channels;
     if (needs->channels_out) *needs->channels_out = req.channels;
-    const int want_occ = (req.channels & CLVOX_CHANNEL_OCCUPANCY) != 0;
-    const int want_cov = (req.channels & CLVOX_CHANNEL_COVERAGE) != 0;
-    const uint64_t occ_slice = want_occ ? (uint64_t)clvox__row_words(X) * Y * sizeof(cl_uint) : 0;
-    const uint64_t cov_slice = want_cov ? (uint64_t)X * Y * sizeof(cl_ushort) : 0;
-    /* the largest plane bounds the slab depth */
-    uint64_t slice_bytes = occ_slice > cov_slice ? occ_slice : cov_slice;
+    /* The slab's device planes: occupancy bit rows; coverage, element and
+     * score one uint16 per voxel. */
+    const uint64_t voxel_slice = (uint64_t)X * Y * sizeof(cl_ushort);
+    const uint32_t plane_channel[4] = {CLVOX_CHANNEL_OCCUPANCY, CLVOX_CHANNEL_COVERAGE, CLVOX_CHANNEL_ELEMENT,
+                                       CLVOX_CHANNEL_SCORE};
+    static const char *const plane_name[4] = {"occupancy", "coverage", "element", "score"};
+    uint64_t plane_slice[4];
+    uint64_t slice_bytes = 0, all_slices = 0; /* the largest plane bounds the slab depth */
+    for (int i = 0; i < 4; i++) {
+        plane_slice[i] = !(req.channels & plane_channel[i]) ? 0
+                         : i == 0 ? (uint64_t)clvox__row_words(X) * Y * sizeof(cl_uint)
+                                  : voxel_slice;
+        if (plane_slice[i] > slice_bytes) slice_bytes = plane_slice[i];
+        all_slices += plane_slice[i];
+    }
     uint64_t max_alloc = ctx->device.max_alloc_bytes ? ctx->device.max_alloc_bytes : (1ull << 31);
     if (slice_bytes > max_alloc)
         return clvox__fail(ctx, CLVOX_ERR_GRID, "one %ux%u slice needs %llu MB, more than the device's largest buffer (%llu MB)",
@@ -169,9 +238,10 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
 
     stats.channels = req.channels;
     stats.samples_per_voxel = o.oversample ? o.oversample * o.oversample * (o.oversample_points ? o.oversample_points : o.oversample) : 1;
+    if (needs->samples_out) *needs->samples_out = stats.samples_per_voxel;
 
     clvox__method_state *ms = NULL;
-    clvox__slab_out planes = {NULL, NULL};
+    cl_mem plane[4] = {NULL, NULL, NULL, NULL};
     st = m->prepare(ctx, mesh, grid, &o, &req, depth, &stats, &ms);
     if (st == CLVOX_OK && open_sink) {
         char params[512];
@@ -179,17 +249,18 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         st = open_sink(user, m->name, params);
     }
     cl_int err = CL_SUCCESS;
-    if (st == CLVOX_OK && want_occ) {
-        planes.occupancy = clCreateBuffer(ctx->cl, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR,
-                                          (size_t)(depth * occ_slice), NULL, &err);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clCreateBuffer(slab occupancy)");
+    for (int i = 0; i < 4 && st == CLVOX_OK; i++) {
+        if (!plane_slice[i]) continue;
+        plane[i] = clCreateBuffer(ctx->cl, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, (size_t)(depth * plane_slice[i]),
+                                  NULL, &err);
+        if (err != CL_SUCCESS) {
+            char what[64];
+            snprintf(what, sizeof what, "clCreateBuffer(slab %s)", plane_name[i]);
+            st = clvox__cl_fail(ctx, err, what);
+        }
     }
-    if (st == CLVOX_OK && want_cov) {
-        planes.coverage = clCreateBuffer(ctx->cl, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR,
-                                         (size_t)(depth * cov_slice), NULL, &err);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clCreateBuffer(slab coverage)");
-    }
-    stats.peak_slab_bytes += depth * (occ_slice + cov_slice); /* method working set + slab planes */
+    const clvox__slab_out planes = {plane[0], plane[1], plane[2], plane[3]};
+    stats.peak_slab_bytes += depth * all_slices; /* method working set + slab planes */
     uint32_t slabs = (Z + depth - 1) / depth, done = 0;
     poll.slabs = slabs;
     poll.last = clvox__now();
@@ -206,31 +277,33 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         stats.odd_parity_rays += ss.odd_parity_rays;
         stats.overflow_rays += ss.overflow_rays;
         stats.coverage_sum += (double)ss.coverage_count;
+        stats.palette_early_voxels += ss.palette_early;
+        stats.palette_shortcut_voxels += ss.palette_shortcut;
+        stats.palette_scored_voxels += ss.palette_scored;
+        stats.palette_nonempty_voxels += ss.palette_nonempty;
+        stats.palette_volume += ss.palette_volume;
         if (ss.max_crossings > stats.max_crossings) stats.max_crossings = ss.max_crossings;
 
-        void *p_occ = NULL, *p_cov = NULL;
-        if (planes.occupancy) {
-            p_occ = clEnqueueMapBuffer(ctx->queue, planes.occupancy, CL_TRUE, CL_MAP_READ, 0, (size_t)(nz * occ_slice),
-                                       0, NULL, NULL, &err);
-            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "mapping the slab");
-        }
-        if (st == CLVOX_OK && planes.coverage) {
-            p_cov = clEnqueueMapBuffer(ctx->queue, planes.coverage, CL_TRUE, CL_MAP_READ, 0, (size_t)(nz * cov_slice),
-                                       0, NULL, NULL, &err);
-            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "mapping the slab's coverage");
+        void *host[4] = {NULL, NULL, NULL, NULL};
+        for (int i = 0; i < 4 && st == CLVOX_OK; i++) {
+            if (!plane[i]) continue;
+            host[i] = clEnqueueMapBuffer(ctx->queue, plane[i], CL_TRUE, CL_MAP_READ, 0, (size_t)(nz * plane_slice[i]), 0,
+                                         NULL, NULL, &err);
+            if (err != CL_SUCCESS) {
+                char what[64];
+                snprintf(what, sizeof what, "mapping the slab's %s", plane_name[i]);
+                st = clvox__cl_fail(ctx, err, what);
+            }
         }
         if (st == CLVOX_OK) {
             double t0 = clvox__now();
-            clvox__slab_planes hp = {p_occ, p_cov};
+            clvox__slab_planes hp = {host[0], host[1], host[2], host[3]};
             st = sink(user, z0, nz, &hp);
             stats.seconds[CLVOX_STAGE_WRITE] += clvox__now() - t0;
         }
-        if (p_occ) {
-            err = clEnqueueUnmapMemObject(ctx->queue, planes.occupancy, p_occ, 0, NULL, NULL);
-            if (err != CL_SUCCESS && st == CLVOX_OK) st = clvox__cl_fail(ctx, err, "unmapping the slab");
-        }
-        if (p_cov) {
-            err = clEnqueueUnmapMemObject(ctx->queue, planes.coverage, p_cov, 0, NULL, NULL);
+        for (int i = 0; i < 4; i++) {
+            if (!host[i]) continue;
+            err = clEnqueueUnmapMemObject(ctx->queue, plane[i], host[i], 0, NULL, NULL);
             if (err != CL_SUCCESS && st == CLVOX_OK) st = clvox__cl_fail(ctx, err, "unmapping the slab");
         }
         if (st != CLVOX_OK) break;
@@ -239,12 +312,12 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         if (st == CLVOX_OK && o.progress && !o.progress(o.progress_user, (double)done / slabs))
             st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled after %u of %u slabs", done, slabs);
     }
-    if (planes.occupancy || planes.coverage) clFinish(ctx->queue);
-    clvox__release_mem(&planes.occupancy);
-    clvox__release_mem(&planes.coverage);
+    const int want_cov = (req.channels & CLVOX_CHANNEL_COVERAGE) != 0;
+    if (plane[0] || plane[1] || plane[2] || plane[3]) clFinish(ctx->queue);
+    for (int i = 0; i < 4; i++) clvox__release_mem(&plane[i]);
     if (ms) m->release(ms);
     /* coverage in voxel units: samples inside / samples per voxel */
-    stats.coverage_sum = want_cov ? stats.coverage_sum / stats.samples_per_voxel : (double)stats.filled_voxels;
+    stats.coverage_sum = want_cov || o.palette ? stats.coverage_sum / stats.samples_per_voxel : (double)stats.filled_voxels;
     stats.seconds[CLVOX_STAGE_TOTAL] = clvox__now() - t_start;
     if (stats_out) *stats_out = stats;
     return st;
@@ -259,13 +332,15 @@ typedef struct exr_sink {
     clvox_compression compression;
     uint32_t threads;
     uint32_t channels; /* set by run() before open */
+    const clvox_palette *palette;
+    clvox_metric metric;
     clvox__exr_writer *w;
 } exr_sink;
 
 static clvox_status exr_open(void *user, const char *method, const char *params)
 {
     exr_sink *s = user;
-    clvox__exr_meta meta = {method, params};
+    clvox__exr_meta meta = {method, params, s->palette, s->palette ? clvox_metric_name(s->metric) : NULL};
     return clvox__exr_open(s->ctx, s->path, s->grid, &meta, s->channels, s->compression, s->threads, &s->w);
 }
 
@@ -281,10 +356,14 @@ clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, c
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "no output path");
     exr_sink s = {ctx, path, grid, options ? options->compression : CLVOX_COMPRESSION_DEFAULT,
-                  options ? options->threads : 0, 0, NULL};
+                  options ? options->threads : 0, 0, NULL, CLVOX_METRIC_NEAREST, NULL};
+    if (options && options->size >= offsetof(clvox_voxelize_options, metric) + sizeof options->metric) {
+        s.palette = options->palette;
+        s.metric = options->metric;
+    }
     clvox_stats local;
     clvox_stats *st_out = stats ? stats : &local;
-    sink_needs needs = {0, 0, &s.channels}; /* HALF bits straight into the file */
+    sink_needs needs = {0, 0, &s.channels, NULL}; /* HALF bits straight into the file */
     clvox_status st = run(ctx, mesh, grid, options, &needs, exr_open, exr_slab, &s, st_out);
     if (st == CLVOX_OK && s.w) {
         double t0 = clvox__now();
@@ -307,10 +386,12 @@ typedef struct user_sink {
     clvox_slab_channels_fn fn_all; /* every channel (clvox_voxelize_slabs)    */
     void *user;
     uint8_t *occ_scratch;
-    float *cov_scratch;
-    size_t occ_size, cov_size;     /* elements */
+    float *cov_scratch, *score_scratch;
+    size_t occ_size, cov_size, score_size; /* elements */
     uint8_t *dense_occ;            /* memory sinks: X*Y*Z, or NULL */
     float *dense_cov;
+    uint16_t *dense_element;
+    float *dense_score;
     uint32_t X, Y;
     uint32_t channels;             /* produced (set by run) */
     float *value;                  /* coverage of count t: t / samples, exactly rounded */
@@ -344,7 +425,7 @@ static clvox_status user_slab(void *p, uint32_t z0, uint32_t nz, const clvox__sl
 {
     user_sink *s = p;
     size_t slice = (size_t)s->X * s->Y, n = slice * nz;
-    if (!s->value && planes->coverage_half) { /* the count -> fraction table, once */
+    if (!s->value && (planes->coverage_half || planes->score_half)) { /* the count -> fraction table, once */
         s->value = malloc(((size_t)s->samples + 1) * sizeof *s->value);
         if (!s->value) return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
         for (uint32_t t = 0; t <= s->samples; t++) s->value[t] = (float)t / (float)s->samples;
@@ -371,10 +452,23 @@ static clvox_status user_slab(void *p, uint32_t z0, uint32_t nz, const clvox__sl
         }
         counts_to_float(cov, planes->coverage_half, n, s->value);
     }
+    float *score = NULL;
+    if (planes->score_half && (s->dense_score || s->fn_all)) {
+        if (s->dense_score) {
+            score = s->dense_score + (size_t)z0 * slice;
+        } else {
+            if (!grow_scratch((void **)&s->score_scratch, &s->score_size, n, sizeof(float)))
+                return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a slab");
+            score = s->score_scratch;
+        }
+        counts_to_float(score, planes->score_half, n, s->value);
+    }
+    if (planes->element && s->dense_element)
+        memcpy(s->dense_element + (size_t)z0 * slice, planes->element, n * sizeof *planes->element);
     int stop = 0;
     if (s->fn) stop = s->fn(s->user, z0, nz, occ);
     if (s->fn_all) {
-        clvox_slab slab = {z0, nz, occ, cov};
+        clvox_slab slab = {z0, nz, occ, cov, planes->element, score};
         stop = s->fn_all(s->user, &slab);
     }
     if (stop) return clvox__fail(s->ctx, CLVOX_ERR_CANCELLED, "cancelled by the slab callback at slice %u", z0);
@@ -384,13 +478,12 @@ static clvox_status user_slab(void *p, uint32_t z0, uint32_t nz, const clvox__sl
 static clvox_status run_user(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                              const clvox_voxelize_options *options, uint32_t forced, user_sink *s, clvox_stats *stats)
 {
-    /* coverage arrives as counts; samples = N^2 M (validated by run) */
-    uint32_t N = options ? options->oversample : 0, M = options && options->oversample_points ? options->oversample_points : N;
-    s->samples = N ? N * N * M : 1;
-    sink_needs needs = {forced, 1, &s->channels};
+    /* coverage and score arrive as counts of s->samples (set by run) */
+    sink_needs needs = {forced, 1, &s->channels, &s->samples};
     clvox_status st = run(ctx, mesh, grid, options, &needs, NULL, user_slab, s, stats);
     free(s->occ_scratch);
     free(s->cov_scratch);
+    free(s->score_scratch);
     free(s->value);
     return st;
 }
@@ -412,7 +505,7 @@ clvox_status clvox_voxelize_stream(clvox_context *ctx, const clvox_mesh *mesh, c
     if (options && options->size >= sizeof(size_t) && options->size <= sizeof o) memcpy(&o, options, options->size);
     o.size = sizeof o; /* the fields set below are read whatever the caller's size */
     o.channels = occupancy_channels(&o);
-    user_sink s = {ctx, fn, NULL, user, NULL, NULL, 0, 0, NULL, NULL, grid->dims[0], grid->dims[1], 0, NULL, 0};
+    user_sink s = {.ctx = ctx, .fn = fn, .user = user, .X = grid->dims[0], .Y = grid->dims[1]};
     return run_user(ctx, mesh, grid, options ? &o : NULL, o.channels, &s, stats);
 }
 
@@ -422,7 +515,7 @@ clvox_status clvox_voxelize_slabs(clvox_context *ctx, const clvox_mesh *mesh, co
 {
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!fn || !grid) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL slab callback or grid");
-    user_sink s = {ctx, NULL, fn, user, NULL, NULL, 0, 0, NULL, NULL, grid->dims[0], grid->dims[1], 0, NULL, 0};
+    user_sink s = {.ctx = ctx, .fn_all = fn, .user = user, .X = grid->dims[0], .Y = grid->dims[1]};
     return run_user(ctx, mesh, grid, options, 0, &s, stats);
 }
 
@@ -447,7 +540,7 @@ clvox_status clvox_voxelize_to_memory(clvox_context *ctx, const clvox_mesh *mesh
     if (options && options->size >= sizeof(size_t) && options->size <= sizeof o) memcpy(&o, options, options->size);
     o.size = sizeof o; /* the fields set below are read whatever the caller's size */
     o.channels = occupancy_channels(&o) & ~CLVOX_CHANNEL_COVERAGE; /* nowhere to put coverage */
-    user_sink s = {ctx, NULL, NULL, NULL, NULL, NULL, 0, 0, out, NULL, grid->dims[0], grid->dims[1], 0, NULL, 0};
+    user_sink s = {.ctx = ctx, .dense_occ = out, .X = grid->dims[0], .Y = grid->dims[1]};
     return run_user(ctx, mesh, grid, options ? &o : NULL, CLVOX_CHANNEL_OCCUPANCY, &s, stats);
 }
 
@@ -471,6 +564,28 @@ clvox_status clvox_voxelize_to_buffers(clvox_context *ctx, const clvox_mesh *mes
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
                            "a %s buffer was given but the options do not produce that channel (channels 0x%x)",
                            occupancy && !(produced & CLVOX_CHANNEL_OCCUPANCY) ? "occupancy" : "coverage", produced);
-    user_sink s = {ctx, NULL, NULL, NULL, NULL, NULL, 0, 0, occupancy, coverage, grid->dims[0], grid->dims[1], 0, NULL, 0};
+    user_sink s = {.ctx = ctx, .dense_occ = occupancy, .dense_cov = coverage, .X = grid->dims[0], .Y = grid->dims[1]};
     return run_user(ctx, mesh, grid, options, 0, &s, stats);
+}
+
+clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                               const clvox_voxelize_options *options, uint16_t *element,
+                                               size_t element_count, float *score, size_t score_count,
+                                               clvox_stats *stats)
+{
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!grid || (!element && !score))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL grid, or no output buffer at all");
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    if (options && options->size >= sizeof(size_t) && options->size <= sizeof o) memcpy(&o, options, options->size);
+    if (!o.palette) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_voxelize_palette_to_buffers: no palette");
+    clvox_status st = CLVOX_OK;
+    if (element) st = check_dense(ctx, grid, element_count, "element");
+    if (st == CLVOX_OK && score) st = check_dense(ctx, grid, score_count, "score");
+    if (st != CLVOX_OK) return st;
+    o.size = sizeof o;
+    uint32_t forced = (element ? CLVOX_CHANNEL_ELEMENT : 0u) | (score ? CLVOX_CHANNEL_SCORE : 0u);
+    if (!o.channels) o.channels = forced;
+    user_sink s = {.ctx = ctx, .dense_element = element, .dense_score = score, .X = grid->dims[0], .Y = grid->dims[1]};
+    return run_user(ctx, mesh, grid, &o, forced, &s, stats);
 }

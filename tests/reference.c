@@ -134,3 +134,100 @@ void ref_coverage(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, c
     free(gv);
     free(hits);
 }
+
+/* Both palette references: score every element (given == NULL), or count
+ * the samples where the given elements break the metric's constraint. */
+static uint64_t palette_columns(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, const clvox_grid *g,
+                                clvox_axis axis, uint32_t N, uint32_t M, int stochastic, uint64_t seed,
+                                const clvox_palette *pal, clvox_metric metric, uint16_t *element, uint32_t *equal,
+                                uint32_t *inside, const uint16_t *given)
+{
+    uint64_t violations = 0;
+    int perm[3];
+    axis_perm(axis, perm);
+    float *gv = grid_vertices(xyz, nv, g, perm);
+    double *hits = malloc((nt + 1) * sizeof *hits);
+    const uint32_t du = g->dims[perm[0]], dv = g->dims[perm[1]], dw = g->dims[perm[2]];
+    const uint32_t R = N * N, S = R * M, slo = (uint32_t)seed, shi = (uint32_t)(seed >> 32);
+    const size_t ne = clvox_palette_count(pal);
+    /* one column at a time: o and the unit-voxel position of every sample */
+    uint8_t *o = malloc((size_t)du * S);
+    float *pos = malloc((size_t)du * S * 3 * sizeof *pos);
+    if (!hits || !o || !pos) abort();
+    for (uint32_t jw = 0; jw < dw; jw++)
+        for (uint32_t jv = 0; jv < dv; jv++) {
+            const uint32_t id = jw * dv + jv;
+            for (uint32_t b = 0; b < N; b++)
+                for (uint32_t a = 0; a < N; a++) {
+                    uint32_t r = a + N * b, bits[4] = {0, 0, 0, 0};
+                    if (stochastic) clvox_philox4x32_10(id, r, CLVOX_SAMPLER_RAY_WORD, 0, slo, shi, bits);
+                    double sv = clvox_stratum(a, N, stochastic, bits[0]), sw = clvox_stratum(b, N, stochastic, bits[1]);
+                    float pv = (float)(((double)jv - 0.5) + sv), pw = (float)(((double)jw - 0.5) + sw);
+                    size_t n = ray_crossings(gv, tri, nt, pv, pw, hits);
+                    for (uint32_t i = 0; i < du; i++)
+                        for (uint32_t m = 0; m < M; m++) {
+                            uint32_t pb = stochastic ? clvox_point_bits(slo, shi, id, r, i, m) : 0;
+                            double su = clvox_stratum(m, M, stochastic, pb);
+                            double p = ((double)i - 0.5) + su;
+                            size_t beyond = 0;
+                            for (size_t k = 0; k < n; k++) beyond += hits[k] > p;
+                            size_t at = (size_t)i * S + r * M + m;
+                            o[at] = (uint8_t)(beyond & 1);
+                            float *q = pos + at * 3;
+                            q[perm[0]] = (float)su, q[perm[1]] = (float)sv, q[perm[2]] = (float)sw;
+                        }
+                }
+            for (uint32_t i = 0; i < du && given; i++) {
+                const uint8_t *ov = o + (size_t)i * S;
+                const float *pv = pos + (size_t)i * S * 3;
+                size_t e = given[voxel_index(g, perm, i, jv, jw)];
+                for (uint32_t k = 0; k < S; k++) {
+                    int ev = clvox_palette_contains(pal, e, pv[3 * k], pv[3 * k + 1], pv[3 * k + 2]);
+                    violations += (metric == CLVOX_METRIC_OUTER && ov[k] && !ev) ||
+                                  (metric == CLVOX_METRIC_INNER && !ov[k] && ev);
+                }
+            }
+            for (uint32_t i = 0; i < du && !given; i++) {
+                const uint8_t *ov = o + (size_t)i * S;
+                const float *pv = pos + (size_t)i * S * 3;
+                long best = -1;
+                size_t best_e = 0;
+                uint32_t in = 0;
+                for (uint32_t k = 0; k < S; k++) in += ov[k];
+                for (size_t e = 0; e < ne; e++) { /* Table 1, every sample, no early stop */
+                    long score = 0;
+                    int minus_inf = 0;
+                    for (uint32_t k = 0; k < S; k++) {
+                        int ev = clvox_palette_contains(pal, e, pv[3 * k], pv[3 * k + 1], pv[3 * k + 2]);
+                        if (ev == ov[k]) score++;
+                        else if ((metric == CLVOX_METRIC_OUTER && ov[k]) || (metric == CLVOX_METRIC_INNER && ev))
+                            minus_inf = 1;
+                    }
+                    if (!minus_inf && score > best) best = score, best_e = e;
+                }
+                size_t v = voxel_index(g, perm, i, jv, jw);
+                element[v] = (uint16_t)best_e;
+                if (equal) equal[v] = (uint32_t)best;
+                if (inside) inside[v] = in;
+            }
+        }
+    free(gv);
+    free(hits);
+    free(o);
+    free(pos);
+    return violations;
+}
+
+void ref_palette(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, const clvox_grid *g, clvox_axis axis,
+                 uint32_t N, uint32_t M, int stochastic, uint64_t seed, const clvox_palette *pal, clvox_metric metric,
+                 uint16_t *element, uint32_t *equal, uint32_t *inside)
+{
+    palette_columns(xyz, nv, tri, nt, g, axis, N, M, stochastic, seed, pal, metric, element, equal, inside, NULL);
+}
+
+uint64_t ref_palette_violations(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, const clvox_grid *g,
+                                clvox_axis axis, uint32_t N, uint32_t M, int stochastic, uint64_t seed,
+                                const clvox_palette *pal, clvox_metric metric, const uint16_t *element)
+{
+    return palette_columns(xyz, nv, tri, nt, g, axis, N, M, stochastic, seed, pal, metric, NULL, NULL, NULL, element);
+}

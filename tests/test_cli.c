@@ -1284,6 +1284,77 @@ static void test_palette_cli(void)
     expect_failure_msg("palette show bad file", 4, NULL, ARGS("palette", "show", bad), "bad_palette.txt:3:");
 }
 
+/* A palette run: summary lines, the file's channels and palette. */
+static void test_palette_run(void)
+{
+    char out[PATH_MAX], cube[PATH_MAX];
+    path_join(out, sizeof out, g_dir, "pal.exr");
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    run_result r;
+    run_cli(&r, NULL, ARGS(cube, "-r", "12", "--pad", "1", "--palette", "paper46", "--metric", "outer", "--samples",
+                           "9,5", "--channels", "element,score,coverage", "-o", out));
+    CHECK_MSG(r.code == 0 && strstr(r.out, "paper46 (46 elements), metric outer, 9 rays x 5 points") &&
+                  strstr(r.out, "decided by early-out") && strstr(r.out, "coverage, element, score") != NULL &&
+                  strstr(r.out, "1728 of 2744 voxels") && strstr(r.out, "volume       1 of the elements"),
+              "palette run: exit %d, out [%s] err [%s]", r.code, r.out, r.err);
+    run_free(&r);
+    clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
+    co.host_only = 1;
+    clvox_context *c = NULL;
+    CHECK_OK(c, clvox_context_create(&co, &c));
+    clvox_volume_info info;
+    CHECK_OK(c, clvox_volume_read(c, out, &info, NULL, 0));
+    CHECK_MSG(strcmp(info.channels, "coverage,element,score") == 0 && strcmp(info.palette, "paper46") == 0 &&
+                  info.palette_count == 46 && strcmp(info.metric, "outer") == 0,
+              "palette file: channels '%s', palette '%s' (%u), metric '%s'", info.channels, info.palette,
+              info.palette_count, info.metric);
+    clvox_palette *p = NULL;
+    CHECK_OK(c, clvox_volume_palette(c, out, &p));
+    CHECK(p && clvox_palette_count(p) == 46);
+    clvox_palette_destroy(p);
+    clvox_context_destroy(c);
+    unlink(out);
+}
+
+/* Palette runs: bad options and files get one line, the right exit code
+ * and no file. */
+static void test_palette_run_errors(void)
+{
+    char out[PATH_MAX], cube[PATH_MAX], bad[PATH_MAX];
+    path_join(out, sizeof out, g_out, "p.exr");
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    path_join(bad, sizeof bad, g_in, "bad_palette.txt"); /* from test_palette_cli */
+    expect_failure_msg("unknown palette", 2, NULL, ARGS(cube, "-r", "8", "--palette", "paper47", "-o", out), "paper47");
+    expect_failure_msg("bad palette file", 4, NULL, ARGS(cube, "-r", "8", "--palette", bad, "-o", out),
+                       "bad_palette.txt:3:");
+    expect_failure_msg("unknown metric", 2, NULL, ARGS(cube, "-r", "8", "--palette", "binary", "--metric", "best", "-o", out),
+                       "best");
+    expect_failure_msg("samples T not square", 2, NULL,
+                       ARGS(cube, "-r", "8", "--palette", "binary", "--samples", "10,4", "-o", out), "square");
+    expect_failure_msg("samples zero", 2, NULL, ARGS(cube, "-r", "8", "--palette", "binary", "--samples", "0,4", "-o", out),
+                       "--samples");
+    expect_failure_msg("samples P zero", 2, NULL, ARGS(cube, "-r", "8", "--palette", "binary", "--samples", "4,0", "-o", out),
+                       "--samples");
+    expect_failure_msg("samples too many", 2, NULL,
+                       ARGS(cube, "-r", "8", "--palette", "binary", "--samples", "256,17", "-o", out), "4096");
+    expect_failure_msg("samples one value", 2, NULL, ARGS(cube, "-r", "8", "--palette", "binary", "--samples", "16", "-o", out),
+                       "--samples");
+    expect_failure_msg("samples and oversample", 2, NULL,
+                       ARGS(cube, "-r", "8", "--palette", "binary", "--samples", "4,4", "--oversample", "2", "-o", out),
+                       "give one");
+    expect_failure_msg("metric without palette", 2, NULL, ARGS(cube, "-r", "8", "--metric", "outer", "-o", out), "--palette");
+    expect_failure_msg("samples without palette", 2, NULL, ARGS(cube, "-r", "8", "--samples", "4,4", "-o", out), "--palette");
+    expect_failure_msg("shortcut with outer", 2, NULL,
+                       ARGS(cube, "-r", "8", "--palette", "paper46", "--metric", "outer", "--shortcut", "auto", "-o", out),
+                       "nearest");
+    expect_failure_msg("shortcut bad", 2, NULL,
+                       ARGS(cube, "-r", "8", "--palette", "paper46", "--shortcut", "0.6,0.5", "-o", out), "ALPHA");
+    expect_failure_msg("palette with tetra", 2, NULL,
+                       ARGS(cube, "-r", "8", "--palette", "paper46", "--method", "tetra", "-o", out), "ray");
+    expect_failure_msg("element channel without palette", 2, NULL, ARGS(cube, "-r", "8", "--channels", "element", "-o", out),
+                       "--palette");
+}
+
 static void test_preview(void)
 {
     char p[PATH_MAX], mesh[PATH_MAX], occ_exr[PATH_MAX], cov_exr[PATH_MAX], both_exr[PATH_MAX];
@@ -1805,6 +1876,8 @@ int main(void)
     test_preview();
     test_palette_files();
     test_palette_cli();
+    test_palette_run();
+    test_palette_run_errors();
     test_special_outputs();
     test_cancel();
     test_kill();

@@ -1,7 +1,8 @@
 /* Replays every fuzz seed corpus (tests/fuzz/seeds_<name>/) and every input a
  * fuzzer or an issue once found (tests/fuzz/regress_<name>/) through the fuzz
  * targets' own checks, without libFuzzer: the mesh targets' property check
- * (fuzz/fuzz_mesh.h), the EXR reader target and the palette parser target,
+ * (fuzz/fuzz_mesh.h), the EXR reader target, the palette parser target and
+ * the render map parser target,
  * compiled here a second time with gcc. Each input runs in a child process with a time limit, so a crash,
  * an abort inside OpenMesh, a hang or (under CONFIG=sanitize) a sanitizer
  * report fails that input alone. Runs from the repository root (run_tests.sh). */
@@ -19,6 +20,9 @@
 #define LLVMFuzzerTestOneInput fuzz_palette_one_input
 #include "fuzz/fuzz_palette.c" /* the palette target, renamed */
 #undef LLVMFuzzerTestOneInput
+#define LLVMFuzzerTestOneInput fuzz_render_map_one_input
+#include "fuzz/fuzz_render_map.c" /* the render map target, renamed */
+#undef LLVMFuzzerTestOneInput
 
 typedef struct target {
     const char *name; /* fuzz_<name>.c, seeds_<name>/, regress_<name>/ */
@@ -29,6 +33,7 @@ typedef struct target {
 
 static const target targets[] = {
     {"volume_read", NULL, LLVMFuzzerTestOneInput, 1}, {"palette", NULL, fuzz_palette_one_input, 0},
+    {"render_map", NULL, fuzz_render_map_one_input, 0},
     {"mesh_obj", "obj", NULL, 0}, {"mesh_off", "off", NULL, 0}, {"mesh_ply", "ply", NULL, 0},
     {"mesh_stl", "stl", NULL, 0}, {"mesh_om", "om", NULL, 0},
 };
@@ -78,6 +83,8 @@ static int replay(const target *t, const unsigned char *data, size_t n, char *wh
         }
         clvox_context_destroy(fuzz_mesh_ctx);
         clvox_context_destroy(palette_ctx);
+        for (int i = 0; i < 2; i++) clvox_palette_destroy(render_map_palettes[i]);
+        clvox_context_destroy(render_map_ctx);
         exit(0); /* exit, not _exit: LeakSanitizer checks the child */
     }
     int status = 0;

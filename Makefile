@@ -31,6 +31,8 @@ LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
 # libpng (Debian libpng-dev) only for `clvox preview` in the CLI and for the
 # tests that decode its pictures; the library does not use it.
 PNG_LIBS := -lpng
+# GMP (Debian libgmp-dev) only for the tests: exact rational references.
+TEST_LIBS := -lgmp
 FINAL_LDFLAGS := $(SAN_LDFLAGS) $(LDFLAGS)
 
 ifeq ($(V),1)
@@ -39,11 +41,11 @@ else
   Q := @
 endif
 
-CLI_SRC := src/cli.c src/cli_common.c src/cli_preview.c src/cli_palette.c src/cli_instances.c
+CLI_SRC := src/cli.c src/cli_common.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c
 LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
 LIB_CXX := $(wildcard src/*.cpp)
-# Kernel program = shared types + prelude + sampler + palette + one file per stage.
-KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
+# Kernel program = shared types + prelude + sampler + palette + overlap + one file per stage.
+KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
 KERNEL_C := $(BUILD)/gen/kernels_embedded.c
 
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/%.o) $(LIB_CXX:%.cpp=$(BUILD)/%.o) $(BUILD)/gen/kernels_embedded.o
@@ -95,7 +97,7 @@ $(CLI_BIN): $(CLI_OBJ) $(STATIC_LIB)
 $(BUILD)/tests/%: tests/%.c $(TEST_SUPPORT_OBJ) $(STATIC_LIB)
 	@mkdir -p $(dir $@)
 	@$(if $(filter 0,$(V)),echo "  TEST  $<")
-	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS)
+	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS) $(TEST_LIBS)
 
 tests: all $(TEST_BINS)
 

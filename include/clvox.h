@@ -230,6 +230,16 @@ typedef enum clvox_metric {
     CLVOX_METRIC_COUNT
 } clvox_metric;
 
+/* What a voxel holds (clvox_voxelize_options.mode). */
+typedef enum clvox_mode {
+    CLVOX_MODE_SOLID = 0,    /* inside: the voxel centre is inside the mesh (parity; default) */
+    CLVOX_MODE_SURFACE,      /* the voxel's closed cell meets a triangle (exact; any soup) */
+    CLVOX_MODE_CONSERVATIVE, /* solid or surface: every voxel the solid touches */
+    CLVOX_MODE_COUNT
+} clvox_mode;
+/* "solid", "surface", "conservative"; NULL for a bad value. */
+const char *clvox_mode_name(clvox_mode mode);
+
 typedef struct clvox_voxelize_options {
     size_t size;
     clvox_method method;
@@ -271,10 +281,15 @@ typedef struct clvox_voxelize_options {
      * beta*t*p are, without scoring; 0 < alpha < beta < 1. */
     int nearest_shortcut;
     double shortcut_alpha, shortcut_beta;
+    /* Solid (default), surface or conservative (docs/design.md "Surface
+     * voxelization"). Surface and conservative are binary (occupancy only:
+     * no oversampling, no palette); surface ignores the method, conservative
+     * ORs the surface over the method's solid. */
+    clvox_mode mode;
 } clvox_voxelize_options;
 #define CLVOX_VOXELIZE_OPTIONS_INIT { sizeof(clvox_voxelize_options), CLVOX_METHOD_RAY, \
     CLVOX_AXIS_DEFAULT, 0, 0, 0, 0, CLVOX_COMPRESSION_DEFAULT, 0, CLVOX_TETRA_ORIGIN_CENTROID, \
-    {0,0,0}, NULL, NULL, 0, 0, 0, 0, 0, 0, 0.0, NULL, CLVOX_METRIC_NEAREST, 0, 0, 0.0, 0.0 }
+    {0,0,0}, NULL, NULL, 0, 0, 0, 0, 0, 0, 0.0, NULL, CLVOX_METRIC_NEAREST, 0, 0, 0.0, 0.0, CLVOX_MODE_SOLID }
 
 /* Per-voxel channels a run can produce (clvox_voxelize_options.channels). */
 #define CLVOX_CHANNEL_OCCUPANCY 0x1u /* 0/1: inside (binary), or coverage > threshold */

@@ -11,7 +11,7 @@ set -eu
 
 pkgs="build-essential pkg-config ca-certificates time \
 pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo \
-libopenexr-dev openexr libopenmesh-dev libpng-dev"
+libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev"
 peers=0
 blender=0
 [ "${CLVOX_WITH_BLENDER:-0}" = 1 ] && blender=1

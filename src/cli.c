@@ -6,6 +6,7 @@
  *   clvox preview FILE.exr -o OUT.png   slices as a PNG picture (cli_preview.c)
  *   clvox palette list | show NAME|FILE  palettes of sub-voxel elements (cli_palette.c)
  *   clvox instances VOLUME.exr -o OUT.csv  instances of a palette volume, for rendering (cli_instances.c)
+ *   clvox mesh VOLUME.exr -o OUT.ply  a palette volume's geometry as a PLY mesh (cli_mesh.c)
  *   clvox --list-devices | --help | --version
  *
  * Exit codes (also in --help):
@@ -384,6 +385,12 @@ static int parse_args(int argc, char **argv, cli_args *a)
             if (strcmp(v, "ray") == 0) a->vox.method = CLVOX_METHOD_RAY;
             else if (strcmp(v, "tetra") == 0) a->vox.method = CLVOX_METHOD_TETRA;
             else return usage_error("--method '%s': expected ray or tetra", v);
+        } else if (VALUE_OPT(NULL, "--mode")) {
+            NEED_VALUE("--mode");
+            if (strcmp(v, "solid") == 0) a->vox.mode = CLVOX_MODE_SOLID;
+            else if (strcmp(v, "surface") == 0) a->vox.mode = CLVOX_MODE_SURFACE;
+            else if (strcmp(v, "conservative") == 0) a->vox.mode = CLVOX_MODE_CONSERVATIVE;
+            else return usage_error("--mode '%s': expected solid, surface or conservative", v);
         } else if (VALUE_OPT(NULL, "--axis")) {
             NEED_VALUE("--axis");
             if (strcmp(v, "x") == 0) a->vox.ray_axis = CLVOX_AXIS_X;
@@ -550,6 +557,13 @@ static int parse_args(int argc, char **argv, cli_args *a)
         return usage_error("--oversample: the tetra method does not compute coverage (use --method ray)");
     }
     if (a->seed_given && !a->vox.stochastic) return usage_error("--seed needs --stochastic");
+    if (a->vox.mode != CLVOX_MODE_SOLID) {
+        const char *mode = clvox_mode_name(a->vox.mode);
+        if (a->palette) return usage_error("--mode %s: --palette needs --mode solid", mode);
+        if (a->vox.oversample) return usage_error("--mode %s is binary: --oversample needs --mode solid", mode);
+        if (a->vox.channels & ~CLVOX_CHANNEL_OCCUPANCY)
+            return usage_error("--mode %s writes occupancy only", mode);
+    }
     return 0;
 }
 
@@ -563,6 +577,7 @@ static void print_help(void)
 "       clvox preview FILE.exr -o OUT.png [options]\n"
 "       clvox palette list | show NAME|FILE\n"
 "       clvox instances VOLUME.exr -o OUT.csv [--render-map MAP]\n"
+"       clvox mesh VOLUME.exr -o OUT.ply [--ascii]\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
 "Voxelizes a closed triangle mesh on an OpenCL device and writes the solid\n"
@@ -591,6 +606,19 @@ static void print_help(void)
 "\n",
         DEFAULT_RESOLUTION, DEFAULT_RESOLUTION, CLVOX_MAX_AXIS, (unsigned long long)CLVOX_MAX_VOXELS);
     fputs(
+"Mode (what a voxel holds; default solid):\n"
+"  --mode solid|surface|conservative\n"
+"                           solid: the voxel centre is inside the mesh (parity;\n"
+"                           the mesh must be closed); surface: the voxel's closed\n"
+"                           cell meets a triangle (exact: a triangle touching a\n"
+"                           cell's face, edge or corner marks it, so a face on the\n"
+"                           plane between two cells marks both; degenerate\n"
+"                           triangles mark what they touch; no parity, so open\n"
+"                           meshes and triangle soups are fine; --method and its\n"
+"                           options do not apply); conservative: solid or surface\n"
+"                           (solid by --method, closed mesh). Both are binary\n"
+"                           (occupancy; no --oversample, --palette)\n"
+"\n"
 "Method:\n"
 "  --method ray|tetra       ray: quadtree + ray parity (Thon et al.); tetra: XOR\n"
 "                           of the tetrahedra from one origin to every triangle\n"
@@ -699,6 +727,10 @@ static void print_help(void)
 "clvox instances VOLUME.exr -o OUT.csv: one CSV row per non-empty voxel of a\n"
 "palette volume (position, size, element, symmetry, score, render object from\n"
 "--render-map), for scripts/blender_instances.py (clvox instances --help).\n"
+"\n"
+"clvox mesh VOLUME.exr -o OUT.ply: the geometry of a palette volume as a PLY\n"
+"mesh, each voxel replaced by its element's exact shape (clvox mesh --help).\n"
+"Needs no OpenCL device.\n"
 "\n"
 "After a run, one summary goes to stdout: mesh, grid, device, method, filled\n"
 "voxels and volume, rays, time per stage and output size. A mesh that is not\n"
@@ -1137,7 +1169,10 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
 
     char slab[32];
     snprintf(slab, sizeof slab, "%u", (unsigned)s->slab_depth);
-    if (a->vox.method == CLVOX_METHOD_TETRA) {
+    if (a->vox.mode == CLVOX_MODE_SURFACE) {
+        printf(LABEL "surface: closed cells meeting a triangle (exact), slab %s slices, %s compression\n", "method",
+               slab, compression_name(a->vox.compression));
+    } else if (a->vox.method == CLVOX_METHOD_TETRA) {
         char origin[128];
         if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_BBOX_CENTER) snprintf(origin, sizeof origin, "bbox centre");
         else if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_POINT)
@@ -1157,6 +1192,8 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
                "method", axes[ax >= 0 && ax <= 3 ? ax : 0], (unsigned)s->quadtree_depth, depth,
                (unsigned long long)s->quadtree_leaves, leaf, slab, compression_name(a->vox.compression));
     }
+    if (a->vox.mode == CLVOX_MODE_CONSERVATIVE)
+        printf(LABEL "conservative: the solid above OR the surface (closed cells meeting a triangle, exact)\n", "mode");
 
     const int grey = (s->channels & CLVOX_CHANNEL_COVERAGE) != 0;
     if (pal) {
@@ -1215,7 +1252,7 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
     } else {
         printf(LABEL "%s %s (the mesh encloses no volume)\n", "volume", fv, what);
     }
-    if (a->vox.method == CLVOX_METHOD_RAY || s->rays)
+    if ((a->vox.method == CLVOX_METHOD_RAY && a->vox.mode != CLVOX_MODE_SURFACE) || s->rays)
         printf(LABEL "%llu cast, %llu odd parity, %llu overflow redone, at most %u crossings per ray\n", "rays",
                (unsigned long long)s->rays, (unsigned long long)s->odd_parity_rays,
                (unsigned long long)s->overflow_rays, (unsigned)s->max_crossings);
@@ -1333,8 +1370,10 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
                       now_seconds() - wall_start);
         flush_stdout(); /* the summary before the warnings */
     }
-    /* Warnings come from the mesh report, whatever the method, one line each. */
-    if (!report->closed) {
+    /* Warnings come from the mesh report, whatever the method, one line each
+     * (surface mode has no inside: open meshes and duplicates are fine). */
+    const int solid = a->vox.mode != CLVOX_MODE_SURFACE;
+    if (solid && !report->closed) {
         char rays[96] = "";
         if (stats.odd_parity_rays > 0)
             snprintf(rays, sizeof rays, "; %llu rays crossed it an odd number of times",
@@ -1342,7 +1381,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
         warn("the mesh is not closed (%llu boundary edges%s): inside and outside are not defined everywhere and "
              "the result may be wrong",
              (unsigned long long)report->boundary_edges, rays);
-    } else if (stats.odd_parity_rays > 0) {
+    } else if (solid && stats.odd_parity_rays > 0) {
         warn("%llu rays crossed the surface an odd number of times although the mesh is closed: the result may "
              "be wrong",
              (unsigned long long)stats.odd_parity_rays);
@@ -1362,9 +1401,10 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
                  "so the volume is only that precise (move the mesh near the origin for a finer grid)",
                  far, ulp, 100.0 * ulp / hmin);
     }
-    if (report->duplicate_triangles > 0)
+    if (solid && report->duplicate_triangles > 0)
         warn("%llu triangles repeat the corners of another one (duplicated or coincident surfaces): the parity "
-             "rule cancels coincident copies, so a doubled shell voxelizes as empty",
+             "rule cancels coincident copies, which is right where two solids touch face to face (clvox mesh "
+             "exports) but makes a doubled shell voxelize as empty",
              (unsigned long long)report->duplicate_triangles);
     rc = finish_stdout(rc, output);
 
@@ -1384,6 +1424,7 @@ int main(int argc, char **argv)
     if (argc >= 2 && strcmp(argv[1], "preview") == 0) return finish_stdout(cmd_preview(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "palette") == 0) return finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
     if (argc >= 2 && strcmp(argv[1], "instances") == 0) return finish_stdout(cmd_instances(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "mesh") == 0) return finish_stdout(cmd_mesh(argc - 2, argv + 2), NULL);
 
     cli_args a;
     int rc = parse_args(argc, argv, &a);

@@ -91,5 +91,7 @@ int cmd_preview(int argc, char **argv);
 int cmd_palette(int argc, char **argv);
 /* clvox instances (cli_instances.c); argv after "instances". */
 int cmd_instances(int argc, char **argv);
+/* clvox mesh (cli_mesh.c); argv after "mesh". */
+int cmd_mesh(int argc, char **argv);
 
 #endif

@@ -180,6 +180,10 @@ typedef struct clvox__run {
      * with CLVOX_ERR_CANCELLED. NULL: never called. */
     int (*poll)(void *user, double slab_fraction);
     void *poll_user;
+    /* 1: the slab's occupancy plane already holds another method's bits
+     * (conservative mode: the solid); OR into them, do not clear, and count
+     * the union. Only the surface method takes it. */
+    int accumulate;
 } clvox__run;
 
 /* Most crossings one ray may have (the ray method fails with
@@ -210,6 +214,7 @@ typedef struct clvox__method {
 
 extern const clvox__method clvox__method_ray;   /* cast.c  */
 extern const clvox__method clvox__method_tetra; /* tetra.c */
+extern const clvox__method clvox__method_surface; /* surface.c */
 
 /* HALF bit pattern of x in [0, 1], rounded to nearest even (voxelize.c). */
 uint16_t clvox__half_from_unit(double x);

@@ -162,6 +162,18 @@ static clvox_status check_inputs(clvox_context *ctx, const clvox_mesh *mesh, con
     if ((uint64_t)grid->dims[0] * grid->dims[1] * grid->dims[2] > CLVOX_MAX_VOXELS)
         return clvox__fail(ctx, CLVOX_ERR_GRID, "grid has more than %llu voxels", (unsigned long long)CLVOX_MAX_VOXELS);
     if (mesh->triangle_count == 0) return clvox__fail(ctx, CLVOX_ERR_MESH_EMPTY, "mesh has no triangles");
+    if ((unsigned)o->mode >= CLVOX_MODE_COUNT)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown mode %d", (int)o->mode);
+    if (o->mode != CLVOX_MODE_SOLID) { /* binary: one occupancy bit per voxel */
+        const char *mode = clvox_mode_name(o->mode);
+        if (o->palette)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "palette voxelization is a solid mode (not %s)", mode);
+        if (o->oversample || o->oversample_points || o->stochastic || o->threshold_set)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "%s mode is binary: no oversampling or threshold", mode);
+        if (o->channels & ~CLVOX_CHANNEL_OCCUPANCY)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "%s mode writes occupancy only (channels 0x%x)", mode,
+                               o->channels);
+    }
     return check_sampling(ctx, o);
 }
 
@@ -207,9 +219,13 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     if (st != CLVOX_OK) return st;
 
     const clvox__method *m = o.method == CLVOX_METHOD_TETRA ? &clvox__method_tetra : &clvox__method_ray;
+    /* surface: the surface method alone; conservative: the solid method,
+     * then the surface ORed over its slab (m2) */
+    const clvox__method *m2 = o.mode == CLVOX_MODE_CONSERVATIVE ? &clvox__method_surface : NULL;
+    if (o.mode == CLVOX_MODE_SURFACE) m = &clvox__method_surface;
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
     poll_state poll = {&o, 0, 0, 0.0};
-    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts, poll_progress, &poll};
+    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts, poll_progress, &poll, 0};
     o.channels = req.channels;
     if (needs->channels_out) *needs->channels_out = req.channels;
     /* The slab's device planes: occupancy bit rows; coverage, element and
@@ -240,13 +256,26 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     stats.samples_per_voxel = o.oversample ? o.oversample * o.oversample * (o.oversample_points ? o.oversample_points : o.oversample) : 1;
     if (needs->samples_out) *needs->samples_out = stats.samples_per_voxel;
 
-    clvox__method_state *ms = NULL;
+    clvox__method_state *ms = NULL, *ms2 = NULL;
     cl_mem plane[4] = {NULL, NULL, NULL, NULL};
     st = m->prepare(ctx, mesh, grid, &o, &req, depth, &stats, &ms);
+    if (st == CLVOX_OK && m2) {
+        clvox__run req2 = req;
+        req2.accumulate = 1;
+        st = m2->prepare(ctx, mesh, grid, &o, &req2, depth, &stats, &ms2);
+    }
     if (st == CLVOX_OK && open_sink) {
-        char params[512];
+        char params[512], name[32];
         m->describe(ms, params, sizeof params);
-        st = open_sink(user, m->name, params);
+        snprintf(name, sizeof name, "%s", m->name);
+        if (m2) {
+            size_t used = strlen(params);
+            snprintf(params + used, sizeof params - used, " mode=conservative surface: ");
+            used = strlen(params);
+            m2->describe(ms2, params + used, sizeof params - used);
+            snprintf(name, sizeof name, "%s+%s", m->name, m2->name);
+        }
+        st = open_sink(user, name, params);
     }
     cl_int err = CL_SUCCESS;
     for (int i = 0; i < 4 && st == CLVOX_OK; i++) {
@@ -269,6 +298,10 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         clvox__slab_stats ss;
         memset(&ss, 0, sizeof ss);
         st = m->slab(ms, z0, nz, &planes, &ss);
+        if (st == CLVOX_OK && m2) {
+            ss.filled = 0; /* the surface pass counts the union */
+            st = m2->slab(ms2, z0, nz, &planes, &ss);
+        }
         if (st != CLVOX_OK) break;
         stats.seconds[CLVOX_STAGE_CAST] += ss.cast_seconds;
         stats.seconds[CLVOX_STAGE_CLASSIFY] += ss.classify_seconds;
@@ -316,6 +349,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     if (plane[0] || plane[1] || plane[2] || plane[3]) clFinish(ctx->queue);
     for (int i = 0; i < 4; i++) clvox__release_mem(&plane[i]);
     if (ms) m->release(ms);
+    if (ms2) m2->release(ms2);
     /* coverage in voxel units: samples inside / samples per voxel */
     stats.coverage_sum = want_cov || o.palette ? stats.coverage_sum / stats.samples_per_voxel : (double)stats.filled_voxels;
     stats.seconds[CLVOX_STAGE_TOTAL] = clvox__now() - t_start;

@@ -1,0 +1,262 @@
+/* Stage surface: every voxel whose closed cell meets a triangle (src/surface.c
+ * has the argument). Each task rasterises one triangle over a few slices z =
+ * k and rows y = j of the current slab: per row, the cells x whose closed box
+ * [x -+ 1/2] x [j -+ 1/2] x [k -+ 1/2] meets the closed triangle form one
+ * interval [L, U], found with the separating-axis test of a triangle against
+ * a box (13 axes: the box normals, the triangle normal, the 9 cross products
+ * of box and triangle edges; zero axes dropped, so degenerate triangles work
+ * too). Each axis gives two predicates, each the exact sign of an affine
+ * function of the cell centre (kernels/overlap.h); along a row one is
+ * monotone increasing and one decreasing in x, or both constant. The row's
+ * interval is where all hold: L and U are located from the approximate
+ * roots and settled by exact evaluation at the integers around them, so
+ * the interval is exactly that of the per-cell test. OR-ed into the slab's
+ * bit rows with atomic_or; a second kernel counts the slab's filled bits. */
+
+#if defined(cl_khr_fp64)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+
+/* One separating-axis predicate: the sign of an affine function of the
+ * cell centre c, which must be >= 0 (want > 0) or <= 0 (want < 0) for the
+ * cell to meet the triangle on that side of the axis.
+ * kind 0: clvox_e2_sign(a, b, c0, c + o) in the projection (s, t), with
+ *         ds, dt = b - a rounded as clvox_e2_sign rounds them;
+ * kind 1: clvox_o3_sign(v0, v1, v2, c + o). */
+typedef struct clvox_spred {
+    double ds, dt, cs, ct; /* kind 0: b - a (rounded), c0 in (s, t) */
+    double r0, ry, rz;     /* approximate root along x: r0 + ry*y + rz*z (x-dependent ones) */
+    float o[3];            /* corner offset, -+0.5 per axis */
+    uchar kind, s, t, a, b, c0;
+    char want;
+    uchar pad;
+} clvox_spred;
+
+inline double clvox_coord(uint axis, double x, double y, double z) { return axis == 0 ? x : axis == 1 ? y : z; }
+
+inline int clvox_spred_holds(const clvox_spred *p, const double *v, const double *om, double x, double y, double z)
+{
+    int sg;
+    if (p->kind == 0) {
+        /* clvox_e2_sign with the differences b - a already taken */
+        const double Cs = clvox_coord(p->s, x, y, z) + (double)p->o[p->s];
+        const double Ct = clvox_coord(p->t, x, y, z) + (double)p->o[p->t];
+        const double l = p->ds * (Ct - p->ct), r = p->dt * (Cs - p->cs);
+        const double det = l - r, bound = CLVOX_OV_E2_ERR * (fabs(l) + fabs(r));
+        if (det > bound) sg = 1;
+        else if (-det > bound) sg = -1;
+        else
+            sg = clvox_e2_exact(v[3 * p->a + p->s], v[3 * p->a + p->t], v[3 * p->b + p->s], v[3 * p->b + p->t], p->cs,
+                                p->ct, Cs, Ct);
+    } else {
+        sg = clvox_o3_sign_pre(v, om, om + 3, x + (double)p->o[0], y + (double)p->o[1], z + (double)p->o[2]);
+    }
+    return p->want > 0 ? sg >= 0 : sg <= 0;
+}
+
+/* All predicates of one group hold at cell x of the row (idx[first] tried first). */
+inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v,
+                             const double *om, int x, double y, double z)
+{
+    const double xd = (double)x;
+    if (n && !clvox_spred_holds(&p[idx[first]], v, om, xd, y, z)) return 0;
+    for (int i = 0; i < n; i++)
+        if (i != first && !clvox_spred_holds(&p[idx[i]], v, om, xd, y, z)) return 0;
+    return 1;
+}
+
+/* Smallest i of [lo, hi] with i + 1/2 >= m, or hi + 1; largest with
+ * i - 1/2 <= m, or lo - 1 (exact comparisons; m a float). */
+inline int clvox_first_cell(double m, int lo, int hi)
+{
+    if (m <= (double)lo - 0.5) return lo;
+    if (!(m <= (double)hi + 0.5)) return hi + 1;
+    int i = (int)ceil(m - 0.5);
+    while (i > lo && (double)(i - 1) + 0.5 >= m) i--;
+    while (i <= hi && (double)i + 0.5 < m) i++;
+    return i;
+}
+inline int clvox_last_cell(double m, int lo, int hi)
+{
+    if (m >= (double)hi + 0.5) return hi;
+    if (!(m >= (double)lo - 0.5)) return lo - 1;
+    int i = (int)floor(m + 0.5);
+    while (i < hi && (double)(i + 1) - 0.5 <= m) i++;
+    while (i >= lo && (double)i - 0.5 > m) i--;
+    return i;
+}
+
+/* Sets bits L..U (inclusive) of a row. */
+inline void clvox_row_or(global uint *row, int L, int U)
+{
+    int wl = L >> 5, wu = U >> 5;
+    uint ml = ~0u << (L & 31), mu = ~0u >> (31 - (U & 31));
+    if (wl == wu) {
+        atomic_or(row + wl, ml & mu);
+        return;
+    }
+    atomic_or(row + wl, ml);
+    for (int w = wl + 1; w < wu; w++) atomic_or(row + w, ~0u);
+    atomic_or(row + wu, mu);
+}
+
+/* tasks: 4 uints each (triangle, first slice, end slice, first row | last
+ * row << 16), in grid coordinates. bits: the slab's bit rows, row
+ * (k - z0) * Y + j of words_per_row words. */
+kernel void clvox_surface_raster(global const float *soup, global const uint *tasks, uint task_count, uint z0,
+                                 uint X, uint words_per_row, uint Y, global uint *bits)
+{
+    uint gid = get_global_id(0);
+    if (gid >= task_count) return;
+    global const uint *task = tasks + (size_t)gid * 4;
+    global const float *tp = soup + (size_t)task[0] * 9;
+    double v[9];
+    for (int i = 0; i < 9; i++) v[i] = (double)tp[i];
+
+    const int xlo = clvox_first_cell(fmin(fmin(v[0], v[3]), v[6]), 0, (int)X - 1);
+    const int xhi = clvox_last_cell(fmax(fmax(v[0], v[3]), v[6]), 0, (int)X - 1);
+    if (xlo > xhi) return;
+
+    /* Exact signs of the normal's components: n_k is the orientation of the
+     * triangle projected along axis k, in the cyclic coordinates (s, t). */
+    int sn[3];
+    double na[3]; /* approximate normal */
+    for (int k = 0; k < 3; k++) {
+        int s = (k + 1) % 3, t = (k + 2) % 3;
+        sn[k] = clvox_e2_sign(v[s], v[t], v[3 + s], v[3 + t], v[s], v[t], v[6 + s], v[6 + t]);
+        na[k] = (v[3 + s] - v[s]) * (v[6 + t] - v[t]) - (v[3 + t] - v[t]) * (v[6 + s] - v[s]);
+    }
+
+    clvox_spred p[20];
+    uchar cst[20], lower[20], upper[20];
+    int np = 0, ncst = 0, nlo = 0, nup = 0;
+    /* Edge axes: projection along k, edge m = (a -> b), third vertex r;
+     * f(X) = (b - a) x (X - a) is 0 on the edge and n_k at r. The box's
+     * largest f is at the corner c + o+ (o+ = half the sign of grad f), its
+     * smallest at c - o+. Not separated: f(c + o+) >= min(0, n_k) and
+     * f(c - o+) <= max(0, n_k). */
+    for (int k = 0; k < 3; k++) {
+        const int s = (k + 1) % 3, t = (k + 2) % 3;
+        for (int m = 0; m < 3; m++) {
+            const int a = m, b = (m + 1) % 3, r = (m + 2) % 3;
+            const double ds = v[3 * b + s] - v[3 * a + s], dt = v[3 * b + t] - v[3 * a + t];
+            const int gs = v[3 * b + t] < v[3 * a + t] ? 1 : v[3 * b + t] > v[3 * a + t] ? -1 : 0; /* sign(-dt) */
+            const int gt = v[3 * b + s] > v[3 * a + s] ? 1 : v[3 * b + s] < v[3 * a + s] ? -1 : 0; /* sign(ds) */
+            if (!gs && !gt) continue; /* a point in this projection: no axis */
+            for (int side = 0; side < 2; side++) {
+                clvox_spred *q = &p[np];
+                const float os = (side ? -0.5f : 0.5f) * (gs ? (float)gs : 1.0f);
+                const float ot = (side ? -0.5f : 0.5f) * (gt ? (float)gt : 1.0f);
+                q->o[k] = 0.0f;
+                q->o[s] = os;
+                q->o[t] = ot;
+                q->kind = 0;
+                q->s = (uchar)s;
+                q->t = (uchar)t;
+                q->a = (uchar)a;
+                q->b = (uchar)b;
+                /* side 0: f(c + o+) >= 0 (n_k >= 0) or f(c + o+) - n_k >= 0 (n_k < 0);
+                 * side 1: f(c - o+) - n_k <= 0 (n_k >= 0) or f(c - o+) <= 0 (n_k < 0). */
+                const int use_r = side == 0 ? sn[k] < 0 : sn[k] >= 0;
+                q->c0 = (uchar)(use_r ? r : a);
+                q->want = (char)(side ? -1 : 1);
+                /* value = ds (C.t - c0.t) - dt (C.s - c0.s), C = c + o */
+                double g[3] = {0.0, 0.0, 0.0};
+                g[s] = -dt;
+                g[t] = ds;
+                const double h = ds * ((double)ot - v[3 * q->c0 + t]) - dt * ((double)os - v[3 * q->c0 + s]);
+                q->ds = ds, q->dt = dt, q->cs = v[3 * q->c0 + s], q->ct = v[3 * q->c0 + t];
+                const double inv = -1.0 / g[0]; /* inf when g[0] == 0: then unused */
+                q->r0 = h * inv, q->ry = g[1] * inv, q->rz = g[2] * inv;
+                /* exact slope along x: ds when t is x, -dt when s is x, none when k is x */
+                const int slope = t == 0 ? gt : s == 0 ? gs : 0;
+                const int incr = slope * q->want; /* > 0: holds from some x on */
+                if (incr == 0) cst[ncst++] = (uchar)np;
+                else if (incr > 0) lower[nlo++] = (uchar)np;
+                else upper[nup++] = (uchar)np;
+                np++;
+            }
+        }
+    }
+    /* Triangle normal: n . (c + o+ - v0) >= 0 and n . (c - o+ - v0) <= 0,
+     * o+ = half the sign of n; no axis when n == 0 (degenerate triangle). */
+    if (sn[0] || sn[1] || sn[2]) {
+        for (int side = 0; side < 2; side++) {
+            clvox_spred *q = &p[np];
+            for (int i = 0; i < 3; i++) q->o[i] = (side ? -0.5f : 0.5f) * (sn[i] ? (float)sn[i] : 1.0f);
+            q->kind = 1;
+            q->s = q->t = q->a = q->b = q->c0 = 0;
+            q->want = (char)(side ? -1 : 1);
+            const double h = na[0] * ((double)q->o[0] - v[0]) + na[1] * ((double)q->o[1] - v[1]) +
+                             na[2] * ((double)q->o[2] - v[2]);
+            q->ds = q->dt = q->cs = q->ct = 0.0;
+            const double inv = -1.0 / na[0];
+            q->r0 = h * inv, q->ry = na[1] * inv, q->rz = na[2] * inv;
+            const int incr = sn[0] * q->want;
+            if (incr == 0) cst[ncst++] = (uchar)np;
+            else if (incr > 0) lower[nlo++] = (uchar)np;
+            else upper[nup++] = (uchar)np;
+            np++;
+        }
+    }
+
+    double om[6]; /* the triangle's part of the plane predicates' filter */
+    clvox_o3_setup(v, om, om + 3);
+    const uint jr = task[3];
+    const int j0 = (int)(jr & 0xFFFFu), j1 = (int)(jr >> 16);
+    const double xlod = (double)xlo, xhid = (double)xhi;
+    for (uint k = task[1]; k < task[2]; k++) {
+        const double kd = (double)k;
+        global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
+        for (int j = j0; j <= j1; j++) {
+            const double yd = (double)j;
+            if (!clvox_group_holds(p, cst, ncst, 0, v, om, xlo, yd, kd)) continue;
+            /* L: first x of [xlo, xhi] where every lower predicate holds;
+             * the one with the largest approximate root is tried first */
+            double guess = xlod;
+            int first = 0;
+            for (int i = 0; i < nlo; i++) {
+                const clvox_spred *q = &p[lower[i]];
+                double root = q->r0 + q->ry * yd + q->rz * kd;
+                if (root > guess) guess = root, first = i; /* NaN ignored */
+            }
+            int L = (int)ceil(fmin(guess, xhid));
+            if (clvox_group_holds(p, lower, nlo, first, v, om, L, yd, kd)) {
+                while (L > xlo && clvox_group_holds(p, lower, nlo, first, v, om, L - 1, yd, kd)) L--;
+            } else {
+                do L++;
+                while (L <= xhi && !clvox_group_holds(p, lower, nlo, first, v, om, L, yd, kd));
+                if (L > xhi) continue;
+            }
+            /* U: last x of [L, xhi] where every upper predicate holds */
+            guess = xhid;
+            first = 0;
+            for (int i = 0; i < nup; i++) {
+                const clvox_spred *q = &p[upper[i]];
+                double root = q->r0 + q->ry * yd + q->rz * kd;
+                if (root < guess) guess = root, first = i;
+            }
+            int U = (int)floor(fmax(guess, (double)L));
+            if (clvox_group_holds(p, upper, nup, first, v, om, U, yd, kd)) {
+                while (U < xhi && clvox_group_holds(p, upper, nup, first, v, om, U + 1, yd, kd)) U++;
+            } else {
+                do U--;
+                while (U >= L && !clvox_group_holds(p, upper, nup, first, v, om, U, yd, kd));
+                if (U < L) continue;
+            }
+            clvox_row_or(slice + (size_t)j * words_per_row, L, U);
+        }
+    }
+}
+
+/* Filled voxels of the slab's bit rows (rows = Y * nz; bits past X are 0). */
+kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uint rows, global uint *filled)
+{
+    uint r = get_global_id(0);
+    if (r >= rows) return;
+    global const uint *w = bits + (size_t)r * words_per_row;
+    uint count = 0;
+    for (uint i = 0; i < words_per_row; i++) count += popcount(w[i]);
+    if (count) atomic_add(filled, count);
+}
+
+#endif /* cl_khr_fp64 */

@@ -2,7 +2,7 @@
  * clvox — command-line front end. Uses only the public header.
  *
  *   clvox [MESH] [options]        voxelize MESH into an OpenEXR volume
- *   clvox info FILE.exr           header, filled voxel count, coverage sum (no OpenCL needed)
+ *   clvox info FILE.exr           header, filled voxel count, coverage sum, elements (no OpenCL needed)
  *   clvox preview FILE.exr -o OUT.png   slices as a PNG picture (cli_preview.c)
  *   clvox palette list | show NAME|FILE  palettes of sub-voxel elements (cli_palette.c)
  *   clvox instances VOLUME.exr -o OUT.csv  instances of a palette volume, for rendering (cli_instances.c)
@@ -753,9 +753,12 @@ static void print_help(void)
 "\n"
 "clvox info FILE.exr: prints the grid, method, parameters, compression and the\n"
 "filled voxel count of a volume written by clvox (occupancy > 0.5, or coverage\n"
-"> 0.5 without occupancy); with a coverage channel also the coverage sum and\n"
-"the estimated volume (sum x voxel volume); --json: the same as one JSON\n"
-"object (README \"Machine-readable results\"). Needs no OpenCL device.\n"
+"> 0.5 without occupancy, or element != 0 without either); with a coverage\n"
+"channel also the coverage sum and the estimated volume (sum x voxel volume);\n"
+"with an element channel (palette runs) the palette, its hash and metric, and\n"
+"the voxels of the most frequent elements, named when the palette can be\n"
+"rebuilt from the header; --json: the same as one JSON object (README\n"
+"\"Machine-readable results\"). Needs no OpenCL device.\n"
 "\n"
 "clvox batch: many meshes in one process, one OpenCL context and one kernel\n"
 "build; output names from a template, --shard I/N, --skip-existing, a failed\n"
@@ -955,6 +958,94 @@ static void info_json(const char *file, const clvox_volume_info *info, int have_
     jb_free(&b);
 }
 
+/* Voxels per element index of a file's "element" channel (slice by slice). */
+#define INFO_TOP_ELEMENTS 10
+typedef struct element_histogram {
+    const clvox_volume_info *info; /* the header: filled in before the first slice */
+    uint64_t count[65536];         /* per index (palette indices are uint16) */
+    uint64_t other;                /* values that are not an index 0..65535 */
+} element_histogram;
+
+static int count_elements(void *user, uint32_t z, const float *values)
+{
+    element_histogram *h = user;
+    (void)z;
+    const size_t n = (size_t)h->info->dims[0] * h->info->dims[1];
+    for (size_t i = 0; i < n; i++) {
+        float v = values[i];
+        if (v >= 0 && v < 65536.0f && v == floorf(v)) h->count[(uint32_t)v]++;
+        else h->other++;
+    }
+    return 0;
+}
+
+/* The palette line and the most frequent elements of a file with an element
+ * channel, named from the palette rebuilt from the header when it can be. */
+static int print_elements(clvox_context *ctx, const char *file, const clvox_volume_info *info, uint64_t total)
+{
+    clvox_palette *pal = NULL;
+    char why[1024] = "";
+    if (info->palette[0]) {
+        if (clvox_volume_palette(ctx, file, &pal) != CLVOX_OK)
+            snprintf(why, sizeof why, "%s", clvox_context_error(ctx));
+        printf(LABEL "%s: %u elements, hash %016llx, metric %s%s%s\n", "palette", info->palette, info->palette_count,
+               (unsigned long long)info->palette_hash, info->metric[0] ? info->metric : "?",
+               why[0] ? "; cannot be rebuilt: " : "", why);
+    }
+    element_histogram *h = calloc(1, sizeof *h);
+    if (!h) {
+        clvox_palette_destroy(pal);
+        return fail(EXIT_RUNTIME, "out of memory");
+    }
+    clvox_volume_info again;
+    h->info = &again;
+    clvox_status st = clvox_volume_read_slices(ctx, file, "element", &again, count_elements, h);
+    if (st != CLVOX_OK) {
+        int rc = fail_status(ctx, st, ROLE_INPUT);
+        free(h);
+        clvox_palette_destroy(pal);
+        return rc;
+    }
+    uint32_t top[INFO_TOP_ELEMENTS];
+    size_t ntop = 0, used = 0;
+    for (uint32_t e = 0; e < 65536u; e++) {
+        if (!h->count[e]) continue;
+        used++;
+        /* insertion into the top list: most voxels first, then the lower index */
+        size_t k = ntop < INFO_TOP_ELEMENTS ? ntop++ : INFO_TOP_ELEMENTS;
+        while (k > 0 && h->count[top[k - 1]] < h->count[e]) {
+            if (k < INFO_TOP_ELEMENTS) top[k] = top[k - 1];
+            k--;
+        }
+        if (k < INFO_TOP_ELEMENTS) top[k] = e;
+    }
+    char of[48] = "";
+    if (info->palette_count) snprintf(of, sizeof of, " of %u", info->palette_count);
+    printf(LABEL "%zu%s used; voxels per element, most first:\n", "elements", used, of);
+    uint64_t shown = 0;
+    for (size_t k = 0; k < ntop; k++) {
+        uint32_t e = top[k];
+        clvox_palette_element_info ei;
+        const char *name = "";
+        if (pal && clvox_palette_element_info_get(ctx, pal, e, &ei) == CLVOX_OK) name = ei.name;
+        else if (pal) name = "(not in the palette)";
+        printf("%13s%5u %-24s %12llu  %6.2f %%\n", "", (unsigned)e, name, (unsigned long long)h->count[e],
+               total ? 100.0 * (double)h->count[e] / (double)total : 0.0);
+        shown += h->count[e];
+    }
+    if (used > ntop) {
+        uint64_t rest = total - shown - h->other;
+        printf("%13s%zu more elements: %llu voxels (%.2f %%)\n", "", used - ntop, (unsigned long long)rest,
+               total ? 100.0 * (double)rest / (double)total : 0.0);
+    }
+    if (h->other)
+        printf("%13s%llu voxels hold no element index (not an integer 0..65535)\n", "",
+               (unsigned long long)h->other);
+    free(h);
+    clvox_palette_destroy(pal);
+    return EXIT_OK;
+}
+
 static int cmd_info(int argc, char **argv)
 {
     const char *file = NULL;
@@ -992,7 +1083,6 @@ static int cmd_info(int argc, char **argv)
         clvox_context_destroy(ctx);
         return rc;
     }
-    clvox_context_destroy(ctx);
 
     struct stat sb;
     char size[48] = "?";
@@ -1000,6 +1090,7 @@ static int cmd_info(int argc, char **argv)
     if (have_size) format_bytes((uint64_t)sb.st_size, size, sizeof size);
     if (json) {
         info_json(file, &info, have_size, have_size ? (uint64_t)sb.st_size : 0);
+        clvox_context_destroy(ctx);
         return EXIT_OK;
     }
     uint64_t total = (uint64_t)info.dims[0] * info.dims[1] * info.dims[2];
@@ -1020,7 +1111,13 @@ static int cmd_info(int argc, char **argv)
     }
     format_volume(voxels_volume((double)info.filled_voxels, info.voxel_size), 6, vol, sizeof vol);
     printf(LABEL "%s (filled voxels x voxel volume)\n", "volume", vol);
-    return EXIT_OK;
+    int rc = EXIT_OK;
+    if (has_channel(info.channels, "element")) rc = print_elements(ctx, file, &info, total);
+    else if (info.palette[0])
+        printf(LABEL "%s: %u elements, hash %016llx, metric %s (no element channel)\n", "palette", info.palette,
+               info.palette_count, (unsigned long long)info.palette_hash, info.metric[0] ? info.metric : "?");
+    clvox_context_destroy(ctx);
+    return rc;
 }
 
 /* ---- progress ------------------------------------------------------------------ */

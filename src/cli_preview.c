@@ -1,5 +1,5 @@
 /*
- * clvox preview FILE.exr -o OUT.png [--slices N] [--size PX] [--channel NAME]
+ * clvox preview FILE.exr -o OUT.png [--slices N] [--size PX] [--channel NAME] [--shade]
  *
  * A picture of a clvox volume: a montage of N evenly spaced z slices and the
  * three central orthogonal slices, as an 8-bit RGB PNG (libpng). The layout
@@ -16,7 +16,10 @@
  *  - a BORDER-pixel border of BORDER_RGB around and between panels, and the
  *    same colour where the rows leave the image empty.
  * Grey levels: "occupancy" 255 when > 0.5 else 0 (the filled rule); any other
- * channel round(255 * v) clamped to [0, 255], NaN 0.
+ * channel round(255 * v) clamped to [0, 255], NaN 0. "element" (palette
+ * runs; the default when the file has it) is drawn in colour, a fixed
+ * colour per element index (element_rgb), optionally shaded by "score"
+ * (--shade: a second pass over the file that darkens each pixel in place).
  *
  * Streaming: one pass over the file (clvox_volume_read_slices); each slice
  * fills the panels that sample it, so memory is the panels plus one slice
@@ -51,7 +54,7 @@
 #define DEFAULT_SIZE 256u
 #define MAX_SLICES 4096u
 #define MAX_SIZE 8192u
-#define MAX_PIXELS (1ull << 27) /* 128 M pixels: 128 MiB of panels, a 384 MiB picture */
+#define MAX_PIXELS (1ull << 27) /* 128 M pixels: 128 MiB of grey panels (384 MiB in colour) */
 #define BORDER 2u
 static const unsigned char BORDER_RGB[3] = { 0, 0, 128 }; /* dark blue: no grey level is blue */
 
@@ -61,8 +64,16 @@ typedef struct panel {
     uint32_t x0, y0;      /* top-left corner in the picture */
     uint32_t w, h;        /* pixels */
     uint32_t src_w, src_h;/* source cells along the panel's x and y */
-    uint8_t *grey;        /* w*h */
+    uint8_t *pix;         /* w*h pixels of bpp bytes: grey, or RGB */
 } panel;
+
+/* What a pass over the file puts into the panels. */
+typedef enum draw_mode {
+    DRAW_GREY = 0, /* round(255 * v) */
+    DRAW_BINARY,   /* occupancy: 255 when > 0.5 */
+    DRAW_ELEMENT,  /* element_rgb of the index */
+    DRAW_SHADE     /* score: darkens the element colours already drawn */
+} draw_mode;
 
 typedef struct preview {
     uint32_t X, Y, Z;
@@ -71,10 +82,12 @@ typedef struct preview {
     uint32_t *zk;         /* n slice indices */
     panel *panels;        /* n montage panels, then XY (z = Z/2), XZ (y = Y/2), YZ (x = X/2) */
     uint32_t width, height;
-    int binary;           /* channel "occupancy": 0/255 by the > 0.5 rule */
+    uint32_t bpp;         /* bytes per panel pixel: 1 (grey) or 3 (element colours) */
+    draw_mode mode;       /* of the current pass */
     /* set by the first slice callback */
     const clvox_volume_info *info;
     int ready;            /* layout made */
+    int failed;           /* a later pass refused (message in why) */
     int too_large;        /* layout refused (message in why) */
     char why[256];
 } preview;
@@ -98,7 +111,7 @@ static void panel_size(panel *p, uint32_t src_w, uint32_t src_h, uint32_t px)
 static void preview_free(preview *pv)
 {
     if (pv->panels)
-        for (uint32_t k = 0; k < pv->n + 3; k++) free(pv->panels[k].grey);
+        for (uint32_t k = 0; k < pv->n + 3; k++) free(pv->panels[k].pix);
     free(pv->panels);
     free(pv->zk);
 }
@@ -161,8 +174,8 @@ static int preview_layout(preview *pv, uint32_t X, uint32_t Y, uint32_t Z, uint3
     }
     for (uint32_t k = 0; k < pv->n + 3; k++) {
         panel *p = &pv->panels[k];
-        p->grey = calloc((size_t)p->w * p->h, 1);
-        if (!p->grey) goto oom;
+        p->pix = calloc((size_t)p->w * p->h, pv->bpp);
+        if (!p->pix) goto oom;
     }
     return 0;
 oom:
@@ -172,19 +185,63 @@ oom:
 
 /* ---- filling the panels ------------------------------------------------------ */
 
-static uint8_t grey_of(const preview *pv, float v)
+static uint8_t grey_level(float v)
 {
-    if (pv->binary) return v > 0.5f ? 255 : 0;
     if (!(v > 0)) return 0; /* also NaN */
     if (v >= 1) return 255;
     return (uint8_t)floor(255.0 * (double)v + 0.5);
+}
+
+/* Element colours (documented in print_preview_help and README): index 0
+ * (empty) black, 1 (full) light grey, any other index e a hue of the
+ * sequence H = (e - 2) * 949 mod 1536 (six sectors of 256 steps; 949 / 1536
+ * is about the golden ratio's 0.618, so neighbouring indices get distant
+ * hues and the first 1536 all differ) at full colour 230 and least 50:
+ * with f = H mod 256, up = 50 + 180 f / 255 and down = 230 - 180 f / 255
+ * (integer division), sectors 0..5 are (230, up, 50), (down, 230, 50),
+ * (50, 230, up), (50, down, 230), (up, 50, 230), (230, 50, down). A value
+ * that is not an index (not an integer >= 0) is drawn as 0. */
+static const uint8_t FULL_RGB[3] = { 224, 224, 224 };
+
+static void element_rgb(float v, uint8_t rgb[3])
+{
+    if (!(v >= 1) || v >= 4294967296.0f || v != floorf(v)) { /* 0, and not an index */
+        rgb[0] = rgb[1] = rgb[2] = 0;
+        return;
+    }
+    const uint32_t e = (uint32_t)v;
+    if (e == 1) {
+        memcpy(rgb, FULL_RGB, 3);
+        return;
+    }
+    const uint32_t h = (uint32_t)(((uint64_t)(e - 2) * 949u) % 1536u), f = h % 256;
+    const uint8_t hi = 230, lo = 50;
+    const uint8_t up = (uint8_t)(lo + (hi - lo) * f / 255), down = (uint8_t)(hi - (hi - lo) * f / 255);
+    const uint8_t table[6][3] = { { hi, up, lo }, { down, hi, lo }, { lo, hi, up },
+                                  { lo, down, hi }, { up, lo, hi }, { hi, lo, down } };
+    memcpy(rgb, table[h / 256], 3);
+}
+
+/* Draws value v into the panel pixel at px (bpp bytes) by the pass's mode. */
+static void draw(const preview *pv, uint8_t *px, float v)
+{
+    switch (pv->mode) {
+    case DRAW_BINARY: *px = v > 0.5f ? 255 : 0; break;
+    case DRAW_GREY: *px = grey_level(v); break;
+    case DRAW_ELEMENT: element_rgb(v, px); break;
+    case DRAW_SHADE: { /* c (1 + s) / 2, s = round(255 score) / 255, rounded half up */
+        const uint32_t g = grey_level(v);
+        for (int c = 0; c < 3; c++) px[c] = (uint8_t)((px[c] * (255u + g) + 255u) / 510u);
+        break;
+    }
+    }
 }
 
 static int on_slice(void *user, uint32_t z, const float *values)
 {
     preview *pv = user;
     if (!pv->ready) return 1; /* cannot happen: the layout is made before reading */
-    const uint32_t X = pv->X, Y = pv->Y, Z = pv->Z;
+    const uint32_t X = pv->X, Y = pv->Y, Z = pv->Z, bpp = pv->bpp;
     /* montage panels: the whole slice */
     for (uint32_t k = 0; k <= pv->n; k++) {
         panel *p = k < pv->n ? &pv->panels[k] : &pv->panels[pv->n]; /* k == n: the z = Z/2 panel */
@@ -193,7 +250,7 @@ static int on_slice(void *user, uint32_t z, const float *values)
             uint32_t y = (uint32_t)((uint64_t)j * Y / p->h);
             for (uint32_t i = 0; i < p->w; i++) {
                 uint32_t x = (uint32_t)((uint64_t)i * X / p->w);
-                p->grey[(size_t)j * p->w + i] = grey_of(pv, values[(size_t)y * X + x]);
+                draw(pv, p->pix + ((size_t)j * p->w + i) * bpp, values[(size_t)y * X + x]);
             }
         }
     }
@@ -202,11 +259,11 @@ static int on_slice(void *user, uint32_t z, const float *values)
         panel *p = &pv->panels[pv->n + (uint32_t)which];
         for (uint32_t j = 0; j < p->h; j++) {
             if ((uint32_t)((uint64_t)j * Z / p->h) != z) continue;
-            uint8_t *row = p->grey + (size_t)j * p->w;
+            uint8_t *row = p->pix + (size_t)j * p->w * bpp;
             for (uint32_t i = 0; i < p->w; i++) {
                 size_t at = which == 1 ? (size_t)(Y / 2) * X + (size_t)((uint64_t)i * X / p->w)
                                        : (size_t)((uint64_t)i * Y / p->w) * X + X / 2;
-                row[i] = grey_of(pv, values[at]);
+                draw(pv, row + (size_t)i * bpp, values[at]);
             }
         }
     }
@@ -260,9 +317,11 @@ static int write_png(FILE *f, const preview *pv, uint8_t *row, char *fail_msg, s
         for (uint32_t k = 0; k < pv->n + 3; k++) {
             const panel *p = &pv->panels[k];
             if (y < p->y0 || y >= p->y0 + p->h) continue;
-            const uint8_t *g = p->grey + (size_t)(y - p->y0) * p->w;
+            const uint8_t *g = p->pix + (size_t)(y - p->y0) * p->w * pv->bpp;
             uint8_t *d = row + 3 * (size_t)p->x0;
-            for (uint32_t i = 0; i < p->w; i++) d[3 * i] = d[3 * i + 1] = d[3 * i + 2] = g[i];
+            if (pv->bpp == 3) memcpy(d, g, 3 * (size_t)p->w);
+            else
+                for (uint32_t i = 0; i < p->w; i++) d[3 * i] = d[3 * i + 1] = d[3 * i + 2] = g[i];
         }
         png_write_row(png, row);
     }
@@ -321,7 +380,7 @@ static void print_preview_help(void)
 {
     printf(
 "Usage: clvox preview FILE.exr -o OUT.png [--slices N] [--size PX]\n"
-"                     [--channel NAME]\n"
+"                     [--channel NAME] [--shade]\n"
 "\n"
 "Draws a clvox volume as an 8-bit RGB PNG: N evenly spaced z slices and the\n"
 "three central orthogonal slices. Reads the file once, slice by slice (memory:\n"
@@ -336,8 +395,11 @@ static void print_preview_help(void)
 "  --size PX                longer side of every panel in pixels, 1..%u\n"
 "                           (default %u); the whole picture may have at most\n"
 "                           %llu pixels\n"
-"  --channel NAME           channel to draw (default: coverage if the file has\n"
-"                           it, else occupancy)\n"
+"  --channel NAME           channel to draw (default: element if the file has\n"
+"                           it, else coverage if it has that, else occupancy)\n"
+"  --shade                  element colours shaded by the score channel\n"
+"                           (palette runs): c * (1 + s) / 2, s = the score's\n"
+"                           grey level / 255, rounded half up\n"
 "  -h, --help               print this help and exit\n"
 "\n"
 "Layout (X, Y, Z: the volume's dimensions; integer division throughout):\n"
@@ -359,13 +421,20 @@ static void print_preview_help(void)
 "    rows, height = montage + tallest bottom panel + %u.\n"
 "  - Grey levels: occupancy 255 (white) when > 0.5, else 0 (black); any other\n"
 "    channel round(255 * value), clamped to 0..255 (NaN: 0).\n"
+"  - Element colours (channel element): index 0 (empty) black, 1 (full) RGB\n"
+"    %u,%u,%u, any other index e the hue H = (e - 2) * 949 mod 1536 (the first\n"
+"    1536 all differ, neighbours far apart): with f = H mod 256,\n"
+"    up = 50 + 180 * f / 255, down = 230 - 180 * f / 255, sector H / 256 =\n"
+"    0..5 gives (230,up,50) (down,230,50) (50,230,up) (50,down,230)\n"
+"    (up,50,230) (230,50,down); a value that is not an integer >= 0 is drawn\n"
+"    as 0.\n"
 "\n"
 "Exit codes: 0 ok, 2 usage error, 4 FILE missing, not a clvox volume or\n"
 "without the channel, 5 OUT.png can not be written, 1 other failures. Errors\n"
 "are one line on stderr; a failed run leaves no file.\n",
         MAX_SLICES, DEFAULT_SLICES, MAX_SIZE, DEFAULT_SIZE, (unsigned long long)MAX_PIXELS, BORDER,
         (unsigned)BORDER_RGB[0], (unsigned)BORDER_RGB[1], (unsigned)BORDER_RGB[2], BORDER, BORDER, BORDER, BORDER, BORDER, BORDER, BORDER,
-        BORDER, BORDER);
+        BORDER, BORDER, (unsigned)FULL_RGB[0], (unsigned)FULL_RGB[1], (unsigned)FULL_RGB[2]);
 }
 
 #define PREVIEW_USAGE(...) fail(EXIT_USAGE, __VA_ARGS__)
@@ -381,10 +450,14 @@ static int on_first_slice(void *user, uint32_t z, const float *values)
 {
     reading *rd = user;
     preview *pv = rd->pv;
+    const clvox_volume_info *in = pv->info;
     if (!pv->ready) {
-        const clvox_volume_info *in = pv->info;
         if (preview_layout(pv, in->dims[0], in->dims[1], in->dims[2], rd->slices, rd->px) != 0) return 1;
         pv->ready = 1;
+    } else if (in->dims[0] != pv->X || in->dims[1] != pv->Y || in->dims[2] != pv->Z) { /* a second pass */
+        snprintf(pv->why, sizeof pv->why, "the volume changed between two passes over it");
+        pv->failed = 1;
+        return 1;
     }
     return on_slice(pv, z, values);
 }
@@ -393,6 +466,7 @@ int cmd_preview(int argc, char **argv)
 {
     const char *file = NULL, *output = NULL, *channel = NULL;
     uint32_t slices = DEFAULT_SLICES, px = DEFAULT_SIZE;
+    int shade = 0;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         const char *v = NULL, *why = NULL;
@@ -421,12 +495,16 @@ int cmd_preview(int argc, char **argv)
         } else if (match_value(argc, argv, &i, NULL, "--channel", &v, &missing)) {
             if (missing || !*v) return PREVIEW_USAGE("preview: --channel needs a name (see clvox preview --help)");
             channel = v;
+        } else if (strcmp(a, "--shade") == 0) {
+            shade = 1;
         } else {
             return PREVIEW_USAGE("preview: unknown option '%s' (see clvox preview --help)", a);
         }
     }
     if (!file) return PREVIEW_USAGE("preview: missing FILE.exr (see clvox preview --help)");
     if (!output) return PREVIEW_USAGE("preview: missing -o OUT.png (see clvox preview --help)");
+    if (shade && channel && strcmp(channel, "element") != 0)
+        return PREVIEW_USAGE("preview: --shade shades element colours; --channel %s is drawn in grey levels", channel);
     int rc = check_output(output);
     if (rc != EXIT_OK) return rc;
     struct stat in_sb, out_sb;
@@ -452,26 +530,42 @@ int cmd_preview(int argc, char **argv)
     memset(&pv, 0, sizeof pv);
     pv.info = &info;
     reading rd = { &pv, slices, px };
-    const char *ch = channel ? channel : "coverage";
-    pv.binary = strcmp(ch, "occupancy") == 0;
-    st = clvox_volume_read_slices(ctx, file, ch, &info, on_first_slice, &rd);
-    if (st == CLVOX_ERR_EXR && !channel && info.dims[0] && !has_channel(info.channels, "coverage")) {
-        /* the header was read: no coverage channel, so the default is occupancy */
-        if (!has_channel(info.channels, "occupancy")) {
-            rc = fail(EXIT_INPUT, "'%s' has neither a coverage nor an occupancy channel (has: %s): choose one with "
-                      "--channel", file, info.channels);
+    /* default channel: element, else coverage, else occupancy; a failed
+     * attempt still reads the header (info.dims set), so the next default
+     * is chosen only when the channel is missing, not on a read error */
+    static const char *const defaults[] = { "element", "coverage", "occupancy" };
+    const char *ch = channel ? channel : defaults[0];
+    for (size_t k = 0;; k++) {
+        pv.mode = strcmp(ch, "element") == 0 ? DRAW_ELEMENT : strcmp(ch, "occupancy") == 0 ? DRAW_BINARY : DRAW_GREY;
+        pv.bpp = pv.mode == DRAW_ELEMENT ? 3 : 1;
+        st = clvox_volume_read_slices(ctx, file, ch, &info, on_first_slice, &rd);
+        if (channel || st != CLVOX_ERR_EXR || !info.dims[0] || has_channel(info.channels, ch)) break;
+        while (k + 1 < sizeof defaults / sizeof defaults[0] && !has_channel(info.channels, defaults[k + 1])) k++;
+        if (k + 1 == sizeof defaults / sizeof defaults[0]) {
+            rc = fail(EXIT_INPUT, "'%s' has neither an element, a coverage nor an occupancy channel (has: %s): "
+                      "choose one with --channel", file, info.channels);
             goto done;
         }
-        ch = "occupancy";
-        pv.binary = 1;
-        st = clvox_volume_read_slices(ctx, file, ch, &info, on_first_slice, &rd);
+        ch = defaults[k + 1];
+        if (shade) {
+            rc = fail(EXIT_INPUT, "preview: --shade needs an element channel; '%s' has: %s", file, info.channels);
+            goto done;
+        }
+    }
+    if (st == CLVOX_OK && shade) { /* second pass: darken by the score */
+        if (!has_channel(info.channels, "score")) {
+            rc = fail(EXIT_INPUT, "preview: --shade needs a score channel; '%s' has: %s", file, info.channels);
+            goto done;
+        }
+        pv.mode = DRAW_SHADE;
+        st = clvox_volume_read_slices(ctx, file, "score", &info, on_first_slice, &rd);
     }
     if (pv.too_large) {
         rc = fail(EXIT_USAGE, "preview: %s", pv.why);
         goto done;
     }
-    if (st == CLVOX_ERR_CANCELLED && !pv.ready) {
-        rc = fail(EXIT_RUNTIME, "%s", pv.why);
+    if (st == CLVOX_ERR_CANCELLED && (!pv.ready || pv.failed)) {
+        rc = fail(pv.failed ? EXIT_INPUT : EXIT_RUNTIME, "%s", pv.why);
         goto done;
     }
     if (st != CLVOX_OK) {
@@ -480,8 +574,8 @@ int cmd_preview(int argc, char **argv)
     }
     rc = save_png(output, &pv);
     if (rc == EXIT_OK)
-        printf("wrote %s: %u x %u pixels, channel %s, %u z slices and the 3 central slices of %u x %u x %u\n",
-               output, pv.width, pv.height, ch, pv.n, pv.X, pv.Y, pv.Z);
+        printf("wrote %s: %u x %u pixels, channel %s%s, %u z slices and the 3 central slices of %u x %u x %u\n",
+               output, pv.width, pv.height, ch, shade ? " shaded by score" : "", pv.n, pv.X, pv.Y, pv.Z);
 done:
     preview_free(&pv);
     clvox_context_destroy(ctx);

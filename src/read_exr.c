@@ -148,8 +148,17 @@ static clvox_status get_string(reader *r, const char *name, char *dst, size_t si
     return CLVOX_OK;
 }
 
+/* 1 when the n bytes hold a control character (NUL, newline, DEL, ...). */
+static int has_control(const char *s, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if ((unsigned char)s[i] < 0x20 || s[i] == 0x7F) return 1;
+    return 0;
+}
+
 /* An optional string attribute: *present = 0 when the header lacks it;
- * else it must be a string of fewer than `size` bytes without a NUL. */
+ * else it must be a string of fewer than `size` bytes without control
+ * characters (so that messages quoting it stay one line). */
 static clvox_status optional_string(reader *r, const char *name, char *dst, size_t size, int *present)
 {
     const exr_attribute_t *a = NULL;
@@ -161,10 +170,10 @@ static clvox_status optional_string(reader *r, const char *name, char *dst, size
     if (a->type != EXR_ATTR_STRING || !a->string || a->string->length < 0 || !a->string->str)
         return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is corrupt: attribute %s is not a string", r->path, name);
     size_t n = (size_t)a->string->length;
-    if (n >= size || memchr(a->string->str, '\0', n))
+    if (n >= size || has_control(a->string->str, n))
         return clvox__fail(r->ctx, CLVOX_ERR_EXR,
-                           "'%s' is corrupt: attribute %s is %s (at most %zu bytes, no NUL)", r->path, name,
-                           n >= size ? "too long" : "not text", size - 1);
+                           "'%s' is corrupt: attribute %s is %s (at most %zu bytes, no control characters)", r->path,
+                           name, n >= size ? "too long" : "not text", size - 1);
     copy_str(dst, size, a->string->str, a->string->length);
     *present = 1;
     return CLVOX_OK;

@@ -933,6 +933,14 @@ static clvox_status check_meta(clvox_context *ctx, const char *path, const clvox
     if (meta->metric && strlen(meta->metric) >= sizeof ((clvox_volume_info *)0)->metric)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "cannot write '%s': metric name '%.40s' is too long",
                            path, meta->metric);
+    /* what the reader accepts (read_exr.c read_palette_attrs): no control characters */
+    const char *texts[2] = { clvox_palette_name(p), meta->metric ? meta->metric : "" };
+    for (int k = 0; k < 2; k++)
+        for (const char *c = texts[k]; *c; c++)
+            if ((unsigned char)*c < 0x20 || *c == 0x7F)
+                return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                                   "cannot write '%s': the palette's %s holds a control character", path,
+                                   k ? "metric name" : "name");
     return CLVOX_OK;
 }
 

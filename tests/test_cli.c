@@ -1071,11 +1071,20 @@ static int read_png(const char *path, picture *pic)
     return ok;
 }
 
-/* A volume as grey levels (what the documented mapping gives for its channel). */
+/* A volume as grey levels (what the documented mapping gives for its
+ * channel), or as colours (rgb set: 3 bytes per voxel; g unused). */
 typedef struct grey_volume {
     uint32_t X, Y, Z;
-    uint8_t *g; /* x fastest, then y, then z */
+    uint8_t *g;   /* x fastest, then y, then z */
+    uint8_t *rgb; /* NULL: grey levels */
 } grey_volume;
+
+static void put_voxel(picture *pic, const grey_volume *v, uint32_t px, uint32_t py, size_t i)
+{
+    uint8_t *d = pic->rgb + 3 * ((size_t)py * pic->w + px);
+    if (v->rgb) memcpy(d, v->rgb + 3 * i, 3);
+    else memset(d, v->g[i], 3);
+}
 
 static uint8_t grey_level(double v)
 {
@@ -1114,8 +1123,8 @@ static void expected_preview(const grey_volume *v, uint32_t N, uint32_t PX, pict
         pic->rgb[3 * i + 1] = 0;
         pic->rgb[3 * i + 2] = 128;
     }
-#define PUT(px_, py_, val_) memset(pic->rgb + 3 * ((size_t)(py_) * pic->w + (px_)), (val_), 3)
-#define VOX(x_, y_, z_) v->g[((size_t)(z_) * Y + (y_)) * X + (x_)]
+#define PUT(px_, py_, i_) put_voxel(pic, v, (px_), (py_), (i_))
+#define VOX(x_, y_, z_) (((size_t)(z_) * Y + (y_)) * X + (x_))
     for (uint32_t k = 0; k < n; k++) {
         uint32_t z = (uint32_t)floor((k + 0.5) * Z / n);
         uint32_t x0 = B + (k % C) * (w[0] + B), y0 = B + (k / C) * (h[0] + B);
@@ -1217,6 +1226,7 @@ static void coverage_grey(const coverage_file *cf, int which, grey_volume *v)
     v->X = cf->X;
     v->Y = cf->Y;
     v->Z = cf->Z;
+    v->rgb = NULL;
     v->g = malloc(n);
     if (!v->g) abort();
     for (size_t i = 0; i < n; i++) {
@@ -1381,7 +1391,7 @@ static void test_preview(void)
     clvox_volume_info info;
     memset(&info, 0, sizeof info);
     CHECK_OK(ctx, clvox_volume_read(ctx, occ_exr, &info, NULL, 0));
-    grey_volume v = { info.dims[0], info.dims[1], info.dims[2], NULL };
+    grey_volume v = { info.dims[0], info.dims[1], info.dims[2], NULL, NULL };
     size_t nv = (size_t)v.X * v.Y * v.Z;
     v.g = malloc(nv ? nv : 1);
     if (!v.g) abort();
@@ -1513,6 +1523,187 @@ static void test_preview(void)
     free(cf.occ);
     free(cf.score);
     clvox_context_destroy(ctx);
+}
+
+/* ---- palette runs: element colours and clvox info ---- */
+
+/* The element colour as `clvox preview --help` documents it. */
+static void doc_element_rgb(double v, uint8_t rgb[3])
+{
+    if (!(v >= 1) || v != floor(v) || v >= 4294967296.0) {
+        rgb[0] = rgb[1] = rgb[2] = 0;
+        return;
+    }
+    if (v == 1) {
+        rgb[0] = rgb[1] = rgb[2] = 224;
+        return;
+    }
+    const uint64_t e = (uint64_t)v;
+    const uint32_t H = (uint32_t)((e - 2) * 949u % 1536u), f = H % 256;
+    const uint8_t up = (uint8_t)(50 + 180 * f / 255), down = (uint8_t)(230 - 180 * f / 255);
+    const uint8_t t[6][3] = { { 230, up, 50 }, { down, 230, 50 }, { 50, 230, up },
+                              { 50, down, 230 }, { up, 50, 230 }, { 230, 50, down } };
+    memcpy(rgb, t[H / 256], 3);
+}
+
+static int count_line_prefix(const char *text, const char *prefix)
+{
+    int n = 0;
+    for (const char *line = text; line && *line;) {
+        n += strncmp(line, prefix, strlen(prefix)) == 0;
+        line = strchr(line, '\n');
+        if (line) line++;
+    }
+    return n;
+}
+
+/* Palette files from the test writer (element UINT, score HALF, the palette
+ * attributes): preview colours (default channel, --shade, grey channels),
+ * and clvox info's palette line and element histogram. */
+static void test_palette_files(void)
+{
+    const uint32_t X = 11, Y = 7, Z = 5;
+    const size_t n = (size_t)X * Y * Z;
+    uint32_t *elem = malloc(n * 4);
+    uint16_t *score = malloc(n * 2), *cov = malloc(n * 2);
+    grey_volume colours = { X, Y, Z, NULL, malloc(n * 3) }, shaded = { X, Y, Z, NULL, malloc(n * 3) };
+    grey_volume grey = { X, Y, Z, malloc(n), NULL };
+    if (!elem || !score || !cov || !colours.rgb || !shaded.rgb || !grey.g) abort();
+    uint64_t per[46] = { 0 };
+    for (size_t i = 0; i < n; i++) {
+        elem[i] = i % 4 == 0 ? 0 : i % 4 == 1 ? 1 : 2 + (uint32_t)(i / 4) % 44;
+        per[elem[i]]++;
+        uint32_t k = next_random();
+        score[i] = k % 29 == 0 ? 0x7E00 /* NaN */ : k % 31 == 0 ? 0x4000 /* 2 */ : (uint16_t)(k % 0x3C01u);
+        cov[i] = (uint16_t)(next_random() % 0x3C01u);
+        doc_element_rgb(elem[i], colours.rgb + 3 * i);
+        double sv = exrgen_half_value(score[i]);
+        uint32_t g = !(sv > 0) ? 0 : sv >= 1 ? 255 : (uint32_t)floor(255.0 * sv + 0.5);
+        for (int c = 0; c < 3; c++)
+            shaded.rgb[3 * i + c] = (uint8_t)((colours.rgb[3 * i + c] * (255 + g) + 255) / 510); /* c (1 + s) / 2 */
+        grey.g[i] = (uint8_t)g;
+    }
+    /* the documented colours, by hand: 0 black, 1 light grey, 2 red, 3 blue, 4 green */
+    uint8_t c[3];
+    doc_element_rgb(0, c);
+    CHECK(c[0] == 0 && c[1] == 0 && c[2] == 0);
+    doc_element_rgb(1, c);
+    CHECK(c[0] == 224 && c[1] == 224 && c[2] == 224);
+    doc_element_rgb(2, c);
+    CHECK(c[0] == 230 && c[1] == 50 && c[2] == 50);
+    doc_element_rgb(3, c); /* H = 949: sector 3, f = 181 */
+    CHECK(c[0] == 50 && c[1] == 103 && c[2] == 230);
+    doc_element_rgb(4, c); /* H = 362: sector 1, f = 106 */
+    CHECK(c[0] == 156 && c[1] == 230 && c[2] == 50);
+    for (uint32_t a = 2; a < 1538; a++) /* distinct, and never the border's blue or a grey */
+        for (uint32_t b = a + 1; b < 1538; b += 97) {
+            uint8_t ca[3], cb[3];
+            doc_element_rgb(a, ca);
+            doc_element_rgb(b, cb);
+            if (memcmp(ca, cb, 3) == 0 || (ca[0] == 0 && ca[1] == 0 && ca[2] == 128) || (ca[0] == ca[1] && ca[1] == ca[2])) {
+                CHECK_MSG(0, "element colours %u and %u", a, b);
+                a = b = 1538;
+            }
+        }
+
+    clvox_context *ctx = NULL;
+    clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
+    co.host_only = 1;
+    CHECK_OK(ctx, clvox_context_create(&co, &ctx));
+    clvox_palette *p46 = NULL;
+    CHECK_OK(ctx, clvox_palette_builtin(ctx, "paper46", &p46));
+    char hash[32], bad_hash[32];
+    snprintf(hash, sizeof hash, "%016llx", (unsigned long long)clvox_palette_hash(p46));
+    snprintf(bad_hash, sizeof bad_hash, "%016llx", (unsigned long long)clvox_palette_hash(p46) ^ 1u);
+    clvox_palette_destroy(p46);
+    clvox_context_destroy(ctx);
+    const exrgen_extra attrs[] = { { "clvoxPalette", "paper46", 0 }, { "clvoxPaletteCount", NULL, 46 },
+                                   { "clvoxPaletteHash", hash, 0 }, { "clvoxMetric", "nearest", 0 } };
+    exrgen_extra tampered[4];
+    memcpy(tampered, attrs, sizeof attrs);
+    tampered[2].string = bad_hash;
+    const exrgen_channel ch[] = { { "element", EXR_PIXEL_UINT, elem }, { "score", EXR_PIXEL_HALF, score },
+                                  { "coverage", EXR_PIXEL_HALF, cov } };
+    char pal[PATH_MAX], pal_cov[PATH_MAX], pal_bad[PATH_MAX];
+    path_join(pal, sizeof pal, g_dir, "palette.exr");
+    path_join(pal_cov, sizeof pal_cov, g_dir, "palette_cov.exr");
+    path_join(pal_bad, sizeof pal_bad, g_dir, "palette_bad.exr");
+    exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
+    a.extra = attrs;
+    a.extra_count = 4;
+    CHECK(exrgen_write_ex(pal, X, Y, Z, ch, 2, 11, 3, EXR_COMPRESSION_NONE, &a)); /* chunks span slices */
+    CHECK(exrgen_write_ex(pal_cov, X, Y, Z, ch, 3, 0, 0, EXR_COMPRESSION_ZIP, &a));
+    a.extra = tampered;
+    CHECK(exrgen_write_ex(pal_bad, X, Y, Z, ch, 2, 0, 0, EXR_COMPRESSION_NONE, &a));
+
+    /* preview: element colours by default (also next to coverage), shaded, grey channels */
+    check_preview("element colours, defaults", &colours, pal, 16, 256, 0, 0, NULL);
+    check_preview("element colours before coverage", &colours, pal_cov, 3, 40, 0, 0,
+                  ARGS("--slices", "3", "--size", "40"));
+    check_preview("--channel element --shade", &shaded, pal, 4, 50, 0, 0,
+                  ARGS("--channel", "element", "--shade", "--slices", "4", "--size", "50"));
+    check_preview("--shade, tampered palette (not needed)", &shaded, pal_bad, 16, 64, 0, 0,
+                  ARGS("--shade", "--size", "64"));
+    check_preview("--channel score: grey levels", &grey, pal_cov, 5, 30, 0, 0,
+                  ARGS("--channel", "score", "--slices", "5", "--size", "30"));
+    char out[PATH_MAX];
+    path_join(out, sizeof out, g_out, "x.png");
+    expect_failure_msg("--shade with a grey channel", 2, NULL, ARGS("preview", pal, "-o", out, "--shade", "--channel",
+                                                                    "coverage"), "--shade");
+    char p[PATH_MAX];
+    path_join(p, sizeof p, g_in, "element_only.exr");
+    CHECK(exrgen_write(p, X, Y, Z, ch, 1, 0, 0, EXR_COMPRESSION_RLE, 1));
+    expect_failure_msg("--shade without score", 4, NULL, ARGS("preview", p, "-o", out, "--shade"), "score");
+    path_join(p, sizeof p, g_in, "coverage_only.exr");
+    CHECK(exrgen_write(p, X, Y, Z, &ch[2], 1, 0, 0, EXR_COMPRESSION_RLE, 1));
+    expect_failure_msg("--shade without element", 4, NULL, ARGS("preview", p, "-o", out, "--shade"), "element");
+    run_result r;
+    run_cli(&r, NULL, ARGS("preview", "--help"));
+    CHECK_MSG(strstr(r.out, "--shade") && strstr(r.out, "949 mod 1536") && strstr(r.out, "default: element"),
+              "preview --help does not describe element colours:\n%s", r.out);
+    run_free(&r);
+
+    /* info: the palette line and the voxels per element, named */
+    run_cli(&r, NULL, ARGS("info", pal));
+    char want[160];
+    snprintf(want, sizeof want, "paper46: 46 elements, hash %s, metric nearest\n", hash);
+    const char *f = find_field(r.out, "palette");
+    CHECK_MSG(r.code == 0 && f && strncmp(f, want, strlen(want)) == 0, "info palette line:\n%s%s", r.out, r.err);
+    f = find_field(r.out, "elements");
+    CHECK_MSG(f && strncmp(f, "46 of 46 used", 13) == 0, "info elements line:\n%s", r.out);
+    CHECK_MSG(filled_count(r.out, NULL) == (long long)(n - per[0]), "info: filled %lld, expected %llu (element != 0)",
+              filled_count(r.out, NULL), (unsigned long long)(n - per[0]));
+    snprintf(want, sizeof want, "    0 empty %*s %12llu", 18, "", (unsigned long long)per[0]);
+    CHECK_MSG(strstr(r.out, want) != NULL, "info: no row '%s':\n%s", want, r.out);
+    snprintf(want, sizeof want, "    1 full %*s %12llu", 19, "", (unsigned long long)per[1]);
+    CHECK_MSG(strstr(r.out, want) != NULL, "info: no row '%s':\n%s", want, r.out);
+    CHECK_MSG(strstr(r.out, "    2 wedge ") != NULL && strstr(r.out, "36 more elements: "), "info rows:\n%s", r.out);
+    CHECK_MSG(count_line_prefix(r.out, "             ") == 11, "info: %d element rows:\n%s",
+              count_line_prefix(r.out, "             "), r.out);
+    CHECK(r.err[0] == '\0');
+    run_free(&r);
+    /* a palette that cannot be rebuilt: said on the palette line, rows without names */
+    run_cli(&r, NULL, ARGS("info", pal_bad));
+    f = find_field(r.out, "palette");
+    CHECK_MSG(r.code == 0 && f && strstr(f, "cannot be rebuilt: ") && strstr(f, "is not the one"),
+              "info of a tampered file:\n%s%s", r.out, r.err);
+    CHECK_MSG(strstr(r.out, "    1 full") == NULL && strstr(r.out, "46 of 46 used"), "info of a tampered file:\n%s",
+              r.out);
+    run_free(&r);
+    /* not a palette run: no palette line, elements counted */
+    path_join(p, sizeof p, g_in, "element_only.exr");
+    run_cli(&r, NULL, ARGS("info", p));
+    CHECK_MSG(r.code == 0 && !find_field(r.out, "palette") && find_field(r.out, "elements") &&
+                  strncmp(find_field(r.out, "elements"), "46 used", 7) == 0,
+              "info without palette attributes:\n%s%s", r.out, r.err);
+    run_free(&r);
+
+    free(elem);
+    free(score);
+    free(cov);
+    free(colours.rgb);
+    free(shaded.rgb);
+    free(grey.g);
 }
 
 /* ---- grey levels (coverage) ---- */
@@ -1683,6 +1874,7 @@ int main(void)
     test_default_mesh();
     test_list_devices();
     test_preview();
+    test_palette_files();
     test_palette_cli();
     test_palette_run();
     test_palette_run_errors();

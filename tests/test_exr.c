@@ -1043,6 +1043,18 @@ static void test_palette_header(void)
     CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &bad, CLVOX_CHANNEL_ELEMENT, CLVOX_COMPRESSION_RLE, 1, &w),
                  CLVOX_ERR_INVALID_ARGUMENT);
     CHECK(w == NULL && !exists(path) && temp_files(path) == 0);
+    bad.metric = "near\nest"; /* the reader would refuse it: so does the writer */
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &bad, CLVOX_CHANNEL_ELEMENT, CLVOX_COMPRESSION_RLE, 1, &w),
+                 CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(w == NULL && !exists(path) && strstr(clvox_context_error(ctx), "control character"));
+    clvox_palette *odd = NULL; /* a palette file named "two<newline>lines.txt" */
+    CHECK_OK(ctx, clvox_palette_parse(ctx, "dir/two\nlines.txt", "", 0, &odd));
+    bad = meta46;
+    bad.palette = odd;
+    CHECK_STATUS(ctx, clvox__exr_open(ctx, path, &g, &bad, CLVOX_CHANNEL_ELEMENT, CLVOX_COMPRESSION_RLE, 1, &w),
+                 CLVOX_ERR_INVALID_ARGUMENT);
+    CHECK(w == NULL && !exists(path) && temp_files(path) == 0);
+    clvox_palette_destroy(odd);
 }
 
 

@@ -588,6 +588,9 @@ static void test_palette_attrs(void)
         { { "clvoxPalette", NULL, 46 }, "clvoxPalette" },
         { { "clvoxPalette", "a-palette-name-of-sixty-four-bytes-or-more-which-is-one-too-many-for-it", 0 }, "too long" },
         { { "clvoxMetric", "nearest-and-more", 0 }, "clvoxMetric" },
+        { { "clvoxPalette", "two\nlines", 0 }, "clvoxPalette is not text" },
+        { { "clvoxPaletteHash", "0123456789abcd\nf", 0 }, "clvoxPaletteHash is not text" },
+        { { "clvoxMetric", "tab\there", 0 }, "clvoxMetric is not text" },
         { { "clvoxMetric", NULL, 1 }, "clvoxMetric" },
     };
     for (size_t i = 0; i < sizeof corrupt / sizeof corrupt[0]; i++) {

@@ -187,7 +187,8 @@ typedef enum clvox_axis {
 } clvox_axis;
 
 typedef enum clvox_compression {
-    CLVOX_COMPRESSION_DEFAULT = 0, /* RLE: fastest to write, see README */
+    CLVOX_COMPRESSION_DEFAULT = 0, /* RLE: fastest to write, see README; ZIP for files
+                                      with an element channel (RLE cannot shrink UINT) */
     CLVOX_COMPRESSION_NONE,
     CLVOX_COMPRESSION_RLE,
     CLVOX_COMPRESSION_ZIPS,

@@ -719,7 +719,9 @@ static void print_help(void)
 "\n"
 "Output encoding:\n"
 "  --compression none|rle|zip|zips|piz\n"
-"                           EXR compression (default rle: fastest to write)\n"
+"                           EXR compression (default rle: fastest to write; zip\n"
+"                           for palette runs, whose UINT element channel RLE\n"
+"                           cannot shrink); .nrrd: none or zip (gzip, default)\n"
 "  --threads N              host encoder threads (default 0 = number of cores)\n"
 "\n"
 "Device:\n"
@@ -878,6 +880,15 @@ static void print_filled_line(uint64_t filled, uint64_t total)
     double pct = total ? 100.0 * (double)filled / (double)total : 0.0;
     printf(LABEL "%llu of %llu voxels (%.2f %%)\n", "filled", (unsigned long long)filled,
            (unsigned long long)total, pct);
+}
+
+/* The EXR compression a run uses: the default is ZIP for palette runs
+ * (an element channel; see clvox.h), else RLE. */
+static clvox_compression effective_compression(const cli_args *a)
+{
+    if (a->vox.compression != CLVOX_COMPRESSION_DEFAULT) return a->vox.compression;
+    uint32_t ch = a->vox.channels ? a->vox.channels : a->palette ? CLVOX_CHANNEL_ELEMENT : 0u;
+    return (ch & CLVOX_CHANNEL_ELEMENT) ? CLVOX_COMPRESSION_ZIP : CLVOX_COMPRESSION_RLE;
 }
 
 static const char *compression_name(clvox_compression c)
@@ -1288,7 +1299,7 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
     snprintf(slab, sizeof slab, "%u", (unsigned)s->slab_depth);
     if (a->vox.mode == CLVOX_MODE_SURFACE) {
         printf(LABEL "surface: closed cells meeting a triangle (exact), slab %s slices, %s compression\n", "method",
-               slab, compression_name(a->vox.compression));
+               slab, compression_name(effective_compression(a)));
     } else if (a->vox.method == CLVOX_METHOD_TETRA) {
         char origin[128];
         if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_BBOX_CENTER) snprintf(origin, sizeof origin, "bbox centre");
@@ -1297,7 +1308,7 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
                      a->vox.tetra_point[2]);
         else snprintf(origin, sizeof origin, "centroid");
         printf(LABEL "tetra: origin %s, slab %s slices, %s compression\n", "method", origin, slab,
-               compression_name(a->vox.compression));
+               compression_name(effective_compression(a)));
     } else {
         static const char axes[] = {'x', 'x', 'y', 'z'};
         char depth[16], leaf[16];
@@ -1307,7 +1318,7 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
         printf(LABEL "ray along %c: quadtree depth %u (max %s), %llu leaves, leaf size %s, slab %s slices, %s "
                      "compression\n",
                "method", axes[ax >= 0 && ax <= 3 ? ax : 0], (unsigned)s->quadtree_depth, depth,
-               (unsigned long long)s->quadtree_leaves, leaf, slab, compression_name(a->vox.compression));
+               (unsigned long long)s->quadtree_leaves, leaf, slab, compression_name(effective_compression(a)));
     }
     if (a->vox.mode == CLVOX_MODE_CONSERVATIVE)
         printf(LABEL "conservative: the solid above OR the surface (closed cells meeting a triangle, exact)\n", "mode");
@@ -1752,7 +1763,7 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
     jb_u64(b, "max_depth", a->vox.quadtree_max_depth);
     jb_u64(b, "leaf_size", a->vox.quadtree_leaf_size);
     jb_u64(b, "slab", a->vox.slab_depth);
-    jb_str(b, "compression", compression_name(a->vox.compression));
+    jb_str(b, "compression", compression_name(effective_compression(a)));
     if (a->vox.method == CLVOX_METHOD_TETRA) {
         if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_POINT) jb_num3(b, "tetra_origin", a->vox.tetra_point);
         else jb_str(b, "tetra_origin", a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_BBOX_CENTER ? "bbox" : "centroid");

@@ -1014,6 +1014,11 @@ clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_g
 {
     if (out) *out = NULL;
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    /* The default: RLE, fastest to write; ZIP when there is an element
+     * channel, which RLE cannot shrink (a UINT index splits into e, 0, e, 0
+     * ... bytes that never run: about 2 bytes per voxel, 9x the ZIP file). */
+    if (compression == CLVOX_COMPRESSION_DEFAULT)
+        compression = (channels & CLVOX_CHANNEL_ELEMENT) ? CLVOX_COMPRESSION_ZIP : CLVOX_COMPRESSION_RLE;
     if (!path || !*path || !grid || !out)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__exr_open: missing path, grid or output");
     if (channels == 0) channels = CLVOX_CHANNEL_OCCUPANCY;

@@ -37,6 +37,7 @@
 #include "cli_common.h"
 #include "cli_json.h"
 #include "cli_vox.h"
+#include "grid_like.h"
 
 #include <errno.h>
 #include <math.h>
@@ -1442,15 +1443,37 @@ static int stop_at_first_slice(void *user, uint32_t z, const float *values)
     return 1;
 }
 
-/* --like FILE: dims, origin and voxel size of an existing volume.
- *
- * Hook for further formats: one branch per extension, each filling `out`
- * from its own header or failing with one line (fail(EXIT_INPUT, ...)). A
- * clvox EXR is read here (its header, and the first slice of one channel);
- * NRRD (.nrrd/.nhdr: "space origin", "space directions", "sizes") and the
- * NumPy sidecar (.json next to a .npy: origin, voxel size, shape) are to be
- * added by the writers of those formats (src/write_nrrd.c, src/write_npy.c):
- * until then they get the "not supported yet" error below. */
+/* The first `max` bytes of `path` (malloc'ed, *len set; *whole: the file
+ * ended within them), or NULL with the one-line error already printed. */
+static char *like_read_head(const char *path, size_t max, size_t *len, int *whole)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        fail(EXIT_INPUT, "--like '%s': cannot open: %s", path, strerror(errno));
+        return NULL;
+    }
+    char *b = malloc(max + 1);
+    size_t n = b ? fread(b, 1, max + 1, f) : 0;
+    int err = b && ferror(f);
+    fclose(f);
+    if (!b || err) {
+        free(b);
+        fail(EXIT_INPUT, "--like '%s': %s", path, b ? "read error" : "out of memory");
+        return NULL;
+    }
+    *whole = n <= max;
+    *len = n > max ? max : n;
+    return b;
+}
+
+#define LIKE_HEAD_MAX (1u << 20)
+
+/* --like FILE: dims, origin and voxel size of an existing volume, one branch
+ * per extension, each filling `out` or failing with one line (exit 4):
+ *   .exr          a clvox EXR (its header and the first slice of one channel)
+ *   .nrrd, .nhdr  a NRRD header, clvox's or another tool's (src/grid_like.c)
+ *   .json         the sidecar clvox writes next to a .npy
+ *   .npy          its sidecar: OUT.json (for OUT.<channel>.npy also OUT.json) */
 static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out)
 {
     const char *base = path_basename(path);
@@ -1458,11 +1481,58 @@ static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out
     char ext[16] = "";
     if (dot && dot != base && strlen(dot + 1) < sizeof ext)
         for (size_t i = 0; dot[i + 1]; i++) ext[i] = (char)(dot[i + 1] >= 'A' && dot[i + 1] <= 'Z' ? dot[i + 1] + 32 : dot[i + 1]);
-    if (strcmp(ext, "nrrd") == 0 || strcmp(ext, "nhdr") == 0 || strcmp(ext, "npy") == 0 || strcmp(ext, "json") == 0)
-        return fail(EXIT_INPUT, "--like '%s': reading the grid of .%s files is not supported yet (use a clvox .exr volume)",
-                    path, ext);
+    int nrrd = strcmp(ext, "nrrd") == 0 || strcmp(ext, "nhdr") == 0;
+    if (nrrd || strcmp(ext, "npy") == 0 || strcmp(ext, "json") == 0) {
+        char *file = NULL; /* the file read: path, or the .npy's sidecar */
+        if (strcmp(ext, "npy") == 0) {
+            size_t stem = (size_t)(dot - path);
+            static const char *const channels[] = {".occupancy", ".coverage", ".element", ".score"};
+            file = malloc(stem + 6);
+            if (!file) return fail(EXIT_INPUT, "--like: out of memory");
+            memcpy(file, path, stem);
+            strcpy(file + stem, ".json");
+            for (size_t c = 0; c < 4 && !is_readable_file(file); c++) { /* OUT.coverage.npy -> OUT.json */
+                size_t cl = strlen(channels[c]);
+                if (stem > cl && strncmp(path + stem - cl, channels[c], cl) == 0 && path + stem - cl > base)
+                    strcpy(file + stem - cl, ".json");
+            }
+            if (!is_readable_file(file)) {
+                int rc = fail(EXIT_INPUT, "--like '%s': no readable sidecar '%s' next to it (clvox writes OUT.json "
+                                          "with every OUT.npy)",
+                              path, file);
+                free(file);
+                return rc;
+            }
+        }
+        const char *name = file ? file : path;
+        size_t len = 0;
+        int whole = 0;
+        char *head = like_read_head(name, LIKE_HEAD_MAX, &len, &whole);
+        if (!head) {
+            free(file);
+            return EXIT_INPUT;
+        }
+        char note[512] = "";
+        clvox_status st;
+        if (!nrrd && !whole)
+            st = CLVOX_ERR_GRID, fail(EXIT_INPUT, "--like '%s': longer than %u bytes: not a clvox .npy sidecar",
+                                      name, LIKE_HEAD_MAX);
+        else if (nrrd) st = clvox__grid_from_nrrd(host, name, head, len, out, note, sizeof note);
+        else st = clvox__grid_from_npy_json(host, name, head, len, out);
+        free(head);
+        free(file);
+        if (st != CLVOX_OK) {
+            if (!(!nrrd && !whole)) {
+                const char *msg = clvox_context_error(host);
+                fail(EXIT_INPUT, "--like: %s", msg && *msg ? msg : clvox_status_string(st));
+            }
+            return EXIT_INPUT;
+        }
+        if (note[0]) warn("--like: %s", note);
+        return EXIT_OK;
+    }
     if (strcmp(ext, "exr") != 0)
-        return fail(EXIT_INPUT, "--like '%s': expected a clvox volume (.exr)", path);
+        return fail(EXIT_INPUT, "--like '%s': expected a clvox volume (.exr, .nrrd, .nhdr, .npy or its .json sidecar)", path);
     static const char *const channels[] = {"occupancy", "coverage", "element"};
     clvox_volume_info info;
     clvox_status st = CLVOX_ERR_EXR;

@@ -512,11 +512,144 @@ static void test_like(void)
     in_path(missing, "missing.exr");
     expect_failure("--like garbage", 4, "--like", ARGS(cube, "--like", random_exr, "-o", out));
     expect_failure("--like EXR without a grid", 4, "not a clvox volume", ARGS(cube, "--like", plain_exr, "-o", out));
-    expect_failure("--like NRRD", 4, "not supported yet", ARGS(cube, "--like", nrrd, "-o", out));
+    expect_failure("--like NRRD without a space", 4, "no 'space' field", ARGS(cube, "--like", nrrd, "-o", out));
     expect_failure("--like mesh", 4, "expected a clvox volume", ARGS(cube, "--like", cube, "-o", out));
     expect_failure("--like missing", 4, "missing.exr", ARGS(cube, "--like", missing, "-o", out));
     expect_failure("--like empty", 2, NULL, ARGS(cube, "--like", "", "-o", out));
     expect_failure("--like no value", 2, NULL, ARGS(cube, "-o", out, "--like"));
+}
+
+static int same_bytes(const char *a, const char *b)
+{
+    FILE *fa = fopen(a, "rb"), *fb = fopen(b, "rb");
+    int same = fa && fb;
+    while (same) {
+        int ca = getc(fa), cb = getc(fb);
+        if (ca != cb) same = 0;
+        if (ca == EOF || cb == EOF) break;
+    }
+    if (fa) fclose(fa);
+    if (fb) fclose(fb);
+    return same;
+}
+
+/* --like on clvox's own NRRD and NumPy outputs (same volume again), a
+ * Slicer-style NRRD header, and malformed headers (exit 4, one line). */
+static void test_like_formats(void)
+{
+    char box[PATH_MAX], ref_nrrd[PATH_MAX], ref_npy[PATH_MAX], ref_json[PATH_MAX], ref_cov[PATH_MAX], out[PATH_MAX];
+    in_path(box, "box.obj");
+    in_path(ref_nrrd, "grid.nrrd");
+    in_path(ref_npy, "grid.npy");
+    in_path(ref_json, "grid.json");
+    in_path(ref_cov, "grid.coverage.npy");
+    run_result r;
+    run_cli(&r, ARGS(box, "--dims", "9,5,3", "--pad", "1", "-o", ref_nrrd, "-q"));
+    CHECK_MSG(r.code == 0, "like ref nrrd: exit %d: %s", r.code, r.err);
+    run_free(&r);
+    run_cli(&r, ARGS(box, "--dims", "9,5,3", "--pad", "1", "--oversample", "2", "--channels", "occupancy,coverage", "-o", ref_npy, "-q"));
+    CHECK_MSG(r.code == 0, "like ref npy: exit %d: %s", r.code, r.err);
+    run_free(&r);
+    const char *const likes[][3] = {{ref_nrrd, "a.nrrd", ref_nrrd}, {ref_npy, "b.npy", ref_npy},
+                                    {ref_json, "c.npy", ref_npy}, {ref_cov, "d.npy", ref_npy}};
+    for (size_t i = 0; i < 4; i++) {
+        out_path(out, likes[i][1]);
+        int npy = strstr(likes[i][1], ".npy") != NULL;
+        run_cli(&r, npy ? ARGS(box, "--like", likes[i][0], "--oversample", "2", "--channels", "occupancy,coverage", "-o", out, "-q")
+                        : ARGS(box, "--like", likes[i][0], "-o", out, "-q"));
+        CHECK_MSG(r.code == 0 && r.err[0] == '\0', "--like %s: exit %d: %s", likes[i][0], r.code, r.err);
+        CHECK_MSG(same_bytes(out, likes[i][2]), "--like %s: %s differs from %s", likes[i][0], out, likes[i][2]);
+        if (npy) {
+            char a[PATH_MAX], b[PATH_MAX];
+            /* (the sidecars differ only in the file names they list) */
+            out_path(a, likes[i][1]);
+            strcpy(strrchr(a, '.'), ".coverage.npy");
+            in_path(b, "grid.coverage.npy");
+            CHECK_MSG(same_bytes(a, b), "--like %s: the coverage differs", likes[i][0]);
+        }
+        run_free(&r);
+        reset_out();
+    }
+
+    /* a header as 3D Slicer writes it (gzip data after the blank line) */
+    char slicer[PATH_MAX];
+    in_path(slicer, "slicer_seg.nrrd");
+    FILE *f = fopen(slicer, "wb");
+    CHECK(f != NULL);
+    if (f) {
+        fputs("NRRD0004\r\n# Complete NRRD file format specification at:\r\n"
+              "# http://teem.sourceforge.net/nrrd/format.html\r\n"
+              "type: short\r\ndimension: 3\r\nspace: right-anterior-superior\r\nsizes: 4 3 2\r\n"
+              "space directions: (0.5,0,0) (0, 0.25, 0) (0,0,2)\r\nkinds: domain domain domain\r\n"
+              "endian: little\r\nencoding: gzip\r\nspace units: \"mm\" \"mm\" \"mm\"\r\n"
+              "space origin: (10,-20.5,30)\r\nSegment0_Color:=0.5 0.68 0.5\r\nSegment0_Name:=liver\r\n\r\n", f);
+        static const unsigned char gz[] = {0x1f, 0x8b, 0x08, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03, 0x0a, 0x00};
+        fwrite(gz, 1, sizeof gz, f);
+        CHECK(fclose(f) == 0);
+    }
+    out_path(out, "slicer.exr");
+    run_cli(&r, ARGS(box, "--like", slicer, "-o", out, "--json"));
+    CHECK_MSG(r.code == 0, "--like Slicer NRRD: exit %d: %s", r.code, r.err);
+    CHECK_MSG(count_lines(r.err) == 1 && strstr(r.err, "warning") && strstr(r.err, "right-anterior-superior"),
+              "--like Slicer NRRD: expected one warning about the space: [%s]", r.err);
+    py_check("--like Slicer NRRD", r.out_path,
+             "g = recs[0]['grid']\n"
+             "assert g['dims'] == [4, 3, 2], g\n"
+             "assert g['origin'] == [9.75, -20.625, 29.0] and g['voxel_size'] == [0.5, 0.25, 2.0], g\n",
+             NULL);
+    run_free(&r);
+    reset_out();
+
+    /* malformed headers: each one line, exit 4 */
+    static const char *const bad[][2] = {
+        {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nspace: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n", "truncated"},
+        {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nspace: RAS\nspace directions: (1,0.5,0) (0,1,0) (0,0,1)\n"
+         "space origin: (0,0,0)\n\n", "only axis-aligned grids"},
+        {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nspace: RAS\nspace directions: (-1,0,0) (0,1,0) (0,0,1)\n"
+         "space origin: (0,0,0)\n\n", "only axis-aligned grids"},
+        {"NRRD0004\ndimension: 4\nsizes: 3 2 2 2\n\n", "only 3-D scalar"},
+        {"NRRD0004\ndimension: 3\nsizes: 2 2\n\n", "sizes"},
+        {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nspace: RAS\nspace directions: (1,0,0) none (0,0,1)\n"
+         "space origin: (0,0,0)\n\n", "space directions"},
+        {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nspace: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"
+         "space origin: (nan,0,0)\n\n", "space origin"},
+        {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nspace: RAS\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n\n", "space origin"},
+        {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nspace: RAST\n\n", "RAST"},
+        {"NRRD0004\ndimension: 3\nsizes: 2 2 2\nkinds: vector domain domain\n\n", "only 3-D scalar"},
+        {"NRRD0004\ngarbage\n\n", "not 'field: value'"},
+        {"P6 not nrrd\n", "NRRD000N"},
+        {"", "NRRD000N"},
+    };
+    char p[PATH_MAX];
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char name[32], what[64];
+        snprintf(name, sizeof name, "bad%zu.nrrd", i);
+        in_path(p, name);
+        CHECK(write_text(p, bad[i][0]));
+        snprintf(what, sizeof what, "--like bad NRRD %zu", i);
+        out_path(out, "x.exr");
+        expect_failure(what, 4, bad[i][1], ARGS(box, "--like", p, "-o", out));
+    }
+    static const char *const bad_json[][2] = {
+        {"{\"format\": \"npy\", \"dims\": [2, 2], \"origin\": [0, 0, 0], \"voxel_size\": [1, 1, 1]}", "dims"},
+        {"{\"format\": \"npy\", \"dims\": [2, 2, 2], \"origin\": [0, 0, 0], \"voxel_size\": [1, 0, 1]}", "positive"},
+        {"{\"format\": \"npy\", \"dims\": [2, 2, 2], \"origin\": [0, 0, 0]", "truncated"},
+        {"{\"format\": \"nrrd\", \"dims\": [2, 2, 2], \"origin\": [0, 0, 0], \"voxel_size\": [1, 1, 1]}", "not a clvox .npy sidecar"},
+        {"[1, 2, 3]", "not a JSON object"},
+        {"{\"format\": \"npy\", \"dims\": [2.5, 2, 2], \"origin\": [0, 0, 0], \"voxel_size\": [1, 1, 1]}", "integer"},
+    };
+    for (size_t i = 0; i < sizeof bad_json / sizeof bad_json[0]; i++) {
+        char name[32], what[64];
+        snprintf(name, sizeof name, "bad%zu.json", i);
+        in_path(p, name);
+        CHECK(write_text(p, bad_json[i][0]));
+        snprintf(what, sizeof what, "--like bad sidecar %zu", i);
+        out_path(out, "x.exr");
+        expect_failure(what, 4, bad_json[i][1], ARGS(box, "--like", p, "-o", out));
+    }
+    in_path(p, "lonely.npy");
+    CHECK(write_text(p, "not read"));
+    expect_failure("--like .npy without a sidecar", 4, "no readable sidecar", ARGS(box, "--like", p, "-o", out));
 }
 
 
@@ -913,6 +1046,7 @@ int main(void)
     test_json_failure();
     test_info_json();
     test_like();
+    test_like_formats();
     test_batch_basic();
     test_batch_failures();
     test_batch_lists();

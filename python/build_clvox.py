@@ -111,6 +111,21 @@ typedef struct clvox_stats {
 
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                    const clvox_voxelize_options *options, const char *path, clvox_stats *stats);
+typedef enum clvox_format { CLVOX_FORMAT_AUTO = 0, CLVOX_FORMAT_EXR, CLVOX_FORMAT_NPY, CLVOX_FORMAT_NRRD,
+                             CLVOX_FORMAT_BINVOX, CLVOX_FORMAT_COUNT } clvox_format;
+const char *clvox_format_name(clvox_format format);
+clvox_format clvox_format_from_name(const char *name);
+clvox_format clvox_format_from_path(const char *path);
+#define CLVOX_OUTPUT_PACK_BITS ...
+#define CLVOX_OUTPUT_FLOAT32 ...
+#define CLVOX_OUTPUT_UINT32 ...
+typedef struct clvox_output_options {
+    size_t size; clvox_format format; uint32_t flags; clvox_compression compression; uint32_t threads;
+    const char *method; const char *parameters; ...;
+} clvox_output_options;
+clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    const clvox_voxelize_options *options, const clvox_output_options *output,
+                                    const char *path, clvox_stats *stats);
 typedef struct clvox_slab {
     uint32_t z0, nz; const uint8_t *occupancy; const float *coverage; const uint16_t *element; const float *score;
 } clvox_slab;

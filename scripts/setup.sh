@@ -41,7 +41,10 @@ python_readers() {
   venv="$root/build/venv-formats"
   if "$venv/bin/python" -c "import nrrd, trimesh" >/dev/null 2>&1; then return 0; fi
   echo "setup.sh: installing pynrrd and trimesh into build/venv-formats"
-  python3 -m venv --system-site-packages "$venv" && \
+  # Debian's python3 (not another one first on PATH): the venv then sees its
+  # numpy, cffi and pytest, and tests/test_python.sh runs the Python tests in it.
+  py3=/usr/bin/python3; [ -x "$py3" ] || py3=python3
+  "$py3" -m venv --system-site-packages "$venv" && \
     "$venv/bin/pip" install -q --disable-pip-version-check pynrrd==1.1.3 trimesh==5.2.0 || {
       echo "setup.sh: pip install of pynrrd/trimesh failed" >&2; return 1; }
 }

@@ -4,8 +4,14 @@
 # build/$CONFIG/tests/test_python. It compiles the cffi extension against
 # build/$CONFIG/libclvox.a into build/$CONFIG/python (about 3 s), runs pytest
 # there and ends with one "N passed, N failed" line (python/tests/conftest.py).
-# The interpreter: $CLVOX_PYTHON, else /usr/bin/python3 (Debian's, with the
-# python3-cffi/-numpy/-pytest packages scripts/setup.sh installs), else python3.
+# The interpreter: the first of $CLVOX_PYTHON, build/venv-formats/bin/python,
+# /usr/bin/python3 (Debian's, with the python3-cffi/-numpy/-pytest packages
+# scripts/setup.sh installs) and python3 that imports cffi, numpy and pytest.
+# build/venv-formats (scripts/setup.sh: pynrrd and trimesh from PyPI, made
+# with --system-site-packages from Debian's python3) adds trimesh to Debian's
+# packages, so test_trimesh.py runs; a venv made from another python3 (no
+# pytest) is passed over, and without trimesh those tests are skipped (the
+# line below says which interpreter ran and whether trimesh was there).
 set -u
 here=$(cd "$(dirname "$0")" && pwd)          # build/CONFIG/tests
 build=$(dirname "$here")
@@ -16,7 +22,7 @@ case "${CONFIG:-release}" in
      echo "0 passed, 0 failed"; exit 0 ;;
 esac
 py=""
-for c in ${CLVOX_PYTHON:-} /usr/bin/python3 python3; do
+for c in ${CLVOX_PYTHON:-} "$repo/build/venv-formats/bin/python" /usr/bin/python3 python3; do
   if "$c" -c "import cffi, numpy, pytest" >/dev/null 2>&1; then py=$c; break; fi
 done
 if [ -z "$py" ]; then
@@ -35,5 +41,7 @@ cp "$out"/tmp/clvox/_clvox*.so "$out/clvox/" || exit 1
 cd "$repo/python/tests" || exit 1
 tmp="${CLVOX_TEST_TMP:-$build/test-tmp}"
 mkdir -p "$tmp"
+if "$py" -c "import trimesh" >/dev/null 2>&1; then tm=yes; else tm="no: test_trimesh.py skipped"; fi
+echo "python tests: $py (trimesh: $tm)"
 PYTHONPATH="$out" PYTHONDONTWRITEBYTECODE=1 CLVOX_LIB="$build/libclvox.a" CLVOX_INCLUDE="$repo/include" CLVOX_BIN="${CLVOX_BIN:-$build/clvox}" \
   "$py" -m pytest -q -p no:cacheprovider --basetemp="$tmp/pytest" .

@@ -547,19 +547,32 @@ class Context:
             return Volume(grid.dims, grid.origin, grid.voxel_size, stats=_stats_dict(stats),
                           report=dict(m.report), **arrays)
 
-    def voxelize_to_file(self, mesh, path, *, resolution=None, dims=None, voxel_size=None, box=None, pad=0,
-                         progress=None, **options):
-        """Streams the volume to `path` slab by slab (memory: a slab, whatever the grid).
-        Only OpenEXR (.exr) for now: the library's writer, the same file as the CLI's
-        (other formats come with the library's multi-format writer). compression=None|"none"|
-        "rle"|"zips"|"zip"|"piz". Returns the stats dict. A failure, cancel or Ctrl-C leaves no file."""
+    def voxelize_to_file(self, mesh, path, *, format=None, npy_bits=False, float32=False, uint32=False,
+                         resolution=None, dims=None, voxel_size=None, box=None, pad=0, progress=None, **options):
+        """Streams the volume to `path` through clvox_voxelize_to_file, the CLI's writer: the
+        same file as `clvox MESH -o path` with the same options. format=None takes it from the
+        extension (.exr .npy .nrrd .binvox, any case), else "exr"|"npy"|"nrrd"|"binvox"; an
+        unknown extension raises ValueError (clvox.InvalidError) before any work.
+        npy only: npy_bits=True packs occupancy 8 voxels per byte along x (--npy-bits),
+        float32=True writes coverage/score as float32 (--npy-float32), uint32=True element as
+        uint32 (--npy-uint32). npy and NRRD write one file per channel (OUT.npy, OUT.coverage.npy,
+        ...; npy also OUT.json). compression=None|"none"|"rle"|"zips"|"zip"|"piz" (EXR; NRRD:
+        "none" raw, default gzip). Memory: a slab (binvox: the volume as bits). Returns the
+        stats dict. A failure, cancel or Ctrl-C leaves no file."""
         p = os.fsencode(path)
-        if not p.lower().endswith(b".exr"):
-            raise ValueError(f"{os.fsdecode(p)!r}: only .exr output is supported by the Python binding so far")
+        oo = ffi.new("clvox_output_options *")
+        oo.size = ffi.sizeof("clvox_output_options")
+        if format is not None:
+            f = lib.clvox_format_from_name(str(format).encode()) if isinstance(format, str) else lib.CLVOX_FORMAT_AUTO
+            if f == lib.CLVOX_FORMAT_AUTO:
+                raise ValueError(f"format must be one of exr, npy, nrrd, binvox, got {format!r}")
+            oo.format = f
+        oo.flags = ((lib.CLVOX_OUTPUT_PACK_BITS if npy_bits else 0) | (lib.CLVOX_OUTPUT_FLOAT32 if float32 else 0) |
+                    (lib.CLVOX_OUTPUT_UINT32 if uint32 else 0))
         with self._busy():
             m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options)
             stats = ffi.new("clvox_stats *")
-            self._call(run, lib.clvox_voxelize_to_exr, self._ptr, m._ptr, grid, opts, p, stats)
+            self._call(run, lib.clvox_voxelize_to_file, self._ptr, m._ptr, grid, opts, oo, p, stats)
             del pal
             d = _stats_dict(stats)
             d["report"] = dict(m.report)

@@ -80,12 +80,7 @@ def test_trimesh_like_object_and_lists(ctx):
     ref = ctx.voxelize((V, F), resolution=20)
     assert np.array_equal(ctx.voxelize(Obj(), resolution=20).occupancy, ref.occupancy)
     assert np.array_equal(ctx.voxelize((V.tolist(), F.tolist()), resolution=20).occupancy, ref.occupancy)
-    try:
-        import trimesh
-    except ImportError:
-        return
-    tm = trimesh.Trimesh(V, F, process=False)
-    assert np.array_equal(ctx.voxelize(tm, resolution=20).occupancy, ref.occupancy)
+    # real trimesh objects: test_trimesh.py (skipped, not silently passed, without trimesh)
 
 
 def test_reused_mesh_object(ctx):

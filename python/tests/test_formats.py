@@ -1,0 +1,119 @@
+"""ctx.voxelize_to_file in every format: the CLI's files, byte for byte."""
+import os
+import signal
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import clvox
+from conftest import DEFAULT
+
+CUBE = (-1.2, -1.2, -1.2, 1.2, 1.2, 1.2)
+CASES = [
+    # (output name, python kwargs, CLI args)
+    ("v.exr", dict(resolution=32), ["-r", 32]),
+    ("v.exr", dict(resolution=24, oversample=2, compression="none"), ["-r", 24, "--oversample", 2,
+                                                                      "--compression", "none"]),
+    ("v.npy", dict(resolution=32), ["-r", 32]),
+    ("v.npy", dict(resolution=30, npy_bits=True), ["-r", 30, "--npy-bits"]),
+    ("v.npy", dict(resolution=24, oversample=3, channels="occupancy,coverage"),
+     ["-r", 24, "--oversample", 3, "--channels", "occupancy,coverage"]),
+    ("v.npy", dict(resolution=24, oversample=2, float32=True), ["-r", 24, "--oversample", 2, "--npy-float32"]),
+    ("v.npy", dict(resolution=16, palette="paper46", uint32=True, float32=True),
+     ["-r", 16, "--palette", "paper46", "--npy-uint32", "--npy-float32"]),
+    ("v.NPY", dict(resolution=20, palette="paper46"), ["-r", 20, "--palette", "paper46"]),
+    ("v.nrrd", dict(resolution=32), ["-r", 32]),
+    ("v.nrrd", dict(resolution=24, oversample=2, compression="none"),
+     ["-r", 24, "--oversample", 2, "--compression", "none"]),
+    ("v.binvox", dict(resolution=32, box=CUBE), ["-r", 32, "--box", ",".join(map(str, CUBE))]),
+    ("v.dat", dict(resolution=20, format="npy"), ["-r", 20, "--format", "npy"]),
+    ("v.dat", dict(resolution=20, format="binvox", box=CUBE),
+     ["-r", 20, "--format", "binvox", "--box", ",".join(map(str, CUBE))]),
+]
+
+
+def _files(d):
+    return {n: open(os.path.join(d, n), "rb").read() for n in sorted(os.listdir(d))}
+
+
+@pytest.mark.parametrize("name,kw,args", CASES, ids=[f"{c[0]}-{i}" for i, c in enumerate(CASES)])
+def test_file_equals_cli(ctx, cli, tmp, name, kw, args):
+    a, b = tmp / "cli", tmp / "py"
+    a.mkdir()
+    b.mkdir()
+    cli(DEFAULT, "-o", a / name, *args)
+    stats = ctx.voxelize_to_file(DEFAULT, b / name, **kw)
+    ref, mine = _files(a), _files(b)
+    assert list(mine) == list(ref) and name in ref
+    fmt = kw.get("format") or name.rsplit(".", 1)[1].lower()
+    if fmt in ("npy", "nrrd"):
+        channels = stats["channels"]
+        assert len(ref) == len(channels) + (fmt == "npy")  # one file per channel (+ OUT.json)
+    for n in ref:
+        if fmt == "npy" and not n.endswith(".json"):
+            x, y = np.load(a / n), np.load(b / n)
+            assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y), n
+        assert mine[n] == ref[n], n  # and byte for byte: headers, sidecars, compression
+    # the file holds what voxelize computes (one check per format; EXR also in test_cli_equal)
+    vol = ctx.voxelize(DEFAULT, **{k: v for k, v in kw.items() if k not in ("format", "npy_bits", "float32",
+                                                                            "uint32", "compression")})
+    main = name
+    if fmt == "npy" and vol.occupancy is not None:
+        arr = np.load(b / main)
+        if kw.get("npy_bits"):
+            arr = np.unpackbits(arr, axis=2, bitorder="little")[:, :, :vol.dims[0]]
+        assert np.array_equal(arr.astype(bool), vol.occupancy)
+    if fmt == "npy" and vol.element is not None:
+        assert np.array_equal(np.load(b / main), vol.element)
+    if fmt == "binvox":
+        assert stats["filled_voxels"] == int(vol.occupancy.sum()) > 0
+
+
+def test_bad_extension_and_options_raise_value_error(ctx, tmp):
+    with pytest.raises(ValueError, match=r"cannot tell the format of '.*x\.vox' from its extension") as e:
+        ctx.voxelize_to_file(DEFAULT, tmp / "x.vox", resolution=8)
+    assert isinstance(e.value, clvox.InvalidError) and e.value.status_name == "invalid_argument"
+    with pytest.raises(ValueError, match="cannot tell the format"):
+        ctx.voxelize_to_file(DEFAULT, tmp / "noext", resolution=8)
+    with pytest.raises(ValueError, match="format must be one of"):
+        ctx.voxelize_to_file(DEFAULT, tmp / "x.npy", resolution=8, format="png")
+    with pytest.raises(ValueError, match="npy options"):
+        ctx.voxelize_to_file(DEFAULT, tmp / "x.exr", resolution=8, npy_bits=True)
+    with pytest.raises(ValueError, match="binvox holds no coverage"):
+        ctx.voxelize_to_file(DEFAULT, tmp / "x.binvox", resolution=8, box=CUBE, oversample=2)
+    with pytest.raises(ValueError, match="cubic"):
+        ctx.voxelize_to_file(DEFAULT, tmp / "x.binvox", dims=(8, 8, 6))
+    assert os.listdir(tmp) == []
+
+
+@pytest.mark.parametrize("name", ["c.npy", "c.nrrd", "c.binvox", "c.exr"])
+def test_cancel_leaves_no_file(ctx, tmp, name):
+    kw = dict(box=CUBE) if name.endswith(".binvox") else dict(channels="occupancy,coverage", oversample=2)
+    seen = []
+
+    def stop(f):
+        seen.append(f)
+        return f < 0.3
+    with pytest.raises(clvox.CancelledError):
+        ctx.voxelize_to_file(DEFAULT, tmp / name, resolution=48, slab_depth=4, progress=stop, **kw)
+    assert seen and seen[-1] >= 0.3 and seen[-1] < 1.0
+    assert os.listdir(tmp) == []
+
+
+@pytest.mark.parametrize("name", ["long.npy", "long.nrrd"])
+def test_ctrl_c_leaves_no_file(ctx, tmp, name):
+    assert threading.current_thread() is threading.main_thread()
+    timer = threading.Timer(0.6, os.kill, (os.getpid(), signal.SIGINT))
+    t0 = time.monotonic()
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            ctx.voxelize_to_file(DEFAULT, tmp / name, resolution=512, oversample=16,
+                                 channels="occupancy,coverage")
+    finally:
+        timer.cancel()
+    assert time.monotonic() - t0 < 6
+    assert os.listdir(tmp) == []
+    assert ctx.voxelize(DEFAULT, resolution=8).occupancy.any()

@@ -112,7 +112,7 @@ typedef struct clvox_stats {
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                    const clvox_voxelize_options *options, const char *path, clvox_stats *stats);
 typedef enum clvox_format { CLVOX_FORMAT_AUTO = 0, CLVOX_FORMAT_EXR, CLVOX_FORMAT_NPY, CLVOX_FORMAT_NRRD,
-                             CLVOX_FORMAT_BINVOX, CLVOX_FORMAT_COUNT } clvox_format;
+                             CLVOX_FORMAT_BINVOX, CLVOX_FORMAT_VDB, CLVOX_FORMAT_COUNT } clvox_format;
 const char *clvox_format_name(clvox_format format);
 clvox_format clvox_format_from_name(const char *name);
 clvox_format clvox_format_from_path(const char *path);

@@ -128,6 +128,9 @@ int cmd_convert(int argc, char **argv)
     }
     if (!want) { /* default: every channel where each channel has its own file, else the main one */
         if (format == CLVOX_FORMAT_NPY || format == CLVOX_FORMAT_NRRD) want = have;
+        /* vdb: density = coverage when there is one (+ an occupancy grid), as clvox MESH -o OUT.vdb */
+        else if (format == CLVOX_FORMAT_VDB && (have & (CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE)))
+            want = have & (CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE);
         else want = (have & CLVOX_CHANNEL_OCCUPANCY) ? CLVOX_CHANNEL_OCCUPANCY
                     : (have & CLVOX_CHANNEL_ELEMENT) ? CLVOX_CHANNEL_ELEMENT
                                                      : (have & CLVOX_CHANNEL_COVERAGE);

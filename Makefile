@@ -104,6 +104,7 @@ $(BUILD)/gen/kernels_embedded.o: $(KERNEL_C)
 $(STATIC_LIB): $(LIB_OBJ)
 	@$(if $(filter 0,$(V)),echo "  AR    $@")
 	$(Q)rm -f $@ && ar rcs $@ $^
+	$(Q)echo '$(LIBS)' > $(BUILD)/libclvox.libs
 
 $(SHARED_LIB): $(LIB_OBJ)
 	@$(if $(filter 0,$(V)),echo "  LD    $@")

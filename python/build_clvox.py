@@ -258,8 +258,14 @@ def _configure():
         if os.path.exists(cand):
             lib, inc = cand, inc or os.path.join(REPO, "include")
     if lib:
+        libs = SYSTEM_LIBS
+        # the Makefile's link line (with -lopenvdb ... when built with OpenVDB), next to the archive
+        side = os.path.join(os.path.dirname(lib), "libclvox.libs")
+        if os.path.exists(side):
+            with open(side) as f:
+                libs = [t[2:] for t in f.read().split() if t.startswith("-l")]
         return dict(include_dirs=[inc or os.path.join(REPO, "include")], extra_objects=[lib],
-                    libraries=SYSTEM_LIBS)
+                    libraries=libs)
     pc = _pkg_config()
     if pc:
         cflags, libs = pc

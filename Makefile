@@ -34,6 +34,25 @@ PNG_LIBS := -lpng
 # GMP (Debian libgmp-dev) only for the tests: exact rational references.
 TEST_LIBS := -lgmp
 FINAL_LDFLAGS := $(SAN_LDFLAGS) $(LDFLAGS)
+# OpenVDB (Debian libopenvdb-dev) for .vdb output, optional: found when its
+# header and library are there; WITH_OPENVDB=0 builds without it (.vdb is then
+# refused with "clvox was built without OpenVDB"), WITH_OPENVDB=1 insists.
+OPENVDB_FOUND := $(shell printf '\043include <openvdb/openvdb.h>\n' | $(CXX) -std=c++17 -E -x c++ - >/dev/null 2>&1 && \
+  printf 'int main(){return 0;}' | $(CXX) -x c++ - -o /dev/null -lopenvdb >/dev/null 2>&1 && echo 1 || echo 0)
+WITH_OPENVDB ?= $(OPENVDB_FOUND)
+ifeq ($(WITH_OPENVDB)$(OPENVDB_FOUND),10)
+  $(error WITH_OPENVDB=1 but OpenVDB (openvdb/openvdb.h with Boost, -lopenvdb) was not found: apt-get install libopenvdb-dev libboost-dev)
+endif
+ifeq ($(WITH_OPENVDB),1)
+  FINAL_CXXFLAGS += -DCLVOX_HAVE_OPENVDB
+  LIBS += -lopenvdb -lImath-3_1 -ltbb
+endif
+# A changed choice rebuilds the shim.
+.DEFAULT_GOAL := all
+OPENVDB_STAMP := $(BUILD)/gen/openvdb-$(WITH_OPENVDB)
+$(OPENVDB_STAMP):
+	@mkdir -p $(dir $@) && rm -f $(BUILD)/gen/openvdb-* && touch $@
+$(BUILD)/src/write_vdb.o: $(OPENVDB_STAMP)
 
 ifeq ($(V),1)
   Q :=
@@ -85,6 +104,7 @@ $(BUILD)/gen/kernels_embedded.o: $(KERNEL_C)
 $(STATIC_LIB): $(LIB_OBJ)
 	@$(if $(filter 0,$(V)),echo "  AR    $@")
 	$(Q)rm -f $@ && ar rcs $@ $^
+	$(Q)echo '$(LIBS)' > $(BUILD)/libclvox.libs
 
 $(SHARED_LIB): $(LIB_OBJ)
 	@$(if $(filter 0,$(V)),echo "  LD    $@")
@@ -173,7 +193,7 @@ install: all
 	ln -sf libclvox.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/libclvox.so.$(word 1,$(subst ., ,$(VERSION)))
 	ln -sf libclvox.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/libclvox.so
 	install -m 755 $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/clvox
-	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@VERSION@|$(VERSION)|g' scripts/clvox.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/clvox.pc
+	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@VERSION@|$(VERSION)|g' -e 's|@LIBS_PRIVATE@|$(LIBS)|g' scripts/clvox.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/clvox.pc
 
 uninstall:
 	rm -f $(DESTDIR)$(PREFIX)/include/clvox.h $(DESTDIR)$(PREFIX)/lib/libclvox.a \

@@ -391,20 +391,22 @@ clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, const clvox_m
                                                size_t element_count, float *score, size_t score_count,
                                                clvox_stats *stats);
 
-/* ---- other output formats (output.c, write_npy.c, write_nrrd.c, write_binvox.c) ---- */
+/* ---- other output formats (output.c, write_npy.c, write_nrrd.c, write_binvox.c, write_vdb.cpp) ---- */
 /* Besides EXR (the default, clvox_voxelize_to_exr): NumPy .npy, NRRD and
  * binvox, streamed slab by slab except binvox (a bit per voxel held until the
- * end: its voxel order runs x slowest). What each holds, file names, headers
+ * end: its voxel order runs x slowest) and OpenVDB (a sparse FLOAT grid
+ * "density", built slab by slab, written at the end). What each holds, file names, headers
  * and the voxel-centre conventions: README "Output formats". */
 typedef enum clvox_format {
-    CLVOX_FORMAT_AUTO = 0, /* from the path's extension: .exr .npy .nrrd .binvox (any case) */
+    CLVOX_FORMAT_AUTO = 0, /* from the path's extension: .exr .npy .nrrd .binvox .vdb (any case) */
     CLVOX_FORMAT_EXR,
     CLVOX_FORMAT_NPY,
     CLVOX_FORMAT_NRRD,
     CLVOX_FORMAT_BINVOX,
+    CLVOX_FORMAT_VDB,      /* OpenVDB, when clvox was built with it (else refused with a message) */
     CLVOX_FORMAT_COUNT
 } clvox_format;
-/* "exr", "npy", "nrrd", "binvox"; NULL for AUTO or a bad value. */
+/* "exr", "npy", "nrrd", "binvox", "vdb"; NULL for AUTO or a bad value. */
 const char *clvox_format_name(clvox_format format);
 /* The format named `name` ("npy", ...) or, with from_path, the format of the
  * path's extension; CLVOX_FORMAT_AUTO when it is none of them. */

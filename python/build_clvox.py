@@ -112,7 +112,7 @@ typedef struct clvox_stats {
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                    const clvox_voxelize_options *options, const char *path, clvox_stats *stats);
 typedef enum clvox_format { CLVOX_FORMAT_AUTO = 0, CLVOX_FORMAT_EXR, CLVOX_FORMAT_NPY, CLVOX_FORMAT_NRRD,
-                             CLVOX_FORMAT_BINVOX, CLVOX_FORMAT_COUNT } clvox_format;
+                             CLVOX_FORMAT_BINVOX, CLVOX_FORMAT_VDB, CLVOX_FORMAT_COUNT } clvox_format;
 const char *clvox_format_name(clvox_format format);
 clvox_format clvox_format_from_name(const char *name);
 clvox_format clvox_format_from_path(const char *path);
@@ -258,8 +258,14 @@ def _configure():
         if os.path.exists(cand):
             lib, inc = cand, inc or os.path.join(REPO, "include")
     if lib:
+        libs = SYSTEM_LIBS
+        # the Makefile's link line (with -lopenvdb ... when built with OpenVDB), next to the archive
+        side = os.path.join(os.path.dirname(lib), "libclvox.libs")
+        if os.path.exists(side):
+            with open(side) as f:
+                libs = [t[2:] for t in f.read().split() if t.startswith("-l")]
         return dict(include_dirs=[inc or os.path.join(REPO, "include")], extra_objects=[lib],
-                    libraries=SYSTEM_LIBS)
+                    libraries=libs)
     pc = _pkg_config()
     if pc:
         cflags, libs = pc

@@ -11,7 +11,7 @@ set -eu
 
 pkgs="build-essential pkg-config ca-certificates time \
 pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo zlib1g-dev \
-libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev \
+libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev libopenvdb-dev libboost-dev python3-openvdb \
 python3 python3-dev python3-cffi python3-numpy python3-pytest python3-setuptools python3-wheel python3-pip python3-venv"
 peers=0
 blender=0
@@ -24,7 +24,7 @@ for arg in "$@"; do
     *) echo "setup.sh: unknown option '$arg' (try --help)" >&2; exit 2 ;;
   esac
 done
-[ "$peers" -eq 1 ] && pkgs="$pkgs python3-vtk9 python3-openvdb"
+[ "$peers" -eq 1 ] && pkgs="$pkgs python3-vtk9"
 # Debian's Blender 3.4 (about 140 packages; Cycles renders on the CPU).
 [ "$blender" -eq 1 ] && pkgs="$pkgs blender"
 

@@ -349,7 +349,7 @@ int parse_args(int argc, char **argv, int first, int multi, cli_extra_opt_fn ext
         } else if (VALUE_OPT(NULL, "--format")) {
             NEED_VALUE("--format");
             if ((a->out.format = clvox_format_from_name(v)) == CLVOX_FORMAT_AUTO)
-                return usage_error("--format '%s': one of exr, npy, nrrd, binvox", v);
+                return usage_error("--format '%s': one of exr, npy, nrrd, binvox, vdb", v);
         } else if (VALUE_OPT("-r", "--resolution")) {
             NEED_VALUE("-r");
             if (set_grid_kind(a, GRID_BY_RESOLUTION, "-r")) return EXIT_USAGE;
@@ -604,7 +604,7 @@ static void print_help(void)
 "       clvox palette list | show NAME|FILE\n"
 "       clvox instances VOLUME.exr -o OUT.csv [--render-map MAP]\n"
 "       clvox mesh VOLUME.exr -o OUT.ply [--ascii]\n"
-"       clvox convert IN.exr OUT.{npy,nrrd,binvox,exr} [--format F] [--channel NAME]...\n"
+"       clvox convert IN.exr OUT.{npy,nrrd,binvox,vdb,exr} [--format F] [--channel NAME]...\n"
 "                     [--compression C] [--npy-bits] [--npy-float32] [--npy-uint32]\n"
 "       clvox --list-devices | --help | --version\n"
 "\n"
@@ -619,8 +619,8 @@ static void print_help(void)
 "                           in the current directory); written to a temporary name\n"
 "                           and renamed on success, so a failed run leaves no file.\n"
 "                           The extension picks the format: .exr, .npy (+ OUT.json),\n"
-"                           .nrrd, .binvox (README \"Output formats\")\n"
-"  --format exr|npy|nrrd|binvox  the output format whatever the extension\n"
+"                           .nrrd, .binvox, .vdb (README \"Output formats\")\n"
+"  --format exr|npy|nrrd|binvox|vdb  the output format whatever the extension\n"
 "  --npy-bits               npy occupancy packed 8 voxels per byte along x\n"
 "  --npy-float32            npy coverage/score as float32 (default float16)\n"
 "  --npy-uint32             npy element as uint32 (default uint16)\n"
@@ -1617,8 +1617,8 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     if ((rc = check_output(job->output)) != EXIT_OK) goto done;
     clvox_format format = a->out.format ? a->out.format : clvox_format_from_path(job->output);
     if (!format) {
-        rc = usage_error("cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd or "
-                         ".binvox, or --format",
+        rc = usage_error("cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd, "
+                         ".binvox or .vdb, or --format",
                          job->output);
         goto done;
     }

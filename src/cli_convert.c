@@ -1,4 +1,4 @@
-/* clvox convert IN.exr OUT.{npy,nrrd,binvox,exr}: rewrites a clvox EXR volume
+/* clvox convert IN.exr OUT.{npy,nrrd,binvox,vdb,exr}: rewrites a clvox EXR volume
  * in another format in bounded memory: each channel is streamed slice by
  * slice (clvox_volume_read_slices) into a clvox_volume_writer, so memory is
  * one slice per channel plus the writer's (binvox: the whole volume as bits,
@@ -50,7 +50,7 @@ int cmd_convert(int argc, char **argv)
         if (match_value(argc, argv, &i, NULL, "--format", &v, &missing)) {
             if (missing) return usage_error("convert: --format needs a value");
             if (!(oo.format = clvox_format_from_name(v)))
-                return usage_error("convert: --format '%s': one of exr, npy, nrrd, binvox", v);
+                return usage_error("convert: --format '%s': one of exr, npy, nrrd, binvox, vdb", v);
         } else if (match_value(argc, argv, &i, NULL, "--channel", &v, &missing)) {
             if (missing) return usage_error("convert: --channel needs a value");
             uint32_t b = channel_bit(v);
@@ -82,13 +82,13 @@ int cmd_convert(int argc, char **argv)
             return usage_error("convert: more than two files given ('%s')", argv[i]);
         }
     }
-    if (!in || !out) return usage_error("convert: usage: clvox convert IN.exr OUT.{npy,nrrd,binvox,exr}");
+    if (!in || !out) return usage_error("convert: usage: clvox convert IN.exr OUT.{npy,nrrd,binvox,vdb,exr}");
     int rc = check_output(out);
     if (rc != EXIT_OK) return rc;
     clvox_format format = oo.format ? oo.format : clvox_format_from_path(out);
     if (!format)
-        return usage_error("convert: cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd "
-                           "or .binvox, or --format",
+        return usage_error("convert: cannot tell the output format of '%s' from its extension: use .exr, .npy, .nrrd, "
+                           ".binvox or .vdb, or --format",
                            out);
     oo.format = format;
     struct stat si, so;
@@ -128,6 +128,9 @@ int cmd_convert(int argc, char **argv)
     }
     if (!want) { /* default: every channel where each channel has its own file, else the main one */
         if (format == CLVOX_FORMAT_NPY || format == CLVOX_FORMAT_NRRD) want = have;
+        /* vdb: density = coverage when there is one (+ an occupancy grid), as clvox MESH -o OUT.vdb */
+        else if (format == CLVOX_FORMAT_VDB && (have & (CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE)))
+            want = have & (CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE);
         else want = (have & CLVOX_CHANNEL_OCCUPANCY) ? CLVOX_CHANNEL_OCCUPANCY
                     : (have & CLVOX_CHANNEL_ELEMENT) ? CLVOX_CHANNEL_ELEMENT
                                                      : (have & CLVOX_CHANNEL_COVERAGE);

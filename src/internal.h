@@ -311,6 +311,10 @@ typedef struct clvox__fmt_ops {
     void (*abort)(void *state);
 } clvox__fmt_ops;
 extern const clvox__fmt_ops clvox__fmt_npy, clvox__fmt_nrrd, clvox__fmt_binvox;
+/* write_vdb.cpp: OpenVDB, optional at build time (CLVOX_HAVE_OPENVDB); 0 when
+ * clvox was built without it (the ops then only refuse). */
+extern const clvox__fmt_ops clvox__fmt_vdb;
+int clvox__vdb_available(void);
 
 /* Sample types of the raster formats (npy, NRRD). */
 typedef enum clvox__dtype { CLVOX__U8, CLVOX__BITS, CLVOX__F16, CLVOX__F32, CLVOX__U16, CLVOX__U32 } clvox__dtype;

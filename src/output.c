@@ -1,7 +1,8 @@
 /* Output formats other than EXR: the format table, file names per channel,
  * the slab conversions shared by the writers, clvox_voxelize_to_file and the
  * slice writer of clvox convert (clvox_volume_writer). The writers
- * themselves: write_npy.c, write_nrrd.c, write_binvox.c (EXR: write_exr.c). */
+ * themselves: write_npy.c, write_nrrd.c, write_binvox.c, write_vdb.cpp (EXR:
+ * write_exr.c). */
 #include "internal.h"
 
 #include <math.h>
@@ -10,7 +11,7 @@
 #include <string.h>
 #include <strings.h>
 
-static const char *const format_names[CLVOX_FORMAT_COUNT] = {NULL, "exr", "npy", "nrrd", "binvox"};
+static const char *const format_names[CLVOX_FORMAT_COUNT] = {NULL, "exr", "npy", "nrrd", "binvox", "vdb"};
 
 const char *clvox_format_name(clvox_format format)
 {
@@ -39,6 +40,7 @@ static const clvox__fmt_ops *format_ops(clvox_format f)
     case CLVOX_FORMAT_NPY: return &clvox__fmt_npy;
     case CLVOX_FORMAT_NRRD: return &clvox__fmt_nrrd;
     case CLVOX_FORMAT_BINVOX: return &clvox__fmt_binvox;
+    case CLVOX_FORMAT_VDB: return &clvox__fmt_vdb;
     default: return NULL;
     }
 }
@@ -247,7 +249,7 @@ static clvox_status resolve_format(clvox_context *ctx, const char *path, const c
     if (o->format == CLVOX_FORMAT_AUTO) o->format = clvox_format_from_path(path);
     if (o->format == CLVOX_FORMAT_AUTO)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
-                           "cannot tell the format of '%s' from its extension (.exr, .npy, .nrrd or .binvox)", path);
+                           "cannot tell the format of '%s' from its extension (.exr, .npy, .nrrd, .binvox or .vdb)", path);
     if ((unsigned)o->compression >= CLVOX_COMPRESSION_COUNT)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown compression %d", (int)o->compression);
     if (o->flags & ~(CLVOX_OUTPUT_PACK_BITS | CLVOX_OUTPUT_FLOAT32 | CLVOX_OUTPUT_UINT32))
@@ -255,13 +257,17 @@ static clvox_status resolve_format(clvox_context *ctx, const char *path, const c
     if (o->flags && o->format != CLVOX_FORMAT_NPY)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "packed bits, float32 and uint32 are npy options (not %s)",
                            clvox_format_name(o->format));
+    if (o->format == CLVOX_FORMAT_VDB && !clvox__vdb_available())
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "cannot write '%s': clvox was built without OpenVDB", path);
     const clvox_compression c = o->compression;
     if (o->format == CLVOX_FORMAT_NRRD && (c == CLVOX_COMPRESSION_RLE || c == CLVOX_COMPRESSION_PIZ))
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NRRD is written raw (none) or gzip (zip), not %s",
                            c == CLVOX_COMPRESSION_RLE ? "rle" : "piz");
-    if ((o->format == CLVOX_FORMAT_NPY || o->format == CLVOX_FORMAT_BINVOX) && c != CLVOX_COMPRESSION_DEFAULT &&
-        c != CLVOX_COMPRESSION_NONE)
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "%s files are not compressed (no --compression)",
+    if ((o->format == CLVOX_FORMAT_NPY || o->format == CLVOX_FORMAT_BINVOX || o->format == CLVOX_FORMAT_VDB) &&
+        c != CLVOX_COMPRESSION_DEFAULT && c != CLVOX_COMPRESSION_NONE)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                           o->format == CLVOX_FORMAT_VDB ? "%s files take --compression none or the default (OpenVDB's)"
+                                                         : "%s files are not compressed (no --compression)",
                            clvox_format_name(o->format));
     return CLVOX_OK;
 }

@@ -1,5 +1,6 @@
-"""Independent read-back of clvox's npy, NRRD and binvox files (tests/test_formats.c).
-   formats_check.py FORMAT FILE REF DTYPE X Y Z OX OY OZ H [bits]
+"""Independent read-back of clvox's npy, NRRD, binvox and OpenVDB files (tests/test_formats.c).
+   formats_check.py FORMAT FILE REF DTYPE X Y Z OX OY OZ H [bits | grid=NAME]
+vdb: pyopenvdb (Debian python3-openvdb); grid=NAME reads that grid (default density).
 REF: the reference voxels as raw little-endian DTYPE (u8 or f32), x fastest,
 from clvox_voxelize_to_buffers. Prints OK or what differs; exit 0 on OK."""
 import json, sys
@@ -10,6 +11,7 @@ X, Y, Z = (int(v) for v in sys.argv[5:8])
 origin = np.array([float(v) for v in sys.argv[8:11]])
 h = float(sys.argv[11])
 bits = len(sys.argv) > 12 and sys.argv[12] == "bits"
+grid_name = sys.argv[12][5:] if len(sys.argv) > 12 and sys.argv[12].startswith("grid=") else "density"
 ref = np.fromfile(ref_path, dtype="<u1" if dt == "u8" else "<f4").reshape(Z, Y, X)
 
 def fail(msg):
@@ -58,6 +60,34 @@ elif fmt == "binvox":
         p = binvox.parse_binvox(f)
     if not np.allclose(p.translate, origin, rtol=0, atol=1e-12) or abs(p.scale - X * h) > 1e-12:
         fail("translate %s scale %s" % (p.translate, p.scale))
+elif fmt == "vdb":
+    import pyopenvdb as vdb
+    grids, _ = vdb.readAll(path)
+    byname = {g.name: g for g in grids}
+    if grid_name not in byname: fail("no grid %r (%s)" % (grid_name, list(byname)))
+    g = byname[grid_name]
+    if g.valueTypeName != "float" or g.gridClass != vdb.GridClass.FOG_VOLUME or g.background != 0.0:
+        fail("grid type %s class %s background %s" % (g.valueTypeName, g.gridClass, g.background))
+    a = np.zeros((X, Y, Z), dtype=np.float32)  # a[i, j, k] = voxel (i, j, k)
+    g.copyToArray(a, ijk=(0, 0, 0))
+    want = ref.transpose(2, 1, 0).astype(np.float32)
+    half = len(sys.argv) > 12 and sys.argv[12] == "half"
+    if half:
+        if np.abs(a - want).max() > 2.0 ** -11 or not np.array_equal(a != 0, want != 0):
+            fail("values differ by %g" % np.abs(a - want).max())
+    elif not np.array_equal(a, want): fail("%d voxels differ" % int((a != want).sum()))
+    # sparse: exactly the non-zero voxels are active, none outside the grid
+    if g.activeVoxelCount() != int(np.count_nonzero(want)):
+        fail("%d active voxels, %d non-zero" % (g.activeVoxelCount(), np.count_nonzero(want)))
+    lo, hi = g.evalActiveVoxelBoundingBox()
+    if g.activeVoxelCount() and (min(lo) < 0 or hi[0] >= X or hi[1] >= Y or hi[2] >= Z): fail("bbox %s %s" % (lo, hi))
+    # world position of voxel (i, j, k)'s centre (OpenVDB: index point (i, j, k)) = clvox's centre
+    ijk = (3, 5, 7)
+    got = np.array(g.transform.indexToWorld(ijk))
+    wantw = origin + (np.array(ijk) + 0.5) * h
+    if not np.allclose(got, wantw, rtol=0, atol=1e-9): fail("voxel centre %s vs %s" % (got, wantw))
+    if not np.allclose(g.transform.voxelSize(), [h] * 3, rtol=1e-12): fail("voxel size %s" % (g.transform.voxelSize(),))
+    if not np.allclose(g.metadata["clvox_origin_corner"], origin, rtol=0, atol=1e-12): fail("metadata %s" % g.metadata)
 else:
     fail("unknown format " + fmt)
 print("OK")

@@ -551,7 +551,7 @@ class Context:
                          resolution=None, dims=None, voxel_size=None, box=None, pad=0, progress=None, **options):
         """Streams the volume to `path` through clvox_voxelize_to_file, the CLI's writer: the
         same file as `clvox MESH -o path` with the same options. format=None takes it from the
-        extension (.exr .npy .nrrd .binvox, any case), else "exr"|"npy"|"nrrd"|"binvox"; an
+        extension (.exr .npy .nrrd .binvox .vdb, any case), else "exr"|"npy"|"nrrd"|"binvox"|"vdb"; an
         unknown extension raises ValueError (clvox.InvalidError) before any work.
         npy only: npy_bits=True packs occupancy 8 voxels per byte along x (--npy-bits),
         float32=True writes coverage/score as float32 (--npy-float32), uint32=True element as
@@ -565,7 +565,7 @@ class Context:
         if format is not None:
             f = lib.clvox_format_from_name(str(format).encode()) if isinstance(format, str) else lib.CLVOX_FORMAT_AUTO
             if f == lib.CLVOX_FORMAT_AUTO:
-                raise ValueError(f"format must be one of exr, npy, nrrd, binvox, got {format!r}")
+                raise ValueError(f"format must be one of exr, npy, nrrd, binvox, vdb, got {format!r}")
             oo.format = f
         oo.flags = ((lib.CLVOX_OUTPUT_PACK_BITS if npy_bits else 0) | (lib.CLVOX_OUTPUT_FLOAT32 if float32 else 0) |
                     (lib.CLVOX_OUTPUT_UINT32 if uint32 else 0))

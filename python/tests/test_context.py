@@ -49,8 +49,8 @@ def test_error_status(ctx, tmp):
     with pytest.raises(clvox.Error) as e:
         ctx.voxelize(bad)
     assert e.value.status_name == "mesh_format" and "bad.off" in e.value.message
-    with pytest.raises(ValueError, match=r"cannot tell the format of '.*x\.vdb' from its extension"):
-        ctx.voxelize_to_file(DEFAULT, tmp / "x.vdb")
+    with pytest.raises(ValueError, match=r"cannot tell the format of '.*x\.vox' from its extension"):
+        ctx.voxelize_to_file(DEFAULT, tmp / "x.vox")
     with pytest.raises(clvox.Error) as e:
         clvox.Context(device="no-such-device-xyz")
     assert e.value.status_name == "no_device"

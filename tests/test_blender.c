@@ -374,6 +374,54 @@ static void expect_failure(const char *what, int code, const char *needle, const
     spawn_free(&r);
 }
 
+/* A .vdb volume opens in Blender as a volume object: one FLOAT grid
+ * "density", placed where the mesh is (its active voxels inside the box
+ * voxelized, spanning the mesh's extent: a wrong scale or origin fails). */
+static const char VDB_PY[] =
+    "import bpy, sys\n"
+    "path = sys.argv[sys.argv.index('--') + 1]\n"
+    "bpy.ops.object.volume_import(filepath=path)\n"
+    "ob = bpy.context.selected_objects[0]\n"
+    "ob.data.grids.load()\n"
+    "print('VDBGRIDS', ' '.join(g.name + ':' + g.data_type for g in ob.data.grids))\n"
+    "bb = [ob.matrix_world @ __import__('mathutils').Vector(c) for c in ob.bound_box]\n"
+    "lo = [min(v[i] for v in bb) for i in range(3)]; hi = [max(v[i] for v in bb) for i in range(3)]\n"
+    "print('VDBBOX %.6f %.6f %.6f %.6f %.6f %.6f' % (lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]))\n";
+
+static void test_vdb_volume(void)
+{
+    char vdb[PATH_MAX], py[PATH_MAX];
+    path_join(vdb, sizeof vdb, g_dir, "volume.vdb");
+    path_join(py, sizeof py, g_dir, "vdb_check.py");
+    unlink(vdb);
+    spawn_result r;
+    spawn_run(&r, ARGS(g_bin, "tests/data/default.obj", "--box", "-2,-2,-2,2,2,2", "-r", "32", "--oversample", "2", "-o",
+                       vdb, "-q"),
+              60);
+    if (r.code != 0 && strstr(r.err, "without OpenVDB")) {
+        printf("SKIP: clvox was built without OpenVDB: no .vdb to load\n");
+        spawn_free(&r);
+        return;
+    }
+    CHECK_MSG(r.code == 0, "clvox -o volume.vdb: exit %d: %s", r.code, r.err);
+    spawn_free(&r);
+    CHECK(write_text(py, VDB_PY));
+    double secs = 0;
+    run_blender(&r, NULL, py, ARGS(vdb), &secs);
+    printf("blender: loading a .vdb volume took %.1f s\n", secs);
+    const char *grids = find_line(r.out, "VDBGRIDS ");
+    CHECK_MSG(r.code == 0 && grids && strncmp(grids, "density:FLOAT", 13) == 0, "vdb grids: exit %d, [%s] %s",
+              r.code, grids ? grids : r.out, r.err);
+    const char *box = find_line(r.out, "VDBBOX ");
+    double b[6] = {0, 0, 0, 0, 0, 0};
+    int n = box ? sscanf(box, "%lf %lf %lf %lf %lf %lf", &b[0], &b[1], &b[2], &b[3], &b[4], &b[5]) : 0;
+    /* the default mesh spans about 3.2 x 3.2 x 1.6 inside [-2, 2]^3 (voxel 0.125) */
+    CHECK_MSG(n == 6 && b[0] >= -2.0001 && b[1] >= -2.0001 && b[2] >= -2.0001 && b[3] <= 2.0001 && b[4] <= 2.0001 &&
+                  b[5] <= 2.0001 && b[3] - b[0] > 3.0 && b[4] - b[1] > 3.0 && b[5] - b[2] > 1.4 && b[5] - b[2] < 2.0,
+              "vdb bounds in Blender: %s", box ? box : "(none)");
+    spawn_free(&r);
+}
+
 int main(void)
 {
     if (!spawn_which("blender", g_blender, sizeof g_blender)) {
@@ -483,5 +531,6 @@ int main(void)
                    ARGS("--csv", bad_csv, "--save", out_blend, "--render", out_png));
     expect_failure("output is a directory", 1, "is not a regular file", ARGS("--csv", csv, "--save", g_out));
     expect_failure("bad size", 2, "--size", ARGS("--csv", csv, "--render", out_png, "--size", "0x5"));
+    test_vdb_volume();
     return test_report();
 }

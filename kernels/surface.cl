@@ -143,6 +143,12 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
             const int gt = v[3 * b + s] > v[3 * a + s] ? 1 : v[3 * b + s] < v[3 * a + s] ? -1 : 0; /* sign(ds) */
             if (!gs && !gt) continue; /* a point in this projection: no axis */
             for (int side = 0; side < 2; side++) {
+                /* With n_k != 0 (exactly) the projection along k is a proper
+                 * triangle and only the outward side of edge m (c0 = a) is a
+                 * facet normal of triangle - box: the side against the third
+                 * vertex r never separates alone, so it is skipped (the
+                 * volume is the same; ~40 % fewer evaluations per row). */
+                if (sn[k] > 0 ? side == 1 : sn[k] < 0 ? side == 0 : 0) continue;
                 clvox_spred *q = &p[np];
                 const float os = (side ? -0.5f : 0.5f) * (gs ? (float)gs : 1.0f);
                 const float ot = (side ? -0.5f : 0.5f) * (gt ? (float)gt : 1.0f);

@@ -294,7 +294,6 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
             if (!clvox_group_holds(p, cst, ncst, 0, v, om, xlo, yd, kd)) continue;
             clvox_rpred rlo[20], rup[20];
             for (int i = 0; i < nlo; i++) clvox_rpred_setup(&rlo[i], &p[lower[i]], lower[i], v, om, yd, kd);
-            for (int i = 0; i < nup; i++) clvox_rpred_setup(&rup[i], &p[upper[i]], upper[i], v, om, yd, kd);
             /* L: first x of [xlo, xhi] where every lower predicate holds;
              * the one with the largest approximate root is tried first */
             double guess = xlod;
@@ -313,6 +312,7 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 if (L > xhi) continue;
             }
             /* U: last x of [L, xhi] where every upper predicate holds */
+            for (int i = 0; i < nup; i++) clvox_rpred_setup(&rup[i], &p[upper[i]], upper[i], v, om, yd, kd);
             guess = xhid;
             first = 0;
             for (int i = 0; i < nup; i++) {

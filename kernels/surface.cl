@@ -55,6 +55,14 @@ inline int clvox_spred_holds(const clvox_spred *p, const double *v, const double
     return p->want > 0 ? sg >= 0 : sg <= 0;
 }
 
+/* clvox_spred_holds out of line: the rows' fallback when a filter cannot
+ * decide (rare), kept out of their loops. */
+__attribute__((noinline)) int clvox_spred_holds_cold(const clvox_spred *p, const double *v, const double *om, double x,
+                                                     double y, double z)
+{
+    return clvox_spred_holds(p, v, om, x, y, z);
+}
+
 /* All predicates of one group hold at cell x of the row (idx[first] tried first). */
 inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v,
                              const double *om, int x, double y, double z)
@@ -126,7 +134,7 @@ inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const d
     int sg;
     if (det > bound) sg = r->flip;
     else if (-det > bound) sg = -r->flip;
-    else return clvox_spred_holds(&p[r->idx], v, om, xd, y, z);
+    else return clvox_spred_holds_cold(&p[r->idx], v, om, xd, y, z);
     return r->want > 0 ? sg >= 0 : sg <= 0;
 }
 

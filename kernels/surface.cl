@@ -15,6 +15,8 @@
 
 #if defined(cl_khr_fp64)
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
+/* every operation rounded as written (the filters' error bounds assume it) */
+#pragma OPENCL FP_CONTRACT OFF
 
 /* One separating-axis predicate: the sign of an affine function of the
  * cell centre c, which must be >= 0 (want > 0) or <= 0 (want < 0) for the
@@ -53,6 +55,14 @@ inline int clvox_spred_holds(const clvox_spred *p, const double *v, const double
     return p->want > 0 ? sg >= 0 : sg <= 0;
 }
 
+/* clvox_spred_holds out of line: the rows' fallback when a filter cannot
+ * decide (rare), kept out of their loops. */
+__attribute__((noinline)) int clvox_spred_holds_cold(const clvox_spred *p, const double *v, const double *om, double x,
+                                                     double y, double z)
+{
+    return clvox_spred_holds(p, v, om, x, y, z);
+}
+
 /* All predicates of one group hold at cell x of the row (idx[first] tried first). */
 inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v,
                              const double *om, int x, double y, double z)
@@ -61,6 +71,80 @@ inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int 
     if (n && !clvox_spred_holds(&p[idx[first]], v, om, xd, y, z)) return 0;
     for (int i = 0; i < n; i++)
         if (i != first && !clvox_spred_holds(&p[idx[i]], v, om, xd, y, z)) return 0;
+    return 1;
+}
+
+/* An x-dependent predicate specialised to one row (y, z fixed): the same
+ * operations as clvox_spred_holds with the row's constant parts hoisted.
+ * kind 0: var = coef * ((x + off) - base), A the other product; the
+ *         determinant is flip * (var - A) (IEEE subtraction is exactly
+ *         antisymmetric), its bound CLVOX_OV_E2_ERR * (|A| + |var|);
+ * kind 1: wx = (x + off) - base, det = (wx * coef + A) + A2 and
+ *         perm = (|wx| * pcoef + B) + B2, as clvox_o3_sign_pre sums them.
+ * Within the bound of 0 the predicate is re-evaluated by clvox_spred_holds
+ * (filter, then the exact expansion). */
+typedef struct clvox_rpred {
+    double coef, off, base, A, A2, pcoef, B, B2;
+    uchar kind, idx;
+    char flip, want;
+} clvox_rpred;
+
+inline void clvox_rpred_setup(clvox_rpred *r, const clvox_spred *p, uchar idx, const double *v, const double *om,
+                              double y, double z)
+{
+    r->idx = idx;
+    r->kind = p->kind;
+    r->want = p->want;
+    if (p->kind == 0) {
+        /* s or t is x (the slope along x is not 0) */
+        const int sx = p->s == 0;
+        const uint ca = sx ? p->t : p->s; /* the constant coordinate */
+        const double Cc = clvox_coord(ca, 0.0, y, z) + (double)p->o[ca];
+        if (sx) { /* det = ds (Ct - ct) - dt (Cs - cs), Cs = x + os */
+            r->A = p->ds * (Cc - p->ct);
+            r->coef = p->dt, r->off = (double)p->o[p->s], r->base = p->cs, r->flip = -1;
+        } else { /* t is x: det = ds (Ct - ct) - dt (Cs - cs), Ct = x + ot */
+            r->A = p->dt * (Cc - p->cs);
+            r->coef = p->ds, r->off = (double)p->o[p->t], r->base = p->ct, r->flip = 1;
+        }
+        r->A2 = r->pcoef = r->B = r->B2 = 0.0;
+    } else {
+        const double wy = (y + (double)p->o[1]) - v[1], wz = (z + (double)p->o[2]) - v[2];
+        r->coef = om[0], r->off = (double)p->o[0], r->base = v[0];
+        r->A = wy * om[1], r->A2 = wz * om[2];
+        r->pcoef = om[3], r->B = fabs(wy) * om[4], r->B2 = fabs(wz) * om[5];
+        r->flip = 1;
+    }
+}
+
+inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const double *v, const double *om, int x,
+                             double y, double z)
+{
+    const double xd = (double)x;
+    const double w = (xd + r->off) - r->base;
+    double det, bound;
+    if (r->kind == 0) {
+        const double var = r->coef * w;
+        det = var - r->A;
+        bound = CLVOX_OV_E2_ERR * (fabs(r->A) + fabs(var));
+    } else {
+        det = (w * r->coef + r->A) + r->A2;
+        bound = CLVOX_OV_O3_ERR * ((fabs(w) * r->pcoef + r->B) + r->B2);
+    }
+    int sg;
+    if (det > bound) sg = r->flip;
+    else if (-det > bound) sg = -r->flip;
+    else return clvox_spred_holds_cold(&p[r->idx], v, om, xd, y, z);
+    return r->want > 0 ? sg >= 0 : sg <= 0;
+}
+
+/* All row predicates hold at x (rp[first] tried first). */
+inline int clvox_rgroup_holds(const clvox_rpred *rp, int n, int first, const clvox_spred *p, const double *v,
+                              const double *om, int x, double y, double z)
+{
+    if (n && !clvox_rpred_holds(&rp[first], p, v, om, x, y, z)) return 0;
+    for (int i = 0; i < n; i++)
+        if (i != first && !clvox_rpred_holds(&rp[i], p, v, om, x, y, z)) return 0;
     return 1;
 }
 
@@ -143,6 +227,12 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
             const int gt = v[3 * b + s] > v[3 * a + s] ? 1 : v[3 * b + s] < v[3 * a + s] ? -1 : 0; /* sign(ds) */
             if (!gs && !gt) continue; /* a point in this projection: no axis */
             for (int side = 0; side < 2; side++) {
+                /* With n_k != 0 (exactly) the projection along k is a proper
+                 * triangle and only the outward side of edge m (c0 = a) is a
+                 * facet normal of triangle - box: the side against the third
+                 * vertex r never separates alone, so it is skipped (the
+                 * volume is the same; ~40 % fewer evaluations per row). */
+                if (sn[k] > 0 ? side == 1 : sn[k] < 0 ? side == 0 : 0) continue;
                 clvox_spred *q = &p[np];
                 const float os = (side ? -0.5f : 0.5f) * (gs ? (float)gs : 1.0f);
                 const float ot = (side ? -0.5f : 0.5f) * (gt ? (float)gt : 1.0f);
@@ -210,6 +300,8 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
         for (int j = j0; j <= j1; j++) {
             const double yd = (double)j;
             if (!clvox_group_holds(p, cst, ncst, 0, v, om, xlo, yd, kd)) continue;
+            clvox_rpred rlo[20], rup[20];
+            for (int i = 0; i < nlo; i++) clvox_rpred_setup(&rlo[i], &p[lower[i]], lower[i], v, om, yd, kd);
             /* L: first x of [xlo, xhi] where every lower predicate holds;
              * the one with the largest approximate root is tried first */
             double guess = xlod;
@@ -220,14 +312,15 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 if (root > guess) guess = root, first = i; /* NaN ignored */
             }
             int L = (int)ceil(fmin(guess, xhid));
-            if (clvox_group_holds(p, lower, nlo, first, v, om, L, yd, kd)) {
-                while (L > xlo && clvox_group_holds(p, lower, nlo, first, v, om, L - 1, yd, kd)) L--;
+            if (clvox_rgroup_holds(rlo, nlo, first, p, v, om, L, yd, kd)) {
+                while (L > xlo && clvox_rgroup_holds(rlo, nlo, first, p, v, om, L - 1, yd, kd)) L--;
             } else {
                 do L++;
-                while (L <= xhi && !clvox_group_holds(p, lower, nlo, first, v, om, L, yd, kd));
+                while (L <= xhi && !clvox_rgroup_holds(rlo, nlo, first, p, v, om, L, yd, kd));
                 if (L > xhi) continue;
             }
             /* U: last x of [L, xhi] where every upper predicate holds */
+            for (int i = 0; i < nup; i++) clvox_rpred_setup(&rup[i], &p[upper[i]], upper[i], v, om, yd, kd);
             guess = xhid;
             first = 0;
             for (int i = 0; i < nup; i++) {
@@ -236,11 +329,11 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 if (root < guess) guess = root, first = i;
             }
             int U = (int)floor(fmax(guess, (double)L));
-            if (clvox_group_holds(p, upper, nup, first, v, om, U, yd, kd)) {
-                while (U < xhi && clvox_group_holds(p, upper, nup, first, v, om, U + 1, yd, kd)) U++;
+            if (clvox_rgroup_holds(rup, nup, first, p, v, om, U, yd, kd)) {
+                while (U < xhi && clvox_rgroup_holds(rup, nup, first, p, v, om, U + 1, yd, kd)) U++;
             } else {
                 do U--;
-                while (U >= L && !clvox_group_holds(p, upper, nup, first, v, om, U, yd, kd));
+                while (U >= L && !clvox_rgroup_holds(rup, nup, first, p, v, om, U, yd, kd));
                 if (U < L) continue;
             }
             clvox_row_or(slice + (size_t)j * words_per_row, L, U);

@@ -465,6 +465,53 @@ static void test_random_soups(void)
     }
 }
 
+/* Triangles whose projection along some axis k is a segment (n_k = 0
+ * exactly: c = a + lambda e_k), and slivers: the kernel keeps both sides of
+ * the edge axes in that projection and only the outward side where n_k != 0
+ * (kernels/surface.cl); both against the reference. */
+static void test_projection_soups(void)
+{
+    for (uint64_t seed = 11; seed <= 14; seed++) {
+        uint64_t r = seed;
+        const uint32_t X = 19, Y = 16, Z = 14;
+        tmesh m = {0};
+        for (int t = 0; t < 150; t++) {
+            double v[3][3];
+            const int lattice = tmesh_rng_uniform(&r) < 0.5, k = (int)(tmesh_rng_uniform(&r) * 3.0) % 3;
+            const double size = tmesh_rng_uniform(&r) < 0.7 ? 2.0 : 8.0;
+            for (int a = 0; a < 3; a++) {
+                const double c = tmesh_rng_uniform(&r) * (a == 0 ? X : a == 1 ? Y : Z);
+                for (int p = 0; p < 2; p++) {
+                    double x = c + (tmesh_rng_uniform(&r) - 0.5) * size;
+                    v[p][a] = lattice ? floor(x * 2.0) * 0.5 : x;
+                }
+            }
+            const int base = tmesh_rng_uniform(&r) < 0.5 ? 0 : 1;
+            const double lambda = (tmesh_rng_uniform(&r) - 0.5) * size;
+            memcpy(v[2], v[base], sizeof v[0]);
+            if (t % 3 == 2) { /* a sliver: c just off the line a + lambda e_k */
+                for (int a = 0; a < 3; a++) v[2][a] += (a == k ? lambda : 1e-3 * (tmesh_rng_uniform(&r) - 0.5));
+            } else {
+                v[2][k] += lattice ? floor(lambda * 2.0) * 0.5 : lambda;
+            }
+            uint32_t i0 = tmesh_add_vertex(&m, v[0][0], v[0][1], v[0][2]);
+            uint32_t i1 = tmesh_add_vertex(&m, v[1][0], v[1][1], v[1][2]);
+            uint32_t i2 = tmesh_add_vertex(&m, v[2][0], v[2][1], v[2][2]);
+            tmesh_add_tri(&m, i0, i1, i2);
+        }
+        clvox_mesh *mesh = to_mesh(&m);
+        clvox_grid g = grid_box(0, 0, 0, X, Y, Z, X, Y, Z);
+        if (mesh) {
+            char name[64];
+            snprintf(name, sizeof name, "axis-parallel soup %llu", (unsigned long long)seed);
+            uint8_t *a = check_vs_reference(name, mesh, &g, 3);
+            free(a);
+        }
+        clvox_mesh_destroy(mesh);
+        tmesh_free(&m);
+    }
+}
+
 /* Closest point on triangle to p (Ericson, Real-Time Collision Detection 5.1.5): squared distance. */
 static double dist2_point_triangle(const double *p, const double *a, const double *b, const double *c)
 {
@@ -742,6 +789,7 @@ int main(void)
     test_touching();
     test_boxes();
     test_random_soups();
+    test_projection_soups();
     test_closed_meshes();
     test_api();
     test_cli();

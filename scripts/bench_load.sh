@@ -1,10 +1,11 @@
 #!/bin/bash
 # Mesh load throughput (issue 10), not a test: MB/s of clvox_mesh_load with
 # the native binary PLY / binary STL readers against OpenMesh's
-# (CLVOX_MESH_READER=openmesh), page cache warm, best of R runs (default 5;
-# OpenMesh best of 3). The whole load is timed: mmap, checks, parse, and
-# build_mesh (validation, boundary/non-manifold edges, duplicate triangles:
-# the mesh report), so the parse alone is faster than the MB/s shown.
+# (CLVOX_MESH_READER=openmesh), page cache warm, best of R runs (default 10;
+# OpenMesh best of 3). "load": the whole clvox_mesh_load (including
+# build_mesh: validation, edge and duplicate analysis for the report, the
+# same for both readers); "reader": the load up to build_mesh (mmap, checks,
+# parse), where MB/s = file size / seconds.
 #
 #   scripts/bench_load.sh [--repeat R]
 #
@@ -16,7 +17,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 cd "$here"
-repeat=5
+repeat=10
 while [ $# -gt 0 ]; do
   case "$1" in
     --repeat) repeat=${2:?--repeat needs a number}; shift ;;
@@ -27,7 +28,7 @@ while [ $# -gt 0 ]; do
 done
 make -s -j2 build/release/libclvox.a
 mkdir -p build/bench build/tools
-cc -std=c11 -O2 -Iinclude scripts/bench_load.c build/release/libclvox.a \
+cc -std=c11 -O2 -Wall -Wextra -Iinclude -Isrc scripts/bench_load.c build/release/libclvox.a \
   -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread -o build/tools/bench_load
 m=data/meshes
 if [ ! -f $m/armadillo_s3.ply ] && [ -f $m/armadillo_s2.ply ]; then

@@ -1638,13 +1638,11 @@ int clvox__mesh_native_enabled(void)
     return !(e && !strcmp(e, "openmesh"));
 }
 
-clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out)
+/* Everything clvox_mesh_load does before build_mesh: open, check, read
+ * (natively or through OpenMesh) into *raw (freed on failure). */
+clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw)
 {
-    if (out) *out = NULL;
-    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
-    if (!path || !out)
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: NULL %s", path ? "out" : "path");
-    if (!*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: empty path");
+    memset(out_raw, 0, sizeof *out_raw);
 
     const char *ext;
     enum mesh_format fmt = format_of(path, &ext);
@@ -1726,6 +1724,20 @@ clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **
         clvox__raw_mesh_free(&raw);
         return st;
     }
+    *out_raw = raw;
+    return CLVOX_OK;
+}
+
+clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out)
+{
+    if (out) *out = NULL;
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!path || !out)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: NULL %s", path ? "out" : "path");
+    if (!*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: empty path");
+    clvox__raw_mesh raw;
+    clvox_status st = clvox__mesh_read_raw(ctx, path, &raw);
+    if (st) return st;
     char what[4200];
     snprintf(what, sizeof what, "'%s'", path);
     float *xyz = raw.xyz;

@@ -34,6 +34,10 @@ typedef struct ply_header {
 } ply_header;
 
 
+/* clvox_mesh_load up to build_mesh: the file read into raw (the reader
+ * alone; scripts/bench_load.c times it). */
+clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *raw);
+
 /* 1 unless CLVOX_MESH_READER=openmesh (for tests: compare with OpenMesh). */
 int clvox__mesh_native_enabled(void);
 

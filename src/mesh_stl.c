@@ -59,52 +59,68 @@ int clvox__stl_read_binary(const unsigned char *p, size_t n, clvox__raw_mesh *ra
     uint32_t *slot = calloc(ts, sizeof *slot);
     if (!xyz || !idx || !slot) goto oom;
     size_t nv = 0, ni = 0, mask = ts - 1;
-    for (uint64_t t = 0; t < count; t++) {
-        const unsigned char *r = p + 84 + 50 * t + 12;
-        uint32_t h3[3];
-        for (int c = 0; c < 3; c++, r += 12) {
-            uint32_t u0 = le32u(r), u1 = le32u(r + 4), u2 = le32u(r + 8);
-            if (tiny(u0) || tiny(u1) || tiny(u2)) goto fallback;
-            uint32_t k0 = key_bits(u0), k1 = key_bits(u1), k2 = key_bits(u2);
-            size_t i = (size_t)hash_key(k0, k1, k2) & mask;
-            for (;; i = (i + 1) & mask) {
-                uint32_t s = slot[i];
-                if (!s) break;
-                uint32_t q[3];
-                memcpy(q, xyz + 3 * (size_t)(s - 1), sizeof q);
-                if (key_bits(q[0]) == k0 && key_bits(q[1]) == k1 && key_bits(q[2]) == k2) break;
+    enum { BLOCK = 32 }; /* facets whose slots are prefetched together */
+    uint32_t key[BLOCK * 3][3], raw_bits[BLOCK * 3][3];
+    uint64_t hash[BLOCK * 3];
+    for (uint64_t t0 = 0; t0 < count; t0 += BLOCK) {
+        size_t nb = count - t0 < BLOCK ? (size_t)(count - t0) : BLOCK;
+        for (size_t j = 0; j < 3 * nb; j++) {
+            const unsigned char *r = p + 84 + 50 * (t0 + j / 3) + 12 + 12 * (j % 3);
+            for (int a = 0; a < 3; a++) {
+                uint32_t u = le32u(r + 4 * a);
+                if (tiny(u)) goto fallback;
+                raw_bits[j][a] = u;
+                key[j][a] = key_bits(u);
             }
-            if (slot[i]) {
-                h3[c] = slot[i] - 1;
-                continue;
-            }
-            if (nv >= UINT32_MAX - 1) goto oom;
-            uint32_t u[3] = {u0, u1, u2};
-            memcpy(xyz + 3 * nv, u, sizeof u);
-            h3[c] = (uint32_t)nv;
-            slot[i] = (uint32_t)++nv;
-            if (2 * nv > ts) { /* grow: keep the table at most half full */
-                size_t nts = ts * 2;
-                uint32_t *ns = calloc(nts, sizeof *ns);
-                if (!ns) goto oom;
-                size_t nmask = nts - 1;
-                for (size_t v = 0; v < nv; v++) {
-                    uint32_t q[3];
-                    memcpy(q, xyz + 3 * v, sizeof q);
-                    size_t j = (size_t)hash_key(key_bits(q[0]), key_bits(q[1]), key_bits(q[2])) & nmask;
-                    while (ns[j]) j = (j + 1) & nmask;
-                    ns[j] = (uint32_t)(v + 1);
-                }
-                free(slot);
-                slot = ns;
-                ts = nts;
-                mask = nmask;
-            }
+            hash[j] = hash_key(key[j][0], key[j][1], key[j][2]);
+#if defined(__GNUC__)
+            __builtin_prefetch(&slot[(size_t)hash[j] & mask]);
+#endif
         }
-        if (h3[0] != h3[1] && h3[0] != h3[2] && h3[1] != h3[2]) {
-            idx[ni++] = h3[0];
-            idx[ni++] = h3[1];
-            idx[ni++] = h3[2];
+        for (size_t f = 0; f < nb; f++) {
+            uint32_t h3[3];
+            for (int c = 0; c < 3; c++) {
+                size_t j = 3 * f + (size_t)c;
+                const uint32_t *k = key[j];
+                size_t i = (size_t)hash[j] & mask;
+                for (;; i = (i + 1) & mask) {
+                    uint32_t s = slot[i];
+                    if (!s) break;
+                    uint32_t q[3];
+                    memcpy(q, xyz + 3 * (size_t)(s - 1), sizeof q);
+                    if (key_bits(q[0]) == k[0] && key_bits(q[1]) == k[1] && key_bits(q[2]) == k[2]) break;
+                }
+                if (slot[i]) {
+                    h3[c] = slot[i] - 1;
+                    continue;
+                }
+                if (nv >= UINT32_MAX - 1) goto oom;
+                memcpy(xyz + 3 * nv, raw_bits[j], sizeof raw_bits[j]);
+                h3[c] = (uint32_t)nv;
+                slot[i] = (uint32_t)++nv;
+                if (2 * nv > ts) { /* grow: keep the table at most half full */
+                    size_t nts = ts * 2;
+                    uint32_t *ns = calloc(nts, sizeof *ns);
+                    if (!ns) goto oom;
+                    size_t nmask = nts - 1;
+                    for (size_t v = 0; v < nv; v++) {
+                        uint32_t q[3];
+                        memcpy(q, xyz + 3 * v, sizeof q);
+                        size_t m = (size_t)hash_key(key_bits(q[0]), key_bits(q[1]), key_bits(q[2])) & nmask;
+                        while (ns[m]) m = (m + 1) & nmask;
+                        ns[m] = (uint32_t)(v + 1);
+                    }
+                    free(slot);
+                    slot = ns;
+                    ts = nts;
+                    mask = nmask;
+                }
+            }
+            if (h3[0] != h3[1] && h3[0] != h3[2] && h3[1] != h3[2]) {
+                idx[ni++] = h3[0];
+                idx[ni++] = h3[1];
+                idx[ni++] = h3[2];
+            }
         }
     }
     free(slot);

@@ -28,7 +28,7 @@
  * indices in range, faces with fewer than 3 corners and triangles with a
  * repeated index dropped, polygons fanned, zero-area triangles kept (they
  * matter for parity), at least one triangle. */
-#include "internal.h"
+#include "mesh_internal.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -760,40 +760,12 @@ static clvox_status check_obj(clvox_context *ctx, const char *path, const char *
 
 /* ---- PLY ------------------------------------------------------------------------ */
 
-#define PLY_MAX_HEADER (64u * 1024u)
-#define PLY_MAX_ELEMENTS 16
-#define PLY_MAX_PROPS 64
-#define PLY_NAME 64
-
-enum ply_format { PLY_ASCII, PLY_LE, PLY_BE };
-
-typedef struct ply_type { const char *name; int size, is_float, is_signed; } ply_type;
 static const ply_type ply_types[] = {
     {"char", 1, 0, 1}, {"int8", 1, 0, 1}, {"uchar", 1, 0, 0}, {"uint8", 1, 0, 0},
     {"short", 2, 0, 1}, {"int16", 2, 0, 1}, {"ushort", 2, 0, 0}, {"uint16", 2, 0, 0},
     {"int", 4, 0, 1}, {"int32", 4, 0, 1}, {"uint", 4, 0, 0}, {"uint32", 4, 0, 0},
     {"float", 4, 1, 1}, {"float32", 4, 1, 1}, {"double", 8, 1, 1}, {"float64", 8, 1, 1},
 };
-
-typedef struct ply_prop {
-    char name[PLY_NAME];
-    const ply_type *type;       /* value (list item) type */
-    const ply_type *count_type; /* NULL: scalar */
-} ply_prop;
-
-typedef struct ply_elem {
-    char name[PLY_NAME];
-    uint64_t count;
-    ply_prop props[PLY_MAX_PROPS];
-    int nprops;
-} ply_elem;
-
-typedef struct ply_header {
-    enum ply_format format;
-    ply_elem elems[PLY_MAX_ELEMENTS];
-    int nelems, vertex, face; /* element indices, -1 if absent */
-    size_t body;              /* offset of the first byte after the header */
-} ply_header;
 
 static const ply_type *ply_type_of(const tok *k)
 {
@@ -1094,7 +1066,8 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
     return CLVOX_OK;
 }
 
-static clvox_status check_ply(clvox_context *ctx, const char *path, const unsigned char *p, size_t n, expect *ex)
+static clvox_status check_ply(clvox_context *ctx, const char *path, const unsigned char *p, size_t n, expect *ex,
+                              clvox__raw_mesh *native, int *parsed)
 {
     ply_header *h = malloc(sizeof *h); /* about 300 KB: keep it off the stack */
     if (!h) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory checking '%s'", path);
@@ -1102,6 +1075,10 @@ static clvox_status check_ply(clvox_context *ctx, const char *path, const unsign
     if (!st)
         st = h->format == PLY_ASCII ? ply_check_ascii(ctx, path, (const char *)p, n, h)
                                     : ply_check_binary(ctx, path, p, n, h);
+    if (!st && h->format != PLY_ASCII && clvox__mesh_native_enabled()) {
+        st = clvox__ply_read_binary(ctx, path, p, n, h, native);
+        if (!st) *parsed = 1;
+    }
     if (!st) {
         ex->have_vertices = 1;
         ex->vertices = h->elems[h->vertex].count;
@@ -1488,9 +1465,12 @@ done:
 
 /* Takes ownership of xyz (freed on failure). sizes == NULL: all faces are
  * triangles. `what` names the source in messages. */
+/* idx_owned: idx itself, handed over (malloc'ed, freed on failure), when
+ * sizes == NULL: the triangles are then compacted in place, so no second
+ * index array is made; else NULL. */
 static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz, const double offset[3], size_t nv,
                                const uint32_t *sizes, const uint32_t *idx, size_t nf, size_t index_count,
-                               uint64_t loader_nonmanifold, clvox_mesh **out)
+                               uint64_t loader_nonmanifold, uint32_t *idx_owned, clvox_mesh **out)
 {
     clvox_status st = CLVOX_OK;
     uint32_t *tris = NULL;
@@ -1536,7 +1516,14 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
                          (unsigned)(UINT32_MAX / 3));
         goto fail;
     }
-    tris = malloc((nt ? nt : 1) * 3 * sizeof *tris);
+    if (idx_owned && !sizes) {
+        tris = idx_owned; /* triangle t is read before slot t (or later) is written */
+        idx_owned = NULL;
+    } else {
+        free(idx_owned);
+        idx_owned = NULL;
+        tris = malloc((nt ? nt : 1) * 3 * sizeof *tris);
+    }
     if (!tris) {
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory for %zu triangles", what, nt);
         goto fail;
@@ -1636,18 +1623,26 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
 fail:
     free(xyz);
     free(tris);
+    free(idx_owned);
     return st;
 }
 
 /* ---- public API ----------------------------------------------------------------- */
 
-clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out)
+/* Binary PLY and binary STL are read natively (mesh_ply.c, mesh_stl.c);
+ * CLVOX_MESH_READER=openmesh sends them to OpenMesh as before. For tests,
+ * which compare the two bit for bit; not a user setting. */
+int clvox__mesh_native_enabled(void)
 {
-    if (out) *out = NULL;
-    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
-    if (!path || !out)
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: NULL %s", path ? "out" : "path");
-    if (!*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: empty path");
+    const char *e = getenv("CLVOX_MESH_READER");
+    return !(e && !strcmp(e, "openmesh"));
+}
+
+/* Everything clvox_mesh_load does before build_mesh: open, check, read
+ * (natively or through OpenMesh) into *raw (freed on failure). */
+clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw)
+{
+    memset(out_raw, 0, sizeof *out_raw);
 
     const char *ext;
     enum mesh_format fmt = format_of(path, &ext);
@@ -1698,8 +1693,15 @@ clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **
     switch (fmt) {
     case FMT_OBJ: st = check_obj(ctx, path, (const char *)p, n, &raw, &parsed); break;
     case FMT_OFF: st = check_off(ctx, path, p, n, &ex, &raw, &parsed); break;
-    case FMT_PLY: st = check_ply(ctx, path, p, n, &ex); break;
-    case FMT_STL: st = check_stl(ctx, path, p, n); break;
+    case FMT_PLY: st = check_ply(ctx, path, p, n, &ex, &raw, &parsed); break;
+    case FMT_STL:
+        st = check_stl(ctx, path, p, n);
+        if (!st && n >= 84 && 84 + 50 * (uint64_t)le32(p + 80) == n && clvox__mesh_native_enabled()) {
+            int rc = clvox__stl_read_binary(p, n, &raw); /* 1: a tiny coordinate, OpenMesh reads it */
+            if (rc == -2) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+            parsed = rc == 0;
+        }
+        break;
     case FMT_OM: st = check_om(ctx, path, p, n); break;
     default: st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "unhandled format"); break;
     }
@@ -1722,12 +1724,31 @@ clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **
         clvox__raw_mesh_free(&raw);
         return st;
     }
+    *out_raw = raw;
+    return CLVOX_OK;
+}
+
+clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out)
+{
+    if (out) *out = NULL;
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!path || !out)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: NULL %s", path ? "out" : "path");
+    if (!*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: empty path");
+    clvox__raw_mesh raw;
+    clvox_status st = clvox__mesh_read_raw(ctx, path, &raw);
+    if (st) return st;
     char what[4200];
     snprintf(what, sizeof what, "'%s'", path);
     float *xyz = raw.xyz;
     raw.xyz = NULL; /* build_mesh owns it now */
-    st = build_mesh(ctx, what, xyz, raw.offset, raw.vertex_count, raw.face_sizes, raw.face_indices, raw.face_count,
-                    raw.index_count, raw.nonmanifold_faces, out);
+    uint32_t *owned = NULL;
+    if (!raw.face_sizes) { /* all triangles: build_mesh compacts the indices in place */
+        owned = raw.face_indices;
+        raw.face_indices = NULL;
+    }
+    st = build_mesh(ctx, what, xyz, raw.offset, raw.vertex_count, raw.face_sizes, owned ? owned : raw.face_indices,
+                    raw.face_count, raw.index_count, raw.nonmanifold_faces, owned, out);
     clvox__raw_mesh_free(&raw);
     return st;
 }
@@ -1748,7 +1769,7 @@ clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t
     if (vertex_count) memcpy(copy, xyz, vertex_count * 3 * sizeof *copy);
     static const double no_offset[3] = {0, 0, 0};
     return build_mesh(ctx, "mesh arrays", copy, no_offset, vertex_count, NULL, triangles, triangle_count, 3 * triangle_count, 0,
-                      out);
+                      NULL, out);
 }
 
 void clvox_mesh_destroy(clvox_mesh *mesh)

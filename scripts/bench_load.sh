@@ -1,0 +1,46 @@
+#!/bin/bash
+# Mesh load throughput (issue 10), not a test: MB/s of clvox_mesh_load with
+# the native binary PLY / binary STL readers against OpenMesh's
+# (CLVOX_MESH_READER=openmesh), page cache warm, best of R runs (default 10;
+# OpenMesh best of 3). "load": the whole clvox_mesh_load (including
+# build_mesh: validation, edge and duplicate analysis for the report, the
+# same for both readers); "reader": the load up to build_mesh (mmap, checks,
+# parse), where MB/s = file size / seconds.
+#
+#   scripts/bench_load.sh [--repeat R]
+#
+# Files: data/meshes/armadillo_s2.ply (832 k triangles) and armadillo_s3.ply
+# (3.3 M; made by scripts/subdivide.c as in bench_coverage.sh when absent),
+# and binary STLs of both written to build/bench/. Markdown to stdout and
+# build/bench/load.md.
+[ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+cd "$here"
+repeat=10
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --repeat) repeat=${2:?--repeat needs a number}; shift ;;
+    -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "bench_load.sh: unknown option '$1' (try --help)" >&2; exit 2 ;;
+  esac
+  shift
+done
+make -s -j2 build/release/libclvox.a
+mkdir -p build/bench build/tools
+cc -std=c11 -O2 -Wall -Wextra -Iinclude -Isrc scripts/bench_load.c build/release/libclvox.a \
+  -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread -o build/tools/bench_load
+m=data/meshes
+if [ ! -f $m/armadillo_s3.ply ] && [ -f $m/armadillo_s2.ply ]; then
+  cc -std=c11 -O2 -o build/tools/subdivide scripts/subdivide.c -lm
+  build/tools/subdivide $m/armadillo.off 3 $m/armadillo_s3.ply >&2
+fi
+files=()
+for s in s2 s3; do
+  [ -f $m/armadillo_$s.ply ] || continue
+  files+=($m/armadillo_$s.ply)
+  [ -f build/bench/armadillo_$s.stl ] || build/tools/bench_load --stl $m/armadillo_$s.ply build/bench/armadillo_$s.stl
+  files+=(build/bench/armadillo_$s.stl)
+done
+{ echo "Load throughput, $(nproc) cores, $(date -u +%F)"; echo
+  build/tools/bench_load -r "$repeat" "${files[@]}"; } | tee build/bench/load.md

@@ -3,6 +3,7 @@
 #include "internal.h"
 
 #include <ctype.h>
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -408,4 +409,32 @@ void clvox__release_mem(cl_mem *m)
 {
     if (*m) clReleaseMemObject(*m);
     *m = NULL;
+}
+
+clvox_status clvox__read_text_file(clvox_context *ctx, const char *path, const char *what, size_t max_bytes,
+                                   char **data, size_t *size)
+{
+    *data = NULL;
+    *size = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open %s '%.3000s': %s", what, path, strerror(errno));
+    char *buf = malloc(max_bytes + 1);
+    if (!buf) {
+        fclose(f);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
+    }
+    size_t n = fread(buf, 1, max_bytes + 1, f); /* one byte more: tells a file that is too large */
+    int err = ferror(f);
+    fclose(f);
+    clvox_status st = CLVOX_OK;
+    if (err) st = clvox__fail(ctx, CLVOX_ERR_IO, "cannot read %s '%.3000s'", what, path);
+    else if (n > max_bytes)
+        st = clvox__fail(ctx, CLVOX_ERR_PALETTE_FORMAT, "%.3000s: larger than %zu bytes", path, max_bytes);
+    if (st != CLVOX_OK) {
+        free(buf);
+        return st;
+    }
+    *data = buf;
+    *size = n;
+    return CLVOX_OK;
 }

@@ -652,21 +652,10 @@ clvox_status clvox_palette_load(clvox_context *ctx, const char *path, clvox_pale
     if (!out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_palette_load: out is NULL");
     *out = NULL;
     if (!path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_palette_load: path is NULL");
-    FILE *f = fopen(path, "rb");
-    if (!f) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open palette '%.3000s': %s", path, strerror(errno));
-    char *data = malloc(MAX_FILE_BYTES + 1);
-    if (!data) {
-        fclose(f);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "palette: out of memory");
-    }
-    size_t n = fread(data, 1, MAX_FILE_BYTES + 1, f);
-    int err = ferror(f);
-    fclose(f);
-    clvox_status st;
-    if (err) st = clvox__fail(ctx, CLVOX_ERR_IO, "cannot read palette '%.3000s'", path);
-    else if (n > MAX_FILE_BYTES)
-        st = clvox__fail(ctx, CLVOX_ERR_PALETTE_FORMAT, "%.3000s: larger than %u bytes", path, MAX_FILE_BYTES);
-    else st = clvox_palette_parse(ctx, path, data, n, out);
+    char *data = NULL;
+    size_t n = 0;
+    clvox_status st = clvox__read_text_file(ctx, path, "palette", MAX_FILE_BYTES, &data, &n);
+    if (st == CLVOX_OK) st = clvox_palette_parse(ctx, path, data, n, out);
     free(data);
     return st;
 }

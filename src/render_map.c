@@ -558,21 +558,10 @@ clvox_status clvox_render_map_load(clvox_context *ctx, const char *path, const c
     if (!out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_render_map_load: out is NULL");
     *out = NULL;
     if (!path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_render_map_load: path is NULL");
-    FILE *f = fopen(path, "rb");
-    if (!f) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open render map '%.3000s': %s", path, strerror(errno));
-    char *data = malloc(RM_MAX_FILE_BYTES + 1);
-    if (!data) {
-        fclose(f);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "render map: out of memory");
-    }
-    size_t got = fread(data, 1, RM_MAX_FILE_BYTES + 1, f);
-    int err = ferror(f);
-    fclose(f);
-    clvox_status st;
-    if (err) st = clvox__fail(ctx, CLVOX_ERR_IO, "cannot read render map '%.3000s'", path);
-    else if (got > RM_MAX_FILE_BYTES)
-        st = clvox__fail(ctx, CLVOX_ERR_PALETTE_FORMAT, "%.3000s: larger than %u bytes", path, RM_MAX_FILE_BYTES);
-    else st = clvox_render_map_parse(ctx, path, data, got, palette, out);
+    char *data = NULL;
+    size_t n = 0;
+    clvox_status st = clvox__read_text_file(ctx, path, "render map", RM_MAX_FILE_BYTES, &data, &n);
+    if (st == CLVOX_OK) st = clvox_render_map_parse(ctx, path, data, n, palette, out);
     free(data);
     return st;
 }

@@ -38,6 +38,32 @@ inline void clvox_row_bits(global uint *o, uint *word, uint j, uint end, int set
     if (j < end) *word = fill & ((1u << (end - j)) - 1u);
 }
 
+/* One step along a column of R rays (coverage and palette scoring): passes
+ * each ray's crossings below lo (k[r]: crossings before the voxel), sets
+ * *next to the first voxel (>= j) that holds a crossing of any ray, and
+ * returns how many rays are inside over [j, *next) (odd crossings beyond). */
+inline uint clvox_column_step(global const clvox_real *hits, global const uint *counts, size_t r0, uint R,
+                              uint capacity, uint *k, uint u_begin, uint u_count, uint j, clvox_real lo, uint *next)
+{
+    uint nx = u_count, inside = 0;
+    for (uint r = 0; r < R; r++) {
+        global const clvox_real *h = hits + (r0 + r) * capacity;
+        const uint n = counts[r0 + r];
+        uint kk = k[r];
+        while (kk < n && h[kk] < lo) kk++;
+        k[r] = kk;
+        if (kk < n) {
+            /* first voxel whose [u-1/2, u+1/2] holds h: ceil(h - 1/2) */
+            clvox_real e = ceil(h[kk] - (clvox_real)0.5) - (clvox_real)u_begin;
+            uint ev = e <= (clvox_real)j ? j : (e >= (clvox_real)u_count ? u_count : (uint)e);
+            nx = min(nx, ev);
+        }
+        inside += (n - kk) & 1u;
+    }
+    *next = nx;
+    return inside;
+}
+
 kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint R, uint M,
                            global const clvox_real *hits, global const uint *counts, uint capacity,
                            uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi,
@@ -67,23 +93,8 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
     while (j < u_count) {
         const clvox_real lo = (clvox_real)(u_begin + j) - (clvox_real)0.5;
         const clvox_real hi = lo + (clvox_real)1;
-        /* Pass crossings below the voxel; find the first voxel (>= j) that
-         * holds a crossing of any ray, and the count of the clean rays. */
-        uint next = u_count, clean = 0;
-        for (uint r = 0; r < R; r++) {
-            global const clvox_real *h = hits + (r0 + r) * capacity;
-            const uint n = counts[r0 + r];
-            uint kk = k[r];
-            while (kk < n && h[kk] < lo) kk++;
-            k[r] = kk;
-            if (kk < n) {
-                /* first voxel whose [u-1/2, u+1/2] holds h: ceil(h - 1/2) */
-                clvox_real e = ceil(h[kk] - (clvox_real)0.5) - (clvox_real)u_begin;
-                uint ev = e <= (clvox_real)j ? j : (e >= (clvox_real)u_count ? u_count : (uint)e);
-                next = min(next, ev);
-            }
-            clean += ((n - kk) & 1u) ? M : 0u;
-        }
+        uint next, rays_in = clvox_column_step(hits, counts, r0, R, capacity, k, u_begin, u_count, j, lo, &next);
+        uint clean = rays_in * M; /* the points of the clean rays that are inside */
         uint end = next > j ? next : j + 1; /* voxels [j, end) get one value */
         uint cnt = clean;
         if (next == j) { /* voxel j holds a crossing: look at the points of those rays */

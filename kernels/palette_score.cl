@@ -104,22 +104,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
         const uint u = u_begin + j;
         const clvox_real lo = (clvox_real)u - (clvox_real)0.5;
         const clvox_real hi = lo + (clvox_real)1;
-        /* Pass crossings below the voxel; the first voxel (>= j) that holds
-         * a crossing of any ray; how many rays are inside over the run. */
-        uint next = u_count, rays_in = 0;
-        for (uint r = 0; r < R; r++) {
-            global const clvox_real *h = hits + (r0 + r) * capacity;
-            const uint n = counts[r0 + r];
-            uint kk = k[r];
-            while (kk < n && h[kk] < lo) kk++;
-            k[r] = kk;
-            if (kk < n) {
-                clvox_real e = ceil(h[kk] - (clvox_real)0.5) - (clvox_real)u_begin;
-                uint ev = e <= (clvox_real)j ? j : (e >= (clvox_real)u_count ? u_count : (uint)e);
-                next = min(next, ev);
-            }
-            rays_in += (n - kk) & 1u;
-        }
+        /* the first voxel (>= j) holding a crossing; rays inside until then */
+        uint next, rays_in = clvox_column_step(hits, counts, r0, R, capacity, k, u_begin, u_count, j, lo, &next);
         uint end = j + 1, elem = 0, score = 0, cnt = 0;
         if (next > j && early_out && (rays_in == 0 || rays_in == R)) {
             end = next; /* wholly outside or inside: empty or full, score 1 */

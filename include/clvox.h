@@ -241,6 +241,20 @@ typedef enum clvox_mode {
 /* "solid", "surface", "conservative"; NULL for a bad value. */
 const char *clvox_mode_name(clvox_mode mode);
 
+/* The inside test of solid voxels and samples (clvox_voxelize_options.inside;
+ * docs/design.md "Winding numbers"). */
+typedef enum clvox_inside {
+    CLVOX_INSIDE_DEFAULT = 0, /* winding for the ray method; tetra is parity by construction */
+    CLVOX_INSIDE_WINDING,     /* generalized winding number w(p) > 1/2 after mesh preparation:
+                                 exact on open, cracked, mis-oriented and overlapping meshes;
+                                 the same voxels as parity on closed, consistent meshes */
+    CLVOX_INSIDE_WINDING_ABS, /* |w(p)| > 1/2: also keeps wholly inverted parts */
+    CLVOX_INSIDE_PARITY,      /* odd number of crossings beyond the point (Thon 3.3.3) */
+    CLVOX_INSIDE_COUNT
+} clvox_inside;
+/* "winding", "winding-abs", "parity" ("default" for DEFAULT); NULL for a bad value. */
+const char *clvox_inside_name(clvox_inside inside);
+
 typedef struct clvox_voxelize_options {
     size_t size;
     clvox_method method;
@@ -287,10 +301,18 @@ typedef struct clvox_voxelize_options {
      * no oversampling, no palette); surface ignores the method, conservative
      * ORs the surface over the method's solid. */
     clvox_mode mode;
+    /* Inside test (ray method): winding by default, parity on request. */
+    clvox_inside inside;
+    /* Winding only: vertices within distance `weld` of each other (mesh
+     * units, Euclidean; transitively) are merged into the lowest-numbered one
+     * before orientation repair, closing cracks; 0 = only vertices at exactly
+     * equal positions are merged. */
+    double weld;
 } clvox_voxelize_options;
 #define CLVOX_VOXELIZE_OPTIONS_INIT { sizeof(clvox_voxelize_options), CLVOX_METHOD_RAY, \
     CLVOX_AXIS_DEFAULT, 0, 0, 0, 0, CLVOX_COMPRESSION_DEFAULT, 0, CLVOX_TETRA_ORIGIN_CENTROID, \
-    {0,0,0}, NULL, NULL, 0, 0, 0, 0, 0, 0, 0.0, NULL, CLVOX_METRIC_NEAREST, 0, 0, 0.0, 0.0, CLVOX_MODE_SOLID }
+    {0,0,0}, NULL, NULL, 0, 0, 0, 0, 0, 0, 0.0, NULL, CLVOX_METRIC_NEAREST, 0, 0, 0.0, 0.0, CLVOX_MODE_SOLID, \
+    CLVOX_INSIDE_DEFAULT, 0.0 }
 
 /* Per-voxel channels a run can produce (clvox_voxelize_options.channels). */
 #define CLVOX_CHANNEL_OCCUPANCY 0x1u /* 0/1: inside (binary), or coverage > threshold */
@@ -306,6 +328,25 @@ typedef struct clvox_voxelize_options {
 #define CLVOX_MAX_OVERSAMPLE 16u
 #define CLVOX_MAX_POINTS 255u
 #define CLVOX_MAX_SAMPLES 65535u
+
+/* What the winding inside test did to the mesh and how often it needed the
+ * exact cap solid angles (clvox_stats.winding; zero for parity runs). */
+typedef struct clvox_winding_report {
+    uint64_t merged_vertices;    /* merged into an earlier vertex at exactly the same position */
+    uint64_t welded_vertices;    /* merged into another within the weld distance (options.weld) */
+    uint64_t dropped_triangles;  /* two corners merged by welding: no area, left out */
+    uint64_t components;         /* orientation patches: triangles joined across manifold edges */
+    uint64_t closed_components;  /* patches with no boundary edge of their own */
+    uint64_t cavities;           /* closed patches nested inside an odd number of others: face inwards */
+    uint64_t flipped_triangles;  /* triangles whose orientation was reversed */
+    uint64_t nonmanifold_edges;  /* edges of more than two triangles: orientation does not cross them */
+    uint64_t nonorientable_components; /* patches where propagation met a conflict (Moebius-like) */
+    uint64_t boundary_edges;     /* directed boundary edges (non-zero net multiplicity, counted with it) */
+    uint64_t holes;              /* boundary loops, each closed by a fan of cap triangles */
+    uint64_t cap_triangles;
+    uint64_t exact_points;       /* centres / samples whose cap solid angles were evaluated exactly */
+    double seconds;              /* host time of the preparation */
+} clvox_winding_report;
 
 typedef struct clvox_stats {
     double seconds[CLVOX_STAGE_COUNT];
@@ -332,6 +373,8 @@ typedef struct clvox_stats {
     uint64_t palette_nonempty_voxels; /* voxels given an element other than empty            */
     double palette_volume;            /* sum of the chosen elements' volumes, voxel units (times
                                          the voxel volume: the volume of the element approximation) */
+    clvox_inside inside;              /* the inside test used (never DEFAULT) */
+    clvox_winding_report winding;     /* mesh preparation and exact evaluations (winding runs) */
 } clvox_stats;
 
 /* Receives consecutive slabs in increasing z: slices z0 .. z0+nz-1, each an

@@ -104,6 +104,32 @@ typedef struct clvox__raw_mesh {
 int clvox__openmesh_read(const char *path, clvox__raw_mesh *out, char *err, size_t err_size);
 void clvox__raw_mesh_free(clvox__raw_mesh *raw);
 
+/* ---- winding preparation (winding_prep.c) ---- */
+
+/* The mesh made ready for the winding-number inside test (docs/design.md
+ * "Winding numbers"): vertices at equal positions merged (and welded within
+ * `weld`), triangles oriented by propagation across manifold edges with one
+ * sign per patch (outwards, cavities inwards), and the boundary chain left
+ * after that -- the edges whose net multiplicity is not zero -- split into
+ * loops, each closed by a fan of cap triangles from an apex, so that
+ * surface + caps is a closed chain. */
+typedef struct clvox__winding_mesh {
+    uint32_t *tris;        /* 3 per triangle, oriented; indices into the mesh's vertices (after merging) */
+    size_t triangle_count; /* the mesh's count minus report.dropped_triangles */
+    uint32_t *caps;        /* 3 per cap triangle: an index < the mesh's vertex_count is a mesh vertex,
+                              index vertex_count + a is apex a */
+    size_t cap_count;
+    float *apex;           /* 3 per apex, the mesh's coordinates (relative to its offset) */
+    size_t apex_count;
+    clvox_winding_report report; /* all but exact_points */
+} clvox__winding_mesh;
+
+/* weld: 0 or the weld distance (mesh units). Fills *out (free it with
+ * clvox__winding_mesh_free, also after a failure). */
+clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, double weld,
+                                    clvox__winding_mesh *out);
+void clvox__winding_mesh_free(clvox__winding_mesh *w);
+
 /* ---- grid space ---- */
 
 /* The ray axis u and the ray plane (v,w) as a permutation of (x,y,z):

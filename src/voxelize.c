@@ -632,3 +632,14 @@ clvox_status clvox__voxelize_counts(clvox_context *ctx, const clvox_mesh *mesh, 
     sink_needs needs = {0, 1, channels, samples};
     return run(ctx, mesh, grid, options, &needs, open_sink, sink, user, stats);
 }
+
+const char *clvox_inside_name(clvox_inside inside)
+{
+    switch (inside) {
+    case CLVOX_INSIDE_DEFAULT: return "default";
+    case CLVOX_INSIDE_WINDING: return "winding";
+    case CLVOX_INSIDE_WINDING_ABS: return "winding-abs";
+    case CLVOX_INSIDE_PARITY: return "parity";
+    default: return NULL;
+    }
+}

@@ -107,8 +107,36 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
     }
 }
 
-/* The inside test at p (scaled grid space, x, y, z) given K there. Adds 1
- * to *exact when cap solid angles had to be evaluated. */
+/* The node's caps' w seen from p as an estimate and an error bound: the
+ * dipole term N . (c - p) / |c - p|^3 when p is outside the node's sphere
+ * and that is tighter -- the kernel x / |x|^3 changes by at most 2 r /
+ * (d - r)^3 over the sphere, so the error is at most 2 A r / (4pi (d -
+ * r)^3), plus a margin for the float N -- else 0 and the zeroth-order
+ * bound. */
+inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
+                               uint axis, clvox_real *est, clvox_real *err)
+{
+    const clvox_real b0 = clvox_cap_bound(n, px, py, pz, axis, 0, 0, 0);
+    const clvox_real x = n->centre[0] - px, y = n->centre[1] - py, z = n->centre[2] - pz;
+    const clvox_real d = sqrt(x * x + y * y + z * z), r = n->radius;
+    if (d > r) {
+        const clvox_real dr = d - r, a = n->area4pi;
+        const clvox_real e1 = 2 * a * r / (dr * dr * dr) * (clvox_real)1.000001 + (clvox_real)1e-6 * a / (dr * dr);
+        if (e1 < b0) {
+            *est = (n->normal4pi[0] * x + n->normal4pi[1] * y + n->normal4pi[2] * z) / (d * d * d);
+            *err = e1;
+            return;
+        }
+    }
+    *est = 0;
+    *err = b0;
+}
+
+/* The inside test at p (scaled grid space, x, y, z) given K there:
+ * best-first refinement of the cap tree, each frontier node an estimate
+ * and an error bound, until [K - S - sum est -+ sum err] lies on one side
+ * of the threshold (S: the caps evaluated exactly). Adds 1 to *exact when
+ * cap solid angles had to be evaluated. */
 inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
                                 global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
                                 uint axis, uint *exact)
@@ -116,21 +144,22 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
     if (node_count == 0) return abs_mode ? K != 0 : K >= 1;
     uint stack[CLVOX_CAP_STACK];
-    clvox_real sb[CLVOX_CAP_STACK];
+    clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
     uint sp = 1;
     stack[0] = 0;
-    sb[0] = clvox_cap_bound(nodes, px, py, pz, axis, 0, 0, 0);
+    clvox_cap_estimate(nodes, px, py, pz, axis, &se[0], &sb[0]);
     clvox_real S = 0;
     int evaluated = 0;
     for (;;) {
-        clvox_real B = 0;
+        clvox_real B = 0, E = 0;
         uint best = 0;
         for (uint i = 0; i < sp; i++) {
             B += sb[i];
+            E += se[i];
             if (sb[i] > sb[best]) best = i;
         }
-        B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sum's own rounding */
-        const clvox_real w = (clvox_real)K - S;
+        B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sums' own rounding */
+        const clvox_real w = (clvox_real)K - S - E;
         int decided = -1;
         if (abs_mode) {
             if (w - B > thr || w + B < -thr) decided = 1;
@@ -140,23 +169,26 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
             else if (w + B <= thr) decided = 0;
         }
         if (decided >= 0 || sp == 0) {
-            if (evaluated) (*exact)++;
+            if (evaluated) (*exact) += evaluated;
             if (decided >= 0) return decided;
             return abs_mode ? (w > thr || w < -thr) : w > thr;
         }
         const uint nd = stack[best];
         stack[best] = stack[sp - 1u];
         sb[best] = sb[sp - 1u];
+        se[best] = se[sp - 1u];
         sp--;
-        const clvox_cap_node n = nodes[nd];
-        if (n.child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
-            for (uint t = 0; t < n.tri_count; t++)
-                S += clvox_cap_solid(caps + (size_t)(n.tri_first + t) * 9u, px, py, pz, axis);
-            evaluated = 1;
+        const uint child = nodes[nd].child;
+        if (child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
+            const uint first = nodes[nd].tri_first, count = nodes[nd].tri_count;
+            for (uint t = 0; t < count; t++)
+                S += clvox_cap_solid(caps + (size_t)(first + t) * 9u, px, py, pz, axis);
+            evaluated += (int)count;
         } else {
             for (uint c = 0; c < 2u; c++) {
-                stack[sp] = n.child + c;
-                sb[sp++] = clvox_cap_bound(nodes + n.child + c, px, py, pz, axis, 0, 0, 0);
+                stack[sp] = child + c;
+                clvox_cap_estimate(nodes + child + c, px, py, pz, axis, &se[sp], &sb[sp]);
+                sp++;
             }
         }
     }

@@ -1396,6 +1396,19 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
         printf(LABEL "%llu cast, %llu odd parity, %llu overflow redone, at most %u crossings per ray\n", "rays",
                (unsigned long long)s->rays, (unsigned long long)s->odd_parity_rays,
                (unsigned long long)s->overflow_rays, (unsigned)s->max_crossings);
+    if (s->inside == CLVOX_INSIDE_WINDING || s->inside == CLVOX_INSIDE_WINDING_ABS) {
+        const clvox_winding_report *w = &s->winding;
+        printf(LABEL "%s: %llu vertices merged (%llu welded), %llu of %llu patches closed, %llu cavities, "
+                     "%llu triangles flipped, %llu holes closed by %llu caps, %llu points exact (%.3f s)\n",
+               "winding", s->inside == CLVOX_INSIDE_WINDING ? "w > 1/2" : "|w| > 1/2",
+               (unsigned long long)(w->merged_vertices + w->welded_vertices), (unsigned long long)w->welded_vertices,
+               (unsigned long long)w->closed_components, (unsigned long long)w->components,
+               (unsigned long long)w->cavities, (unsigned long long)w->flipped_triangles,
+               (unsigned long long)w->holes, (unsigned long long)w->cap_triangles,
+               (unsigned long long)w->exact_points, w->seconds);
+    } else if (s->inside == CLVOX_INSIDE_PARITY && a->vox.mode != CLVOX_MODE_SURFACE) {
+        printf(LABEL "parity (odd number of crossings beyond the centre)\n", "inside");
+    }
     printf(LABEL "load %.3f  setup %.3f  partition %.3f  cast %.3f  classify %.3f  write %.3f  "
                  "total %.3f s (wall %.3f s)\n",
            "time", s->seconds[CLVOX_STAGE_LOAD], setup_seconds, s->seconds[CLVOX_STAGE_PARTITION],
@@ -1707,7 +1720,11 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     /* Warnings come from the mesh report, whatever the method, one line each
      * (surface mode has no inside: open meshes and duplicates are fine). */
     const int solid = a->vox.mode != CLVOX_MODE_SURFACE;
-    if (solid && !report->closed) {
+    const int winding = res->stats.inside == CLVOX_INSIDE_WINDING || res->stats.inside == CLVOX_INSIDE_WINDING_ABS;
+    if (solid && winding) {
+        /* open and overlapping meshes are what the winding test is for; the
+         * summary says what the preparation did */
+    } else if (solid && !report->closed) {
         char rays[96] = "";
         if (res->stats.odd_parity_rays > 0)
             snprintf(rays, sizeof rays, "; %llu rays crossed it an odd number of times",

@@ -73,6 +73,7 @@
 
 #define NONE UINT32_MAX
 
+
 /* ---- helpers -------------------------------------------------------------------- */
 
 static uint64_t mix64(uint64_t z)
@@ -120,6 +121,18 @@ static void sort_u64(uint64_t *a, size_t n)
 
 /* ---- 1. exact merge --------------------------------------------------------------- */
 
+#if defined(__GNUC__)
+#define PREFETCH(p) __builtin_prefetch(p)
+#else
+#define PREFETCH(p) ((void)(p))
+#endif
+
+static uint64_t pos_hash(const float *p)
+{
+    return mix64(((uint64_t)float_key(p[0]) << 32 | float_key(p[1])) ^
+                 mix64((uint64_t)float_key(p[2]) + 0x9e3779b97f4a7c15ull));
+}
+
 /* rep[v] = the lowest-numbered vertex at v's position. Returns -1 when out
  * of memory. */
 static int merge_exact(const float *xyz, size_t nv, uint32_t *rep, uint64_t *merged)
@@ -129,10 +142,17 @@ static int merge_exact(const float *xyz, size_t nv, uint32_t *rep, uint64_t *mer
     if (!table) return -1;
     memset(table, 0xFF, cap * sizeof *table);
     uint64_t n = 0;
+    enum { AHEAD = 16 };
+    uint64_t ring[AHEAD];
+    for (size_t v = 0; v < nv && v < AHEAD; v++) ring[v] = pos_hash(xyz + 3 * v);
     for (size_t v = 0; v < nv; v++) {
         const float *p = xyz + 3 * v;
-        uint64_t h = mix64(((uint64_t)float_key(p[0]) << 32 | float_key(p[1])) ^
-                           mix64((uint64_t)float_key(p[2]) + 0x9e3779b97f4a7c15ull));
+        uint64_t h = ring[v % AHEAD];
+        if (v + AHEAD < nv) { /* the table is far larger than the caches: fetch ahead */
+            uint64_t g = pos_hash(xyz + 3 * (v + AHEAD));
+            ring[v % AHEAD] = g;
+            PREFETCH(&table[(size_t)g & mask]);
+        }
         for (size_t s = (size_t)h & mask;; s = (s + 1) & mask) {
             uint32_t u = table[s];
             if (u == NONE) {
@@ -289,48 +309,45 @@ done:
 
 /* ---- 3. orientation: union-find with a parity bit ------------------------------------ */
 
-/* Root of x; *parity = x's flip relative to the root. Compresses the path. */
-static uint32_t pf_find(uint32_t *parent, unsigned char *par, uint32_t x, unsigned *parity)
+/* uf[t] = parent << 1 | parity (t's flip relative to its parent); a root
+ * is its own parent with parity 0. Roots are the smallest triangle of their
+ * set (the larger root is linked under the smaller). */
+static uint32_t pf_find(uint32_t *uf, uint32_t x, unsigned *parity)
 {
-    uint32_t r = x;
     unsigned p = 0;
-    while (parent[r] != r) {
-        p ^= par[r];
-        r = parent[r];
-    }
-    unsigned acc = p;
-    while (parent[x] != r && x != r) {
-        uint32_t next = parent[x];
-        unsigned old = par[x];
-        parent[x] = r;
-        par[x] = (unsigned char)acc;
-        acc ^= old;
-        x = next;
+    for (;;) {
+        uint32_t e = uf[x], y = e >> 1;
+        if (y == x) break;
+        uint32_t f = uf[y], z = f >> 1;
+        if (z == y) {
+            p ^= e & 1u;
+            x = y;
+            break;
+        }
+        /* path halving: x skips to its grandparent */
+        uf[x] = z << 1 | ((e ^ f) & 1u);
+        p ^= (e ^ f) & 1u;
+        x = z;
     }
     *parity = p;
-    return r;
+    return x;
 }
 
 /* Joins a and b so that flip(b) = flip(a) ^ rel; returns 1 on a conflict. */
-static int pf_union(uint32_t *parent, unsigned char *par, uint32_t a, uint32_t b, unsigned rel)
+static int pf_union(uint32_t *uf, uint32_t a, uint32_t b, unsigned rel)
 {
     unsigned pa, pb;
-    uint32_t ra = pf_find(parent, par, a, &pa), rb = pf_find(parent, par, b, &pb);
+    uint32_t ra = pf_find(uf, a, &pa), rb = pf_find(uf, b, &pb);
     if (ra == rb) return (pa ^ pb) != rel;
-    if (ra < rb) {
-        parent[rb] = ra;
-        par[rb] = (unsigned char)(pa ^ pb ^ rel);
-    } else {
-        parent[ra] = rb;
-        par[ra] = (unsigned char)(pa ^ pb ^ rel);
-    }
+    if (ra < rb) uf[rb] = ra << 1 | (pa ^ pb ^ rel);
+    else uf[ra] = rb << 1 | (pa ^ pb ^ rel);
     return 0;
 }
 
 /* A group of uses of one undirected edge that needs the boundary pass:
  * entries [begin, end) of the edge array. */
 typedef struct span {
-    uint32_t begin, end;
+    uint32_t lo, begin, end;
 } span;
 
 typedef struct span_list {
@@ -338,7 +355,7 @@ typedef struct span_list {
     size_t n, cap;
 } span_list;
 
-static int span_push(span_list *l, uint32_t b, uint32_t e)
+static int span_push(span_list *l, uint32_t lo, uint32_t b, uint32_t e)
 {
     if (l->n == l->cap) {
         size_t cap = l->cap ? 2 * l->cap : 256;
@@ -347,6 +364,7 @@ static int span_push(span_list *l, uint32_t b, uint32_t e)
         l->a = g;
         l->cap = cap;
     }
+    l->a[l->n].lo = lo;
     l->a[l->n].begin = b;
     l->a[l->n].end = e;
     l->n++;
@@ -559,7 +577,7 @@ typedef struct prep {
     uint32_t *tris; /* out->tris */
     size_t nt;
     uint32_t *start;     /* vertex buckets of the edge array */
-    uint64_t *entry;     /* hi << 32 | half-edge */
+    uint64_t *entry;     /* hi << 32 | triangle << 1 | (1: the use runs lo -> hi) */
     uint32_t *cid;       /* patch of each triangle */
     unsigned char *flip; /* 1: triangle reversed relative to its patch's first triangle */
     uint32_t *first;     /* first triangle of each patch */
@@ -595,7 +613,7 @@ static clvox_status build_edges(prep *P)
     for (size_t i = 0; i < ne; i++) {
         uint32_t a = tris[i], b = tris[NEXT_CORNER(i)];
         uint32_t lo = a < b ? a : b, hi = a < b ? b : a;
-        entry[start[lo]++] = (uint64_t)hi << 32 | (uint64_t)i;
+        entry[start[lo]++] = (uint64_t)hi << 32 | (uint64_t)(i / 3) << 1 | (uint64_t)(a < b);
     }
     /* start[v] is now the end of bucket v; shift back to starts. */
     for (size_t v = nv; v > 0; v--) start[v] = start[v - 1];
@@ -611,18 +629,17 @@ static clvox_status build_edges(prep *P)
 static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *conflict_out)
 {
     size_t nt = P->nt;
-    uint32_t *parent = malloc((nt ? nt : 1) * sizeof *parent);
-    unsigned char *par = calloc(nt ? nt : 1, 1);
+    uint32_t *uf = malloc((nt ? nt : 1) * sizeof *uf);
     uint32_t *conflicts = NULL;
     size_t nconf = 0, capconf = 0;
     clvox_status st = CLVOX_OK;
-    if (!parent || !par) {
+    if (!uf) {
         st = oom(P, "for the orientation");
         goto done;
     }
-    for (size_t t = 0; t < nt; t++) parent[t] = (uint32_t)t;
-    const uint32_t *tris = P->tris;
+    for (size_t t = 0; t < nt; t++) uf[t] = (uint32_t)t << 1;
     const uint64_t *entry = P->entry;
+    size_t ne = 3 * nt;
     uint64_t nm = 0;
     for (size_t v = 0; v < P->nv; v++) {
         size_t e = P->start[v + 1];
@@ -630,34 +647,37 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
             size_t j = i + 1;
             while (j < e && entry[j] >> 32 == entry[i] >> 32) j++;
             if (j - i == 2) {
-                uint32_t h0 = (uint32_t)entry[i], h1 = (uint32_t)entry[i + 1];
-                unsigned rel = tris[h0] == tris[h1]; /* same direction: one must flip */
-                if (pf_union(parent, par, h0 / 3, h1 / 3, rel)) {
-                    if (span_push(&P->special, (uint32_t)i, (uint32_t)j)) goto nomem;
+                if (j + 17 < ne) {
+                    PREFETCH(&uf[(uint32_t)entry[j + 16] >> 1]);
+                    PREFETCH(&uf[(uint32_t)entry[j + 17] >> 1]);
+                }
+                uint32_t u0 = (uint32_t)entry[i], u1 = (uint32_t)entry[i + 1];
+                unsigned rel = !((u0 ^ u1) & 1u); /* same direction: one must flip */
+                if (pf_union(uf, u0 >> 1, u1 >> 1, rel)) {
+                    if (span_push(&P->special, (uint32_t)v, (uint32_t)i, (uint32_t)j)) goto nomem;
                     if (nconf == capconf) {
                         capconf = capconf ? 2 * capconf : 64;
                         uint32_t *g = realloc(conflicts, capconf * sizeof *g);
                         if (!g) goto nomem;
                         conflicts = g;
                     }
-                    conflicts[nconf++] = h0 / 3;
+                    conflicts[nconf++] = u0 >> 1;
                 }
             } else {
                 nm += j - i > 2;
-                if (span_push(&P->special, (uint32_t)i, (uint32_t)j)) goto nomem;
+                if (span_push(&P->special, (uint32_t)v, (uint32_t)i, (uint32_t)j)) goto nomem;
             }
             i = j;
         }
     }
     *nonmanifold = nm;
-
     P->cid = malloc((nt ? nt : 1) * sizeof *P->cid);
     P->flip = malloc(nt ? nt : 1);
     if (!P->cid || !P->flip) goto nomem;
     size_t nc = 0;
     for (size_t t = 0; t < nt; t++) {
         unsigned p;
-        uint32_t r = pf_find(parent, par, (uint32_t)t, &p);
+        uint32_t r = pf_find(uf, (uint32_t)t, &p);
         P->flip[t] = (unsigned char)p;
         if (r == t) P->cid[t] = (uint32_t)nc++;
         else P->cid[t] = P->cid[r];
@@ -681,8 +701,7 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
 nomem:
     st = oom(P, "for the orientation");
 done:
-    free(parent);
-    free(par);
+    free(uf);
     free(conflicts);
     return st;
 }
@@ -690,16 +709,13 @@ done:
 /* Pass 2: each patch's own net multiplicity on the special edges. */
 static clvox_status patch_boundaries(prep *P)
 {
-    const uint32_t *tris = P->tris;
     uint64_t *scratch = NULL;
     size_t cap = 0;
     double *ends = calloc(P->ncomp ? P->ncomp : 1, sizeof *ends); /* boundary endpoints per patch */
     if (!ends) return oom(P, "for the boundary");
     for (size_t s = 0; s < P->special.n; s++) {
         uint32_t b = P->special.a[s].begin, e = P->special.a[s].end;
-        uint32_t h = (uint32_t)P->entry[b];
-        uint32_t x = tris[h], y = tris[NEXT_CORNER(h)];
-        uint32_t lo = x < y ? x : y, hi = x < y ? y : x;
+        uint32_t lo = P->special.a[s].lo, hi = (uint32_t)(P->entry[b] >> 32);
         size_t n = e - b;
         if (n > cap) {
             cap = 2 * n;
@@ -713,8 +729,8 @@ static clvox_status patch_boundaries(prep *P)
         }
         /* (patch << 1 | direction), direction 1 = lo -> hi after the patch-relative flip. */
         for (size_t k = 0; k < n; k++) {
-            uint32_t hk = (uint32_t)P->entry[b + k], t = hk / 3;
-            unsigned dir = (tris[hk] == lo) ^ P->flip[t];
+            uint32_t u = (uint32_t)P->entry[b + k], t = u >> 1;
+            unsigned dir = (u & 1u) ^ P->flip[t];
             scratch[k] = (uint64_t)P->cid[t] << 1 | dir;
         }
         sort_u64(scratch, n);

@@ -943,6 +943,7 @@ static clvox_status cap_loops(prep *P, uint64_t *edges, size_t ne, clvox__windin
     uint32_t *next = NULL, *pos = NULL, *path = NULL;
     uint32_t *pedge = NULL;
     if (!ne) return CLVOX_OK;
+    if (ne >= UINT32_MAX) return clvox__fail(P->ctx, CLVOX_ERR_MESH_INVALID, "too many boundary edges (%zu)", ne);
     sort_u64(edges, ne);
     next = malloc(nv * sizeof *next); /* next unused out-edge of each vertex */
     pos = malloc(nv * sizeof *pos);   /* position on the current path */
@@ -952,6 +953,7 @@ static clvox_status cap_loops(prep *P, uint64_t *edges, size_t ne, clvox__windin
     size_t apex_cap = ne / 3 + 1;
     out->apex = malloc(3 * apex_cap * sizeof *out->apex);
     if (!next || !pos || !path || !pedge || !out->caps || !out->apex) goto nomem;
+    for (size_t i = 0; i < ne; i++) next[(uint32_t)edges[i]] = (uint32_t)ne; /* none, unless set below */
     for (size_t i = ne; i-- > 0;) next[edges[i] >> 32] = (uint32_t)i;
     for (size_t i = 0; i < ne; i++) pos[edges[i] >> 32] = NONE, pos[(uint32_t)edges[i]] = NONE;
 #define FROM(i) ((uint32_t)(edges[i] >> 32))

@@ -294,6 +294,40 @@ static void test_nested_boxes(void)
         tmesh_free(&m);
         for (int i = 0; i < 3; i++) tmesh_free(&b[i]);
     }
+    /* Tie rule: a vertex on B's surface counts as moved infinitesimally
+     * towards +z (and (1, eps) in the xy plane). An inner box standing on
+     * B's floor is nested (a cavity); one touching B's ceiling is not. */
+    for (int top = 0; top < 2; top++) {
+        tmesh o = tmesh_box(0, 0, 0, 10, 10, 10);
+        tmesh i = top ? tmesh_box(2, 2, 5, 8, 8, 10) : tmesh_box(2, 2, 0, 8, 8, 5);
+        tmesh m2 = {0};
+        tmesh_append(&m2, &o);
+        tmesh_append(&m2, &i);
+        prepared q = prep_tmesh(&m2, 0);
+        CHECK_OK(ctx, q.st);
+        CHECK_MSG(q.w.report.cavities == (top ? 0u : 1u), "top %d: %llu cavities", top,
+                  (unsigned long long)q.w.report.cavities);
+        prep_free(&q);
+        tmesh_free(&m2);
+        tmesh_free(&o);
+        tmesh_free(&i);
+    }
+    /* ... and on B's -x wall it is inside, on the +x wall outside. */
+    for (int plus = 0; plus < 2; plus++) {
+        tmesh o = tmesh_box(0, 0, 0, 10, 10, 10);
+        tmesh i = plus ? tmesh_box(5, 2, 2, 10, 8, 8) : tmesh_box(0, 2, 2, 5, 8, 8);
+        tmesh m2 = {0};
+        tmesh_append(&m2, &o);
+        tmesh_append(&m2, &i);
+        prepared q = prep_tmesh(&m2, 0);
+        CHECK_OK(ctx, q.st);
+        CHECK_MSG(q.w.report.cavities == (plus ? 0u : 1u), "plus %d: %llu cavities", plus,
+                  (unsigned long long)q.w.report.cavities);
+        prep_free(&q);
+        tmesh_free(&m2);
+        tmesh_free(&o);
+        tmesh_free(&i);
+    }
     /* Many disjoint closed parts (CAD-like), some with holes inside. */
     tmesh m = {0};
     size_t expect_cav = 0;
@@ -623,6 +657,24 @@ static void time_armadillo(void)
     clvox_mesh_destroy(m);
 }
 
+/* The nesting test on big shells: a 1.3 M-triangle hollow sphere, the
+ * inner shell stored outwards (every inner vertex is tested). */
+static void time_nesting(void)
+{
+    tmesh outer = tmesh_sphere(0, 0, 0, 2, 400), inner = tmesh_sphere(0.01, 0.02, 0.03, 1, 400), m = {0};
+    tmesh_append(&m, &outer);
+    tmesh_append(&m, &inner);
+    prepared p = prep_tmesh(&m, 0);
+    CHECK_OK(ctx, p.st);
+    CHECK(p.w.report.cavities == 1 && p.w.report.flipped_triangles == inner.nt);
+    printf("hollow sphere, %zu triangles, inner shell stored outwards: prepared in %.3f s\n", m.nt,
+           p.w.report.seconds);
+    prep_free(&p);
+    tmesh_free(&m);
+    tmesh_free(&outer);
+    tmesh_free(&inner);
+}
+
 int main(void)
 {
     clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
@@ -643,6 +695,7 @@ int main(void)
     test_moebius();
     test_nonmanifold();
     test_one_triangle();
+    time_nesting();
     time_armadillo();
     clvox_context_destroy(ctx);
     return test_report();

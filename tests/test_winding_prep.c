@@ -657,6 +657,102 @@ static void time_armadillo(void)
     clvox_mesh_destroy(m);
 }
 
+/* Oriented triangle t of the output and of the input the same, judged by
+ * positions (indices may have been merged). */
+static int same_by_position(const float *xyz, const uint32_t *a, const uint32_t *b)
+{
+    for (int k = 0; k < 3; k++) {
+        int all = 1;
+        for (int c = 0; c < 3 && all; c++)
+            for (int d = 0; d < 3; d++)
+                if (xyz[3 * a[c] + d] != xyz[3 * b[(c + k) % 3] + d]) {
+                    all = 0;
+                    break;
+                }
+        if (all) return 1;
+    }
+    return 0;
+}
+
+/* Random damage to random closed meshes: flips, soup copies, removed and
+ * duplicated triangles. Invariants: no failure, surface + caps closed, the
+ * flip count is what it says, the result is deterministic; undamaged but
+ * flipped and souped ones come back exactly in the original orientation. */
+static void test_random_damage(void)
+{
+    int exact_ok = 0, chains_ok = 0, counts_ok = 0, det_ok = 0;
+    const int rounds = 60;
+    for (int r = 0; r < rounds; r++) {
+        uint64_t seed = 1000 + (uint64_t)r;
+        tmesh base = tmesh_random_closed(seed, 1 + r % 4, 2 + r % 3);
+        tmesh m = {0};
+        tmesh_append(&m, &base);
+        int damage = r % 2; /* 0: flips and soup only (stays closed) */
+        size_t nt0 = m.nt;
+        for (size_t t = 0; t < nt0; t++) {
+            uint64_t x = tmesh_rng_next(&seed);
+            if (x % 3 == 0) flip_tri(&m, t);
+            if ((x >> 8) % 5 == 0) { /* own copies of its corners */
+                for (int c = 0; c < 3; c++) {
+                    const float *p = base.xyz + 3 * base.tri[3 * t + c];
+                    m.tri[3 * t + c] = tmesh_add_vertex(&m, p[0], p[1], p[2]);
+                }
+            }
+        }
+        if (damage) {
+            tmesh d = {0};
+            for (size_t i = 0; i < m.nv; i++) tmesh_add_vertex(&d, m.xyz[3 * i], m.xyz[3 * i + 1], m.xyz[3 * i + 2]);
+            for (size_t t = 0; t < m.nt; t++) {
+                uint64_t x = tmesh_rng_next(&seed);
+                if (x % 17 == 0) continue; /* removed */
+                const uint32_t *tr = m.tri + 3 * t;
+                tmesh_add_tri(&d, tr[0], tr[1], tr[2]);
+                if ((x >> 8) % 23 == 0) tmesh_add_tri(&d, tr[0], tr[2], tr[1]); /* a back-to-back copy */
+                if ((x >> 16) % 29 == 0) tmesh_add_tri(&d, tr[0], tr[1], tr[2]); /* a duplicate */
+            }
+            tmesh_free(&m);
+            m = d;
+        }
+        prepared p = prep_tmesh(&m, 0), q = prep_tmesh(&m, 0);
+        CHECK_OK(ctx, p.st);
+        CHECK_OK(ctx, q.st);
+        if (p.st != CLVOX_OK || q.st != CLVOX_OK) {
+            prep_free(&p);
+            prep_free(&q);
+            tmesh_free(&m);
+            tmesh_free(&base);
+            continue;
+        }
+        chains_ok += chain_closed(&p);
+        uint64_t differ = 0;
+        for (size_t t = 0; t < p.w.triangle_count; t++)
+            differ += !same_by_position(m.xyz, p.w.tris + 3 * t, m.tri + 3 * t);
+        counts_ok += p.w.triangle_count == m.nt && differ == p.w.report.flipped_triangles;
+        det_ok += p.w.triangle_count == q.w.triangle_count && p.w.cap_count == q.w.cap_count &&
+                  !memcmp(p.w.tris, q.w.tris, 3 * p.w.triangle_count * sizeof *p.w.tris) &&
+                  !memcmp(p.w.caps, q.w.caps, 3 * p.w.cap_count * sizeof *p.w.caps) &&
+                  !memcmp(p.w.apex, q.w.apex, 3 * p.w.apex_count * sizeof *p.w.apex);
+        if (!damage) {
+            size_t same = 0;
+            for (size_t t = 0; t < base.nt; t++) same += same_by_position(m.xyz, p.w.tris + 3 * t, base.tri + 3 * t);
+            int ok = same == base.nt && p.w.cap_count == 0 && p.w.report.cavities == 0 &&
+                     p.w.report.closed_components == p.w.report.components;
+            if (!ok)
+                fprintf(stderr, "round %d: %zu of %zu as the original, %zu caps, %llu cavities\n", r, same, base.nt,
+                        p.w.cap_count, (unsigned long long)p.w.report.cavities);
+            exact_ok += ok;
+        }
+        prep_free(&p);
+        prep_free(&q);
+        tmesh_free(&m);
+        tmesh_free(&base);
+    }
+    CHECK_MSG(chains_ok == rounds, "%d of %d chains closed", chains_ok, rounds);
+    CHECK_MSG(counts_ok == rounds, "%d of %d flip counts right", counts_ok, rounds);
+    CHECK_MSG(det_ok == rounds, "%d of %d deterministic", det_ok, rounds);
+    CHECK_MSG(exact_ok == rounds / 2, "%d of %d repaired exactly", exact_ok, rounds / 2);
+}
+
 /* The nesting test on big shells: a 1.3 M-triangle hollow sphere, the
  * inner shell stored outwards (every inner vertex is tested). */
 static void time_nesting(void)
@@ -695,6 +791,7 @@ int main(void)
     test_moebius();
     test_nonmanifold();
     test_one_triangle();
+    test_random_damage();
     time_nesting();
     time_armadillo();
     clvox_context_destroy(ctx);

@@ -10,8 +10,9 @@
  * 2. Weld (weld > 0). Distinct positions used by a triangle and within
  *    Euclidean distance <= weld of each other (double), transitively, are
  *    merged into the lowest-numbered vertex of their group: union-find over
- *    the pairs found in a hash grid of cell size weld (each occupied cell
- *    meets itself and its 13 "forward" neighbours). A triangle left with two
+ *    the pairs found in a hash grid (cells of 2 weld, or of half the mean
+ *    edge length when larger; each vertex meets the lower-numbered vertices
+ *    of the cells its weld ball touches). A triangle left with two
  *    equal corners (by welding, or by the exact merge of distinct indices)
  *    has no area and is dropped.
  * 3. Orientation. Undirected edges are bucketed by their smaller vertex
@@ -184,9 +185,9 @@ static uint32_t uf_find(uint32_t *parent, uint32_t x)
     return x;
 }
 
-static int64_t weld_cell(float x, double weld)
+static int64_t weld_cell(double x, double size)
 {
-    double q = floor((double)x / weld);
+    double q = floor(x / size);
     const double lim = 1152921504606846976.0; /* 2^60: far cells share one, distances still decide */
     if (q > lim) q = lim;
     if (q < -lim) q = -lim;
@@ -236,11 +237,33 @@ static clvox_status weld_vertices(clvox_context *ctx, const float *xyz, size_t n
         parent[v] = (uint32_t)v;
         if (used[v]) cand[nc++] = (uint32_t)v;
     }
+    /* Cell size: at least 2 weld (a ball of radius weld meets at most 2
+     * cells per axis), and about half the mean edge length when that is
+     * larger, so that most balls lie in their own cell and need no lookup
+     * (mean over a fixed sample of at most 4096 triangles). */
+    double edge_sum = 0;
+    size_t samples = nt < 4096 ? nt : 4096;
+    for (size_t i = 0; i < samples; i++) {
+        const uint32_t *t = tris + 3 * (i * (nt / samples));
+        for (int c = 0; c < 3; c++) {
+            const float *p = xyz + 3 * (size_t)t[c], *q = xyz + 3 * (size_t)t[(c + 1) % 3];
+            double dx = (double)p[0] - q[0], dy = (double)p[1] - q[1], dz = (double)p[2] - q[2];
+            edge_sum += sqrt(dx * dx + dy * dy + dz * dz);
+        }
+    }
+    double cs = 0.5 * edge_sum / (3.0 * (double)(samples ? samples : 1));
+    if (!(cs >= 2 * weld) || isinf(cs)) cs = 2 * weld;
     /* Cells, numbered in order of first appearance. */
     size_t ncell = 0;
+    enum { AHEAD = 16 };
     for (size_t k = 0; k < nc; k++) {
         const float *p = xyz + 3 * (size_t)cand[k];
-        int64_t c[3] = {weld_cell(p[0], weld), weld_cell(p[1], weld), weld_cell(p[2], weld)};
+        int64_t c[3] = {weld_cell(p[0], cs), weld_cell(p[1], cs), weld_cell(p[2], cs)};
+        if (k + AHEAD < nc) { /* fetch the slot of a later vertex ahead */
+            const float *f = xyz + 3 * (size_t)cand[k + AHEAD];
+            int64_t g[3] = {weld_cell(f[0], cs), weld_cell(f[1], cs), weld_cell(f[2], cs)};
+            PREFETCH(&table[(size_t)cell_hash(g) & mask]);
+        }
         size_t s = (size_t)cell_hash(c) & mask;
         for (;; s = (s + 1) & mask) {
             uint32_t id = table[s];
@@ -266,27 +289,35 @@ static clvox_status weld_vertices(clvox_context *ctx, const float *xyz, size_t n
     for (size_t c = ncell; c > 0; c--) cstart[c] = cstart[c - 1];
     cstart[0] = 0;
 
+    /* Each vertex against the lower-numbered ones in the cells its ball meets. */
     double w2 = weld * weld;
-    for (size_t c = 0; c < ncell; c++) {
-        const int64_t *key = keys + 3 * c;
-        for (int o = 13; o < 27; o++) { /* (0,0,0) and the 13 offsets after it */
-            int64_t n[3] = {key[0] + (o / 9 - 1), key[1] + (o / 3 % 3 - 1), key[2] + (o % 3 - 1)};
-            uint32_t d = o == 13 ? (uint32_t)c : cell_lookup(table, mask, keys, n);
-            if (d == NONE) continue;
-            for (uint32_t i = cstart[c]; i < cstart[c + 1]; i++) {
-                uint32_t u = items[i];
-                const float *p = xyz + 3 * (size_t)u;
-                for (uint32_t j = o == 13 ? i + 1 : cstart[d]; j < cstart[d + 1]; j++) {
-                    uint32_t w = items[j];
-                    const float *q = xyz + 3 * (size_t)w;
-                    double dx = (double)p[0] - q[0], dy = (double)p[1] - q[1], dz = (double)p[2] - q[2];
-                    if (dx * dx + dy * dy + dz * dz > w2) continue;
-                    uint32_t ru = uf_find(parent, u), rw = uf_find(parent, w);
-                    if (ru < rw) parent[rw] = ru;
-                    else if (rw < ru) parent[ru] = rw;
-                }
-            }
+    for (size_t k = 0; k < nc; k++) {
+        uint32_t v = cand[k];
+        const float *p = xyz + 3 * (size_t)v;
+        int64_t lo[3], hi[3];
+        for (int a = 0; a < 3; a++) {
+            lo[a] = weld_cell((double)p[a] - weld, cs);
+            hi[a] = weld_cell((double)p[a] + weld, cs);
         }
+        int64_t c[3];
+        for (c[0] = lo[0]; c[0] <= hi[0]; c[0]++)
+            for (c[1] = lo[1]; c[1] <= hi[1]; c[1]++)
+                for (c[2] = lo[2]; c[2] <= hi[2]; c[2]++) {
+                    const int64_t *own = keys + 3 * (size_t)vcell[k];
+                    uint32_t d = (c[0] == own[0] && c[1] == own[1] && c[2] == own[2])
+                                     ? vcell[k]
+                                     : cell_lookup(table, mask, keys, c);
+                    if (d == NONE) continue;
+                    for (uint32_t j = cstart[d]; j < cstart[d + 1] && items[j] < v; j++) {
+                        uint32_t w = items[j];
+                        const float *q = xyz + 3 * (size_t)w;
+                        double dx = (double)p[0] - q[0], dy = (double)p[1] - q[1], dz = (double)p[2] - q[2];
+                        if (dx * dx + dy * dy + dz * dz > w2) continue;
+                        uint32_t rv = uf_find(parent, v), rw = uf_find(parent, w);
+                        if (rv < rw) parent[rw] = rv;
+                        else if (rw < rv) parent[rv] = rw;
+                    }
+                }
     }
     uint64_t n = 0;
     for (size_t k = 0; k < nc; k++) n += uf_find(parent, cand[k]) != cand[k];

@@ -547,6 +547,88 @@ static void test_crack_and_weld(void)
     tmesh_free(&box);
 }
 
+static uint32_t bf_find(uint32_t *par, uint32_t x)
+{
+    while (par[x] != x) x = par[x];
+    return x;
+}
+
+/* Welding against brute force: all pairs within the distance, transitively,
+ * merged into the lowest index; triangles re-indexed, collapsed ones dropped.
+ * Vertices near a coarse lattice, so clusters form at every weld size
+ * (below, around and above half the edge length). */
+static void test_weld_oracle(void)
+{
+    const double welds[] = {1e-4, 0.004, 0.02, 0.05, 0.2};
+    int ok = 0, total = 0;
+    for (int r = 0; r < 10; r++)
+        for (size_t wi = 0; wi < sizeof welds / sizeof *welds; wi++) {
+            uint64_t seed = 77 + (uint64_t)r;
+            tmesh m = {0};
+            for (int i = 0; i < 240; i++) {
+                double x = (double)(tmesh_rng_next(&seed) % 6) * 0.1, y = (double)(tmesh_rng_next(&seed) % 6) * 0.1,
+                       z = (double)(tmesh_rng_next(&seed) % 3) * 0.1;
+                x += (tmesh_rng_uniform(&seed) - 0.5) * 0.02;
+                y += (tmesh_rng_uniform(&seed) - 0.5) * 0.02;
+                tmesh_add_vertex(&m, x, y, z);
+            }
+            for (int t = 0; t < 200; t++) {
+                uint32_t a = (uint32_t)(tmesh_rng_next(&seed) % 240), b = (uint32_t)(tmesh_rng_next(&seed) % 240),
+                         c = (uint32_t)(tmesh_rng_next(&seed) % 240);
+                if (a != b && b != c && a != c) tmesh_add_tri(&m, a, b, c);
+            }
+            double weld = welds[wi];
+            /* the oracle: exact merge and weld among used vertices */
+            uint32_t par[240];
+            int used[240] = {0};
+            for (uint32_t v = 0; v < 240; v++) par[v] = v;
+            for (size_t i = 0; i < 3 * m.nt; i++) used[m.tri[i]] = 1;
+            for (uint32_t v = 0; v < 240; v++)
+                for (uint32_t u = 0; u < v; u++) {
+                    const float *p = m.xyz + 3 * v, *q = m.xyz + 3 * u;
+                    double dx = (double)p[0] - q[0], dy = (double)p[1] - q[1], dz = (double)p[2] - q[2];
+                    int same = p[0] == q[0] && p[1] == q[1] && p[2] == q[2];
+                    if (!same && !(used[u] && used[v] && dx * dx + dy * dy + dz * dz <= weld * weld)) continue;
+                    uint32_t a = bf_find(par, u), b = bf_find(par, v);
+                    if (a < b) par[b] = a;
+                    else if (b < a) par[a] = b;
+                }
+            tmesh want = {0};
+            for (size_t t = 0; t < m.nt; t++) {
+                uint32_t a = bf_find(par, m.tri[3 * t]), b = bf_find(par, m.tri[3 * t + 1]),
+                         c = bf_find(par, m.tri[3 * t + 2]);
+                if (a != b && b != c && a != c) tmesh_add_tri(&want, a, b, c);
+            }
+            prepared p = prep_tmesh(&m, weld);
+            total++;
+            if (!want.nt) {
+                ok += p.st == CLVOX_ERR_MESH_EMPTY;
+            } else if (p.st == CLVOX_OK && p.w.triangle_count == want.nt &&
+                       p.w.report.dropped_triangles == m.nt - want.nt) {
+                size_t same = 0;
+                for (size_t t = 0; t < want.nt; t++) {
+                    uint32_t x[3], y[3];
+                    memcpy(x, p.w.tris + 3 * t, sizeof x);
+                    memcpy(y, want.tri + 3 * t, sizeof y);
+                    /* orientation may have been repaired: compare as sets */
+                    int hit = 0;
+                    for (int i = 0; i < 3; i++)
+                        for (int j = 0; j < 3; j++) hit += x[i] == y[j];
+                    same += hit == 3;
+                }
+                if (same == want.nt && chain_closed(&p)) ok++;
+                else fprintf(stderr, "weld %g round %d: %zu of %zu triangles\n", weld, r, same, want.nt);
+            } else {
+                fprintf(stderr, "weld %g round %d: status %d, %zu vs %zu triangles\n", weld, r, (int)p.st,
+                        p.w.triangle_count, want.nt);
+            }
+            prep_free(&p);
+            tmesh_free(&want);
+            tmesh_free(&m);
+        }
+    CHECK_MSG(ok == total, "%d of %d welds as brute force", ok, total);
+}
+
 static void test_moebius(void)
 {
     const int n = 24;
@@ -788,6 +870,7 @@ int main(void)
     test_open_cube();
     test_soup();
     test_crack_and_weld();
+    test_weld_oracle();
     test_moebius();
     test_nonmanifold();
     test_one_triangle();

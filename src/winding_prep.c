@@ -62,10 +62,17 @@
  *    one cap (b, a, vertex_count + k) per loop edge a->b: every directed
  *    edge of surface + caps cancels.
  *
- * Cost: O(V + T) plus the small sorts per vertex bucket; a closed,
- * consistently oriented mesh takes a fast path (no edge is special, no
- * boundary pass, no nesting unless two closed patches have nested boxes)
- * and comes out unchanged. */
+ * Cost: O(V + T) plus the small sorts per vertex bucket (and the point
+ * tests of nested-box candidates); the hash probes and union-find reads are
+ * prefetched, since big meshes have little index locality. A closed,
+ * consistently oriented mesh takes the fast path: no edge needs the
+ * boundary pass, and the nesting test runs only with two or more closed
+ * patches (it stops at the box test unless boxes nest). Outward closed
+ * meshes without wrongly oriented nested shells come out bit for bit
+ * (same triangles, same order, no caps). Host memory at the peak: about
+ * 45 bytes per triangle and 20 per vertex (3.3 M triangles: ~180 MB).
+ * Measured: armadillo_s3 (3.3 M triangles, closed) 0.27-0.30 s of CPU on
+ * the 2-core development box. */
 #include "internal.h"
 
 #include <math.h>
@@ -73,7 +80,6 @@
 #include <string.h>
 
 #define NONE UINT32_MAX
-
 
 /* ---- helpers -------------------------------------------------------------------- */
 
@@ -1122,7 +1128,9 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     rep_out->dropped_triangles = nt_in - nt;
     out->triangle_count = nt;
     if (!nt) {
-        st = clvox__fail(ctx, CLVOX_ERR_MESH_EMPTY, "welding within %g left no triangle of %zu", weld, nt_in);
+        st = weld > 0 ? clvox__fail(ctx, CLVOX_ERR_MESH_EMPTY, "welding within %g left no triangle of %zu", weld, nt_in)
+                      : clvox__fail(ctx, CLVOX_ERR_MESH_EMPTY,
+                                    "merging vertices at equal positions left no triangle of %zu", nt_in);
         goto done;
     }
     P.tris = out->tris;

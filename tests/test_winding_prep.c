@@ -529,7 +529,26 @@ static void test_crack_and_weld(void)
     tmesh_add_tri(&tiny, 0, 1, 2);
     p = prep_tmesh(&tiny, 1e-3);
     CHECK(p.st == CLVOX_ERR_MESH_EMPTY);
+    CHECK(strstr(clvox_context_error(ctx), "welding within") != NULL);
     prep_free(&p);
+    /* Exact merging can collapse triangles too (distinct indices, equal
+     * positions): dropped and counted; nothing left is the same error. */
+    tmesh eq = {0};
+    tmesh_add_vertex(&eq, 0, 0, 0);
+    tmesh_add_vertex(&eq, 0, 0, 0);
+    tmesh_add_vertex(&eq, 1, 0, 0);
+    tmesh_add_tri(&eq, 0, 1, 2);
+    p = prep_tmesh(&eq, 0);
+    CHECK(p.st == CLVOX_ERR_MESH_EMPTY && p.w.report.dropped_triangles == 1 && p.w.report.merged_vertices == 1);
+    CHECK(strstr(clvox_context_error(ctx), "equal positions") != NULL);
+    prep_free(&p);
+    tmesh_add_vertex(&eq, 0, 1, 0);
+    tmesh_add_tri(&eq, 0, 2, 3);
+    p = prep_tmesh(&eq, 0);
+    CHECK_OK(ctx, p.st);
+    CHECK(p.w.report.dropped_triangles == 1 && p.w.triangle_count == 1 && p.w.report.cap_triangles == 3);
+    prep_free(&p);
+    tmesh_free(&eq);
     tmesh_free(&tiny);
     /* Bad weld distances. */
     clvox_mesh *bm = NULL;

@@ -775,6 +775,8 @@ static int same_by_position(const float *xyz, const uint32_t *a, const uint32_t 
     return 0;
 }
 
+static int same_bytes(const void *a, const void *b, size_t n) { return n == 0 || !memcmp(a, b, n); }
+
 /* Random damage to random closed meshes: flips, soup copies, removed and
  * duplicated triangles. Invariants: no failure, surface + caps closed, the
  * flip count is what it says, the result is deterministic; undamaged but
@@ -830,9 +832,9 @@ static void test_random_damage(void)
             differ += !same_by_position(m.xyz, p.w.tris + 3 * t, m.tri + 3 * t);
         counts_ok += p.w.triangle_count == m.nt && differ == p.w.report.flipped_triangles;
         det_ok += p.w.triangle_count == q.w.triangle_count && p.w.cap_count == q.w.cap_count &&
-                  !memcmp(p.w.tris, q.w.tris, 3 * p.w.triangle_count * sizeof *p.w.tris) &&
-                  !memcmp(p.w.caps, q.w.caps, 3 * p.w.cap_count * sizeof *p.w.caps) &&
-                  !memcmp(p.w.apex, q.w.apex, 3 * p.w.apex_count * sizeof *p.w.apex);
+                  same_bytes(p.w.tris, q.w.tris, 3 * p.w.triangle_count * sizeof *p.w.tris) &&
+                  same_bytes(p.w.caps, q.w.caps, 3 * p.w.cap_count * sizeof *p.w.caps) &&
+                  same_bytes(p.w.apex, q.w.apex, 3 * p.w.apex_count * sizeof *p.w.apex);
         if (!damage) {
             size_t same = 0;
             for (size_t t = 0; t < base.nt; t++) same += same_by_position(m.xyz, p.w.tris + 3 * t, base.tri + 3 * t);

@@ -828,15 +828,25 @@ typedef struct cbox {
     uint32_t patch;
 } cbox;
 
-static int cmp_cbox(const void *pa, const void *pb)
+/* 1 when every vertex of the triangles tl[0..n) is inside g's patch; stops
+ * at the first one outside. stamp[v] == pair: v already tested. */
+static int all_inside(const pgrid *g, const uint32_t *tris, const uint32_t *tl, size_t n, uint32_t *stamp,
+                      uint32_t pair)
 {
-    const cbox *a = pa, *b = pb;
-    if (a->lo[0] != b->lo[0]) return a->lo[0] < b->lo[0] ? -1 : 1;
-    return (a->patch > b->patch) - (a->patch < b->patch);
+    for (size_t q = 0; q < n; q++) {
+        const uint32_t *t = tris + 3 * (size_t)tl[q];
+        for (int c = 0; c < 3; c++) {
+            if (stamp[t[c]] == pair) continue;
+            stamp[t[c]] = pair;
+            if (!pgrid_inside(g, g->xyz + 3 * (size_t)t[c])) return 0;
+        }
+    }
+    return 1;
 }
 
-/* Nesting depth of every closed patch (only when two closed patches have
- * nested boxes). */
+/* Nesting depth of every closed patch (called with two or more). Candidate
+ * pairs come from a grid over the boxes' (lo.x, lo.y) corners: the A whose
+ * box lies in B's have their corner in B's x and y range. */
 static clvox_status nesting(prep *P, size_t nclosed)
 {
     clvox_status st = CLVOX_OK;
@@ -845,7 +855,7 @@ static clvox_status nesting(prep *P, size_t nclosed)
     const float *xyz = P->xyz;
     cbox *box = malloc(nclosed * sizeof *box);
     uint32_t *slot = malloc((nc ? nc : 1) * sizeof *slot);
-    uint32_t *tstart = NULL, *tlist = NULL, *stamp = NULL;
+    uint32_t *tstart = NULL, *tlist = NULL, *stamp = NULL, *gstart = NULL, *gitems = NULL, *cand = NULL;
     pgrid g = {0};
     if (!box || !slot) goto nomem;
     size_t k = 0;
@@ -870,62 +880,63 @@ static clvox_status nesting(prep *P, size_t nclosed)
             }
         }
     }
-    qsort(box, nclosed, sizeof *box, cmp_cbox);
-    for (size_t i = 0; i < nclosed; i++) slot[box[i].patch] = (uint32_t)i;
+    uint32_t G = 1;
+    while ((size_t)G * G < nclosed && G < 4096) G++;
+    double gx0 = box[0].lo[0], gx1 = gx0, gy0 = box[0].lo[1], gy1 = gy0;
+    for (size_t i = 1; i < nclosed; i++) {
+        if (box[i].lo[0] < gx0) gx0 = box[i].lo[0];
+        if (box[i].lo[0] > gx1) gx1 = box[i].lo[0];
+        if (box[i].lo[1] < gy0) gy0 = box[i].lo[1];
+        if (box[i].lo[1] > gy1) gy1 = box[i].lo[1];
+    }
+    double gsx = gx1 > gx0 ? G / (gx1 - gx0) : 0, gsy = gy1 > gy0 ? G / (gy1 - gy0) : 0;
+    size_t ncell = (size_t)G * G;
+    gstart = calloc(ncell + 1, sizeof *gstart);
+    gitems = malloc(nclosed * sizeof *gitems);
+    cand = malloc(nclosed * sizeof *cand);
+    if (!gstart || !gitems || !cand) goto nomem;
+#define BOX_CELL(b) (grid_cell((b)->lo[0], gx0, gsx, G) + (size_t)G * grid_cell((b)->lo[1], gy0, gsy, G))
+    for (size_t i = 0; i < nclosed; i++) gstart[BOX_CELL(&box[i]) + 1]++;
+    for (size_t c = 0; c < ncell; c++) gstart[c + 1] += gstart[c];
+    for (size_t i = 0; i < nclosed; i++) gitems[gstart[BOX_CELL(&box[i])]++] = (uint32_t)i;
+#undef BOX_CELL
+    for (size_t c = ncell; c > 0; c--) gstart[c] = gstart[c - 1];
+    gstart[0] = 0;
 
     uint32_t pair = 0;
     for (size_t ib = 0; ib < nclosed; ib++) {
         const cbox *B = &box[ib];
-        /* Candidates A: lo.x in [B.lo.x, B.hi.x], found from the first box with lo.x >= B.lo.x. */
-        size_t l = 0, r = nclosed;
-        while (l < r) {
-            size_t m = l + (r - l) / 2;
-            if (box[m].lo[0] < B->lo[0]) l = m + 1;
-            else r = m;
+        uint32_t i0 = grid_cell(B->lo[0], gx0, gsx, G), i1 = grid_cell(B->hi[0], gx0, gsx, G);
+        uint32_t j0 = grid_cell(B->lo[1], gy0, gsy, G), j1 = grid_cell(B->hi[1], gy0, gsy, G);
+        size_t ncand = 0;
+        for (uint32_t gj = j0; gj <= j1; gj++)
+            for (size_t gk = gstart[i0 + (size_t)G * gj]; gk < gstart[i1 + (size_t)G * gj + 1]; gk++) {
+                const cbox *A = &box[gitems[gk]];
+                int inbox = gitems[gk] != ib;
+                for (int a = 0; a < 3; a++)
+                    if (A->lo[a] < B->lo[a] || A->hi[a] > B->hi[a]) inbox = 0;
+                if (inbox) cand[ncand++] = gitems[gk];
+            }
+        if (!ncand) continue;
+        if (!tstart) { /* triangles by patch, once */
+            tstart = calloc(nc + 1, sizeof *tstart);
+            tlist = malloc((nt ? nt : 1) * sizeof *tlist);
+            stamp = malloc((P->nv ? P->nv : 1) * sizeof *stamp);
+            if (!tstart || !tlist || !stamp) goto nomem;
+            for (size_t t = 0; t < nt; t++) tstart[P->cid[t] + 1]++;
+            for (size_t c = 0; c < nc; c++) tstart[c + 1] += tstart[c];
+            for (size_t t = 0; t < nt; t++) tlist[tstart[P->cid[t]]++] = (uint32_t)t;
+            for (size_t c = nc; c > 0; c--) tstart[c] = tstart[c - 1];
+            tstart[0] = 0;
+            memset(stamp, 0xFF, (P->nv ? P->nv : 1) * sizeof *stamp);
         }
-        int built = 0;
-        for (size_t ia = l; ia < nclosed && box[ia].lo[0] <= B->hi[0]; ia++) {
-            const cbox *A = &box[ia];
-            if (ia == ib) continue;
-            int inbox = 1;
-            for (int a = 0; a < 3; a++)
-                if (A->lo[a] < B->lo[a] || A->hi[a] > B->hi[a]) inbox = 0;
-            if (!inbox) continue;
-            if (!tstart) { /* triangles by patch, once */
-                tstart = calloc(nc + 1, sizeof *tstart);
-                tlist = malloc((nt ? nt : 1) * sizeof *tlist);
-                stamp = malloc((P->nv ? P->nv : 1) * sizeof *stamp);
-                if (!tstart || !tlist || !stamp) goto nomem;
-                for (size_t t = 0; t < nt; t++) tstart[P->cid[t] + 1]++;
-                for (size_t c = 0; c < nc; c++) tstart[c + 1] += tstart[c];
-                for (size_t t = 0; t < nt; t++) tlist[tstart[P->cid[t]]++] = (uint32_t)t;
-                for (size_t c = nc; c > 0; c--) tstart[c] = tstart[c - 1];
-                tstart[0] = 0;
-                memset(stamp, 0xFF, (P->nv ? P->nv : 1) * sizeof *stamp);
-            }
-            if (!built) {
-                uint32_t pb = B->patch;
-                if (pgrid_build(&g, xyz, tris, tlist + tstart[pb], tstart[pb + 1] - tstart[pb], B->lo, B->hi))
-                    goto nomem;
-                built = 1;
-            }
-            uint32_t pa = A->patch;
-            int nested = 1;
-            pair++;
-            for (uint32_t q = tstart[pa]; q < tstart[pa + 1] && nested; q++) {
-                const uint32_t *t = tris + 3 * (size_t)tlist[q];
-                for (int c = 0; c < 3; c++) {
-                    if (stamp[t[c]] == pair) continue;
-                    stamp[t[c]] = pair;
-                    if (!pgrid_inside(&g, xyz + 3 * (size_t)t[c])) {
-                        nested = 0;
-                        break;
-                    }
-                }
-            }
-            P->depth[pa] += (uint32_t)nested;
+        uint32_t pb = B->patch;
+        if (pgrid_build(&g, xyz, tris, tlist + tstart[pb], tstart[pb + 1] - tstart[pb], B->lo, B->hi)) goto nomem;
+        for (size_t q = 0; q < ncand; q++) {
+            uint32_t pa = box[cand[q]].patch;
+            P->depth[pa] += (uint32_t)all_inside(&g, tris, tlist + tstart[pa], tstart[pa + 1] - tstart[pa], stamp, ++pair);
         }
-        if (built) pgrid_free(&g);
+        pgrid_free(&g);
     }
     goto done;
 nomem:
@@ -937,6 +948,9 @@ done:
     free(tstart);
     free(tlist);
     free(stamp);
+    free(gstart);
+    free(gitems);
+    free(cand);
     return st;
 }
 

@@ -352,6 +352,61 @@ static void test_nested_boxes(void)
     tmesh_free(&m);
 }
 
+/* The nesting test's point-in-patch parity against the independent oracle
+ * (tmesh_point_inside: tilted rays, majority of three): tiny octahedra at
+ * random points of a star-shaped shell's and a torus's box are cavities
+ * exactly when all their vertices are inside. */
+static void test_nesting_oracle(void)
+{
+    int agree = 0, total = 0, inside = 0;
+    for (int shape = 0; shape < 4; shape++) {
+        tmesh shell = shape < 3 ? tmesh_random_closed(500 + (uint64_t)shape, 1, 6)
+                                : tmesh_torus(0.5, 0.5, 0.5, 0.3, 0.12, 32, 16);
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; a++) lo[a] = hi[a] = shell.xyz[a];
+        for (size_t v = 0; v < shell.nv; v++)
+            for (int a = 0; a < 3; a++) {
+                if (shell.xyz[3 * v + a] < lo[a]) lo[a] = shell.xyz[3 * v + a];
+                if (shell.xyz[3 * v + a] > hi[a]) hi[a] = shell.xyz[3 * v + a];
+            }
+        tmesh m = {0};
+        tmesh_append(&m, &shell);
+        uint64_t seed = 900 + (uint64_t)shape;
+        enum { POINTS = 300 };
+        int expect[POINTS];
+        for (int k = 0; k < POINTS; k++) {
+            double c[3];
+            for (int a = 0; a < 3; a++) c[a] = lo[a] + (hi[a] - lo[a]) * tmesh_rng_uniform(&seed);
+            tmesh o = tmesh_octahedron(c[0], c[1], c[2], 1e-4);
+            int all = 1;
+            for (size_t v = 0; v < o.nv; v++) {
+                double q[3] = {o.xyz[3 * v], o.xyz[3 * v + 1], o.xyz[3 * v + 2]};
+                all &= tmesh_point_inside(&shell, q);
+            }
+            expect[k] = all;
+            inside += all;
+            tmesh_append(&m, &o);
+            tmesh_free(&o);
+        }
+        prepared p = prep_tmesh(&m, 0);
+        CHECK_OK(ctx, p.st);
+        if (p.st == CLVOX_OK) {
+            for (int k = 0; k < POINTS; k++) {
+                size_t t0 = shell.nt + 8 * (size_t)k;
+                int cavity = vol6(&p, t0, t0 + 8) < 0;
+                agree += cavity == expect[k];
+                total++;
+            }
+            CHECK(vol6(&p, 0, shell.nt) > 0);
+        }
+        prep_free(&p);
+        tmesh_free(&m);
+        tmesh_free(&shell);
+    }
+    CHECK_MSG(agree == total, "%d of %d octahedra as the oracle", agree, total);
+    CHECK(inside > total / 10 && inside < total - total / 10); /* both kinds tested */
+}
+
 static void test_open_cube(void)
 {
     for (int inverted = 0; inverted < 2; inverted++) {
@@ -888,6 +943,7 @@ int main(void)
     test_hollow();
     test_intersecting_boxes();
     test_nested_boxes();
+    test_nesting_oracle();
     test_open_cube();
     test_soup();
     test_crack_and_weld();

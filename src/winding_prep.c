@@ -10,7 +10,7 @@
  * 2. Weld (weld > 0). Distinct positions used by a triangle and within
  *    Euclidean distance <= weld of each other (double), transitively, are
  *    merged into the lowest-numbered vertex of their group: union-find over
- *    the pairs found in a hash grid (cells of 2 weld, or of half the mean
+ *    the pairs found in a hash grid (cells of 2 weld, or of half the median
  *    edge length when larger; each vertex meets the lower-numbered vertices
  *    of the cells its weld ball touches). A triangle left with two
  *    equal corners (by welding, or by the exact merge of distinct indices)
@@ -34,9 +34,10 @@
  *    bounding box lies in B's and every vertex of A is inside B by B's ray
  *    parity. The ray runs from the vertex p towards +z; a triangle is
  *    crossed when p, projected on the xy plane, is inside its projection by
- *    the three 2D edge functions E = (a-p) x (b-p) (double; exact signs for
- *    float input), with the tie rule of the cast (docs/design.md "The exact
- *    crossing test"): E == 0 takes the sign E has when p moves by an
+ *    the three 2D edge functions E = (a-p) x (b-p) (double, no contraction:
+ *    an edge shared by two triangles gets exactly negated values from
+ *    both, so a closed B is crossed consistently), with the tie rule of the
+ *    cast (docs/design.md "The exact crossing test"): E == 0 takes the sign E has when p moves by an
  *    infinitesimal (1, eps) step in the xy plane; and the crossing counts
  *    when its height z_hit (barycentric, double) is > p.z, so a vertex on
  *    B's surface is judged as moved infinitesimally towards +z. B's
@@ -117,6 +118,12 @@ static void sort_u64_small(uint64_t *a, size_t n)
 static int cmp_u64(const void *pa, const void *pb)
 {
     uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
+    return (a > b) - (a < b);
+}
+
+static int cmp_double(const void *pa, const void *pb)
+{
+    double a = *(const double *)pa, b = *(const double *)pb;
     return (a > b) - (a < b);
 }
 
@@ -244,20 +251,24 @@ static clvox_status weld_vertices(clvox_context *ctx, const float *xyz, size_t n
         if (used[v]) cand[nc++] = (uint32_t)v;
     }
     /* Cell size: at least 2 weld (a ball of radius weld meets at most 2
-     * cells per axis), and about half the mean edge length when that is
-     * larger, so that most balls lie in their own cell and need no lookup
-     * (mean over a fixed sample of at most 4096 triangles). */
-    double edge_sum = 0;
-    size_t samples = nt < 4096 ? nt : 4096;
+     * cells per axis), and half the median edge length when that is larger,
+     * so that most balls lie in their own cell and need no lookup (median
+     * over the edges of a fixed sample of at most 2048 triangles: a few
+     * huge triangles do not make the cells of a dense part huge). */
+    size_t samples = nt < 2048 ? nt : 2048, ns = 0;
+    double *len = malloc((3 * samples + 1) * sizeof *len);
+    if (!len) goto oom;
     for (size_t i = 0; i < samples; i++) {
         const uint32_t *t = tris + 3 * (i * (nt / samples));
         for (int c = 0; c < 3; c++) {
             const float *p = xyz + 3 * (size_t)t[c], *q = xyz + 3 * (size_t)t[(c + 1) % 3];
             double dx = (double)p[0] - q[0], dy = (double)p[1] - q[1], dz = (double)p[2] - q[2];
-            edge_sum += sqrt(dx * dx + dy * dy + dz * dz);
+            len[ns++] = sqrt(dx * dx + dy * dy + dz * dz);
         }
     }
-    double cs = 0.5 * edge_sum / (3.0 * (double)(samples ? samples : 1));
+    qsort(len, ns, sizeof *len, cmp_double);
+    double cs = ns ? 0.5 * len[ns / 2] : 0;
+    free(len);
     if (!(cs >= 2 * weld) || isinf(cs)) cs = 2 * weld;
     /* Cells, numbered in order of first appearance. */
     size_t ncell = 0;

@@ -455,6 +455,35 @@ static void test_open_cube(void)
     tmesh_free(&s);
 }
 
+/* A tube (sphere without its polar caps, so two holes), stored inwards:
+ * one open patch, flipped outwards as a whole (its volume about the
+ * centroid of both rims), two loops with an apex each. */
+static void test_tube(void)
+{
+    tmesh s = tmesh_sphere(0, 0, 0, 1, 12);
+    tmesh tube = {0}, ref = {0};
+    for (size_t i = 0; i < s.nv; i++) tmesh_add_vertex(&tube, s.xyz[3 * i], s.xyz[3 * i + 1], s.xyz[3 * i + 2]);
+    for (size_t t = 0; t < s.nt; t++) {
+        const uint32_t *tr = s.tri + 3 * t;
+        int polar = 0;
+        for (int c = 0; c < 3; c++) polar |= fabsf(s.xyz[3 * tr[c] + 2]) > 0.9f;
+        if (!polar) tmesh_add_tri(&tube, tr[0], tr[1], tr[2]);
+    }
+    tmesh_append(&ref, &tube);
+    tmesh_flip(&tube);
+    prepared p = prep_tmesh(&tube, 0);
+    CHECK_OK(ctx, p.st);
+    CHECK(p.w.report.components == 1 && p.w.report.closed_components == 0 && p.w.report.holes == 2);
+    CHECK(p.w.report.flipped_triangles == tube.nt && count_same(&p.w, &ref, 0, ref.nt) == ref.nt);
+    CHECK(p.w.apex_count == 2 && fabsf(p.w.apex[2]) > 0.5f && fabsf(p.w.apex[5]) > 0.5f &&
+          p.w.apex[2] * p.w.apex[5] < 0);
+    CHECK(chain_closed(&p));
+    prep_free(&p);
+    tmesh_free(&tube);
+    tmesh_free(&ref);
+    tmesh_free(&s);
+}
+
 /* Every triangle with its own three vertices (STL-like). */
 static tmesh soup_of(const tmesh *m)
 {
@@ -945,6 +974,7 @@ int main(void)
     test_nested_boxes();
     test_nesting_oracle();
     test_open_cube();
+    test_tube();
     test_soup();
     test_crack_and_weld();
     test_weld_oracle();

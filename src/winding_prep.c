@@ -49,7 +49,9 @@
  *    otherwise all its triangles are flipped. Open patches never count as
  *    shells; each is flipped when its signed volume about the centroid of
  *    its own boundary edges' endpoints (i.e. the patch closed by one fan
- *    from that centroid) is < 0. A volume of exactly 0 flips nothing.
+ *    from that centroid) is < 0. A volume that is zero up to rounding
+ *    (|V| <= 1e-12 x the sum of the determinants' permanents: a flat sheet,
+ *    a lone triangle of a soup) flips nothing.
  *    Parts that merely intersect (a vertex outside) are not nested: both
  *    face outwards, and the winding number gives their union.
  * 5. Boundary chain and caps. For every undirected edge {a,b} of the
@@ -631,6 +633,7 @@ typedef struct prep {
     uint32_t *first;     /* first triangle of each patch */
     unsigned char *pstate;
     double *vol;         /* 6 x signed volume per patch */
+    double *vabs;        /* sum of the permanents of those determinants */
     double *org;         /* 3 per patch: volume origin */
     uint32_t *depth;
     size_t ncomp;
@@ -734,9 +737,10 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     P->first = malloc((nc ? nc : 1) * sizeof *P->first);
     P->pstate = calloc(nc ? nc : 1, 1);
     P->vol = calloc(nc ? nc : 1, sizeof *P->vol);
+    P->vabs = calloc(nc ? nc : 1, sizeof *P->vabs);
     P->org = calloc((nc ? nc : 1) * 3, sizeof *P->org);
     P->depth = calloc(nc ? nc : 1, sizeof *P->depth);
-    if (!P->first || !P->pstate || !P->vol || !P->org || !P->depth) goto nomem;
+    if (!P->first || !P->pstate || !P->vol || !P->vabs || !P->org || !P->depth) goto nomem;
     for (size_t t = nt; t-- > 0;) P->first[P->cid[t]] = (uint32_t)t;
     uint64_t nonor = 0;
     for (size_t k = 0; k < nconf; k++) {
@@ -831,7 +835,19 @@ static void patch_volumes(prep *P)
         double C0 = d[0] - o[0], C1 = d[1] - o[1], C2 = d[2] - o[2];
         double v = A0 * (B1 * C2 - B2 * C1) + A1 * (B2 * C0 - B0 * C2) + A2 * (B0 * C1 - B1 * C0);
         P->vol[c] += P->flip[t] ? -v : v;
+        /* the permanent: bounds |v| and, times a few ulps, its rounding error */
+        P->vabs[c] += fabs(A0) * (fabs(B1 * C2) + fabs(B2 * C1)) + fabs(A1) * (fabs(B2 * C0) + fabs(B0 * C2)) +
+                      fabs(A2) * (fabs(B0 * C1) + fabs(B1 * C0));
     }
+}
+
+/* The sign of a patch's volume, 0 when it is within 1e-12 of the sum of
+ * the permanents (zero up to rounding: a flat sheet, one triangle, a
+ * back-to-back pair), which then keeps its orientation. */
+static int volume_sign(const prep *P, size_t c)
+{
+    double v = P->vol[c], tol = 1e-12 * P->vabs[c];
+    return v > tol ? 1 : v < -tol ? -1 : 0;
 }
 
 typedef struct cbox {
@@ -1181,7 +1197,7 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     for (size_t c = 0; c < P.ncomp; c++) {
         int odd = (P.pstate[c] & P_OPEN) ? 0 : (int)(P.depth[c] & 1u);
         rep_out->cavities += (uint64_t)odd;
-        if (odd ? P.vol[c] > 0 : P.vol[c] < 0) P.pstate[c] |= P_FLIP;
+        if (volume_sign(&P, c) == (odd ? 1 : -1)) P.pstate[c] |= P_FLIP;
     }
     uint64_t flipped = 0;
     for (size_t t = 0; t < nt; t++) {
@@ -1208,6 +1224,7 @@ done:
     free(P.first);
     free(P.pstate);
     free(P.vol);
+    free(P.vabs);
     free(P.org);
     free(P.depth);
     free(P.special.a);

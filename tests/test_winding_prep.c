@@ -535,6 +535,42 @@ static void test_soup(void)
     tmesh_free(&box);
 }
 
+/* Patches whose volume is zero up to rounding keep their orientation: the
+ * lone triangles of a jittered, unwelded soup, and a flat sheet either way. */
+static void test_zero_volume(void)
+{
+    tmesh s = tmesh_sphere(0.3, 0.2, 0.1, 1, 10);
+    tmesh soup = soup_of(&s);
+    uint64_t seed = 3;
+    for (size_t v = 0; v < soup.nv; v++)
+        for (int a = 0; a < 3; a++) soup.xyz[3 * v + a] += (float)((tmesh_rng_uniform(&seed) - 0.5) * 2e-6);
+    prepared p = prep_tmesh(&soup, 0);
+    CHECK_OK(ctx, p.st);
+    CHECK(p.w.report.components == soup.nt && p.w.report.flipped_triangles == 0);
+    CHECK(p.w.report.holes == soup.nt && chain_closed(&p));
+    prep_free(&p);
+    tmesh_free(&soup);
+    tmesh_free(&s);
+    for (int down = 0; down < 2; down++) {
+        tmesh sheet = {0};
+        for (int j = 0; j <= 8; j++)
+            for (int i = 0; i <= 8; i++) tmesh_add_vertex(&sheet, 0.1 * i + 0.013, 0.1 * j - 0.7, 0.37);
+        for (uint32_t j = 0; j < 8; j++)
+            for (uint32_t i = 0; i < 8; i++) {
+                uint32_t a = 9 * j + i, b = a + 1, c = a + 10, d = a + 9;
+                tmesh_add_tri(&sheet, a, b, c);
+                tmesh_add_tri(&sheet, a, c, d);
+            }
+        if (down) tmesh_flip(&sheet);
+        p = prep_tmesh(&sheet, 0);
+        CHECK_OK(ctx, p.st);
+        CHECK(p.w.report.flipped_triangles == 0 && p.w.report.holes == 1 && p.w.report.components == 1);
+        CHECK(chain_closed(&p));
+        prep_free(&p);
+        tmesh_free(&sheet);
+    }
+}
+
 static void test_crack_and_weld(void)
 {
     /* The top face with its own copies of its vertices, shifted by 1e-6. */
@@ -976,6 +1012,7 @@ int main(void)
     test_open_cube();
     test_tube();
     test_soup();
+    test_zero_volume();
     test_crack_and_weld();
     test_weld_oracle();
     test_moebius();

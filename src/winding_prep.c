@@ -272,6 +272,11 @@ static clvox_status weld_vertices(clvox_context *ctx, const float *xyz, size_t n
     double cs = ns ? 0.5 * len[ns / 2] : 0;
     free(len);
     if (!(cs >= 2 * weld) || isinf(cs)) cs = 2 * weld;
+    /* and at least 2^-40 of the largest coordinate, so that cell indices stay
+     * far from the int64 clamp (a tiny weld on big coordinates) */
+    double big = 0;
+    for (size_t i = 0; i < 3 * nv; i++) big = fabs((double)xyz[i]) > big ? fabs((double)xyz[i]) : big;
+    if (cs < big * 0x1p-40) cs = big * 0x1p-40;
     /* Cells, numbered in order of first appearance. */
     size_t ncell = 0;
     enum { AHEAD = 16 };

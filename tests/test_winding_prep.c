@@ -670,6 +670,13 @@ static void test_crack_and_weld(void)
     prep_free(&p);
     tmesh_free(&eq);
     tmesh_free(&tiny);
+    /* A tiny weld on big coordinates: no int64 clamping, no crowding. */
+    tmesh far = tmesh_box_subdivided(1e9, 1e9, 1e9, 1.5e9, 1.5e9, 1.5e9, 20);
+    p = prep_tmesh(&far, 1e-20);
+    CHECK_OK(ctx, p.st);
+    CHECK(p.w.report.welded_vertices == 0 && p.w.report.closed_components == 1 && p.w.report.seconds < 5);
+    prep_free(&p);
+    tmesh_free(&far);
     /* Bad weld distances. */
     clvox_mesh *bm = NULL;
     CHECK_OK(ctx, clvox_mesh_from_arrays(ctx, s.xyz, s.nv, s.tri, s.nt, &bm));

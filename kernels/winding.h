@@ -169,7 +169,7 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
             else if (w + B <= thr) decided = 0;
         }
         if (decided >= 0 || sp == 0) {
-            if (evaluated) (*exact) += evaluated;
+            if (evaluated) (*exact)++;
             if (decided >= 0) return decided;
             return abs_mode ? (w > thr || w < -thr) : w > thr;
         }
@@ -183,7 +183,7 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
             const uint first = nodes[nd].tri_first, count = nodes[nd].tri_count;
             for (uint t = 0; t < count; t++)
                 S += clvox_cap_solid(caps + (size_t)(first + t) * 9u, px, py, pz, axis);
-            evaluated += (int)count;
+            evaluated = 1;
         } else {
             for (uint c = 0; c < 2u; c++) {
                 stack[sp] = child + c;

@@ -76,7 +76,7 @@
  * 45 bytes per triangle and 20 per vertex (3.3 M triangles: ~180 MB).
  * Measured: armadillo_s3 (3.3 M triangles, closed) 0.27-0.30 s of CPU on
  * the 2-core development box. */
-#include "internal.h"
+#include "winding.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -627,6 +627,7 @@ void clvox__winding_mesh_free(clvox__winding_mesh *w)
 
 typedef struct prep {
     clvox_context *ctx;
+    const clvox_mesh *mesh;
     const float *xyz;
     size_t nv;
     uint32_t *tris; /* out->tris */
@@ -1025,6 +1026,9 @@ static clvox_status cap_loops(prep *P, uint64_t *edges, size_t ne, clvox__windin
     size_t nv = P->nv;
     uint32_t *next = NULL, *pos = NULL, *path = NULL;
     uint32_t *pedge = NULL;
+    size_t nloops = 0, nverts = 0, loop_cap = 0;
+    size_t *loop_start = NULL;
+    uint32_t *loop_verts = NULL;
     if (!ne) return CLVOX_OK;
     if (ne >= UINT32_MAX) return clvox__fail(P->ctx, CLVOX_ERR_MESH_INVALID, "too many boundary edges (%zu)", ne);
     sort_u64(edges, ne);
@@ -1032,17 +1036,15 @@ static clvox_status cap_loops(prep *P, uint64_t *edges, size_t ne, clvox__windin
     pos = malloc(nv * sizeof *pos);   /* position on the current path */
     path = malloc((ne + 1) * sizeof *path);
     pedge = malloc((ne + 1) * sizeof *pedge);
-    out->caps = malloc(3 * ne * sizeof *out->caps);
-    size_t apex_cap = ne / 3 + 1;
-    out->apex = malloc(3 * apex_cap * sizeof *out->apex);
-    if (!next || !pos || !path || !pedge || !out->caps || !out->apex) goto nomem;
+    if (!next || !pos || !path || !pedge) goto nomem;
     for (size_t i = 0; i < ne; i++) next[(uint32_t)edges[i]] = (uint32_t)ne; /* none, unless set below */
     for (size_t i = ne; i-- > 0;) next[edges[i] >> 32] = (uint32_t)i;
     for (size_t i = 0; i < ne; i++) pos[edges[i] >> 32] = NONE, pos[(uint32_t)edges[i]] = NONE;
 #define FROM(i) ((uint32_t)(edges[i] >> 32))
 #define TO(i) ((uint32_t)edges[i])
 #define HAS_OUT(v) (next[v] < ne && FROM(next[v]) == (v))
-    size_t ncap = 0, napex = 0;
+    loop_verts = malloc(ne * sizeof *loop_verts); /* each edge starts one loop vertex */
+    if (!loop_verts) goto nomem;
     for (size_t s = 0; s < ne; s++) {
         uint32_t v0 = FROM(s);
         while (HAS_OUT(v0)) {
@@ -1064,32 +1066,17 @@ static clvox_status cap_loops(prep *P, uint64_t *edges, size_t ne, clvox__windin
                     cur = w;
                     continue;
                 }
-                /* Loop: edges pedge[pos[w] .. depth]. */
+                /* Loop: edges pedge[pos[w] .. depth]; its vertices, in order. */
                 size_t b = pos[w], len = depth + 1 - b;
-                if (nv + napex >= UINT32_MAX) {
-                    st = clvox__fail(P->ctx, CLVOX_ERR_MESH_INVALID, "too many holes to cap (%zu)", napex);
-                    goto done;
-                }
-                if (napex == apex_cap) {
-                    apex_cap *= 2;
-                    float *g = realloc(out->apex, 3 * apex_cap * sizeof *g);
+                if (nloops + 1 >= loop_cap) {
+                    loop_cap = 2 * loop_cap + 64;
+                    size_t *g = realloc(loop_start, loop_cap * sizeof *g);
                     if (!g) goto nomem;
-                    out->apex = g;
+                    loop_start = g;
                 }
-                double sum[3] = {0, 0, 0};
-                for (size_t q = b; q <= depth; q++) {
-                    const float *p = P->xyz + 3 * (size_t)path[q];
-                    for (int a = 0; a < 3; a++) sum[a] += p[a];
-                }
-                for (int a = 0; a < 3; a++) out->apex[3 * napex + a] = (float)(sum[a] / (double)len);
-                uint32_t apex = (uint32_t)(nv + napex++);
-                for (size_t q = b; q <= depth; q++) {
-                    uint32_t ea = pedge[q];
-                    out->caps[3 * ncap] = TO(ea);
-                    out->caps[3 * ncap + 1] = FROM(ea);
-                    out->caps[3 * ncap + 2] = apex;
-                    ncap++;
-                }
+                loop_start[nloops++] = nverts;
+                for (size_t q = b; q <= depth; q++) loop_verts[nverts++] = FROM(pedge[q]);
+                (void)len;
                 for (size_t q = b + 1; q <= depth; q++) pos[path[q]] = NONE;
                 depth = b;
                 cur = w;
@@ -1103,14 +1090,16 @@ static clvox_status cap_loops(prep *P, uint64_t *edges, size_t ne, clvox__windin
 #undef FROM
 #undef TO
 #undef HAS_OUT
-    out->cap_count = ncap;
-    out->apex_count = napex;
-    out->report.holes = napex;
-    out->report.cap_triangles = ncap;
+    if (nloops) {
+        loop_start[nloops] = nverts;
+        st = clvox__winding_cap_loops(P->ctx, P->mesh, loop_verts, loop_start, nloops, out);
+    }
     goto done;
 nomem:
     st = oom(P, "for the caps");
 done:
+    free(loop_verts);
+    free(loop_start);
     free(next);
     free(pos);
     free(path);
@@ -1136,6 +1125,7 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     prep P;
     memset(&P, 0, sizeof P);
     P.ctx = ctx;
+    P.mesh = mesh;
     P.xyz = mesh->xyz;
     P.nv = nv;
     uint64_t *bedges = NULL;

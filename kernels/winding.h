@@ -49,20 +49,14 @@ inline clvox_real clvox_cap_solid(global const clvox_real *t, clvox_real px, clv
     return atan2(det, den) * (clvox_real)0.15915494309189535; /* 2 atan2 / 4pi */
 }
 
-/* Upper bound on |w| of the node's caps seen from p, or, with `line`, from
- * every point of the segment p + s*u (s in [s0, s1], u the ray axis). */
-inline clvox_real clvox_cap_bound(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
-                                  uint axis, int line, clvox_real s0, clvox_real s1)
+/* Upper bound on |w| of the node's caps seen from any point of the box
+ * [q0, q1] (a point when q0 == q1). */
+inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
 {
-    const clvox_real p[3] = {px, py, pz};
     clvox_real d2 = 0;
     for (uint a = 0; a < 3u; a++) {
-        clvox_real lo = n->lo[a], hi = n->hi[a], g = 0;
-        if (line && a == axis) {
-            g = lo > p[a] + s1 ? lo - (p[a] + s1) : (p[a] + s0 > hi ? p[a] + s0 - hi : 0);
-        } else {
-            g = lo > p[a] ? lo - p[a] : (p[a] > hi ? p[a] - hi : 0);
-        }
+        const clvox_real lo = n->lo[a], hi = n->hi[a];
+        const clvox_real g = lo > q1[a] ? lo - q1[a] : (q0[a] > hi ? q0[a] - hi : 0);
         d2 += g * g;
     }
     const clvox_real cap = (clvox_real)n->half_count;
@@ -71,12 +65,20 @@ inline clvox_real clvox_cap_bound(global const clvox_cap_node *n, clvox_real px,
     return b < cap ? b : cap;
 }
 
-/* Is the region (a point, or the segment with `line`) decided by K alone?
- * 1 when the caps' bound over it is below 1/2 - 2^-30, so that every point
- * of it is inside exactly when K >= 1 (abs: K != 0). Refines at most
- * `budget` nodes. */
-inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, clvox_real px, clvox_real py,
-                          clvox_real pz, uint axis, int line, clvox_real s0, clvox_real s1, uint budget)
+inline clvox_real clvox_cap_bound(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz)
+{
+    const clvox_real q[3] = {px, py, pz};
+    return clvox_cap_bound_box(n, q, q);
+}
+
+/* Inside from K alone (no caps near): w = K exactly, K >= 1 (abs: K != 0). */
+inline int clvox_k_inside(int K, uint abs_mode) { return abs_mode ? K != 0 : K >= 1; }
+
+/* Is the box [q0, q1] decided by K alone? 1 when the caps' bound over
+ * it is below 1/2 - 2^-29, so that every point of it is inside exactly
+ * when clvox_k_inside. Refines at most `budget` nodes. */
+inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, const clvox_real *q0,
+                          const clvox_real *q1, uint budget)
 {
     if (node_count == 0) return 1;
     const clvox_real limit = (clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2;
@@ -84,7 +86,7 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
     clvox_real sb[CLVOX_CAP_STACK];
     uint sp = 1;
     stack[0] = 0;
-    sb[0] = clvox_cap_bound(nodes, px, py, pz, axis, line, s0, s1);
+    sb[0] = clvox_cap_bound_box(nodes, q0, q1);
     for (uint it = 0;; it++) {
         clvox_real B = 0;
         uint best = 0;
@@ -92,7 +94,7 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
             B += sb[i];
             if (sb[i] > sb[best]) best = i;
         }
-        if (B < limit) return 1;
+        if (B * (clvox_real)1.000001 < limit) return 1;
         if (it >= budget || sp + 1u >= CLVOX_CAP_STACK) return 0;
         const uint nd = stack[best];
         if (nodes[nd].child == 0) return 0; /* a leaf's own bound is too large */
@@ -102,7 +104,7 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
         for (uint c = 0; c < 2u; c++) {
             const uint ch = nodes[nd].child + c;
             stack[sp] = ch;
-            sb[sp++] = clvox_cap_bound(nodes + ch, px, py, pz, axis, line, s0, s1);
+            sb[sp++] = clvox_cap_bound_box(nodes + ch, q0, q1);
         }
     }
 }
@@ -114,9 +116,9 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
  * r)^3), plus a margin for the float N -- else 0 and the zeroth-order
  * bound. */
 inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
-                               uint axis, clvox_real *est, clvox_real *err)
+                               clvox_real *est, clvox_real *err)
 {
-    const clvox_real b0 = clvox_cap_bound(n, px, py, pz, axis, 0, 0, 0);
+    const clvox_real b0 = clvox_cap_bound(n, px, py, pz);
     const clvox_real x = n->centre[0] - px, y = n->centre[1] - py, z = n->centre[2] - pz;
     const clvox_real d = sqrt(x * x + y * y + z * z), r = n->radius;
     if (d > r) {
@@ -147,7 +149,7 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
     clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
     uint sp = 1;
     stack[0] = 0;
-    clvox_cap_estimate(nodes, px, py, pz, axis, &se[0], &sb[0]);
+    clvox_cap_estimate(nodes, px, py, pz, &se[0], &sb[0]);
     clvox_real S = 0;
     int evaluated = 0;
     for (;;) {
@@ -187,7 +189,7 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
         } else {
             for (uint c = 0; c < 2u; c++) {
                 stack[sp] = child + c;
-                clvox_cap_estimate(nodes + child + c, px, py, pz, axis, &se[sp], &sb[sp]);
+                clvox_cap_estimate(nodes + child + c, px, py, pz, &se[sp], &sb[sp]);
                 sp++;
             }
         }
@@ -206,4 +208,12 @@ inline void clvox_scaled_xyz(uint axis, clvox_real gu, clvox_real gv, clvox_real
     *x = g[0] * h[0];
     *y = g[1] * h[1];
     *z = g[2] * h[2];
+}
+
+/* Scaled box of the grid-space (u, v, w) box [g0, g1]. */
+inline void clvox_scaled_box(uint axis, const clvox_real *g0, const clvox_real *g1, global const clvox_real *h,
+                             clvox_real *q0, clvox_real *q1)
+{
+    clvox_scaled_xyz(axis, g0[0], g0[1], g0[2], h, &q0[0], &q0[1], &q0[2]);
+    clvox_scaled_xyz(axis, g1[0], g1[1], g1[2], h, &q1[0], &q1[1], &q1[2]);
 }

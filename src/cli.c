@@ -1777,7 +1777,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
                            "grid)",
                            far, ulp, 100.0 * ulp / hmin);
     }
-    if (solid && report->duplicate_triangles > 0)
+    if (solid && !winding && report->duplicate_triangles > 0)
         record_warning(res,
                        "%llu triangles repeat the corners of another one (duplicated or coincident surfaces): the "
                        "parity rule cancels coincident copies, which is right where two solids touch face to face "

@@ -1881,6 +1881,7 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
     jb_u64(b, "max_depth", a->vox.quadtree_max_depth);
     jb_u64(b, "leaf_size", a->vox.quadtree_leaf_size);
     jb_u64(b, "slab", a->vox.slab_depth);
+    jb_num(b, "weld", a->vox.weld);
     jb_str(b, "compression", compression_name(effective_compression(a)));
     if (a->vox.method == CLVOX_METHOD_TETRA) {
         if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_POINT) jb_num3(b, "tetra_origin", a->vox.tetra_point);
@@ -1952,10 +1953,35 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
         jb_u64(b, "refs", st->quadtree_refs);
         jb_obj_end(b);
         jb_u64(b, "slab_depth", st->slab_depth);
+        if (a->vox.mode != CLVOX_MODE_SURFACE)
+            jb_str(b, "inside", clvox_inside_name(st->inside));
+        else
+            jb_null(b, "inside");
+        if (st->inside == CLVOX_INSIDE_WINDING || st->inside == CLVOX_INSIDE_WINDING_ABS) {
+            const clvox_winding_report *w = &st->winding;
+            jb_obj_begin(b, "winding");
+            jb_u64(b, "merged_vertices", w->merged_vertices);
+            jb_u64(b, "welded_vertices", w->welded_vertices);
+            jb_u64(b, "dropped_triangles", w->dropped_triangles);
+            jb_u64(b, "components", w->components);
+            jb_u64(b, "closed_components", w->closed_components);
+            jb_u64(b, "cavities", w->cavities);
+            jb_u64(b, "flipped_triangles", w->flipped_triangles);
+            jb_u64(b, "nonmanifold_edges", w->nonmanifold_edges);
+            jb_u64(b, "nonorientable_components", w->nonorientable_components);
+            jb_u64(b, "boundary_edges", w->boundary_edges);
+            jb_u64(b, "holes", w->holes);
+            jb_u64(b, "cap_triangles", w->cap_triangles);
+            jb_u64(b, "exact_points", w->exact_points);
+            jb_num(b, "seconds", w->seconds);
+            jb_obj_end(b);
+        } else {
+            jb_null(b, "winding");
+        }
     } else {
         static const char *const absent[] = {"channels", "filled_voxels", "total_voxels", "volume",
                                              "samples_per_voxel", "coverage_sum", "palette", "rays", "quadtree",
-                                             "slab_depth"};
+                                             "slab_depth", "inside", "winding"};
         for (size_t i = 0; i < sizeof absent / sizeof absent[0]; i++) jb_null(b, absent[i]);
     }
     jb_obj_begin(b, "seconds");

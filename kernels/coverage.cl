@@ -55,7 +55,7 @@ inline uint clvox_column_step(global const clvox_real *hits, global const char *
         uint kk = k[r];
         if (signs) {
             global const char *sg = signs + (r0 + r) * capacity;
-            while (kk < n && h[kk] < lo) ks[r] -= sg[kk++];
+            while (kk < n && h[kk] < lo) ks[r] -= CLVOX_UNIT(sg[kk]), kk++;
         } else {
             while (kk < n && h[kk] < lo) kk++;
         }
@@ -87,7 +87,7 @@ inline int clvox_column_winding_setup(global const clvox_real *hits, global cons
     for (uint r = 0; r < R; r++) {
         global const char *sg = signs + (r0 + r) * capacity;
         int K = 0;
-        for (uint q = 0; q < counts[r0 + r]; q++) K += sg[q];
+        for (uint q = 0; q < counts[r0 + r]; q++) K += CLVOX_UNIT(sg[q]);
         ks[r] = K;
         const clvox_real v = rays[r0 + r].v, w = rays[r0 + r].w;
         if (r == 0 || v < g0[1]) g0[1] = v;
@@ -176,7 +176,7 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
                         clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
                     clvox_real p = lo + clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
                     if (sg) {
-                        while (kk < n && hr[kk] <= p) K -= sg[kk++];
+                        while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
                         cnt += near ? (uint)clvox_sample_winding(K, abs_mode, axis, p, rays + r0 + r, h, nodes,
                                                                  node_count, caps, &exact)
                                     : (uint)clvox_k_inside(K, abs_mode);

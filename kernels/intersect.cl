@@ -3,12 +3,14 @@
  * host can redo the rays that overflowed with a larger buffer. With `signs`
  * (winding runs) each crossing also gets its orientation: +1 when the
  * triangle faces +u (its corners run counter-clockwise in the (v,w) plane),
- * -1 otherwise. */
+ * -1 otherwise; doubled on caps (triangles from surface_count on), whose
+ * crossings leave the winding number continuous. */
 
 kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
                             global const uint *leaf_of_ray, global const clvox_qt_node *nodes,
                             global const uint *refs, global const float *soup,
-                            uint capacity, global clvox_real *hits, global uint *counts, global char *signs)
+                            uint capacity, global clvox_real *hits, global uint *counts, global char *signs,
+                            uint surface_count)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -23,7 +25,7 @@ kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
         if (s) {
             if (n < capacity) {
                 out[n] = u;
-                if (signs) signs[(size_t)gid * capacity + n] = (char)s;
+                if (signs) signs[(size_t)gid * capacity + n] = (char)(t < surface_count ? s : 2 * s);
             }
             n++;
         }

@@ -145,7 +145,7 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                             clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
                         clvox_real p = lo + clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
                         if (sg) {
-                            while (kk < n && hr[kk] <= p) K -= sg[kk++];
+                            while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
                             in = near ? (uint)clvox_sample_winding(K, abs_mode, axis - 1u, p, rays + r0 + r, h,
                                                                    nodes, node_count, caps, &exact)
                                       : (uint)clvox_k_inside(K, abs_mode);

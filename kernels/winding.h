@@ -17,6 +17,9 @@
  * side of the threshold. All of it happens in scaled grid space, x, y, z
  * order, so the numbers do not depend on the ray axis. */
 #define CLVOX_WINDING_TIE 9.313225746154785e-10 /* 2^-30 */
+/* Crossing signs: +-1 on the surface, +-2 on a cap (kernels/intersect.cl);
+ * K counts them all as +-1. */
+#define CLVOX_UNIT(s) ((s) > 0 ? 1 : -1)
 #define CLVOX_CAP_STACK 48
 
 /* Solid angle / 4pi of cap triangle t (9 reals, scaled x, y, z) seen from
@@ -139,11 +142,12 @@ inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, cl
  * and an error bound, until [K - S - sum est -+ sum err] lies on one side
  * of the threshold (S: the caps evaluated exactly). Adds 1 to *exact when
  * cap solid angles had to be evaluated. */
-inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                uint axis, uint *exact)
+inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                  global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                  uint axis, uint *exact, clvox_real *margin, clvox_real want)
 {
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
+    *margin = 0;
     if (node_count == 0) return abs_mode ? K != 0 : K >= 1;
     uint stack[CLVOX_CAP_STACK];
     clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
@@ -163,15 +167,21 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
         B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sums' own rounding */
         const clvox_real w = (clvox_real)K - S - E;
         int decided = -1;
+        clvox_real m = 0; /* how far w may move before the answer changes */
         if (abs_mode) {
-            if (w - B > thr || w + B < -thr) decided = 1;
-            else if (w + B <= thr && w - B >= -thr) decided = 0;
+            if (w - B > thr) decided = 1, m = w - B - thr;
+            else if (w + B < -thr) decided = 1, m = -thr - (w + B);
+            else if (w + B <= thr && w - B >= -thr) decided = 0, m = fmin(thr - (w + B), (w - B) + thr);
         } else {
-            if (w - B > thr) decided = 1;
-            else if (w + B <= thr) decided = 0;
+            if (w - B > thr) decided = 1, m = w - B - thr;
+            else if (w + B <= thr) decided = 0, m = thr - (w + B);
         }
+        /* want < 1: refine on until the margin is at least (1 - want) of
+         * the distance to the threshold (margins for the caller's skips) */
+        if (decided >= 0 && want < 1 && sp > 0 && B > want * (m + B)) decided = -1;
         if (decided >= 0 || sp == 0) {
             if (evaluated) (*exact)++;
+            *margin = m;
             if (decided >= 0) return decided;
             return abs_mode ? (w > thr || w < -thr) : w > thr;
         }
@@ -193,6 +203,54 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
                 sp++;
             }
         }
+    }
+}
+
+inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                uint axis, uint *exact)
+{
+    clvox_real m;
+    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, exact, &m, 1);
+}
+
+/* Upper bound on |grad w| over the box [q0, q1] away from the surface: w's
+ * gradient is the field of the rim (the surface's boundary edges) as a
+ * current loop, |grad w| <= (1/4pi) sum of length / distance^2 (rims:
+ * a tree of the boundary edges, area4pi holding length / 4pi). INFINITY
+ * when a rim node touches the box after `budget` refinements. */
+inline clvox_real clvox_rim_gradient(global const clvox_cap_node *rims, uint rim_count, const clvox_real *q0,
+                                     const clvox_real *q1, uint budget)
+{
+    if (rim_count == 0) return 0;
+    uint stack[CLVOX_CAP_STACK];
+    clvox_real sb[CLVOX_CAP_STACK];
+    uint sp = 1;
+    stack[0] = 0;
+    for (uint it = 0;; it++) {
+        clvox_real G = 0;
+        uint best = 0;
+        for (uint i = 0; i < sp; i++) {
+            const uint nd = stack[i];
+            clvox_real d2 = 0;
+            for (uint a = 0; a < 3u; a++) {
+                const clvox_real lo = rims[nd].lo[a], hi = rims[nd].hi[a];
+                const clvox_real g = lo > q1[a] ? lo - q1[a] : (q0[a] > hi ? q0[a] - hi : 0);
+                d2 += g * g;
+            }
+            sb[i] = d2 > 0 ? (clvox_real)rims[nd].area4pi / d2 : (clvox_real)INFINITY;
+            G += sb[i];
+            if (sb[i] > sb[best]) best = i;
+        }
+        if (isfinite(G) && (it >= budget || sp + 1u >= CLVOX_CAP_STACK)) return G * (clvox_real)1.000001;
+        if (it >= budget || sp + 1u >= CLVOX_CAP_STACK) return (clvox_real)INFINITY;
+        const uint nd = stack[best];
+        if (rims[nd].child == 0) {
+            if (!isfinite(sb[best])) return (clvox_real)INFINITY;
+            return G * (clvox_real)1.000001;
+        }
+        stack[best] = rims[nd].child;
+        stack[sp++] = rims[nd].child + 1u;
     }
 }
 

@@ -55,7 +55,8 @@ struct clvox__method_state {
     /* winding numbers (kernels/winding.h) */
     int winding;                 /* 1: signed crossings and the winding inside test */
     cl_uint abs_mode;            /* |w| > 1/2 */
-    clvox__caps caps;
+    clvox__caps caps, rims;
+    cl_uint surface_count;       /* soup triangles before the caps */
     uint32_t leaf_size;
     uint64_t leaf_max;           /* most triangles in one quadtree leaf */
     batch_mem mem;               /* the fast pass */
@@ -157,6 +158,7 @@ static void ray_release(clvox__method_state *s)
     clvox__release_mem(&s->p_volume);
     batch_mem_release(&s->mem);
     clvox__caps_release(&s->caps);
+    clvox__caps_release(&s->rims);
     if (s->k_lookup) clReleaseKernel(s->k_lookup);
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
     if (s->k_sort) clReleaseKernel(s->k_sort);
@@ -329,6 +331,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         if (st == CLVOX_OK) st = clvox__winding_soup(ctx, mesh, grid, s->axes, &wm, &soup, &soup_count);
         if (st == CLVOX_OK)
             st = clvox__caps_upload(ctx, soup + wm.triangle_count * 9, wm.cap_count, s->axes, grid, &s->caps);
+        if (st == CLVOX_OK) st = clvox__rims_upload(ctx, mesh, grid, wm.rim, wm.rim_count, &s->rims);
+        s->surface_count = (cl_uint)wm.triangle_count;
         if (stats) stats->winding = wm.report;
         clvox__winding_mesh_free(&wm);
     } else if (st == CLVOX_OK) {
@@ -561,6 +565,8 @@ static clvox_status winding_enqueue(clvox__method_state *s, const batch_mem *m, 
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->caps.node_count);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->caps.tris);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->exact);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->rims.nodes);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->rims.node_count);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_classify_winding)");
     size_t local = 64, global = ((size_t)n + local - 1) / local * local;
     err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
@@ -600,6 +606,7 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
     err |= clSetKernelArg(s->k_intersect, 7, sizeof(cl_mem), &m->hits);
     err |= clSetKernelArg(s->k_intersect, 8, sizeof(cl_mem), &m->counts);
     err |= clSetKernelArg(s->k_intersect, 9, sizeof(cl_mem), &m->signs); /* NULL unless winding */
+    err |= clSetKernelArg(s->k_intersect, 10, sizeof(cl_uint), &s->surface_count);
 
     err |= clSetKernelArg(s->k_sort, 0, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_sort, 1, sizeof(cl_uint), &capacity);

@@ -121,6 +121,8 @@ typedef struct clvox__winding_mesh {
     size_t cap_count;
     float *apex;           /* 3 per apex, the mesh's coordinates (relative to its offset) */
     size_t apex_count;
+    uint32_t *rim;         /* 2 per directed boundary edge (from, to): the caps' loops as given */
+    size_t rim_count;
     clvox_winding_report report; /* all but exact_points */
 } clvox__winding_mesh;
 

@@ -85,6 +85,11 @@ void clvox__caps_release(clvox__caps *c)
     c->cap_count = 0;
 }
 
+/* The tree over n items of 9 scaled reals each (q, consumed): triangles,
+ * or with `segments` edges q[0..2] -> q[3..5] (q[6..8] = q[3..5]), whose
+ * "area" is their length. */
+static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, clvox__caps *out);
+
 clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,
                                 const clvox_grid *grid, clvox__caps *out)
 {
@@ -116,26 +121,56 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
         return st;
     }
     if (n > UINT32_MAX / 2) return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu cap triangles: too many", n);
-
     /* Scaled x, y, z (grid coordinates times h): solid angles of the world. */
     double *q = malloc(n * 9 * sizeof *q);
-    cap_key *keys = malloc(n * sizeof *keys);
-    uint32_t *order = malloc(n * sizeof *order);
-    clvox_cap_node *nodes = malloc(2 * n * sizeof *nodes);
-    uint32_t *stack = malloc(2 * n * sizeof *stack);
-    void *tris = malloc(n * 9 * rs);
-    if (!q || !keys || !order || !nodes || !stack || !tris) {
-        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap triangles", n);
-        goto done;
+    if (!q) {
+        clvox__caps_release(out);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap triangles", n);
     }
-    for (size_t t = 0; t < n; t++) {
+    for (size_t t = 0; t < n; t++)
         for (int c = 0; c < 3; c++)
             for (int k = 0; k < 3; k++) {
                 int a = axes.perm[k];
                 q[t * 9 + c * 3 + a] = (double)cap_soup[t * 9 + c * 3 + k] * h3[a];
             }
-        order[t] = (uint32_t)t;
+    return tree_upload(ctx, q, n, 0, out);
+}
+
+clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                const uint32_t *rim, size_t n, clvox__caps *out)
+{
+    memset(out, 0, sizeof *out);
+    if (n == 0) return CLVOX_OK;
+    if (n > UINT32_MAX / 2) return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu boundary edges: too many", n);
+    double *q = malloc(n * 9 * sizeof *q);
+    if (!q) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu boundary edges", n);
+    /* grid space as clvox__grid_space_soup computes it, times h */
+    for (size_t e = 0; e < n; e++)
+        for (int c = 0; c < 3; c++) {
+            const float *p = mesh->xyz + 3 * (size_t)rim[2 * e + (c ? 1 : 0)];
+            for (int a = 0; a < 3; a++) {
+                double o = grid->origin[a] - mesh->offset[a];
+                float g = (float)(((double)p[a] - o) / grid->voxel_size[a] - 0.5);
+                q[e * 9 + c * 3 + a] = (double)g * grid->voxel_size[a];
+            }
+        }
+    return tree_upload(ctx, q, n, 1, out);
+}
+
+static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, clvox__caps *out)
+{
+    clvox_status st = CLVOX_OK;
+    size_t rs = ctx->real_size;
+    cap_key *keys = malloc(n * sizeof *keys);
+    uint32_t *order = malloc(n * sizeof *order);
+    clvox_cap_node *nodes = malloc(2 * n * sizeof *nodes);
+    uint32_t *stack = malloc(2 * n * sizeof *stack);
+    void *tris = segments ? NULL : malloc(n * 9 * rs);
+    if (!keys || !order || !nodes || !stack || (!segments && !tris)) {
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n);
+        goto done;
     }
+    for (size_t t = 0; t < n; t++) order[t] = (uint32_t)t;
     /* Top-down median split on the longest axis of the centroids' box. */
     size_t node_count = 1, sp = 0;
     nodes[0].tri_first = 0;
@@ -160,6 +195,10 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
             }
             double e1[3], e2[3];
             for (int a = 0; a < 3; a++) e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
+            if (segments) { /* the edge's length */
+                area += sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+                continue;
+            }
             double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
                    cz = e1[0] * e2[1] - e1[1] * e2[0];
             area += 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
@@ -207,15 +246,16 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
         stack[sp++] = c;
         stack[sp++] = c + 1;
     }
-    for (size_t i = 0; i < n; i++)
-        for (int k = 0; k < 9; k++) {
-            double v = q[(size_t)order[i] * 9 + k];
-            if (rs == 8) ((double *)tris)[i * 9 + k] = v;
-            else ((float *)tris)[i * 9 + k] = (float)v;
-        }
+    if (!segments)
+        for (size_t i = 0; i < n; i++)
+            for (int k = 0; k < 9; k++) {
+                double v = q[(size_t)order[i] * 9 + k];
+                if (rs == 8) ((double *)tris)[i * 9 + k] = v;
+                else ((float *)tris)[i * 9 + k] = (float)v;
+            }
     out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, node_count * sizeof *nodes, nodes, &st,
                                "cap tree");
-    if (st == CLVOX_OK)
+    if (st == CLVOX_OK && !segments)
         out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * 9 * rs, tris, &st, "caps");
     out->node_count = (cl_uint)node_count;
     out->cap_count = n;
@@ -313,6 +353,17 @@ clvox_status clvox__winding_cap_loops(clvox_context *ctx, const clvox_mesh *mesh
 {
     cap_out o = {wm->caps, wm->cap_count, wm->cap_count, wm->apex, wm->apex_count, wm->apex_count};
     int rc = 0;
+    /* the rims (the loops' edges) bound the winding number's gradient */
+    size_t edges = start[loops];
+    uint32_t *rim = realloc(wm->rim, (wm->rim_count + edges) * 2 * sizeof *rim + 1);
+    if (!rim) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu boundary edges", edges);
+    wm->rim = rim;
+    for (size_t k = 0; k < loops; k++)
+        for (size_t i = start[k]; i < start[k + 1]; i++) {
+            rim[2 * wm->rim_count] = verts[i];
+            rim[2 * wm->rim_count + 1] = verts[i + 1 < start[k + 1] ? i + 1 : start[k]];
+            wm->rim_count++;
+        }
     for (size_t k = 0; rc == 0 && k < loops; k++) rc = cap_loop(mesh, verts + start[k], start[k + 1] - start[k], &o);
     wm->caps = o.tris;
     wm->cap_count = o.count;

@@ -22,6 +22,10 @@ typedef struct clvox__caps {
 clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,
                                 const clvox_grid *grid, clvox__caps *out);
 void clvox__caps_release(clvox__caps *c);
+/* The rims' tree: n boundary edges (rim, 2 vertex indices each) in scaled
+ * grid space, area4pi = length / 4pi (kernels/winding.h clvox_rim_gradient). */
+clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                const uint32_t *rim, size_t n, clvox__caps *out);
 #endif
 
 /* Closes boundary loops with caps (src/winding.c, "caps"): loop k is the

@@ -617,6 +617,7 @@ void clvox__winding_mesh_free(clvox__winding_mesh *w)
     free(w->tris);
     free(w->caps);
     free(w->apex);
+    free(w->rim);
     memset(w, 0, sizeof *w);
 }
 

@@ -416,3 +416,104 @@ uint64_t ref_winding_coverage(const float *xyz, size_t nv, const uint32_t *tri, 
     free(q);
     return ties;
 }
+
+/* Sorts vertex indices by position (x, y, z as floats). */
+static const float *sort_xyz;
+static int cmp_vertex(const void *a, const void *b)
+{
+    const float *p = sort_xyz + 3 * (size_t)*(const uint32_t *)a, *q = sort_xyz + 3 * (size_t)*(const uint32_t *)b;
+    for (int k = 0; k < 3; k++)
+        if (p[k] != q[k]) return p[k] < q[k] ? -1 : 1;
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+size_t ref_winding_voxelize_rays(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, const clvox_grid *g,
+                                 int abs_rule, uint8_t *out, double *w)
+{
+    /* representative of each vertex: the lowest index at the same position */
+    uint32_t *order = malloc((nv ? nv : 1) * sizeof *order), *rep = malloc((nv ? nv : 1) * sizeof *rep);
+    if (!order || !rep) abort();
+    for (size_t i = 0; i < nv; i++) order[i] = (uint32_t)i;
+    sort_xyz = xyz;
+    qsort(order, nv, sizeof *order, cmp_vertex);
+    for (size_t i = 0; i < nv;) {
+        size_t j = i;
+        while (j < nv && memcmp(xyz + 3 * (size_t)order[j], xyz + 3 * (size_t)order[i], 3 * sizeof(float)) == 0)
+            rep[order[j++]] = order[i];
+        i = j;
+    }
+    free(order);
+    /* boundary chain on the merged indices */
+    size_t ne = 3 * nt, nb = 0;
+    uint64_t *key = malloc((ne ? ne : 1) * sizeof *key);
+    uint32_t *be = malloc((ne ? ne : 1) * 2 * sizeof *be);
+    long *bm = malloc((ne ? ne : 1) * sizeof *bm);
+    if (!key || !be || !bm) abort();
+    for (size_t i = 0; i < ne; i++) {
+        uint32_t u = rep[tri[i]], v = rep[tri[i - i % 3 + (i + 1) % 3]];
+        key[i] = u < v ? ((uint64_t)u << 33 | (uint64_t)v << 1) : ((uint64_t)v << 33 | (uint64_t)u << 1 | 1u);
+    }
+    qsort(key, ne, sizeof *key, cmp_u64_key);
+    for (size_t i = 0; i < ne;) {
+        size_t j = i;
+        long net = 0;
+        while (j < ne && key[j] >> 1 == key[i] >> 1) net += key[j] & 1 ? -1 : 1, j++;
+        if (net != 0 && key[i] >> 33 != (key[i] >> 1 & 0xFFFFFFFFu)) {
+            be[2 * nb] = (uint32_t)(key[i] >> 33), be[2 * nb + 1] = (uint32_t)(key[i] >> 1 & 0xFFFFFFFFu);
+            bm[nb++] = net;
+        }
+        i = j;
+    }
+    free(key);
+    free(rep);
+    const int perm[3] = {0, 1, 2};
+    float *gv = grid_vertices(xyz, nv, g, perm); /* grid space, for the crossings */
+    double *q = ref_winding_space(xyz, nv, g);   /* isotropic space, for the strips */
+    double *hits = malloc((nt + 1) * sizeof *hits);
+    int *sign = malloc((nt + 1) * sizeof *sign);
+    if (!hits || !sign) abort();
+    const double dir[3] = {-1.0, 0.0, 0.0};
+    const uint32_t X = g->dims[0], Y = g->dims[1], Z = g->dims[2];
+    for (uint32_t k = 0; k < Z; k++)
+        for (uint32_t j = 0; j < Y; j++) {
+            /* signed crossings of the column's ray (ray_crossings' arithmetic, with the sign kept) */
+            double pv = (float)j, pw = (float)k;
+            size_t n = 0;
+            for (size_t t = 0; t < nt; t++) {
+                const float *a = gv + 3 * (size_t)tri[3 * t], *b = gv + 3 * (size_t)tri[3 * t + 1],
+                            *c = gv + 3 * (size_t)tri[3 * t + 2];
+                double Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
+                double eab, ebc, eca;
+                int s1 = edge_sign(Av, Aw, Bv, Bw, &eab);
+                int s2 = edge_sign(Bv, Bw, Cv, Cw, &ebc);
+                int s3 = edge_sign(Cv, Cw, Av, Aw, &eca);
+                if (s1 == 0 || s1 != s2 || s1 != s3) continue;
+                double au = a[0];
+                double num = eca * ((double)b[0] - au) + eab * ((double)c[0] - au);
+                hits[n] = au + num / (eab + ebc + eca);
+                sign[n++] = s1;
+            }
+            for (uint32_t i = 0; i < X; i++) {
+                long K = 0;
+                for (size_t h = 0; h < n; h++) K += hits[h] > (double)i ? sign[h] : 0;
+                double p[3] = {i * g->voxel_size[0], j * g->voxel_size[1], k * g->voxel_size[2]}, strips = 0.0;
+                for (size_t e = 0; e < nb; e++) {
+                    const double *qa = q + 3 * (size_t)be[2 * e], *qb = q + 3 * (size_t)be[2 * e + 1];
+                    double A[3] = {qa[0] - p[0], qa[1] - p[1], qa[2] - p[2]}, B[3] = {qb[0] - p[0], qb[1] - p[1], qb[2] - p[2]};
+                    strips += (double)bm[e] * ref_solid_angle(A, B, dir);
+                }
+                double wp = (double)K + strips / (4.0 * REF_PI);
+                size_t at = ((size_t)k * Y + j) * X + i;
+                out[at] = (uint8_t)ref_winding_inside(wp, abs_rule);
+                if (w) w[at] = wp;
+            }
+        }
+    free(gv);
+    free(q);
+    free(hits);
+    free(sign);
+    free(be);
+    free(bm);
+    return nb;
+}

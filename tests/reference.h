@@ -76,3 +76,12 @@ void ref_winding_voxelize(const float *xyz, size_t nv, const uint32_t *tri, size
 uint64_t ref_winding_coverage(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, const clvox_grid *g,
                               clvox_axis axis, uint32_t N, uint32_t M, int stochastic, uint64_t seed, int abs_rule,
                               double near, uint32_t *counts);
+/* The same voxels by the second formula (ref_winding_number_rays) in the
+ * same space, fast enough for 128^3: per column the exact crossings of the
+ * +x ray with the library's tie rule (grid space, as ref_voxelize; signed by
+ * the normal's x), per centre the strips of the boundary chain, after
+ * merging vertices at exactly equal positions (coincident opposite edges
+ * cancel exactly). O(columns x triangles + voxels x boundary edges).
+ * Returns the number of boundary edges used. */
+size_t ref_winding_voxelize_rays(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, const clvox_grid *g,
+                                 int abs_rule, uint8_t *out, double *w);

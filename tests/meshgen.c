@@ -628,6 +628,107 @@ tmesh tmesh_sphere_membrane(double cx, double cy, double cz, double r, unsigned 
     return m;
 }
 
+/* ---- the winding corpus ---- */
+static const tmesh none;
+static void add_case(tmesh_case *out, size_t max, size_t *n, const char *name, tmesh mesh, int truth_is_mesh,
+                     tmesh truth)
+{
+    if (*n == max) abort();
+    tmesh_case *c = &out[(*n)++];
+    c->name = name;
+    c->mesh = mesh;
+    c->truth = truth_is_mesh ? tmesh_copy(&mesh) : truth;
+}
+void tmesh_case_free(tmesh_case *c)
+{
+    tmesh_free(&c->mesh);
+    tmesh_free(&c->truth);
+}
+size_t tmesh_winding_corpus(tmesh_case *out, size_t max)
+{
+    size_t n = 0;
+    double lo[3] = {0.13, 0.17, 0.11}, hi[3] = {0.86, 0.79, 0.91};
+    add_case(out, max, &n, "open box (1 face)", tmesh_open_box(1, lo, hi, 3, 1, NULL), 1, none);
+    add_case(out, max, &n, "open box (2 faces)", tmesh_open_box(4, lo, hi, 2, 2, NULL), 1, none);
+    add_case(out, max, &n, "open box (3 faces)", tmesh_open_box(2, lo, hi, 2, 3, NULL), 1, none);
+    add_case(out, max, &n, "open hemisphere", tmesh_open_hemisphere(0.51, 0.49, 0.47, 0.4, 16), 1, none);
+    double cc[3] = {0.5, 0.48, 0.12};
+    add_case(out, max, &n, "cylinder without caps", tmesh_cylinder(cc, 2, 0.35, 0.75, 32, 4, 0), 1, none);
+    add_case(out, max, &n, "sphere with holes", tmesh_sphere_holes(3, 0.5, 0.49, 0.52, 0.4, 16, 12), 1, none);
+    add_case(out, max, &n, "sphere, 20 faces flipped", tmesh_sphere_flipped(5, 0.5, 0.49, 0.52, 0.4, 16, 20), 0,
+             tmesh_sphere(0.5, 0.49, 0.52, 0.4, 16));
+    tmesh inv = tmesh_sphere(0.49, 0.52, 0.5, 0.41, 16);
+    tmesh_flip(&inv);
+    add_case(out, max, &n, "inverted sphere", inv, 0, tmesh_sphere(0.49, 0.52, 0.5, 0.41, 16));
+    add_case(out, max, &n, "cracked box", tmesh_cracked_box(7, lo, hi, 1e-5), 1, none);
+    add_case(out, max, &n, "cad union", tmesh_cad_union(11), 1, none);
+    add_case(out, max, &n, "shifted shells", tmesh_shifted_shells(0.45, 0.47, 0.49, 0.3, 16, 0.12), 1, none);
+    tmesh sp = tmesh_sphere(0.5, 0.49, 0.52, 0.4, 12);
+    add_case(out, max, &n, "triangle soup", tmesh_soup(&sp), 1, none);
+    tmesh_free(&sp);
+    add_case(out, max, &n, "moebius strip", tmesh_moebius(0.5, 0.5, 0.5, 0.3, 0.12, 64, 4), 0, none);
+    double s[3] = {0.41, 0.27, 0.13};
+    add_case(out, max, &n, "nested boxes", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0), 1, none);
+    add_case(out, max, &n, "nested boxes, middle outwards", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 1), 0,
+             tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0));
+    add_case(out, max, &n, "nested boxes, inner inwards", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 3), 0,
+             tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0));
+    add_case(out, max, &n, "sphere with membrane", tmesh_sphere_membrane(0.5, 0.49, 0.52, 0.4, 16), 1, none);
+    tmesh hs = tmesh_sphere(0.49, 0.5, 0.51, 0.42, 14), hin = tmesh_sphere(0.49, 0.5, 0.51, 0.23, 14);
+    tmesh_append(&hs, &hin); /* inner shell stored outwards */
+    tmesh_free(&hin);
+    add_case(out, max, &n, "hollow sphere, inner outwards", hs, 0, tmesh_hollow_sphere(0.49, 0.5, 0.51, 0.42, 0.23, 14));
+    return n;
+}
+
+size_t tmesh_components_of(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, uint32_t *label)
+{
+    uint32_t *parent = malloc((nv ? nv : 1) * sizeof *parent), *rep = malloc((nv ? nv : 1) * sizeof *rep);
+    if (!parent || !rep) abort();
+    for (size_t i = 0; i < nv; i++) parent[i] = (uint32_t)i;
+    /* exact merge: open addressing on the coordinates' bits */
+    size_t hn = 1;
+    while (hn < 2 * nv) hn <<= 1;
+    uint32_t *head = malloc(hn * sizeof *head);
+    if (!head) abort();
+    memset(head, 0xff, hn * sizeof *head);
+    for (size_t i = 0; i < nv; i++) {
+        uint32_t b[3];
+        memcpy(b, xyz + 3 * i, sizeof b);
+        size_t h = ((b[0] * 73856093u) ^ (b[1] * 19349663u) ^ (b[2] * 83492791u)) & (hn - 1);
+        while (head[h] != UINT32_MAX && memcmp(xyz + 3 * (size_t)head[h], xyz + 3 * i, 3 * sizeof(float)) != 0)
+            h = (h + 1) & (hn - 1);
+        if (head[h] == UINT32_MAX) head[h] = (uint32_t)i;
+        rep[i] = head[h];
+    }
+    free(head);
+#define FIND(x) do { while (parent[x] != x) x = parent[x] = parent[parent[x]]; } while (0)
+    for (size_t t = 0; t < nt; t++) {
+        uint32_t a = rep[tri[3 * t]];
+        FIND(a);
+        for (int k = 1; k < 3; k++) {
+            uint32_t b = rep[tri[3 * t + k]];
+            FIND(b);
+            if (a != b) parent[b] = a;
+        }
+    }
+    size_t n = 0;
+    uint32_t *id = malloc((nv ? nv : 1) * sizeof *id);
+    if (!id) abort();
+    memset(id, 0xff, (nv ? nv : 1) * sizeof *id);
+    for (size_t t = 0; t < nt; t++) {
+        uint32_t a = rep[tri[3 * t]];
+        FIND(a);
+        if (id[a] == UINT32_MAX) id[a] = (uint32_t)n++;
+        label[t] = id[a];
+    }
+#undef FIND
+    free(id);
+    free(parent);
+    free(rep);
+    return n;
+}
+
 /* ---- oracles ---- */
 uint64_t expected_box_voxels(const clvox_grid *g, const double lo[3], const double hi[3])
 {

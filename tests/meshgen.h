@@ -112,6 +112,20 @@ tmesh tmesh_nested_boxes(double cx, double cy, double cz, const double s[3], uns
  * sharing the equator vertices: 2n non-manifold edges (the equator, 3 triangles each). */
 tmesh tmesh_sphere_membrane(double cx, double cy, double cz, double r, unsigned n);
 
+/* Connected components of triangles across shared edges, vertices at
+ * exactly equal positions merged first: label[t] in 0 .. count-1. */
+size_t tmesh_components_of(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, uint32_t *label);
+
+/* The winding corpus (tests/test_winding.c, scripts/bench_winding.sh), in
+ * (0,1)^3: one of each generator above plus inverted, soup and cavity
+ * cases. mesh is what the library gets; truth the mesh orientation repair
+ * should arrive at, which the oracle evaluates (a copy of mesh when that is
+ * consistently oriented already; nt == 0 when there is none: the Moebius
+ * strip). Returns the count (at most max, else abort). */
+typedef struct tmesh_case { const char *name; tmesh mesh, truth; } tmesh_case;
+size_t tmesh_winding_corpus(tmesh_case *out, size_t max);
+void tmesh_case_free(tmesh_case *c);
+
 /* Voxel centres c with lo <= c < hi on every axis (design.md), evaluated as
  * the library does: corners rounded to float as in a tmesh, grid coordinate
  * (p - origin)/h - 0.5 in double rounded to float. For corners exact in grid

@@ -293,69 +293,11 @@ static void test_oracle_fast_voxelize(void)
     free(wb);
 }
 
-/* ================= the corpus ================= */
+/* ================= the corpus (tmesh_winding_corpus) ================= */
 
-typedef struct wcase {
-    const char *name;
-    tmesh mesh;  /* what the library gets */
-    tmesh truth; /* the repaired mesh the oracle evaluates; nt == 0: no oracle (Moebius) */
-} wcase;
-
-#define MAX_CASES 24
-static wcase cases[MAX_CASES];
+#define MAX_CASES 32
+static tmesh_case cases[MAX_CASES];
 static size_t ncases;
-
-static void add_case(const char *name, tmesh mesh, int truth_is_mesh, tmesh truth)
-{
-    if (ncases == MAX_CASES) abort();
-    wcase *c = &cases[ncases++];
-    c->name = name;
-    c->mesh = mesh;
-    c->truth = truth_is_mesh ? tmesh_copy(&mesh) : truth;
-}
-
-static const tmesh none;
-
-static void build_corpus(void)
-{
-    double lo[3] = {0.13, 0.17, 0.11}, hi[3] = {0.86, 0.79, 0.91};
-    add_case("open box (1 face)", tmesh_open_box(1, lo, hi, 3, 1, NULL), 1, none);
-    add_case("open box (2 faces)", tmesh_open_box(4, lo, hi, 2, 2, NULL), 1, none);
-    add_case("open box (3 faces)", tmesh_open_box(2, lo, hi, 2, 3, NULL), 1, none);
-    add_case("open hemisphere", tmesh_open_hemisphere(0.51, 0.49, 0.47, 0.4, 16), 1, none);
-    double cc[3] = {0.5, 0.48, 0.12};
-    add_case("cylinder without caps", tmesh_cylinder(cc, 2, 0.35, 0.75, 32, 4, 0), 1, none);
-    add_case("sphere with holes", tmesh_sphere_holes(3, 0.5, 0.49, 0.52, 0.4, 16, 12), 1, none);
-    add_case("sphere, 20 faces flipped", tmesh_sphere_flipped(5, 0.5, 0.49, 0.52, 0.4, 16, 20), 0,
-             tmesh_sphere(0.5, 0.49, 0.52, 0.4, 16));
-    tmesh inv = tmesh_sphere(0.49, 0.52, 0.5, 0.41, 16);
-    tmesh_flip(&inv);
-    add_case("inverted sphere", inv, 0, tmesh_sphere(0.49, 0.52, 0.5, 0.41, 16));
-    add_case("cracked box", tmesh_cracked_box(7, lo, hi, 1e-5), 1, none);
-    add_case("cad union", tmesh_cad_union(11), 1, none);
-    add_case("shifted shells", tmesh_shifted_shells(0.45, 0.47, 0.49, 0.3, 16, 0.12), 1, none);
-    tmesh sp = tmesh_sphere(0.5, 0.49, 0.52, 0.4, 12);
-    add_case("triangle soup", tmesh_soup(&sp), 1, none);
-    tmesh_free(&sp);
-    add_case("moebius strip", tmesh_moebius(0.5, 0.5, 0.5, 0.3, 0.12, 64, 4), 0, none);
-    double s[3] = {0.41, 0.27, 0.13};
-    add_case("nested boxes", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0), 1, none);
-    add_case("nested boxes, middle outwards", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 1), 0,
-             tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0));
-    add_case("nested boxes, inner inwards", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 3), 0,
-             tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0));
-    add_case("sphere with membrane", tmesh_sphere_membrane(0.5, 0.49, 0.52, 0.4, 16), 1, none);
-    tmesh hs = tmesh_sphere(0.49, 0.5, 0.51, 0.42, 14), hin = tmesh_sphere(0.49, 0.5, 0.51, 0.23, 14);
-    tmesh_append(&hs, &hin); /* inner shell stored outwards */
-    tmesh_free(&hin);
-    add_case("hollow sphere, inner outwards", hs, 0, tmesh_hollow_sphere(0.49, 0.5, 0.51, 0.42, 0.23, 14));
-}
-
-static void free_corpus(void)
-{
-    for (size_t i = 0; i < ncases; i++) tmesh_free(&cases[i].mesh), tmesh_free(&cases[i].truth);
-    ncases = 0;
-}
 
 /* ================= the device ================= */
 
@@ -440,7 +382,7 @@ static void test_corpus_against_oracle(void)
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
     clvox_grid grids[3] = {make_grid(lo, hi, 32, 32, 32), make_grid(lo, hi, 40, 32, 24), make_grid(lo, hi, 48, 48, 48)};
     for (size_t c = 0; c < ncases; c++) {
-        wcase *wc = &cases[c];
+        tmesh_case *wc = &cases[c];
         if (!wc->truth.nt) continue;
         clvox_mesh *m = to_mesh(&wc->mesh);
         CHECK(m != NULL);
@@ -471,7 +413,7 @@ static void test_invariance(void)
     size_t ndev = 0;
     if (clvox_list_devices(devs, 8, &ndev) != CLVOX_OK) ndev = 0;
     for (size_t c = 0; c < ncases; c++) {
-        wcase *wc = &cases[c];
+        tmesh_case *wc = &cases[c];
         clvox_mesh *m = to_mesh(&wc->mesh);
         if (!m) { CHECK(m != NULL); continue; }
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
@@ -943,56 +885,6 @@ static void test_winding_report(void)
 #undef U
 }
 
-/* Connected components of triangles across shared edges, vertices at
- * exactly equal positions merged first; label[t]. Returns the count. */
-static size_t triangle_components(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, uint32_t *label)
-{
-    uint32_t *parent = malloc((nv ? nv : 1) * sizeof *parent), *rep = malloc((nv ? nv : 1) * sizeof *rep);
-    if (!parent || !rep) abort();
-    for (size_t i = 0; i < nv; i++) parent[i] = (uint32_t)i;
-    /* exact merge: open addressing on the coordinates' bits */
-    size_t hn = 1;
-    while (hn < 2 * nv) hn <<= 1;
-    uint32_t *head = malloc(hn * sizeof *head);
-    if (!head) abort();
-    memset(head, 0xff, hn * sizeof *head);
-    for (size_t i = 0; i < nv; i++) {
-        uint32_t b[3];
-        memcpy(b, xyz + 3 * i, sizeof b);
-        size_t h = ((b[0] * 73856093u) ^ (b[1] * 19349663u) ^ (b[2] * 83492791u)) & (hn - 1);
-        while (head[h] != UINT32_MAX && memcmp(xyz + 3 * (size_t)head[h], xyz + 3 * i, 3 * sizeof(float)) != 0)
-            h = (h + 1) & (hn - 1);
-        if (head[h] == UINT32_MAX) head[h] = (uint32_t)i;
-        rep[i] = head[h];
-    }
-    free(head);
-#define FIND(x) do { while (parent[x] != x) x = parent[x] = parent[parent[x]]; } while (0)
-    for (size_t t = 0; t < nt; t++) {
-        uint32_t a = rep[tri[3 * t]];
-        FIND(a);
-        for (int k = 1; k < 3; k++) {
-            uint32_t b = rep[tri[3 * t + k]];
-            FIND(b);
-            if (a != b) parent[b] = a;
-        }
-    }
-    size_t n = 0;
-    uint32_t *id = malloc((nv ? nv : 1) * sizeof *id);
-    if (!id) abort();
-    memset(id, 0xff, (nv ? nv : 1) * sizeof *id);
-    for (size_t t = 0; t < nt; t++) {
-        uint32_t a = rep[tri[3 * t]];
-        FIND(a);
-        if (id[a] == UINT32_MAX) id[a] = (uint32_t)n++;
-        label[t] = id[a];
-    }
-#undef FIND
-    free(id);
-    free(parent);
-    free(rep);
-    return n;
-}
-
 /* Real open meshes (libcgal-demo): device == oracle voxel for voxel.
  * Only meshes whose triangles are consistently oriented (no directed edge
  * used twice, no non-manifold edge); the repaired orientation the oracle
@@ -1021,7 +913,7 @@ static void test_real_open(void)
         clvox_stats s;
         uint8_t *v = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s);
         uint32_t *label = malloc(nt * sizeof *label), *sub = malloc(3 * nt * sizeof *sub);
-        size_t ncomp = triangle_components(xyz, nv, tri, nt, label), flipped = 0, flipped_tris = 0;
+        size_t ncomp = tmesh_components_of(xyz, nv, tri, nt, label), flipped = 0, flipped_tris = 0;
         double *w = calloc(n, sizeof *w), *wc = malloc(n * sizeof *wc);
         uint8_t *ref = malloc(n), *tmp = malloc(n);
         for (size_t c = 0; c < ncomp && conf == 0 && nm == 0; c++) {
@@ -1091,7 +983,7 @@ int main(int argc, char **argv)
     if (oracle_only) return test_report();
     setenv("POCL_DEVICES", "pthread pthread", 0); /* two devices for test_invariance */
     ctx = test_context();
-    build_corpus();
+    ncases = tmesh_winding_corpus(cases, MAX_CASES);
     static const struct { const char *name; void (*fn)(void); } sections[] = {
         {"options", test_options},         {"corpus", test_corpus_against_oracle},
         {"invariance", test_invariance},   {"closed", test_closed_same_as_parity},
@@ -1101,7 +993,7 @@ int main(int argc, char **argv)
     };
     for (size_t i = 0; i < sizeof sections / sizeof sections[0]; i++)
         if (!only || strstr(sections[i].name, only)) sections[i].fn();
-    free_corpus();
+    for (size_t i = 0; i < ncases; i++) tmesh_case_free(&cases[i]);
     clvox_context_destroy(ctx);
     return test_report();
 }

@@ -702,8 +702,9 @@ static void test_cavities(void)
     tmesh_free(&want);
 }
 
-/* Grey levels: every sample of a coverage run takes the winding rule
- * (the lead may land coverage after solid: these checks wait for it). */
+/* Grey levels and palettes: every sample of a coverage or palette run takes
+ * the winding rule (the lead may land these after solid: the checks marked
+ * [coverage] and [palette] wait for it). */
 static void test_coverage_samples(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
@@ -714,6 +715,9 @@ static void test_coverage_samples(void)
     clvox_mesh *m = to_mesh(&t);
     float *cov = calloc(n, sizeof *cov);
     uint32_t *ref = malloc(n * sizeof *ref);
+    uint16_t *el = calloc(n, sizeof *el);
+    clvox_palette *pal = NULL;
+    CHECK_OK(ctx, clvox_palette_builtin(ctx, "binary", &pal));
     for (int stochastic = 0; stochastic <= 1; stochastic++)
         for (clvox_axis a = CLVOX_AXIS_X; a <= CLVOX_AXIS_Z; a += 2) {
             clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
@@ -729,11 +733,20 @@ static void test_coverage_samples(void)
             for (size_t i = 0; i < n; i++) diff += cov[i] != (float)ref[i] / 8.0f;
             CHECK_MSG(ties == 0, "coverage samples within %g of 1/2: %llu", NEAR_HALF, (unsigned long long)ties);
             CHECK_MSG(diff == 0 && s.inside == CLVOX_INSIDE_WINDING,
-                      "[coverage, waits on the device code] open box N=2 M=2 %s axis %c: %zu voxels differ", 
+                      "[coverage, waits on the device code] open box N=2 M=2 %s axis %c: %zu voxels differ",
                       stochastic ? "stochastic" : "uniform", "?xyz"[a], diff);
+            /* palette samples: the binary palette picks "full" exactly where more than half are inside */
+            o.palette = pal;
+            CHECK_OK(ctx, clvox_voxelize_palette_to_buffers(ctx, m, &g, &o, el, n, NULL, 0, NULL));
+            size_t pdiff = 0;
+            for (size_t i = 0; i < n; i++) pdiff += el[i] != (ref[i] * 2 > 8);
+            CHECK_MSG(pdiff == 0, "[palette, waits on the device code] open box binary palette %s axis %c: %zu voxels "
+                      "differ from winding samples > 1/2", stochastic ? "stochastic" : "uniform", "?xyz"[a], pdiff);
         }
     free(cov);
     free(ref);
+    free(el);
+    clvox_palette_destroy(pal);
     clvox_mesh_destroy(m);
     tmesh_free(&t);
 }
@@ -890,14 +903,16 @@ static void test_winding_report(void)
  * used twice, no non-manifold edge); the repaired orientation the oracle
  * assumes is, per connected component, the one with positive total winding
  * over the grid's centres (outwards; these meshes have no cavities), so
- * w = sum over components of sign_c * w_c. */
+ * w = sum over components of sign_c * w_c. (mask_cone.off is left out: its
+ * open cone part has positive signed volume about the origin but negative
+ * total winding, so "outwards" is not defined well enough to test.) */
 static void test_real_open(void)
 {
     if (getenv("CLVOX_QUICK")) return;
     static const struct { const char *name; uint32_t n; } real[] = {
         {"corner_with_hole.off", 40}, {"cube-ouvert.off", 40},  {"blob.off", 40},      {"nefertiti.off", 36},
         {"pig.off", 32},              {"mushroom.off", 32},      {"head.off", 28},      {"elephant-with-holes.off", 28},
-        {"mech-holes-shark.off", 24}, {"mask_cone.off", 28},
+        {"mech-holes-shark.off", 24},
     };
     for (size_t i = 0; i < sizeof real / sizeof real[0]; i++) {
         clvox_mesh *m = load_real(real[i].name);

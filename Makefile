@@ -70,8 +70,8 @@ endif
 CLI_SRC := src/cli.c src/cli_common.c src/cli_json.c src/cli_batch.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c src/cli_convert.c
 LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
 LIB_CXX := $(wildcard src/*.cpp)
-# Kernel program = shared types + prelude + sampler + palette + overlap + one file per stage.
-KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
+# Kernel program = shared types + prelude + sampler + palette + overlap + winding + one file per stage.
+KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h kernels/winding.h $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
 KERNEL_C := $(BUILD)/gen/kernels_embedded.c
 
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/%.o) $(LIB_CXX:%.cpp=$(BUILD)/%.o) $(BUILD)/gen/kernels_embedded.o

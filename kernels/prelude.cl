@@ -32,7 +32,10 @@ inline int clvox_edge_sign(clvox_real Av, clvox_real Aw, clvox_real Bv, clvox_re
 }
 
 /* Does the ray at (pv,pw) along +u cross triangle t (9 floats, u,v,w per
- * corner, grid space)? If so *u_hit is where. Both windings count. */
+ * corner, grid space)? If so *u_hit is where, and the result is the
+ * crossing's orientation: +1 when the corners run counter-clockwise in the
+ * (v,w) plane (the face's normal points to +u), -1 clockwise; 0: no
+ * crossing. Both windings count. */
 inline int clvox_ray_crosses(global const float *t, float fpv, float fpw, clvox_real *u_hit)
 {
     clvox_real pv = fpv, pw = fpw;
@@ -50,7 +53,7 @@ inline int clvox_ray_crosses(global const float *t, float fpv, float fpw, clvox_
     clvox_real num = eca * ((clvox_real)t[3] - a) + eab * ((clvox_real)t[6] - a);
     clvox_real den = eab + ebc + eca;
     *u_hit = a + num / den;
-    return 1;
+    return sab;
 }
 
 /* Lets the host learn which precision the compiler picked. */

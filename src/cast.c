@@ -25,6 +25,7 @@
  * batches of at most max_rays * capacity crossings (at least one column). */
 #include "internal.h"
 #include "classify.h"
+#include "winding.h"
 #include "../kernels/sampler.h"
 
 #include <math.h>
@@ -37,6 +38,7 @@
 /* Device buffers of one batch. */
 typedef struct batch_mem {
     cl_mem rays, cols, leaf, hits, counts, filled, sums, pstats, pvolume;
+    cl_mem signs, exact; /* winding: a sign per crossing; points evaluated exactly */
     size_t max_rays, max_items; /* items: rays (binary) or columns (coverage) */
     cl_uint capacity;
 } batch_mem;
@@ -50,6 +52,10 @@ struct clvox__method_state {
     clvox__quadtree qt;
     cl_mem soup, nodes, refs;
     cl_kernel k_lookup, k_intersect, k_sort, k_classify, k_coverage, k_palette;
+    /* winding numbers (kernels/winding.h) */
+    int winding;                 /* 1: signed crossings and the winding inside test */
+    cl_uint abs_mode;            /* |w| > 1/2 */
+    clvox__caps caps;
     uint32_t leaf_size;
     uint64_t leaf_max;           /* most triangles in one quadtree leaf */
     batch_mem mem;               /* the fast pass */
@@ -100,10 +106,12 @@ static void batch_mem_release(batch_mem *m)
     clvox__release_mem(&m->sums);
     clvox__release_mem(&m->pstats);
     clvox__release_mem(&m->pvolume);
+    clvox__release_mem(&m->signs);
+    clvox__release_mem(&m->exact);
 }
 
 static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max_rays, size_t max_items,
-                                    cl_uint capacity, int coverage, int palette)
+                                    cl_uint capacity, int coverage, int palette, int winding)
 {
     clvox_status st = CLVOX_OK;
     memset(m, 0, sizeof *m);
@@ -128,6 +136,9 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max
         m->pstats = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * 4 * sizeof(cl_uint), NULL, &st, "column tallies");
     if (st == CLVOX_OK && palette)
         m->pvolume = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_items * sizeof(cl_ulong), NULL, &st, "column volumes");
+    if (st == CLVOX_OK && winding)
+        m->signs = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * capacity, NULL, &st, "crossing signs");
+    if (st == CLVOX_OK && winding) m->exact = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "exact points");
     if (st != CLVOX_OK) batch_mem_release(m);
     return st;
 }
@@ -145,6 +156,7 @@ static void ray_release(clvox__method_state *s)
     clvox__release_mem(&s->p_masks);
     clvox__release_mem(&s->p_volume);
     batch_mem_release(&s->mem);
+    clvox__caps_release(&s->caps);
     if (s->k_lookup) clReleaseKernel(s->k_lookup);
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
     if (s->k_sort) clReleaseKernel(s->k_sort);
@@ -306,10 +318,24 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     if (opts->oversample) st = coverage_prepare(s, opts, run);
     if (st == CLVOX_OK && opts->palette) st = palette_prepare(s, opts);
     float *soup = NULL;
+    size_t soup_count = mesh->triangle_count;
     double t0 = clvox__now();
-    if (st == CLVOX_OK) st = clvox__grid_space_soup(ctx, mesh, grid, s->axes, &soup);
+    s->winding = opts->inside == CLVOX_INSIDE_WINDING || opts->inside == CLVOX_INSIDE_WINDING_ABS;
+    s->abs_mode = opts->inside == CLVOX_INSIDE_WINDING_ABS;
+    if (st == CLVOX_OK && s->winding) {
+        /* surface (oriented) + caps: a closed chain (src/winding_prep.c) */
+        clvox__winding_mesh wm;
+        st = clvox__winding_prepare(ctx, mesh, opts->weld, &wm);
+        if (st == CLVOX_OK) st = clvox__winding_soup(ctx, mesh, grid, s->axes, &wm, &soup, &soup_count);
+        if (st == CLVOX_OK)
+            st = clvox__caps_upload(ctx, soup + wm.triangle_count * 9, wm.cap_count, s->axes, grid, &s->caps);
+        if (stats) stats->winding = wm.report;
+        clvox__winding_mesh_free(&wm);
+    } else if (st == CLVOX_OK) {
+        st = clvox__grid_space_soup(ctx, mesh, grid, s->axes, &soup);
+    }
     if (st == CLVOX_OK)
-        st = clvox__quadtree_build(ctx, soup, mesh->triangle_count, s->dim_v, s->dim_w, opts->quadtree_max_depth,
+        st = clvox__quadtree_build(ctx, soup, soup_count, s->dim_v, s->dim_w, opts->quadtree_max_depth,
                                    s->leaf_size, &s->qt);
     if (st != CLVOX_OK) {
         free(soup);
@@ -317,7 +343,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         return st;
     }
     cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    s->soup = clvox__buffer(ctx, ro, mesh->triangle_count * 9 * sizeof(float), soup, &st, "triangles");
+    s->soup = clvox__buffer(ctx, ro, soup_count * 9 * sizeof(float), soup, &st, "triangles");
     free(soup);
     if (st == CLVOX_OK)
         s->nodes = clvox__buffer(ctx, ro, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
@@ -333,7 +359,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_quadtree_lookup", &s->k_lookup);
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_intersect", &s->k_intersect);
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_sort", &s->k_sort);
-    if (st == CLVOX_OK && !s->coverage) st = clvox__kernel(ctx, "clvox_classify", &s->k_classify);
+    if (st == CLVOX_OK && !s->coverage)
+        st = clvox__kernel(ctx, s->winding ? "clvox_classify_winding" : "clvox_classify", &s->k_classify);
 
     /* A coverage batch holds whole columns: as many rays as a binary slab,
      * and at least one column. */
@@ -353,7 +380,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         uint64_t k = CLVOX__BATCH_TESTS / per_item;
         s->batch_items = k < 1 ? 1 : k > max_items ? max_items : (size_t)k;
     }
-    if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage, s->palette);
+    if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage, s->palette, s->winding);
     if (st == CLVOX_OK) {
         s->rays_host = malloc(max_rays * sizeof *s->rays_host);
         s->counts_host = malloc(max_rays * sizeof *s->counts_host);
@@ -484,6 +511,41 @@ static clvox_status palette_enqueue(clvox__method_state *s, const batch_mem *m, 
  * lookup, intersect, sort and the consumer, and reads back the crossing
  * count of every ray, the filled voxels of every item and (coverage) the
  * count sum of every column. */
+/* The winding consumer of binary runs (kernels/winding.cl). */
+static clvox_status winding_enqueue(clvox__method_state *s, const batch_mem *m, cl_uint n, const slab_target *t,
+                                    cl_event *ev)
+{
+    clvox_context *ctx = s->ctx;
+    cl_uint zero = 0, capacity = m->capacity, axis = (cl_uint)s->axes.perm[0];
+    cl_int err = clEnqueueFillBuffer(ctx->queue, m->exact, &zero, sizeof zero, 0, sizeof zero, 0, NULL, NULL);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the exact-point counter");
+    cl_kernel k = s->k_classify;
+    cl_uint i = 0;
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->rays);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &n);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->hits);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->signs);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->counts);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &capacity);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_begin);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_count);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->out_stride);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &t->out->occupancy);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->abs_mode);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &axis);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->caps.h);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->caps.nodes);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->caps.node_count);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->caps.tris);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->exact);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_classify_winding)");
+    size_t local = 64, global = ((size_t)n + local - 1) / local * local;
+    err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_classify_winding");
+    return CLVOX_OK;
+}
+
 static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const clvox_ray *rays, cl_uint n,
                                const clvox_column *cols, cl_uint n_cols, const slab_target *t, uint32_t *counts,
                                uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
@@ -515,11 +577,13 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
     err |= clSetKernelArg(s->k_intersect, 6, sizeof(cl_uint), &capacity);
     err |= clSetKernelArg(s->k_intersect, 7, sizeof(cl_mem), &m->hits);
     err |= clSetKernelArg(s->k_intersect, 8, sizeof(cl_mem), &m->counts);
+    err |= clSetKernelArg(s->k_intersect, 9, sizeof(cl_mem), &m->signs); /* NULL unless winding */
 
     err |= clSetKernelArg(s->k_sort, 0, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_sort, 1, sizeof(cl_uint), &capacity);
     err |= clSetKernelArg(s->k_sort, 2, sizeof(cl_mem), &m->hits);
     err |= clSetKernelArg(s->k_sort, 3, sizeof(cl_mem), &m->counts);
+    err |= clSetKernelArg(s->k_sort, 4, sizeof(cl_mem), &m->signs);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(cast kernels)");
 
     err = clEnqueueNDRangeKernel(ctx->queue, s->k_lookup, 1, NULL, &global, &local, 0, NULL, &ev[0]);
@@ -535,6 +599,8 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
             st = palette_enqueue(s, m, n_cols, t, &ev[3]);
         } else if (s->coverage) {
             st = coverage_enqueue(s, m, n_cols, t, &ev[3]);
+        } else if (s->winding) {
+            st = winding_enqueue(s, m, n, t, &ev[3]);
         } else {
             clvox__classify_args a = {m->rays, n, m->hits, m->counts, capacity, t->u_begin, t->u_count,
                                       t->out_stride, t->out->occupancy, m->filled};
@@ -555,8 +621,12 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
         if (err == CL_SUCCESS && s->palette)
             err = clEnqueueReadBuffer(ctx->queue, m->pvolume, CL_FALSE, 0, items * sizeof *pvolume, pvolume, 0, NULL,
                                       NULL);
+        cl_uint exact = 0;
+        if (err == CL_SUCCESS && s->winding)
+            err = clEnqueueReadBuffer(ctx->queue, m->exact, CL_FALSE, 0, sizeof exact, &exact, 0, NULL, NULL);
         if (err == CL_SUCCESS) err = clFinish(ctx->queue);
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the cast kernels");
+        ss->exact_points += exact;
     }
     if (st == CLVOX_OK) {
         ss->cast_seconds += clvox__event_seconds(ev[0]) + clvox__event_seconds(ev[1]) + clvox__event_seconds(ev[2]);
@@ -606,7 +676,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     if (per > s->batch_items) per = s->batch_items;
     if (per > items) per = items;
     batch_mem m;
-    clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage, s->palette);
+    clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage, s->palette, s->winding);
     if (st != CLVOX_OK) return st;
     uint32_t *cnt = malloc(per * R * sizeof *cnt), *fil = malloc(per * sizeof *fil), *pst = malloc(per * 4 * sizeof *pst);
     uint64_t *sum = malloc(per * sizeof *sum), *pvol = malloc(per * sizeof *pvol);

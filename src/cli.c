@@ -402,6 +402,15 @@ int parse_args(int argc, char **argv, int first, int multi, cli_extra_opt_fn ext
             else if (strcmp(v, "surface") == 0) a->vox.mode = CLVOX_MODE_SURFACE;
             else if (strcmp(v, "conservative") == 0) a->vox.mode = CLVOX_MODE_CONSERVATIVE;
             else return usage_error("--mode '%s': expected solid, surface or conservative", v);
+        } else if (VALUE_OPT(NULL, "--inside")) {
+            NEED_VALUE("--inside");
+            if (strcmp(v, "winding") == 0) a->vox.inside = CLVOX_INSIDE_WINDING;
+            else if (strcmp(v, "winding-abs") == 0) a->vox.inside = CLVOX_INSIDE_WINDING_ABS;
+            else if (strcmp(v, "parity") == 0) a->vox.inside = CLVOX_INSIDE_PARITY;
+            else return usage_error("--inside '%s': expected winding, winding-abs or parity", v);
+        } else if (VALUE_OPT(NULL, "--weld")) {
+            NEED_VALUE("--weld");
+            if ((why = parse_double(v, 1, &a->vox.weld, NULL))) return usage_error("--weld '%s': %s", v, why);
         } else if (VALUE_OPT(NULL, "--axis")) {
             NEED_VALUE("--axis");
             if (strcmp(v, "x") == 0) a->vox.ray_axis = CLVOX_AXIS_X;

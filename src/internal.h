@@ -199,6 +199,7 @@ typedef struct clvox__slab_stats {
     uint64_t palette_early, palette_shortcut, palette_scored; /* voxels decided by each step */
     uint64_t palette_nonempty; /* voxels whose element is not empty */
     double palette_volume;     /* sum of the chosen elements' volumes (voxel units) */
+    uint64_t exact_points;     /* winding: points whose cap solid angles were evaluated */
     uint32_t max_crossings;
 } clvox__slab_stats;
 

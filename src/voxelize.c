@@ -174,6 +174,24 @@ static clvox_status check_inputs(clvox_context *ctx, const clvox_mesh *mesh, con
             return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "%s mode writes occupancy only (channels 0x%x)", mode,
                                o->channels);
     }
+    /* The inside test: winding for the ray method unless asked otherwise;
+     * the tetra raster is parity by construction (an XOR), and the surface
+     * mode has none. */
+    if ((unsigned)o->inside >= CLVOX_INSIDE_COUNT)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown inside test %d", (int)o->inside);
+    if (!(o->weld >= 0) || !isfinite(o->weld))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "weld distance %g: must be >= 0", o->weld);
+    if (o->method == CLVOX_METHOD_TETRA && o->mode != CLVOX_MODE_SURFACE) {
+        if (o->inside == CLVOX_INSIDE_WINDING || o->inside == CLVOX_INSIDE_WINDING_ABS)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                               "the tetra method is a parity method (an XOR of tetrahedra): use --inside parity or "
+                               "the ray method for winding numbers");
+        o->inside = CLVOX_INSIDE_PARITY;
+    }
+    if (o->inside == CLVOX_INSIDE_DEFAULT) o->inside = CLVOX_INSIDE_WINDING;
+    if (o->weld > 0 && o->inside == CLVOX_INSIDE_PARITY)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "welding (%g) is part of the winding inside test, not parity",
+                           o->weld);
     return check_sampling(ctx, o);
 }
 
@@ -251,6 +269,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     if ((uint64_t)depth * slice_bytes > max_alloc) depth = (uint32_t)(max_alloc / slice_bytes);
     stats.slab_depth = depth;
     stats.total_voxels = (uint64_t)X * Y * Z;
+    stats.inside = o.inside;
 
     stats.channels = req.channels;
     stats.samples_per_voxel = o.oversample ? o.oversample * o.oversample * (o.oversample_points ? o.oversample_points : o.oversample) : 1;
@@ -315,6 +334,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         stats.palette_scored_voxels += ss.palette_scored;
         stats.palette_nonempty_voxels += ss.palette_nonempty;
         stats.palette_volume += ss.palette_volume;
+        stats.winding.exact_points += ss.exact_points;
         if (ss.max_crossings > stats.max_crossings) stats.max_crossings = ss.max_crossings;
 
         void *host[4] = {NULL, NULL, NULL, NULL};

@@ -1,0 +1,78 @@
+/* Stage classify, winding numbers (kernels/winding.h): voxel centre u = i
+ * is inside when w > 1/2, w = K - w_caps, K = the signed crossings strictly
+ * beyond it (+1 where the ray leaves through a face oriented towards +u).
+ * Writes occupancy bits and per-ray filled counts exactly as classify.cl.
+ *
+ * A ray whose whole segment is far from every cap (clvox_caps_far) is
+ * classified by runs from K alone, like parity; on a closed mesh there are
+ * no caps and that is every ray. Rays near a cap decide voxel by voxel. */
+
+kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
+                                   global const char *signs, global const uint *counts, uint capacity,
+                                   uint u_begin, uint u_count, uint out_stride, global uint *out,
+                                   global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
+                                   global const clvox_cap_node *nodes, uint node_count,
+                                   global const clvox_real *caps, global uint *exact_points)
+{
+    uint gid = get_global_id(0);
+    if (gid >= ray_count) return;
+    uint n = counts[gid];
+    if (n > capacity) return; /* overflowed: redone by the host */
+    global const clvox_real *hh = hits + (size_t)gid * capacity;
+    global const char *sg = signs + (size_t)gid * capacity;
+    global uint *o = out + rays[gid].out_base;
+    const uint bit = 1u << (rays[gid].bit & 31u);
+    const clvox_real rv = rays[gid].v, rw = rays[gid].w;
+    int K = 0; /* signed crossings beyond the current run */
+    for (uint k = 0; k < n; k++) K += sg[k];
+
+    clvox_real sx, sy, sz; /* scaled position of the ray's first centre */
+    clvox_scaled_xyz(axis, (clvox_real)u_begin, rv, rw, h, &sx, &sy, &sz);
+    const int far = clvox_caps_far(nodes, node_count, sx, sy, sz, axis, 1, 0,
+                                   (clvox_real)(u_count - 1u) * h[axis], 16u);
+    uint j = 0, cnt = 0, word = 0;
+    if (far) {
+        for (uint k = 0; k <= n && j < u_count; k++) {
+            uint end = u_count;
+            if (k < n) {
+                clvox_real e = ceil(hh[k]) - (clvox_real)u_begin;
+                end = e <= 0 ? 0u : (e >= (clvox_real)u_count ? u_count : (uint)e);
+            }
+            if (end > j) {
+                const int inside = abs_mode ? K != 0 : K >= 1;
+                if (inside) cnt += end - j;
+                if (out_stride == 0) {
+                    clvox_row_bits(o, &word, j, end, inside);
+                    j = end;
+                } else {
+                    if (inside)
+                        for (uint i = j; i < end; i++) atomic_or(o + (size_t)i * out_stride, bit);
+                    j = end;
+                }
+            }
+            if (k < n) K -= sg[k];
+        }
+    } else {
+        uint exact = 0, k = 0;
+        for (j = 0; j < u_count; j++) {
+            const clvox_real u = (clvox_real)(u_begin + j);
+            while (k < n && hh[k] <= u) K -= sg[k++];
+            clvox_real px, py, pz;
+            clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
+            const int inside = clvox_winding_inside(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, &exact);
+            cnt += (uint)inside;
+            if (out_stride == 0) {
+                if (inside) word |= 1u << (j & 31u);
+                if ((j & 31u) == 31u) {
+                    o[j >> 5] = word;
+                    word = 0;
+                }
+            } else if (inside) {
+                atomic_or(o + (size_t)j * out_stride, bit);
+            }
+        }
+        if (exact) atomic_add(exact_points, exact);
+    }
+    if (out_stride == 0 && (j & 31u)) o[j >> 5] = word; /* the last, partial word */
+    filled[gid] = cnt;
+}

@@ -1,0 +1,177 @@
+/* Winding numbers: the inside test of the cast's consumers when the mesh is
+ * open (docs/design.md "Winding numbers").
+ *
+ * The host closes every hole of the (oriented) surface with a fan of cap
+ * triangles, and the cast runs over surface + caps, a closed chain: the
+ * signed crossings beyond a point p give an exact integer K(p), and the
+ * surface's generalized winding number is w(p) = K(p) - w_caps(p), where
+ * w_caps is the caps' solid angle / 4pi. Inside: w > 1/2 + 2^-30 (or
+ * |w| > 1/2 + 2^-30); values within 2^-30 of 1/2 count as 1/2.
+ *
+ * Most points are decided from K alone: |w_caps(p)| <= sum of area / (4pi
+ * d^2) over the caps (d = distance from p to the cap, from its box), and
+ * when that bound is below |K - 1/2| - 2^-30 the answer is that of K. Near
+ * the caps the tree of caps is refined best-first: a node's exact solid
+ * angles (van Oosterom-Strackee) replace its bound until the interval
+ * [K - S - B, K - S + B] (S: exact part, B: the bounds left) lies on one
+ * side of the threshold. All of it happens in scaled grid space, x, y, z
+ * order, so the numbers do not depend on the ray axis. */
+#define CLVOX_WINDING_TIE 9.313225746154785e-10 /* 2^-30 */
+#define CLVOX_CAP_STACK 48
+
+/* Solid angle / 4pi of cap triangle t (9 reals, scaled x, y, z) seen from
+ * p; positive when p is behind it (on the side its orientation faces away
+ * from). p exactly in its plane and inside it (det == 0, den < 0) is taken
+ * on the side of p + e1*u + e2*v + e3*w (e1 >> e2 >> e3 > 0), as the
+ * cast's tie rules take it: det(p + e) = det(p) - e . N. */
+inline clvox_real clvox_cap_solid(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz,
+                                  uint axis)
+{
+    const clvox_real ax = t[0] - px, ay = t[1] - py, az = t[2] - pz;
+    const clvox_real bx = t[3] - px, by = t[4] - py, bz = t[5] - pz;
+    const clvox_real cx = t[6] - px, cy = t[7] - py, cz = t[8] - pz;
+    const clvox_real la = sqrt(ax * ax + ay * ay + az * az);
+    const clvox_real lb = sqrt(bx * bx + by * by + bz * bz);
+    const clvox_real lc = sqrt(cx * cx + cy * cy + cz * cz);
+    const clvox_real det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx);
+    const clvox_real den =
+        la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la +
+        (cx * ax + cy * ay + cz * az) * lb;
+    if (det == 0) {
+        if (!(den < 0)) return 0;
+        /* N = (b - a) x (c - a), in u, v, w order */
+        const clvox_real ux = bx - ax, uy = by - ay, uz = bz - az, vx = cx - ax, vy = cy - ay, vz = cz - az;
+        const clvox_real n[3] = {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
+        const clvox_real nu = n[axis], nv = n[(axis + 1u) % 3u], nw = n[(axis + 2u) % 3u];
+        const clvox_real d = nu != 0 ? -nu : nv != 0 ? -nv : -nw;
+        return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
+    }
+    return atan2(det, den) * (clvox_real)0.15915494309189535; /* 2 atan2 / 4pi */
+}
+
+/* Upper bound on |w| of the node's caps seen from p, or, with `line`, from
+ * every point of the segment p + s*u (s in [s0, s1], u the ray axis). */
+inline clvox_real clvox_cap_bound(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
+                                  uint axis, int line, clvox_real s0, clvox_real s1)
+{
+    const clvox_real p[3] = {px, py, pz};
+    clvox_real d2 = 0;
+    for (uint a = 0; a < 3u; a++) {
+        clvox_real lo = n->lo[a], hi = n->hi[a], g = 0;
+        if (line && a == axis) {
+            g = lo > p[a] + s1 ? lo - (p[a] + s1) : (p[a] + s0 > hi ? p[a] + s0 - hi : 0);
+        } else {
+            g = lo > p[a] ? lo - p[a] : (p[a] > hi ? p[a] - hi : 0);
+        }
+        d2 += g * g;
+    }
+    const clvox_real cap = (clvox_real)n->half_count;
+    if (d2 == 0) return cap;
+    const clvox_real b = (clvox_real)n->area4pi / d2 * (clvox_real)1.000001;
+    return b < cap ? b : cap;
+}
+
+/* Is the region (a point, or the segment with `line`) decided by K alone?
+ * 1 when the caps' bound over it is below 1/2 - 2^-30, so that every point
+ * of it is inside exactly when K >= 1 (abs: K != 0). Refines at most
+ * `budget` nodes. */
+inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, clvox_real px, clvox_real py,
+                          clvox_real pz, uint axis, int line, clvox_real s0, clvox_real s1, uint budget)
+{
+    if (node_count == 0) return 1;
+    const clvox_real limit = (clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2;
+    uint stack[CLVOX_CAP_STACK];
+    clvox_real sb[CLVOX_CAP_STACK];
+    uint sp = 1;
+    stack[0] = 0;
+    sb[0] = clvox_cap_bound(nodes, px, py, pz, axis, line, s0, s1);
+    for (uint it = 0;; it++) {
+        clvox_real B = 0;
+        uint best = 0;
+        for (uint i = 0; i < sp; i++) {
+            B += sb[i];
+            if (sb[i] > sb[best]) best = i;
+        }
+        if (B < limit) return 1;
+        if (it >= budget || sp + 1u >= CLVOX_CAP_STACK) return 0;
+        const uint nd = stack[best];
+        if (nodes[nd].child == 0) return 0; /* a leaf's own bound is too large */
+        stack[best] = stack[sp - 1u];
+        sb[best] = sb[sp - 1u];
+        sp--;
+        for (uint c = 0; c < 2u; c++) {
+            const uint ch = nodes[nd].child + c;
+            stack[sp] = ch;
+            sb[sp++] = clvox_cap_bound(nodes + ch, px, py, pz, axis, line, s0, s1);
+        }
+    }
+}
+
+/* The inside test at p (scaled grid space, x, y, z) given K there. Adds 1
+ * to *exact when cap solid angles had to be evaluated. */
+inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                uint axis, uint *exact)
+{
+    const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
+    if (node_count == 0) return abs_mode ? K != 0 : K >= 1;
+    uint stack[CLVOX_CAP_STACK];
+    clvox_real sb[CLVOX_CAP_STACK];
+    uint sp = 1;
+    stack[0] = 0;
+    sb[0] = clvox_cap_bound(nodes, px, py, pz, axis, 0, 0, 0);
+    clvox_real S = 0;
+    int evaluated = 0;
+    for (;;) {
+        clvox_real B = 0;
+        uint best = 0;
+        for (uint i = 0; i < sp; i++) {
+            B += sb[i];
+            if (sb[i] > sb[best]) best = i;
+        }
+        B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sum's own rounding */
+        const clvox_real w = (clvox_real)K - S;
+        int decided = -1;
+        if (abs_mode) {
+            if (w - B > thr || w + B < -thr) decided = 1;
+            else if (w + B <= thr && w - B >= -thr) decided = 0;
+        } else {
+            if (w - B > thr) decided = 1;
+            else if (w + B <= thr) decided = 0;
+        }
+        if (decided >= 0 || sp == 0) {
+            if (evaluated) (*exact)++;
+            if (decided >= 0) return decided;
+            return abs_mode ? (w > thr || w < -thr) : w > thr;
+        }
+        const uint nd = stack[best];
+        stack[best] = stack[sp - 1u];
+        sb[best] = sb[sp - 1u];
+        sp--;
+        const clvox_cap_node n = nodes[nd];
+        if (n.child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
+            for (uint t = 0; t < n.tri_count; t++)
+                S += clvox_cap_solid(caps + (size_t)(n.tri_first + t) * 9u, px, py, pz, axis);
+            evaluated = 1;
+        } else {
+            for (uint c = 0; c < 2u; c++) {
+                stack[sp] = n.child + c;
+                sb[sp++] = clvox_cap_bound(nodes + n.child + c, px, py, pz, axis, 0, 0, 0);
+            }
+        }
+    }
+}
+
+/* Grid-space (u, v, w) of the ray method to scaled x, y, z: u is axis
+ * `axis` (x-rays: u,v,w = x,y,z; y-rays y,z,x; z-rays z,x,y). */
+inline void clvox_scaled_xyz(uint axis, clvox_real gu, clvox_real gv, clvox_real gw, global const clvox_real *h,
+                             clvox_real *x, clvox_real *y, clvox_real *z)
+{
+    clvox_real g[3];
+    g[axis] = gu;
+    g[(axis + 1u) % 3u] = gv;
+    g[(axis + 2u) % 3u] = gw;
+    *x = g[0] * h[0];
+    *y = g[1] * h[1];
+    *z = g[2] * h[2];
+}

@@ -1,0 +1,25 @@
+/* Winding numbers, host side (src/winding.c, src/winding_prep.c). */
+#ifndef CLVOX_WINDING_H
+#define CLVOX_WINDING_H
+#include "internal.h"
+
+/* The cast's soup for a winding run: the prepared triangles, then the caps
+ * (*out_count = both), in grid space as clvox__grid_space_soup. */
+clvox_status clvox__winding_soup(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                 clvox__axes axes, const clvox__winding_mesh *wm, float **out_soup,
+                                 size_t *out_count);
+
+/* The cap tree on the device (kernels/winding.h): nodes, the cap triangles
+ * in its leaf order as scaled x, y, z reals, and the voxel size h (3 reals,
+ * always set). node_count 0: no caps. */
+typedef struct clvox__caps {
+    cl_mem nodes, tris, h;
+    cl_uint node_count;
+    size_t cap_count;
+} clvox__caps;
+
+/* cap_soup: n cap triangles of the cast's soup (grid space, u,v,w order). */
+clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,
+                                const clvox_grid *grid, clvox__caps *out);
+void clvox__caps_release(clvox__caps *c);
+#endif

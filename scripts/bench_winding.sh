@@ -65,12 +65,11 @@ py=python3
 if [ "$use_trimesh" -eq 1 ] && ! "$py" -c 'import trimesh, rtree, scipy' 2>/dev/null; then
   log "trimesh, rtree or scipy missing for $py: trimesh columns skipped"; use_trimesh=0
 fi
-have_inside=0
-"$clvox" --help 2>&1 | grep -q -- '--inside' && have_inside=1
-[ "$have_inside" -eq 1 ] || log "clvox has no --inside yet: winding columns n/a"
-
 tmp=$(mktemp -d "$outdir/winding.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
+have_inside=0 # does this clvox take --inside? (tried, not read from --help)
+"$clvox" tests/data/default.obj -r 8 --inside parity -o "$tmp/probe.npy" -q --no-progress 2>/dev/null && have_inside=1
+[ "$have_inside" -eq 1 ] || log "clvox has no --inside yet: winding columns n/a, parity is clvox's default"
 "$oracle" corpus "$tmp" >"$tmp/corpus.txt"
 cases=()
 while read -r name file truth; do cases+=("$name|$file|$truth"); done <"$tmp/corpus.txt"

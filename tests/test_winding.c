@@ -405,7 +405,8 @@ static void test_corpus_against_oracle(void)
     }
 }
 
-/* The same volume for every ray axis, slab depth and device. */
+/* The same volume for every ray axis, slab depth and device, and with every
+ * face flipped (orientation repair). */
 static void test_invariance(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
@@ -433,6 +434,16 @@ static void test_invariance(void)
                           "?xyz"[a], depth[d], dd);
                 free(v);
             }
+        /* every face flipped: orientation repair gives the same volume */
+        tmesh flipped = tmesh_copy(&wc->mesh);
+        tmesh_flip(&flipped);
+        clvox_mesh *mf = to_mesh(&flipped);
+        uint8_t *vf = run(mf, &g, &o, NULL);
+        size_t df = ndiff(base, vf, nvox(&g));
+        CHECK_MSG(df == 0, "%s: with every face flipped %zu voxels differ", wc->name, df);
+        free(vf);
+        clvox_mesh_destroy(mf);
+        tmesh_free(&flipped);
         for (size_t d = 0; d < ndev && d < 8 && c % 4 == 0; d++) { /* every fourth mesh on every device */
             char sel[16];
             snprintf(sel, sizeof sel, "%u", devs[d].index);
@@ -453,8 +464,8 @@ static void test_invariance(void)
             clvox_mesh_destroy(m2);
             clvox_context_destroy(c2);
         }
-        printf("invariance %-34s axes x/y/z, slab depths 1/5/auto%s: largest difference %zu voxels\n", wc->name,
-               ndev > 1 && c % 4 == 0 ? ", devices" : "", worst);
+        printf("invariance %-34s axes x/y/z, slab depths 1/5/auto%s: largest difference %zu voxels; all flipped: %zu\n",
+               wc->name, ndev > 1 && c % 4 == 0 ? ", devices" : "", worst, df);
         free(base);
         clvox_mesh_destroy(m);
     }

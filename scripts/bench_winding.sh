@@ -19,6 +19,8 @@
 #                edges run at N/2 (their lines say so)
 #   --repeat R   clvox runs per case for the times (default 3)
 #   --quick      corpus only, no real meshes, no trimesh
+# Each clvox run is stopped after CLVOX_BENCH_TIMEOUT seconds (default 120;
+# the cell then says "timeout").
 #
 # Oracle orientation: corpus meshes are compared with the orientation repair
 # should arrive at (the generator's "truth"; the Moebius strip has none and
@@ -31,14 +33,14 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 cd "$here"
 
-res=128 repeat=3 quick=0 use_trimesh=1
+res=128 repeat=3 quick=0 use_trimesh=1 limit=${CLVOX_BENCH_TIMEOUT:-120}
 while [ $# -gt 0 ]; do
   case "$1" in
     -r) res=${2:?-r needs a number}; shift ;;
     --repeat) repeat=${2:?--repeat needs a number}; shift ;;
     --quick) quick=1 use_trimesh=0 ;;
     --no-trimesh) use_trimesh=0 ;;
-    -h|--help) sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,32p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench_winding.sh: unknown option '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
@@ -81,16 +83,21 @@ if [ "$quick" -eq 0 ]; then
 fi
 "$clvox" -r 16 -o "$tmp/warm.npy" -q --no-progress tests/data/default.obj || true # warm the kernel cache
 
-# best wall time of R runs of: clvox FILE -r N ARGS... -o OUT.npy
+# best wall time of R runs of: clvox FILE -r N ARGS... -o OUT.npy (one run when
+# it takes over 5 s; "timeout" past $limit s, and OUT.npy is then removed)
 best_time() {
-  local out=$1 file=$2 n=$3 best="" t0 t1 dt; shift 3
+  local out=$1 file=$2 n=$3 best="" t0 t1 dt rc; shift 3
   for _ in $(seq "$repeat"); do
     rm -f "$out"
     t0=$EPOCHREALTIME
-    "$clvox" "$file" -r "$n" "$@" -o "$out" -q --no-progress 2>"$tmp/err.txt" || { tail -n 2 "$tmp/err.txt" >&2; echo fail; return; }
+    rc=0
+    timeout "$limit" "$clvox" "$file" -r "$n" "$@" -o "$out" -q --no-progress 2>"$tmp/err.txt" || rc=$?
     t1=$EPOCHREALTIME
+    if [ "$rc" -eq 124 ]; then rm -f "$out"; echo "timeout"; return; fi
+    if [ "$rc" -ne 0 ]; then tail -n 2 "$tmp/err.txt" >&2; rm -f "$out"; echo fail; return; fi
     dt=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", b - a }')
     if [ -z "$best" ] || awk -v a="$dt" -v b="$best" 'BEGIN { exit !(a < b) }'; then best=$dt; fi
+    awk -v a="$dt" 'BEGIN { exit !(a > 5) }' && break
   done
   echo "$best"
 }
@@ -118,14 +125,18 @@ for c in "${cases[@]}"; do
     tw=$(best_time "$tmp/winding.npy" "$file" "$n" --inside winding)
     best_time "$tmp/abs.npy" "$file" "$n" --inside winding-abs >/dev/null
     tp=$(best_time "$tmp/parity.npy" "$file" "$n" --inside parity)
-    vols+=("winding=$tmp/winding.npy" "winding-abs=$tmp/abs.npy")
+    [ -f "$tmp/winding.npy" ] && vols+=("winding=$tmp/winding.npy")
+    [ -f "$tmp/abs.npy" ] && vols+=("winding-abs=$tmp/abs.npy")
   else
     tp=$(best_time "$tmp/parity.npy" "$file" "$n")
   fi
-  "$clvox" "$file" -r "$n" --method tetra -o "$tmp/tetra.npy" -q --no-progress 2>/dev/null || rm -f "$tmp/tetra.npy"
+  timeout "$limit" "$clvox" "$file" -r "$n" --method tetra -o "$tmp/tetra.npy" -q --no-progress 2>/dev/null ||
+    rm -f "$tmp/tetra.npy"
   vols+=("parity=$tmp/parity.npy")
   [ -f "$tmp/tetra.npy" ] && vols+=("tetra=$tmp/tetra.npy")
   declare -A j=([winding]="n/a" [winding-abs]="n/a" [parity]="-" [tetra]="-" [trimesh-contains]="-" [trimesh-fill]="-")
+  [ "$have_inside" -eq 0 ] || [ -f "$tmp/winding.npy" ] || j[winding]=$tw
+  [ "$have_inside" -eq 0 ] || [ -f "$tmp/abs.npy" ] || j[winding-abs]="-"
   if [ "$orc" != "-" ]; then
     targs=()
     if [ "$use_trimesh" -eq 1 ]; then

@@ -91,9 +91,9 @@ best_time() {
     rm -f "$out"
     t0=$EPOCHREALTIME
     rc=0
-    timeout "$limit" "$clvox" "$file" -r "$n" "$@" -o "$out" -q --no-progress 2>"$tmp/err.txt" || rc=$?
+    timeout -k 5 "$limit" "$clvox" "$file" -r "$n" "$@" -o "$out" -q --no-progress 2>"$tmp/err.txt" || rc=$?
     t1=$EPOCHREALTIME
-    if [ "$rc" -eq 124 ]; then rm -f "$out"; echo "timeout"; return; fi
+    if [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ]; then rm -f "$out"; echo "timeout"; return; fi
     if [ "$rc" -ne 0 ]; then tail -n 2 "$tmp/err.txt" >&2; rm -f "$out"; echo fail; return; fi
     dt=$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", b - a }')
     if [ -z "$best" ] || awk -v a="$dt" -v b="$best" 'BEGIN { exit !(a < b) }'; then best=$dt; fi
@@ -130,7 +130,7 @@ for c in "${cases[@]}"; do
   else
     tp=$(best_time "$tmp/parity.npy" "$file" "$n")
   fi
-  timeout "$limit" "$clvox" "$file" -r "$n" --method tetra -o "$tmp/tetra.npy" -q --no-progress 2>/dev/null ||
+  timeout -k 5 "$limit" "$clvox" "$file" -r "$n" --method tetra -o "$tmp/tetra.npy" -q --no-progress 2>/dev/null ||
     rm -f "$tmp/tetra.npy"
   vols+=("parity=$tmp/parity.npy")
   [ -f "$tmp/tetra.npy" ] && vols+=("tetra=$tmp/tetra.npy")

@@ -44,27 +44,30 @@ typedef struct clvox_column {
     clvox_u32 pad;
 } clvox_column;
 
-/* Node of the cap tree (winding numbers, kernels/winding.h): a box over
- * cap triangles in scaled grid space (x, y, z order; grid coordinates times
- * the voxel size, so that solid angles are those of the world), rounded
- * outwards to float. Triangles tri_first .. tri_first+tri_count-1 of the
- * cap array lie in it (every subtree is a contiguous range); child == 0: a
- * leaf, else the children are child and child+1. area4pi >= their area / 4pi
- * (rounded up), half_count = tri_count / 2 (no triangle subtends more than
- * half the sphere). */
+/* Node of the cap tree (winding numbers, kernels/winding.h), in scaled
+ * grid space (x, y, z order; grid coordinates times the voxel size, so that
+ * solid angles are those of the world). Triangles tri_first ..
+ * tri_first+tri_count-1 of the cap array lie in it (every subtree is a
+ * contiguous range); child == 0: a leaf, else the children are child and
+ * child+1. Rounded so that bounds stay bounds: the box outwards, area4pi >=
+ * their area / 4pi, the sphere (centre, radius) holds them; normal4pi is
+ * their vector area / 4pi (for the dipole term); half_count = tri_count / 2
+ * (no triangle subtends more than half the sphere). */
 typedef struct clvox_cap_node {
     clvox_f32 lo[3], area4pi;
     clvox_f32 hi[3], half_count;
-    clvox_u32 child, tri_first, tri_count, pad;
+    clvox_f32 centre[3], radius;
+    clvox_f32 normal4pi[3], pad0;
+    clvox_u32 child, tri_first, tri_count, pad1;
 } clvox_cap_node;
 
 #if defined(__cplusplus)
-static_assert(sizeof(clvox_cap_node) == 48, "clvox_cap_node layout");
+static_assert(sizeof(clvox_cap_node) == 80, "clvox_cap_node layout");
 static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
 static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
 static_assert(sizeof(clvox_column) == 16, "clvox_column layout");
 #elif !defined(__OPENCL_VERSION__)
-_Static_assert(sizeof(clvox_cap_node) == 48, "clvox_cap_node layout");
+_Static_assert(sizeof(clvox_cap_node) == 80, "clvox_cap_node layout");
 _Static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
 _Static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
 _Static_assert(sizeof(clvox_column) == 16, "clvox_column layout");

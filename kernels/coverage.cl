@@ -39,18 +39,26 @@ inline void clvox_row_bits(global uint *o, uint *word, uint j, uint end, int set
 }
 
 /* One step along a column of R rays (coverage and palette scoring): passes
- * each ray's crossings below lo (k[r]: crossings before the voxel), sets
- * *next to the first voxel (>= j) that holds a crossing of any ray, and
- * returns how many rays are inside over [j, *next) (odd crossings beyond). */
-inline uint clvox_column_step(global const clvox_real *hits, global const uint *counts, size_t r0, uint R,
-                              uint capacity, uint *k, uint u_begin, uint u_count, uint j, clvox_real lo, uint *next)
+ * each ray's crossings below lo (k[r]: crossings before the voxel; with
+ * signs, ks[r]: the signed crossings beyond them), sets *next to the first
+ * voxel (>= j) that holds a crossing of any ray, and returns how many rays
+ * are inside over [j, *next): odd crossings beyond (parity), or
+ * clvox_k_inside (winding, away from the caps). */
+inline uint clvox_column_step(global const clvox_real *hits, global const char *signs, global const uint *counts,
+                              size_t r0, uint R, uint capacity, uint *k, int *ks, uint abs_mode, uint u_begin,
+                              uint u_count, uint j, clvox_real lo, uint *next)
 {
     uint nx = u_count, inside = 0;
     for (uint r = 0; r < R; r++) {
         global const clvox_real *h = hits + (r0 + r) * capacity;
         const uint n = counts[r0 + r];
         uint kk = k[r];
-        while (kk < n && h[kk] < lo) kk++;
+        if (signs) {
+            global const char *sg = signs + (r0 + r) * capacity;
+            while (kk < n && h[kk] < lo) ks[r] -= sg[kk++];
+        } else {
+            while (kk < n && h[kk] < lo) kk++;
+        }
         k[r] = kk;
         if (kk < n) {
             /* first voxel whose [u-1/2, u+1/2] holds h: ceil(h - 1/2) */
@@ -58,10 +66,52 @@ inline uint clvox_column_step(global const clvox_real *hits, global const uint *
             uint ev = e <= (clvox_real)j ? j : (e >= (clvox_real)u_count ? u_count : (uint)e);
             nx = min(nx, ev);
         }
-        inside += (n - kk) & 1u;
+        inside += signs ? (uint)clvox_k_inside(ks[r], abs_mode) : (n - kk) & 1u;
     }
     *next = nx;
     return inside;
+}
+
+/* Winding runs of the column consumers: each ray's signed crossings in
+ * ks[r] (all of them: beyond the column's start), and whether the column
+ * comes near a cap (then every sample is tested on its own,
+ * clvox_winding_inside; else clvox_k_inside as for whole runs). */
+inline int clvox_column_winding_setup(global const clvox_real *hits, global const char *signs,
+                                      global const uint *counts, global const clvox_ray *rays, size_t r0, uint R,
+                                      uint capacity, int *ks, uint axis, uint u_begin, uint u_count,
+                                      global const clvox_real *h, global const clvox_cap_node *nodes,
+                                      uint node_count)
+{
+    clvox_real g0[3] = {(clvox_real)u_begin - (clvox_real)0.5, 0, 0};
+    clvox_real g1[3] = {(clvox_real)(u_begin + u_count) - (clvox_real)0.5, 0, 0};
+    for (uint r = 0; r < R; r++) {
+        global const char *sg = signs + (r0 + r) * capacity;
+        int K = 0;
+        for (uint q = 0; q < counts[r0 + r]; q++) K += sg[q];
+        ks[r] = K;
+        const clvox_real v = rays[r0 + r].v, w = rays[r0 + r].w;
+        if (r == 0 || v < g0[1]) g0[1] = v;
+        if (r == 0 || v > g1[1]) g1[1] = v;
+        if (r == 0 || w < g0[2]) g0[2] = w;
+        if (r == 0 || w > g1[2]) g1[2] = w;
+    }
+    (void)hits;
+    if (node_count == 0) return 0;
+    clvox_real q0[3], q1[3];
+    clvox_scaled_box(axis, g0, g1, h, q0, q1);
+    return !clvox_caps_far(nodes, node_count, q0, q1, 16u);
+}
+
+/* The sample at u on ray r of a column near a cap: K at u (signed
+ * crossings beyond it, from ks and the crossings kk.. passed), then the
+ * caps. */
+inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
+                                global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                                global const clvox_real *caps, uint *exact)
+{
+    clvox_real x, y, z;
+    clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);
+    return clvox_winding_inside(K, abs_mode, nodes, node_count, caps, x, y, z, axis, exact);
 }
 
 kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint R, uint M,
@@ -70,7 +120,10 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
                            global const ushort *value_of_count, uint occ_min,
                            uint X, uint W, uint vox_stride, uint out_stride,
                            global ushort *coverage, global uint *occupancy,
-                           global ulong *col_sum, global uint *col_filled)
+                           global ulong *col_sum, global uint *col_filled,
+                           global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
+                           global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                           global const clvox_real *caps, global uint *exact_points)
 {
     uint gid = get_global_id(0);
     if (gid >= col_count || R > CLVOX_COVERAGE_MAX_RAYS) return;
@@ -86,14 +139,21 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
     const uint bit = 1u << (c.bit & 31u);
 
     uint k[CLVOX_COVERAGE_MAX_RAYS]; /* per ray: crossings before the current voxel */
+    int ks[CLVOX_COVERAGE_MAX_RAYS];  /* winding: signed crossings beyond them */
     for (uint r = 0; r < R; r++) k[r] = 0;
+    const int near = signs ? clvox_column_winding_setup(hits, signs, counts, rays, r0, R, capacity, ks, axis,
+                                                        u_begin, u_count, h, nodes, node_count)
+                           : 0;
+    uint exact = 0;
     ulong sum = 0;
     uint filled = 0, word = 0;
     uint j = 0;
     while (j < u_count) {
         const clvox_real lo = (clvox_real)(u_begin + j) - (clvox_real)0.5;
         const clvox_real hi = lo + (clvox_real)1;
-        uint next, rays_in = clvox_column_step(hits, counts, r0, R, capacity, k, u_begin, u_count, j, lo, &next);
+        uint next, rays_in = clvox_column_step(hits, signs, counts, r0, R, capacity, k, ks, abs_mode, u_begin,
+                                               u_count, j, lo, &next);
+        if (near) next = j; /* every sample on its own */
         uint clean = rays_in * M; /* the points of the clean rays that are inside */
         uint end = next > j ? next : j + 1; /* voxels [j, end) get one value */
         uint cnt = clean;
@@ -101,11 +161,13 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
             cnt = 0;
             const uint u = u_begin + j;
             for (uint r = 0; r < R; r++) {
-                global const clvox_real *h = hits + (r0 + r) * capacity;
+                global const clvox_real *hr = hits + (r0 + r) * capacity;
+                global const char *sg = signs ? signs + (r0 + r) * capacity : 0;
                 const uint n = counts[r0 + r];
                 uint kk = k[r];
-                if (kk == n || h[kk] > hi) {
-                    cnt += ((n - kk) & 1u) ? M : 0u;
+                int K = sg ? ks[r] : 0;
+                if (!near && (kk == n || hr[kk] > hi)) {
+                    cnt += (sg ? clvox_k_inside(K, abs_mode) : (n - kk) & 1u) ? M : 0u;
                     continue;
                 }
                 uint bits[4] = {0, 0, 0, 0};
@@ -113,8 +175,15 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
                     if (stochastic && (m & 3u) == 0)
                         clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
                     clvox_real p = lo + clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
-                    while (kk < n && h[kk] <= p) kk++;
-                    cnt += (n - kk) & 1u;
+                    if (sg) {
+                        while (kk < n && hr[kk] <= p) K -= sg[kk++];
+                        cnt += near ? (uint)clvox_sample_winding(K, abs_mode, axis, p, rays + r0 + r, h, nodes,
+                                                                 node_count, caps, &exact)
+                                    : (uint)clvox_k_inside(K, abs_mode);
+                    } else {
+                        while (kk < n && hr[kk] <= p) kk++;
+                        cnt += (n - kk) & 1u;
+                    }
                 }
             }
         }
@@ -138,4 +207,5 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
     if (o && out_stride == 0 && (j & 31u)) o[j >> 5] = word;
     col_sum[gid] = sum;
     col_filled[gid] = filled;
+    if (exact) atomic_add(exact_points, exact);
 }

@@ -69,7 +69,10 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                                 uint vox_stride, uint out_stride, global ushort *element_out,
                                 global ushort *score_out, global ushort *coverage, global uint *occupancy,
                                 global const ulong *volume_fixed, global ulong *col_sum, global uint *col_filled,
-                                global uint *pstats, global ulong *col_volume)
+                                global uint *pstats, global ulong *col_volume,
+                                global const char *signs, global const clvox_ray *rays, uint abs_mode,
+                                global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                                global const clvox_real *caps, global uint *exact_points)
 {
     const uint gid = get_global_id(0);
     const uint R = N * N, S = R * M, words = (S + 31u) / 32u;
@@ -86,6 +89,7 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
     const uint bit = 1u << (c.bit & 31u);
 
     uint k[CLVOX_PALETTE_MAX_RAYS];      /* per ray: crossings before the current voxel */
+    int ks[CLVOX_PALETTE_MAX_RAYS];      /* winding: signed crossings beyond them */
     float fv[CLVOX_PALETTE_MAX_RAYS], fw[CLVOX_PALETTE_MAX_RAYS]; /* rays in the unit voxel */
     uint O[CLVOX_PALETTE_MAX_WORDS];
     ushort eq[CLVOX_PALETTE_MAX_ELEMENTS]; /* stochastic: running counts, DEAD = out */
@@ -96,6 +100,11 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
         fw[r] = (float)clvox_stratum(b, N, (int)stochastic, bits[1]);
         k[r] = 0;
     }
+    /* the ray axis: palette `axis` is 1..3 (x..z), the winding helpers take 0..2 */
+    const int near = signs ? clvox_column_winding_setup(hits, signs, counts, rays, r0, R, capacity, ks, axis - 1u,
+                                                        u_begin, u_count, h, nodes, node_count)
+                           : 0;
+    uint exact = 0;
     ulong sum = 0;
     uint filled = 0, word = 0, n_early = 0, n_short = 0, n_scored = 0, nonempty = 0;
     ulong volume = 0;
@@ -105,7 +114,9 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
         const clvox_real lo = (clvox_real)u - (clvox_real)0.5;
         const clvox_real hi = lo + (clvox_real)1;
         /* the first voxel (>= j) holding a crossing; rays inside until then */
-        uint next, rays_in = clvox_column_step(hits, counts, r0, R, capacity, k, u_begin, u_count, j, lo, &next);
+        uint next, rays_in = clvox_column_step(hits, signs, counts, r0, R, capacity, k, ks, abs_mode, u_begin,
+                                               u_count, j, lo, &next);
+        if (near) next = j; /* every sample on its own */
         uint end = j + 1, elem = 0, score = 0, cnt = 0;
         if (next > j && early_out && (rays_in == 0 || rays_in == R)) {
             end = next; /* wholly outside or inside: empty or full, score 1 */
@@ -118,21 +129,30 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
             /* O: the object at every sample of voxel j */
             for (uint w = 0; w < words; w++) O[w] = 0;
             for (uint r = 0; r < R; r++) {
-                global const clvox_real *h = hits + (r0 + r) * capacity;
+                global const clvox_real *hr = hits + (r0 + r) * capacity;
+                global const char *sg = signs ? signs + (r0 + r) * capacity : 0;
                 const uint n = counts[r0 + r];
                 uint kk = k[r];
-                const int clean = kk == n || h[kk] > hi;
+                int K = sg ? ks[r] : 0;
+                const int clean = !near && (kk == n || hr[kk] > hi);
                 uint bits[4] = {0, 0, 0, 0};
                 for (uint m = 0; m < M; m++) {
                     uint in;
                     if (clean) {
-                        in = (n - kk) & 1u;
+                        in = sg ? (uint)clvox_k_inside(K, abs_mode) : (n - kk) & 1u;
                     } else {
                         if (stochastic && (m & 3u) == 0)
                             clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
                         clvox_real p = lo + clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
-                        while (kk < n && h[kk] <= p) kk++;
-                        in = (n - kk) & 1u;
+                        if (sg) {
+                            while (kk < n && hr[kk] <= p) K -= sg[kk++];
+                            in = near ? (uint)clvox_sample_winding(K, abs_mode, axis - 1u, p, rays + r0 + r, h,
+                                                                   nodes, node_count, caps, &exact)
+                                      : (uint)clvox_k_inside(K, abs_mode);
+                        } else {
+                            while (kk < n && hr[kk] <= p) kk++;
+                            in = (n - kk) & 1u;
+                        }
                     }
                     const uint s = r * M + m;
                     O[s >> 5] |= in << (s & 31u);
@@ -224,4 +244,5 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
     pstats[4 * gid + 2] = n_scored;
     pstats[4 * gid + 3] = nonempty;
     col_volume[gid] = volume;
+    if (exact) atomic_add(exact_points, exact);
 }

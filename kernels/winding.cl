@@ -26,10 +26,11 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
     int K = 0; /* signed crossings beyond the current run */
     for (uint k = 0; k < n; k++) K += sg[k];
 
-    clvox_real sx, sy, sz; /* scaled position of the ray's first centre */
-    clvox_scaled_xyz(axis, (clvox_real)u_begin, rv, rw, h, &sx, &sy, &sz);
-    const int far = clvox_caps_far(nodes, node_count, sx, sy, sz, axis, 1, 0,
-                                   (clvox_real)(u_count - 1u) * h[axis], 16u);
+    /* the segment of the ray's centres, scaled */
+    const clvox_real g0[3] = {(clvox_real)u_begin, rv, rw}, g1[3] = {(clvox_real)(u_begin + u_count - 1u), rv, rw};
+    clvox_real q0[3], q1[3];
+    clvox_scaled_box(axis, g0, g1, h, q0, q1);
+    const int far = clvox_caps_far(nodes, node_count, q0, q1, 16u);
     uint j = 0, cnt = 0, word = 0;
     if (far) {
         for (uint k = 0; k <= n && j < u_count; k++) {
@@ -39,7 +40,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                 end = e <= 0 ? 0u : (e >= (clvox_real)u_count ? u_count : (uint)e);
             }
             if (end > j) {
-                const int inside = abs_mode ? K != 0 : K >= 1;
+                const int inside = clvox_k_inside(K, abs_mode);
                 if (inside) cnt += end - j;
                 if (out_stride == 0) {
                     clvox_row_bits(o, &word, j, end, inside);

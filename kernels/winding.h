@@ -49,20 +49,14 @@ inline clvox_real clvox_cap_solid(global const clvox_real *t, clvox_real px, clv
     return atan2(det, den) * (clvox_real)0.15915494309189535; /* 2 atan2 / 4pi */
 }
 
-/* Upper bound on |w| of the node's caps seen from p, or, with `line`, from
- * every point of the segment p + s*u (s in [s0, s1], u the ray axis). */
-inline clvox_real clvox_cap_bound(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
-                                  uint axis, int line, clvox_real s0, clvox_real s1)
+/* Upper bound on |w| of the node's caps seen from any point of the box
+ * [q0, q1] (a point when q0 == q1). */
+inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
 {
-    const clvox_real p[3] = {px, py, pz};
     clvox_real d2 = 0;
     for (uint a = 0; a < 3u; a++) {
-        clvox_real lo = n->lo[a], hi = n->hi[a], g = 0;
-        if (line && a == axis) {
-            g = lo > p[a] + s1 ? lo - (p[a] + s1) : (p[a] + s0 > hi ? p[a] + s0 - hi : 0);
-        } else {
-            g = lo > p[a] ? lo - p[a] : (p[a] > hi ? p[a] - hi : 0);
-        }
+        const clvox_real lo = n->lo[a], hi = n->hi[a];
+        const clvox_real g = lo > q1[a] ? lo - q1[a] : (q0[a] > hi ? q0[a] - hi : 0);
         d2 += g * g;
     }
     const clvox_real cap = (clvox_real)n->half_count;
@@ -71,12 +65,20 @@ inline clvox_real clvox_cap_bound(global const clvox_cap_node *n, clvox_real px,
     return b < cap ? b : cap;
 }
 
-/* Is the region (a point, or the segment with `line`) decided by K alone?
- * 1 when the caps' bound over it is below 1/2 - 2^-30, so that every point
- * of it is inside exactly when K >= 1 (abs: K != 0). Refines at most
- * `budget` nodes. */
-inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, clvox_real px, clvox_real py,
-                          clvox_real pz, uint axis, int line, clvox_real s0, clvox_real s1, uint budget)
+inline clvox_real clvox_cap_bound(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz)
+{
+    const clvox_real q[3] = {px, py, pz};
+    return clvox_cap_bound_box(n, q, q);
+}
+
+/* Inside from K alone (no caps near): w = K exactly, K >= 1 (abs: K != 0). */
+inline int clvox_k_inside(int K, uint abs_mode) { return abs_mode ? K != 0 : K >= 1; }
+
+/* Is the box [q0, q1] decided by K alone? 1 when the caps' bound over
+ * it is below 1/2 - 2^-29, so that every point of it is inside exactly
+ * when clvox_k_inside. Refines at most `budget` nodes. */
+inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, const clvox_real *q0,
+                          const clvox_real *q1, uint budget)
 {
     if (node_count == 0) return 1;
     const clvox_real limit = (clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2;
@@ -84,7 +86,7 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
     clvox_real sb[CLVOX_CAP_STACK];
     uint sp = 1;
     stack[0] = 0;
-    sb[0] = clvox_cap_bound(nodes, px, py, pz, axis, line, s0, s1);
+    sb[0] = clvox_cap_bound_box(nodes, q0, q1);
     for (uint it = 0;; it++) {
         clvox_real B = 0;
         uint best = 0;
@@ -92,7 +94,7 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
             B += sb[i];
             if (sb[i] > sb[best]) best = i;
         }
-        if (B < limit) return 1;
+        if (B * (clvox_real)1.000001 < limit) return 1;
         if (it >= budget || sp + 1u >= CLVOX_CAP_STACK) return 0;
         const uint nd = stack[best];
         if (nodes[nd].child == 0) return 0; /* a leaf's own bound is too large */
@@ -102,13 +104,41 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
         for (uint c = 0; c < 2u; c++) {
             const uint ch = nodes[nd].child + c;
             stack[sp] = ch;
-            sb[sp++] = clvox_cap_bound(nodes + ch, px, py, pz, axis, line, s0, s1);
+            sb[sp++] = clvox_cap_bound_box(nodes + ch, q0, q1);
         }
     }
 }
 
-/* The inside test at p (scaled grid space, x, y, z) given K there. Adds 1
- * to *exact when cap solid angles had to be evaluated. */
+/* The node's caps' w seen from p as an estimate and an error bound: the
+ * dipole term N . (c - p) / |c - p|^3 when p is outside the node's sphere
+ * and that is tighter -- the kernel x / |x|^3 changes by at most 2 r /
+ * (d - r)^3 over the sphere, so the error is at most 2 A r / (4pi (d -
+ * r)^3), plus a margin for the float N -- else 0 and the zeroth-order
+ * bound. */
+inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
+                               clvox_real *est, clvox_real *err)
+{
+    const clvox_real b0 = clvox_cap_bound(n, px, py, pz);
+    const clvox_real x = n->centre[0] - px, y = n->centre[1] - py, z = n->centre[2] - pz;
+    const clvox_real d = sqrt(x * x + y * y + z * z), r = n->radius;
+    if (d > r) {
+        const clvox_real dr = d - r, a = n->area4pi;
+        const clvox_real e1 = 2 * a * r / (dr * dr * dr) * (clvox_real)1.000001 + (clvox_real)1e-6 * a / (dr * dr);
+        if (e1 < b0) {
+            *est = (n->normal4pi[0] * x + n->normal4pi[1] * y + n->normal4pi[2] * z) / (d * d * d);
+            *err = e1;
+            return;
+        }
+    }
+    *est = 0;
+    *err = b0;
+}
+
+/* The inside test at p (scaled grid space, x, y, z) given K there:
+ * best-first refinement of the cap tree, each frontier node an estimate
+ * and an error bound, until [K - S - sum est -+ sum err] lies on one side
+ * of the threshold (S: the caps evaluated exactly). Adds 1 to *exact when
+ * cap solid angles had to be evaluated. */
 inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
                                 global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
                                 uint axis, uint *exact)
@@ -116,21 +146,22 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
     if (node_count == 0) return abs_mode ? K != 0 : K >= 1;
     uint stack[CLVOX_CAP_STACK];
-    clvox_real sb[CLVOX_CAP_STACK];
+    clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
     uint sp = 1;
     stack[0] = 0;
-    sb[0] = clvox_cap_bound(nodes, px, py, pz, axis, 0, 0, 0);
+    clvox_cap_estimate(nodes, px, py, pz, &se[0], &sb[0]);
     clvox_real S = 0;
     int evaluated = 0;
     for (;;) {
-        clvox_real B = 0;
+        clvox_real B = 0, E = 0;
         uint best = 0;
         for (uint i = 0; i < sp; i++) {
             B += sb[i];
+            E += se[i];
             if (sb[i] > sb[best]) best = i;
         }
-        B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sum's own rounding */
-        const clvox_real w = (clvox_real)K - S;
+        B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sums' own rounding */
+        const clvox_real w = (clvox_real)K - S - E;
         int decided = -1;
         if (abs_mode) {
             if (w - B > thr || w + B < -thr) decided = 1;
@@ -147,16 +178,19 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
         const uint nd = stack[best];
         stack[best] = stack[sp - 1u];
         sb[best] = sb[sp - 1u];
+        se[best] = se[sp - 1u];
         sp--;
-        const clvox_cap_node n = nodes[nd];
-        if (n.child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
-            for (uint t = 0; t < n.tri_count; t++)
-                S += clvox_cap_solid(caps + (size_t)(n.tri_first + t) * 9u, px, py, pz, axis);
+        const uint child = nodes[nd].child;
+        if (child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
+            const uint first = nodes[nd].tri_first, count = nodes[nd].tri_count;
+            for (uint t = 0; t < count; t++)
+                S += clvox_cap_solid(caps + (size_t)(first + t) * 9u, px, py, pz, axis);
             evaluated = 1;
         } else {
             for (uint c = 0; c < 2u; c++) {
-                stack[sp] = n.child + c;
-                sb[sp++] = clvox_cap_bound(nodes + n.child + c, px, py, pz, axis, 0, 0, 0);
+                stack[sp] = child + c;
+                clvox_cap_estimate(nodes + child + c, px, py, pz, &se[sp], &sb[sp]);
+                sp++;
             }
         }
     }
@@ -174,4 +208,12 @@ inline void clvox_scaled_xyz(uint axis, clvox_real gu, clvox_real gv, clvox_real
     *x = g[0] * h[0];
     *y = g[1] * h[1];
     *z = g[2] * h[2];
+}
+
+/* Scaled box of the grid-space (u, v, w) box [g0, g1]. */
+inline void clvox_scaled_box(uint axis, const clvox_real *g0, const clvox_real *g1, global const clvox_real *h,
+                             clvox_real *q0, clvox_real *q1)
+{
+    clvox_scaled_xyz(axis, g0[0], g0[1], g0[2], h, &q0[0], &q0[1], &q0[2]);
+    clvox_scaled_xyz(axis, g1[0], g1[1], g1[2], h, &q1[0], &q1[1], &q1[2]);
 }

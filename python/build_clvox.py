@@ -85,6 +85,10 @@ typedef enum clvox_metric { CLVOX_METRIC_NEAREST = 0, CLVOX_METRIC_OUTER, CLVOX_
 typedef enum clvox_mode { CLVOX_MODE_SOLID = 0, CLVOX_MODE_SURFACE, CLVOX_MODE_CONSERVATIVE,
                           CLVOX_MODE_COUNT } clvox_mode;
 
+typedef enum clvox_inside { CLVOX_INSIDE_DEFAULT = 0, CLVOX_INSIDE_WINDING, CLVOX_INSIDE_WINDING_ABS,
+                            CLVOX_INSIDE_PARITY, CLVOX_INSIDE_COUNT } clvox_inside;
+const char *clvox_inside_name(clvox_inside inside);
+
 typedef struct clvox_voxelize_options {
     size_t size; clvox_method method; clvox_axis ray_axis; uint32_t quadtree_max_depth;
     uint32_t quadtree_leaf_size; uint32_t slab_depth; uint32_t hit_capacity; clvox_compression compression;
@@ -92,7 +96,8 @@ typedef struct clvox_voxelize_options {
     clvox_progress_fn progress; void *progress_user;
     uint32_t oversample; uint32_t oversample_points; int stochastic; uint64_t seed; uint32_t channels;
     int threshold_set; double threshold; const clvox_palette *palette; clvox_metric metric;
-    int palette_no_early_out; int nearest_shortcut; double shortcut_alpha, shortcut_beta; clvox_mode mode; ...;
+    int palette_no_early_out; int nearest_shortcut; double shortcut_alpha, shortcut_beta; clvox_mode mode;
+    clvox_inside inside; double weld; ...;
 } clvox_voxelize_options;
 
 #define CLVOX_CHANNEL_OCCUPANCY ...
@@ -100,13 +105,21 @@ typedef struct clvox_voxelize_options {
 #define CLVOX_CHANNEL_ELEMENT ...
 #define CLVOX_CHANNEL_SCORE ...
 
+typedef struct clvox_winding_report {
+    uint64_t merged_vertices; uint64_t welded_vertices; uint64_t dropped_triangles; uint64_t components;
+    uint64_t closed_components; uint64_t cavities; uint64_t flipped_triangles; uint64_t nonmanifold_edges;
+    uint64_t nonorientable_components; uint64_t boundary_edges; uint64_t holes; uint64_t cap_triangles;
+    uint64_t exact_points; double seconds; ...;
+} clvox_winding_report;
+
 typedef struct clvox_stats {
     double seconds[6]; uint64_t filled_voxels; uint64_t total_voxels; uint64_t rays; uint64_t odd_parity_rays;
     uint64_t overflow_rays; uint32_t max_crossings; uint32_t quadtree_depth; uint64_t quadtree_leaves;
     uint64_t quadtree_refs; uint32_t slab_depth; uint64_t peak_slab_bytes; uint64_t output_bytes;
     uint32_t channels; uint32_t samples_per_voxel; double coverage_sum;
     uint64_t palette_early_voxels; uint64_t palette_shortcut_voxels; uint64_t palette_scored_voxels;
-    uint64_t palette_nonempty_voxels; double palette_volume; ...;
+    uint64_t palette_nonempty_voxels; double palette_volume; clvox_inside inside;
+    clvox_winding_report winding; ...;
 } clvox_stats;
 
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,

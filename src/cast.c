@@ -410,6 +410,27 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     return CLVOX_OK;
 }
 
+/* The winding arguments that close the column consumers' argument lists
+ * (coverage.cl, palette_score.cl); NULL buffers on parity runs. The
+ * coverage kernel takes the ray axis (0..2) here, the palette kernel has
+ * its own (1..3) earlier. */
+static cl_int column_winding_args(const clvox__method_state *s, const batch_mem *m, cl_kernel k, cl_uint *i,
+                                  int with_axis)
+{
+    cl_uint axis = (cl_uint)s->axes.perm[0];
+    cl_int err = 0;
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &m->signs);
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &m->rays);
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_uint), &s->abs_mode);
+    if (with_axis) err |= clSetKernelArg(k, (*i)++, sizeof(cl_uint), &axis);
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &s->caps.h);
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &s->caps.nodes);
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_uint), &s->caps.node_count);
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &s->caps.tris);
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &m->exact);
+    return err;
+}
+
 static clvox_status coverage_enqueue(clvox__method_state *s, const batch_mem *m, cl_uint n_cols,
                                      const slab_target *t, cl_event *ev)
 {
@@ -444,6 +465,7 @@ static clvox_status coverage_enqueue(clvox__method_state *s, const batch_mem *m,
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), occ ? &occ : NULL);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->sums);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
+    err |= column_winding_args(s, m, k, &i, 1);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_coverage)");
     size_t local = 64, global = ((size_t)n_cols + local - 1) / local * local;
     err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
@@ -500,6 +522,7 @@ static clvox_status palette_enqueue(clvox__method_state *s, const batch_mem *m, 
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->pstats);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->pvolume);
+    err |= column_winding_args(s, m, k, &i, 0);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_palette_score)");
     size_t local = 64, global = ((size_t)n_cols + local - 1) / local * local;
     err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
@@ -516,9 +539,8 @@ static clvox_status winding_enqueue(clvox__method_state *s, const batch_mem *m, 
                                     cl_event *ev)
 {
     clvox_context *ctx = s->ctx;
-    cl_uint zero = 0, capacity = m->capacity, axis = (cl_uint)s->axes.perm[0];
-    cl_int err = clEnqueueFillBuffer(ctx->queue, m->exact, &zero, sizeof zero, 0, sizeof zero, 0, NULL, NULL);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the exact-point counter");
+    cl_uint capacity = m->capacity, axis = (cl_uint)s->axes.perm[0];
+    cl_int err = 0;
     cl_kernel k = s->k_classify;
     cl_uint i = 0;
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->rays);
@@ -586,6 +608,11 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
     err |= clSetKernelArg(s->k_sort, 4, sizeof(cl_mem), &m->signs);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(cast kernels)");
 
+    if (s->winding) {
+        cl_uint zero = 0;
+        err = clEnqueueFillBuffer(ctx->queue, m->exact, &zero, sizeof zero, 0, sizeof zero, 0, NULL, NULL);
+        if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the exact-point counter");
+    }
     err = clEnqueueNDRangeKernel(ctx->queue, s->k_lookup, 1, NULL, &global, &local, 0, NULL, &ev[0]);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_quadtree_lookup");
     err = clEnqueueNDRangeKernel(ctx->queue, s->k_intersect, 1, NULL, &global, &local, 0, NULL, &ev[1]);

@@ -656,19 +656,39 @@ static void print_help(void)
     fputs(
 "Mode (what a voxel holds; default solid):\n"
 "  --mode solid|surface|conservative\n"
-"                           solid: the voxel centre is inside the mesh (parity;\n"
-"                           the mesh must be closed); surface: the voxel's closed\n"
+"                           solid: the voxel centre is inside the mesh (see\n"
+"                           --inside); surface: the voxel's closed\n"
 "                           cell meets a triangle (exact: a triangle touching a\n"
 "                           cell's face, edge or corner marks it, so a face on the\n"
 "                           plane between two cells marks both; degenerate\n"
 "                           triangles mark what they touch; no parity, so open\n"
 "                           meshes and triangle soups are fine; --method and its\n"
 "                           options do not apply); conservative: solid or surface\n"
-"                           (solid by --method, closed mesh). Both are binary\n"
+"                           (solid by --method and --inside). Both are binary\n"
 "                           (occupancy; no --oversample, --palette)\n"
 "\n"
+"Inside test (solid voxels and samples; ray method):\n"
+"  --inside winding|winding-abs|parity\n"
+"                           winding (default): inside where the generalized\n"
+"                           winding number w > 1/2 (Jacobson et al.), exactly:\n"
+"                           open, cracked, mis-oriented and overlapping meshes\n"
+"                           give what they enclose (the union of overlapping\n"
+"                           parts, cavities kept), closed consistent meshes the\n"
+"                           same voxels as parity. The mesh is prepared first:\n"
+"                           vertices at equal positions merged, triangles\n"
+"                           oriented across manifold edges (outwards; shells\n"
+"                           nested in an odd number of others inwards), holes\n"
+"                           closed by caps whose solid angle is taken off again.\n"
+"                           winding-abs: |w| > 1/2 (keeps wholly inverted parts).\n"
+"                           parity: an odd number of crossings beyond the centre\n"
+"                           (Thon et al.; needs a closed mesh). The tetra method\n"
+"                           is parity by construction.\n"
+"  --weld EPS               winding: also merge vertices within EPS (mesh units)\n"
+"                           of each other, closing cracks (default 0: exact only)\n"
+"\n", stdout);
+    fputs(
 "Method:\n"
-"  --method ray|tetra       ray: quadtree + ray parity (Thon et al.); tetra: XOR\n"
+"  --method ray|tetra       ray: quadtree + ray casting (Thon et al.); tetra: XOR\n"
 "                           of the tetrahedra from one origin to every triangle\n"
 "                           (Rueda et al.) (default ray)\n"
 "  --axis x|y|z             ray direction (ray method; default x)\n"
@@ -1396,6 +1416,19 @@ static void print_summary(const char *mesh_path, const clvox_mesh_report *r, con
         printf(LABEL "%llu cast, %llu odd parity, %llu overflow redone, at most %u crossings per ray\n", "rays",
                (unsigned long long)s->rays, (unsigned long long)s->odd_parity_rays,
                (unsigned long long)s->overflow_rays, (unsigned)s->max_crossings);
+    if (s->inside == CLVOX_INSIDE_WINDING || s->inside == CLVOX_INSIDE_WINDING_ABS) {
+        const clvox_winding_report *w = &s->winding;
+        printf(LABEL "%s: %llu vertices merged (%llu welded), %llu of %llu patches closed, %llu cavities, "
+                     "%llu triangles flipped, %llu holes closed by %llu caps, %llu points exact (%.3f s)\n",
+               "winding", s->inside == CLVOX_INSIDE_WINDING ? "w > 1/2" : "|w| > 1/2",
+               (unsigned long long)(w->merged_vertices + w->welded_vertices), (unsigned long long)w->welded_vertices,
+               (unsigned long long)w->closed_components, (unsigned long long)w->components,
+               (unsigned long long)w->cavities, (unsigned long long)w->flipped_triangles,
+               (unsigned long long)w->holes, (unsigned long long)w->cap_triangles,
+               (unsigned long long)w->exact_points, w->seconds);
+    } else if (s->inside == CLVOX_INSIDE_PARITY && a->vox.mode != CLVOX_MODE_SURFACE) {
+        printf(LABEL "parity (odd number of crossings beyond the centre)\n", "inside");
+    }
     printf(LABEL "load %.3f  setup %.3f  partition %.3f  cast %.3f  classify %.3f  write %.3f  "
                  "total %.3f s (wall %.3f s)\n",
            "time", s->seconds[CLVOX_STAGE_LOAD], setup_seconds, s->seconds[CLVOX_STAGE_PARTITION],
@@ -1707,7 +1740,11 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     /* Warnings come from the mesh report, whatever the method, one line each
      * (surface mode has no inside: open meshes and duplicates are fine). */
     const int solid = a->vox.mode != CLVOX_MODE_SURFACE;
-    if (solid && !report->closed) {
+    const int winding = res->stats.inside == CLVOX_INSIDE_WINDING || res->stats.inside == CLVOX_INSIDE_WINDING_ABS;
+    if (solid && winding) {
+        /* open and overlapping meshes are what the winding test is for; the
+         * summary says what the preparation did */
+    } else if (solid && !report->closed) {
         char rays[96] = "";
         if (res->stats.odd_parity_rays > 0)
             snprintf(rays, sizeof rays, "; %llu rays crossed it an odd number of times",
@@ -1740,7 +1777,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
                            "grid)",
                            far, ulp, 100.0 * ulp / hmin);
     }
-    if (solid && report->duplicate_triangles > 0)
+    if (solid && !winding && report->duplicate_triangles > 0)
         record_warning(res,
                        "%llu triangles repeat the corners of another one (duplicated or coincident surfaces): the "
                        "parity rule cancels coincident copies, which is right where two solids touch face to face "
@@ -1844,6 +1881,7 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
     jb_u64(b, "max_depth", a->vox.quadtree_max_depth);
     jb_u64(b, "leaf_size", a->vox.quadtree_leaf_size);
     jb_u64(b, "slab", a->vox.slab_depth);
+    jb_num(b, "weld", a->vox.weld);
     jb_str(b, "compression", compression_name(effective_compression(a)));
     if (a->vox.method == CLVOX_METHOD_TETRA) {
         if (a->vox.tetra_origin == CLVOX_TETRA_ORIGIN_POINT) jb_num3(b, "tetra_origin", a->vox.tetra_point);
@@ -1915,10 +1953,35 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
         jb_u64(b, "refs", st->quadtree_refs);
         jb_obj_end(b);
         jb_u64(b, "slab_depth", st->slab_depth);
+        if (a->vox.mode != CLVOX_MODE_SURFACE)
+            jb_str(b, "inside", clvox_inside_name(st->inside));
+        else
+            jb_null(b, "inside");
+        if (st->inside == CLVOX_INSIDE_WINDING || st->inside == CLVOX_INSIDE_WINDING_ABS) {
+            const clvox_winding_report *w = &st->winding;
+            jb_obj_begin(b, "winding");
+            jb_u64(b, "merged_vertices", w->merged_vertices);
+            jb_u64(b, "welded_vertices", w->welded_vertices);
+            jb_u64(b, "dropped_triangles", w->dropped_triangles);
+            jb_u64(b, "components", w->components);
+            jb_u64(b, "closed_components", w->closed_components);
+            jb_u64(b, "cavities", w->cavities);
+            jb_u64(b, "flipped_triangles", w->flipped_triangles);
+            jb_u64(b, "nonmanifold_edges", w->nonmanifold_edges);
+            jb_u64(b, "nonorientable_components", w->nonorientable_components);
+            jb_u64(b, "boundary_edges", w->boundary_edges);
+            jb_u64(b, "holes", w->holes);
+            jb_u64(b, "cap_triangles", w->cap_triangles);
+            jb_u64(b, "exact_points", w->exact_points);
+            jb_num(b, "seconds", w->seconds);
+            jb_obj_end(b);
+        } else {
+            jb_null(b, "winding");
+        }
     } else {
         static const char *const absent[] = {"channels", "filled_voxels", "total_voxels", "volume",
                                              "samples_per_voxel", "coverage_sum", "palette", "rays", "quadtree",
-                                             "slab_depth"};
+                                             "slab_depth", "inside", "winding"};
         for (size_t i = 0; i < sizeof absent / sizeof absent[0]; i++) jb_null(b, absent[i]);
     }
     jb_obj_begin(b, "seconds");

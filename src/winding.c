@@ -146,7 +146,7 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
         uint32_t first = nd->tri_first, count = nd->tri_count;
         double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
         double clo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, chi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
-        double area = 0.0;
+        double area = 0.0, vec[3] = {0, 0, 0};
         for (uint32_t i = first; i < first + count; i++) {
             const double *p = q + (size_t)order[i] * 9;
             for (int a = 0; a < 3; a++) {
@@ -163,15 +163,28 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
             double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
                    cz = e1[0] * e2[1] - e1[1] * e2[0];
             area += 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+            vec[0] += 0.5 * cx, vec[1] += 0.5 * cy, vec[2] += 0.5 * cz;
         }
         for (int a = 0; a < 3; a++) {
             nd->lo[a] = round_down(lo[a]);
             nd->hi[a] = round_up(hi[a]);
+            nd->centre[a] = (float)(0.5 * (lo[a] + hi[a]));
+            nd->normal4pi[a] = (float)(vec[a] / (4.0 * 3.14159265358979323846));
         }
+        double r2 = 0.0;
+        for (uint32_t i = first; i < first + count; i++)
+            for (int c = 0; c < 3; c++) {
+                const double *p = q + (size_t)order[i] * 9 + c * 3;
+                double dx = p[0] - nd->centre[0], dy = p[1] - nd->centre[1], dz = p[2] - nd->centre[2];
+                double d2 = dx * dx + dy * dy + dz * dz;
+                if (d2 > r2) r2 = d2;
+            }
+        nd->radius = round_up(sqrt(r2) * (1.0 + 1e-9));
+        nd->pad0 = 0;
         nd->area4pi = round_up(area / (4.0 * 3.14159265358979323846) * (1.0 + 1e-9));
         nd->half_count = round_up(0.5 * count);
         nd->child = 0;
-        nd->pad = 0;
+        nd->pad1 = 0;
         if (count <= CAP_LEAF) continue;
         int axis = 0;
         for (int a = 1; a < 3; a++)
@@ -215,4 +228,100 @@ done:
     free(tris);
     if (st != CLVOX_OK) clvox__caps_release(out);
     return st;
+}
+
+/* ---- caps ---------------------------------------------------------------- */
+
+/* Caps of one loop (edges v[i] -> v[i+1], the last back to the first). A
+ * fan from one apex over a long loop would put every cap triangle near
+ * every point of the hole, so that each of them needs all of its solid
+ * angles; instead the loop is halved until at most 8 corners are left: each
+ * pass cuts off the triangles (v[2i+2], v[2i+1], v[2i]) -- thin slivers
+ * along the rim, where only points near the rim see them -- and keeps every
+ * other corner; the last polygon is closed by a fan from an apex at its
+ * centroid, moved off its plane by 0.0731 times its size (so that a flat
+ * hole's fan does not lie in a plane of voxel centres, where the centres
+ * on its spokes would be ties). Every new edge is cut off again by the next
+ * pass, so surface + caps stays a closed chain. */
+typedef struct cap_out {
+    uint32_t *tris;
+    size_t count, cap;
+    float *apex;
+    size_t apex_count, apex_cap;
+} cap_out;
+
+static int cap_emit(cap_out *o, uint32_t a, uint32_t b, uint32_t c)
+{
+    if (o->count == o->cap) {
+        size_t cap = o->cap * 2 + 64;
+        uint32_t *t = realloc(o->tris, cap * 3 * sizeof *t);
+        if (!t) return -1;
+        o->tris = t;
+        o->cap = cap;
+    }
+    o->tris[o->count * 3] = a;
+    o->tris[o->count * 3 + 1] = b;
+    o->tris[o->count * 3 + 2] = c;
+    o->count++;
+    return 0;
+}
+
+static int cap_loop(const clvox_mesh *mesh, uint32_t *v, size_t n, cap_out *o)
+{
+    while (n > 8) {
+        size_t k = 0, i = 0;
+        for (; i + 2 <= n; i += 2) {
+            uint32_t a = v[i], b = v[i + 1], c = v[(i + 2) % n];
+            if (cap_emit(o, c, b, a) != 0) return -1;
+            v[k++] = a;
+        }
+        if (i < n) v[k++] = v[i]; /* odd n: the last corner stays */
+        n = k;
+    }
+    if (n < 3) return 0; /* a -> b -> a: the two edges cancel */
+    double c[3] = {0, 0, 0}, nrm[3] = {0, 0, 0}, ext = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) c[a] += mesh->xyz[3 * (size_t)v[i] + a] / (double)n;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = mesh->xyz + 3 * (size_t)v[i], *q = mesh->xyz + 3 * (size_t)v[(i + 1) % n];
+        double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]}, e[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+        nrm[0] += d[1] * e[2] - d[2] * e[1];
+        nrm[1] += d[2] * e[0] - d[0] * e[2];
+        nrm[2] += d[0] * e[1] - d[1] * e[0];
+        double r = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (r > ext) ext = r;
+    }
+    double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+    if (!(len > 0)) nrm[0] = 0.267, nrm[1] = 0.534, nrm[2] = 0.802, len = 1.0;
+    if (o->apex_count == o->apex_cap) {
+        size_t cap = o->apex_cap * 2 + 16;
+        float *t = realloc(o->apex, cap * 3 * sizeof *t);
+        if (!t) return -1;
+        o->apex = t;
+        o->apex_cap = cap;
+    }
+    uint32_t apex = (uint32_t)(mesh->vertex_count + o->apex_count);
+    for (int a = 0; a < 3; a++) o->apex[o->apex_count * 3 + a] = (float)(c[a] + 0.0731 * ext * nrm[a] / len);
+    o->apex_count++;
+    for (size_t i = 0; i < n; i++)
+        if (cap_emit(o, v[(i + 1) % n], v[i], apex) != 0) return -1;
+    return 0;
+}
+
+clvox_status clvox__winding_cap_loops(clvox_context *ctx, const clvox_mesh *mesh, uint32_t *verts,
+                                      const size_t *start, size_t loops, clvox__winding_mesh *wm)
+{
+    cap_out o = {wm->caps, wm->cap_count, wm->cap_count, wm->apex, wm->apex_count, wm->apex_count};
+    int rc = 0;
+    for (size_t k = 0; rc == 0 && k < loops; k++) rc = cap_loop(mesh, verts + start[k], start[k + 1] - start[k], &o);
+    wm->caps = o.tris;
+    wm->cap_count = o.count;
+    wm->apex = o.apex;
+    wm->apex_count = o.apex_count;
+    wm->report.holes += loops;
+    wm->report.cap_triangles = o.count;
+    if (rc != 0) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for the caps of %zu holes", loops);
+    if (mesh->vertex_count + wm->apex_count > UINT32_MAX)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "too many vertices with the caps' apexes");
+    return CLVOX_OK;
 }

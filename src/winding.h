@@ -23,3 +23,10 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
                                 const clvox_grid *grid, clvox__caps *out);
 void clvox__caps_release(clvox__caps *c);
 #endif
+
+/* Closes boundary loops with caps (src/winding.c, "caps"): loop k is the
+ * vertices verts[start[k] .. start[k+1]) (edges v[i] -> v[i+1], the last
+ * back to the first; the array is used as scratch). Appends to wm->caps and
+ * wm->apex, adds to report.holes, sets report.cap_triangles. */
+clvox_status clvox__winding_cap_loops(clvox_context *ctx, const clvox_mesh *mesh, uint32_t *verts,
+                                      const size_t *start, size_t loops, clvox__winding_mesh *wm);

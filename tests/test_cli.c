@@ -757,7 +757,7 @@ static void test_warnings(void)
         static const char *const twice[] = {"cube_twice.obj", "cube_twice_shared.obj"};
         for (int k = 0; k < 2; k++) {
             path_join(p, sizeof p, g_in, twice[k]);
-            run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], "-o", out));
+            run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], "--inside", "parity", "-o", out));
             CHECK_MSG(r.code == 0, "%s %s: exit %d: %s", twice[k], methods[m], r.code, r.err);
             CHECK_MSG(filled_count(r.out, NULL) == 0, "%s %s: not empty:\n%s", twice[k], methods[m], r.out);
             CHECK_MSG(count_lines(r.err) == 1 && lines_starting(r.err, "clvox: warning: ") == 1 &&
@@ -772,7 +772,7 @@ static void test_warnings(void)
          * stays in the summary and joins that line, no second warning. */
         path_join(p, sizeof p, g_in, "open_cube.obj");
         const char *axis = m == 0 ? "--axis=z" : "--slab=0";
-        run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], axis, "-o", out));
+        run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], "--inside", "parity", axis, "-o", out));
         CHECK_MSG(r.code == 0, "open cube %s: exit %d: %s", methods[m], r.code, r.err);
         CHECK_MSG(count_lines(r.err) == 1 &&
                       lines_starting(r.err, "clvox: warning: the mesh is not closed (4 boundary edges") == 1,
@@ -785,9 +785,41 @@ static void test_warnings(void)
         }
         run_free(&r);
         /* -q keeps the warning */
-        run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], "-o", out, "-q"));
+        run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], "--inside", "parity", "-o", out, "-q"));
         CHECK_MSG(r.code == 0 && r.out[0] == '\0' && count_lines(r.err) == 1 && strstr(r.err, "not closed"),
                   "open cube %s -q: exit %d [%s] [%s]", methods[m], r.code, r.out, r.err);
+        run_free(&r);
+        if (m == 0) {
+            /* the winding number (default): the doubled cubes are the cube (their union), the open cube is
+             * closed by a cap; no warnings */
+            for (int k = 0; k < 2; k++) {
+                path_join(p, sizeof p, g_in, twice[k]);
+                run_cli(&r, NULL, ARGS(p, "-r", "8", "-o", out));
+                CHECK_MSG(r.code == 0 && filled_count(r.out, NULL) == 512 && r.err[0] == '\0',
+                          "%s winding: exit %d, [%s]\n%s", twice[k], r.code, r.err, r.out);
+                run_free(&r);
+            }
+            path_join(p, sizeof p, g_in, "open_cube.obj");
+            run_cli(&r, NULL, ARGS(p, "-r", "8", "--axis=z", "-o", out));
+            const char *w = find_field(r.out, "winding");
+            CHECK_MSG(r.code == 0 && filled_count(r.out, NULL) == 512 && r.err[0] == '\0' && w &&
+                          strstr(w, "1 holes closed by 4 caps"),
+                      "open cube winding: exit %d, [%s]\n%s", r.code, r.err, r.out);
+            run_free(&r);
+            /* tetra is parity by construction */
+            run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", "tetra", "--inside", "winding", "-o", out));
+            CHECK_MSG(r.code != 0 && count_lines(r.err) == 1 && strstr(r.err, "parity method"),
+                      "tetra --inside winding: exit %d [%s]", r.code, r.err);
+            run_free(&r);
+            run_cli(&r, NULL, ARGS(p, "-r", "8", "--inside", "even", "-o", out));
+            CHECK_MSG(r.code == 2 && count_lines(r.err) == 1 && strstr(r.err, "--inside 'even'"),
+                      "--inside even: exit %d [%s]", r.code, r.err);
+            run_free(&r);
+            run_cli(&r, NULL, ARGS(p, "-r", "8", "--weld", "-1", "-o", out));
+            CHECK_MSG(r.code == 2 && count_lines(r.err) == 1 && strstr(r.err, "--weld"), "--weld -1: exit %d [%s]",
+                      r.code, r.err);
+            continue;
+        }
         run_free(&r);
     }
     unlink(out);

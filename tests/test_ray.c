@@ -264,6 +264,7 @@ static void test_open_mesh(void)
         clvox_stats s;
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.ray_axis = a;
+        o.inside = CLVOX_INSIDE_PARITY; /* winding closes the hole with a cap */
         uint8_t *v = run_opts(m, &g, &o, &s);
         seen += s.odd_parity_rays > 0;
         free(v);
@@ -396,7 +397,9 @@ static void test_coincident_surfaces(void)
     m = to_mesh(&ok);
     clvox_stats s;
     t0 = clvox__now();
-    CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, &g8, NULL, v, sizeof v, &s));
+    clvox_voxelize_options par = CLVOX_VOXELIZE_OPTIONS_INIT;
+    par.inside = CLVOX_INSIDE_PARITY;
+    CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, &g8, &par, v, sizeof v, &s));
     CHECK(count(v, sizeof v) == 0 && s.max_crossings == 60000 && s.overflow_rays > 0);
     CHECK_MSG(clvox__now() - t0 < 10.0, "30000 coincident boxes took %.1f s", clvox__now() - t0);
     /* references: no split multiplies them (was 4x per level) */

@@ -771,7 +771,7 @@ static void test_cli(void)
     snprintf(args, sizeof args, "'%s' -r 16 --mode surface -o '%s' --no-progress", mesh, out);
     CHECK(cli(args, err, sizeof err) == 0);
     CHECK_MSG(!strstr(err, "not closed"), "surface mode warned about an open mesh: %s", err);
-    snprintf(args, sizeof args, "'%s' -r 16 --mode solid -o '%s' --no-progress", mesh, out);
+    snprintf(args, sizeof args, "'%s' -r 16 --mode solid --inside parity -o '%s' --no-progress", mesh, out);
     CHECK(cli(args, err, sizeof err) == 0 && strstr(err, "not closed"));
     snprintf(args, sizeof args, "'%s' -r 16 --mode bogus -o '%s'", mesh, out);
     CHECK(cli(args, err, sizeof err) == 2 && strstr(err, "--mode"));

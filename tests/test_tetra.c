@@ -62,10 +62,13 @@ static uint8_t *run(const clvox_mesh *mesh, const clvox_grid *g, const clvox_vox
     return v;
 }
 
+/* Ray and tetra compared as the two parity methods (the ray method's
+ * default winding number unions overlapping parts, the XOR cannot). */
 static clvox_voxelize_options opts(clvox_method m)
 {
     clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
     o.method = m;
+    o.inside = CLVOX_INSIDE_PARITY;
     return o;
 }
 

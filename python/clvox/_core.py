@@ -19,6 +19,11 @@ _CHANNELS = (("occupancy", lib.CLVOX_CHANNEL_OCCUPANCY), ("coverage", lib.CLVOX_
 _METHODS = {"ray": lib.CLVOX_METHOD_RAY, "tetra": lib.CLVOX_METHOD_TETRA}
 _MODES = {"solid": lib.CLVOX_MODE_SOLID, "surface": lib.CLVOX_MODE_SURFACE,
           "conservative": lib.CLVOX_MODE_CONSERVATIVE}
+_INSIDE = {None: lib.CLVOX_INSIDE_DEFAULT, "winding": lib.CLVOX_INSIDE_WINDING,
+           "winding-abs": lib.CLVOX_INSIDE_WINDING_ABS, "parity": lib.CLVOX_INSIDE_PARITY}
+_WINDING_FIELDS = ("merged_vertices", "welded_vertices", "dropped_triangles", "components", "closed_components",
+                   "cavities", "flipped_triangles", "nonmanifold_edges", "nonorientable_components",
+                   "boundary_edges", "holes", "cap_triangles", "exact_points", "seconds")
 _AXES = {None: lib.CLVOX_AXIS_DEFAULT, "x": lib.CLVOX_AXIS_X, "y": lib.CLVOX_AXIS_Y, "z": lib.CLVOX_AXIS_Z}
 _METRICS = {"nearest": lib.CLVOX_METRIC_NEAREST, "outer": lib.CLVOX_METRIC_OUTER,
             "inner": lib.CLVOX_METRIC_INNER}
@@ -131,6 +136,9 @@ def _stats_dict(s):
     d = {f: getattr(s, f) for f in _STATS_FIELDS}
     d["channels"] = [n for n, bit in _CHANNELS if s.channels & bit]
     d["seconds"] = {_STAGES[i]: s.seconds[i] for i in range(lib.CLVOX_STAGE_COUNT)}
+    d["inside"] = ffi.string(lib.clvox_inside_name(s.inside)).decode()
+    d["winding"] = ({f: getattr(s.winding, f) for f in _WINDING_FIELDS}
+                    if s.inside in (lib.CLVOX_INSIDE_WINDING, lib.CLVOX_INSIDE_WINDING_ABS) else None)
     return d
 
 
@@ -427,7 +435,8 @@ class Context:
 
     def _options(self, run, *, mode="solid", method="ray", axis=None, oversample=None, stochastic=False, seed=0,
                  threshold=None, channels=None, palette=None, metric="nearest", no_early_out=False,
-                 shortcut=None, slab_depth=0, depth=0, leaf=0, compression=None, threads=0):
+                 shortcut=None, slab_depth=0, depth=0, leaf=0, compression=None, threads=0, inside=None,
+                 weld=0.0):
         o = ffi.new("clvox_voxelize_options *")
         o.size = ffi.sizeof("clvox_voxelize_options")
         o.mode = _choice(_MODES, mode, "mode")
@@ -435,6 +444,8 @@ class Context:
         o.ray_axis = _choice(_AXES, axis, "axis")
         o.compression = _choice(_COMPRESSIONS, compression, "compression")
         o.metric = _choice(_METRICS, metric, "metric")
+        o.inside = _choice(_INSIDE, inside, "inside")
+        o.weld = float(weld)
         if oversample is not None:
             if isinstance(oversample, (tuple, list)):
                 n, m = (int(x) for x in oversample)
@@ -516,6 +527,7 @@ class Context:
           axis=None|"x"|"y"|"z", oversample=K or (N, M), stochastic=False, seed=0,
           threshold=None|T, channels=None|"occupancy,coverage"|[...], palette=None|name|path,
           metric="nearest"|"outer"|"inner", no_early_out, shortcut=None|"auto"|(a, b),
+          inside=None (winding)|"winding"|"winding-abs"|"parity", weld=0.0,
           slab_depth, depth, leaf, threads.
         progress: None or f(fraction) -> False to cancel (CancelledError); called from this
           thread at most ~10 times a second. Ctrl-C raises KeyboardInterrupt (main thread)."""

@@ -129,3 +129,28 @@ def test_bad_arrays(ctx):
         ctx.voxelize((V, F), method="bogus")
     with pytest.raises(TypeError):
         ctx.voxelize(42)
+
+
+def test_inside_winding_and_parity(ctx):
+    """The winding number (default) closes a hole and unions overlapping copies; parity does
+    neither; the stats say what the preparation did."""
+    v, f = octa_sphere(3)
+    opened = f[1:]                      # one triangle removed: a hole
+    win = ctx.voxelize((v, opened), resolution=24)
+    par = ctx.voxelize((v, opened), resolution=24, inside="parity")
+    full = ctx.voxelize((v, f), resolution=24)
+    assert win.stats["inside"] == "winding" and par.stats["inside"] == "parity"
+    assert win.stats["winding"]["holes"] == 1 and par.stats["winding"] is None
+    assert np.array_equal(win.occupancy, full.occupancy)
+    assert par.occupancy.sum() != full.occupancy.sum()
+    # two copies, the second shifted: the union under winding, the XOR under parity
+    v2 = np.concatenate([v, v + np.array([0.5, 0.0, 0.0])])
+    f2 = np.concatenate([f, f + len(v)])
+    box = (-2, -2, -2, 3, 3, 3)
+    u = ctx.voxelize((v2, f2), dims=(20, 20, 20), box=box)
+    a = ctx.voxelize((v, f), dims=(20, 20, 20), box=box).occupancy
+    b = ctx.voxelize((v + np.array([0.5, 0.0, 0.0]), f), dims=(20, 20, 20), box=box).occupancy
+    x = ctx.voxelize((v2, f2), dims=(20, 20, 20), box=box, inside="parity").occupancy
+    assert np.array_equal(u.occupancy, a | b) and np.array_equal(x, a ^ b)
+    with pytest.raises(ValueError):
+        ctx.voxelize((v, f), resolution=8, inside="even")

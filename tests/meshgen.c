@@ -365,6 +365,370 @@ tmesh tmesh_random_overlap(uint64_t seed, unsigned n, double c1[3], double c2[3]
     return m;
 }
 
+/* ---- broken meshes ---- */
+tmesh tmesh_copy(const tmesh *m)
+{
+    tmesh c = {0};
+    tmesh_append(&c, m);
+    return c;
+}
+tmesh tmesh_soup(const tmesh *m)
+{
+    tmesh s = {0};
+    for (size_t t = 0; t < m->nt; t++) {
+        uint32_t v[3];
+        for (int k = 0; k < 3; k++) {
+            const float *p = m->xyz + 3 * (size_t)m->tri[3 * t + k];
+            v[k] = tmesh_add_vertex(&s, p[0], p[1], p[2]);
+        }
+        tmesh_add_tri(&s, v[0], v[1], v[2]);
+    }
+    return s;
+}
+void tmesh_flip_tri(tmesh *m, size_t t)
+{
+    uint32_t *p = m->tri + 3 * t, s = p[1];
+    p[1] = p[2];
+    p[2] = s;
+}
+void tmesh_edge_stats(const tmesh *m, uint64_t *boundary, uint64_t *nonmanifold, uint64_t *conflicts)
+{
+    size_t ne = 3 * m->nt;
+    uint64_t *e = malloc((ne ? ne : 1) * sizeof *e), *u = malloc((ne ? ne : 1) * sizeof *u);
+    if (!e || !u) abort();
+    for (size_t i = 0; i < ne; i++) {
+        uint32_t a = m->tri[i], b = m->tri[i - i % 3 + (i + 1) % 3];
+        e[i] = (uint64_t)a << 32 | b;
+        u[i] = a < b ? e[i] : (uint64_t)b << 32 | a;
+    }
+    qsort(e, ne, sizeof *e, cmp_u64);
+    qsort(u, ne, sizeof *u, cmp_u64);
+    *boundary = *nonmanifold = *conflicts = 0;
+    for (size_t i = 1; i < ne; i++) *conflicts += e[i] == e[i - 1];
+    for (size_t i = 0; i < ne;) {
+        size_t j = i;
+        while (j < ne && u[j] == u[i]) j++;
+        *boundary += j - i == 1;
+        *nonmanifold += j - i > 2;
+        i = j;
+    }
+    free(e);
+    free(u);
+}
+/* k distinct triangle indices below nt (partial Fisher-Yates), in order of drawing. */
+static size_t *pick_distinct(uint64_t *s, size_t nt, size_t k)
+{
+    size_t *idx = malloc((nt ? nt : 1) * sizeof *idx);
+    if (!idx) abort();
+    for (size_t i = 0; i < nt; i++) idx[i] = i;
+    for (size_t i = 0; i < k && i < nt; i++) {
+        size_t j = i + (size_t)(tmesh_rng_next(s) % (nt - i)), t = idx[i];
+        idx[i] = idx[j];
+        idx[j] = t;
+    }
+    return idx;
+}
+/* The triangles of m for which keep[t] is set (all vertices kept). */
+static tmesh filter_tris(const tmesh *m, const unsigned char *keep)
+{
+    tmesh o = {0};
+    for (size_t i = 0; i < m->nv; i++) tmesh_add_vertex(&o, m->xyz[3 * i], m->xyz[3 * i + 1], m->xyz[3 * i + 2]);
+    for (size_t t = 0; t < m->nt; t++)
+        if (keep[t]) tmesh_add_tri(&o, m->tri[3 * t], m->tri[3 * t + 1], m->tri[3 * t + 2]);
+    return o;
+}
+tmesh tmesh_open_box(uint64_t seed, const double lo[3], const double hi[3], unsigned n, unsigned removed,
+                     unsigned *mask)
+{
+    if (n < 1) n = 1;
+    if (removed < 1) removed = 1;
+    if (removed > 5) removed = 5;
+    tmesh box = tmesh_box_subdivided(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], n);
+    uint64_t s = seed;
+    size_t *faces = pick_distinct(&s, 6, removed);
+    unsigned bits = 0;
+    for (unsigned i = 0; i < removed; i++) bits |= 1u << faces[i];
+    free(faces);
+    unsigned char *keep = malloc(box.nt);
+    if (!keep) abort();
+    for (size_t t = 0; t < box.nt; t++) keep[t] = !(bits >> (t / (2 * (size_t)n * n)) & 1);
+    tmesh o = filter_tris(&box, keep);
+    free(keep);
+    tmesh_free(&box);
+    if (mask) *mask = bits;
+    return o;
+}
+tmesh tmesh_open_hemisphere(double cx, double cy, double cz, double r, unsigned n)
+{
+    if (n < 2) n = 2;
+    n += n & 1;
+    tmesh sp = tmesh_sphere(cx, cy, cz, r, n);
+    unsigned char *keep = malloc(sp.nt);
+    if (!keep) abort();
+    for (size_t t = 0; t < sp.nt; t++) {
+        double z = 0;
+        for (int k = 0; k < 3; k++) z += sp.xyz[3 * (size_t)sp.tri[3 * t + k] + 2];
+        keep[t] = z / 3 > cz;
+    }
+    tmesh o = filter_tris(&sp, keep);
+    free(keep);
+    tmesh_free(&sp);
+    return o;
+}
+/* Adds a vertex given in the cylinder's local frame (u, v across, t along axis). */
+static uint32_t add_local(tmesh *m, const double c[3], int axis, double u, double v, double t)
+{
+    double p[3];
+    p[axis] = c[axis] + t;
+    p[(axis + 1) % 3] = c[(axis + 1) % 3] + u; /* cyclic: keeps the orientation */
+    p[(axis + 2) % 3] = c[(axis + 2) % 3] + v;
+    return tmesh_add_vertex(m, p[0], p[1], p[2]);
+}
+tmesh tmesh_cylinder(const double c[3], int axis, double r, double h, unsigned seg, unsigned rows, int caps)
+{
+    tmesh m = {0};
+    if (seg < 3) seg = 3;
+    if (rows < 1) rows = 1;
+    for (unsigned j = 0; j <= rows; j++)
+        for (unsigned i = 0; i < seg; i++) {
+            double ph = 2 * PI * i / seg;
+            add_local(&m, c, axis, r * cos(ph), r * sin(ph), lerp_n(0, h, j, rows));
+        }
+#define CV(j, i) ((uint32_t)((j) * seg + (i) % seg))
+    for (unsigned j = 0; j < rows; j++)
+        for (unsigned i = 0; i < seg; i++) add_quad(&m, CV(j, i), CV(j, i + 1), CV(j + 1, i + 1), CV(j + 1, i));
+    if (caps) {
+        uint32_t bot = add_local(&m, c, axis, 0, 0, 0), top = add_local(&m, c, axis, 0, 0, h);
+        for (unsigned i = 0; i < seg; i++) {
+            tmesh_add_tri(&m, bot, CV(0, i + 1), CV(0, i));
+            tmesh_add_tri(&m, top, CV(rows, i), CV(rows, i + 1));
+        }
+    }
+#undef CV
+    return m;
+}
+tmesh tmesh_sphere_holes(uint64_t seed, double cx, double cy, double cz, double r, unsigned n, unsigned k)
+{
+    tmesh sp = tmesh_sphere(cx, cy, cz, r, n);
+    uint64_t s = seed;
+    size_t *idx = pick_distinct(&s, sp.nt, k);
+    unsigned char *keep = malloc(sp.nt);
+    if (!keep) abort();
+    memset(keep, 1, sp.nt);
+    for (size_t i = 0; i < k && i < sp.nt; i++) keep[idx[i]] = 0;
+    tmesh o = filter_tris(&sp, keep);
+    free(keep);
+    free(idx);
+    tmesh_free(&sp);
+    return o;
+}
+tmesh tmesh_sphere_flipped(uint64_t seed, double cx, double cy, double cz, double r, unsigned n, unsigned k)
+{
+    tmesh sp = tmesh_sphere(cx, cy, cz, r, n);
+    uint64_t s = seed;
+    size_t *idx = pick_distinct(&s, sp.nt, k);
+    for (size_t i = 0; i < k && i < sp.nt; i++) tmesh_flip_tri(&sp, idx[i]);
+    free(idx);
+    return sp;
+}
+tmesh tmesh_cracked_box(uint64_t seed, const double lo[3], const double hi[3], double shift)
+{
+    tmesh box = tmesh_box(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]), o = {0};
+    uint64_t s = seed;
+    int seen[8] = {0};
+    for (size_t t = 0; t < box.nt; t += 2) { /* one face: triangles t, t + 1 = quad a b c, a c d */
+        const uint32_t *q = box.tri + 3 * t;
+        uint32_t corner[4] = {q[0], q[1], q[2], q[5]}, v[4];
+        for (int k = 0; k < 4; k++) {
+            const float *p = box.xyz + 3 * (size_t)corner[k];
+            double x[3] = {p[0], p[1], p[2]};
+            if (seen[corner[k]]++ && (tmesh_rng_next(&s) >> 63))
+                for (int a = 0; a < 3; a++) x[a] += (tmesh_rng_next(&s) >> 63) ? shift : -shift;
+            v[k] = tmesh_add_vertex(&o, x[0], x[1], x[2]);
+        }
+        add_quad(&o, v[0], v[1], v[2], v[3]);
+    }
+    tmesh_free(&box);
+    return o;
+}
+tmesh tmesh_cad_union(uint64_t seed)
+{
+    uint64_t s = seed;
+    double j[12];
+    for (int i = 0; i < 12; i++) j[i] = urange(&s, -0.01, 0.01);
+    tmesh m = tmesh_box(0.12 + j[0], 0.21 + j[1], 0.17 + j[2], 0.61 + j[3], 0.58 + j[4], 0.49 + j[5]);
+    tmesh b = tmesh_box(0.41 + j[6], 0.33 + j[7], 0.29 + j[8], 0.87 + j[9], 0.79 + j[10], 0.83 + j[11]);
+    double cz[3] = {0.30 + j[1], 0.62 + j[2], 0.13 + j[3]}, cx[3] = {0.09 + j[4], 0.42 + j[5], 0.62 + j[6]};
+    tmesh c1 = tmesh_cylinder(cz, 2, 0.17, 0.58, 40, 3, 1); /* along z, meets the first box */
+    tmesh c2 = tmesh_cylinder(cx, 0, 0.14, 0.84, 36, 5, 1); /* along x, through both boxes */
+    tmesh_append(&m, &b);
+    tmesh_append(&m, &c1);
+    tmesh_append(&m, &c2);
+    tmesh_free(&b);
+    tmesh_free(&c1);
+    tmesh_free(&c2);
+    return m;
+}
+tmesh tmesh_shifted_shells(double cx, double cy, double cz, double r, unsigned n, double d)
+{
+    double u[3] = {1, 0.37, 0.21}, l = sqrt(dot3(u, u));
+    tmesh m = tmesh_sphere(cx, cy, cz, r, n), b = tmesh_sphere(cx + d * u[0] / l, cy + d * u[1] / l, cz + d * u[2] / l, r, n);
+    tmesh_append(&m, &b);
+    tmesh_free(&b);
+    return m;
+}
+tmesh tmesh_moebius(double cx, double cy, double cz, double R, double hw, unsigned nu, unsigned nv)
+{
+    tmesh m = {0};
+    if (nu < 3) nu = 3;
+    if (nv < 1) nv = 1;
+    for (unsigned i = 0; i < nu; i++)
+        for (unsigned k = 0; k <= nv; k++) {
+            double u = 2 * PI * i / nu, v = lerp_n(-hw, hw, k, nv), rho = R + v * cos(u / 2);
+            tmesh_add_vertex(&m, cx + rho * cos(u), cy + rho * sin(u), cz + v * sin(u / 2));
+        }
+    /* (nu, k) is (0, nv - k): the half twist */
+#define MV(i, k) ((uint32_t)((i) < nu ? (i) * (nv + 1) + (k) : nv - (k)))
+    for (unsigned i = 0; i < nu; i++)
+        for (unsigned k = 0; k < nv; k++) add_quad(&m, MV(i, k), MV(i + 1, k), MV(i + 1, k + 1), MV(i, k + 1));
+#undef MV
+    return m;
+}
+tmesh tmesh_nested_boxes(double cx, double cy, double cz, const double s[3], unsigned flags)
+{
+    static const double stretch[3] = {1.0, 0.83, 0.71};
+    tmesh m = {0};
+    for (int b = 0; b < 3; b++) {
+        double e[3];
+        for (int a = 0; a < 3; a++) e[a] = s[b] * stretch[a];
+        tmesh one = tmesh_box(cx - e[0], cy - e[1], cz - e[2], cx + e[0], cy + e[1], cz + e[2]);
+        if ((b == 1 && !(flags & 1)) || (b == 2 && (flags & 2))) tmesh_flip(&one);
+        tmesh_append(&m, &one);
+        tmesh_free(&one);
+    }
+    return m;
+}
+tmesh tmesh_sphere_membrane(double cx, double cy, double cz, double r, unsigned n)
+{
+    if (n < 2) n = 2;
+    n += n & 1;
+    tmesh m = tmesh_sphere(cx, cy, cz, r, n);
+    unsigned seg = 2 * n;
+    uint32_t eq = 1 + (n / 2 - 1) * seg; /* first vertex of the equator ring (tmesh_sphere's RING) */
+    uint32_t centre = tmesh_add_vertex(&m, cx, cy, cz), inner = (uint32_t)m.nv;
+    for (unsigned i = 0; i < seg; i++) {
+        double ph = 2 * PI * i / seg;
+        tmesh_add_vertex(&m, cx + 0.5 * r * cos(ph), cy + 0.5 * r * sin(ph), cz);
+    }
+    for (unsigned i = 0; i < seg; i++) {
+        uint32_t i1 = (i + 1) % seg;
+        tmesh_add_tri(&m, centre, inner + i, inner + i1); /* +z */
+        add_quad(&m, inner + i, eq + i, eq + i1, inner + i1);
+    }
+    return m;
+}
+
+/* ---- the winding corpus ---- */
+static const tmesh none;
+static void add_case(tmesh_case *out, size_t max, size_t *n, const char *name, tmesh mesh, int truth_is_mesh,
+                     tmesh truth)
+{
+    if (*n == max) abort();
+    tmesh_case *c = &out[(*n)++];
+    c->name = name;
+    c->mesh = mesh;
+    c->truth = truth_is_mesh ? tmesh_copy(&mesh) : truth;
+}
+void tmesh_case_free(tmesh_case *c)
+{
+    tmesh_free(&c->mesh);
+    tmesh_free(&c->truth);
+}
+size_t tmesh_winding_corpus(tmesh_case *out, size_t max)
+{
+    size_t n = 0;
+    double lo[3] = {0.13, 0.17, 0.11}, hi[3] = {0.86, 0.79, 0.91};
+    add_case(out, max, &n, "open box (1 face)", tmesh_open_box(1, lo, hi, 3, 1, NULL), 1, none);
+    add_case(out, max, &n, "open box (2 faces)", tmesh_open_box(4, lo, hi, 2, 2, NULL), 1, none);
+    add_case(out, max, &n, "open box (3 faces)", tmesh_open_box(2, lo, hi, 2, 3, NULL), 1, none);
+    add_case(out, max, &n, "open hemisphere", tmesh_open_hemisphere(0.51, 0.49, 0.47, 0.4, 16), 1, none);
+    double cc[3] = {0.5, 0.48, 0.12};
+    add_case(out, max, &n, "cylinder without caps", tmesh_cylinder(cc, 2, 0.35, 0.75, 32, 4, 0), 1, none);
+    add_case(out, max, &n, "sphere with holes", tmesh_sphere_holes(3, 0.5, 0.49, 0.52, 0.4, 16, 12), 1, none);
+    add_case(out, max, &n, "sphere, 20 faces flipped", tmesh_sphere_flipped(5, 0.5, 0.49, 0.52, 0.4, 16, 20), 0,
+             tmesh_sphere(0.5, 0.49, 0.52, 0.4, 16));
+    tmesh inv = tmesh_sphere(0.49, 0.52, 0.5, 0.41, 16);
+    tmesh_flip(&inv);
+    add_case(out, max, &n, "inverted sphere", inv, 0, tmesh_sphere(0.49, 0.52, 0.5, 0.41, 16));
+    add_case(out, max, &n, "cracked box", tmesh_cracked_box(7, lo, hi, 1e-5), 1, none);
+    add_case(out, max, &n, "cad union", tmesh_cad_union(11), 1, none);
+    add_case(out, max, &n, "shifted shells", tmesh_shifted_shells(0.45, 0.47, 0.49, 0.3, 16, 0.12), 1, none);
+    tmesh sp = tmesh_sphere(0.5, 0.49, 0.52, 0.4, 12);
+    add_case(out, max, &n, "triangle soup", tmesh_soup(&sp), 1, none);
+    tmesh_free(&sp);
+    add_case(out, max, &n, "moebius strip", tmesh_moebius(0.5, 0.5, 0.5, 0.3, 0.12, 64, 4), 0, none);
+    double s[3] = {0.41, 0.27, 0.13};
+    add_case(out, max, &n, "nested boxes", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0), 1, none);
+    add_case(out, max, &n, "nested boxes, middle outwards", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 1), 0,
+             tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0));
+    add_case(out, max, &n, "nested boxes, inner inwards", tmesh_nested_boxes(0.5, 0.5, 0.5, s, 3), 0,
+             tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0));
+    add_case(out, max, &n, "sphere with membrane", tmesh_sphere_membrane(0.5, 0.49, 0.52, 0.4, 16), 1, none);
+    tmesh hs = tmesh_sphere(0.49, 0.5, 0.51, 0.42, 14), hin = tmesh_sphere(0.49, 0.5, 0.51, 0.23, 14);
+    tmesh_append(&hs, &hin); /* inner shell stored outwards */
+    tmesh_free(&hin);
+    add_case(out, max, &n, "hollow sphere, inner outwards", hs, 0, tmesh_hollow_sphere(0.49, 0.5, 0.51, 0.42, 0.23, 14));
+    return n;
+}
+
+size_t tmesh_components_of(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, uint32_t *label)
+{
+    uint32_t *parent = malloc((nv ? nv : 1) * sizeof *parent), *rep = malloc((nv ? nv : 1) * sizeof *rep);
+    if (!parent || !rep) abort();
+    for (size_t i = 0; i < nv; i++) parent[i] = (uint32_t)i;
+    /* exact merge: open addressing on the coordinates' bits */
+    size_t hn = 1;
+    while (hn < 2 * nv) hn <<= 1;
+    uint32_t *head = malloc(hn * sizeof *head);
+    if (!head) abort();
+    memset(head, 0xff, hn * sizeof *head);
+    for (size_t i = 0; i < nv; i++) {
+        uint32_t b[3];
+        memcpy(b, xyz + 3 * i, sizeof b);
+        size_t h = ((b[0] * 73856093u) ^ (b[1] * 19349663u) ^ (b[2] * 83492791u)) & (hn - 1);
+        while (head[h] != UINT32_MAX && memcmp(xyz + 3 * (size_t)head[h], xyz + 3 * i, 3 * sizeof(float)) != 0)
+            h = (h + 1) & (hn - 1);
+        if (head[h] == UINT32_MAX) head[h] = (uint32_t)i;
+        rep[i] = head[h];
+    }
+    free(head);
+#define FIND(x) do { while (parent[x] != x) x = parent[x] = parent[parent[x]]; } while (0)
+    for (size_t t = 0; t < nt; t++) {
+        uint32_t a = rep[tri[3 * t]];
+        FIND(a);
+        for (int k = 1; k < 3; k++) {
+            uint32_t b = rep[tri[3 * t + k]];
+            FIND(b);
+            if (a != b) parent[b] = a;
+        }
+    }
+    size_t n = 0;
+    uint32_t *id = malloc((nv ? nv : 1) * sizeof *id);
+    if (!id) abort();
+    memset(id, 0xff, (nv ? nv : 1) * sizeof *id);
+    for (size_t t = 0; t < nt; t++) {
+        uint32_t a = rep[tri[3 * t]];
+        FIND(a);
+        if (id[a] == UINT32_MAX) id[a] = (uint32_t)n++;
+        label[t] = id[a];
+    }
+#undef FIND
+    free(id);
+    free(parent);
+    free(rep);
+    return n;
+}
+
 /* ---- oracles ---- */
 uint64_t expected_box_voxels(const clvox_grid *g, const double lo[3], const double hi[3])
 {

@@ -59,6 +59,73 @@ tmesh tmesh_random_closed(uint64_t seed, unsigned shells, unsigned n);
  * the midpoint is covered twice (even parity), c1 + (c1-c2)/2 once. */
 tmesh tmesh_random_overlap(uint64_t seed, unsigned n, double c1[3], double c2[3]);
 
+/* ---- broken meshes (winding-number tests, docs/design.md "Winding
+ * numbers"): open, cracked, mis-oriented, overlapping, non-manifold. Not
+ * closed or not consistently oriented on purpose; deterministic from the
+ * seed; CCW seen from outside wherever an outside exists. ---- */
+tmesh tmesh_copy(const tmesh *m);
+/* Every triangle with its own three vertices (same coordinates). */
+tmesh tmesh_soup(const tmesh *m);
+/* Reverse triangle t only. */
+void tmesh_flip_tri(tmesh *m, size_t t);
+/* Undirected edges used once (boundary), by more than two triangles
+ * (non-manifold), and directed edges used twice in the same direction
+ * (orientation conflicts between two neighbours); by vertex index. */
+void tmesh_edge_stats(const tmesh *m, uint64_t *boundary, uint64_t *nonmanifold, uint64_t *conflicts);
+/* tmesh_box_subdivided(lo, hi, n) with `removed` (1..5) of its 6 faces left
+ * out, which ones by the seed. Face f = 2*axis + (high side): triangles
+ * [f*2n^2, (f+1)*2n^2) of the closed box. *mask (may be NULL) gets the
+ * removed faces as bits. */
+tmesh tmesh_open_box(uint64_t seed, const double lo[3], const double hi[3], unsigned n, unsigned removed,
+                     unsigned *mask);
+/* The upper half (z > cz) of tmesh_sphere(c, r, n), n even: open along the equator. */
+tmesh tmesh_open_hemisphere(double cx, double cy, double cz, double r, unsigned n);
+/* Cylinder along `axis` (0 x, 1 y, 2 z) from c[axis] to c[axis] + h, radius r
+ * around c: seg segments, rows bands; caps: 1 closed (fans), 0 open tube. */
+tmesh tmesh_cylinder(const double c[3], int axis, double r, double h, unsigned seg, unsigned rows, int caps);
+/* tmesh_sphere with k distinct random triangles deleted (holes). */
+tmesh tmesh_sphere_holes(uint64_t seed, double cx, double cy, double cz, double r, unsigned n, unsigned k);
+/* tmesh_sphere with k distinct random triangles reversed (mis-oriented;
+ * tmesh_sphere with the same arguments is the repaired mesh). */
+tmesh tmesh_sphere_flipped(uint64_t seed, double cx, double cy, double cz, double r, unsigned n, unsigned k);
+/* Box with each face's 4 corners its own vertices (2 triangles per face):
+ * a soup of 6 quads. The first copy of each corner stays exact; every later
+ * copy is moved by +-shift per axis with probability 1/2 (random signs), so
+ * welding within > sqrt(3)*shift into the lowest-numbered vertex gives
+ * exactly tmesh_box(lo, hi). */
+tmesh tmesh_cracked_box(uint64_t seed, const double lo[3], const double hi[3], double shift);
+/* CAD-like union in (0,1)^3: two boxes and two capped cylinders, each
+ * closed and outward, every pair of parts that meets intersects (none lies
+ * inside another); positions jittered by the seed (|jitter| <= 0.01). */
+tmesh tmesh_cad_union(uint64_t seed);
+/* Sphere + the same sphere moved by d along (1, 0.37, 0.21)/|.|: both closed, overlapping. */
+tmesh tmesh_shifted_shells(double cx, double cy, double cz, double r, unsigned n, double d);
+/* Moebius strip around the z axis: centre radius R, half width hw, nu
+ * segments around (nu >= 3), nv across; non-orientable, open. */
+tmesh tmesh_moebius(double cx, double cy, double cz, double R, double hw, unsigned nu, unsigned nv);
+/* Three nested boxes around c (half sizes s[0] > s[1] > s[2] per axis, an
+ * axis-dependent stretch): the outer one outward; the middle one inward
+ * (a cavity) unless flags & 1 (then stored outward); the inner one outward
+ * unless flags & 2 (then stored inward). flags = 0 is the repaired mesh. */
+tmesh tmesh_nested_boxes(double cx, double cy, double cz, const double s[3], unsigned flags);
+/* tmesh_sphere(c, r, n), n even, with a disk in the equator plane (z = cz)
+ * sharing the equator vertices: 2n non-manifold edges (the equator, 3 triangles each). */
+tmesh tmesh_sphere_membrane(double cx, double cy, double cz, double r, unsigned n);
+
+/* Connected components of triangles across shared edges, vertices at
+ * exactly equal positions merged first: label[t] in 0 .. count-1. */
+size_t tmesh_components_of(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, uint32_t *label);
+
+/* The winding corpus (tests/test_winding.c, scripts/bench_winding.sh), in
+ * (0,1)^3: one of each generator above plus inverted, soup and cavity
+ * cases. mesh is what the library gets; truth the mesh orientation repair
+ * should arrive at, which the oracle evaluates (a copy of mesh when that is
+ * consistently oriented already; nt == 0 when there is none: the Moebius
+ * strip). Returns the count (at most max, else abort). */
+typedef struct tmesh_case { const char *name; tmesh mesh, truth; } tmesh_case;
+size_t tmesh_winding_corpus(tmesh_case *out, size_t max);
+void tmesh_case_free(tmesh_case *c);
+
 /* Voxel centres c with lo <= c < hi on every axis (design.md), evaluated as
  * the library does: corners rounded to float as in a tmesh, grid coordinate
  * (p - origin)/h - 0.5 in double rounded to float. For corners exact in grid

@@ -396,6 +396,59 @@ static int token_double(const tok *k, double *out)
     return end == buf + k->n && isfinite((float)*out);
 }
 
+/* Clinger's fast path: a token [+-]digits[.digits][(e|E)[+-]digits] whose
+ * significant digits make an integer m <= 2^53 and whose decimal exponent e
+ * is within +-22 is m * 10^e or m / 10^-e, both operands exact in double, so
+ * the one rounding of that operation is the correctly rounded value: what
+ * strtod returns. Such a value is below 1e38, so it is also one that
+ * classify_float accepts (finite as a float). Returns 0 for anything else
+ * (the caller checks and converts it the slow way, with the same result or
+ * error as before). */
+static int fast_decimal(const tok *k, double *out)
+{
+    static const double pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                     1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+    const char *s = k->s, *end = k->s + k->n;
+    int neg = 0;
+    if (s < end && (*s == '+' || *s == '-')) neg = *s++ == '-';
+    uint64_t m = 0;
+    int digits = 0, sig = 0; /* digits read; significant ones (from the first non-zero) */
+    long e = 0;
+    for (; s < end && is_digit(*s); s++, digits++) {
+        if (sig || *s != '0') {
+            if (++sig > 19) return 0;
+            m = m * 10 + (uint64_t)(*s - '0');
+        }
+    }
+    if (s < end && *s == '.') {
+        for (s++; s < end && is_digit(*s); s++, digits++) {
+            if (sig || *s != '0') {
+                if (++sig > 19) return 0;
+                m = m * 10 + (uint64_t)(*s - '0');
+            }
+            e--;
+        }
+    }
+    if (!digits) return 0;
+    if (s < end && (*s == 'e' || *s == 'E')) {
+        s++;
+        int eneg = 0;
+        if (s < end && (*s == '+' || *s == '-')) eneg = *s++ == '-';
+        if (s >= end || !is_digit(*s)) return 0;
+        long x = 0;
+        for (; s < end && is_digit(*s); s++) {
+            if (x > 1000) return 0;
+            x = x * 10 + (*s - '0');
+        }
+        e += eneg ? -x : x;
+    }
+    if (s != end || m > ((uint64_t)1 << 53) || e < -22 || e > 22) return 0;
+    double v = (double)m;
+    v = e < 0 ? v / pow10[-e] : v * pow10[e];
+    *out = neg ? -v : v;
+    return 1;
+}
+
 /* Stores coordinate c of vertex v relative to vertex 0 (which sets the offset). */
 static void store_coord(clvox__raw_mesh *raw, uint64_t v, int c, double x)
 {
@@ -449,9 +502,13 @@ static clvox_status parse_off_ascii(clvox_context *ctx, const char *path, text *
             if (!tok_line(&line, &k))
                 return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': vertex %llu at line %llu has fewer than %d values",
                                    path, (unsigned long long)v, (unsigned long long)line.line, normal ? 6 : 3);
+            double x = 0;
+            if (fast_decimal(&k, &x)) { /* a plain decimal read exactly: checked and converted */
+                if (c < 3) store_coord(raw, v, c, x);
+                continue;
+            }
             clvox_status st = check_coord(ctx, path, &k, "OFF vertex");
             if (st) return st;
-            double x = 0;
             if (c < 3 && !token_double(&k, &x))
                 return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': cannot convert '%.*s' at line %llu", path,
                                    tok_print_len(&k), k.s, (unsigned long long)k.line);
@@ -689,9 +746,13 @@ static clvox_status parse_obj(clvox_context *ctx, const char *path, const char *
                     return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
                                        "'%s': vertex at line %llu has fewer than 3 coordinates", path,
                                        (unsigned long long)line.line);
+                double x;
+                if (fast_decimal(&k, &x)) {
+                    store_coord(raw, so_far[OBJ_V], c, x);
+                    continue;
+                }
                 clvox_status st = check_coord(ctx, path, &k, "vertex");
                 if (st) return st;
-                double x;
                 if (!token_double(&k, &x))
                     return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': cannot convert '%.*s' at line %llu", path,
                                        tok_print_len(&k), k.s, (unsigned long long)k.line);

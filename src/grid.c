@@ -177,7 +177,9 @@ clvox_status clvox__grid_space_soup_threads(clvox_context *ctx, const clvox_mesh
     if (nt > SIZE_MAX / (9 * sizeof(float)))
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "mesh too large");
     float *gv = malloc((nv ? nv : 1) * 3 * sizeof *gv);
-    float *soup = malloc((nt ? nt : 1) * 9 * sizeof *soup);
+    /* Page-aligned: a device buffer can use it in place (CL_MEM_USE_HOST_PTR, cast.c). */
+    size_t bytes = ((nt ? nt : 1) * 9 * sizeof(float) + 4095) / 4096 * 4096;
+    float *soup = aligned_alloc(4096, bytes);
     if (!gv || !soup) {
         free(gv);
         free(soup);

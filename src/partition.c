@@ -193,36 +193,130 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
 
 /* ---- boxes of the triangles (parallel parts) --------------------------------------- */
 
+/* The root: its list (R->list), or its four children's lists when the
+ * root is split (R->list NULL; made by streaming over the soup, without a
+ * list for the root). Owned. */
+typedef struct root {
+    item *list;
+    size_t n;
+    item *sub[4];
+    size_t count[4];
+    float v0, w0, v1, w1;
+} root;
+
+static void root_free(root *R)
+{
+    free(R->list);
+    for (int q = 0; q < 4; q++) free(R->sub[q]);
+    memset(R, 0, sizeof *R);
+}
+
 typedef struct boxes {
     const float *soup;
     size_t tri_count;
-    item *root;
-    size_t part_count[CLVOX__MAX_HOST_THREADS];
     float v0, w0, v1, w1;
+    int pass; /* 1: count; 2: write the root's or its children's lists */
+    uint32_t leaf_size, max_depth;
+    /* per part: triangles over the plane, the split test's sum, each child's count */
+    size_t part_n[CLVOX__MAX_HOST_THREADS], part_sum[CLVOX__MAX_HOST_THREADS];
+    size_t part_count[CLVOX__MAX_HOST_THREADS][4];
+    root *R;
 } boxes;
 
+static item box_of(const float *p, uint32_t t)
+{
+    /* Coordinates are finite: the same values as fminf/fmaxf (a zero's sign
+     * does not survive the widening below). */
+    float lv = p[1] < p[4] ? p[1] : p[4], hv = p[1] > p[4] ? p[1] : p[4];
+    float lw = p[2] < p[5] ? p[2] : p[5], hw = p[2] > p[5] ? p[2] : p[5];
+    lv = p[7] < lv ? p[7] : lv, hv = p[7] > hv ? p[7] : hv;
+    lw = p[8] < lw ? p[8] : lw, hw = p[8] > hw ? p[8] : hw;
+    /* Widen by a few ulps of the coordinates: the crossing test works on
+     * rounded differences, so be conservative. */
+    float av = fabsf(lv) > fabsf(hv) ? fabsf(lv) : fabsf(hv);
+    float aw = fabsf(lw) > fabsf(hw) ? fabsf(lw) : fabsf(hw);
+    float ev = 1e-5f * (1.0f + av), ew = 1e-5f * (1.0f + aw);
+    item it = {lv - ev, lw - ew, hv + ev, hw + ew, t};
+    return it;
+}
+
+/* The root streamed from the soup in parts: pass 1 counts (the root's
+ * split test and its children's sizes), pass 2 writes, each part at its
+ * offset, so the lists are in triangle order as one pass would make them. */
 static void boxes_part(void *arg, int i, int n)
 {
     boxes *B = arg;
-    size_t t0, t1, k = 0;
+    size_t t0, t1;
     clvox__part_range(B->tri_count, i, n, &t0, &t1);
-    for (size_t t = t0; t < t1; t++) {
-        const float *p = B->soup + t * 9;
-        /* Coordinates are finite: the same values as fminf/fmaxf (a zero's
-         * sign does not survive the widening below). */
-        float lv = p[1] < p[4] ? p[1] : p[4], hv = p[1] > p[4] ? p[1] : p[4];
-        float lw = p[2] < p[5] ? p[2] : p[5], hw = p[2] > p[5] ? p[2] : p[5];
-        lv = p[7] < lv ? p[7] : lv, hv = p[7] > hv ? p[7] : hv;
-        lw = p[8] < lw ? p[8] : lw, hw = p[8] > hw ? p[8] : hw;
-        /* Widen by a few ulps of the coordinates: the crossing test works on
-         * rounded differences, so be conservative. */
-        float av = fabsf(lv) > fabsf(hv) ? fabsf(lv) : fabsf(hv);
-        float aw = fabsf(lw) > fabsf(hw) ? fabsf(lw) : fabsf(hw);
-        float ev = 1e-5f * (1.0f + av), ew = 1e-5f * (1.0f + aw);
-        item it = {lv - ev, lw - ew, hv + ev, hw + ew, (uint32_t)t};
-        if (it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0) B->root[t0 + k++] = it;
+    float sv = 0.5f * (B->v0 + B->v1), sw = 0.5f * (B->w0 + B->w1);
+    float cv0[4], cv1[4], cw0[4], cw1[4];
+    for (int q = 0; q < 4; q++) {
+        cv0[q] = (q & 1) ? sv : B->v0, cv1[q] = (q & 1) ? B->v1 : sv;
+        cw0[q] = (q & 2) ? sw : B->w0, cw1[q] = (q & 2) ? B->w1 : sw;
     }
-    B->part_count[i] = k;
+    if (B->pass == 1) {
+        size_t k = 0, sum = 0, count[4] = {0, 0, 0, 0};
+        for (size_t t = t0; t < t1; t++) {
+            item it = box_of(B->soup + t * 9, (uint32_t)t);
+            if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) continue;
+            k++;
+            unsigned lv = it.v0 <= sv, hv = it.v1 >= sv, lw = it.w0 <= sw, hw = it.w1 >= sw;
+            sum += (lv + hv) * (lw + hw);
+            for (int q = 0; q < 4; q++)
+                count[q] += it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q];
+        }
+        B->part_n[i] = k, B->part_sum[i] = sum;
+        for (int q = 0; q < 4; q++) B->part_count[i][q] = count[q];
+        return;
+    }
+    root *R = B->R;
+    size_t at = 0, sat[4] = {0, 0, 0, 0};
+    for (int j = 0; j < i; j++) {
+        at += B->part_n[j];
+        for (int q = 0; q < 4; q++) sat[q] += B->part_count[j][q];
+    }
+    for (size_t t = t0; t < t1; t++) {
+        item it = box_of(B->soup + t * 9, (uint32_t)t);
+        if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) continue;
+        if (R->list) {
+            R->list[at++] = it;
+            continue;
+        }
+        for (int q = 0; q < 4; q++)
+            if (it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q]) R->sub[q][sat[q]++] = it;
+    }
+}
+
+/* Fills *R from the soup. Returns 0 when memory runs out. */
+static int make_root(boxes *B, int threads, root *R)
+{
+    memset(R, 0, sizeof *R);
+    R->v0 = B->v0, R->w0 = B->w0, R->v1 = B->v1, R->w1 = B->w1;
+    B->R = R;
+    B->pass = 1;
+    clvox__parallel(threads, boxes_part, B);
+    size_t n = 0, sum = 0;
+    for (int i = 0; i < threads; i++) {
+        n += B->part_n[i], sum += B->part_sum[i];
+        for (int q = 0; q < 4; q++) R->count[q] += B->part_count[i][q];
+    }
+    R->n = n;
+    /* build_node's test at the root (no references made yet) */
+    int leaf = n <= B->leaf_size || B->max_depth == 0 || sum >= 3 * n || sum > MAX_REFS;
+    if (leaf) {
+        if (n && !(R->list = malloc(n * sizeof *R->list))) return 0;
+        for (int q = 0; q < 4; q++) R->count[q] = 0;
+        if (!n) return 1;
+    } else {
+        for (int q = 0; q < 4; q++)
+            if (R->count[q] && !(R->sub[q] = malloc(R->count[q] * sizeof *R->sub[q]))) {
+                root_free(R);
+                return 0;
+            }
+    }
+    B->pass = 2;
+    clvox__parallel(threads, boxes_part, B);
+    return 1;
 }
 
 /* ---- tasks and the final layout ---------------------------------------------------- */
@@ -309,24 +403,46 @@ static void free_tasks(build *b)
  * Returns as build_node; *near_cap when the references came close enough to
  * MAX_REFS that the guard might have acted differently (the caller then
  * builds on one thread). */
-static int build_tree(build *b, item *root, size_t n, float v0, float w0, float v1, float w1, int threads,
-                      int *near_cap)
+/* Node 0 from R, as build_node would make it. */
+static int build_root(build *b, root *R)
+{
+    if (R->list || R->n == 0) /* a leaf */
+        return build_node(b, 0, R->list, R->n, R->v0, R->w0, R->v1, R->w1, 0);
+    float sv = 0.5f * (R->v0 + R->v1), sw = 0.5f * (R->w0 + R->w1);
+    b->nodes[0].split_v = sv;
+    b->nodes[0].split_w = sw;
+    b->nodes[0].first = 1;
+    b->nodes[0].count = CLVOX_QT_INTERNAL;
+    b->node_count = 5;
+    int ok = 1, q = 0;
+    for (; q < 4 && ok == 1; q++) {
+        float cv0 = (q & 1) ? sv : R->v0, cv1 = (q & 1) ? R->v1 : sv;
+        float cw0 = (q & 2) ? sw : R->w0, cw1 = (q & 2) ? R->w1 : sw;
+        ok = build_node(b, 1 + (size_t)q, R->sub[q], R->count[q], cv0, cw0, cv1, cw1, 1);
+        R->sub[q] = NULL;
+    }
+    for (; q < 4; q++) free(R->sub[q]), R->sub[q] = NULL;
+    return ok;
+}
+
+static int build_tree(build *b, root *rt, int threads, int *near_cap)
 {
     *near_cap = 0;
+    size_t n = rt->n;
     b->nodes = malloc(1024 * sizeof *b->nodes);
     b->node_cap = 1024;
     b->node_count = 1;
     if (!b->nodes) {
-        free(root);
+        root_free(rt);
         return 0;
     }
-    if (threads <= 1) return build_node(b, 0, root, n, v0, w0, v1, w1, 0);
+    if (threads <= 1) return build_root(b, rt);
 
     build sk = *b; /* the skeleton: its own nodes and refs */
     sk.defer_depth = SKELETON_DEPTH;
     b->nodes = NULL;
     b->node_cap = b->node_count = 0;
-    int ok = build_node(&sk, 0, root, n, v0, w0, v1, w1, 0);
+    int ok = build_root(&sk, rt);
     if (ok == 1 && sk.task_count) {
         tasks_run R = {.proto = &sk, .tasks = sk.tasks, .count = sk.task_count};
         atomic_init(&R.next, 0);
@@ -379,20 +495,12 @@ clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *soup
     if (b.max_depth > 16) b.max_depth = 16;
     boxes B = {.soup = soup, .tri_count = tri_count, .v0 = -0.5f, .w0 = -0.5f, .v1 = (float)dim_v - 0.5f,
                .w1 = (float)dim_w - 0.5f};
+    B.leaf_size = b.leaf_size, B.max_depth = b.max_depth;
     int near_cap = 0, ok = 0;
     for (int attempt = 0; attempt < 2; attempt++) {
-        /* The root's list: the triangles over the ray plane, with their boxes. */
-        B.root = malloc((tri_count ? tri_count : 1) * sizeof *B.root);
-        if (!B.root) break;
-        clvox__parallel(threads, boxes_part, &B);
-        size_t n = B.part_count[0];
-        for (int i = 1; i < threads; i++) { /* the parts' lists, in order */
-            size_t t0, t1;
-            clvox__part_range(tri_count, i, threads, &t0, &t1);
-            memmove(B.root + n, B.root + t0, B.part_count[i] * sizeof *B.root);
-            n += B.part_count[i];
-        }
-        ok = build_tree(&b, B.root, n, B.v0, B.w0, B.v1, B.w1, threads, &near_cap);
+        root R;
+        if (!make_root(&B, threads, &R)) break;
+        ok = build_tree(&b, &R, threads, &near_cap);
         if (ok != 1 || !near_cap) break;
         /* Near MAX_REFS: the guard depends on the order; build on one thread. */
         free(b.nodes);

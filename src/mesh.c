@@ -1056,9 +1056,42 @@ static clvox_status ply_check_binary(clvox_context *ctx, const char *path, const
     return CLVOX_OK;
 }
 
-/* ASCII body, token by token as OpenMesh reads it (operator>>). */
+/* A float coordinate token (classify_float said NUM_OK) as operator>>
+ * (strtof) reads it. The fast path: Clinger's double d (strtod's value)
+ * rounded to float is strtof's value unless d is exactly half-way between
+ * two floats (double rounding can only go wrong there: any other half-way
+ * point between the true value and d would be a double nearer to it) or
+ * below the normal floats; those, and all others, go to strtof (C locale:
+ * the caller set it). */
+static float token_float(const tok *k)
+{
+    double d;
+    if (fast_decimal(k, &d)) {
+        uint64_t u;
+        memcpy(&u, &d, sizeof u);
+        if ((u & 0x1FFFFFFFu) != 0x10000000u && (fabs(d) >= 0x1p-125 || d == 0.0)) return (float)d;
+    }
+    char buf[64];
+    if (k->n >= sizeof buf) {
+        char *big = malloc(k->n + 1);
+        if (!big) return 0.0f; /* not reached for the readers' tokens (< 1 MB); see callers */
+        memcpy(big, k->s, k->n);
+        big[k->n] = 0;
+        float f = strtof(big, NULL);
+        free(big);
+        return f;
+    }
+    memcpy(buf, k->s, k->n);
+    buf[k->n] = 0;
+    return strtof(buf, NULL);
+}
+
+/* ASCII body, token by token as OpenMesh reads it (operator>>). raw != NULL:
+ * also read it (the native ASCII reader: x, y, z of type float as strtof
+ * reads them, the last vertex_indices/vertex_index list of each face, as
+ * OpenMesh's reader hands them over; the caller sets the C locale). */
 static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const char *p, size_t n,
-                                    const ply_header *h)
+                                    const ply_header *h, clvox__raw_mesh *raw)
 {
     clvox_status st = check_text(ctx, path, p + h->body, n - h->body, "PLY");
     if (st) return st;
@@ -1067,6 +1100,7 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
     uint64_t nv = h->elems[h->vertex].count;
     int last = h->face >= 0 ? h->face : h->nelems - 1;
     tok k;
+    size_t cap = 0, ni = 0;
     for (int ei = 0; ei <= last; ei++) {
         const ply_elem *e = &h->elems[ei];
         /* A value needs at least two bytes ("0 "): reject absurd counts before scanning. */
@@ -1074,7 +1108,19 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
             return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
                                "'%s': PLY element '%s' declares %llu entries, more than the file can hold", path, e->name,
                                (unsigned long long)e->count);
+        if (raw && ei == h->vertex) {
+            raw->xyz = malloc((e->count ? e->count : 1) * 3 * sizeof *raw->xyz);
+            if (!raw->xyz) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+            raw->vertex_count = (size_t)e->count;
+        }
+        if (raw && ei == h->face) {
+            cap = (size_t)e->count * 3 + 16;
+            raw->face_indices = malloc(cap * sizeof *raw->face_indices);
+            if (!raw->face_indices) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+            raw->face_count = (size_t)e->count;
+        }
         for (uint64_t r = 0; r < e->count; r++) {
+            size_t face_start = ni, face_n = 0; /* this face's index list in raw (the last one wins) */
             for (int q = 0; q < e->nprops; q++) {
                 const ply_prop *pr = &e->props[q];
                 uint64_t items = 1;
@@ -1090,9 +1136,27 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                 }
                 int indices = pr->count_type && ei == h->face && is_index_list(pr->name);
                 int coord = ei == h->vertex && (!strcmp(pr->name, "x") || !strcmp(pr->name, "y") || !strcmp(pr->name, "z"));
+                if (raw && indices) { /* a later list replaces an earlier one */
+                    ni = face_start;
+                    face_n = (size_t)items;
+                    if (ni + face_n > cap) {
+                        size_t c2 = (ni + face_n) * 2;
+                        uint32_t *g = realloc(raw->face_indices, c2 * sizeof *g);
+                        if (!g) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+                        raw->face_indices = g;
+                        cap = c2;
+                    }
+                }
                 for (uint64_t j = 0; j < items; j++) {
                     if (!tok_any(&t, &k)) goto truncated;
                     if (pr->type->is_float) {
+                        if (raw && coord) {
+                            double d;
+                            if (fast_decimal(&k, &d)) { /* a plain decimal: finite and below FLT_MAX */
+                                raw->xyz[3 * r + (size_t)(pr->name[0] - 'x')] = token_float(&k);
+                                continue;
+                            }
+                        }
                         int c = classify_float(&k);
                         if (c == NUM_NONFINITE)
                             return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
@@ -1100,6 +1164,7 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                                                coord ? "coordinate" : "value", tok_print_len(&k), k.s,
                                                (unsigned long long)k.line, e->name, (unsigned long long)r, pr->name);
                         if (c == NUM_BAD) goto not_a_number;
+                        if (raw && coord) raw->xyz[3 * r + (size_t)(pr->name[0] - 'x')] = token_float(&k);
                     } else {
                         int64_t v;
                         if (!parse_int(&k, &v)) goto not_a_number;
@@ -1108,6 +1173,7 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                                                "'%s': face %llu at line %llu references vertex %lld, the file has %llu vertices",
                                                path, (unsigned long long)r, (unsigned long long)k.line, (long long)v,
                                                (unsigned long long)nv);
+                        if (raw && indices) raw->face_indices[ni++] = (uint32_t)v;
                     }
                 }
                 continue;
@@ -1116,6 +1182,17 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                                    "'%s': expected %s for '%s' of %s %llu at line %llu, found '%.*s'", path,
                                    pr->type->is_float ? "a number" : "an integer", pr->name, e->name,
                                    (unsigned long long)r, (unsigned long long)k.line, tok_print_len(&k), k.s);
+            }
+            if (raw && ei == h->face) {
+                if (face_n != 3 && !raw->face_sizes) {
+                    /* The first face that is not a triangle: from here on, sizes. */
+                    raw->face_sizes = malloc((e->count ? e->count : 1) * sizeof *raw->face_sizes);
+                    if (!raw->face_sizes)
+                        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+                    for (uint64_t g = 0; g < r; g++) raw->face_sizes[g] = 3;
+                }
+                if (raw->face_sizes) raw->face_sizes[r] = (uint32_t)face_n;
+                raw->index_count = ni;
             }
             continue;
         truncated:
@@ -1133,9 +1210,32 @@ static clvox_status check_ply(clvox_context *ctx, const char *path, const unsign
     ply_header *h = malloc(sizeof *h); /* about 300 KB: keep it off the stack */
     if (!h) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory checking '%s'", path);
     clvox_status st = ply_parse_header(ctx, path, (const char *)p, n, h);
-    if (!st)
-        st = h->format == PLY_ASCII ? ply_check_ascii(ctx, path, (const char *)p, n, h)
-                                    : ply_check_binary(ctx, path, p, n, h);
+    if (!st && h->format == PLY_ASCII) {
+        /* Read natively when the coordinates are floats (OpenMesh reads them
+         * with operator>>: strtof); double coordinates stay with OpenMesh. */
+        int use_native = clvox__mesh_native_enabled();
+        const ply_elem *ve = &h->elems[h->vertex];
+        for (int q = 0; q < ve->nprops; q++) {
+            const char *nm = ve->props[q].name;
+            if ((!strcmp(nm, "x") || !strcmp(nm, "y") || !strcmp(nm, "z")) && ve->props[q].type->size != 4) use_native = 0;
+        }
+        if (use_native) {
+            locale_t c_locale = (locale_t)0, old = LC_GLOBAL_LOCALE;
+            if (!(st = c_locale_begin(ctx, path, &c_locale, &old))) {
+                st = ply_check_ascii(ctx, path, (const char *)p, n, h, native);
+                c_locale_end(c_locale, old);
+            }
+            if (!st && !native->face_indices) { /* no face element */
+                native->face_indices = malloc(sizeof *native->face_indices);
+                if (!native->face_indices) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+            }
+            st = text_read_done(st, native, parsed);
+        } else {
+            st = ply_check_ascii(ctx, path, (const char *)p, n, h, NULL);
+        }
+    } else if (!st) {
+        st = ply_check_binary(ctx, path, p, n, h);
+    }
     if (!st && h->format != PLY_ASCII && clvox__mesh_native_enabled()) {
         st = clvox__ply_read_binary(ctx, path, p, n, h, native);
         if (!st) *parsed = 1;

@@ -13,8 +13,9 @@
 # (3.3 M; made by scripts/subdivide.c as in bench_coverage.sh when absent),
 # binary STLs of both, and armadillo_s2 as ASCII OBJ, OFF, PLY and STL
 # (%.9g coordinates: the same floats), all written to build/bench/ by
-# bench_load. For the text formats "OpenMesh" is the same reader (OBJ and
-# OFF are always read natively, ASCII PLY and STL always by OpenMesh).
+# bench_load. For OBJ and OFF "OpenMesh" is the same (native) reader; ASCII
+# STL is always read by OpenMesh; ASCII PLY (float x y z) natively, or by
+# OpenMesh with CLVOX_MESH_READER=openmesh.
 # Markdown to stdout and build/bench/load.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail

@@ -1063,27 +1063,24 @@ static clvox_status ply_check_binary(clvox_context *ctx, const char *path, const
  * point between the true value and d would be a double nearer to it) or
  * below the normal floats; those, and all others, go to strtof (C locale:
  * the caller set it). */
-static float token_float(const tok *k)
+static int token_float(const tok *k, float *out)
 {
     double d;
     if (fast_decimal(k, &d)) {
         uint64_t u;
         memcpy(&u, &d, sizeof u);
-        if ((u & 0x1FFFFFFFu) != 0x10000000u && (fabs(d) >= 0x1p-125 || d == 0.0)) return (float)d;
+        if ((u & 0x1FFFFFFFu) != 0x10000000u && (fabs(d) >= 0x1p-125 || d == 0.0)) {
+            *out = (float)d;
+            return 1;
+        }
     }
-    char buf[64];
-    if (k->n >= sizeof buf) {
-        char *big = malloc(k->n + 1);
-        if (!big) return 0.0f; /* not reached for the readers' tokens (< 1 MB); see callers */
-        memcpy(big, k->s, k->n);
-        big[k->n] = 0;
-        float f = strtof(big, NULL);
-        free(big);
-        return f;
-    }
-    memcpy(buf, k->s, k->n);
-    buf[k->n] = 0;
-    return strtof(buf, NULL);
+    char buf[64], *s = buf;
+    if (k->n >= sizeof buf && !(s = malloc(k->n + 1))) return 0; /* a long spelling ("0.000...1") */
+    memcpy(s, k->s, k->n);
+    s[k->n] = 0;
+    *out = strtof(s, NULL);
+    if (s != buf) free(s);
+    return 1;
 }
 
 /* ASCII body, token by token as OpenMesh reads it (operator>>). raw != NULL:
@@ -1150,12 +1147,11 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                 for (uint64_t j = 0; j < items; j++) {
                     if (!tok_any(&t, &k)) goto truncated;
                     if (pr->type->is_float) {
-                        if (raw && coord) {
-                            double d;
-                            if (fast_decimal(&k, &d)) { /* a plain decimal: finite and below FLT_MAX */
-                                raw->xyz[3 * r + (size_t)(pr->name[0] - 'x')] = token_float(&k);
-                                continue;
-                            }
+                        float *slot = raw && coord ? &raw->xyz[3 * r + (size_t)(pr->name[0] - 'x')] : NULL;
+                        double d;
+                        if (slot && fast_decimal(&k, &d)) { /* a plain decimal: finite and below FLT_MAX */
+                            if (!token_float(&k, slot)) goto oom;
+                            continue;
                         }
                         int c = classify_float(&k);
                         if (c == NUM_NONFINITE)
@@ -1164,7 +1160,7 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                                                coord ? "coordinate" : "value", tok_print_len(&k), k.s,
                                                (unsigned long long)k.line, e->name, (unsigned long long)r, pr->name);
                         if (c == NUM_BAD) goto not_a_number;
-                        if (raw && coord) raw->xyz[3 * r + (size_t)(pr->name[0] - 'x')] = token_float(&k);
+                        if (slot && !token_float(&k, slot)) goto oom;
                     } else {
                         int64_t v;
                         if (!parse_int(&k, &v)) goto not_a_number;
@@ -1202,6 +1198,8 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
         }
     }
     return CLVOX_OK;
+oom:
+    return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
 }
 
 static clvox_status check_ply(clvox_context *ctx, const char *path, const unsigned char *p, size_t n, expect *ex,

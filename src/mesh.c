@@ -242,6 +242,66 @@ static clvox_status check_coord(clvox_context *ctx, const char *path, const tok 
 
 /* ---- STL ------------------------------------------------------------------------ */
 
+static int token_float(const tok *k, float *out);
+
+/* ASCII STL read natively (after check_stl_ascii accepted it): the facets'
+ * corners, as strtof reads them (OpenMesh's operator>>), laid out as a binary
+ * STL in memory and merged by the binary reader (clvox__stl_read_binary:
+ * OpenMesh's vertex merging, the same for both). Only for the plain layout
+ * OpenMesh surely reads the same way: one "solid" line first, one
+ * "endsolid" line last; else *parsed stays 0 and OpenMesh reads the file.
+ * The same when a coordinate is tiny (the binary reader's return 1). */
+static clvox_status read_stl_ascii(clvox_context *ctx, const char *path, const char *p, size_t n,
+                                   clvox__raw_mesh *raw, int *parsed)
+{
+    text t = {p, p + n, 1};
+    tok k;
+    uint64_t facets = 0, solids = 0, ended = 0, after_end = 0;
+    while (t.p < t.end) {
+        if (tok_line(&t, &k)) {
+            if (ended) after_end = 1;
+            if (tok_is(&k, "facet")) facets++;
+            else if (tok_is(&k, "solid")) solids++;
+            else if (tok_is(&k, "endsolid")) ended = 1;
+        }
+        skip_line(&t);
+    }
+    if (solids != 1 || after_end || facets > (SIZE_MAX - 84) / 50) return CLVOX_OK; /* OpenMesh reads it */
+    size_t bytes = 84 + 50 * (size_t)facets;
+    unsigned char *img = calloc(bytes, 1);
+    if (!img) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+    uint32_t nf32 = (uint32_t)facets;
+    for (int b = 0; b < 4; b++) img[80 + b] = (unsigned char)(nf32 >> (8 * b));
+    t = (text){p, p + n, 1};
+    uint64_t f = 0, corner = 0;
+    while (t.p < t.end) {
+        if (tok_line(&t, &k)) {
+            if (tok_is(&k, "facet")) {
+                f++;
+                corner = 0;
+            } else if (tok_is(&k, "vertex") && f && corner < 3) { /* the check made sure of 3 numbers */
+                unsigned char *r = img + 84 + 50 * (f - 1) + 12 + 12 * corner++;
+                for (int c = 0; c < 3; c++) {
+                    float x = 0;
+                    if (!tok_line(&t, &k) || !token_float(&k, &x)) {
+                        free(img);
+                        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+                    }
+                    uint32_t u;
+                    memcpy(&u, &x, sizeof u);
+                    for (int b = 0; b < 4; b++) r[4 * c + b] = (unsigned char)(u >> (8 * b)); /* little endian */
+                }
+            }
+        }
+        skip_line(&t);
+    }
+    int rc = clvox__stl_read_binary(img, bytes, raw);
+    free(img);
+    if (rc == -2) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+    *parsed = rc == 0;
+    return CLVOX_OK;
+}
+
 static clvox_status check_stl_ascii(clvox_context *ctx, const char *path, const char *p, size_t n,
                                     const char *binary_note)
 {
@@ -1574,6 +1634,13 @@ clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__r
             int rc = clvox__stl_read_binary(p, n, &raw); /* 1: a tiny coordinate, OpenMesh reads it */
             if (rc == -2) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
             parsed = rc == 0;
+        } else if (!st && clvox__mesh_native_enabled()) { /* ASCII (check_stl accepted it as such) */
+            locale_t c_locale = (locale_t)0, old = LC_GLOBAL_LOCALE;
+            if (!(st = c_locale_begin(ctx, path, &c_locale, &old))) {
+                st = read_stl_ascii(ctx, path, (const char *)p, n, &raw, &parsed);
+                c_locale_end(c_locale, old);
+            }
+            if (st) clvox__raw_mesh_free(&raw);
         }
         break;
     case FMT_OM: st = check_om(ctx, path, p, n); break;

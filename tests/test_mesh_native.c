@@ -5,9 +5,10 @@
  * in every encoding: little/big endian PLY, float/double coordinates, extra
  * vertex properties in any order, face lists with uchar/char/ushort/short/
  * int/uint counts and int/uint/short/ushort/char/uchar indices, quads and
- * polygons, other elements before, between and after; binary STL with and
- * without "solid" at the start of the header, with repeated and degenerate
- * facets. Also the same failure (status and message) on broken files. */
+ * polygons, other elements before, between and after; ASCII PLY in 4 of
+ * those layouts and 5 number spellings; binary STL with and without "solid"
+ * at the start of the header, with repeated and degenerate facets; ASCII
+ * STL. Also the same failure (status and message) on broken files. */
 #include "test.h"
 #include "meshgen.h"
 
@@ -236,6 +237,25 @@ static bytes stl_bytes(const float *xyz, const uint32_t *t, size_t nt, int solid
     return b;
 }
 
+/* ASCII STL of the same triangles (number spellings as for ASCII PLY). */
+static bytes stl_text(const float *xyz, const uint32_t *t, size_t nt)
+{
+    bytes b = {0};
+    uint64_t k = 0;
+    put_str(&b, "solid clvox test\n");
+    for (size_t i = 0; i < nt; i++) {
+        put_str(&b, i % 5 == 1 ? "  facet normal 0 0 1\n    outer loop\n" : "facet normal 0 0 0\nouter loop\n");
+        for (int c = 0; c < 3; c++) {
+            put_str(&b, i % 3 == 2 ? "\tvertex  " : "vertex ");
+            for (int a = 0; a < 3; a++) put_text_f(&b, (double)xyz[3 * (size_t)t[3 * i + c] + a], k++);
+            put_str(&b, "\n");
+        }
+        put_str(&b, "endloop\nendfacet\n");
+    }
+    put_str(&b, "endsolid clvox test\n");
+    return b;
+}
+
 static int set_reader(const char *v)
 {
     if (v) return setenv("CLVOX_MESH_READER", v, 1);
@@ -369,6 +389,11 @@ static void compare_all(const char *name, const float *xyz, size_t nv, const uin
         compare(write_file(file, &b), what);
         free(b.p);
     }
+    bytes b = stl_text(xyz, t, nt);
+    snprintf(file, sizeof file, "native_%s.stl", name);
+    snprintf(what, sizeof what, "%s as ASCII STL", name);
+    compare(write_file(file, &b), what);
+    free(b.p);
 }
 
 static void compare_tmesh(const char *name, tmesh m)

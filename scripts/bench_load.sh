@@ -14,7 +14,7 @@
 # binary STLs of both, and armadillo_s2 as ASCII OBJ, OFF, PLY and STL
 # (%.9g coordinates: the same floats), all written to build/bench/ by
 # bench_load. For OBJ and OFF "OpenMesh" is the same (native) reader; ASCII
-# STL is always read by OpenMesh; ASCII PLY (float x y z) natively, or by
+# PLY (float x y z) and ASCII STL (one solid) are read natively, or by
 # OpenMesh with CLVOX_MESH_READER=openmesh.
 # Markdown to stdout and build/bench/load.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"

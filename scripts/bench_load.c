@@ -7,7 +7,8 @@
  * choice changes; the rest (build_mesh: validation, edge and duplicate
  * analysis for the report) is the same for both readers.
  *   bench_load [-r R] FILE...
- *   bench_load --stl IN OUT.stl   writes IN's triangles as a binary STL */
+ *   bench_load --stl IN OUT.stl   writes IN's triangles as a binary STL
+ *   bench_load --ascii obj|off|ply|stl IN OUT   writes them as text (%.9g: exact) */
 #define _POSIX_C_SOURCE 200809L
 #include "clvox.h"
 #include "mesh_internal.h" /* clvox__mesh_read_raw: the reader alone (needs -Isrc) */
@@ -64,6 +65,51 @@ int main(int argc, char **argv)
     o.host_only = 1;
     clvox_context *ctx;
     if (clvox_context_create(&o, &ctx) != CLVOX_OK) return 1;
+    if (argc == 5 && !strcmp(argv[1], "--ascii")) { /* --ascii obj|off|ply|stl IN OUT */
+        clvox_mesh *m = NULL;
+        if (clvox_mesh_load(ctx, argv[3], &m) != CLVOX_OK) return fprintf(stderr, "%s\n", clvox_context_error(ctx)), 1;
+        size_t nv, nt;
+        const float *xyz = clvox_mesh_vertices(m, &nv);
+        const uint32_t *t = clvox_mesh_triangles(m, &nt);
+        double off[3];
+        clvox_mesh_vertex_offset(m, off);
+        FILE *f = fopen(argv[4], "w");
+        if (!f) return perror(argv[4]), 1;
+        const char *fmt = argv[2];
+        /* %.9g: the float's value, read back exactly */
+#define X(v, a) ((double)xyz[3 * (size_t)(v) + (a)] + off[a])
+        if (!strcmp(fmt, "obj")) {
+            fprintf(f, "# written by bench_load\n");
+            for (size_t v = 0; v < nv; v++) fprintf(f, "v %.9g %.9g %.9g\n", X(v, 0), X(v, 1), X(v, 2));
+            for (size_t i = 0; i < nt; i++) fprintf(f, "f %u %u %u\n", t[3 * i] + 1, t[3 * i + 1] + 1, t[3 * i + 2] + 1);
+        } else if (!strcmp(fmt, "off") || !strcmp(fmt, "ply")) {
+            if (fmt[0] == 'o') fprintf(f, "OFF\n%zu %zu 0\n", nv, nt);
+            else
+                fprintf(f, "ply\nformat ascii 1.0\nelement vertex %zu\nproperty float x\nproperty float y\n"
+                           "property float z\nelement face %zu\nproperty list uchar int vertex_indices\nend_header\n",
+                        nv, nt);
+            for (size_t v = 0; v < nv; v++) fprintf(f, "%.9g %.9g %.9g\n", X(v, 0), X(v, 1), X(v, 2));
+            for (size_t i = 0; i < nt; i++) fprintf(f, "3 %u %u %u\n", t[3 * i], t[3 * i + 1], t[3 * i + 2]);
+        } else if (!strcmp(fmt, "stl")) {
+            fprintf(f, "solid bench_load\n");
+            for (size_t i = 0; i < nt; i++) {
+                fprintf(f, "facet normal 0 0 0\nouter loop\n");
+                for (int c = 0; c < 3; c++) {
+                    uint32_t v = t[3 * i + c];
+                    fprintf(f, "vertex %.9g %.9g %.9g\n", X(v, 0), X(v, 1), X(v, 2));
+                }
+                fprintf(f, "endloop\nendfacet\n");
+            }
+            fprintf(f, "endsolid bench_load\n");
+        } else {
+            return fprintf(stderr, "unknown format %s\n", fmt), 2;
+        }
+#undef X
+        fclose(f);
+        clvox_mesh_destroy(m);
+        clvox_context_destroy(ctx);
+        return 0;
+    }
     if (argc == 4 && !strcmp(argv[1], "--stl")) {
         clvox_mesh *m = NULL;
         if (clvox_mesh_load(ctx, argv[2], &m) != CLVOX_OK) return fprintf(stderr, "%s\n", clvox_context_error(ctx)), 1;

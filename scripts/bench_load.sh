@@ -11,8 +11,12 @@
 #
 # Files: data/meshes/armadillo_s2.ply (832 k triangles) and armadillo_s3.ply
 # (3.3 M; made by scripts/subdivide.c as in bench_coverage.sh when absent),
-# and binary STLs of both written to build/bench/. Markdown to stdout and
-# build/bench/load.md.
+# binary STLs of both, and armadillo_s2 as ASCII OBJ, OFF, PLY and STL
+# (%.9g coordinates: the same floats), all written to build/bench/ by
+# bench_load. For OBJ and OFF "OpenMesh" is the same (native) reader; ASCII
+# PLY (float x y z) and ASCII STL (one solid) are read natively, or by
+# OpenMesh with CLVOX_MESH_READER=openmesh.
+# Markdown to stdout and build/bench/load.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -29,7 +33,7 @@ done
 make -s -j2 build/release/libclvox.a
 mkdir -p build/bench build/tools
 cc -std=c11 -O2 -Wall -Wextra -Iinclude -Isrc scripts/bench_load.c build/release/libclvox.a \
-  -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread -o build/tools/bench_load
+  -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lz -lstdc++ -lm -lpthread -o build/tools/bench_load
 m=data/meshes
 if [ ! -f $m/armadillo_s3.ply ] && [ -f $m/armadillo_s2.ply ]; then
   cc -std=c11 -O2 -o build/tools/subdivide scripts/subdivide.c -lm
@@ -42,5 +46,11 @@ for s in s2 s3; do
   [ -f build/bench/armadillo_$s.stl ] || build/tools/bench_load --stl $m/armadillo_$s.ply build/bench/armadillo_$s.stl
   files+=(build/bench/armadillo_$s.stl)
 done
+if [ -f $m/armadillo_s2.ply ]; then
+  for f in obj off ply stl; do
+    [ -f build/bench/armadillo_s2_ascii.$f ] || build/tools/bench_load --ascii $f $m/armadillo_s2.ply build/bench/armadillo_s2_ascii.$f
+    files+=(build/bench/armadillo_s2_ascii.$f)
+  done
+fi
 { echo "Load throughput, $(nproc) cores, $(date -u +%F)"; echo
   build/tools/bench_load -r "$repeat" "${files[@]}"; } | tee build/bench/load.md

@@ -51,6 +51,7 @@ struct clvox__method_state {
     uint32_t dim_u, dim_v, dim_w;
     clvox__quadtree qt;
     cl_mem soup, nodes, refs;
+    float *soup_host;            /* the soup's memory when the buffer uses it (CL_MEM_USE_HOST_PTR) */
     cl_kernel k_lookup, k_intersect, k_sort, k_classify, k_coverage, k_palette;
     /* winding numbers (kernels/winding.h) */
     int winding;                 /* 1: signed crossings and the winding inside test */
@@ -148,6 +149,8 @@ static void ray_release(clvox__method_state *s)
 {
     if (!s) return;
     clvox__release_mem(&s->soup);
+    free(s->soup_host); /* after the buffer that uses it */
+    s->soup_host = NULL;
     clvox__release_mem(&s->nodes);
     clvox__release_mem(&s->refs);
     clvox__release_mem(&s->value_of_count);
@@ -347,8 +350,13 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         return st;
     }
     cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    s->soup = clvox__buffer(ctx, ro, soup_count * 9 * sizeof(float), soup, &st, "triangles");
-    free(soup);
+    /* The soup is the largest array (36 bytes a triangle): the buffer uses
+     * its memory (a CPU device: no second copy) and it is freed with the
+     * buffer. */
+    s->soup = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, soup_count * 9 * sizeof(float), soup, &st,
+                            "triangles");
+    if (s->soup) s->soup_host = soup;
+    else free(soup);
     if (st == CLVOX_OK)
         s->nodes = clvox__buffer(ctx, ro, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
     if (st == CLVOX_OK)

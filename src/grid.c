@@ -1,6 +1,7 @@
 /* Stage grid: the voxel grid from the user's choice of resolution, dims or
  * voxel size, and the mesh in grid space (voxel centres at integers). */
 #include "internal.h"
+#include "parallel.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -133,34 +134,70 @@ clvox__axes clvox__axes_for(clvox_axis axis)
     return ax;
 }
 
-clvox_status clvox__grid_space_soup(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                    clvox__axes axes, float **out_soup)
+typedef struct soup_job {
+    const clvox_mesh *mesh;
+    const clvox_grid *grid;
+    clvox__axes axes;
+    double o[3];
+    float *gv, *soup;
+} soup_job;
+
+/* Each vertex transformed once (double, one rounding), permuted to u,v,w.
+ * Vertices are relative to mesh->offset: the origin is moved instead
+ * (origin - offset, exactly the origin when the offset is 0). */
+static void soup_vertices(void *arg, int i, int n)
+{
+    soup_job *J = arg;
+    size_t v0, v1;
+    clvox__part_range(J->mesh->vertex_count, i, n, &v0, &v1);
+    const float *xyz = J->mesh->xyz;
+    for (size_t v = v0; v < v1; v++)
+        for (int k = 0; k < 3; k++) {
+            int a = J->axes.perm[k];
+            J->gv[v * 3 + k] = (float)(((double)xyz[v * 3 + a] - J->o[a]) / J->grid->voxel_size[a] - 0.5);
+        }
+}
+
+static void soup_triangles(void *arg, int i, int n)
+{
+    soup_job *J = arg;
+    size_t t0, t1;
+    clvox__part_range(J->mesh->triangle_count, i, n, &t0, &t1);
+    const uint32_t *tris = J->mesh->tris;
+    for (size_t t = t0; t < t1; t++)
+        for (int c = 0; c < 3; c++)
+            memcpy(&J->soup[t * 9 + c * 3], &J->gv[(size_t)tris[t * 3 + c] * 3], 3 * sizeof(float));
+}
+
+clvox_status clvox__grid_space_soup_threads(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                            clvox__axes axes, int threads, float **out_soup)
 {
     *out_soup = NULL;
     size_t nv = mesh->vertex_count, nt = mesh->triangle_count;
     if (nt > SIZE_MAX / (9 * sizeof(float)))
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "mesh too large");
-    float *gv = malloc(nv * 3 * sizeof *gv);
-    float *soup = malloc(nt * 9 * sizeof *soup);
+    float *gv = malloc((nv ? nv : 1) * 3 * sizeof *gv);
+    /* Page-aligned: a device buffer can use it in place (CL_MEM_USE_HOST_PTR, cast.c). */
+    size_t bytes = ((nt ? nt : 1) * 9 * sizeof(float) + 4095) / 4096 * 4096;
+    float *soup = aligned_alloc(4096, bytes);
     if (!gv || !soup) {
         free(gv);
         free(soup);
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles in grid space", nt);
     }
-    /* Each vertex transformed once (double, one rounding), permuted to u,v,w.
-     * Vertices are relative to mesh->offset: the origin is moved instead
-     * (origin - offset, exactly the origin when the offset is 0). */
-    double o[3];
-    for (int a = 0; a < 3; a++) o[a] = grid->origin[a] - mesh->offset[a];
-    for (size_t i = 0; i < nv; i++)
-        for (int k = 0; k < 3; k++) {
-            int a = axes.perm[k];
-            gv[i * 3 + k] = (float)(((double)mesh->xyz[i * 3 + a] - o[a]) / grid->voxel_size[a] - 0.5);
-        }
-    for (size_t t = 0; t < nt; t++)
-        for (int c = 0; c < 3; c++)
-            memcpy(&soup[t * 9 + c * 3], &gv[(size_t)mesh->tris[t * 3 + c] * 3], 3 * sizeof(float));
+    if (threads <= 0) threads = clvox__host_threads();
+    if (nt < 20000) threads = 1;
+    soup_job J = {.mesh = mesh, .grid = grid, .axes = axes, .gv = gv, .soup = soup};
+    for (int a = 0; a < 3; a++) J.o[a] = grid->origin[a] - mesh->offset[a];
+    clvox__parallel(threads, soup_vertices, &J);
+    clvox__parallel(threads, soup_triangles, &J);
     free(gv);
     *out_soup = soup;
     return CLVOX_OK;
+}
+
+clvox_status clvox__grid_space_soup(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    clvox__axes axes, float **out_soup)
+{
+    return clvox__grid_space_soup_threads(ctx, mesh, grid, axes, 0, out_soup);
 }

@@ -147,6 +147,9 @@ clvox__axes clvox__axes_for(clvox_axis axis);
  * closed mesh stays closed. */
 clvox_status clvox__grid_space_soup(clvox_context *ctx, const clvox_mesh *mesh,
                                     const clvox_grid *grid, clvox__axes axes, float **out_soup);
+/* The same on `threads` host threads (0: clvox__host_threads()); the same floats. */
+clvox_status clvox__grid_space_soup_threads(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                            clvox__axes axes, int threads, float **out_soup);
 
 /* ---- partition (partition.c) ---- */
 
@@ -164,6 +167,11 @@ typedef struct clvox__quadtree {
 clvox_status clvox__quadtree_build(clvox_context *ctx, const float *soup, size_t tri_count,
                                    uint32_t dim_v, uint32_t dim_w, uint32_t max_depth,
                                    uint32_t leaf_size, clvox__quadtree *out);
+/* The same on `threads` host threads (0: clvox__host_threads()): the same
+ * tree, node for node and reference for reference, at any count. */
+clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *soup, size_t tri_count,
+                                           uint32_t dim_v, uint32_t dim_w, uint32_t max_depth,
+                                           uint32_t leaf_size, int threads, clvox__quadtree *out);
 void clvox__quadtree_free(clvox__quadtree *qt);
 uint32_t clvox__quadtree_auto_depth(uint32_t dim_v, uint32_t dim_w, size_t tri_count);
 

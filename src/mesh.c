@@ -242,6 +242,66 @@ static clvox_status check_coord(clvox_context *ctx, const char *path, const tok 
 
 /* ---- STL ------------------------------------------------------------------------ */
 
+static int token_float(const tok *k, float *out);
+
+/* ASCII STL read natively (after check_stl_ascii accepted it): the facets'
+ * corners, as strtof reads them (OpenMesh's operator>>), laid out as a binary
+ * STL in memory and merged by the binary reader (clvox__stl_read_binary:
+ * OpenMesh's vertex merging, the same for both). Only for the plain layout
+ * OpenMesh surely reads the same way: one "solid" line first, one
+ * "endsolid" line last; else *parsed stays 0 and OpenMesh reads the file.
+ * The same when a coordinate is tiny (the binary reader's return 1). */
+static clvox_status read_stl_ascii(clvox_context *ctx, const char *path, const char *p, size_t n,
+                                   clvox__raw_mesh *raw, int *parsed)
+{
+    text t = {p, p + n, 1};
+    tok k;
+    uint64_t facets = 0, solids = 0, ended = 0, after_end = 0;
+    while (t.p < t.end) {
+        if (tok_line(&t, &k)) {
+            if (ended) after_end = 1;
+            if (tok_is(&k, "facet")) facets++;
+            else if (tok_is(&k, "solid")) solids++;
+            else if (tok_is(&k, "endsolid")) ended = 1;
+        }
+        skip_line(&t);
+    }
+    if (solids != 1 || after_end || facets > (SIZE_MAX - 84) / 50) return CLVOX_OK; /* OpenMesh reads it */
+    size_t bytes = 84 + 50 * (size_t)facets;
+    unsigned char *img = calloc(bytes, 1);
+    if (!img) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+    uint32_t nf32 = (uint32_t)facets;
+    for (int b = 0; b < 4; b++) img[80 + b] = (unsigned char)(nf32 >> (8 * b));
+    t = (text){p, p + n, 1};
+    uint64_t f = 0, corner = 0;
+    while (t.p < t.end) {
+        if (tok_line(&t, &k)) {
+            if (tok_is(&k, "facet")) {
+                f++;
+                corner = 0;
+            } else if (tok_is(&k, "vertex") && f && corner < 3) { /* the check made sure of 3 numbers */
+                unsigned char *r = img + 84 + 50 * (f - 1) + 12 + 12 * corner++;
+                for (int c = 0; c < 3; c++) {
+                    float x = 0;
+                    if (!tok_line(&t, &k) || !token_float(&k, &x)) {
+                        free(img);
+                        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+                    }
+                    uint32_t u;
+                    memcpy(&u, &x, sizeof u);
+                    for (int b = 0; b < 4; b++) r[4 * c + b] = (unsigned char)(u >> (8 * b)); /* little endian */
+                }
+            }
+        }
+        skip_line(&t);
+    }
+    int rc = clvox__stl_read_binary(img, bytes, raw);
+    free(img);
+    if (rc == -2) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+    *parsed = rc == 0;
+    return CLVOX_OK;
+}
+
 static clvox_status check_stl_ascii(clvox_context *ctx, const char *path, const char *p, size_t n,
                                     const char *binary_note)
 {
@@ -396,6 +456,59 @@ static int token_double(const tok *k, double *out)
     return end == buf + k->n && isfinite((float)*out);
 }
 
+/* Clinger's fast path: a token [+-]digits[.digits][(e|E)[+-]digits] whose
+ * significant digits make an integer m <= 2^53 and whose decimal exponent e
+ * is within +-22 is m * 10^e or m / 10^-e, both operands exact in double, so
+ * the one rounding of that operation is the correctly rounded value: what
+ * strtod returns. Such a value is below 1e38, so it is also one that
+ * classify_float accepts (finite as a float). Returns 0 for anything else
+ * (the caller checks and converts it the slow way, with the same result or
+ * error as before). */
+static int fast_decimal(const tok *k, double *out)
+{
+    static const double pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                     1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+    const char *s = k->s, *end = k->s + k->n;
+    int neg = 0;
+    if (s < end && (*s == '+' || *s == '-')) neg = *s++ == '-';
+    uint64_t m = 0;
+    int digits = 0, sig = 0; /* digits read; significant ones (from the first non-zero) */
+    long e = 0;
+    for (; s < end && is_digit(*s); s++, digits++) {
+        if (sig || *s != '0') {
+            if (++sig > 19) return 0;
+            m = m * 10 + (uint64_t)(*s - '0');
+        }
+    }
+    if (s < end && *s == '.') {
+        for (s++; s < end && is_digit(*s); s++, digits++) {
+            if (sig || *s != '0') {
+                if (++sig > 19) return 0;
+                m = m * 10 + (uint64_t)(*s - '0');
+            }
+            e--;
+        }
+    }
+    if (!digits) return 0;
+    if (s < end && (*s == 'e' || *s == 'E')) {
+        s++;
+        int eneg = 0;
+        if (s < end && (*s == '+' || *s == '-')) eneg = *s++ == '-';
+        if (s >= end || !is_digit(*s)) return 0;
+        long x = 0;
+        for (; s < end && is_digit(*s); s++) {
+            if (x > 1000) return 0;
+            x = x * 10 + (*s - '0');
+        }
+        e += eneg ? -x : x;
+    }
+    if (s != end || m > ((uint64_t)1 << 53) || e < -22 || e > 22) return 0;
+    double v = (double)m;
+    v = e < 0 ? v / pow10[-e] : v * pow10[e];
+    *out = neg ? -v : v;
+    return 1;
+}
+
 /* Stores coordinate c of vertex v relative to vertex 0 (which sets the offset). */
 static void store_coord(clvox__raw_mesh *raw, uint64_t v, int c, double x)
 {
@@ -449,9 +562,13 @@ static clvox_status parse_off_ascii(clvox_context *ctx, const char *path, text *
             if (!tok_line(&line, &k))
                 return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': vertex %llu at line %llu has fewer than %d values",
                                    path, (unsigned long long)v, (unsigned long long)line.line, normal ? 6 : 3);
+            double x = 0;
+            if (fast_decimal(&k, &x)) { /* a plain decimal read exactly: checked and converted */
+                if (c < 3) store_coord(raw, v, c, x);
+                continue;
+            }
             clvox_status st = check_coord(ctx, path, &k, "OFF vertex");
             if (st) return st;
-            double x = 0;
             if (c < 3 && !token_double(&k, &x))
                 return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': cannot convert '%.*s' at line %llu", path,
                                    tok_print_len(&k), k.s, (unsigned long long)k.line);
@@ -689,9 +806,13 @@ static clvox_status parse_obj(clvox_context *ctx, const char *path, const char *
                     return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
                                        "'%s': vertex at line %llu has fewer than 3 coordinates", path,
                                        (unsigned long long)line.line);
+                double x;
+                if (fast_decimal(&k, &x)) {
+                    store_coord(raw, so_far[OBJ_V], c, x);
+                    continue;
+                }
                 clvox_status st = check_coord(ctx, path, &k, "vertex");
                 if (st) return st;
-                double x;
                 if (!token_double(&k, &x))
                     return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s': cannot convert '%.*s' at line %llu", path,
                                        tok_print_len(&k), k.s, (unsigned long long)k.line);
@@ -995,9 +1116,39 @@ static clvox_status ply_check_binary(clvox_context *ctx, const char *path, const
     return CLVOX_OK;
 }
 
-/* ASCII body, token by token as OpenMesh reads it (operator>>). */
+/* A float coordinate token (classify_float said NUM_OK) as operator>>
+ * (strtof) reads it. The fast path: Clinger's double d (strtod's value)
+ * rounded to float is strtof's value unless d is exactly half-way between
+ * two floats (double rounding can only go wrong there: any other half-way
+ * point between the true value and d would be a double nearer to it) or
+ * below the normal floats; those, and all others, go to strtof (C locale:
+ * the caller set it). */
+static int token_float(const tok *k, float *out)
+{
+    double d;
+    if (fast_decimal(k, &d)) {
+        uint64_t u;
+        memcpy(&u, &d, sizeof u);
+        if ((u & 0x1FFFFFFFu) != 0x10000000u && (fabs(d) >= 0x1p-125 || d == 0.0)) {
+            *out = (float)d;
+            return 1;
+        }
+    }
+    char buf[64], *s = buf;
+    if (k->n >= sizeof buf && !(s = malloc(k->n + 1))) return 0; /* a long spelling ("0.000...1") */
+    memcpy(s, k->s, k->n);
+    s[k->n] = 0;
+    *out = strtof(s, NULL);
+    if (s != buf) free(s);
+    return 1;
+}
+
+/* ASCII body, token by token as OpenMesh reads it (operator>>). raw != NULL:
+ * also read it (the native ASCII reader: x, y, z of type float as strtof
+ * reads them, the last vertex_indices/vertex_index list of each face, as
+ * OpenMesh's reader hands them over; the caller sets the C locale). */
 static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const char *p, size_t n,
-                                    const ply_header *h)
+                                    const ply_header *h, clvox__raw_mesh *raw)
 {
     clvox_status st = check_text(ctx, path, p + h->body, n - h->body, "PLY");
     if (st) return st;
@@ -1006,6 +1157,7 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
     uint64_t nv = h->elems[h->vertex].count;
     int last = h->face >= 0 ? h->face : h->nelems - 1;
     tok k;
+    size_t cap = 0, ni = 0;
     for (int ei = 0; ei <= last; ei++) {
         const ply_elem *e = &h->elems[ei];
         /* A value needs at least two bytes ("0 "): reject absurd counts before scanning. */
@@ -1013,7 +1165,19 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
             return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
                                "'%s': PLY element '%s' declares %llu entries, more than the file can hold", path, e->name,
                                (unsigned long long)e->count);
+        if (raw && ei == h->vertex) {
+            raw->xyz = malloc((e->count ? e->count : 1) * 3 * sizeof *raw->xyz);
+            if (!raw->xyz) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+            raw->vertex_count = (size_t)e->count;
+        }
+        if (raw && ei == h->face) {
+            cap = (size_t)e->count * 3 + 16;
+            raw->face_indices = malloc(cap * sizeof *raw->face_indices);
+            if (!raw->face_indices) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+            raw->face_count = (size_t)e->count;
+        }
         for (uint64_t r = 0; r < e->count; r++) {
+            size_t face_start = ni, face_n = 0; /* this face's index list in raw (the last one wins) */
             for (int q = 0; q < e->nprops; q++) {
                 const ply_prop *pr = &e->props[q];
                 uint64_t items = 1;
@@ -1029,9 +1193,26 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                 }
                 int indices = pr->count_type && ei == h->face && is_index_list(pr->name);
                 int coord = ei == h->vertex && (!strcmp(pr->name, "x") || !strcmp(pr->name, "y") || !strcmp(pr->name, "z"));
+                if (raw && indices) { /* a later list replaces an earlier one */
+                    ni = face_start;
+                    face_n = (size_t)items;
+                    if (ni + face_n > cap) {
+                        size_t c2 = (ni + face_n) * 2;
+                        uint32_t *g = realloc(raw->face_indices, c2 * sizeof *g);
+                        if (!g) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+                        raw->face_indices = g;
+                        cap = c2;
+                    }
+                }
                 for (uint64_t j = 0; j < items; j++) {
                     if (!tok_any(&t, &k)) goto truncated;
                     if (pr->type->is_float) {
+                        float *slot = raw && coord ? &raw->xyz[3 * r + (size_t)(pr->name[0] - 'x')] : NULL;
+                        double d;
+                        if (slot && fast_decimal(&k, &d)) { /* a plain decimal: finite and below FLT_MAX */
+                            if (!token_float(&k, slot)) goto oom;
+                            continue;
+                        }
                         int c = classify_float(&k);
                         if (c == NUM_NONFINITE)
                             return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
@@ -1039,6 +1220,7 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                                                coord ? "coordinate" : "value", tok_print_len(&k), k.s,
                                                (unsigned long long)k.line, e->name, (unsigned long long)r, pr->name);
                         if (c == NUM_BAD) goto not_a_number;
+                        if (slot && !token_float(&k, slot)) goto oom;
                     } else {
                         int64_t v;
                         if (!parse_int(&k, &v)) goto not_a_number;
@@ -1047,6 +1229,7 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                                                "'%s': face %llu at line %llu references vertex %lld, the file has %llu vertices",
                                                path, (unsigned long long)r, (unsigned long long)k.line, (long long)v,
                                                (unsigned long long)nv);
+                        if (raw && indices) raw->face_indices[ni++] = (uint32_t)v;
                     }
                 }
                 continue;
@@ -1056,6 +1239,17 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
                                    pr->type->is_float ? "a number" : "an integer", pr->name, e->name,
                                    (unsigned long long)r, (unsigned long long)k.line, tok_print_len(&k), k.s);
             }
+            if (raw && ei == h->face) {
+                if (face_n != 3 && !raw->face_sizes) {
+                    /* The first face that is not a triangle: from here on, sizes. */
+                    raw->face_sizes = malloc((e->count ? e->count : 1) * sizeof *raw->face_sizes);
+                    if (!raw->face_sizes)
+                        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+                    for (uint64_t g = 0; g < r; g++) raw->face_sizes[g] = 3;
+                }
+                if (raw->face_sizes) raw->face_sizes[r] = (uint32_t)face_n;
+                raw->index_count = ni;
+            }
             continue;
         truncated:
             return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
@@ -1064,6 +1258,8 @@ static clvox_status ply_check_ascii(clvox_context *ctx, const char *path, const 
         }
     }
     return CLVOX_OK;
+oom:
+    return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
 }
 
 static clvox_status check_ply(clvox_context *ctx, const char *path, const unsigned char *p, size_t n, expect *ex,
@@ -1072,9 +1268,32 @@ static clvox_status check_ply(clvox_context *ctx, const char *path, const unsign
     ply_header *h = malloc(sizeof *h); /* about 300 KB: keep it off the stack */
     if (!h) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory checking '%s'", path);
     clvox_status st = ply_parse_header(ctx, path, (const char *)p, n, h);
-    if (!st)
-        st = h->format == PLY_ASCII ? ply_check_ascii(ctx, path, (const char *)p, n, h)
-                                    : ply_check_binary(ctx, path, p, n, h);
+    if (!st && h->format == PLY_ASCII) {
+        /* Read natively when the coordinates are floats (OpenMesh reads them
+         * with operator>>: strtof); double coordinates stay with OpenMesh. */
+        int use_native = clvox__mesh_native_enabled();
+        const ply_elem *ve = &h->elems[h->vertex];
+        for (int q = 0; q < ve->nprops; q++) {
+            const char *nm = ve->props[q].name;
+            if ((!strcmp(nm, "x") || !strcmp(nm, "y") || !strcmp(nm, "z")) && ve->props[q].type->size != 4) use_native = 0;
+        }
+        if (use_native) {
+            locale_t c_locale = (locale_t)0, old = LC_GLOBAL_LOCALE;
+            if (!(st = c_locale_begin(ctx, path, &c_locale, &old))) {
+                st = ply_check_ascii(ctx, path, (const char *)p, n, h, native);
+                c_locale_end(c_locale, old);
+            }
+            if (!st && !native->face_indices) { /* no face element */
+                native->face_indices = malloc(sizeof *native->face_indices);
+                if (!native->face_indices) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+            }
+            st = text_read_done(st, native, parsed);
+        } else {
+            st = ply_check_ascii(ctx, path, (const char *)p, n, h, NULL);
+        }
+    } else if (!st) {
+        st = ply_check_binary(ctx, path, p, n, h);
+    }
     if (!st && h->format != PLY_ASCII && clvox__mesh_native_enabled()) {
         st = clvox__ply_read_binary(ctx, path, p, n, h, native);
         if (!st) *parsed = 1;
@@ -1214,255 +1433,6 @@ void clvox__raw_mesh_free(clvox__raw_mesh *raw)
     memset(raw, 0, sizeof *raw);
 }
 
-/* Ascending sort of small arrays of 64-bit keys. */
-static void sort_u64_small(uint64_t *a, size_t n)
-{
-    for (size_t i = 1; i < n; i++) {
-        uint64_t v = a[i];
-        size_t j = i;
-        for (; j > 0 && a[j - 1] > v; j--) a[j] = a[j - 1];
-        a[j] = v;
-    }
-}
-
-static int cmp_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
-
-/* Boundary edges (used by an odd number of triangles) and non-manifold
- * triangles. Edges are bucketed by their smaller vertex (counting sort, O(T))
- * and each bucket sorted by (other vertex, use index), so the uses of one
- * edge are adjacent and in input order.
- *
- * Non-manifold counts what OpenMesh calls a "complex edge" (it then re-adds
- * the face with duplicated vertices): taking triangles in input order, one is
- * rejected when an edge it uses is already used in the same direction, or
- * twice, by triangles accepted before it; rejected triangles use nothing.
- * Only edges with more than two uses or two uses in the same direction can
- * reject anything, so just the triangles on such edges are replayed.
- * (OpenMesh also rejects some faces at non-manifold vertices: not counted.)
- * Returns -1 when memory runs out. */
-static int edge_analysis(const uint32_t *tris, size_t nt, size_t nv, uint64_t *boundary, uint64_t *nonmanifold)
-{
-    size_t ne = 3 * nt; /* <= UINT32_MAX, checked by the caller */
-    uint32_t *start = calloc(nv + 1, sizeof *start);
-    uint64_t *entry = malloc(ne * sizeof *entry);
-    uint64_t *cx = NULL;      /* uses of complex edges: tri << 33 | group << 1 | dir */
-    size_t ncx = 0, cap = 0;
-    unsigned char *gstate = NULL;
-    int rc = -1;
-    if (!start || !entry) goto done;
-#define OTHER(i) tris[(i) % 3 == 2 ? (i) - 2 : (i) + 1]
-    for (size_t i = 0; i < ne; i++) {
-        uint32_t a = tris[i], b = OTHER(i);
-        start[a < b ? a : b]++;
-    }
-    uint32_t sum = 0;
-    for (size_t v = 0; v <= nv; v++) {
-        uint32_t c = start[v];
-        start[v] = sum;
-        sum += c;
-    }
-    /* start[v] runs ahead as the fill cursor: afterwards bucket v is
-     * [start[v-1], start[v]) with start[-1] = 0. */
-    for (size_t i = 0; i < ne; i++) {
-        uint32_t a = tris[i], b = OTHER(i);
-        uint32_t lo = a < b ? a : b, hi = a < b ? b : a;
-        entry[start[lo]++] = (uint64_t)hi << 32 | (uint64_t)i;
-    }
-    uint64_t nb = 0, groups = 0;
-    size_t begin = 0;
-    for (size_t v = 0; v < nv; v++) {
-        size_t end = start[v], len = end - begin;
-        if (len > 1) {
-            if (len <= 24) sort_u64_small(entry + begin, len);
-            else qsort(entry + begin, len, sizeof *entry, cmp_u64);
-        }
-        for (size_t i = begin; i < end;) {
-            size_t j = i + 1;
-            while (j < end && entry[j] >> 32 == entry[i] >> 32) j++;
-            size_t uses = j - i;
-            nb += uses & 1;
-            int complex = uses > 2;
-            if (uses == 2) {
-                size_t u0 = (uint32_t)entry[i], u1 = (uint32_t)entry[i + 1];
-                complex = (tris[u0] > OTHER(u0)) == (tris[u1] > OTHER(u1));
-            }
-            if (complex) {
-                if (ncx + uses > cap) {
-                    cap = (ncx + uses) * 2 + 64;
-                    uint64_t *grown = realloc(cx, cap * sizeof *cx);
-                    if (!grown) goto done;
-                    cx = grown;
-                }
-                for (size_t q = i; q < j; q++) {
-                    size_t u = (uint32_t)entry[q];
-                    cx[ncx++] = (uint64_t)(u / 3) << 33 | groups << 1 | (uint64_t)(tris[u] > OTHER(u));
-                }
-                groups++;
-            }
-            i = j;
-        }
-        begin = end;
-    }
-#undef OTHER
-    free(entry);
-    entry = NULL;
-    free(start);
-    start = NULL;
-
-    uint64_t nm = 0;
-    if (ncx) {
-        /* Replay in triangle order. State per complex edge: bit 0/1 = used in
-         * direction 0/1, bits 2-3 = number of uses (saturating at 2). */
-        qsort(cx, ncx, sizeof *cx, cmp_u64);
-        gstate = calloc(groups, 1);
-        if (!gstate) goto done;
-        for (size_t i = 0; i < ncx;) {
-            size_t j = i;
-            int reject = 0;
-            for (; j < ncx && cx[j] >> 33 == cx[i] >> 33; j++) {
-                unsigned char s = gstate[(cx[j] >> 1) & 0xFFFFFFFFu];
-                if ((s >> 2) >= 2 || (s >> (cx[j] & 1) & 1)) reject = 1;
-            }
-            if (reject) {
-                nm++;
-            } else {
-                for (size_t q = i; q < j; q++) {
-                    unsigned char *s = &gstate[(cx[q] >> 1) & 0xFFFFFFFFu];
-                    *s = (unsigned char)((*s | 1u << (cx[q] & 1)) + 4);
-                }
-            }
-            i = j;
-        }
-    }
-    *boundary = nb;
-    *nonmanifold = nm;
-    rc = 0;
-done:
-    free(start);
-    free(entry);
-    free(cx);
-    free(gstate);
-    return rc;
-}
-
-/* 64-bit finaliser (MurmurHash3 fmix64): the slot comes from the low bits,
- * a 32-bit tag from the high bits. */
-static uint64_t mix64(uint64_t h)
-{
-    h ^= h >> 33;
-    h *= 0xff51afd7ed558ccdull;
-    h ^= h >> 33;
-    h *= 0xc4ceb9fe1a85ec53ull;
-    h ^= h >> 33;
-    return h;
-}
-
-static uint64_t hash3(uint32_t a, uint32_t b, uint32_t c)
-{
-    return mix64(((uint64_t)a << 32 | b) * 0x9e3779b97f4a7c15ull ^ (uint64_t)c * 0xbf58476d1ce4e5b9ull);
-}
-
-static uint32_t float_key(float f)
-{
-    uint32_t u;
-    if (f == 0.0f) f = 0.0f; /* -0 and +0 are the same position */
-    memcpy(&u, &f, sizeof u);
-    return u;
-}
-
-/* Open-addressing table of 2^k slots for n entries (load <= 0.8). */
-static size_t table_size(size_t n)
-{
-    size_t t = 16;
-    while (t < n + n / 4) t *= 2;
-    return t;
-}
-
-/* Lexicographic order of two vertex positions (as float_key triples). */
-static int pos_less(const uint32_t *a, const uint32_t *b)
-{
-    if (a[0] != b[0]) return a[0] < b[0];
-    if (a[1] != b[1]) return a[1] < b[1];
-    return a[2] < b[2];
-}
-
-/* The corner positions of triangle t, sorted: the duplicate key. */
-static void sorted_corners(const float *xyz, const uint32_t *tris, size_t t, uint32_t k[3][3])
-{
-    for (int c = 0; c < 3; c++)
-        for (int a = 0; a < 3; a++) k[c][a] = float_key(xyz[3 * (size_t)tris[3 * t + c] + a]);
-    uint32_t s[3];
-#define SWAP_IF(i, j) \
-    if (pos_less(k[j], k[i])) memcpy(s, k[i], sizeof s), memcpy(k[i], k[j], sizeof s), memcpy(k[j], s, sizeof s)
-    SWAP_IF(0, 1);
-    SWAP_IF(1, 2);
-    SWAP_IF(0, 1);
-#undef SWAP_IF
-}
-
-/* Duplicate triangles: triangles whose three corner positions (in any order
- * or orientation) are those of an earlier triangle, whether they share its
- * vertices or repeat them. Each vertex gets a hash of its exact position; a
- * triangle's hash is the mixed sum of its corners' (order does not matter),
- * looked up in an open-addressing set of 8-byte slots (32-bit hash tag,
- * index + 1); only a tag match compares the sorted corner positions.
- * O(V + T) expected, one random access per triangle, prefetched in blocks.
- * Copies of one triangle are never inserted, so they do not cluster.
- * Returns -1 when memory runs out. */
-static int duplicate_analysis(const float *xyz, size_t nv, const uint32_t *tris, size_t nt, uint64_t *duplicates)
-{
-    size_t ts = table_size(nt), mask = ts - 1;
-    uint64_t *vh = malloc((nv ? nv : 1) * sizeof *vh);
-    uint64_t *slot = calloc(ts, sizeof *slot);
-    int rc = -1;
-    if (!vh || !slot) goto done;
-    for (size_t v = 0; v < nv; v++) {
-        const float *p = xyz + 3 * v;
-        vh[v] = hash3(float_key(p[0]), float_key(p[1]), float_key(p[2]));
-    }
-    enum { BLOCK = 64 };
-    uint64_t h[BLOCK], dup = 0;
-    for (size_t t0 = 0; t0 < nt; t0 += BLOCK) {
-        size_t nb = nt - t0 < BLOCK ? nt - t0 : BLOCK;
-        for (size_t j = 0; j < nb; j++) {
-            const uint32_t *u = tris + 3 * (t0 + j);
-            h[j] = mix64(vh[u[0]] + vh[u[1]] + vh[u[2]]);
-#if defined(__GNUC__)
-            __builtin_prefetch(&slot[(size_t)h[j] & mask], 1);
-#endif
-        }
-        for (size_t j = 0; j < nb; j++) {
-            size_t t = t0 + j;
-            uint64_t tag = h[j] >> 32;
-            int have_key = 0;
-            uint32_t k[3][3], q[3][3];
-            for (size_t i = (size_t)h[j] & mask;; i = (i + 1) & mask) {
-                if (!slot[i]) {
-                    slot[i] = tag << 32 | (uint64_t)(t + 1);
-                    break;
-                }
-                if (slot[i] >> 32 != tag) continue;
-                if (!have_key) sorted_corners(xyz, tris, t, k), have_key = 1;
-                sorted_corners(xyz, tris, (size_t)(uint32_t)slot[i] - 1, q);
-                if (!memcmp(k, q, sizeof k)) {
-                    dup++;
-                    break;
-                }
-            }
-        }
-    }
-    *duplicates = dup;
-    rc = 0;
-done:
-    free(vh);
-    free(slot);
-    return rc;
-}
-
 /* Takes ownership of xyz (freed on failure). sizes == NULL: all faces are
  * triangles. `what` names the source in messages. */
 /* idx_owned: idx itself, handed over (malloc'ed, freed on failure), when
@@ -1557,54 +1527,18 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
     }
     r.triangles = kept;
 
-    /* Bounding box of the vertices in use, degenerate triangles, volume
-     * (apex at the first vertex used: cancellation stays small far from the
-     * origin; the sum does not depend on the apex when the mesh is closed). */
-    const float *o = xyz + 3 * (size_t)tris[0];
-    double apex[3] = {o[0], o[1], o[2]};
-    for (int a = 0; a < 3; a++) r.bbox_min[a] = r.bbox_max[a] = apex[a];
-    double vol6 = 0.0;
-    for (size_t t = 0; t < kept; t++) {
-        double q[3][3];
-        for (int c = 0; c < 3; c++) {
-            const float *p = xyz + 3 * (size_t)tris[3 * t + c];
-            for (int a = 0; a < 3; a++) {
-                q[c][a] = p[a];
-                if (q[c][a] < r.bbox_min[a]) r.bbox_min[a] = q[c][a];
-                if (q[c][a] > r.bbox_max[a]) r.bbox_max[a] = q[c][a];
-            }
-        }
-        double e1[3], e2[3], cr[3];
-        for (int a = 0; a < 3; a++) e1[a] = q[1][a] - q[0][a], e2[a] = q[2][a] - q[0][a];
-        cr[0] = e1[1] * e2[2] - e1[2] * e2[1];
-        cr[1] = e1[2] * e2[0] - e1[0] * e2[2];
-        cr[2] = e1[0] * e2[1] - e1[1] * e2[0];
-        if (cr[0] == 0.0 && cr[1] == 0.0 && cr[2] == 0.0) r.degenerate_triangles++;
-        /* (a-o) . ((b-o) x (c-o)) */
-        double A[3], B[3], C[3];
-        for (int a = 0; a < 3; a++) A[a] = q[0][a] - apex[a], B[a] = q[1][a] - apex[a], C[a] = q[2][a] - apex[a];
-        vol6 += A[0] * (B[1] * C[2] - B[2] * C[1]) + A[1] * (B[2] * C[0] - B[0] * C[2]) +
-                A[2] * (B[0] * C[1] - B[1] * C[0]);
+    /* Box of the vertices in use, degenerate triangles, volume, boundary and
+     * non-manifold edges, duplicates (mesh_report.c). */
+    if (clvox__mesh_analyze(xyz, nv, tris, kept, 0, 0, &r) != 0) {
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory for the report on %zu triangles", what, kept);
+        goto fail;
     }
-    r.enclosed_volume = fabs(vol6) / 6.0;
     for (int a = 0; a < 3; a++) { /* the box in absolute coordinates */
         r.bbox_min[a] += offset[a];
         r.bbox_max[a] += offset[a];
     }
-
-    uint64_t nonmanifold = 0;
-    if (edge_analysis(tris, kept, nv, &r.boundary_edges, &nonmanifold) != 0) {
-        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory for the edge analysis of %zu triangles", what,
-                         kept);
-        goto fail;
-    }
-    r.nonmanifold_faces = nonmanifold + loader_nonmanifold;
+    r.nonmanifold_faces += loader_nonmanifold;
     r.closed = r.boundary_edges == 0;
-    if (duplicate_analysis(xyz, nv, tris, kept, &r.duplicate_triangles) != 0) {
-        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory looking for duplicate triangles in %zu triangles",
-                         what, kept);
-        goto fail;
-    }
 
     m = malloc(sizeof *m);
     if (!m) {
@@ -1700,6 +1634,13 @@ clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__r
             int rc = clvox__stl_read_binary(p, n, &raw); /* 1: a tiny coordinate, OpenMesh reads it */
             if (rc == -2) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
             parsed = rc == 0;
+        } else if (!st && clvox__mesh_native_enabled()) { /* ASCII (check_stl accepted it as such) */
+            locale_t c_locale = (locale_t)0, old = LC_GLOBAL_LOCALE;
+            if (!(st = c_locale_begin(ctx, path, &c_locale, &old))) {
+                st = read_stl_ascii(ctx, path, (const char *)p, n, &raw, &parsed);
+                c_locale_end(c_locale, old);
+            }
+            if (st) clvox__raw_mesh_free(&raw);
         }
         break;
     case FMT_OM: st = check_om(ctx, path, p, n); break;

@@ -53,4 +53,14 @@ clvox_status clvox__ply_read_binary(clvox_context *ctx, const char *path, const 
  * comparison could merge with a different value (|x| < 2^-100, x != 0: the
  * caller falls back to OpenMesh), -2 when memory runs out. */
 int clvox__stl_read_binary(const unsigned char *p, size_t n, clvox__raw_mesh *raw);
+
+/* The report's analysis of validated triangles (mesh_report.c): fills
+ * bbox_min/bbox_max (relative to the mesh offset), degenerate_triangles,
+ * enclosed_volume, boundary_edges, nonmanifold_faces (without the loader's)
+ * and duplicate_triangles of *r. threads: host threads to use (0: the
+ * default, clvox__host_threads()); the result does not depend on it.
+ * reference != 0: the earlier single-threaded implementation, for tests.
+ * nt >= 1. Returns 0, or -1 when memory runs out. */
+int clvox__mesh_analyze(const float *xyz, size_t nv, const uint32_t *tris, size_t nt, int threads, int reference,
+                        clvox_mesh_report *r);
 #endif

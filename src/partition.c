@@ -11,27 +11,75 @@
  * test three quarters of them, and the references would multiply by up to 4
  * per level (a surface duplicated a million times asked for 32 GB). The
  * references are also capped (MAX_REFS) as a last guard; any leaf that holds
- * every triangle it touches is correct, so these rules change speed only. */
+ * every triangle it touches is correct, so these rules change speed only.
+ *
+ * Layout (what the cast kernels read): nodes in the order of a depth-first
+ * build, the 4 children of a node allocated together when it is split, then
+ * built one after the other; leaf references in the order the leaves are
+ * made, each leaf's triangles in increasing index.
+ *
+ * On several host threads (parallel.h) the top SKELETON_DEPTH levels are
+ * built first, the subtrees below them become tasks built independently
+ * into arrays of their own, and one walk over the skeleton then lays
+ * everything out exactly as the one-thread build would: the same nodes and
+ * the same references in the same order. A node's decisions depend only on
+ * its triangles and bounds, except for the MAX_REFS guard, which depends on
+ * the references made before it; so when the result comes near that guard
+ * the tree is built again on one thread. tests/test_partition.c compares
+ * the two at 1 to 4 threads. */
 #include "internal.h"
+#include "parallel.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
+/* At most this many references in all (4 bytes each): past it, nodes stay leaves. */
+#define MAX_REFS ((size_t)1 << 28)
+/* More references than a 32-bit index reaches: an error. */
+#define MAX_TOTAL_REFS 0xFFFFFFF0u
+/* Levels built before the tasks (up to 4^3 = 64 subtrees to share out). */
+#define SKELETON_DEPTH 3
+/* Fewer triangles than this: one thread. */
+#define MIN_PARALLEL_TRIANGLES 20000
+/* In the skeleton: a node whose subtree is task `first`. */
+#define NODE_TASK 0xFFFFFFFEu
+
+/* A triangle in a node's list: its widened (v,w) box and its index. Lists
+ * carry the boxes so that every pass over a node streams through memory. */
+typedef struct item {
+    float v0, w0, v1, w1;
+    uint32_t id;
+} item;
+
+typedef struct task {
+    item *list; /* owned */
+    size_t n;
+    float v0, w0, v1, w1;
+    uint32_t depth;
+    /* its subtree: nodes[0] is the task's node, refs from 0 */
+    clvox_qt_node *nodes;
+    size_t node_count;
+    uint32_t *refs;
+    size_t ref_count;
+    uint32_t max_depth_reached;
+    size_t leaves;
+    int rc; /* build_node's */
+} task;
+
 typedef struct build {
-    clvox_context *ctx;
-    const float *box;      /* 4 floats per triangle: v0, w0, v1, w1 */
     uint32_t max_depth, leaf_size;
+    uint32_t defer_depth;  /* nodes at this depth become tasks; 0: never */
     clvox_qt_node *nodes;
     size_t node_count, node_cap;
     uint32_t *refs;
     size_t ref_count, ref_cap;
     uint32_t depth;
     size_t leaves;
+    task *tasks;
+    size_t task_count, task_cap;
 } build;
-
-/* At most this many references in all (4 bytes each): past it, nodes stay leaves. */
-#define MAX_REFS ((size_t)1 << 28)
 
 static int grow(void **p, size_t *cap, size_t need, size_t elem)
 {
@@ -57,106 +105,415 @@ uint32_t clvox__quadtree_auto_depth(uint32_t dim_v, uint32_t dim_w, size_t tri_c
     return d;
 }
 
-static clvox_status build_node(build *b, size_t node, const uint32_t *tris, size_t n, float v0, float w0,
-                               float v1, float w1, uint32_t depth)
+/* list (n items, owned: freed here, NULL when n == 0) is the node's
+ * triangles in increasing index. Returns 1, 0 when memory runs out, -1
+ * past MAX_TOTAL_REFS. */
+static int build_node(build *b, size_t node, item *list, size_t n, float v0, float w0, float v1, float w1,
+                      uint32_t depth)
 {
+    if (b->defer_depth && depth == b->defer_depth) {
+        if (!grow((void **)&b->tasks, &b->task_cap, b->task_count + 1, sizeof *b->tasks)) {
+            free(list);
+            return 0;
+        }
+        task *t = &b->tasks[b->task_count];
+        memset(t, 0, sizeof *t);
+        t->list = list;
+        t->n = n;
+        t->v0 = v0, t->w0 = w0, t->v1 = v1, t->w1 = w1;
+        t->depth = depth;
+        b->nodes[node].first = (uint32_t)b->task_count++;
+        b->nodes[node].count = NODE_TASK;
+        b->nodes[node].split_v = b->nodes[node].split_w = 0;
+        return 1;
+    }
     if (depth > b->depth) b->depth = depth;
     float sv = 0.5f * (v0 + v1), sw = 0.5f * (w0 + w1);
     int leaf = n <= b->leaf_size || depth >= b->max_depth;
+    /* Child q: v in [v0,sv] or [sv,v1], w likewise (closed). */
+    float cv0[4], cv1[4], cw0[4], cw1[4];
+    for (int q = 0; q < 4; q++) {
+        cv0[q] = (q & 1) ? sv : v0, cv1[q] = (q & 1) ? v1 : sv;
+        cw0[q] = (q & 2) ? sw : w0, cw1[q] = (q & 2) ? w1 : sw;
+    }
+    size_t count[4] = {0, 0, 0, 0};
     if (!leaf) { /* does a split separate the triangles? (children's sizes, one pass) */
         size_t sum = 0;
         for (size_t i = 0; i < n; i++) {
-            const float *bb = b->box + (size_t)tris[i] * 4;
-            unsigned cv = (bb[0] <= sv) + (bb[2] >= sv), cw = (bb[1] <= sw) + (bb[3] >= sw);
-            sum += cv * cw; /* quadrants touched: 1, 2 or 4 */
+            const item *it = &list[i];
+            unsigned lv = it->v0 <= sv, hv = it->v1 >= sv, lw = it->w0 <= sw, hw = it->w1 >= sw;
+            sum += (lv + hv) * (lw + hw); /* quadrants touched: 1, 2 or 4 */
+            for (int q = 0; q < 4; q++)
+                count[q] += it->v0 <= cv1[q] && it->v1 >= cv0[q] && it->w0 <= cw1[q] && it->w1 >= cw0[q];
         }
         leaf = sum >= 3 * n || b->ref_count + sum > MAX_REFS;
     }
     if (leaf) {
-        if (!grow((void **)&b->refs, &b->ref_cap, b->ref_count + n, sizeof *b->refs))
-            return clvox__fail(b->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory building the quadtree");
+        if (!grow((void **)&b->refs, &b->ref_cap, b->ref_count + n, sizeof *b->refs)) {
+            free(list);
+            return 0;
+        }
         b->nodes[node].first = (uint32_t)b->ref_count;
         b->nodes[node].count = (uint32_t)n;
         b->nodes[node].split_v = b->nodes[node].split_w = 0;
-        if (n) memcpy(b->refs + b->ref_count, tris, n * sizeof *tris);
+        for (size_t i = 0; i < n; i++) b->refs[b->ref_count + i] = list[i].id;
+        free(list);
         b->ref_count += n;
         b->leaves++;
-        if (b->ref_count > 0xFFFFFFF0u)
-            return clvox__fail(b->ctx, CLVOX_ERR_OUT_OF_MEMORY, "quadtree holds more than 2^32 references");
-        return CLVOX_OK;
+        return b->ref_count <= MAX_TOTAL_REFS ? 1 : -1;
     }
-    if (!grow((void **)&b->nodes, &b->node_cap, b->node_count + 4, sizeof *b->nodes))
-        return clvox__fail(b->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory building the quadtree");
+    item *sub[4] = {NULL, NULL, NULL, NULL};
+    int ok = grow((void **)&b->nodes, &b->node_cap, b->node_count + 4, sizeof *b->nodes);
+    for (int q = 0; q < 4 && ok; q++)
+        if (count[q] && !(sub[q] = malloc(count[q] * sizeof *sub[q]))) ok = 0;
+    if (!ok) {
+        for (int q = 0; q < 4; q++) free(sub[q]);
+        free(list);
+        return 0;
+    }
     size_t first = b->node_count;
     b->node_count += 4;
     b->nodes[node].split_v = sv;
     b->nodes[node].split_w = sw;
     b->nodes[node].first = (uint32_t)first;
     b->nodes[node].count = CLVOX_QT_INTERNAL;
-
-    uint32_t *sub = malloc((n ? n : 1) * sizeof *sub);
-    if (!sub) return clvox__fail(b->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory building the quadtree");
-    clvox_status st = CLVOX_OK;
-    for (int q = 0; q < 4 && st == CLVOX_OK; q++) {
-        /* Child q: v in [v0,sv] or [sv,v1], w likewise (closed). */
-        float cv0 = (q & 1) ? sv : v0, cv1 = (q & 1) ? v1 : sv;
-        float cw0 = (q & 2) ? sw : w0, cw1 = (q & 2) ? w1 : sw;
-        size_t m = 0;
-        for (size_t i = 0; i < n; i++) {
-            const float *bb = b->box + (size_t)tris[i] * 4;
-            if (bb[0] <= cv1 && bb[2] >= cv0 && bb[1] <= cw1 && bb[3] >= cw0) sub[m++] = tris[i];
-        }
-        st = build_node(b, first + q, sub, m, cv0, cw0, cv1, cw1, depth + 1);
+    /* The four lists in one pass, each in the node's order. */
+    item *out[4] = {sub[0], sub[1], sub[2], sub[3]};
+    for (size_t i = 0; i < n; i++) {
+        const item *it = &list[i];
+        for (int q = 0; q < 4; q++)
+            if (it->v0 <= cv1[q] && it->v1 >= cv0[q] && it->w0 <= cw1[q] && it->w1 >= cw0[q]) *out[q]++ = *it;
     }
-    free(sub);
-    return st;
+    free(list);
+    int q = 0;
+    for (; q < 4 && ok == 1; q++) ok = build_node(b, first + q, sub[q], count[q], cv0[q], cw0[q], cv1[q], cw1[q], depth + 1);
+    for (; q < 4; q++) free(sub[q]); /* after a failure */
+    return ok;
 }
 
-clvox_status clvox__quadtree_build(clvox_context *ctx, const float *soup, size_t tri_count, uint32_t dim_v,
-                                   uint32_t dim_w, uint32_t max_depth, uint32_t leaf_size, clvox__quadtree *out)
+/* ---- boxes of the triangles (parallel parts) --------------------------------------- */
+
+/* The root: its list (R->list), or its four children's lists when the
+ * root is split (R->list NULL; made by streaming over the soup, without a
+ * list for the root). Owned. */
+typedef struct root {
+    item *list;
+    size_t n;
+    item *sub[4];
+    size_t count[4];
+    float v0, w0, v1, w1;
+} root;
+
+static void root_free(root *R)
+{
+    free(R->list);
+    for (int q = 0; q < 4; q++) free(R->sub[q]);
+    memset(R, 0, sizeof *R);
+}
+
+typedef struct boxes {
+    const float *soup;
+    size_t tri_count;
+    float v0, w0, v1, w1;
+    int pass; /* 1: count; 2: write the root's or its children's lists */
+    uint32_t leaf_size, max_depth;
+    /* per part: triangles over the plane, the split test's sum, each child's count */
+    size_t part_n[CLVOX__MAX_HOST_THREADS], part_sum[CLVOX__MAX_HOST_THREADS];
+    size_t part_count[CLVOX__MAX_HOST_THREADS][4];
+    root *R;
+} boxes;
+
+static item box_of(const float *p, uint32_t t)
+{
+    /* Coordinates are finite: the same values as fminf/fmaxf (a zero's sign
+     * does not survive the widening below). */
+    float lv = p[1] < p[4] ? p[1] : p[4], hv = p[1] > p[4] ? p[1] : p[4];
+    float lw = p[2] < p[5] ? p[2] : p[5], hw = p[2] > p[5] ? p[2] : p[5];
+    lv = p[7] < lv ? p[7] : lv, hv = p[7] > hv ? p[7] : hv;
+    lw = p[8] < lw ? p[8] : lw, hw = p[8] > hw ? p[8] : hw;
+    /* Widen by a few ulps of the coordinates: the crossing test works on
+     * rounded differences, so be conservative. */
+    float av = fabsf(lv) > fabsf(hv) ? fabsf(lv) : fabsf(hv);
+    float aw = fabsf(lw) > fabsf(hw) ? fabsf(lw) : fabsf(hw);
+    float ev = 1e-5f * (1.0f + av), ew = 1e-5f * (1.0f + aw);
+    item it = {lv - ev, lw - ew, hv + ev, hw + ew, t};
+    return it;
+}
+
+/* The root streamed from the soup in parts: pass 1 counts (the root's
+ * split test and its children's sizes), pass 2 writes, each part at its
+ * offset, so the lists are in triangle order as one pass would make them. */
+static void boxes_part(void *arg, int i, int n)
+{
+    boxes *B = arg;
+    size_t t0, t1;
+    clvox__part_range(B->tri_count, i, n, &t0, &t1);
+    float sv = 0.5f * (B->v0 + B->v1), sw = 0.5f * (B->w0 + B->w1);
+    float cv0[4], cv1[4], cw0[4], cw1[4];
+    for (int q = 0; q < 4; q++) {
+        cv0[q] = (q & 1) ? sv : B->v0, cv1[q] = (q & 1) ? B->v1 : sv;
+        cw0[q] = (q & 2) ? sw : B->w0, cw1[q] = (q & 2) ? B->w1 : sw;
+    }
+    if (B->pass == 1) {
+        size_t k = 0, sum = 0, count[4] = {0, 0, 0, 0};
+        for (size_t t = t0; t < t1; t++) {
+            item it = box_of(B->soup + t * 9, (uint32_t)t);
+            if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) continue;
+            k++;
+            unsigned lv = it.v0 <= sv, hv = it.v1 >= sv, lw = it.w0 <= sw, hw = it.w1 >= sw;
+            sum += (lv + hv) * (lw + hw);
+            for (int q = 0; q < 4; q++)
+                count[q] += it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q];
+        }
+        B->part_n[i] = k, B->part_sum[i] = sum;
+        for (int q = 0; q < 4; q++) B->part_count[i][q] = count[q];
+        return;
+    }
+    root *R = B->R;
+    size_t at = 0, sat[4] = {0, 0, 0, 0};
+    for (int j = 0; j < i; j++) {
+        at += B->part_n[j];
+        for (int q = 0; q < 4; q++) sat[q] += B->part_count[j][q];
+    }
+    for (size_t t = t0; t < t1; t++) {
+        item it = box_of(B->soup + t * 9, (uint32_t)t);
+        if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) continue;
+        if (R->list) {
+            R->list[at++] = it;
+            continue;
+        }
+        for (int q = 0; q < 4; q++)
+            if (it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q]) R->sub[q][sat[q]++] = it;
+    }
+}
+
+/* Fills *R from the soup. Returns 0 when memory runs out. */
+static int make_root(boxes *B, int threads, root *R)
+{
+    memset(R, 0, sizeof *R);
+    R->v0 = B->v0, R->w0 = B->w0, R->v1 = B->v1, R->w1 = B->w1;
+    B->R = R;
+    B->pass = 1;
+    clvox__parallel(threads, boxes_part, B);
+    size_t n = 0, sum = 0;
+    for (int i = 0; i < threads; i++) {
+        n += B->part_n[i], sum += B->part_sum[i];
+        for (int q = 0; q < 4; q++) R->count[q] += B->part_count[i][q];
+    }
+    R->n = n;
+    /* build_node's test at the root (no references made yet) */
+    int leaf = n <= B->leaf_size || B->max_depth == 0 || sum >= 3 * n || sum > MAX_REFS;
+    if (leaf) {
+        if (n && !(R->list = malloc(n * sizeof *R->list))) return 0;
+        for (int q = 0; q < 4; q++) R->count[q] = 0;
+        if (!n) return 1;
+    } else {
+        for (int q = 0; q < 4; q++)
+            if (R->count[q] && !(R->sub[q] = malloc(R->count[q] * sizeof *R->sub[q]))) {
+                root_free(R);
+                return 0;
+            }
+    }
+    B->pass = 2;
+    clvox__parallel(threads, boxes_part, B);
+    return 1;
+}
+
+/* ---- tasks and the final layout ---------------------------------------------------- */
+
+typedef struct tasks_run {
+    const build *proto;
+    task *tasks;
+    size_t count;
+    atomic_size_t next;
+} tasks_run;
+
+static void run_tasks(void *arg, int i, int n)
+{
+    (void)i, (void)n;
+    tasks_run *R = arg;
+    for (;;) {
+        size_t k = atomic_fetch_add(&R->next, 1);
+        if (k >= R->count) return;
+        task *t = &R->tasks[k];
+        build b = {.max_depth = R->proto->max_depth, .leaf_size = R->proto->leaf_size};
+        b.nodes = malloc(64 * sizeof *b.nodes);
+        b.node_cap = 64;
+        b.node_count = 1;
+        b.depth = t->depth;
+        item *list = t->list;
+        t->list = NULL;
+        if (b.nodes) t->rc = build_node(&b, 0, list, t->n, t->v0, t->w0, t->v1, t->w1, t->depth);
+        else free(list), t->rc = 0;
+        t->nodes = b.nodes;
+        t->node_count = b.node_count;
+        t->refs = b.refs;
+        t->ref_count = b.ref_count;
+        t->max_depth_reached = b.depth;
+        t->leaves = b.leaves;
+    }
+}
+
+/* Lays out skeleton node s at index g of out, as the one-thread build would. */
+static void assemble(const build *sk, size_t s, build *out, size_t g)
+{
+    const clvox_qt_node *sn = &sk->nodes[s];
+    if (sn->count == NODE_TASK) {
+        const task *t = &sk->tasks[sn->first];
+        size_t nbase = out->node_count, rbase = out->ref_count;
+        for (size_t k = 0; k < t->node_count; k++) {
+            clvox_qt_node v = t->nodes[k];
+            if (v.count == CLVOX_QT_INTERNAL) v.first = (uint32_t)(nbase + v.first - 1); /* local 1.. follow nbase */
+            else v.first = (uint32_t)(rbase + v.first);
+            out->nodes[k ? nbase + k - 1 : g] = v;
+        }
+        out->node_count += t->node_count - 1;
+        if (t->ref_count) memcpy(out->refs + rbase, t->refs, t->ref_count * sizeof *t->refs);
+        out->ref_count += t->ref_count;
+        return;
+    }
+    if (sn->count != CLVOX_QT_INTERNAL) {
+        clvox_qt_node v = *sn;
+        v.first = (uint32_t)out->ref_count;
+        out->nodes[g] = v;
+        if (sn->count) memcpy(out->refs + out->ref_count, sk->refs + sn->first, sn->count * sizeof *sk->refs);
+        out->ref_count += sn->count;
+        return;
+    }
+    size_t first = out->node_count;
+    out->node_count += 4;
+    out->nodes[g] = *sn;
+    out->nodes[g].first = (uint32_t)first;
+    for (int q = 0; q < 4; q++) assemble(sk, sn->first + q, out, first + q);
+}
+
+static void free_tasks(build *b)
+{
+    for (size_t k = 0; k < b->task_count; k++) {
+        free(b->tasks[k].list);
+        free(b->tasks[k].nodes);
+        free(b->tasks[k].refs);
+    }
+    free(b->tasks);
+    b->tasks = NULL;
+    b->task_count = b->task_cap = 0;
+}
+
+/* The tree over root[0..n) (owned) on `threads` threads; 1: no tasks.
+ * Returns as build_node; *near_cap when the references came close enough to
+ * MAX_REFS that the guard might have acted differently (the caller then
+ * builds on one thread). */
+/* Node 0 from R, as build_node would make it. */
+static int build_root(build *b, root *R)
+{
+    if (R->list || R->n == 0) /* a leaf */
+        return build_node(b, 0, R->list, R->n, R->v0, R->w0, R->v1, R->w1, 0);
+    float sv = 0.5f * (R->v0 + R->v1), sw = 0.5f * (R->w0 + R->w1);
+    b->nodes[0].split_v = sv;
+    b->nodes[0].split_w = sw;
+    b->nodes[0].first = 1;
+    b->nodes[0].count = CLVOX_QT_INTERNAL;
+    b->node_count = 5;
+    int ok = 1, q = 0;
+    for (; q < 4 && ok == 1; q++) {
+        float cv0 = (q & 1) ? sv : R->v0, cv1 = (q & 1) ? R->v1 : sv;
+        float cw0 = (q & 2) ? sw : R->w0, cw1 = (q & 2) ? R->w1 : sw;
+        ok = build_node(b, 1 + (size_t)q, R->sub[q], R->count[q], cv0, cw0, cv1, cw1, 1);
+        R->sub[q] = NULL;
+    }
+    for (; q < 4; q++) free(R->sub[q]), R->sub[q] = NULL;
+    return ok;
+}
+
+static int build_tree(build *b, root *rt, int threads, int *near_cap)
+{
+    *near_cap = 0;
+    size_t n = rt->n;
+    b->nodes = malloc(1024 * sizeof *b->nodes);
+    b->node_cap = 1024;
+    b->node_count = 1;
+    if (!b->nodes) {
+        root_free(rt);
+        return 0;
+    }
+    if (threads <= 1) return build_root(b, rt);
+
+    build sk = *b; /* the skeleton: its own nodes and refs */
+    sk.defer_depth = SKELETON_DEPTH;
+    b->nodes = NULL;
+    b->node_cap = b->node_count = 0;
+    int ok = build_root(&sk, rt);
+    if (ok == 1 && sk.task_count) {
+        tasks_run R = {.proto = &sk, .tasks = sk.tasks, .count = sk.task_count};
+        atomic_init(&R.next, 0);
+        clvox__parallel(threads < (int)sk.task_count ? threads : (int)sk.task_count, run_tasks, &R);
+    }
+    size_t nodes = sk.node_count, refs = sk.ref_count, leaves = sk.leaves;
+    uint32_t depth = sk.depth;
+    for (size_t k = 0; ok == 1 && k < sk.task_count; k++) {
+        const task *t = &sk.tasks[k];
+        if (t->rc != 1) ok = t->rc;
+        nodes += t->node_count - 1;
+        refs += t->ref_count;
+        leaves += t->leaves;
+        if (t->max_depth_reached > depth) depth = t->max_depth_reached;
+    }
+    if (ok == 1 && refs > MAX_TOTAL_REFS) ok = -1;
+    if (ok == 1 && refs + 4 * n > MAX_REFS) *near_cap = 1;
+    if (ok == 1 && !*near_cap) {
+        b->nodes = malloc(nodes * sizeof *b->nodes);
+        b->refs = malloc((refs ? refs : 1) * sizeof *b->refs);
+        ok = b->nodes && b->refs;
+        if (ok) {
+            b->node_cap = nodes;
+            b->ref_cap = refs;
+            b->node_count = 1;
+            b->ref_count = 0;
+            assemble(&sk, 0, b, 0);
+            b->leaves = leaves;
+            b->depth = depth;
+        }
+    }
+    free_tasks(&sk);
+    free(sk.nodes);
+    free(sk.refs);
+    return ok;
+}
+
+clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *soup, size_t tri_count, uint32_t dim_v,
+                                           uint32_t dim_w, uint32_t max_depth, uint32_t leaf_size, int threads,
+                                           clvox__quadtree *out)
 {
     memset(out, 0, sizeof *out);
     if (tri_count > 0xFFFFFFF0u)
         return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "more than 2^32 triangles");
-    build b = {.ctx = ctx, .max_depth = max_depth ? max_depth : clvox__quadtree_auto_depth(dim_v, dim_w, tri_count),
+    if (threads <= 0) threads = clvox__host_threads();
+    if (threads > CLVOX__MAX_HOST_THREADS) threads = CLVOX__MAX_HOST_THREADS;
+    if (tri_count < MIN_PARALLEL_TRIANGLES) threads = 1;
+    build b = {.max_depth = max_depth ? max_depth : clvox__quadtree_auto_depth(dim_v, dim_w, tri_count),
                .leaf_size = leaf_size ? leaf_size : 8};
     if (b.max_depth > 16) b.max_depth = 16;
-    float v0 = -0.5f, w0 = -0.5f, v1 = (float)dim_v - 0.5f, w1 = (float)dim_w - 0.5f;
-    float *box = malloc((tri_count ? tri_count : 1) * 4 * sizeof *box);
-    uint32_t *root = malloc((tri_count ? tri_count : 1) * sizeof *root);
-    b.nodes = malloc(1024 * sizeof *b.nodes);
-    b.node_cap = 1024;
-    if (!box || !root || !b.nodes) {
-        free(box);
-        free(root);
-        free(b.nodes);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory building the quadtree");
-    }
-    b.box = box;
-    size_t n = 0;
-    for (size_t t = 0; t < tri_count; t++) {
-        const float *p = soup + t * 9;
-        float lv = fminf(p[1], fminf(p[4], p[7])), hv = fmaxf(p[1], fmaxf(p[4], p[7]));
-        float lw = fminf(p[2], fminf(p[5], p[8])), hw = fmaxf(p[2], fmaxf(p[5], p[8]));
-        /* Widen by a few ulps of the coordinates: the crossing test works on
-         * rounded differences, so be conservative. */
-        float ev = 1e-5f * (1.0f + fmaxf(fabsf(lv), fabsf(hv)));
-        float ew = 1e-5f * (1.0f + fmaxf(fabsf(lw), fabsf(hw)));
-        box[t * 4 + 0] = lv - ev;
-        box[t * 4 + 1] = lw - ew;
-        box[t * 4 + 2] = hv + ev;
-        box[t * 4 + 3] = hw + ew;
-        if (box[t * 4 + 0] <= v1 && box[t * 4 + 2] >= v0 && box[t * 4 + 1] <= w1 && box[t * 4 + 3] >= w0)
-            root[n++] = (uint32_t)t;
-    }
-    b.node_count = 1;
-    clvox_status st = build_node(&b, 0, root, n, v0, w0, v1, w1, 0);
-    free(box);
-    free(root);
-    if (st != CLVOX_OK) {
+    boxes B = {.soup = soup, .tri_count = tri_count, .v0 = -0.5f, .w0 = -0.5f, .v1 = (float)dim_v - 0.5f,
+               .w1 = (float)dim_w - 0.5f};
+    B.leaf_size = b.leaf_size, B.max_depth = b.max_depth;
+    int near_cap = 0, ok = 0;
+    for (int attempt = 0; attempt < 2; attempt++) {
+        root R;
+        if (!make_root(&B, threads, &R)) break;
+        ok = build_tree(&b, &R, threads, &near_cap);
+        if (ok != 1 || !near_cap) break;
+        /* Near MAX_REFS: the guard depends on the order; build on one thread. */
         free(b.nodes);
         free(b.refs);
-        return st;
+        build one = {.max_depth = b.max_depth, .leaf_size = b.leaf_size};
+        b = one;
+        threads = 1;
+    }
+    if (ok != 1) {
+        free(b.nodes);
+        free(b.refs);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY,
+                           ok ? "quadtree holds more than 2^32 references" : "out of memory building the quadtree");
     }
     if (!b.refs) { /* no triangle over the plane: keep one valid element */
         b.refs = calloc(1, sizeof *b.refs);
@@ -172,6 +529,12 @@ clvox_status clvox__quadtree_build(clvox_context *ctx, const float *soup, size_t
     out->depth = b.depth;
     out->leaf_count = b.leaves;
     return CLVOX_OK;
+}
+
+clvox_status clvox__quadtree_build(clvox_context *ctx, const float *soup, size_t tri_count, uint32_t dim_v,
+                                   uint32_t dim_w, uint32_t max_depth, uint32_t leaf_size, clvox__quadtree *out)
+{
+    return clvox__quadtree_build_threads(ctx, soup, tri_count, dim_v, dim_w, max_depth, leaf_size, 0, out);
 }
 
 void clvox__quadtree_free(clvox__quadtree *qt)

@@ -1,6 +1,7 @@
 /* The mesh stage: every format, the report, and every bad input we know
  * OpenMesh mishandles (hangs, throws, silent garbage), written at test time. */
 #include "test.h"
+#include "meshgen.h"
 
 #include <errno.h>
 #include <locale.h>
@@ -983,6 +984,56 @@ static void test_performance(void)
     free(t);
 }
 
+/* Text coordinates: whatever the spelling (digit counts, exponents, signs,
+ * leading and trailing zeros, no integer or no fraction part), the stored
+ * value is what strtod gives (the readers' fast path for plain decimals
+ * must agree with it bit for bit), relative to the first vertex. */
+static void test_number_spellings(void)
+{
+    enum { NV = 3000 };
+    static char text[NV * 80 + 200], tok[NV][3][40];
+    uint64_t rng = 99;
+    size_t len = (size_t)snprintf(text, sizeof text, "OFF\n%d 1 0\n", NV);
+    for (int v = 0; v < NV; v++) {
+        for (int c = 0; c < 3; c++) {
+            uint64_t r = tmesh_rng_next(&rng);
+            char *t = tok[v][c];
+            int kind = (int)(r % 9);
+            double x = (double)(int64_t)(tmesh_rng_next(&rng) % 2000001) - 1000000.0;
+            int digits = 1 + (int)(r >> 8) % 19, e = (int)((r >> 16) % 61) - 30;
+            switch (kind) {
+            case 0: snprintf(t, 40, "%.*g", digits, x * pow(10.0, e)); break;
+            case 1: snprintf(t, 40, "%.*e", digits % 17, x * pow(10.0, e)); break;
+            case 2: snprintf(t, 40, "%.*f", digits % 12, x / 997.0); break;
+            case 3: snprintf(t, 40, "%s.%0*d", r & 256 ? "-" : "", digits % 9 + 1, (int)((r >> 24) % 1000)); break;
+            case 4: snprintf(t, 40, "%d.", (int)(x / 10)); break;
+            case 5: snprintf(t, 40, "%.9gE%+d", x / 1e6, e); break;
+            case 6: snprintf(t, 40, "%s0", r & 256 ? "-" : "+"); break;
+            case 7: snprintf(t, 40, "000%.17g", fabs(x) / 3.0); break;
+            default: snprintf(t, 40, "%.3fe-%d", x, 20 + (int)((r >> 40) % 6)); break;
+            }
+            len += (size_t)snprintf(text + len, sizeof text - len, "%s%c", t, c == 2 ? '\n' : ' ');
+        }
+    }
+    snprintf(text + len, sizeof text - len, "3 0 1 2\n");
+    clvox_mesh *m = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, write_text("spellings.off", text), &m));
+    if (!m) return;
+    size_t nv;
+    const float *xyz = clvox_mesh_vertices(m, &nv);
+    double off[3];
+    clvox_mesh_vertex_offset(m, off);
+    int bad = 0;
+    for (int v = 0; v < NV && nv == NV; v++)
+        for (int c = 0; c < 3; c++) {
+            float want = (float)(strtod(tok[v][c], NULL) - strtod(tok[0][c], NULL));
+            if (memcmp(&want, &xyz[3 * v + c], sizeof want) && bad++ < 5)
+                fprintf(stderr, "'%s': %.9g, strtod: %.9g\n", tok[v][c], (double)xyz[3 * v + c], (double)want);
+        }
+    CHECK_MSG(nv == NV && !bad && off[0] == strtod(tok[0][0], NULL), "%d coordinates differ from strtod", bad);
+    clvox_mesh_destroy(m);
+}
+
 int main(void)
 {
     clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
@@ -1002,6 +1053,7 @@ int main(void)
     test_duplicates();
     test_bad_files();
     test_obj();
+    test_number_spellings();
     test_bad_arrays();
     test_performance();
 

@@ -5,9 +5,10 @@
  * in every encoding: little/big endian PLY, float/double coordinates, extra
  * vertex properties in any order, face lists with uchar/char/ushort/short/
  * int/uint counts and int/uint/short/ushort/char/uchar indices, quads and
- * polygons, other elements before, between and after; binary STL with and
- * without "solid" at the start of the header, with repeated and degenerate
- * facets. Also the same failure (status and message) on broken files. */
+ * polygons, other elements before, between and after; ASCII PLY in 4 of
+ * those layouts and 5 number spellings; binary STL with and without "solid"
+ * at the start of the header, with repeated and degenerate facets; ASCII
+ * STL. Also the same failure (status and message) on broken files. */
 #include "test.h"
 #include "meshgen.h"
 
@@ -102,14 +103,33 @@ typedef struct ply_style {
     int big, dbl, extras, fextras, elems;
     const char *count_type, *index_type;
     int count_size, index_size;
+    int ascii; /* format ascii 1.0 (big, the sizes unused) */
 } ply_style;
+
+/* ASCII PLY values: one of several spellings of the same float, so that
+ * both the fast path and strtof are used; whitespace varies too. */
+static void put_text_f(bytes *b, double x, uint64_t k)
+{
+    char t[64];
+    static const char *const fmt[] = {"%.9g", "%.8e", "%.17g", "%.9G", "%.10e"};
+    snprintf(t, sizeof t, fmt[k % 5], x);
+    put_str(b, t);
+    put_str(b, k % 7 == 3 ? "\t" : " ");
+}
+static void put_text_u(bytes *b, uint64_t v)
+{
+    char t[32];
+    snprintf(t, sizeof t, "%llu ", (unsigned long long)v);
+    put_str(b, t);
+}
 
 static bytes ply_bytes(const poly *m, const ply_style *s)
 {
     bytes b = {0};
     char line[256];
     put_str(&b, "ply\n");
-    put_str(&b, s->big ? "format binary_big_endian 1.0\n" : "format binary_little_endian 1.0\n");
+    put_str(&b, s->ascii ? "format ascii 1.0\n"
+                         : s->big ? "format binary_big_endian 1.0\n" : "format binary_little_endian 1.0\n");
     put_str(&b, "comment clvox test_mesh_native\n");
     if (s->elems) put_str(&b, "element camera 1\nproperty float view_x\nproperty uchar flag\n");
     snprintf(line, sizeof line, "element vertex %zu\n", m->nv);
@@ -133,6 +153,34 @@ static bytes ply_bytes(const poly *m, const ply_style *s)
     if (s->fextras) put_str(&b, "property list uchar float texcoord\nproperty uchar tag\n");
     if (s->elems) put_str(&b, "element material 1\nproperty list uchar float ambient\n");
     put_str(&b, "end_header\n");
+    if (s->ascii) {
+        uint64_t k = 0;
+        if (s->elems) put_str(&b, "1.5 7\n");
+        for (size_t v = 0; v < m->nv; v++) {
+            const float *p = m->xyz + 3 * v;
+            int order[3] = {0, 1, 2};
+            if (s->extras) order[1] = 2, order[2] = 1, put_str(&b, "0.25 200 ");
+            for (int c = 0; c < 3; c++) {
+                put_text_f(&b, (double)p[order[c]], k++);
+                if (s->extras && c == 0) put_str(&b, "-3.0 ");
+                if (s->extras && c == 1) put_str(&b, "-2 ");
+            }
+            if (s->extras) put_str(&b, "-0.5");
+            put_str(&b, "\n");
+        }
+        if (s->elems) put_str(&b, "0 1\n1 2\n");
+        size_t pos = 0;
+        for (size_t f = 0; f < m->nf; f++) {
+            if (s->fextras) put_text_u(&b, f);
+            put_text_u(&b, m->sizes[f]);
+            for (uint32_t j = 0; j < m->sizes[f]; j++) put_text_u(&b, m->idx[pos + j]);
+            pos += m->sizes[f];
+            if (s->fextras) put_str(&b, f % 3 ? "2 0.5 0.75 9" : "0 9");
+            put_str(&b, "\n");
+        }
+        if (s->elems) put_str(&b, "2 0.1 0.2\n");
+        return b;
+    }
     if (s->elems) {
         put_f32(&b, 1.5f, s->big);
         put_uint(&b, 7, 1, s->big);
@@ -189,6 +237,25 @@ static bytes stl_bytes(const float *xyz, const uint32_t *t, size_t nt, int solid
     return b;
 }
 
+/* ASCII STL of the same triangles (number spellings as for ASCII PLY). */
+static bytes stl_text(const float *xyz, const uint32_t *t, size_t nt)
+{
+    bytes b = {0};
+    uint64_t k = 0;
+    put_str(&b, "solid clvox test\n");
+    for (size_t i = 0; i < nt; i++) {
+        put_str(&b, i % 5 == 1 ? "  facet normal 0 0 1\n    outer loop\n" : "facet normal 0 0 0\nouter loop\n");
+        for (int c = 0; c < 3; c++) {
+            put_str(&b, i % 3 == 2 ? "\tvertex  " : "vertex ");
+            for (int a = 0; a < 3; a++) put_text_f(&b, (double)xyz[3 * (size_t)t[3 * i + c] + a], k++);
+            put_str(&b, "\n");
+        }
+        put_str(&b, "endloop\nendfacet\n");
+    }
+    put_str(&b, "endsolid clvox test\n");
+    return b;
+}
+
 static int set_reader(const char *v)
 {
     if (v) return setenv("CLVOX_MESH_READER", v, 1);
@@ -237,14 +304,17 @@ static void compare(const char *path, const char *what)
  * property before its index list or a texcoord list (garbage indices or
  * failure). Those encodings are compared with the uchar/int one instead. */
 static const ply_style styles[] = {
-    {0, 0, 0, 0, 0, "uchar", "int", 1, 4},    {1, 0, 0, 0, 0, "uchar", "int", 1, 4},
-    {0, 1, 1, 0, 1, "int", "uint", 4, 4},     {1, 1, 1, 0, 1, "int", "int", 4, 4},
-    {0, 0, 1, 0, 0, "uchar", "ushort", 1, 2}, {1, 0, 0, 0, 1, "int32", "short", 4, 2},
-    {0, 1, 0, 0, 0, "uint8", "uchar", 1, 1},  {1, 0, 1, 0, 0, "uchar", "char", 1, 1},
-    {0, 0, 0, 0, 0, "uchar", "uint", 1, 4},   {1, 0, 1, 1, 1, "uint", "uint", 4, 4},
-    {0, 0, 1, 1, 0, "ushort", "uint", 2, 4},  {1, 0, 0, 0, 1, "short", "int", 2, 4},
-    {0, 0, 0, 0, 0, "char", "int", 1, 4},     {0, 1, 1, 1, 1, "uchar", "ushort", 1, 2},
-    {1, 0, 1, 1, 0, "int8", "char", 1, 1},    {0, 0, 0, 1, 0, "uchar", "int", 1, 4},
+    {0, 0, 0, 0, 0, "uchar", "int", 1, 4, 0},    {1, 0, 0, 0, 0, "uchar", "int", 1, 4, 0},
+    {0, 1, 1, 0, 1, "int", "uint", 4, 4, 0},     {1, 1, 1, 0, 1, "int", "int", 4, 4, 0},
+    {0, 0, 1, 0, 0, "uchar", "ushort", 1, 2, 0}, {1, 0, 0, 0, 1, "int32", "short", 4, 2, 0},
+    {0, 1, 0, 0, 0, "uint8", "uchar", 1, 1, 0},  {1, 0, 1, 0, 0, "uchar", "char", 1, 1, 0},
+    {0, 0, 0, 0, 0, "uchar", "uint", 1, 4, 0},   {1, 0, 1, 1, 1, "uint", "uint", 4, 4, 0},
+    {0, 0, 1, 1, 0, "ushort", "uint", 2, 4, 0},  {1, 0, 0, 0, 1, "short", "int", 2, 4, 0},
+    {0, 0, 0, 0, 0, "char", "int", 1, 4, 0},     {0, 1, 1, 1, 1, "uchar", "ushort", 1, 2, 0},
+    {1, 0, 1, 1, 0, "int8", "char", 1, 1, 0},    {0, 0, 0, 1, 0, "uchar", "int", 1, 4, 0},
+    /* ASCII: x y z float read natively, double by OpenMesh on both sides */
+    {0, 0, 0, 0, 0, "uchar", "int", 1, 4, 1}, {0, 0, 1, 0, 1, "int", "int", 4, 4, 1},
+    {0, 1, 1, 0, 0, "uchar", "int", 1, 4, 1}, {0, 0, 1, 1, 1, "uchar", "uint", 1, 4, 1},
 };
 
 static int openmesh_reads(const ply_style *s)
@@ -294,7 +364,7 @@ static void compare_all(const char *name, const float *xyz, size_t nv, const uin
             uint64_t max_index = st->index_size == 4 ? UINT32_MAX : (uint64_t)1 << (8 * st->index_size - 1);
             if (nv > max_index) continue;
             bytes b = ply_bytes(&p, st);
-            snprintf(what, sizeof what, "%s as PLY %s %s/%s%s%s%s%s%s", name, st->big ? "BE" : "LE", st->count_type,
+            snprintf(what, sizeof what, "%s as PLY %s %s/%s%s%s%s%s%s", name, st->ascii ? "ASCII" : st->big ? "BE" : "LE", st->count_type,
                      st->index_type, st->dbl ? " double" : "", st->extras ? " vertex-extras" : "",
                      st->fextras ? " face-extras" : "", st->elems ? " elements" : "", merge ? " polygons" : "");
             const char *path = write_file(file, &b);
@@ -319,6 +389,11 @@ static void compare_all(const char *name, const float *xyz, size_t nv, const uin
         compare(write_file(file, &b), what);
         free(b.p);
     }
+    bytes b = stl_text(xyz, t, nt);
+    snprintf(file, sizeof file, "native_%s.stl", name);
+    snprintf(what, sizeof what, "%s as ASCII STL", name);
+    compare(write_file(file, &b), what);
+    free(b.p);
 }
 
 static void compare_tmesh(const char *name, tmesh m)

@@ -23,6 +23,13 @@ clvox_status clvox__winding_soup(clvox_context *ctx, const clvox_mesh *mesh, con
      * after its triangles, so that clvox__grid_space_soup transforms every
      * vertex exactly as for parity (caps share the boundary's floats). */
     clvox_mesh view = *mesh;
+    if (!wm->cap_count) { /* closed: the prepared triangles as they are */
+        view.tris = wm->tris;
+        view.triangle_count = wm->triangle_count;
+        clvox_status st = clvox__grid_space_soup(ctx, &view, grid, axes, out_soup);
+        if (st == CLVOX_OK) *out_count = nt;
+        return st;
+    }
     uint32_t *tris = malloc((nt ? nt : 1) * 3 * sizeof *tris);
     float *xyz = NULL;
     if (tris && wm->apex_count) {

@@ -57,6 +57,7 @@ struct clvox__method_state {
     int winding;                 /* 1: signed crossings and the winding inside test */
     cl_uint abs_mode;            /* |w| > 1/2 */
     clvox__caps caps, rims;
+    clvox_winding_report prep;   /* what the preparation did (for the file's parameters) */
     cl_uint surface_count;       /* soup triangles before the caps */
     uint32_t leaf_size;
     uint64_t leaf_max;           /* most triangles in one quadtree leaf */
@@ -337,6 +338,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         if (st == CLVOX_OK) st = clvox__rims_upload(ctx, mesh, grid, wm.rim, wm.rim_count, &s->rims);
         s->surface_count = (cl_uint)wm.triangle_count;
         if (stats) stats->winding = wm.report;
+        s->prep = wm.report;
         clvox__winding_mesh_free(&wm);
     } else if (st == CLVOX_OK) {
         st = clvox__grid_space_soup(ctx, mesh, grid, s->axes, &soup);
@@ -877,6 +879,17 @@ static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
 {
     int n = snprintf(buf, size, "axis=%c quadtree_depth=%u quadtree_leaf_size=%u hit_capacity=%u rule=centre-on-surface:+x+y+z",
                      "?xyz"[s->axis], s->qt.depth, s->leaf_size, s->mem.capacity);
+    if (n > 0 && (size_t)n < size) {
+        const clvox_winding_report *w = &s->prep;
+        int m = s->winding ? snprintf(buf + n, size - (size_t)n,
+                                      " inside=%s merged=%llu welded=%llu flipped=%llu cavities=%llu holes=%llu caps=%llu",
+                                      s->abs_mode ? "winding-abs" : "winding",
+                                      (unsigned long long)w->merged_vertices, (unsigned long long)w->welded_vertices,
+                                      (unsigned long long)w->flipped_triangles, (unsigned long long)w->cavities,
+                                      (unsigned long long)w->holes, (unsigned long long)w->cap_triangles)
+                           : snprintf(buf + n, size - (size_t)n, " inside=parity");
+        n += m > 0 ? m : 0;
+    }
     if (s->coverage && n > 0 && (size_t)n < size) {
         int m = snprintf(buf + n, size - (size_t)n, " oversample=%ux%u points=%u sampling=%s seed=%llu sampler=philox4x32-10",
                          s->N, s->N, s->M, s->stochastic ? "stratified-jitter" : "uniform",

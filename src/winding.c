@@ -313,7 +313,17 @@ static int cap_emit(cap_out *o, uint32_t a, uint32_t b, uint32_t c)
     return 0;
 }
 
-static int cap_loop(const clvox_mesh *mesh, uint32_t *v, size_t n, cap_out *o)
+/* The apex's offset off the plane, in units of the polygon's size: 0.0731;
+ * CLVOX_CAP_APEX=F moves it (tests: the volume must not change). */
+static double apex_offset(void)
+{
+    const char *e = getenv("CLVOX_CAP_APEX");
+    char *end = NULL;
+    double f = e ? strtod(e, &end) : 0.0;
+    return e && end != e && isfinite(f) ? f : 0.0731;
+}
+
+static int cap_loop(const clvox_mesh *mesh, uint32_t *v, size_t n, double offset, cap_out *o)
 {
     while (n > 8) {
         size_t k = 0, i = 0;
@@ -348,7 +358,7 @@ static int cap_loop(const clvox_mesh *mesh, uint32_t *v, size_t n, cap_out *o)
         o->apex_cap = cap;
     }
     uint32_t apex = (uint32_t)(mesh->vertex_count + o->apex_count);
-    for (int a = 0; a < 3; a++) o->apex[o->apex_count * 3 + a] = (float)(c[a] + 0.0731 * ext * nrm[a] / len);
+    for (int a = 0; a < 3; a++) o->apex[o->apex_count * 3 + a] = (float)(c[a] + offset * ext * nrm[a] / len);
     o->apex_count++;
     for (size_t i = 0; i < n; i++)
         if (cap_emit(o, v[(i + 1) % n], v[i], apex) != 0) return -1;
@@ -371,7 +381,9 @@ clvox_status clvox__winding_cap_loops(clvox_context *ctx, const clvox_mesh *mesh
             rim[2 * wm->rim_count + 1] = verts[i + 1 < start[k + 1] ? i + 1 : start[k]];
             wm->rim_count++;
         }
-    for (size_t k = 0; rc == 0 && k < loops; k++) rc = cap_loop(mesh, verts + start[k], start[k + 1] - start[k], &o);
+    const double offset = apex_offset();
+    for (size_t k = 0; rc == 0 && k < loops; k++)
+        rc = cap_loop(mesh, verts + start[k], start[k + 1] - start[k], offset, &o);
     wm->caps = o.tris;
     wm->cap_count = o.count;
     wm->apex = o.apex;

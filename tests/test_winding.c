@@ -407,6 +407,40 @@ static void test_corpus_against_oracle(void)
 
 /* The same volume for every ray axis, slab depth and device, and with every
  * face flipped (orientation repair). */
+/* Moving the caps' apexes (CLVOX_CAP_APEX: the offset off the plane, in
+ * units of the hole's size) changes no voxel: w does not depend on the caps. */
+static void test_apex(void)
+{
+    double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
+    clvox_grid g = make_grid(lo, hi, 36, 30, 26);
+    static const char *const offsets[] = {"0.31", "-0.2", "0.004", "1.5"};
+    for (size_t c = 0; c < ncases; c++) {
+        tmesh_case *wc = &cases[c];
+        clvox_mesh *m = to_mesh(&wc->mesh);
+        if (!m) { CHECK(m != NULL); continue; }
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        clvox_stats s;
+        uint8_t *base = run(m, &g, &o, &s);
+        if (s.winding.cap_triangles) {
+            for (size_t k = 0; k < sizeof offsets / sizeof offsets[0]; k++) {
+                setenv("CLVOX_CAP_APEX", offsets[k], 1);
+                for (clvox_axis a = CLVOX_AXIS_X; a <= CLVOX_AXIS_Z; a += 2) {
+                    clvox_voxelize_options oa = CLVOX_VOXELIZE_OPTIONS_INIT;
+                    oa.ray_axis = a;
+                    uint8_t *v = run(m, &g, &oa, NULL);
+                    size_t dd = ndiff(base, v, nvox(&g));
+                    CHECK_MSG(dd == 0, "%s: apex offset %s, axis %c: %zu voxels differ", wc->name, offsets[k],
+                              "?xyz"[a], dd);
+                    free(v);
+                }
+                unsetenv("CLVOX_CAP_APEX");
+            }
+        }
+        free(base);
+        clvox_mesh_destroy(m);
+    }
+}
+
 static void test_invariance(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
@@ -1041,7 +1075,7 @@ int main(int argc, char **argv)
         {"invariance", test_invariance},   {"closed", test_closed_same_as_parity},
         {"union", test_unions},            {"cavities", test_cavities},
         {"report", test_winding_report},   {"real", test_real_open},
-        {"coverage", test_coverage_samples},
+        {"coverage", test_coverage_samples}, {"apex", test_apex},
     };
     for (size_t i = 0; i < sizeof sections / sizeof sections[0]; i++)
         if (!only || strstr(sections[i].name, only)) sections[i].fn();

@@ -26,6 +26,7 @@
 #include "internal.h"
 #include "classify.h"
 #include "winding.h"
+#include "parallel.h"
 #include "../kernels/sampler.h"
 
 #include <math.h>
@@ -294,6 +295,36 @@ static clvox_status palette_prepare(clvox__method_state *s, const clvox_voxelize
     return st;
 }
 
+/* The winding preparation (part 0) beside the parity soup and quadtree of
+ * the mesh as given (part 1, on a copy of the context for its messages). */
+typedef struct speculation {
+    clvox_context *ctx;
+    const clvox_mesh *mesh;
+    const clvox_grid *grid;
+    clvox__axes axes;
+    const clvox_voxelize_options *opts;
+    uint32_t dim_v, dim_w, leaf_size;
+    clvox_context *side;
+    float *soup;
+    clvox__winding_mesh *wm;
+    clvox_status prep_st, tree_st;
+    clvox__quadtree qt;
+} speculation;
+
+static void speculate(void *arg, int i, int n)
+{
+    speculation *sp = arg;
+    (void)n;
+    if (i == 0) {
+        sp->prep_st = clvox__winding_prepare(sp->ctx, sp->mesh, sp->opts->weld, sp->wm);
+        return;
+    }
+    sp->tree_st = clvox__grid_space_soup(sp->side, sp->mesh, sp->grid, sp->axes, &sp->soup);
+    if (sp->tree_st == CLVOX_OK)
+        sp->tree_st = clvox__quadtree_build(sp->side, sp->soup, sp->mesh->triangle_count, sp->dim_v, sp->dim_w,
+                                            sp->opts->quadtree_max_depth, sp->leaf_size, &sp->qt);
+}
+
 static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                 const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
                                 clvox_stats *stats, clvox__method_state **out)
@@ -328,11 +359,37 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     double t0 = clvox__now();
     s->winding = opts->inside == CLVOX_INSIDE_WINDING || opts->inside == CLVOX_INSIDE_WINDING_ABS;
     s->abs_mode = opts->inside == CLVOX_INSIDE_WINDING_ABS;
+    int have_tree = 0;
     if (st == CLVOX_OK && s->winding) {
-        /* surface (oriented) + caps: a closed chain (src/winding_prep.c) */
+        /* surface (oriented) + caps: a closed chain (src/winding_prep.c).
+         * The preparation runs beside the parity soup and quadtree of the
+         * mesh as given: when it changes nothing that the cast sees (no
+         * flip, no cap, no triangle dropped; merged vertices have the same
+         * positions) those are the prepared ones, bit for bit. */
         clvox__winding_mesh wm;
-        st = clvox__winding_prepare(ctx, mesh, opts->weld, &wm);
-        if (st == CLVOX_OK) st = clvox__winding_soup(ctx, mesh, grid, s->axes, &wm, &soup, &soup_count);
+        speculation sp = {ctx, mesh, grid, s->axes, opts, s->dim_v, s->dim_w, s->leaf_size, NULL, NULL, &wm,
+                          CLVOX_OK, CLVOX_OK, {0}};
+        sp.side = malloc(sizeof *sp.side);
+        if (!sp.side) {
+            memset(&wm, 0, sizeof wm);
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+        } else {
+            *sp.side = *ctx; /* the parity branch's own error message */
+            clvox__parallel(2, speculate, &sp);
+            st = sp.prep_st;
+            const int same = st == CLVOX_OK && sp.tree_st == CLVOX_OK && wm.cap_count == 0 &&
+                             wm.report.flipped_triangles == 0 && wm.triangle_count == mesh->triangle_count;
+            if (same) {
+                soup = sp.soup;
+                s->qt = sp.qt;
+                have_tree = 1;
+            } else {
+                free(sp.soup);
+                clvox__quadtree_free(&sp.qt);
+            }
+            free(sp.side);
+        }
+        if (st == CLVOX_OK && !have_tree) st = clvox__winding_soup(ctx, mesh, grid, s->axes, &wm, &soup, &soup_count);
         if (st == CLVOX_OK)
             st = clvox__caps_upload(ctx, soup + wm.triangle_count * 9, wm.cap_count, s->axes, grid, &s->caps);
         if (st == CLVOX_OK) st = clvox__rims_upload(ctx, mesh, grid, wm.rim, wm.rim_count, &s->rims);
@@ -343,7 +400,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     } else if (st == CLVOX_OK) {
         st = clvox__grid_space_soup(ctx, mesh, grid, s->axes, &soup);
     }
-    if (st == CLVOX_OK)
+    if (st == CLVOX_OK && !have_tree)
         st = clvox__quadtree_build(ctx, soup, soup_count, s->dim_v, s->dim_w, opts->quadtree_max_depth,
                                    s->leaf_size, &s->qt);
     if (st != CLVOX_OK) {

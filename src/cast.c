@@ -35,6 +35,7 @@
 #include <string.h>
 
 #define DEFAULT_HIT_CAPACITY 32u
+#define SPECULATE_MAX (4u << 20) /* triangles: see ray_prepare */
 
 /* Device buffers of one batch. */
 typedef struct batch_mem {
@@ -365,12 +366,17 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
          * The preparation runs beside the parity soup and quadtree of the
          * mesh as given: when it changes nothing that the cast sees (no
          * flip, no cap, no triangle dropped; merged vertices have the same
-         * positions) those are the prepared ones, bit for bit. */
+         * positions) those are the prepared ones, bit for bit. Up to
+         * SPECULATE_MAX triangles: both at once cost the preparation's
+         * memory on top of the soup's (armadillo_s3, 3.3 M triangles, 512^3:
+         * 1.13 -> 1.00 s, 397 -> 554 MB peak). */
         clvox__winding_mesh wm;
         speculation sp = {ctx, mesh, grid, s->axes, opts, s->dim_v, s->dim_w, s->leaf_size, NULL, NULL, &wm,
                           CLVOX_OK, CLVOX_OK, {0}};
-        sp.side = malloc(sizeof *sp.side);
-        if (!sp.side) {
+        sp.side = mesh->triangle_count <= SPECULATE_MAX ? malloc(sizeof *sp.side) : NULL;
+        if (mesh->triangle_count > SPECULATE_MAX) {
+            st = clvox__winding_prepare(ctx, mesh, opts->weld, &wm);
+        } else if (!sp.side) {
             memset(&wm, 0, sizeof wm);
             st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
         } else {

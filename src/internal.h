@@ -62,6 +62,23 @@ clvox_status clvox__read_text_file(clvox_context *ctx, const char *path, const c
 /* "512 bytes", "12.3 KB", "999 MB", "2.1 GB": decimal units, 3 digits, for messages. */
 void clvox__format_size(uint64_t bytes, char *buf, size_t size);
 
+/* Ascending insertion sort of a few 64-bit keys, and qsort's comparison
+ * for them (mesh report, winding preparation). */
+static inline void clvox__sort_u64_small(uint64_t *a, size_t n)
+{
+    for (size_t i = 1; i < n; i++) {
+        uint64_t v = a[i];
+        size_t j = i;
+        for (; j > 0 && a[j - 1] > v; j--) a[j] = a[j - 1];
+        a[j] = v;
+    }
+}
+static inline int clvox__cmp_u64(const void *pa, const void *pb)
+{
+    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
+    return (a > b) - (a < b);
+}
+
 /* ---- palettes (palette.c) ---- */
 
 /* The palette's flat arrays (kernels/palette.h layout), borrowed: valid

@@ -127,22 +127,6 @@ static void ref_geometry(const float *xyz, const uint32_t *tris, size_t kept, cl
     r->enclosed_volume = fabs(vol6) / 6.0;
 }
 
-/* Ascending sort of small arrays of 64-bit keys. */
-static void sort_u64_small(uint64_t *a, size_t n)
-{
-    for (size_t i = 1; i < n; i++) {
-        uint64_t v = a[i];
-        size_t j = i;
-        for (; j > 0 && a[j - 1] > v; j--) a[j] = a[j - 1];
-        a[j] = v;
-    }
-}
-
-static int cmp_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
 
 /* Boundary edges (used by an odd number of triangles) and non-manifold
  * triangles. Edges are bucketed by their smaller vertex (counting sort, O(T))
@@ -190,8 +174,8 @@ static int ref_edge_analysis(const uint32_t *tris, size_t nt, size_t nv, uint64_
     for (size_t v = 0; v < nv; v++) {
         size_t end = start[v], len = end - begin;
         if (len > 1) {
-            if (len <= 24) sort_u64_small(entry + begin, len);
-            else qsort(entry + begin, len, sizeof *entry, cmp_u64);
+            if (len <= 24) clvox__sort_u64_small(entry + begin, len);
+            else qsort(entry + begin, len, sizeof *entry, clvox__cmp_u64);
         }
         for (size_t i = begin; i < end;) {
             size_t j = i + 1;
@@ -230,7 +214,7 @@ static int ref_edge_analysis(const uint32_t *tris, size_t nt, size_t nv, uint64_
     if (ncx) {
         /* Replay in triangle order. State per complex edge: bit 0/1 = used in
          * direction 0/1, bits 2-3 = number of uses (saturating at 2). */
-        qsort(cx, ncx, sizeof *cx, cmp_u64);
+        qsort(cx, ncx, sizeof *cx, clvox__cmp_u64);
         gstate = calloc(groups, 1);
         if (!gstate) goto done;
         for (size_t i = 0; i < ncx;) {

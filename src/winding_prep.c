@@ -107,21 +107,6 @@ static size_t pow2_at_least(size_t n)
     return c;
 }
 
-static void sort_u64_small(uint64_t *a, size_t n)
-{
-    for (size_t i = 1; i < n; i++) {
-        uint64_t v = a[i];
-        size_t j = i;
-        for (; j > 0 && a[j - 1] > v; j--) a[j] = a[j - 1];
-        a[j] = v;
-    }
-}
-
-static int cmp_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
 
 static int cmp_double(const void *pa, const void *pb)
 {
@@ -131,8 +116,8 @@ static int cmp_double(const void *pa, const void *pb)
 
 static void sort_u64(uint64_t *a, size_t n)
 {
-    if (n <= 24) sort_u64_small(a, n);
-    else qsort(a, n, sizeof *a, cmp_u64);
+    if (n <= 24) clvox__sort_u64_small(a, n);
+    else qsort(a, n, sizeof *a, clvox__cmp_u64);
 }
 
 /* ---- 1. exact merge --------------------------------------------------------------- */

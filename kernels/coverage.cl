@@ -76,8 +76,8 @@ inline uint clvox_column_step(global const clvox_real *hits, global const char *
  * ks[r] (all of them: beyond the column's start), and whether the column
  * comes near a cap (then every sample is tested on its own,
  * clvox_winding_inside; else clvox_k_inside as for whole runs). */
-inline int clvox_column_winding_setup(global const clvox_real *hits, global const char *signs,
-                                      global const uint *counts, global const clvox_ray *rays, size_t r0, uint R,
+inline int clvox_column_winding_setup(global const char *signs, global const uint *counts,
+                                      global const clvox_ray *rays, size_t r0, uint R,
                                       uint capacity, int *ks, uint axis, uint u_begin, uint u_count,
                                       global const clvox_real *h, global const clvox_cap_node *nodes,
                                       uint node_count)
@@ -95,7 +95,6 @@ inline int clvox_column_winding_setup(global const clvox_real *hits, global cons
         if (r == 0 || w < g0[2]) g0[2] = w;
         if (r == 0 || w > g1[2]) g1[2] = w;
     }
-    (void)hits;
     if (node_count == 0) return 0;
     clvox_real q0[3], q1[3];
     clvox_scaled_box(axis, g0, g1, h, q0, q1);
@@ -141,7 +140,7 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
     uint k[CLVOX_COVERAGE_MAX_RAYS]; /* per ray: crossings before the current voxel */
     int ks[CLVOX_COVERAGE_MAX_RAYS];  /* winding: signed crossings beyond them */
     for (uint r = 0; r < R; r++) k[r] = 0;
-    const int near = signs ? clvox_column_winding_setup(hits, signs, counts, rays, r0, R, capacity, ks, axis,
+    const int near = signs ? clvox_column_winding_setup(signs, counts, rays, r0, R, capacity, ks, axis,
                                                         u_begin, u_count, h, nodes, node_count)
                            : 0;
     uint exact = 0;

@@ -101,7 +101,7 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
         k[r] = 0;
     }
     /* the ray axis: palette `axis` is 1..3 (x..z), the winding helpers take 0..2 */
-    const int near = signs ? clvox_column_winding_setup(hits, signs, counts, rays, r0, R, capacity, ks, axis - 1u,
+    const int near = signs ? clvox_column_winding_setup(signs, counts, rays, r0, R, capacity, ks, axis - 1u,
                                                         u_begin, u_count, h, nodes, node_count)
                            : 0;
     uint exact = 0;

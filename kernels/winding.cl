@@ -69,8 +69,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
             } else {
                 clvox_real px, py, pz, m;
                 clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
-                inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, &exact, &m,
-                                                (clvox_real)1);
+                inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, &exact, &m);
                 /* voxels before the next surface crossing (strictly) */
                 uint k2 = k;
                 while (k2 < n && (sg[k2] == 2 || sg[k2] == -2)) k2++;

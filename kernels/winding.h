@@ -144,7 +144,7 @@ inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, cl
  * cap solid angles had to be evaluated. */
 inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
                                   global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                  uint axis, uint *exact, clvox_real *margin, clvox_real want)
+                                  uint axis, uint *exact, clvox_real *margin)
 {
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
     *margin = 0;
@@ -176,9 +176,6 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
             if (w - B > thr) decided = 1, m = w - B - thr;
             else if (w + B <= thr) decided = 0, m = thr - (w + B);
         }
-        /* want < 1: refine on until the margin is at least (1 - want) of
-         * the distance to the threshold (margins for the caller's skips) */
-        if (decided >= 0 && want < 1 && sp > 0 && B > want * (m + B)) decided = -1;
         if (decided >= 0 || sp == 0) {
             if (evaluated) (*exact)++;
             *margin = m;
@@ -211,7 +208,7 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
                                 uint axis, uint *exact)
 {
     clvox_real m;
-    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, exact, &m, 1);
+    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, exact, &m);
 }
 
 /* Upper bound on |grad w| over the box [q0, q1] away from the surface: w's

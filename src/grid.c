@@ -154,7 +154,7 @@ static void soup_vertices(void *arg, int i, int n)
     for (size_t v = v0; v < v1; v++)
         for (int k = 0; k < 3; k++) {
             int a = J->axes.perm[k];
-            J->gv[v * 3 + k] = (float)(((double)xyz[v * 3 + a] - J->o[a]) / J->grid->voxel_size[a] - 0.5);
+            J->gv[v * 3 + k] = clvox__grid_coord(xyz[v * 3 + a], J->o[a], J->grid->voxel_size[a]);
         }
 }
 

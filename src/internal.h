@@ -158,6 +158,11 @@ typedef struct clvox__axes {
 } clvox__axes;
 clvox__axes clvox__axes_for(clvox_axis axis);
 
+/* One grid-space coordinate: x (the mesh's, relative to its offset) on an
+ * axis whose origin is o (the grid's origin minus the mesh's offset) and
+ * voxel size h, in double, rounded once (voxel centres at integers). */
+static inline float clvox__grid_coord(float x, double o, double h) { return (float)(((double)x - o) / h - 0.5); }
+
 /* Triangle soup in grid coordinates (voxel centres at integers, permuted so
  * that index 0 is u): 9 floats per triangle (a.uvw, b.uvw, c.uvw). Each
  * vertex is transformed once, so shared vertices stay bit-identical and a

@@ -151,13 +151,12 @@ clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, cons
     if (n > UINT32_MAX / 2) return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu boundary edges: too many", n);
     double *q = malloc(n * 9 * sizeof *q);
     if (!q) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu boundary edges", n);
-    /* grid space as clvox__grid_space_soup computes it, times h */
+    /* grid space (clvox__grid_coord, as the soup), times h */
     for (size_t e = 0; e < n; e++)
         for (int c = 0; c < 3; c++) {
             const float *p = mesh->xyz + 3 * (size_t)rim[2 * e + (c ? 1 : 0)];
             for (int a = 0; a < 3; a++) {
-                double o = grid->origin[a] - mesh->offset[a];
-                float g = (float)(((double)p[a] - o) / grid->voxel_size[a] - 0.5);
+                float g = clvox__grid_coord(p[a], grid->origin[a] - mesh->offset[a], grid->voxel_size[a]);
                 q[e * 9 + c * 3 + a] = (double)g * grid->voxel_size[a];
             }
         }

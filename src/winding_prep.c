@@ -1053,7 +1053,7 @@ static clvox_status cap_loops(prep *P, uint64_t *edges, size_t ne, clvox__windin
                     continue;
                 }
                 /* Loop: edges pedge[pos[w] .. depth]; its vertices, in order. */
-                size_t b = pos[w], len = depth + 1 - b;
+                size_t b = pos[w];
                 if (nloops + 1 >= loop_cap) {
                     loop_cap = 2 * loop_cap + 64;
                     size_t *g = realloc(loop_start, loop_cap * sizeof *g);
@@ -1062,7 +1062,6 @@ static clvox_status cap_loops(prep *P, uint64_t *edges, size_t ne, clvox__windin
                 }
                 loop_start[nloops++] = nverts;
                 for (size_t q = b; q <= depth; q++) loop_verts[nverts++] = FROM(pedge[q]);
-                (void)len;
                 for (size_t q = b + 1; q <= depth; q++) pos[path[q]] = NONE;
                 depth = b;
                 cur = w;

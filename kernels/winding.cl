@@ -13,7 +13,8 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                                    global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
                                    global const clvox_cap_node *nodes, uint node_count,
                                    global const clvox_real *caps, global uint *exact_points,
-                                   global const clvox_cap_node *rims, uint rim_count)
+                                   global const clvox_cap_node *rims, uint rim_count,
+                                   global const clvox_real *rim_edges)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -55,47 +56,80 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
             if (k < n) K -= CLVOX_UNIT(sg[k]);
         }
     } else {
-        /* Voxel by voxel; after an exact answer with margin m, the next
-         * voxels up to the next surface crossing keep it while G * h * s <
-         * m (w is continuous across caps; G bounds |grad w| there). */
-        uint exact = 0, k = 0, keep = 0;
-        int inside = 0;
+        /* Voxel by voxel, sparsely: an evaluation at u0 gives an interval
+         * [lo, hi] that holds w(u0). Along the ray w changes smoothly (|grad
+         * w| <= G over a segment: the rims' field, clvox_rim_gradient)
+         * except at surface crossings, where it steps by exactly the
+         * crossing's -unit sign (K changes and w_caps does not; at cap
+         * crossings K and w_caps step together). So on the segment w(u) lies
+         * in [lo + J - G d, hi + J + G d], J the surface steps since u0, d
+         * = |u - u0| h: while that interval is on one side of the
+         * threshold, the voxel needs no evaluation. */
+        uint exact = 0, k = 0, have = 0, j0 = 0, seg_end = 0, len = 64, cool = 0, wait = 0;
+        clvox_real lo = 0, hi = 0, J = 0, G = 0;
         const clvox_real step = h[axis];
         for (j = 0; j < u_count; j++) {
             const clvox_real u = (clvox_real)(u_begin + j);
-            while (k < n && hh[k] <= u) K -= CLVOX_UNIT(sg[k]), k++;
-            if (keep) {
-                keep--;
-            } else {
-                clvox_real px, py, pz, m;
+            while (k < n && hh[k] <= u) {
+                const int un = CLVOX_UNIT(sg[k]);
+                K -= un;
+                if (sg[k] == 1 || sg[k] == -1) J -= (clvox_real)un;
+                k++;
+            }
+            int inside = -1;
+            if (have && j <= seg_end) {
+                const clvox_real d = G * step * (clvox_real)(j - j0) * (clvox_real)1.000001;
+                inside = clvox_interval_inside(lo + J - d, hi + J + d, abs_mode);
+                if (inside < 0 && len > 1u) len /= 2u; /* the segment was longer than its use */
+            } else if (have) {
+                len = len < (1u << 20) ? len * 2u : len; /* used to its end: try a longer one */
+            }
+            if (inside < 0) {
+                clvox_real px, py, pz;
                 clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
-                inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, &exact, &m);
-                /* voxels before the next surface crossing (strictly) */
-                uint k2 = k;
-                while (k2 < n && (sg[k2] == 2 || sg[k2] == -2)) k2++;
-                uint room = u_count - 1u - j;
-                if (k2 < n) {
-                    const clvox_real e = ceil(hh[k2]) - 1 - u; /* centres u+1 .. ceil(h)-1 lie before it */
-                    if (e < (clvox_real)room) room = e <= 0 ? 0u : (uint)e;
+                /* where the last search found no segment, the next voxels
+                 * are evaluated alone, without the search or the tighter
+                 * interval it needs (1, 2, 4, 8 voxels as it keeps failing) */
+                const int alone = wait > 0;
+                inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis,
+                                                alone ? 0u : CLVOX_TIGHT, &exact, &lo, &hi);
+                /* the next segment: as long as the margin lasts at the
+                 * segment's own gradient bound (three tries) */
+                const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
+                clvox_real m = inside ? (lo > thr ? lo - thr : -thr - hi) : (abs_mode ? fmin(thr - hi, lo + thr) : thr - hi);
+                have = 0;
+                J = 0;
+                j0 = j;
+                uint r = u_count - 1u - j, bad = r + 1u;
+                if (r > len) r = len;
+                if (alone) {
+                    wait--;
+                    r = 0;
                 }
-                /* the bound over a shorter segment is smaller: shrink it to
-                 * what the last bound allowed, three times at most */
-                for (uint it = 0; m > 0 && room > 0 && it < 3u; it++) {
-                    const clvox_real g0[3] = {u, rv, rw}, g1[3] = {u + (clvox_real)room, rv, rw};
+                for (uint it = 0; m > 0 && r > 0 && it < 4u; it++) {
+                    const clvox_real g0[3] = {u, rv, rw}, g1[3] = {u + (clvox_real)r, rv, rw};
                     clvox_real q0[3], q1[3];
                     clvox_scaled_box(axis, g0, g1, h, q0, q1);
-                    const clvox_real G = clvox_rim_gradient(rims, rim_count, q0, q1, 24u);
-                    if (!isfinite(G)) {
-                        room /= 4u;
-                        continue;
+                    const clvox_real Gs = clvox_rim_gradient(rims, rim_count, rim_edges, q0, q1, 32u);
+                    const clvox_real s = !isfinite(Gs) ? 0 : Gs > 0 ? m / (Gs * step) : (clvox_real)r;
+                    uint next;
+                    if (s >= (clvox_real)r) { /* valid for r; a longer one, up to the last that failed */
+                        G = Gs;
+                        have = 1;
+                        seg_end = j + r;
+                        next = s < (clvox_real)(bad - 1u) ? (uint)s : bad - 1u;
+                        if (next <= r + r / 4u) break;
+                        r = next;
+                    } else { /* too long: as long as its bound allows (shorter: a smaller bound) */
+                        bad = r;
+                        next = !isfinite(Gs) ? r / 4u : (uint)s;
+                        if (have && next <= seg_end - j) break;
+                        r = next;
                     }
-                    const clvox_real s = G > 0 ? m / (G * step) : (clvox_real)room;
-                    if (s >= (clvox_real)room) {
-                        keep = room;
-                        break;
-                    }
-                    keep = (uint)s > keep ? (uint)s : keep; /* valid: inside this segment */
-                    room = (uint)s < 1u ? 0u : (uint)(s * 2) < room ? (uint)(s * 2) : room - 1u;
+                }
+                if (!alone) {
+                    cool = have ? 0u : (cool == 0u ? 1u : cool < 8u ? cool * 2u : 8u);
+                    wait = cool;
                 }
             }
             cnt += (uint)inside;

@@ -21,6 +21,8 @@
  * K counts them all as +-1. */
 #define CLVOX_UNIT(s) ((s) > 0 ? 1 : -1)
 #define CLVOX_CAP_STACK 48
+#define CLVOX_TIGHT 8u
+#define CLVOX_TIGHT_F 0.5
 
 /* Solid angle / 4pi of cap triangle t (9 reals, scaled x, y, z) seen from
  * p; positive when p is behind it (on the side its orientation faces away
@@ -142,12 +144,24 @@ inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, cl
  * and an error bound, until [K - S - sum est -+ sum err] lies on one side
  * of the threshold (S: the caps evaluated exactly). Adds 1 to *exact when
  * cap solid angles had to be evaluated. */
-inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                  global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                  uint axis, uint *exact, clvox_real *margin)
+/* Inside (1), outside (0) or undecided (-1) for every w in [lo, hi]. */
+inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
 {
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
-    *margin = 0;
+    if (lo > thr) return 1;
+    if (abs_mode) {
+        if (hi < -thr) return 1;
+        return hi <= thr && lo >= -thr ? 0 : -1;
+    }
+    return hi <= thr ? 0 : -1;
+}
+
+inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                  global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                  uint axis, uint tight, uint *exact, clvox_real *wlo, clvox_real *whi)
+{
+    const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
+    *wlo = *whi = (clvox_real)K;
     if (node_count == 0) return abs_mode ? K != 0 : K >= 1;
     uint stack[CLVOX_CAP_STACK];
     clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
@@ -155,7 +169,8 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
     stack[0] = 0;
     clvox_cap_estimate(nodes, px, py, pz, &se[0], &sb[0]);
     clvox_real S = 0;
-    int evaluated = 0;
+    int evaluated = 0, answer = -1;
+    uint extra = 0;
     for (;;) {
         clvox_real B = 0, E = 0;
         uint best = 0;
@@ -166,20 +181,16 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
         }
         B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sums' own rounding */
         const clvox_real w = (clvox_real)K - S - E;
-        int decided = -1;
-        clvox_real m = 0; /* how far w may move before the answer changes */
-        if (abs_mode) {
-            if (w - B > thr) decided = 1, m = w - B - thr;
-            else if (w + B < -thr) decided = 1, m = -thr - (w + B);
-            else if (w + B <= thr && w - B >= -thr) decided = 0, m = fmin(thr - (w + B), (w - B) + thr);
-        } else {
-            if (w - B > thr) decided = 1, m = w - B - thr;
-            else if (w + B <= thr) decided = 0, m = thr - (w + B);
-        }
-        if (decided >= 0 || sp == 0) {
+        if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
+        /* decided; with `tight`, refined on (at most `tight` more steps)
+         * until w is at least half its distance from the threshold away
+         * from it, so that the caller can reuse the interval nearby */
+        const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
+        if (sp == 0 || (answer >= 0 && (extra++ >= tight || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
             if (evaluated) (*exact)++;
-            *margin = m;
-            if (decided >= 0) return decided;
+            *wlo = w - B;
+            *whi = w + B; /* w lies in [w - B, w + B] */
+            if (answer >= 0) return answer;
             return abs_mode ? (w > thr || w < -thr) : w > thr;
         }
         const uint nd = stack[best];
@@ -207,47 +218,128 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
                                 global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
                                 uint axis, uint *exact)
 {
-    clvox_real m;
-    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, exact, &m);
+    clvox_real lo, hi;
+    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, 0u, exact, &lo, &hi);
 }
 
-/* Upper bound on |grad w| over the box [q0, q1] away from the surface: w's
- * gradient is the field of the rim (the surface's boundary edges) as a
- * current loop, |grad w| <= (1/4pi) sum of length / distance^2 (rims:
- * a tree of the boundary edges, area4pi holding length / 4pi). INFINITY
- * when a rim node touches the box after `budget` refinements. */
-inline clvox_real clvox_rim_gradient(global const clvox_cap_node *rims, uint rim_count, const clvox_real *q0,
-                                     const clvox_real *q1, uint budget)
+/* Lower bound on the distance between the segments [p0, p1] and [a, b]
+ * (closest points as in Ericson, Real-Time Collision Detection 5.1.9, then
+ * shrunk by more than their rounding); 0 when they may touch. */
+inline clvox_real clvox_segment_distance(const clvox_real *p0, const clvox_real *p1, global const clvox_real *a,
+                                         global const clvox_real *b)
+{
+    clvox_real d1[3], d2[3], r[3], mag = 0;
+    for (uint i = 0; i < 3u; i++) {
+        d1[i] = p1[i] - p0[i];
+        d2[i] = b[i] - a[i];
+        r[i] = p0[i] - a[i];
+        mag = fmax(mag, fmax(fmax(fabs(p0[i]), fabs(p1[i])), fmax(fabs(a[i]), fabs(b[i]))));
+    }
+    const clvox_real A = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2];
+    const clvox_real E = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2];
+    const clvox_real F = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2];
+    clvox_real s = 0, t = 0;
+    if (A <= 0 && E <= 0) {
+        s = t = 0;
+    } else if (A <= 0) {
+        t = clamp(F / E, (clvox_real)0, (clvox_real)1);
+    } else {
+        const clvox_real C = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2];
+        if (E <= 0) {
+            s = clamp(-C / A, (clvox_real)0, (clvox_real)1);
+        } else {
+            const clvox_real B = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2];
+            const clvox_real den = A * E - B * B;
+            s = den > 0 ? clamp((B * F - C * E) / den, (clvox_real)0, (clvox_real)1) : 0;
+            t = (B * s + F) / E;
+            if (t < 0) {
+                t = 0;
+                s = clamp(-C / A, (clvox_real)0, (clvox_real)1);
+            } else if (t > 1) {
+                t = 1;
+                s = clamp((B - C) / A, (clvox_real)0, (clvox_real)1);
+            }
+        }
+    }
+    clvox_real d2s = 0;
+    for (uint i = 0; i < 3u; i++) {
+        const clvox_real g = (p0[i] + d1[i] * s) - (a[i] + d2[i] * t);
+        d2s += g * g;
+    }
+    /* the closest points are found to within rounding (a relative error of
+     * about 1e-15 of the coordinates' size for doubles, 1e-6 for floats);
+     * being near them, not exactly at them, only makes the distance larger */
+    const clvox_real slack = mag * (sizeof(clvox_real) == 8 ? (clvox_real)1e-9 : (clvox_real)1e-4);
+    const clvox_real d = sqrt(d2s) * (clvox_real)(1 - 1e-6) - slack;
+    return d > 0 ? d : 0;
+}
+
+/* One rim node's bound over the box [q0, q1]: length / (4pi d^2), d the
+ * boxes' distance; at a leaf (exact != 0) the sum over its edges of the
+ * same with each edge's own distance to the segment [q0, q1]. */
+inline clvox_real clvox_rim_bound(global const clvox_cap_node *nd, global const clvox_real *edges,
+                                  const clvox_real *q0, const clvox_real *q1, int exact)
+{
+    if (exact) {
+        clvox_real G = 0;
+        for (uint e = 0; e < nd->tri_count; e++) {
+            global const clvox_real *ed = edges + (size_t)(nd->tri_first + e) * 9u;
+            const clvox_real d = clvox_segment_distance(q0, q1, ed, ed + 3);
+            if (!(d > 0)) return (clvox_real)INFINITY;
+            clvox_real len2 = 0;
+            for (uint i = 0; i < 3u; i++) len2 += (ed[3 + i] - ed[i]) * (ed[3 + i] - ed[i]);
+            G += sqrt(len2) * (clvox_real)(0.07957747154594767 * 1.000001) / (d * d); /* 1/4pi */
+        }
+        return G;
+    }
+    clvox_real d2 = 0;
+    for (uint a = 0; a < 3u; a++) {
+        const clvox_real lo = nd->lo[a], hi = nd->hi[a];
+        const clvox_real g = lo > q1[a] ? lo - q1[a] : (q0[a] > hi ? q0[a] - hi : 0);
+        d2 += g * g;
+    }
+    return d2 > 0 ? (clvox_real)nd->area4pi / d2 : (clvox_real)INFINITY;
+}
+
+/* Upper bound on |grad w| along the segment [q0, q1] (q0 <= q1, a point
+ * or a segment along one axis) away from the surface: w's gradient is the
+ * field of the rim (the surface's boundary edges) as a current loop,
+ * |grad w| <= (1/4pi) sum of length / distance^2 (rims: a tree of the
+ * boundary edges, area4pi holding length / 4pi, edges its leaves' edges).
+ * Refined best-first, `budget` steps at most; leaves are bounded edge by
+ * edge. INFINITY when the segment may touch a rim edge, or the budget
+ * runs out before the bound is finite. */
+#define CLVOX_RIM_FINAL 0x80000000u
+inline clvox_real clvox_rim_gradient(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
+                                     const clvox_real *q0, const clvox_real *q1, uint budget)
 {
     if (rim_count == 0) return 0;
     uint stack[CLVOX_CAP_STACK];
     clvox_real sb[CLVOX_CAP_STACK];
     uint sp = 1;
     stack[0] = 0;
+    sb[0] = clvox_rim_bound(rims, edges, q0, q1, rims[0].child == 0);
+    if (rims[0].child == 0) stack[0] |= CLVOX_RIM_FINAL;
     for (uint it = 0;; it++) {
         clvox_real G = 0;
-        uint best = 0;
+        uint best = CLVOX_CAP_STACK;
         for (uint i = 0; i < sp; i++) {
-            const uint nd = stack[i];
-            clvox_real d2 = 0;
-            for (uint a = 0; a < 3u; a++) {
-                const clvox_real lo = rims[nd].lo[a], hi = rims[nd].hi[a];
-                const clvox_real g = lo > q1[a] ? lo - q1[a] : (q0[a] > hi ? q0[a] - hi : 0);
-                d2 += g * g;
-            }
-            sb[i] = d2 > 0 ? (clvox_real)rims[nd].area4pi / d2 : (clvox_real)INFINITY;
             G += sb[i];
-            if (sb[i] > sb[best]) best = i;
+            if (!(stack[i] & CLVOX_RIM_FINAL) && (best == CLVOX_CAP_STACK || sb[i] > sb[best])) best = i;
         }
-        if (isfinite(G) && (it >= budget || sp + 1u >= CLVOX_CAP_STACK)) return G * (clvox_real)1.000001;
-        if (it >= budget || sp + 1u >= CLVOX_CAP_STACK) return (clvox_real)INFINITY;
-        const uint nd = stack[best];
-        if (rims[nd].child == 0) {
-            if (!isfinite(sb[best])) return (clvox_real)INFINITY;
+        if (best == CLVOX_CAP_STACK || it >= budget || sp + 1u >= CLVOX_CAP_STACK)
+            return isfinite(G) ? G * (clvox_real)1.000001 : (clvox_real)INFINITY;
+        if (isfinite(G) && sb[best] < G * (clvox_real)0.05) /* nothing left to gain much */
             return G * (clvox_real)1.000001;
-        }
-        stack[best] = rims[nd].child;
-        stack[sp++] = rims[nd].child + 1u;
+        const uint nd = stack[best];
+        const uint child = rims[nd].child;
+        const int leaf0 = rims[child].child == 0, leaf1 = rims[child + 1u].child == 0;
+        stack[best] = child | (leaf0 ? CLVOX_RIM_FINAL : 0u);
+        sb[best] = clvox_rim_bound(rims + child, edges, q0, q1, leaf0);
+        stack[sp] = (child + 1u) | (leaf1 ? CLVOX_RIM_FINAL : 0u);
+        sb[sp++] = clvox_rim_bound(rims + child + 1u, edges, q0, q1, leaf1);
+        if (!isfinite(sb[best]) && leaf0) return (clvox_real)INFINITY;
+        if (!isfinite(sb[sp - 1u]) && leaf1) return (clvox_real)INFINITY;
     }
 }
 

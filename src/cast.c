@@ -640,6 +640,7 @@ static clvox_status winding_enqueue(clvox__method_state *s, const batch_mem *m, 
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->exact);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->rims.nodes);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->rims.node_count);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->rims.tris);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_classify_winding)");
     size_t local = 64, global = ((size_t)n + local - 1) / local * local;
     err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);

@@ -171,8 +171,8 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
     uint32_t *order = malloc(n * sizeof *order);
     clvox_cap_node *nodes = malloc(2 * n * sizeof *nodes);
     uint32_t *stack = malloc(2 * n * sizeof *stack);
-    void *tris = segments ? NULL : malloc(n * 9 * rs);
-    if (!keys || !order || !nodes || !stack || (!segments && !tris)) {
+    void *tris = malloc(n * 9 * rs);
+    if (!keys || !order || !nodes || !stack || !tris) {
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n);
         goto done;
     }
@@ -252,17 +252,17 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         stack[sp++] = c;
         stack[sp++] = c + 1;
     }
-    if (!segments)
-        for (size_t i = 0; i < n; i++)
-            for (int k = 0; k < 9; k++) {
-                double v = q[(size_t)order[i] * 9 + k];
-                if (rs == 8) ((double *)tris)[i * 9 + k] = v;
-                else ((float *)tris)[i * 9 + k] = (float)v;
-            }
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 9; k++) {
+            double v = q[(size_t)order[i] * 9 + k];
+            if (rs == 8) ((double *)tris)[i * 9 + k] = v;
+            else ((float *)tris)[i * 9 + k] = (float)v;
+        }
     out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, node_count * sizeof *nodes, nodes, &st,
                                "cap tree");
-    if (st == CLVOX_OK && !segments)
-        out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * 9 * rs, tris, &st, "caps");
+    if (st == CLVOX_OK)
+        out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * 9 * rs, tris, &st,
+                                  segments ? "boundary edges" : "caps");
     out->node_count = (cl_uint)node_count;
     out->cap_count = n;
 done:

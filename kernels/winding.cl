@@ -7,6 +7,8 @@
  * classified by runs from K alone, like parity; on a closed mesh there are
  * no caps and that is every ray. Rays near a cap decide voxel by voxel. */
 
+#define CLVOX_RIM_TRIES 4u
+#define CLVOX_RIM_BUDGET 32u
 kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
                                    global const char *signs, global const uint *counts, uint capacity,
                                    uint u_begin, uint u_count, uint out_stride, global uint *out,
@@ -66,7 +68,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
          * = |u - u0| h: while that interval is on one side of the
          * threshold, the voxel needs no evaluation. */
         uint exact = 0, k = 0, have = 0, j0 = 0, seg_end = 0, len = 64, cool = 0, wait = 0;
-        clvox_real lo = 0, hi = 0, J = 0, G = 0;
+        clvox_real lo = 0, hi = 0, J = 0, G = 0, Gp = 0;
         const clvox_real step = h[axis];
         for (j = 0; j < u_count; j++) {
             const clvox_real u = (clvox_real)(u_begin + j);
@@ -101,18 +103,24 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                 J = 0;
                 j0 = j;
                 uint r = u_count - 1u - j, bad = r + 1u;
-                if (r > len) r = len;
+                if (Gp > 0) { /* the last bound predicts this one: G changes slowly along the ray */
+                    const clvox_real guess = m / (Gp * step) * (clvox_real)1.25;
+                    if (guess < (clvox_real)r) r = guess < 1 ? 1u : (uint)guess;
+                } else if (r > len) {
+                    r = len;
+                }
                 if (alone) {
                     wait--;
                     r = 0;
                 }
-                for (uint it = 0; m > 0 && r > 0 && it < 4u; it++) {
+                for (uint it = 0; m > 0 && r > 0 && it < CLVOX_RIM_TRIES; it++) {
                     const clvox_real g0[3] = {u, rv, rw}, g1[3] = {u + (clvox_real)r, rv, rw};
                     clvox_real q0[3], q1[3];
                     clvox_scaled_box(axis, g0, g1, h, q0, q1);
-                    const clvox_real Gs = clvox_rim_gradient(rims, rim_count, rim_edges, q0, q1, 32u);
+                    const clvox_real Gs = clvox_rim_gradient(rims, rim_count, rim_edges, q0, q1, CLVOX_RIM_BUDGET);
                     const clvox_real s = !isfinite(Gs) ? 0 : Gs > 0 ? m / (Gs * step) : (clvox_real)r;
                     uint next;
+                    if (isfinite(Gs)) Gp = Gs;
                     if (s >= (clvox_real)r) { /* valid for r; a longer one, up to the last that failed */
                         G = Gs;
                         have = 1;

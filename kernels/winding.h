@@ -315,24 +315,27 @@ inline clvox_real clvox_segment_distance(const clvox_real *p0, const clvox_real 
     return d > 0 ? d : 0;
 }
 
-/* One rim node's bound over the box [q0, q1]: length / (4pi d^2), d the
- * boxes' distance; at a leaf (exact != 0) the sum over its edges of the
- * same with each edge's own distance to the segment [q0, q1]. */
-inline clvox_real clvox_rim_bound(global const clvox_cap_node *nd, global const clvox_real *edges,
-                                  const clvox_real *q0, const clvox_real *q1, int exact)
+/* A rim leaf's bound: the sum over its edges of length / (4pi d^2), d
+ * each edge's own distance to the segment [q0, q1]. */
+inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global const clvox_real *edges,
+                                       const clvox_real *q0, const clvox_real *q1)
 {
-    if (exact) {
-        clvox_real G = 0;
-        for (uint e = 0; e < nd->tri_count; e++) {
-            global const clvox_real *ed = edges + (size_t)(nd->tri_first + e) * 9u;
-            const clvox_real d = clvox_segment_distance(q0, q1, ed, ed + 3);
-            if (!(d > 0)) return (clvox_real)INFINITY;
-            clvox_real len2 = 0;
-            for (uint i = 0; i < 3u; i++) len2 += (ed[3 + i] - ed[i]) * (ed[3 + i] - ed[i]);
-            G += sqrt(len2) * (clvox_real)(0.07957747154594767 * 1.000001) / (d * d); /* 1/4pi */
-        }
-        return G;
+    clvox_real G = 0;
+    for (uint e = 0; e < nd->tri_count; e++) {
+        global const clvox_real *ed = edges + (size_t)(nd->tri_first + e) * 9u;
+        const clvox_real d = clvox_segment_distance(q0, q1, ed, ed + 3);
+        if (!(d > 0)) return (clvox_real)INFINITY;
+        clvox_real len2 = 0;
+        for (uint i = 0; i < 3u; i++) len2 += (ed[3 + i] - ed[i]) * (ed[3 + i] - ed[i]);
+        G += sqrt(len2) * (clvox_real)(0.07957747154594767 * 1.000001) / (d * d); /* 1/4pi */
     }
+    return G;
+}
+
+/* A rim node's bound from its box: length / (4pi d^2), d the boxes'
+ * distance. */
+inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clvox_real *q0, const clvox_real *q1)
+{
     clvox_real d2 = 0;
     for (uint a = 0; a < 3u; a++) {
         const clvox_real lo = nd->lo[a], hi = nd->hi[a];
@@ -347,40 +350,53 @@ inline clvox_real clvox_rim_bound(global const clvox_cap_node *nd, global const 
  * field of the rim (the surface's boundary edges) as a current loop,
  * |grad w| <= (1/4pi) sum of length / distance^2 (rims: a tree of the
  * boundary edges, area4pi holding length / 4pi, edges its leaves' edges).
- * Refined best-first, `budget` steps at most; leaves are bounded edge by
- * edge. INFINITY when the segment may touch a rim edge, or the budget
- * runs out before the bound is finite. */
-#define CLVOX_RIM_FINAL 0x80000000u
+ * Refined best-first, `budget` steps at most: a node's box bound is
+ * replaced by its children's, a leaf's by its edges' own; stops when the
+ * largest refinable term is under 5 % of the total. INFINITY when the
+ * segment may touch a rim edge, or the budget runs out before the bound is
+ * finite. */
+#define CLVOX_RIM_FINAL 0x80000000u /* an entry bounded edge by edge */
+#define CLVOX_RIM_LEAF 0x40000000u  /* a leaf bounded by its box */
 inline clvox_real clvox_rim_gradient(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
                                      const clvox_real *q0, const clvox_real *q1, uint budget)
 {
     if (rim_count == 0) return 0;
     uint stack[CLVOX_CAP_STACK];
     clvox_real sb[CLVOX_CAP_STACK];
-    uint sp = 1;
-    stack[0] = 0;
-    sb[0] = clvox_rim_bound(rims, edges, q0, q1, rims[0].child == 0);
-    if (rims[0].child == 0) stack[0] |= CLVOX_RIM_FINAL;
+    uint sp = 1, inf = 0;
+    stack[0] = rims[0].child == 0 ? CLVOX_RIM_LEAF : 0u;
+    sb[0] = clvox_rim_box_bound(rims, q0, q1);
+    clvox_real G = 0; /* the finite entries' sum; inf: how many are infinite */
+    if (isfinite(sb[0])) G = sb[0];
+    else inf = 1;
     for (uint it = 0;; it++) {
-        clvox_real G = 0;
         uint best = CLVOX_CAP_STACK;
-        for (uint i = 0; i < sp; i++) {
-            G += sb[i];
+        for (uint i = 0; i < sp; i++)
             if (!(stack[i] & CLVOX_RIM_FINAL) && (best == CLVOX_CAP_STACK || sb[i] > sb[best])) best = i;
-        }
-        if (best == CLVOX_CAP_STACK || it >= budget || sp + 1u >= CLVOX_CAP_STACK)
-            return isfinite(G) ? G * (clvox_real)1.000001 : (clvox_real)INFINITY;
-        if (isfinite(G) && sb[best] < G * (clvox_real)0.05) /* nothing left to gain much */
+        if (best == CLVOX_CAP_STACK || it >= budget || sp + 1u >= CLVOX_CAP_STACK || (inf == 0 && sb[best] < G * (clvox_real)0.05)) {
+            if (inf) return (clvox_real)INFINITY;
+            G = 0; /* the exact sum (the running one drifts by subtraction) */
+            for (uint i = 0; i < sp; i++) G += sb[i];
             return G * (clvox_real)1.000001;
-        const uint nd = stack[best];
+        }
+        const uint e = stack[best], nd = e & ~(CLVOX_RIM_FINAL | CLVOX_RIM_LEAF);
+        if (isfinite(sb[best])) G -= sb[best];
+        else inf--;
+        if (e & CLVOX_RIM_LEAF) {
+            sb[best] = clvox_rim_leaf_bound(rims + nd, edges, q0, q1);
+            if (!isfinite(sb[best])) return (clvox_real)INFINITY; /* an edge may touch the segment */
+            stack[best] = nd | CLVOX_RIM_FINAL;
+            G += sb[best];
+            continue;
+        }
         const uint child = rims[nd].child;
-        const int leaf0 = rims[child].child == 0, leaf1 = rims[child + 1u].child == 0;
-        stack[best] = child | (leaf0 ? CLVOX_RIM_FINAL : 0u);
-        sb[best] = clvox_rim_bound(rims + child, edges, q0, q1, leaf0);
-        stack[sp] = (child + 1u) | (leaf1 ? CLVOX_RIM_FINAL : 0u);
-        sb[sp++] = clvox_rim_bound(rims + child + 1u, edges, q0, q1, leaf1);
-        if (!isfinite(sb[best]) && leaf0) return (clvox_real)INFINITY;
-        if (!isfinite(sb[sp - 1u]) && leaf1) return (clvox_real)INFINITY;
+        for (uint c = 0; c < 2u; c++) {
+            const uint slot = c == 0 ? best : sp++;
+            stack[slot] = (child + c) | (rims[child + c].child == 0 ? CLVOX_RIM_LEAF : 0u);
+            sb[slot] = clvox_rim_box_bound(rims + child + c, q0, q1);
+            if (isfinite(sb[slot])) G += sb[slot];
+            else inf++;
+        }
     }
 }
 

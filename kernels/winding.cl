@@ -8,7 +8,7 @@
  * no caps and that is every ray. Rays near a cap decide voxel by voxel. */
 
 #define CLVOX_RIM_TRIES 4u
-#define CLVOX_RIM_BUDGET 32u
+#define CLVOX_RIM_BUDGET 12u
 kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
                                    global const char *signs, global const uint *counts, uint capacity,
                                    uint u_begin, uint u_count, uint out_stride, global uint *out,

@@ -68,6 +68,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
          * = |u - u0| h: while that interval is on one side of the
          * threshold, the voxel needs no evaluation. */
         uint exact = 0, k = 0, have = 0, j0 = 0, seg_end = 0, len = 64, cool = 0, wait = 0;
+        uint cut[CLVOX_CUT_MAX], cut_n = 0, jcut = 0, fresh_exact = 0;
         clvox_real lo = 0, hi = 0, J = 0, G = 0, Gp = 0;
         const clvox_real step = h[axis];
         for (j = 0; j < u_count; j++) {
@@ -93,8 +94,17 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                  * are evaluated alone, without the search or the tighter
                  * interval it needs (1, 2, 4, 8 voxels as it keeps failing) */
                 const int alone = wait > 0;
+                /* the last point's tree cut, when it is near and has not
+                 * grown much past a fresh start's (it only refines) */
+                if (j > jcut + 4u) cut_n = 0;
+                const int fresh = cut_n == 0;
                 inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis,
-                                                alone ? 0u : CLVOX_TIGHT, &exact, &lo, &hi);
+                                                alone ? 0u : CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n);
+                jcut = j;
+                uint cut_exact = 0;
+                for (uint i = 0; i < cut_n; i++) cut_exact += cut[i] >> 31;
+                if (fresh) fresh_exact = cut_exact;
+                else if (cut_exact > fresh_exact + fresh_exact / 2u + 2u) cut_n = 0;
                 /* the next segment: as long as the margin lasts at the
                  * segment's own gradient bound (three tries) */
                 const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;

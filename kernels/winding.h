@@ -180,11 +180,6 @@ inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, cl
     *err = b0;
 }
 
-/* The inside test at p (scaled grid space, x, y, z) given K there:
- * best-first refinement of the cap tree, each frontier node an estimate
- * and an error bound, until [K - S - sum est -+ sum err] lies on one side
- * of the threshold (S: the caps evaluated exactly). Adds 1 to *exact when
- * cap solid angles had to be evaluated. */
 /* Inside (1), outside (0) or undecided (-1) for every w in [lo, hi]. */
 inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
 {
@@ -197,20 +192,65 @@ inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
     return hi <= thr ? 0 : -1;
 }
 
+/* A cut of the cap tree kept from one point to the next along a ray
+ * (clvox_winding_inside_m): node ids, CLVOX_CUT_EXACT on those evaluated
+ * exactly. Any cut (frontier + exact nodes covering every leaf once) is a
+ * valid start; a neighbour's saves most of the descent. */
+#define CLVOX_CUT_MAX 96
+#define CLVOX_CUT_EXACT 0x80000000u
+
+/* The node's caps' solid angles / 4pi at p, exactly. */
+inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
+                                       clvox_real py, clvox_real pz, uint axis)
+{
+    clvox_real S = 0;
+    const uint first = nd->tri_first, count = nd->tri_count;
+    for (uint t = 0; t < count; t++) S += clvox_cap_solid(caps + (size_t)(first + t) * 9u, px, py, pz, axis);
+    return S;
+}
+
+/* The inside test at p (scaled grid space, x, y, z) given K there:
+ * best-first refinement of the cap tree, each frontier node an estimate
+ * and an error bound, until [K - S - sum est -+ sum err] lies on one side
+ * of the threshold (S: the caps evaluated exactly). Adds 1 to *exact when
+ * cap solid angles had to be evaluated; [*wlo, *whi] holds w. With `tight`
+ * the refinement goes on past the decision (at most `tight` steps) until
+ * the error bound is at most CLVOX_TIGHT_F of w's distance from the
+ * threshold, so that the caller can reuse the interval nearby. cut (may be
+ * 0): in, a cut to start from (*cut_n entries; 0: the root); out, this
+ * point's (*cut_n = 0 when it does not fit). */
 inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
                                   global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                  uint axis, uint tight, uint *exact, clvox_real *wlo, clvox_real *whi)
+                                  uint axis, uint tight, uint *exact, clvox_real *wlo, clvox_real *whi, uint *cut,
+                                  uint *cut_n)
 {
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
     *wlo = *whi = (clvox_real)K;
     if (node_count == 0) return abs_mode ? K != 0 : K >= 1;
     uint stack[CLVOX_CAP_STACK];
     clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
-    uint sp = 1;
-    stack[0] = 0;
-    clvox_cap_estimate(nodes, px, py, pz, &se[0], &sb[0]);
+    uint ex[CLVOX_CUT_MAX];
+    uint sp = 0, nex = 0;
     clvox_real S = 0;
-    int evaluated = 0, answer = -1;
+    int evaluated = 0, answer = -1, lost = 0; /* lost: the exact nodes do not fit ex */
+    if (cut && *cut_n) {
+        for (uint i = 0; i < *cut_n; i++) {
+            const uint nd = cut[i] & ~CLVOX_CUT_EXACT;
+            if (cut[i] & CLVOX_CUT_EXACT) {
+                S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis);
+                ex[nex++] = nd;
+                evaluated = 1;
+            } else {
+                stack[sp] = nd;
+                clvox_cap_estimate(nodes + nd, px, py, pz, &se[sp], &sb[sp]);
+                sp++;
+            }
+        }
+    } else {
+        stack[sp] = 0;
+        clvox_cap_estimate(nodes, px, py, pz, &se[sp], &sb[sp]);
+        sp++;
+    }
     uint extra = 0;
     for (;;) {
         clvox_real B = 0, E = 0;
@@ -223,14 +263,20 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
         B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sums' own rounding */
         const clvox_real w = (clvox_real)K - S - E;
         if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
-        /* decided; with `tight`, refined on (at most `tight` more steps)
-         * until w is at least half its distance from the threshold away
-         * from it, so that the caller can reuse the interval nearby */
         const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
         if (sp == 0 || (answer >= 0 && (extra++ >= tight || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
             if (evaluated) (*exact)++;
             *wlo = w - B;
             *whi = w + B; /* w lies in [w - B, w + B] */
+            if (cut) {
+                if (lost || sp + nex > CLVOX_CUT_MAX) {
+                    *cut_n = 0;
+                } else {
+                    for (uint i = 0; i < sp; i++) cut[i] = stack[i];
+                    for (uint i = 0; i < nex; i++) cut[sp + i] = ex[i] | CLVOX_CUT_EXACT;
+                    *cut_n = sp + nex;
+                }
+            }
             if (answer >= 0) return answer;
             return abs_mode ? (w > thr || w < -thr) : w > thr;
         }
@@ -241,10 +287,10 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
         sp--;
         const uint child = nodes[nd].child;
         if (child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
-            const uint first = nodes[nd].tri_first, count = nodes[nd].tri_count;
-            for (uint t = 0; t < count; t++)
-                S += clvox_cap_solid(caps + (size_t)(first + t) * 9u, px, py, pz, axis);
+            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis);
             evaluated = 1;
+            if (nex < CLVOX_CUT_MAX) ex[nex++] = nd;
+            else lost = 1;
         } else {
             for (uint c = 0; c < 2u; c++) {
                 stack[sp] = child + c;
@@ -260,7 +306,7 @@ inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_nod
                                 uint axis, uint *exact)
 {
     clvox_real lo, hi;
-    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, 0u, exact, &lo, &hi);
+    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, 0u, exact, &lo, &hi, 0, 0);
 }
 
 /* Lower bound on the distance between the segments [p0, p1] and [a, b]

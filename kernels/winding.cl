@@ -94,9 +94,9 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                  * are evaluated alone, without the search or the tighter
                  * interval it needs (1, 2, 4, 8 voxels as it keeps failing) */
                 const int alone = wait > 0;
-                /* the last point's tree cut, when it is near and has not
+                /* the last point's tree cut, when it is near (8 voxels) and has not
                  * grown much past a fresh start's (it only refines) */
-                if (j > jcut + 4u) cut_n = 0;
+                if (j > jcut + 8u) cut_n = 0;
                 const int fresh = cut_n == 0;
                 inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis,
                                                 alone ? 0u : CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n);

@@ -642,9 +642,13 @@ typedef struct prep {
     size_t nv;
     const uint32_t *tris; /* the mesh's triangles, or out->tris after merging */
     size_t nt;
-    uint32_t *start;     /* vertex buckets of the edge array (in ws) */
     uint32_t *uf;        /* orientation union-find, then the patches (in ws: cid) */
-    uint64_t *entry;     /* hi << 32 | triangle << 1 | (1: the use runs lo -> hi) */
+    uint32_t *half;      /* half-edge ids by block of their smaller vertex */
+    uint32_t *bstart;    /* nblocks + 1: the blocks in half */
+    size_t nblocks, most; /* most: the largest block */
+    unsigned shift;      /* block of vertex v: v >> shift */
+    uint64_t *entry;     /* uses of the special edges: hi << 32 | triangle << 1 | (1: the use runs lo -> hi) */
+    size_t nentry, cap_entry;
     uint32_t *cid;       /* patch of each triangle (= uf, in ws) */
     unsigned char *flip; /* 1: triangle reversed relative to its patch's first triangle */
     uint32_t *first;     /* first triangle of each patch */
@@ -665,37 +669,65 @@ static clvox_status oom(prep *P, const char *what)
     return clvox__fail(P->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory %s (%zu triangles)", what, P->nt);
 }
 
-/* Buckets the 3T half-edges by smaller vertex, sorted by larger vertex. */
+/* The half-edges (ids 3t + corner: the edge from that corner to the next)
+ * by block of their smaller vertex (vertices v >> shift), in id order: one
+ * pass whose writes go to a few thousand places, not to one per vertex
+ * (orient_patches sorts each block by vertex in the caches). */
 static clvox_status build_edges(prep *P)
 {
     size_t ne = 3 * P->nt, nv = P->nv;
     const uint32_t *tris = P->tris;
-    memset(P->start, 0, (nv + 1) * sizeof *P->start);
-    P->entry = malloc((ne ? ne : 1) * sizeof *P->entry);
-    if (!P->entry) return oom(P, "for the edges");
-    uint32_t *start = P->start;
-    uint64_t *entry = P->entry;
+    unsigned shift = 0;
+    while ((nv >> shift) > 2048) shift++;
+    size_t nb = (nv >> shift) + 1;
+    P->shift = shift;
+    P->nblocks = nb;
+    P->bstart = calloc(nb + 1, sizeof *P->bstart);
+    P->half = malloc((ne ? ne : 1) * sizeof *P->half);
+    if (!P->bstart || !P->half) return oom(P, "for the edges");
+    uint32_t *bs = P->bstart, *half = P->half;
     for (size_t i = 0; i < ne; i++) {
         uint32_t a = tris[i], b = tris[NEXT_CORNER(i)];
-        start[(a < b ? a : b) + 1]++;
+        bs[((a < b ? a : b) >> shift) + 1]++;
     }
-    for (size_t v = 0; v < nv; v++) start[v + 1] += start[v];
+    size_t most = 0;
+    for (size_t k = 0; k < nb; k++) {
+        if (bs[k + 1] > most) most = bs[k + 1];
+        bs[k + 1] += bs[k];
+    }
+    P->most = most;
     for (size_t i = 0; i < ne; i++) {
         uint32_t a = tris[i], b = tris[NEXT_CORNER(i)];
-        uint32_t lo = a < b ? a : b, hi = a < b ? b : a;
-        entry[start[lo]++] = (uint64_t)hi << 32 | (uint64_t)(i / 3) << 1 | (uint64_t)(a < b);
+        half[bs[(a < b ? a : b) >> shift]++] = (uint32_t)i;
     }
-    /* start[v] is now the end of bucket v; shift back to starts. */
-    for (size_t v = nv; v > 0; v--) start[v] = start[v - 1];
-    start[0] = 0;
-    for (size_t v = 0; v < nv; v++) {
-        size_t b = start[v], e = start[v + 1];
-        if (e - b > 1) sort_u64(entry + b, e - b);
-    }
+    /* bs[k] is now the end of block k; shift back to starts. */
+    for (size_t k = nb; k > 0; k--) bs[k] = bs[k - 1];
+    bs[0] = 0;
     return CLVOX_OK;
 }
 
-/* Pass 1: unions across manifold edges; spans needing the boundary pass. */
+/* Appends the uses e[0..n) of one edge to the special entries; the span
+ * (lo, begin, end) indexes them. */
+static int special_push(prep *P, uint32_t lo, const uint64_t *e, size_t n)
+{
+    if (P->nentry + n > P->cap_entry) {
+        size_t cap = 2 * (P->nentry + n) + 256;
+        uint64_t *g = realloc(P->entry, cap * sizeof *g);
+        if (!g) return -1;
+        P->entry = g;
+        P->cap_entry = cap;
+    }
+    if (P->nentry + n > UINT32_MAX) return -1;
+    memcpy(P->entry + P->nentry, e, n * sizeof *e);
+    int bad = span_push(&P->special, lo, (uint32_t)P->nentry, (uint32_t)(P->nentry + n));
+    P->nentry += n;
+    return bad;
+}
+
+/* Pass 1: each vertex's bucket as (larger vertex << 32 | triangle << 1 |
+ * (1: the use runs lo -> hi)), sorted; unions across manifold edges, in
+ * (smaller vertex, larger vertex) order; the uses of the edges that need the
+ * boundary pass are kept (P->entry, spans). */
 static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *conflict_out)
 {
     size_t nt = P->nt;
@@ -703,39 +735,69 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     uint32_t *conflicts = NULL;
     size_t nconf = 0, capconf = 0;
     clvox_status st = CLVOX_OK;
+    const uint32_t *tris = P->tris, *half = P->half, *bs = P->bstart;
+    const unsigned shift = P->shift;
+    const size_t most = P->most ? P->most : 1, vspan = (size_t)1 << shift;
+    uint64_t *key = malloc(2 * most * sizeof *key), *raw = key ? key + most : NULL;
+    uint32_t *loc = malloc(most * sizeof *loc), *cnt = malloc((vspan + 1) * sizeof *cnt);
+    if (!key || !loc || !cnt) goto nomem;
     for (size_t t = 0; t < nt; t++) uf[t] = (uint32_t)t << 1;
-    const uint64_t *entry = P->entry;
-    size_t ne = 3 * nt;
+    const size_t ne = 3 * nt;
     uint64_t nm = 0;
-    for (size_t v = 0; v < P->nv; v++) {
-        size_t e = P->start[v + 1];
-        for (size_t i = P->start[v]; i < e;) {
-            size_t j = i + 1;
-            while (j < e && entry[j] >> 32 == entry[i] >> 32) j++;
-            if (j - i == 2) {
-                if (j + 17 < ne) {
-                    PREFETCH(&uf[(uint32_t)entry[j + 16] >> 1]);
-                    PREFETCH(&uf[(uint32_t)entry[j + 17] >> 1]);
-                }
-                uint32_t u0 = (uint32_t)entry[i], u1 = (uint32_t)entry[i + 1];
-                unsigned rel = !((u0 ^ u1) & 1u); /* same direction: one must flip */
-                if (pf_union(uf, u0 >> 1, u1 >> 1, rel)) {
-                    if (span_push(&P->special, (uint32_t)v, (uint32_t)i, (uint32_t)j)) goto nomem;
-                    if (nconf == capconf) {
-                        capconf = capconf ? 2 * capconf : 64;
-                        uint32_t *g = realloc(conflicts, capconf * sizeof *g);
-                        if (!g) goto nomem;
-                        conflicts = g;
+    enum { AHEAD = 16 };
+    for (size_t blk = 0; blk < P->nblocks; blk++) {
+        size_t b0 = bs[blk], m = bs[blk + 1] - b0, v0 = blk << shift;
+        if (!m) continue;
+        /* The block's uses as keys, then by vertex (stable: id order). */
+        memset(cnt, 0, (vspan + 1) * sizeof *cnt);
+        for (size_t k = 0; k < m; k++) {
+            uint32_t h = half[b0 + k];
+            if (b0 + k + 64 < ne) PREFETCH(&tris[half[b0 + k + 64]]); /* little index locality: fetch ahead */
+            uint32_t a = tris[h], c = tris[NEXT_CORNER(h)];
+            uint32_t lo = a < c ? a : c, hi = a < c ? c : a;
+            raw[k] = (uint64_t)hi << 32 | (uint64_t)(h / 3) << 1 | (uint64_t)(a < c);
+            loc[k] = (uint32_t)(lo - v0);
+            cnt[loc[k] + 1]++;
+        }
+        for (size_t q = 0; q < vspan; q++) cnt[q + 1] += cnt[q];
+        for (size_t k = 0; k < m; k++) key[cnt[loc[k]]++] = raw[k];
+        /* cnt[q] is now the end of vertex v0 + q's uses. */
+        for (size_t q = 0, i0 = 0; q < vspan && i0 < m; i0 = cnt[q], q++) {
+            size_t e = cnt[q];
+            if (e - i0 > 1) sort_u64(key + i0, e - i0);
+            for (size_t i = i0; i < e;) {
+                size_t j = i + 1;
+                while (j < e && key[j] >> 32 == key[i] >> 32) j++;
+                if (j - i == 2) {
+                    if (j + AHEAD + 1 < m) {
+                        PREFETCH(&uf[(uint32_t)key[j + AHEAD] >> 1]);
+                        PREFETCH(&uf[(uint32_t)key[j + AHEAD + 1] >> 1]);
                     }
-                    conflicts[nconf++] = u0 >> 1;
+                    uint32_t u0 = (uint32_t)key[i], u1 = (uint32_t)key[i + 1];
+                    unsigned rel = !((u0 ^ u1) & 1u); /* same direction: one must flip */
+                    if (pf_union(uf, u0 >> 1, u1 >> 1, rel)) {
+                        if (special_push(P, (uint32_t)(v0 + q), key + i, j - i)) goto nomem;
+                        if (nconf == capconf) {
+                            capconf = capconf ? 2 * capconf : 64;
+                            uint32_t *g = realloc(conflicts, capconf * sizeof *g);
+                            if (!g) goto nomem;
+                            conflicts = g;
+                        }
+                        conflicts[nconf++] = u0 >> 1;
+                    }
+                } else {
+                    nm += j - i > 2;
+                    if (special_push(P, (uint32_t)(v0 + q), key + i, j - i)) goto nomem;
                 }
-            } else {
-                nm += j - i > 2;
-                if (span_push(&P->special, (uint32_t)v, (uint32_t)i, (uint32_t)j)) goto nomem;
+                i = j;
             }
-            i = j;
         }
     }
+    free(key);
+    free(loc);
+    free(cnt);
+    key = NULL;
+    loc = cnt = NULL;
     *nonmanifold = nm;
     P->flip = malloc(nt ? nt : 1);
     if (!P->flip) goto nomem;
@@ -749,7 +811,6 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
      * the only patch and closed). */
     uint32_t *cid = uf;
     unsigned char *flip = P->flip;
-    const uint32_t *tris = P->tris;
     const float *xyz = P->xyz;
     const float *o0 = xyz + 3 * (size_t)tris[0];
     const double ox = o0[0], oy = o0[1], oz = o0[2];
@@ -767,6 +828,8 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
             cid[t] = cid[y]; /* 0 */
         }
         flip[t] = f;
+        if (t + 16 < nt) /* the corners of a later triangle */
+            for (int q = 0; q < 3; q++) PREFETCH(xyz + 3 * (size_t)tris[3 * (t + 16) + q]);
         const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
                     *d = xyz + 3 * (size_t)tris[3 * t + 2];
         double v, va;
@@ -809,6 +872,9 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
 nomem:
     st = oom(P, "for the orientation");
 done:
+    free(key);
+    free(loc);
+    free(cnt);
     free(conflicts);
     return st;
 }
@@ -1237,14 +1303,16 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
         goto done;
     }
     P.nt = nt;
-    P.start = ws;
     P.uf = ws + nv + 1;
 
     /* 3. edges and orientation patches. */
     if ((st = build_edges(&P)) != CLVOX_OK) goto done;
     if ((st = orient_patches(&P, &rep_out->nonmanifold_edges, &rep_out->nonorientable_components)) != CLVOX_OK)
         goto done;
-    P.start = NULL;
+    free(P.half);
+    free(P.bstart);
+    P.half = NULL;
+    P.bstart = NULL;
     rep_out->components = P.ncomp;
     if ((st = patch_boundaries(&P)) != CLVOX_OK) goto done;
     free(P.entry);
@@ -1292,6 +1360,8 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
 done:
     free(ws);
     free(bedges);
+    free(P.half);
+    free(P.bstart);
     free(P.entry);
     free(P.flip);
     free(P.first);

@@ -16,7 +16,8 @@
  *    equal corners (by welding, or by the exact merge of distinct indices)
  *    has no area and is dropped.
  * 3. Orientation. Undirected edges are bucketed by their smaller vertex
- *    (counting sort) and sorted by the larger one inside each bucket. An
+ *    (a counting sort into blocks of vertices, then by vertex inside each
+ *    block) and sorted by the larger one inside each bucket. An
  *    edge of exactly two triangles is manifold; of more, non-manifold.
  *    Orientation propagates across manifold edges only: the two triangles of
  *    one must traverse it in opposite directions. Union-find over triangles
@@ -66,16 +67,22 @@
  *    edge of surface + caps cancels.
  *
  * Cost: O(V + T) plus the small sorts per vertex bucket (and the point
- * tests of nested-box candidates); the hash probes and union-find reads are
- * prefetched, since big meshes have little index locality. A closed,
- * consistently oriented mesh takes the fast path: no edge needs the
- * boundary pass, and the nesting test runs only with two or more closed
- * patches (it stops at the box test unless boxes nest). Outward closed
- * meshes without wrongly oriented nested shells come out bit for bit
- * (same triangles, same order, no caps). Host memory at the peak: about
- * 45 bytes per triangle and 20 per vertex (3.3 M triangles: ~180 MB).
- * Measured: armadillo_s3 (3.3 M triangles, closed) 0.27-0.30 s of CPU on
- * the 2-core development box. */
+ * tests of nested-box candidates); the hash probes, triangle and union-find
+ * reads are prefetched, since big meshes have little index locality. A
+ * closed, consistently oriented mesh takes the fast path: no edge needs the
+ * boundary pass, the patches come out of the union-find in one pass that
+ * also sums the volume of a lone patch, and the nesting test runs only
+ * with two or more closed patches (it stops at the box test unless boxes
+ * nest). Outward closed meshes without wrongly oriented nested shells come
+ * out bit for bit (same triangles, same order, no caps); with
+ * CLVOX__PREP_BORROW such a result is not even copied. Host memory at the
+ * peak: 13 bytes per triangle (half-edge ids, flips) and 12-20 per vertex
+ * (one scratch array for the merge table, then the union-find), plus 12 per
+ * triangle for the prepared triangles unless borrowed (3.3 M triangles:
+ * ~66 MB borrowed, ~106 MB copied; it was ~180 MB).
+ * Measured: armadillo_s3 (3.3 M triangles, closed) 0.19-0.23 s of CPU on
+ * the shared 2-core development box, load 4 (0.24-0.27 s before; see
+ * docs/benchmarks.md "Winding numbers"). */
 #include "winding.h"
 
 #include <math.h>

@@ -317,7 +317,7 @@ static void speculate(void *arg, int i, int n)
     speculation *sp = arg;
     (void)n;
     if (i == 0) {
-        sp->prep_st = clvox__winding_prepare(sp->ctx, sp->mesh, sp->opts->weld, sp->wm);
+        sp->prep_st = clvox__winding_prepare_flags(sp->ctx, sp->mesh, sp->opts->weld, CLVOX__PREP_BORROW, sp->wm);
         return;
     }
     sp->tree_st = clvox__grid_space_soup(sp->side, sp->mesh, sp->grid, sp->axes, &sp->soup);
@@ -392,6 +392,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
             } else {
                 free(sp.soup);
                 clvox__quadtree_free(&sp.qt);
+                if (st == CLVOX_OK) st = clvox__winding_mesh_own_tris(ctx, mesh, &wm); /* borrowed: copy */
             }
             free(sp.side);
         }

@@ -29,6 +29,15 @@ clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, cons
                                 const uint32_t *rim, size_t n, clvox__caps *out);
 #endif
 
+/* clvox__winding_prepare with flags. CLVOX__PREP_BORROW: out->tris is left
+ * NULL when the prepared triangles are the mesh's own, index for index (no
+ * vertex merged or welded, no triangle dropped or flipped; caps and the
+ * report as always); clvox__winding_mesh_own_tris then makes the copy. */
+#define CLVOX__PREP_BORROW 1u
+clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *mesh, double weld, unsigned flags,
+                                          clvox__winding_mesh *out);
+clvox_status clvox__winding_mesh_own_tris(clvox_context *ctx, const clvox_mesh *mesh, clvox__winding_mesh *w);
+
 /* Closes boundary loops with caps (src/winding.c, "caps"): loop k is the
  * vertices verts[start[k] .. start[k+1]) (edges v[i] -> v[i+1], the last
  * back to the first; the array is used as scratch). Appends to wm->caps and

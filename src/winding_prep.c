@@ -16,7 +16,8 @@
  *    equal corners (by welding, or by the exact merge of distinct indices)
  *    has no area and is dropped.
  * 3. Orientation. Undirected edges are bucketed by their smaller vertex
- *    (counting sort) and sorted by the larger one inside each bucket. An
+ *    (a counting sort into blocks of vertices, then by vertex inside each
+ *    block) and sorted by the larger one inside each bucket. An
  *    edge of exactly two triangles is manifold; of more, non-manifold.
  *    Orientation propagates across manifold edges only: the two triangles of
  *    one must traverse it in opposite directions. Union-find over triangles
@@ -66,16 +67,22 @@
  *    edge of surface + caps cancels.
  *
  * Cost: O(V + T) plus the small sorts per vertex bucket (and the point
- * tests of nested-box candidates); the hash probes and union-find reads are
- * prefetched, since big meshes have little index locality. A closed,
- * consistently oriented mesh takes the fast path: no edge needs the
- * boundary pass, and the nesting test runs only with two or more closed
- * patches (it stops at the box test unless boxes nest). Outward closed
- * meshes without wrongly oriented nested shells come out bit for bit
- * (same triangles, same order, no caps). Host memory at the peak: about
- * 45 bytes per triangle and 20 per vertex (3.3 M triangles: ~180 MB).
- * Measured: armadillo_s3 (3.3 M triangles, closed) 0.27-0.30 s of CPU on
- * the 2-core development box. */
+ * tests of nested-box candidates); the hash probes, triangle and union-find
+ * reads are prefetched, since big meshes have little index locality. A
+ * closed, consistently oriented mesh takes the fast path: no edge needs the
+ * boundary pass, the patches come out of the union-find in one pass that
+ * also sums the volume of a lone patch, and the nesting test runs only
+ * with two or more closed patches (it stops at the box test unless boxes
+ * nest). Outward closed meshes without wrongly oriented nested shells come
+ * out bit for bit (same triangles, same order, no caps); with
+ * CLVOX__PREP_BORROW such a result is not even copied. Host memory at the
+ * peak: 13 bytes per triangle (half-edge ids, flips) and 12-20 per vertex
+ * (one scratch array for the merge table, then the union-find), plus 12 per
+ * triangle for the prepared triangles unless borrowed (3.3 M triangles:
+ * ~66 MB borrowed, ~106 MB copied; it was ~180 MB).
+ * Measured: armadillo_s3 (3.3 M triangles, closed) 0.19-0.23 s of CPU on
+ * the shared 2-core development box, load 4 (0.24-0.27 s before; see
+ * docs/benchmarks.md "Winding numbers"). */
 #include "winding.h"
 
 #include <math.h>
@@ -134,13 +141,24 @@ static uint64_t pos_hash(const float *p)
                  mix64((uint64_t)float_key(p[2]) + 0x9e3779b97f4a7c15ull));
 }
 
-/* rep[v] = the lowest-numbered vertex at v's position. Returns -1 when out
- * of memory. */
-static int merge_exact(const float *xyz, size_t nv, uint32_t *rep, uint64_t *merged)
+/* Slots of the merge table: index | tag. The index takes the low `ib` bits
+ * (enough for 0..nv, so that no slot equals NONE), the rest holds bits of the
+ * position's hash, so that most occupied slots of other positions are passed
+ * by without reading their vertex. */
+static unsigned index_bits(size_t nv)
 {
-    size_t cap = pow2_at_least(2 * nv), mask = cap - 1;
-    uint32_t *table = malloc(cap * sizeof *table);
-    if (!table) return -1;
+    unsigned b = 1;
+    while (b < 32 && ((size_t)1 << b) <= nv) b++;
+    return b;
+}
+
+/* rep[v] = the lowest-numbered vertex at v's position; table: cap (a power
+ * of two >= 2 nv) slots of scratch. */
+static void merge_exact(const float *xyz, size_t nv, uint32_t *rep, uint32_t *table, size_t cap, uint64_t *merged)
+{
+    size_t mask = cap - 1;
+    unsigned ib = index_bits(nv);
+    uint32_t imask = ib >= 32 ? UINT32_MAX : ((uint32_t)1 << ib) - 1;
     memset(table, 0xFF, cap * sizeof *table);
     uint64_t n = 0;
     enum { AHEAD = 16 };
@@ -154,24 +172,24 @@ static int merge_exact(const float *xyz, size_t nv, uint32_t *rep, uint64_t *mer
             ring[v % AHEAD] = g;
             PREFETCH(&table[(size_t)g & mask]);
         }
+        uint32_t tag = (uint32_t)(h >> 32) & ~imask;
         for (size_t s = (size_t)h & mask;; s = (s + 1) & mask) {
             uint32_t u = table[s];
             if (u == NONE) {
-                table[s] = (uint32_t)v;
+                table[s] = (uint32_t)v | tag;
                 rep[v] = (uint32_t)v;
                 break;
             }
-            const float *q = xyz + 3 * (size_t)u;
+            if ((u & ~imask) != tag) continue;
+            const float *q = xyz + 3 * (size_t)(u & imask);
             if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) {
-                rep[v] = u;
+                rep[v] = u & imask;
                 n++;
                 break;
             }
         }
     }
-    free(table);
     *merged = n;
-    return 0;
 }
 
 /* ---- 2. weld ------------------------------------------------------------------------ */
@@ -441,6 +459,19 @@ static int pbound_push(pbound_list *l, uint32_t lo, uint32_t hi, uint32_t patch,
 
 #define NEXT_CORNER(i) ((i) % 3 == 2 ? (i) - 2 : (i) + 1)
 
+/* det(a - o, b - o, d - o) (6 x the signed volume of the tetrahedron) and
+ * its permanent, which bounds |v| and, times a few ulps, its rounding error. */
+static void vol_term(const float *a, const float *b, const float *d, double ox, double oy, double oz, double *v,
+                     double *vabs)
+{
+    double A0 = a[0] - ox, A1 = a[1] - oy, A2 = a[2] - oz;
+    double B0 = b[0] - ox, B1 = b[1] - oy, B2 = b[2] - oz;
+    double C0 = d[0] - ox, C1 = d[1] - oy, C2 = d[2] - oz;
+    *v = A0 * (B1 * C2 - B2 * C1) + A1 * (B2 * C0 - B0 * C2) + A2 * (B0 * C1 - B1 * C0);
+    *vabs = fabs(A0) * (fabs(B1 * C2) + fabs(B2 * C1)) + fabs(A1) * (fabs(B2 * C0) + fabs(B0 * C2)) +
+            fabs(A2) * (fabs(B0 * C1) + fabs(B1 * C0));
+}
+
 /* ---- 4. point in a closed patch ---------------------------------------------------------- */
 
 typedef struct pgrid {
@@ -616,11 +647,16 @@ typedef struct prep {
     const clvox_mesh *mesh;
     const float *xyz;
     size_t nv;
-    uint32_t *tris; /* out->tris */
+    const uint32_t *tris; /* the mesh's triangles, or out->tris after merging */
     size_t nt;
-    uint32_t *start;     /* vertex buckets of the edge array */
-    uint64_t *entry;     /* hi << 32 | triangle << 1 | (1: the use runs lo -> hi) */
-    uint32_t *cid;       /* patch of each triangle */
+    uint32_t *uf;        /* orientation union-find, then the patches (in ws: cid) */
+    uint32_t *half;      /* half-edge ids by block of their smaller vertex */
+    uint32_t *bstart;    /* nblocks + 1: the blocks in half */
+    size_t nblocks, most; /* most: the largest block */
+    unsigned shift;      /* block of vertex v: v >> shift */
+    uint64_t *entry;     /* uses of the special edges: hi << 32 | triangle << 1 | (1: the use runs lo -> hi) */
+    size_t nentry, cap_entry;
+    uint32_t *cid;       /* patch of each triangle (= uf, in ws) */
     unsigned char *flip; /* 1: triangle reversed relative to its patch's first triangle */
     uint32_t *first;     /* first triangle of each patch */
     unsigned char *pstate;
@@ -631,6 +667,8 @@ typedef struct prep {
     size_t ncomp;
     span_list special;
     pbound_list pb;
+    int vol_done;        /* vol/vabs of the only patch summed with the patches (closed) */
+    double vol0, vabs0;
 } prep;
 
 static clvox_status oom(prep *P, const char *what)
@@ -638,93 +676,189 @@ static clvox_status oom(prep *P, const char *what)
     return clvox__fail(P->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory %s (%zu triangles)", what, P->nt);
 }
 
-/* Buckets the 3T half-edges by smaller vertex, sorted by larger vertex. */
+/* The half-edges (ids 3t + corner: the edge from that corner to the next)
+ * by block of their smaller vertex (vertices v >> shift), in id order: one
+ * pass whose writes go to a few thousand places, not to one per vertex
+ * (orient_patches sorts each block by vertex in the caches). */
 static clvox_status build_edges(prep *P)
 {
     size_t ne = 3 * P->nt, nv = P->nv;
     const uint32_t *tris = P->tris;
-    P->start = calloc(nv + 1, sizeof *P->start);
-    P->entry = malloc((ne ? ne : 1) * sizeof *P->entry);
-    if (!P->start || !P->entry) return oom(P, "for the edges");
-    uint32_t *start = P->start;
-    uint64_t *entry = P->entry;
+    unsigned shift = 0;
+    while ((nv >> shift) > 2048) shift++;
+    size_t nb = (nv >> shift) + 1;
+    P->shift = shift;
+    P->nblocks = nb;
+    P->bstart = calloc(nb + 1, sizeof *P->bstart);
+    P->half = malloc((ne ? ne : 1) * sizeof *P->half);
+    if (!P->bstart || !P->half) return oom(P, "for the edges");
+    uint32_t *bs = P->bstart, *half = P->half;
     for (size_t i = 0; i < ne; i++) {
         uint32_t a = tris[i], b = tris[NEXT_CORNER(i)];
-        start[(a < b ? a : b) + 1]++;
+        bs[((a < b ? a : b) >> shift) + 1]++;
     }
-    for (size_t v = 0; v < nv; v++) start[v + 1] += start[v];
+    size_t most = 0;
+    for (size_t k = 0; k < nb; k++) {
+        if (bs[k + 1] > most) most = bs[k + 1];
+        bs[k + 1] += bs[k];
+    }
+    P->most = most;
     for (size_t i = 0; i < ne; i++) {
         uint32_t a = tris[i], b = tris[NEXT_CORNER(i)];
-        uint32_t lo = a < b ? a : b, hi = a < b ? b : a;
-        entry[start[lo]++] = (uint64_t)hi << 32 | (uint64_t)(i / 3) << 1 | (uint64_t)(a < b);
+        half[bs[(a < b ? a : b) >> shift]++] = (uint32_t)i;
     }
-    /* start[v] is now the end of bucket v; shift back to starts. */
-    for (size_t v = nv; v > 0; v--) start[v] = start[v - 1];
-    start[0] = 0;
-    for (size_t v = 0; v < nv; v++) {
-        size_t b = start[v], e = start[v + 1];
-        if (e - b > 1) sort_u64(entry + b, e - b);
-    }
+    /* bs[k] is now the end of block k; shift back to starts. */
+    for (size_t k = nb; k > 0; k--) bs[k] = bs[k - 1];
+    bs[0] = 0;
     return CLVOX_OK;
 }
 
-/* Pass 1: unions across manifold edges; spans needing the boundary pass. */
+/* Appends the uses e[0..n) of one edge to the special entries; the span
+ * (lo, begin, end) indexes them. */
+static int special_push(prep *P, uint32_t lo, const uint64_t *e, size_t n)
+{
+    if (P->nentry + n > P->cap_entry) {
+        size_t cap = 2 * (P->nentry + n) + 256;
+        uint64_t *g = realloc(P->entry, cap * sizeof *g);
+        if (!g) return -1;
+        P->entry = g;
+        P->cap_entry = cap;
+    }
+    if (P->nentry + n > UINT32_MAX) return -1;
+    memcpy(P->entry + P->nentry, e, n * sizeof *e);
+    int bad = span_push(&P->special, lo, (uint32_t)P->nentry, (uint32_t)(P->nentry + n));
+    P->nentry += n;
+    return bad;
+}
+
+/* Pass 1: each vertex's bucket as (larger vertex << 32 | triangle << 1 |
+ * (1: the use runs lo -> hi)), sorted; unions across manifold edges, in
+ * (smaller vertex, larger vertex) order; the uses of the edges that need the
+ * boundary pass are kept (P->entry, spans). */
 static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *conflict_out)
 {
     size_t nt = P->nt;
-    uint32_t *uf = malloc((nt ? nt : 1) * sizeof *uf);
+    uint32_t *uf = P->uf;
     uint32_t *conflicts = NULL;
     size_t nconf = 0, capconf = 0;
     clvox_status st = CLVOX_OK;
-    if (!uf) {
-        st = oom(P, "for the orientation");
-        goto done;
-    }
+    const uint32_t *tris = P->tris, *half = P->half, *bs = P->bstart;
+    const unsigned shift = P->shift;
+    const size_t most = P->most ? P->most : 1, vspan = (size_t)1 << shift;
+    uint64_t *key = malloc(2 * most * sizeof *key), *raw = key ? key + most : NULL;
+    uint32_t *loc = malloc(most * sizeof *loc), *cnt = malloc((vspan + 1) * sizeof *cnt);
+    if (!key || !loc || !cnt) goto nomem;
     for (size_t t = 0; t < nt; t++) uf[t] = (uint32_t)t << 1;
-    const uint64_t *entry = P->entry;
-    size_t ne = 3 * nt;
+    const size_t ne = 3 * nt;
     uint64_t nm = 0;
-    for (size_t v = 0; v < P->nv; v++) {
-        size_t e = P->start[v + 1];
-        for (size_t i = P->start[v]; i < e;) {
-            size_t j = i + 1;
-            while (j < e && entry[j] >> 32 == entry[i] >> 32) j++;
-            if (j - i == 2) {
-                if (j + 17 < ne) {
-                    PREFETCH(&uf[(uint32_t)entry[j + 16] >> 1]);
-                    PREFETCH(&uf[(uint32_t)entry[j + 17] >> 1]);
-                }
-                uint32_t u0 = (uint32_t)entry[i], u1 = (uint32_t)entry[i + 1];
-                unsigned rel = !((u0 ^ u1) & 1u); /* same direction: one must flip */
-                if (pf_union(uf, u0 >> 1, u1 >> 1, rel)) {
-                    if (span_push(&P->special, (uint32_t)v, (uint32_t)i, (uint32_t)j)) goto nomem;
-                    if (nconf == capconf) {
-                        capconf = capconf ? 2 * capconf : 64;
-                        uint32_t *g = realloc(conflicts, capconf * sizeof *g);
-                        if (!g) goto nomem;
-                        conflicts = g;
+    enum { AHEAD = 16 };
+    for (size_t blk = 0; blk < P->nblocks; blk++) {
+        size_t b0 = bs[blk], m = bs[blk + 1] - b0, v0 = blk << shift;
+        if (!m) continue;
+        /* The block's uses as keys, then by vertex (stable: id order). */
+        memset(cnt, 0, (vspan + 1) * sizeof *cnt);
+        for (size_t k = 0; k < m; k++) {
+            uint32_t h = half[b0 + k];
+            if (b0 + k + 64 < ne) PREFETCH(&tris[half[b0 + k + 64]]); /* little index locality: fetch ahead */
+            uint32_t a = tris[h], c = tris[NEXT_CORNER(h)];
+            uint32_t lo = a < c ? a : c, hi = a < c ? c : a;
+            raw[k] = (uint64_t)hi << 32 | (uint64_t)(h / 3) << 1 | (uint64_t)(a < c);
+            loc[k] = (uint32_t)(lo - v0);
+            cnt[loc[k] + 1]++;
+        }
+        for (size_t q = 0; q < vspan; q++) cnt[q + 1] += cnt[q];
+        for (size_t k = 0; k < m; k++) key[cnt[loc[k]]++] = raw[k];
+        /* cnt[q] is now the end of vertex v0 + q's uses. */
+        for (size_t q = 0, i0 = 0; q < vspan && i0 < m; i0 = cnt[q], q++) {
+            size_t e = cnt[q];
+            if (e - i0 > 1) sort_u64(key + i0, e - i0);
+            for (size_t i = i0; i < e;) {
+                size_t j = i + 1;
+                while (j < e && key[j] >> 32 == key[i] >> 32) j++;
+                if (j - i == 2) {
+                    if (j + AHEAD + 1 < m) {
+                        PREFETCH(&uf[(uint32_t)key[j + AHEAD] >> 1]);
+                        PREFETCH(&uf[(uint32_t)key[j + AHEAD + 1] >> 1]);
                     }
-                    conflicts[nconf++] = u0 >> 1;
+                    uint32_t u0 = (uint32_t)key[i], u1 = (uint32_t)key[i + 1];
+                    unsigned rel = !((u0 ^ u1) & 1u); /* same direction: one must flip */
+                    if (pf_union(uf, u0 >> 1, u1 >> 1, rel)) {
+                        if (special_push(P, (uint32_t)(v0 + q), key + i, j - i)) goto nomem;
+                        if (nconf == capconf) {
+                            capconf = capconf ? 2 * capconf : 64;
+                            uint32_t *g = realloc(conflicts, capconf * sizeof *g);
+                            if (!g) goto nomem;
+                            conflicts = g;
+                        }
+                        conflicts[nconf++] = u0 >> 1;
+                    }
+                } else {
+                    nm += j - i > 2;
+                    if (special_push(P, (uint32_t)(v0 + q), key + i, j - i)) goto nomem;
                 }
-            } else {
-                nm += j - i > 2;
-                if (span_push(&P->special, (uint32_t)v, (uint32_t)i, (uint32_t)j)) goto nomem;
+                i = j;
             }
-            i = j;
         }
     }
+    free(key);
+    free(loc);
+    free(cnt);
+    key = NULL;
+    loc = cnt = NULL;
     *nonmanifold = nm;
-    P->cid = malloc((nt ? nt : 1) * sizeof *P->cid);
     P->flip = malloc(nt ? nt : 1);
-    if (!P->cid || !P->flip) goto nomem;
-    size_t nc = 0;
-    for (size_t t = 0; t < nt; t++) {
-        unsigned p;
-        uint32_t r = pf_find(uf, (uint32_t)t, &p);
-        P->flip[t] = (unsigned char)p;
-        if (r == t) P->cid[t] = (uint32_t)nc++;
-        else P->cid[t] = P->cid[r];
+    if (!P->flip) goto nomem;
+    /* Patches numbered by their roots (their smallest triangles) in
+     * triangle order, flips relative to the root. A parent is always
+     * smaller than its child (roots link under smaller roots, halving
+     * skips to a grandparent), so in triangle order the parent's patch and
+     * flip are already final: uf[t] becomes t's patch in place, without a
+     * find. While every triangle is in the first patch, its volume about
+     * its first vertex is summed as patch_volumes would (used when it is
+     * the only patch and closed). */
+    uint32_t *cid = uf;
+    unsigned char *flip = P->flip;
+    const float *xyz = P->xyz;
+    const float *o0 = xyz + 3 * (size_t)tris[0];
+    const double ox = o0[0], oy = o0[1], oz = o0[2];
+    double vol = 0, vabs = 0;
+    size_t nc = 0, t = 0;
+    for (; t < nt; t++) {
+        uint32_t e = uf[t], y = e >> 1;
+        unsigned char f;
+        if (y == t) {
+            if (nc) break;
+            cid[t] = (uint32_t)nc++;
+            f = 0;
+        } else {
+            f = (unsigned char)((e & 1u) ^ flip[y]);
+            cid[t] = cid[y]; /* 0 */
+        }
+        flip[t] = f;
+        if (t + 16 < nt) /* the corners of a later triangle */
+            for (int q = 0; q < 3; q++) PREFETCH(xyz + 3 * (size_t)tris[3 * (t + 16) + q]);
+        const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
+                    *d = xyz + 3 * (size_t)tris[3 * t + 2];
+        double v, va;
+        vol_term(a, b, d, ox, oy, oz, &v, &va);
+        vol += f ? -v : v;
+        vabs += va;
     }
+    P->vol_done = t == nt;
+    P->vol0 = vol;
+    P->vabs0 = vabs;
+    for (; t < nt; t++) {
+        uint32_t e = uf[t], y = e >> 1;
+        if (y == t) {
+            cid[t] = (uint32_t)nc++;
+            flip[t] = 0;
+        } else {
+            flip[t] = (unsigned char)((e & 1u) ^ flip[y]);
+            cid[t] = cid[y];
+        }
+    }
+    P->cid = cid;
+    P->uf = NULL;
     P->ncomp = nc;
     P->first = malloc((nc ? nc : 1) * sizeof *P->first);
     P->pstate = calloc(nc ? nc : 1, 1);
@@ -733,7 +867,7 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     P->org = calloc((nc ? nc : 1) * 3, sizeof *P->org);
     P->depth = calloc(nc ? nc : 1, sizeof *P->depth);
     if (!P->first || !P->pstate || !P->vol || !P->vabs || !P->org || !P->depth) goto nomem;
-    for (size_t t = nt; t-- > 0;) P->first[P->cid[t]] = (uint32_t)t;
+    for (size_t u = nt; u-- > 0;) P->first[P->cid[u]] = (uint32_t)u;
     uint64_t nonor = 0;
     for (size_t k = 0; k < nconf; k++) {
         unsigned char *s = &P->pstate[P->cid[conflicts[k]]];
@@ -745,7 +879,9 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
 nomem:
     st = oom(P, "for the orientation");
 done:
-    free(uf);
+    free(key);
+    free(loc);
+    free(cnt);
     free(conflicts);
     return st;
 }
@@ -822,14 +958,10 @@ static void patch_volumes(prep *P)
         const double *o = P->org + 3 * (size_t)c;
         const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
                     *d = xyz + 3 * (size_t)tris[3 * t + 2];
-        double A0 = a[0] - o[0], A1 = a[1] - o[1], A2 = a[2] - o[2];
-        double B0 = b[0] - o[0], B1 = b[1] - o[1], B2 = b[2] - o[2];
-        double C0 = d[0] - o[0], C1 = d[1] - o[1], C2 = d[2] - o[2];
-        double v = A0 * (B1 * C2 - B2 * C1) + A1 * (B2 * C0 - B0 * C2) + A2 * (B0 * C1 - B1 * C0);
+        double v, va;
+        vol_term(a, b, d, o[0], o[1], o[2], &v, &va);
         P->vol[c] += P->flip[t] ? -v : v;
-        /* the permanent: bounds |v| and, times a few ulps, its rounding error */
-        P->vabs[c] += fabs(A0) * (fabs(B1 * C2) + fabs(B2 * C1)) + fabs(A1) * (fabs(B2 * C0) + fabs(B0 * C2)) +
-                      fabs(A2) * (fabs(B0 * C1) + fabs(B1 * C0));
+        P->vabs[c] += va;
     }
 }
 
@@ -1095,6 +1227,22 @@ done:
 clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, double weld,
                                     clvox__winding_mesh *out)
 {
+    return clvox__winding_prepare_flags(ctx, mesh, weld, 0, out);
+}
+
+clvox_status clvox__winding_mesh_own_tris(clvox_context *ctx, const clvox_mesh *mesh, clvox__winding_mesh *w)
+{
+    if (w->tris || !w->triangle_count) return CLVOX_OK;
+    w->tris = malloc(3 * w->triangle_count * sizeof *w->tris);
+    if (!w->tris)
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles", w->triangle_count);
+    memcpy(w->tris, mesh->tris, 3 * w->triangle_count * sizeof *w->tris);
+    return CLVOX_OK;
+}
+
+clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *mesh, double weld, unsigned flags,
+                                          clvox__winding_mesh *out)
+{
     double t0 = clvox__now();
     if (!out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "winding preparation: no output");
     memset(out, 0, sizeof *out);
@@ -1114,27 +1262,34 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     P.xyz = mesh->xyz;
     P.nv = nv;
     uint64_t *bedges = NULL;
+    uint32_t *ws = NULL;
 
-    /* 1-2. merge, weld, re-index, drop. */
-    uint32_t *rep = malloc((nv ? nv : 1) * sizeof *rep);
-    out->tris = malloc((nt_in ? nt_in : 1) * 3 * sizeof *out->tris);
-    if (!rep || !out->tris) {
+    /* 1-2. merge, weld, re-index, drop. One scratch array (ws) serves the
+     * merge (rep, its table) and then the edge buckets and the union-find
+     * (start, uf, then the patches): fewer fresh pages to fault in. */
+    size_t cap = pow2_at_least(2 * nv), nws = nv + cap;
+    if (nws < nv + 1 + nt_in) nws = nv + 1 + nt_in;
+    ws = malloc(nws * sizeof *ws);
+    if (!ws) {
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory preparing %zu triangles", nt_in);
         goto done;
     }
-    if (merge_exact(mesh->xyz, nv, rep, &rep_out->merged_vertices)) {
-        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory merging %zu vertices", nv);
-        goto done;
-    }
+    uint32_t *rep = ws;
+    merge_exact(mesh->xyz, nv, rep, ws + nv, cap, &rep_out->merged_vertices);
     if (weld > 0) {
         st = weld_vertices(ctx, mesh->xyz, nv, mesh->tris, nt_in, weld, rep, &rep_out->welded_vertices);
         if (st != CLVOX_OK) goto done;
     }
     size_t nt = 0;
     if (rep_out->merged_vertices == 0 && rep_out->welded_vertices == 0) {
-        memcpy(out->tris, mesh->tris, 3 * nt_in * sizeof *out->tris);
+        P.tris = mesh->tris; /* copied (or borrowed) after the signs */
         nt = nt_in;
     } else {
+        out->tris = malloc((nt_in ? nt_in : 1) * 3 * sizeof *out->tris);
+        if (!out->tris) {
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory preparing %zu triangles", nt_in);
+            goto done;
+        }
         for (size_t t = 0; t < nt_in; t++) {
             uint32_t a = rep[mesh->tris[3 * t]], b = rep[mesh->tris[3 * t + 1]], c = rep[mesh->tris[3 * t + 2]];
             if (a == b || b == c || a == c) continue;
@@ -1143,8 +1298,8 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
             out->tris[3 * nt + 2] = c;
             nt++;
         }
+        P.tris = out->tris;
     }
-    free(rep);
     rep = NULL;
     rep_out->dropped_triangles = nt_in - nt;
     out->triangle_count = nt;
@@ -1154,15 +1309,17 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
                                     "merging vertices at equal positions left no triangle of %zu", nt_in);
         goto done;
     }
-    P.tris = out->tris;
     P.nt = nt;
+    P.uf = ws + nv + 1;
 
     /* 3. edges and orientation patches. */
     if ((st = build_edges(&P)) != CLVOX_OK) goto done;
     if ((st = orient_patches(&P, &rep_out->nonmanifold_edges, &rep_out->nonorientable_components)) != CLVOX_OK)
         goto done;
-    free(P.start);
-    P.start = NULL;
+    free(P.half);
+    free(P.bstart);
+    P.half = NULL;
+    P.bstart = NULL;
     rep_out->components = P.ncomp;
     if ((st = patch_boundaries(&P)) != CLVOX_OK) goto done;
     free(P.entry);
@@ -1172,7 +1329,12 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     rep_out->closed_components = nclosed;
 
     /* 4. signs. */
-    patch_volumes(&P);
+    if (P.vol_done && P.ncomp == 1 && nclosed == 1) { /* summed with the patches, about the same origin */
+        P.vol[0] = P.vol0;
+        P.vabs[0] = P.vabs0;
+    } else {
+        patch_volumes(&P);
+    }
     if (nclosed >= 2 && (st = nesting(&P, nclosed)) != CLVOX_OK) goto done; /* boxes first, inside */
     for (size_t c = 0; c < P.ncomp; c++) {
         int odd = (P.pstate[c] & P_OPEN) ? 0 : (int)(P.depth[c] & 1u);
@@ -1180,14 +1342,22 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
         if (volume_sign(&P, c) == (odd ? 1 : -1)) P.pstate[c] |= P_FLIP;
     }
     uint64_t flipped = 0;
-    for (size_t t = 0; t < nt; t++) {
+    for (size_t t = 0; t < nt; t++) flipped += P.flip[t] ^ !!(P.pstate[P.cid[t]] & P_FLIP);
+    rep_out->flipped_triangles = flipped;
+    if (!out->tris && (flipped || !(flags & CLVOX__PREP_BORROW))) {
+        out->tris = malloc(3 * nt * sizeof *out->tris);
+        if (!out->tris) {
+            st = oom(&P, "for the oriented triangles");
+            goto done;
+        }
+        memcpy(out->tris, mesh->tris, 3 * nt * sizeof *out->tris);
+    }
+    for (size_t t = 0; flipped && t < nt; t++) {
         if (!(P.flip[t] ^ !!(P.pstate[P.cid[t]] & P_FLIP))) continue;
         uint32_t *tr = out->tris + 3 * t, s = tr[1];
         tr[1] = tr[2];
         tr[2] = s;
-        flipped++;
     }
-    rep_out->flipped_triangles = flipped;
 
     /* 5. boundary chain and caps. */
     size_t nbe = 0;
@@ -1195,11 +1365,11 @@ clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     if ((st = cap_loops(&P, bedges, nbe, out)) != CLVOX_OK) goto done;
 
 done:
-    free(rep);
+    free(ws);
     free(bedges);
-    free(P.start);
+    free(P.half);
+    free(P.bstart);
     free(P.entry);
-    free(P.cid);
     free(P.flip);
     free(P.first);
     free(P.pstate);

@@ -5,6 +5,7 @@
 #include "test.h"
 #include "meshgen.h"
 #include "internal.h"
+#include "winding.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -776,9 +777,9 @@ static void test_weld_oracle(void)
     CHECK_MSG(ok == total, "%d of %d welds as brute force", ok, total);
 }
 
-static void test_moebius(void)
+/* A Moebius strip of 2n triangles. */
+static tmesh moebius_mesh(int n)
 {
-    const int n = 24;
     const double pi = 3.14159265358979323846;
     tmesh m = {0};
     for (int i = 0; i < n; i++) {
@@ -795,6 +796,13 @@ static void test_moebius(void)
         tmesh_add_tri(&m, a, c, b);
         tmesh_add_tri(&m, b, c, d);
     }
+    return m;
+}
+
+static void test_moebius(void)
+{
+    const int n = 24;
+    tmesh m = moebius_mesh(n);
     prepared p = prep_tmesh(&m, 0);
     CHECK_OK(ctx, p.st);
     const clvox_winding_report *r = &p.w.report;
@@ -985,6 +993,146 @@ static void test_random_damage(void)
     CHECK_MSG(exact_ok == rounds / 2, "%d of %d repaired exactly", exact_ok, rounds / 2);
 }
 
+/* Two preparations of the same surface the same: report (but seconds),
+ * triangles, caps, apexes, rims; b's mesh has `extra` more vertices (unused,
+ * after a's), so its apex indices in the caps are shifted by that. */
+static int same_prep(const clvox__winding_mesh *a, const clvox__winding_mesh *b, size_t nva, size_t extra)
+{
+    const clvox_winding_report *x = &a->report, *y = &b->report;
+    if (x->merged_vertices != y->merged_vertices || x->welded_vertices != y->welded_vertices ||
+        x->dropped_triangles != y->dropped_triangles || x->components != y->components ||
+        x->closed_components != y->closed_components || x->cavities != y->cavities ||
+        x->flipped_triangles != y->flipped_triangles || x->nonmanifold_edges != y->nonmanifold_edges ||
+        x->nonorientable_components != y->nonorientable_components || x->boundary_edges != y->boundary_edges ||
+        x->holes != y->holes || x->cap_triangles != y->cap_triangles || x->exact_points != y->exact_points)
+        return 0;
+    if (a->triangle_count != b->triangle_count || a->cap_count != b->cap_count || a->apex_count != b->apex_count ||
+        a->rim_count != b->rim_count)
+        return 0;
+    if (!same_bytes(a->tris, b->tris, 3 * a->triangle_count * sizeof *a->tris) ||
+        !same_bytes(a->apex, b->apex, 3 * a->apex_count * sizeof *a->apex) ||
+        !same_bytes(a->rim, b->rim, 2 * a->rim_count * sizeof *a->rim))
+        return 0;
+    for (size_t i = 0; i < 3 * a->cap_count; i++) {
+        uint32_t c = a->caps[i];
+        if (b->caps[i] != (c >= nva ? c + extra : c)) return 0;
+    }
+    return 1;
+}
+
+/* A damaged random mesh (flips, soup copies, removed, back-to-back and
+ * duplicated triangles), deterministic in the seed. */
+static tmesh damaged_mesh(uint64_t seed, unsigned shells, unsigned n)
+{
+    tmesh base = tmesh_random_closed(seed, shells, n), m = {0};
+    for (size_t i = 0; i < base.nv; i++)
+        tmesh_add_vertex(&m, base.xyz[3 * i], base.xyz[3 * i + 1], base.xyz[3 * i + 2]);
+    for (size_t t = 0; t < base.nt; t++) {
+        uint64_t x = tmesh_rng_next(&seed);
+        uint32_t a = base.tri[3 * t], b = base.tri[3 * t + 1], c = base.tri[3 * t + 2];
+        if (x % 19 == 0) continue;
+        if ((x >> 8) % 3 == 0) {
+            uint32_t s = b;
+            b = c;
+            c = s;
+        }
+        if ((x >> 12) % 7 == 0) { /* own copies of its corners */
+            const float *pa = base.xyz + 3 * a, *pb = base.xyz + 3 * b, *pc = base.xyz + 3 * c;
+            a = tmesh_add_vertex(&m, pa[0], pa[1], pa[2]);
+            b = tmesh_add_vertex(&m, pb[0], pb[1], pb[2]);
+            c = tmesh_add_vertex(&m, pc[0], pc[1], pc[2]);
+        }
+        tmesh_add_tri(&m, a, b, c);
+        if ((x >> 16) % 23 == 0) tmesh_add_tri(&m, a, c, b);
+        if ((x >> 24) % 29 == 0) tmesh_add_tri(&m, a, b, c);
+    }
+    tmesh_free(&base);
+    return m;
+}
+
+/* The edge pass sorts half-edges by blocks of vertices (v >> shift, shift
+ * growing with the vertex count; 0 -- one vertex a block -- up to 2048
+ * vertices). Unused vertices appended far away change the blocks and
+ * nothing else: every mesh gives the same preparation at 0, 1, 4 and 10
+ * block bits (and with welding). */
+static void test_vertex_blocks(void)
+{
+    tmesh ms[9];
+    int k = 0;
+    for (int r = 0; r < 4; r++) ms[k++] = damaged_mesh(500 + (uint64_t)r, 1 + (unsigned)r % 3, 3 + (unsigned)r % 2);
+    ms[k++] = tmesh_hollow_sphere(0, 0, 0, 2, 1, 10);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    ms[k++] = tmesh_open_box(3, lo, hi, 4, 2, NULL);
+    ms[k++] = tmesh_sphere_holes(7, 0, 0, 0, 1, 16, 5);
+    ms[k++] = tmesh_sphere_flipped(8, 0, 0, 0, 1, 16, 40);
+    ms[k++] = moebius_mesh(40); /* a conflict: which edge takes it depends on the edge order */
+    int ok = 0, total = 0;
+    for (int i = 0; i < k; i++) {
+        CHECK_MSG(ms[i].nv <= 2048, "mesh %d has %zu vertices: not one vertex a block", i, ms[i].nv);
+        for (int w = 0; w < 2; w++) {
+            double weld = w ? 1e-3 : 0;
+            prepared p = prep_tmesh(&ms[i], weld);
+            CHECK_OK(ctx, p.st);
+            static const size_t pad[3] = {2049, 8 * 2049, 512 * 2049}; /* shifts 1, 4, 10 */
+            for (int q = 0; q < 3 && p.st == CLVOX_OK; q++) {
+                tmesh big = {0};
+                tmesh_append(&big, &ms[i]);
+                size_t extra = pad[q] - ms[i].nv;
+                for (size_t v = 0; v < extra; v++) tmesh_add_vertex(&big, 1000.0 + (double)v, -500.0, 250.0);
+                prepared b = prep_tmesh(&big, weld);
+                CHECK_OK(ctx, b.st);
+                total++;
+                if (b.st == CLVOX_OK && same_prep(&p.w, &b.w, ms[i].nv, extra)) ok++;
+                else fprintf(stderr, "mesh %d weld %g: %zu vertices differ from %zu\n", i, weld, big.nv, ms[i].nv);
+                prep_free(&b);
+                tmesh_free(&big);
+            }
+            prep_free(&p);
+        }
+        tmesh_free(&ms[i]);
+    }
+    CHECK_MSG(ok == total && total == 9 * 2 * 3, "%d of %d block layouts agree", ok, total);
+}
+
+/* CLVOX__PREP_BORROW: the same preparation; the triangles left to the mesh
+ * exactly when they would be its own, and clvox__winding_mesh_own_tris
+ * then copies them. */
+static void test_borrow(void)
+{
+    tmesh ms[6];
+    ms[0] = tmesh_torus(0.5, 0.5, 0.5, 0.3, 0.1, 24, 12);
+    ms[1] = tmesh_sphere_flipped(8, 0, 0, 0, 1, 16, 40);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    ms[2] = tmesh_open_box(3, lo, hi, 4, 2, NULL);
+    ms[3] = soup_of(&ms[0]);
+    ms[4] = damaged_mesh(77, 2, 3);
+    ms[5] = tmesh_hollow_sphere(0, 0, 0, 2, 1, 10); /* a cavity, already inwards */
+    int borrowed = 0;
+    for (int i = 0; i < 6; i++) {
+        prepared p = prep_tmesh(&ms[i], 0);
+        CHECK_OK(ctx, p.st);
+        if (p.st != CLVOX_OK) {
+            prep_free(&p);
+            tmesh_free(&ms[i]);
+            continue;
+        }
+        clvox__winding_mesh b;
+        CHECK_OK(ctx, clvox__winding_prepare_flags(ctx, p.mesh, 0, CLVOX__PREP_BORROW, &b));
+        const clvox_winding_report *r = &p.w.report;
+        int own = r->merged_vertices == 0 && r->welded_vertices == 0 && r->dropped_triangles == 0 &&
+                  r->flipped_triangles == 0;
+        CHECK_MSG((b.tris == NULL) == own, "mesh %d: borrowed %d, expected %d", i, b.tris == NULL, own);
+        if (own) CHECK(same_bytes(p.w.tris, ms[i].tri, 3 * ms[i].nt * sizeof *ms[i].tri));
+        borrowed += b.tris == NULL;
+        CHECK_OK(ctx, clvox__winding_mesh_own_tris(ctx, p.mesh, &b));
+        CHECK_MSG(b.tris && same_prep(&p.w, &b, ms[i].nv, 0), "mesh %d: borrowed preparation differs", i);
+        clvox__winding_mesh_free(&b);
+        prep_free(&p);
+        tmesh_free(&ms[i]);
+    }
+    CHECK_MSG(borrowed == 3, "%d borrowed", borrowed); /* the torus, the open box, the hollow sphere */
+}
+
 /* The nesting test on big shells: a 1.3 M-triangle hollow sphere, the
  * inner shell stored outwards (every inner vertex is tested). */
 static void time_nesting(void)
@@ -1028,6 +1176,8 @@ int main(void)
     test_nonmanifold();
     test_one_triangle();
     test_random_damage();
+    test_vertex_blocks();
+    test_borrow();
     time_nesting();
     time_armadillo();
     clvox_context_destroy(ctx);

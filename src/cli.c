@@ -98,22 +98,6 @@ static void install_signal_handlers(void)
     sigaction(SIGHUP, &sa, NULL); /* a closed terminal cancels like SIGTERM */
 }
 
-static void format_bytes(uint64_t bytes, char *buf, size_t size)
-{
-    static const char *const units[] = {"bytes", "KiB", "MiB", "GiB", "TiB"};
-    if (bytes < 1024) {
-        snprintf(buf, size, "%llu bytes", (unsigned long long)bytes);
-        return;
-    }
-    double v = (double)bytes;
-    int u = 0;
-    while (v >= 1024.0 && u < 4) {
-        v /= 1024.0;
-        u++;
-    }
-    snprintf(buf, size, "%.2f %s", v, units[u]);
-}
-
 static void format_duration(double s, char *buf, size_t size)
 {
     if (!(s >= 0) || s > 1e7) snprintf(buf, size, "?");
@@ -121,20 +105,6 @@ static void format_duration(double s, char *buf, size_t size)
     else if (s < 120) snprintf(buf, size, "%.0f s", s);
     else if (s < 7200) snprintf(buf, size, "%d min %02d s", (int)(s / 60), (int)fmod(s, 60));
     else snprintf(buf, size, "%d h %02d min", (int)(s / 3600), (int)fmod(s / 60, 60));
-}
-
-/* count voxels of size h[0] x h[1] x h[2]: 0 for no voxel even when the
- * voxel volume overflows (no 0 * inf = nan). */
-static double voxels_volume(double count, const double h[3])
-{
-    return count == 0 ? 0.0 : count * h[0] * h[1] * h[2];
-}
-
-/* A volume for the summary: %.*g, or words when it overflowed a double. */
-static void format_volume(double v, int digits, char *buf, size_t size)
-{
-    if (isfinite(v)) snprintf(buf, size, "%.*g", digits, v);
-    else snprintf(buf, size, "%s", "(too large for a double)");
 }
 
 /* Prints "clvox: warning: <message>" as one line on stderr. */
@@ -171,12 +141,6 @@ static int finish_stdout(int rc, const char *written)
         return fail(EXIT_RUNTIME, "the volume was written to '%s', but the summary could not be written to stdout: %s",
                     written, why);
     return fail(EXIT_RUNTIME, "cannot write to stdout: %s", why);
-}
-
-static const char *path_basename(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    return slash ? slash + 1 : path;
 }
 
 static char *dup_string(const char *s)
@@ -896,24 +860,6 @@ static int cmd_list_devices(void)
 
 /* ---- summary helpers --------------------------------------------------------- */
 
-#define LABEL "%-13s"
-
-static void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3])
-{
-    char size[96];
-    if (h[0] == h[1] && h[1] == h[2]) snprintf(size, sizeof size, "voxel %.6g", h[0]);
-    else snprintf(size, sizeof size, "voxel %.6g x %.6g x %.6g", h[0], h[1], h[2]);
-    printf(LABEL "%u x %u x %u voxels, %s, origin (%.6g, %.6g, %.6g)\n", "grid", (unsigned)dims[0],
-           (unsigned)dims[1], (unsigned)dims[2], size, origin[0], origin[1], origin[2]);
-}
-
-static void print_filled_line(uint64_t filled, uint64_t total)
-{
-    double pct = total ? 100.0 * (double)filled / (double)total : 0.0;
-    printf(LABEL "%llu of %llu voxels (%.2f %%)\n", "filled", (unsigned long long)filled,
-           (unsigned long long)total, pct);
-}
-
 /* The EXR compression a run uses: the default is ZIP for palette runs
  * (an element channel; see clvox.h), else RLE. */
 static clvox_compression effective_compression(const cli_args *a)
@@ -1205,12 +1151,6 @@ static int on_progress(void *user, double fraction)
 }
 
 /* ---- default mesh / output ------------------------------------------------------ */
-
-static int is_readable_file(const char *path)
-{
-    struct stat sb;
-    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode) && access(path, R_OK) == 0;
-}
 
 /* Directory of the running executable (no trailing slash), or "" if unknown. */
 static void exe_dir(const char *argv0, char *out, size_t size)

@@ -108,6 +108,9 @@ int is_readable_file(const char *path);
 void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3]);
 void print_filled_line(uint64_t filled, uint64_t total);
 
+/* clvox --help (cli_args.c): every subcommand and option. */
+void print_help(void);
+
 /* clvox preview (cli_preview.c); argv after "preview". */
 int cmd_preview(int argc, char **argv);
 /* clvox palette (cli_palette.c); argv after "palette". */

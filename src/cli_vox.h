@@ -12,6 +12,9 @@
 
 enum { GRID_BY_RESOLUTION = 1, GRID_BY_DIMS = 2, GRID_BY_VOXEL_SIZE = 4 };
 
+/* -r when no grid option is given (vox_run; said in --help). */
+#define DEFAULT_RESOLUTION 256u
+
 typedef struct cli_args {
     const char *mesh;
     const char *output;        /* batch: the output template */

@@ -111,6 +111,8 @@ void print_filled_line(uint64_t filled, uint64_t total);
 /* clvox --help (cli_args.c): every subcommand and option. */
 void print_help(void);
 
+/* clvox info (cli_info.c); argv after "info". */
+int cmd_info(int argc, char **argv);
 /* clvox preview (cli_preview.c); argv after "preview". */
 int cmd_preview(int argc, char **argv);
 /* clvox palette (cli_palette.c); argv after "palette". */

@@ -1,8 +1,9 @@
 /*
  * Helpers shared by the command-line files: the one-line error contract,
  * exit codes for library statuses, strict number and option parsing, the
- * early output check. Moved here from cli.c unchanged when `clvox preview`
- * got its own file (cli_preview.c).
+ * early output check, and the sizes, volumes and lines the summaries print.
+ * Moved here from cli.c unchanged when `clvox preview` got its own file
+ * (cli_preview.c), the summary helpers when cli.c was split by stage.
  */
 #if defined(__linux__) && !defined(_GNU_SOURCE)
 #define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */

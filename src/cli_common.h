@@ -1,5 +1,6 @@
-/* Helpers shared by the clvox command-line files (cli.c: voxelize, info,
- * devices; cli_preview.c: preview). The CLI uses only the public header. */
+/* Helpers shared by the clvox command-line files (cli.c, cli_args.c,
+ * cli_info.c, cli_run.c and each subcommand's cli_*.c). The CLI uses only
+ * the public header. */
 #ifndef CLVOX_CLI_COMMON_H
 #define CLVOX_CLI_COMMON_H
 

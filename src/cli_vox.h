@@ -103,6 +103,11 @@ void vox_print_warnings(const vox_session *s, const vox_job *job, const vox_resu
 /* The JSON object of one mesh (README "Machine-readable results"). */
 void vox_result_json(const vox_session *s, const vox_job *job, const vox_result *res, jbuf *b);
 
+/* The text summary of one run that succeeded (`clvox MESH`, cli.c). */
+void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
+                   const clvox_device_info *dev, const cli_args *a, const clvox_palette *pal,
+                   const clvox_stats *s, const char *output, double setup_seconds, double wall_seconds);
+
 /* 1 once SIGINT/SIGTERM/SIGHUP arrived. */
 int cli_interrupted(void);
 /* fflush(stdout) keeping the first error; finish_stdout for the end. */

@@ -67,7 +67,7 @@ else
   Q := @
 endif
 
-CLI_SRC := src/cli.c src/cli_common.c src/cli_json.c src/cli_batch.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c src/cli_convert.c
+CLI_SRC := src/cli.c src/cli_args.c src/cli_info.c src/cli_run.c src/cli_common.c src/cli_json.c src/cli_batch.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c src/cli_convert.c
 LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
 LIB_CXX := $(wildcard src/*.cpp)
 # Kernel program = shared types + prelude + sampler + palette + overlap + winding + one file per stage.

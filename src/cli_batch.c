@@ -1,6 +1,6 @@
 /*
  * clvox batch: many meshes in one process, with one host context, one
- * OpenCL context and one kernel build (vox_session, cli.c), each mesh run by
+ * OpenCL context and one kernel build (vox_session, cli_run.c), each mesh run by
  * vox_run as `clvox MESH` runs it.
  *
  *   meshes   MESH arguments, then --dir DIR (its mesh files, sorted by name),

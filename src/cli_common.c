@@ -1,8 +1,9 @@
 /*
  * Helpers shared by the command-line files: the one-line error contract,
  * exit codes for library statuses, strict number and option parsing, the
- * early output check. Moved here from cli.c unchanged when `clvox preview`
- * got its own file (cli_preview.c).
+ * early output check, and the sizes, volumes and lines the summaries print.
+ * Moved here from cli.c unchanged when `clvox preview` got its own file
+ * (cli_preview.c), the summary helpers when cli.c was split by stage.
  */
 #if defined(__linux__) && !defined(_GNU_SOURCE)
 #define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
@@ -15,6 +16,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -335,4 +337,64 @@ void out_file_discard(out_file *of)
     of->fd = -1;
     if (of->tmp[0]) unlink(of->tmp);
     of->tmp[0] = '\0';
+}
+
+/* ---- what the summaries print (clvox MESH, info, --list-devices) ---- */
+
+void format_bytes(uint64_t bytes, char *buf, size_t size)
+{
+    static const char *const units[] = {"bytes", "KiB", "MiB", "GiB", "TiB"};
+    if (bytes < 1024) {
+        snprintf(buf, size, "%llu bytes", (unsigned long long)bytes);
+        return;
+    }
+    double v = (double)bytes;
+    int u = 0;
+    while (v >= 1024.0 && u < 4) {
+        v /= 1024.0;
+        u++;
+    }
+    snprintf(buf, size, "%.2f %s", v, units[u]);
+}
+
+/* count voxels of size h[0] x h[1] x h[2]: 0 for no voxel even when the
+ * voxel volume overflows (no 0 * inf = nan). */
+double voxels_volume(double count, const double h[3])
+{
+    return count == 0 ? 0.0 : count * h[0] * h[1] * h[2];
+}
+
+/* A volume for the summary: %.*g, or words when it overflowed a double. */
+void format_volume(double v, int digits, char *buf, size_t size)
+{
+    if (isfinite(v)) snprintf(buf, size, "%.*g", digits, v);
+    else snprintf(buf, size, "%s", "(too large for a double)");
+}
+
+const char *path_basename(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    return slash ? slash + 1 : path;
+}
+
+int is_readable_file(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode) && access(path, R_OK) == 0;
+}
+
+void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3])
+{
+    char size[96];
+    if (h[0] == h[1] && h[1] == h[2]) snprintf(size, sizeof size, "voxel %.6g", h[0]);
+    else snprintf(size, sizeof size, "voxel %.6g x %.6g x %.6g", h[0], h[1], h[2]);
+    printf(LABEL "%u x %u x %u voxels, %s, origin (%.6g, %.6g, %.6g)\n", "grid", (unsigned)dims[0],
+           (unsigned)dims[1], (unsigned)dims[2], size, origin[0], origin[1], origin[2]);
+}
+
+void print_filled_line(uint64_t filled, uint64_t total)
+{
+    double pct = total ? 100.0 * (double)filled / (double)total : 0.0;
+    printf(LABEL "%llu of %llu voxels (%.2f %%)\n", "filled", (unsigned long long)filled,
+           (unsigned long long)total, pct);
 }

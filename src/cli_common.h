@@ -1,5 +1,6 @@
-/* Helpers shared by the clvox command-line files (cli.c: voxelize, info,
- * devices; cli_preview.c: preview). The CLI uses only the public header. */
+/* Helpers shared by the clvox command-line files (cli.c, cli_args.c,
+ * cli_info.c, cli_run.c and each subcommand's cli_*.c). The CLI uses only
+ * the public header. */
 #ifndef CLVOX_CLI_COMMON_H
 #define CLVOX_CLI_COMMON_H
 
@@ -91,6 +92,28 @@ void out_file_discard(out_file *of);
  * (clvox_volume_info.channels). */
 int has_channel(const char *list, const char *name);
 
+/* "512 bytes", "1.50 MiB": a size for people. */
+void format_bytes(uint64_t bytes, char *buf, size_t size);
+/* count voxels of size h[0] x h[1] x h[2] (0 for no voxel, never nan). */
+double voxels_volume(double count, const double h[3]);
+/* A volume for the summary: %.*g, or words when it overflowed a double. */
+void format_volume(double v, int digits, char *buf, size_t size);
+/* The part of `path` after its last '/'. */
+const char *path_basename(const char *path);
+/* 1 when `path` is a regular file this process can read. */
+int is_readable_file(const char *path);
+
+/* The label column of the summaries: printf(LABEL "...", "grid", ...). */
+#define LABEL "%-13s"
+/* The "grid" and "filled" lines of `clvox MESH` and `clvox info`. */
+void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3]);
+void print_filled_line(uint64_t filled, uint64_t total);
+
+/* clvox --help (cli_args.c): every subcommand and option. */
+void print_help(void);
+
+/* clvox info (cli_info.c); argv after "info". */
+int cmd_info(int argc, char **argv);
 /* clvox preview (cli_preview.c); argv after "preview". */
 int cmd_preview(int argc, char **argv);
 /* clvox palette (cli_palette.c); argv after "palette". */

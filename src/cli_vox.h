@@ -12,6 +12,9 @@
 
 enum { GRID_BY_RESOLUTION = 1, GRID_BY_DIMS = 2, GRID_BY_VOXEL_SIZE = 4 };
 
+/* -r when no grid option is given (vox_run; said in --help). */
+#define DEFAULT_RESOLUTION 256u
+
 typedef struct cli_args {
     const char *mesh;
     const char *output;        /* batch: the output template */
@@ -99,6 +102,11 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res);
 void vox_print_warnings(const vox_session *s, const vox_job *job, const vox_result *res);
 /* The JSON object of one mesh (README "Machine-readable results"). */
 void vox_result_json(const vox_session *s, const vox_job *job, const vox_result *res, jbuf *b);
+
+/* The text summary of one run that succeeded (`clvox MESH`, cli.c). */
+void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
+                   const clvox_device_info *dev, const cli_args *a, const clvox_palette *pal,
+                   const clvox_stats *s, const char *output, double setup_seconds, double wall_seconds);
 
 /* 1 once SIGINT/SIGTERM/SIGHUP arrived. */
 int cli_interrupted(void);

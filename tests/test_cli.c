@@ -818,6 +818,7 @@ static void test_warnings(void)
             run_cli(&r, NULL, ARGS(p, "-r", "8", "--weld", "-1", "-o", out));
             CHECK_MSG(r.code == 2 && count_lines(r.err) == 1 && strstr(r.err, "--weld"), "--weld -1: exit %d [%s]",
                       r.code, r.err);
+            run_free(&r);
             continue;
         }
         run_free(&r);

@@ -13,6 +13,12 @@
  * the interval is exactly that of the per-cell test. OR-ed into the slab's
  * bit rows with atomic_or; a second kernel counts the slab's filled bits. */
 
+/* Row directions the raster may choose per task: 1 = x only, 2 = x or y,
+ * 3 = x, y or z (the fewest rows). */
+#ifndef CLVOX_SURFACE_ROW_AXES
+#define CLVOX_SURFACE_ROW_AXES 3
+#endif
+
 #if defined(cl_khr_fp64)
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 /* every operation rounded as written (the filters' error bounds assume it) */
@@ -193,12 +199,46 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
     if (gid >= task_count) return;
     global const uint *task = tasks + (size_t)gid * 4;
     global const float *tp = soup + (size_t)task[0] * 9;
-    double v[9];
-    for (int i = 0; i < 9; i++) v[i] = (double)tp[i];
+    double w[9]; /* grid space */
+    for (int i = 0; i < 9; i++) w[i] = (double)tp[i];
 
-    const int xlo = clvox_first_cell(fmin(fmin(v[0], v[3]), v[6]), 0, (int)X - 1);
-    const int xhi = clvox_last_cell(fmax(fmax(v[0], v[3]), v[6]), 0, (int)X - 1);
-    if (xlo > xhi) return;
+    /* The task's cells per axis (exact closed-extent ranges; y and z from
+     * the host, already clipped to the task). */
+    int lo[3], hi[3];
+    lo[0] = clvox_first_cell(fmin(fmin(w[0], w[3]), w[6]), 0, (int)X - 1);
+    hi[0] = clvox_last_cell(fmax(fmax(w[0], w[3]), w[6]), 0, (int)X - 1);
+    if (lo[0] > hi[0]) return;
+    const uint jr = task[3];
+    lo[1] = (int)(jr & 0xFFFFu), hi[1] = (int)(jr >> 16);
+    lo[2] = (int)task[1], hi[2] = (int)task[2] - 1;
+
+    /* Row axis: the one with the fewest rows in the task's box (rows along
+     * axis a = the product of the other two extents), x on ties. Each
+     * predicate below is built in a frame whose coordinate 0 is the row
+     * axis (axis perm[c] of grid space is frame coordinate c; the unit
+     * cube and the integer lattice are the same in every frame, and every
+     * sign is exact, so the cells found are those of the per-cell test
+     * whatever the frame). */
+    const long n0 = hi[0] - lo[0] + 1, n1 = hi[1] - lo[1] + 1, n2 = hi[2] - lo[2] + 1;
+    int row_axis = 0;
+#if CLVOX_SURFACE_ROW_AXES > 1
+    {
+        long best = n1 * n2;
+        if (n0 * n2 < best) best = n0 * n2, row_axis = 1;
+#if CLVOX_SURFACE_ROW_AXES > 2
+        if (n0 * n1 < best) row_axis = 2;
+#endif
+    }
+#endif
+    /* frames: x rows (x, y, z), y rows (y, x, z), z rows (z, x, y) */
+    const int perm0 = row_axis, perm1 = row_axis == 0 ? 1 : 0, perm2 = row_axis == 2 ? 1 : 2;
+    double v[9];
+    for (int i = 0; i < 3; i++) {
+        v[3 * i] = w[3 * i + perm0];
+        v[3 * i + 1] = w[3 * i + perm1];
+        v[3 * i + 2] = w[3 * i + perm2];
+    }
+    const int xlo = lo[perm0], xhi = hi[perm0]; /* the row's range (frame coordinate 0) */
 
     /* Exact signs of the normal's components: n_k is the orientation of the
      * triangle projected along axis k, in the cyclic coordinates (s, t). */
@@ -291,12 +331,10 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
 
     double om[6]; /* the triangle's part of the plane predicates' filter */
     clvox_o3_setup(v, om, om + 3);
-    const uint jr = task[3];
-    const int j0 = (int)(jr & 0xFFFFu), j1 = (int)(jr >> 16);
+    const int j0 = lo[perm1], j1 = hi[perm1];
     const double xlod = (double)xlo, xhid = (double)xhi;
-    for (uint k = task[1]; k < task[2]; k++) {
+    for (int k = lo[perm2]; k <= hi[perm2]; k++) {
         const double kd = (double)k;
-        global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
         for (int j = j0; j <= j1; j++) {
             const double yd = (double)j;
             if (!clvox_group_holds(p, cst, ncst, 0, v, om, xlo, yd, kd)) continue;
@@ -336,7 +374,19 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 while (U >= L && !clvox_rgroup_holds(rup, nup, first, p, v, om, U, yd, kd));
                 if (U < L) continue;
             }
-            clvox_row_or(slice + (size_t)j * words_per_row, L, U);
+            /* cells L..U of the row, back in grid space */
+            if (row_axis == 0) {
+                clvox_row_or(bits + ((size_t)(k - (int)z0) * Y + (size_t)j) * words_per_row, L, U);
+            } else if (row_axis == 1) { /* (y, x, z): x = j, z = k, cells along y */
+                global uint *word = bits + ((size_t)(k - (int)z0) * Y + (size_t)L) * words_per_row + (j >> 5);
+                const uint bit = 1u << (j & 31);
+                for (int c = L; c <= U; c++, word += words_per_row) atomic_or(word, bit);
+            } else { /* (z, x, y): x = j, y = k, cells along z */
+                const size_t stride = (size_t)Y * words_per_row;
+                global uint *word = bits + ((size_t)(L - (int)z0) * Y + (size_t)k) * words_per_row + (j >> 5);
+                const uint bit = 1u << (j & 31);
+                for (int c = L; c <= U; c++, word += stride) atomic_or(word, bit);
+            }
         }
     }
 }

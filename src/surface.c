@@ -51,7 +51,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define SLICES_PER_TASK 16
+#define SLICES_PER_TASK 8
 #define ROWS_PER_TASK 32
 /* Target duration of one raster chunk between polls (seconds). */
 #define RASTER_CHUNK_SECONDS 0.15

@@ -81,46 +81,57 @@ inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int 
 }
 
 /* An x-dependent predicate specialised to one row (y, z fixed): the same
- * operations as clvox_spred_holds with the row's constant parts hoisted.
- * kind 0: var = coef * ((x + off) - base), A the other product; the
- *         determinant is flip * (var - A) (IEEE subtraction is exactly
- *         antisymmetric), its bound CLVOX_OV_E2_ERR * (|A| + |var|);
- * kind 1: wx = (x + off) - base, det = (wx * coef + A) + A2 and
- *         perm = (|wx| * pcoef + B) + B2, as clvox_o3_sign_pre sums them.
- * Within the bound of 0 the predicate is re-evaluated by clvox_spred_holds
+ * operations as clvox_spred_holds with the row's constant parts hoisted,
+ * both kinds in one form, w = (x + off) - base,
+ *     value = (w * coef + A) + A2,   bound = err * ((|w| * pcoef + B) + B2):
+ * kind 0 (var = coef * w, the other product P): A = -P, A2 = B2 = 0,
+ *         pcoef = |coef|, B = |P|, so value = var - P (IEEE: x + (-y) is
+ *         x - y, + 0 changes no comparison) = flip * the determinant (IEEE
+ *         subtraction is exactly antisymmetric) and bound = E2 * (|P| +
+ *         |var|) (|w| |coef| rounds to |w coef|), clvox_e2_sign's filter;
+ * kind 1: det = (wx * coef + A) + A2, perm = (|wx| * pcoef + B) + B2, as
+ *         clvox_o3_sign_pre sums them.
+ * dir = +-1 folds flip and want: the predicate holds iff dir * value >= 0,
+ * decided when |value| > bound; otherwise clvox_spred_holds re-evaluates it
  * (filter, then the exact expansion). */
 typedef struct clvox_rpred {
-    double coef, off, base, A, A2, pcoef, B, B2;
-    uchar kind, idx;
-    char flip, want;
+    double coef, off, base, A, A2, pcoef, B, B2, err, dir;
+    uchar idx;
+    uchar pad[7];
 } clvox_rpred;
 
 inline void clvox_rpred_setup(clvox_rpred *r, const clvox_spred *p, uchar idx, const double *v, const double *om,
                               double y, double z)
 {
     r->idx = idx;
-    r->kind = p->kind;
-    r->want = p->want;
+    double flip;
     if (p->kind == 0) {
         /* s or t is x (the slope along x is not 0) */
         const int sx = p->s == 0;
         const uint ca = sx ? p->t : p->s; /* the constant coordinate */
         const double Cc = clvox_coord(ca, 0.0, y, z) + (double)p->o[ca];
+        double A;
         if (sx) { /* det = ds (Ct - ct) - dt (Cs - cs), Cs = x + os */
-            r->A = p->ds * (Cc - p->ct);
-            r->coef = p->dt, r->off = (double)p->o[p->s], r->base = p->cs, r->flip = -1;
+            A = p->ds * (Cc - p->ct);
+            r->coef = p->dt, r->off = (double)p->o[p->s], r->base = p->cs, flip = -1.0;
         } else { /* t is x: det = ds (Ct - ct) - dt (Cs - cs), Ct = x + ot */
-            r->A = p->dt * (Cc - p->cs);
-            r->coef = p->ds, r->off = (double)p->o[p->t], r->base = p->ct, r->flip = 1;
+            A = p->dt * (Cc - p->cs);
+            r->coef = p->ds, r->off = (double)p->o[p->t], r->base = p->ct, flip = 1.0;
         }
-        r->A2 = r->pcoef = r->B = r->B2 = 0.0;
+        /* var - A as (var + (-A)) + 0 and |A| + |var| as (|w| |coef| + |A|)
+         * + 0: the same values (|w| |coef| = |w coef| exactly) */
+        r->A = -A, r->A2 = 0.0;
+        r->pcoef = fabs(r->coef), r->B = fabs(A), r->B2 = 0.0;
+        r->err = CLVOX_OV_E2_ERR;
     } else {
         const double wy = (y + (double)p->o[1]) - v[1], wz = (z + (double)p->o[2]) - v[2];
         r->coef = om[0], r->off = (double)p->o[0], r->base = v[0];
         r->A = wy * om[1], r->A2 = wz * om[2];
         r->pcoef = om[3], r->B = fabs(wy) * om[4], r->B2 = fabs(wz) * om[5];
-        r->flip = 1;
+        r->err = CLVOX_OV_O3_ERR;
+        flip = 1.0;
     }
+    r->dir = p->want > 0 ? flip : -flip; /* holds iff dir * det >= 0 */
 }
 
 inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const double *v, const double *om, int x,
@@ -128,20 +139,12 @@ inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const d
 {
     const double xd = (double)x;
     const double w = (xd + r->off) - r->base;
-    double det, bound;
-    if (r->kind == 0) {
-        const double var = r->coef * w;
-        det = var - r->A;
-        bound = CLVOX_OV_E2_ERR * (fabs(r->A) + fabs(var));
-    } else {
-        det = (w * r->coef + r->A) + r->A2;
-        bound = CLVOX_OV_O3_ERR * ((fabs(w) * r->pcoef + r->B) + r->B2);
-    }
-    int sg;
-    if (det > bound) sg = r->flip;
-    else if (-det > bound) sg = -r->flip;
-    else return clvox_spred_holds_cold(&p[r->idx], v, om, xd, y, z);
-    return r->want > 0 ? sg >= 0 : sg <= 0;
+    /* kind 0: flip * det = var - A; kind 1: det; times dir = +-1 (exact) */
+    const double sd = r->dir * ((w * r->coef + r->A) + r->A2);
+    const double bound = r->err * ((fabs(w) * r->pcoef + r->B) + r->B2);
+    if (sd > bound) return 1;
+    if (-sd > bound) return 0;
+    return clvox_spred_holds_cold(&p[r->idx], v, om, xd, y, z);
 }
 
 /* All row predicates hold at x (rp[first] tried first). */

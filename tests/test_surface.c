@@ -516,7 +516,7 @@ static void test_projection_soups(void)
  * with the fewest rows in its box: x, y or z; a y or z row sets one bit per
  * cell). Triangles facing each axis: flat on a cell face (world integers
  * here), flat on a plane of cell centres, tilted a little, slivers, and long
- * ones that cross the tasks' row (32) and slice (16) chunks and the slabs;
+ * ones that cross the tasks' row (32) and slice (8) chunks and the slabs;
  * against the reference with slab depths 0 (auto), 1 and 5. The data must
  * give each row direction many triangles (counted with the rule on whole
  * triangle boxes, each triangle's exact cell ranges). */

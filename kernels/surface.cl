@@ -11,7 +11,10 @@
  * interval is where all hold: L and U are located from the approximate
  * roots and settled by exact evaluation at the integers around them, so
  * the interval is exactly that of the per-cell test. OR-ed into the slab's
- * bit rows with atomic_or; a second kernel counts the slab's filled bits. */
+ * bit rows with atomic_or; a second kernel counts the slab's filled bits.
+ * Rows run along x, y or z, whichever gives the task's box the fewest rows
+ * (the triangle is permuted into a frame whose first coordinate is the row
+ * axis, and the cells are mapped back; docs/design.md "Row direction"). */
 
 /* Row directions the raster may choose per task: 1 = x only, 2 = x or y,
  * 3 = x, y or z (the fewest rows). */

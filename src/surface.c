@@ -33,6 +33,9 @@
  * form an interval [L, U]; the kernel finds L and U from approximate roots
  * and settles them by exact evaluation at the integers around them, walking
  * until the predicate flips (approximations only choose where to look).
+ * Rows run along the axis with the fewest rows in each task's box (x, y or
+ * z: the kernel permutes the triangle's coordinates; exact signs make the
+ * frame irrelevant to the result).
  * The result is the per-cell test for every cell, bit for bit, on any
  * device; tests/test_surface.c compares it with a CPU reference that clips
  * each triangle by each cell in GMP rationals.

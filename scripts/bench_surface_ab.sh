@@ -8,8 +8,9 @@
 # Each round runs, for every mode, the base binary then this build (the
 # order of the two swapped every other round) on FILE at -r N with
 # --no-progress -o <tmp>.exr; it records the whole process's wall seconds
-# (bash EPOCHREALTIME around the process, PoCL kernel cache warm) and the
-# classify stage of clvox's summary (surface mode: the raster's device time;
+# (bash EPOCHREALTIME around the process, PoCL kernel cache warm), its CPU
+# seconds (user + system, /usr/bin/time: less disturbed by other load than
+# wall time on a shared machine) and the classify stage of clvox's summary (surface mode: the raster's device time;
 # conservative: parity + raster), and checks that both binaries wrote
 # byte-identical EXRs (a difference fails the script). Prints medians over
 # the rounds, the ratio conservative / solid of the medians and the median
@@ -46,16 +47,17 @@ for bin in "$base" "$new"; do # warm the kernel cache of both
   for mode in $modes; do "$bin" "$mesh" -r 32 --mode "$mode" -q -o "$tmp/warm.exr"; done
 done
 
-# run BIN MODE OUT: prints "wall classify"
+# run BIN MODE OUT: prints "wall classify cpu"
 run() {
   local t0 t1
   t0=$EPOCHREALTIME
-  "$1" "$mesh" -r "$n" --mode "$2" --no-progress -o "$3" >"$tmp/stdout.txt" 2>"$tmp/stderr.txt" ||
+  /usr/bin/time -f '%U %S' -o "$tmp/cpu.txt" "$1" "$mesh" -r "$n" --mode "$2" --no-progress -o "$3" \
+    >"$tmp/stdout.txt" 2>"$tmp/stderr.txt" ||
     { echo "FAILED: $1 $mesh -r $n --mode $2" >&2; cat "$tmp/stderr.txt" >&2; exit 1; }
   t1=$EPOCHREALTIME
-  awk -v t0="$t0" -v t1="$t1" '
+  awk -v t0="$t0" -v t1="$t1" -v cpu="$(cat "$tmp/cpu.txt")" '
     /^time[ \t]/ { for (i = 1; i < NF; i++) if ($i == "classify") k = $(i + 1) }
-    END { printf "%.4f %s\n", t1 - t0, k }' "$tmp/stdout.txt"
+    END { split(cpu, c, " "); printf "%.4f %s %.2f\n", t1 - t0, k, c[1] + c[2] }' "$tmp/stdout.txt"
 }
 
 : >"$tmp/rec"
@@ -77,19 +79,23 @@ awk -v modes="$modes" '
     for (i = 2; i <= m; i++) { t = a[i]; for (j = i - 1; j >= 1 && a[j] > t; j--) a[j + 1] = a[j]; a[j + 1] = t }
     return m % 2 ? a[(m + 1) / 2] : (a[m / 2] + a[m / 2 + 1]) / 2 }
   { k = $3 SUBSEP $2; val[k, ++cnt[k]] = $4; kk = $3 SUBSEP $2 SUBSEP "c"; val[kk, ++cnt[kk]] = $5
+    ku = $3 SUBSEP $2 SUBSEP "u"; val[ku, ++cnt[ku]] = $6
     w[$1, $2, $3] = $4; if ($1 > R) R = $1 }
   END {
     nm = split(modes, md, " ")
-    printf "| build |"; for (i = 1; i <= nm; i++) printf " %s wall | %s classify |", md[i], md[i]
-    print " conservative / solid (per-round median) |"
-    printf "|---|"; for (i = 1; i <= nm; i++) printf "---|---|"; print "---|"
+    printf "| build |"; for (i = 1; i <= nm; i++) printf " %s wall | %s CPU | %s classify |", md[i], md[i], md[i]
+    print " conservative / solid, wall (per-round median) | conservative / solid, CPU |"
+    printf "|---|"; for (i = 1; i <= nm; i++) printf "---|---|---|"; print "---|---|"
     split("base new", who, " ")
     for (b = 1; b <= 2; b++) {
       printf "| %s |", who[b]
-      for (i = 1; i <= nm; i++) printf " %.3f | %.3f |", median(who[b] SUBSEP md[i]), median(who[b] SUBSEP md[i] SUBSEP "c")
+      for (i = 1; i <= nm; i++)
+        printf " %.3f | %.2f | %.3f |", median(who[b] SUBSEP md[i]), median(who[b] SUBSEP md[i] SUBSEP "u"),
+          median(who[b] SUBSEP md[i] SUBSEP "c")
       if (cnt[who[b] SUBSEP "solid"] && cnt[who[b] SUBSEP "conservative"]) {
         for (r = 1; r <= R; r++) val["ratio" who[b], r] = w[r, "conservative", who[b]] / w[r, "solid", who[b]]
         cnt["ratio" who[b]] = R
-        printf " %.3f (%.3f) |\n", median(who[b] SUBSEP "conservative") / median(who[b] SUBSEP "solid"), median("ratio" who[b])
-      } else print " - |"
+        printf " %.3f (%.3f) | %.3f |\n", median(who[b] SUBSEP "conservative") / median(who[b] SUBSEP "solid"),
+          median("ratio" who[b]), median(who[b] SUBSEP "conservative" SUBSEP "u") / median(who[b] SUBSEP "solid" SUBSEP "u")
+      } else print " - | - |"
     } }' "$tmp/rec"

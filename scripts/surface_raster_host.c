@@ -86,10 +86,15 @@ int main(int argc, char **argv)
         for (uint32_t z0 = 0; z0 < Z; z0 += slab) {
             uint32_t nz = Z - z0 < slab ? Z - z0 : slab; int32_t zend = (int32_t)(z0 + nz); n = 0;
             for (int32_t c0 = (int32_t)z0; c0 < zend; c0 += spt) {
-                int32_t c1 = c0 + spt - 1 < zend - 1 ? c0 + spt - 1 : zend - 1;
                 for (size_t i = 0; i < kept; i++) {
-                    const int32_t *r = rng + 4 * i; int32_t a = r[0] > c0 ? r[0] : c0, b = r[1] < c1 ? r[1] : c1;
-                    if (a > b) continue;
+                    /* as bin_slab in src/surface.c: runs of spt slices from the triangle's first slice in
+                     * the slab, listed by the chunk of spt slices their first slice is in */
+                    const int32_t *r = rng + 4 * i;
+                    const int32_t first = r[0] > (int32_t)z0 ? r[0] : (int32_t)z0, last = r[1] < zend - 1 ? r[1] : zend - 1;
+                    if (first > last || first > c0 + spt - 1) continue;
+                    const int32_t a = first >= c0 ? first : first + (c0 - first + spt - 1) / spt * spt;
+                    if (a > c0 + spt - 1 || a > last) continue;
+                    const int32_t b = a + spt - 1 < last ? a + spt - 1 : last;
                     for (int32_t j = r[2]; j <= r[3]; j += rpt) {
                         int32_t j1 = j + rpt - 1 < r[3] ? j + rpt - 1 : r[3];
                         if (n == cap) { uint *t2 = realloc(tasks, cap * 2 * 16); if (!t2) { fprintf(stderr, "out of memory\n"); return 1; } tasks = t2, cap *= 2; }

@@ -11,7 +11,16 @@
  * interval is where all hold: L and U are located from the approximate
  * roots and settled by exact evaluation at the integers around them, so
  * the interval is exactly that of the per-cell test. OR-ed into the slab's
- * bit rows with atomic_or; a second kernel counts the slab's filled bits. */
+ * bit rows with atomic_or; a second kernel counts the slab's filled bits.
+ * Rows run along x, y or z, whichever gives the task's box the fewest rows
+ * (the triangle is permuted into a frame whose first coordinate is the row
+ * axis, and the cells are mapped back; docs/design.md "Row direction"). */
+
+/* Row directions the raster may choose per task: 1 = x only, 2 = x or y,
+ * 3 = x, y or z (the fewest rows). */
+#ifndef CLVOX_SURFACE_ROW_AXES
+#define CLVOX_SURFACE_ROW_AXES 3
+#endif
 
 #if defined(cl_khr_fp64)
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -75,46 +84,57 @@ inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int 
 }
 
 /* An x-dependent predicate specialised to one row (y, z fixed): the same
- * operations as clvox_spred_holds with the row's constant parts hoisted.
- * kind 0: var = coef * ((x + off) - base), A the other product; the
- *         determinant is flip * (var - A) (IEEE subtraction is exactly
- *         antisymmetric), its bound CLVOX_OV_E2_ERR * (|A| + |var|);
- * kind 1: wx = (x + off) - base, det = (wx * coef + A) + A2 and
- *         perm = (|wx| * pcoef + B) + B2, as clvox_o3_sign_pre sums them.
- * Within the bound of 0 the predicate is re-evaluated by clvox_spred_holds
+ * operations as clvox_spred_holds with the row's constant parts hoisted,
+ * both kinds in one form, w = (x + off) - base,
+ *     value = (w * coef + A) + A2,   bound = err * ((|w| * pcoef + B) + B2):
+ * kind 0 (var = coef * w, the other product P): A = -P, A2 = B2 = 0,
+ *         pcoef = |coef|, B = |P|, so value = var - P (IEEE: x + (-y) is
+ *         x - y, + 0 changes no comparison) = flip * the determinant (IEEE
+ *         subtraction is exactly antisymmetric) and bound = E2 * (|P| +
+ *         |var|) (|w| |coef| rounds to |w coef|), clvox_e2_sign's filter;
+ * kind 1: det = (wx * coef + A) + A2, perm = (|wx| * pcoef + B) + B2, as
+ *         clvox_o3_sign_pre sums them.
+ * dir = +-1 folds flip and want: the predicate holds iff dir * value >= 0,
+ * decided when |value| > bound; otherwise clvox_spred_holds re-evaluates it
  * (filter, then the exact expansion). */
 typedef struct clvox_rpred {
-    double coef, off, base, A, A2, pcoef, B, B2;
-    uchar kind, idx;
-    char flip, want;
+    double coef, off, base, A, A2, pcoef, B, B2, err, dir;
+    uchar idx;
+    uchar pad[7];
 } clvox_rpred;
 
 inline void clvox_rpred_setup(clvox_rpred *r, const clvox_spred *p, uchar idx, const double *v, const double *om,
                               double y, double z)
 {
     r->idx = idx;
-    r->kind = p->kind;
-    r->want = p->want;
+    double flip;
     if (p->kind == 0) {
         /* s or t is x (the slope along x is not 0) */
         const int sx = p->s == 0;
         const uint ca = sx ? p->t : p->s; /* the constant coordinate */
         const double Cc = clvox_coord(ca, 0.0, y, z) + (double)p->o[ca];
+        double A;
         if (sx) { /* det = ds (Ct - ct) - dt (Cs - cs), Cs = x + os */
-            r->A = p->ds * (Cc - p->ct);
-            r->coef = p->dt, r->off = (double)p->o[p->s], r->base = p->cs, r->flip = -1;
+            A = p->ds * (Cc - p->ct);
+            r->coef = p->dt, r->off = (double)p->o[p->s], r->base = p->cs, flip = -1.0;
         } else { /* t is x: det = ds (Ct - ct) - dt (Cs - cs), Ct = x + ot */
-            r->A = p->dt * (Cc - p->cs);
-            r->coef = p->ds, r->off = (double)p->o[p->t], r->base = p->ct, r->flip = 1;
+            A = p->dt * (Cc - p->cs);
+            r->coef = p->ds, r->off = (double)p->o[p->t], r->base = p->ct, flip = 1.0;
         }
-        r->A2 = r->pcoef = r->B = r->B2 = 0.0;
+        /* var - A as (var + (-A)) + 0 and |A| + |var| as (|w| |coef| + |A|)
+         * + 0: the same values (|w| |coef| = |w coef| exactly) */
+        r->A = -A, r->A2 = 0.0;
+        r->pcoef = fabs(r->coef), r->B = fabs(A), r->B2 = 0.0;
+        r->err = CLVOX_OV_E2_ERR;
     } else {
         const double wy = (y + (double)p->o[1]) - v[1], wz = (z + (double)p->o[2]) - v[2];
         r->coef = om[0], r->off = (double)p->o[0], r->base = v[0];
         r->A = wy * om[1], r->A2 = wz * om[2];
         r->pcoef = om[3], r->B = fabs(wy) * om[4], r->B2 = fabs(wz) * om[5];
-        r->flip = 1;
+        r->err = CLVOX_OV_O3_ERR;
+        flip = 1.0;
     }
+    r->dir = p->want > 0 ? flip : -flip; /* holds iff dir * det >= 0 */
 }
 
 inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const double *v, const double *om, int x,
@@ -122,20 +142,12 @@ inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const d
 {
     const double xd = (double)x;
     const double w = (xd + r->off) - r->base;
-    double det, bound;
-    if (r->kind == 0) {
-        const double var = r->coef * w;
-        det = var - r->A;
-        bound = CLVOX_OV_E2_ERR * (fabs(r->A) + fabs(var));
-    } else {
-        det = (w * r->coef + r->A) + r->A2;
-        bound = CLVOX_OV_O3_ERR * ((fabs(w) * r->pcoef + r->B) + r->B2);
-    }
-    int sg;
-    if (det > bound) sg = r->flip;
-    else if (-det > bound) sg = -r->flip;
-    else return clvox_spred_holds_cold(&p[r->idx], v, om, xd, y, z);
-    return r->want > 0 ? sg >= 0 : sg <= 0;
+    /* kind 0: flip * det = var - A; kind 1: det; times dir = +-1 (exact) */
+    const double sd = r->dir * ((w * r->coef + r->A) + r->A2);
+    const double bound = r->err * ((fabs(w) * r->pcoef + r->B) + r->B2);
+    if (sd > bound) return 1;
+    if (-sd > bound) return 0;
+    return clvox_spred_holds_cold(&p[r->idx], v, om, xd, y, z);
 }
 
 /* All row predicates hold at x (rp[first] tried first). */
@@ -193,12 +205,46 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
     if (gid >= task_count) return;
     global const uint *task = tasks + (size_t)gid * 4;
     global const float *tp = soup + (size_t)task[0] * 9;
-    double v[9];
-    for (int i = 0; i < 9; i++) v[i] = (double)tp[i];
+    double w[9]; /* grid space */
+    for (int i = 0; i < 9; i++) w[i] = (double)tp[i];
 
-    const int xlo = clvox_first_cell(fmin(fmin(v[0], v[3]), v[6]), 0, (int)X - 1);
-    const int xhi = clvox_last_cell(fmax(fmax(v[0], v[3]), v[6]), 0, (int)X - 1);
-    if (xlo > xhi) return;
+    /* The task's cells per axis (exact closed-extent ranges; y and z from
+     * the host, already clipped to the task). */
+    int lo[3], hi[3];
+    lo[0] = clvox_first_cell(fmin(fmin(w[0], w[3]), w[6]), 0, (int)X - 1);
+    hi[0] = clvox_last_cell(fmax(fmax(w[0], w[3]), w[6]), 0, (int)X - 1);
+    if (lo[0] > hi[0]) return;
+    const uint jr = task[3];
+    lo[1] = (int)(jr & 0xFFFFu), hi[1] = (int)(jr >> 16);
+    lo[2] = (int)task[1], hi[2] = (int)task[2] - 1;
+
+    /* Row axis: the one with the fewest rows in the task's box (rows along
+     * axis a = the product of the other two extents), x on ties. Each
+     * predicate below is built in a frame whose coordinate 0 is the row
+     * axis (axis perm[c] of grid space is frame coordinate c; the unit
+     * cube and the integer lattice are the same in every frame, and every
+     * sign is exact, so the cells found are those of the per-cell test
+     * whatever the frame). */
+    const long n0 = hi[0] - lo[0] + 1, n1 = hi[1] - lo[1] + 1, n2 = hi[2] - lo[2] + 1;
+    int row_axis = 0;
+#if CLVOX_SURFACE_ROW_AXES > 1
+    {
+        long best = n1 * n2;
+        if (n0 * n2 < best) best = n0 * n2, row_axis = 1;
+#if CLVOX_SURFACE_ROW_AXES > 2
+        if (n0 * n1 < best) row_axis = 2;
+#endif
+    }
+#endif
+    /* frames: x rows (x, y, z), y rows (y, x, z), z rows (z, x, y) */
+    const int perm0 = row_axis, perm1 = row_axis == 0 ? 1 : 0, perm2 = row_axis == 2 ? 1 : 2;
+    double v[9];
+    for (int i = 0; i < 3; i++) {
+        v[3 * i] = w[3 * i + perm0];
+        v[3 * i + 1] = w[3 * i + perm1];
+        v[3 * i + 2] = w[3 * i + perm2];
+    }
+    const int xlo = lo[perm0], xhi = hi[perm0]; /* the row's range (frame coordinate 0) */
 
     /* Exact signs of the normal's components: n_k is the orientation of the
      * triangle projected along axis k, in the cyclic coordinates (s, t). */
@@ -291,12 +337,10 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
 
     double om[6]; /* the triangle's part of the plane predicates' filter */
     clvox_o3_setup(v, om, om + 3);
-    const uint jr = task[3];
-    const int j0 = (int)(jr & 0xFFFFu), j1 = (int)(jr >> 16);
+    const int j0 = lo[perm1], j1 = hi[perm1];
     const double xlod = (double)xlo, xhid = (double)xhi;
-    for (uint k = task[1]; k < task[2]; k++) {
+    for (int k = lo[perm2]; k <= hi[perm2]; k++) {
         const double kd = (double)k;
-        global uint *slice = bits + (size_t)(k - z0) * Y * words_per_row;
         for (int j = j0; j <= j1; j++) {
             const double yd = (double)j;
             if (!clvox_group_holds(p, cst, ncst, 0, v, om, xlo, yd, kd)) continue;
@@ -336,7 +380,19 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
                 while (U >= L && !clvox_rgroup_holds(rup, nup, first, p, v, om, U, yd, kd));
                 if (U < L) continue;
             }
-            clvox_row_or(slice + (size_t)j * words_per_row, L, U);
+            /* cells L..U of the row, back in grid space */
+            if (row_axis == 0) {
+                clvox_row_or(bits + ((size_t)(k - (int)z0) * Y + (size_t)j) * words_per_row, L, U);
+            } else if (row_axis == 1) { /* (y, x, z): x = j, z = k, cells along y */
+                global uint *word = bits + ((size_t)(k - (int)z0) * Y + (size_t)L) * words_per_row + (j >> 5);
+                const uint bit = 1u << (j & 31);
+                for (int c = L; c <= U; c++, word += words_per_row) atomic_or(word, bit);
+            } else { /* (z, x, y): x = j, y = k, cells along z */
+                const size_t stride = (size_t)Y * words_per_row;
+                global uint *word = bits + ((size_t)(L - (int)z0) * Y + (size_t)k) * words_per_row + (j >> 5);
+                const uint bit = 1u << (j & 31);
+                for (int c = L; c <= U; c++, word += stride) atomic_or(word, bit);
+            }
         }
     }
 }

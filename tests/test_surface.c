@@ -512,6 +512,81 @@ static void test_projection_soups(void)
     }
 }
 
+/* Row directions (kernels/surface.cl rasterises each task along the axis
+ * with the fewest rows in its box: x, y or z; a y or z row sets one bit per
+ * cell). Triangles facing each axis: flat on a cell face (world integers
+ * here), flat on a plane of cell centres, tilted a little, slivers, and long
+ * ones that cross the tasks' row (32) and slice (8) chunks and the slabs;
+ * against the reference with slab depths 0 (auto), 1 and 5. The data must
+ * give each row direction many triangles (counted with the rule on whole
+ * triangle boxes, each triangle's exact cell ranges). */
+static void test_row_axes(void)
+{
+    for (uint64_t seed = 21; seed <= 24; seed++) {
+        uint64_t r = seed;
+        const uint32_t X = 38, Y = 41, Z = 37;
+        tmesh m = {0};
+        for (int t = 0; t < 180; t++) {
+            const int a = t % 3, b = (a + 1) % 3, c = (a + 2) % 3; /* the normal is mostly along a */
+            const int shape = (t / 3) % 5;
+            const double dims[3] = {X, Y, Z};
+            const double size = shape == 4 ? 36.0 : tmesh_rng_uniform(&r) < 0.6 ? 4.0 : 12.0;
+            double v[3][3], plane = floor(tmesh_rng_uniform(&r) * dims[a]);
+            if (shape == 1) plane += 0.5;                     /* cell centres */
+            double cb = tmesh_rng_uniform(&r) * dims[b], cc = tmesh_rng_uniform(&r) * dims[c];
+            for (int q = 0; q < 3; q++) {
+                v[q][b] = cb + (tmesh_rng_uniform(&r) - 0.5) * size;
+                v[q][c] = cc + (tmesh_rng_uniform(&r) - 0.5) * size;
+                v[q][a] = plane;
+                if (shape == 2) v[q][a] += (tmesh_rng_uniform(&r) - 0.5) * 0.3 * size; /* tilted */
+            }
+            if (shape == 3) /* a sliver: the third vertex just off the first edge */
+                for (int k = 0; k < 3; k++)
+                    v[2][k] = 0.5 * (v[0][k] + v[1][k]) + (k == a ? 0.0 : 1e-3 * (tmesh_rng_uniform(&r) - 0.5));
+            if (shape == 4 && tmesh_rng_uniform(&r) < 0.5) /* long along b or c, on a lattice */
+                for (int q = 0; q < 3; q++) v[q][b] = floor(v[q][b] * 2.0) * 0.5, v[q][c] = floor(v[q][c] * 2.0) * 0.5;
+            uint32_t i0 = tmesh_add_vertex(&m, v[0][0], v[0][1], v[0][2]);
+            uint32_t i1 = tmesh_add_vertex(&m, v[1][0], v[1][1], v[1][2]);
+            uint32_t i2 = tmesh_add_vertex(&m, v[2][0], v[2][1], v[2][2]);
+            tmesh_add_tri(&m, i0, i1, i2);
+        }
+        clvox_mesh *mesh = to_mesh(&m);
+        clvox_grid g = grid_box(0, 0, 0, X, Y, Z, X, Y, Z);
+        if (mesh) {
+            size_t nt = 0, by_axis[3] = {0, 0, 0};
+            double *soup = grid_soup(mesh, &g, &nt);
+            for (size_t t = 0; t < nt; t++) {
+                long n[3];
+                int in = 1;
+                for (int k = 0; k < 3; k++) {
+                    const double *s = soup + 9 * t;
+                    double mn = fmin(fmin(s[k], s[3 + k]), s[6 + k]), mx = fmax(fmax(s[k], s[3 + k]), s[6 + k]);
+                    double lo = fmax(0.0, ceil(mn - 0.5)), hi = fmin((double)g.dims[k] - 1.0, floor(mx + 0.5));
+                    n[k] = (long)(hi - lo) + 1;
+                    in = in && hi >= lo;
+                }
+                if (!in) continue;
+                int ax = 0;
+                long best = n[1] * n[2];
+                if (n[0] * n[2] < best) best = n[0] * n[2], ax = 1;
+                if (n[0] * n[1] < best) ax = 2;
+                by_axis[ax]++;
+            }
+            free(soup);
+            CHECK_MSG(by_axis[0] >= 20 && by_axis[1] >= 20 && by_axis[2] >= 20,
+                      "row directions x/y/z: %zu/%zu/%zu triangles", by_axis[0], by_axis[1], by_axis[2]);
+            char name[64];
+            snprintf(name, sizeof name, "row-axis soup %llu", (unsigned long long)seed);
+            uint8_t *d = check_vs_reference(name, mesh, &g, seed == 21 ? 1 : seed == 22 ? 5 : 0);
+            uint8_t *e = run_mode(mesh, &g, CLVOX_MODE_SURFACE, CLVOX_METHOD_RAY, 3, CLVOX_AXIS_DEFAULT, NULL);
+            CHECK(diff(&g, d, e, "slab 3") == 0);
+            free(d), free(e);
+        }
+        clvox_mesh_destroy(mesh);
+        tmesh_free(&m);
+    }
+}
+
 /* Closest point on triangle to p (Ericson, Real-Time Collision Detection 5.1.5): squared distance. */
 static double dist2_point_triangle(const double *p, const double *a, const double *b, const double *c)
 {
@@ -790,6 +865,7 @@ int main(void)
     test_boxes();
     test_random_soups();
     test_projection_soups();
+    test_row_axes();
     test_closed_meshes();
     test_api();
     test_cli();

@@ -35,10 +35,10 @@
  * just before it is built. Large nodes make their children's lists one at
  * a time, shrinking their own list as they go (LEAN_ITEMS), and the
  * skeleton runs its tasks as soon as their lists add up (PENDING_ITEMS).
- * armadillo_s3 (3.3 M triangles) at 512^3: the build's peak is 43 MB on
- * 1 thread, 49 MB on 2 above what it starts with, its 21 MB of references
- * included; making all four children of every node at once and all the
- * skeleton's tasks before running them, it was 78 and 105 MB. */
+ * armadillo_s3 (3.3 M triangles) at 512^3: the build's peak is about
+ * 50 MB on 1 thread, 55-60 MB on 2 above what it starts with, its 21 MB of
+ * references included; making all four children of every node at once and
+ * all the skeleton's tasks before running them, it was 78 and 105 MB. */
 #include "internal.h"
 #include "parallel.h"
 
@@ -64,14 +64,8 @@
  * lists of the top levels are tens of MB), one more pass over the list per
  * child. */
 #define LEAN_ITEMS ((size_t)1 << 16)
-/* After a child this large, the freed lists go back to the system
- * (release_free_memory). A trim costs page faults later, so only after the
- * large ones (armadillo_s3 at 512^3, peak RSS on 1 / 2 threads: trims after
- * the root's children only 239 / 249 MB; also after children of 2^18
- * triangles 236 / 242 MB, +0.02 CPU s; of 2^16: 232 / 238 MB, +0.06 s). */
-#define TRIM_ITEMS ((size_t)1 << 18)
 /* The skeleton runs its tasks when their lists hold this many triangles. */
-#define PENDING_ITEMS ((size_t)1 << 18)
+#define PENDING_ITEMS ((size_t)1 << 17)
 /* In the skeleton: a node whose subtree is task `first`. */
 #define NODE_TASK 0xFFFFFFFEu
 
@@ -239,7 +233,6 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
                 if (smaller) list = smaller;
             }
             ok = build_node(b, first + q, sub, count[q], cv0[q], cw0[q], cv1[q], cw1[q], depth + 1);
-            if (count[q] >= TRIM_ITEMS) release_free_memory(); /* child q's lists */
         }
         free(list);
         return ok;
@@ -463,10 +456,16 @@ static int stream_child(root *R, int q)
     return 1;
 }
 
-/* Hands the memory freed by the lists back to the system. glibc keeps
- * freed blocks below its (adaptive) mmap threshold, which the first freed
- * list of tens of MB raises: without this they stay resident (armadillo_s3:
- * 20-25 MB) under everything allocated later. Elsewhere: nothing. */
+/* Hands the memory freed by the lists back to the system, once the build
+ * is done.
+ * glibc keeps freed blocks below its adaptive mmap threshold, which the
+ * first freed list of tens of MB raises, so without this they stay
+ * resident under everything allocated later. Not done during the build:
+ * trimming after each of the root's children and after children of 2^18
+ * triangles lowered armadillo_s3's peak (512^3, 1 / 2 threads) from
+ * 244 / 252 to 235 / 245 MB but cost the build 0.08 s there and 0.5 s on
+ * 13.3 M triangles (page faults on the memory handed back). Elsewhere:
+ * nothing. */
 static void release_free_memory(void)
 {
 #if defined(__GLIBC__)
@@ -594,7 +593,6 @@ static int build_root(build *b, root *R)
         /* the skeleton: this child's subtrees now, so that their lists
          * are not all held at once */
         if (ok == 1) run_pending_tasks(b);
-        release_free_memory(); /* this child's lists */
     }
     return ok;
 }
@@ -639,7 +637,6 @@ static int build_tree(build *b, root *rt, int threads, int *near_cap)
     }
     if (ok == 1 && refs > MAX_TOTAL_REFS) ok = -1;
     if (ok == 1 && refs + 4 * n > MAX_REFS) *near_cap = 1;
-    release_free_memory(); /* the lists, before the references are laid out again */
     if (ok == 1 && !*near_cap) {
         b->nodes = malloc(nodes * sizeof *b->nodes);
         b->refs = malloc((refs ? refs : 1) * sizeof *b->refs);

@@ -4,11 +4,14 @@
  * (winding runs) each crossing also gets its orientation: +1 when the
  * triangle faces +u (its corners run counter-clockwise in the (v,w) plane),
  * -1 otherwise; doubled on caps (triangles from surface_count on), whose
- * crossings leave the winding number continuous. */
+ * crossings leave the winding number continuous.
+ * Triangles are indexed: tris holds 3 vertex indices per triangle into
+ * verts (grid space, u,v,w per vertex), the floats a soup would repeat at
+ * every corner (src/grid.c), so the crossings are the soup's bit for bit. */
 
 kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
                             global const uint *leaf_of_ray, global const clvox_qt_node *nodes,
-                            global const uint *refs, global const float *soup,
+                            global const uint *refs, global const float *verts, global const uint *tris,
                             uint capacity, global clvox_real *hits, global uint *counts, global char *signs,
                             uint surface_count)
 {
@@ -21,7 +24,9 @@ kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
     for (uint k = 0; k < leaf.count; k++) {
         uint t = refs[leaf.first + k];
         clvox_real u;
-        const int s = clvox_ray_crosses(soup + (size_t)t * 9, pv, pw, &u);
+        global const uint *k3 = tris + (size_t)t * 3;
+        const int s = clvox_ray_crosses(verts + (size_t)k3[0] * 3, verts + (size_t)k3[1] * 3, verts + (size_t)k3[2] * 3,
+                                        pv, pw, &u);
         if (s) {
             if (n < capacity) {
                 out[n] = u;

@@ -31,17 +31,18 @@ inline int clvox_edge_sign(clvox_real Av, clvox_real Aw, clvox_real Bv, clvox_re
     return 0;
 }
 
-/* Does the ray at (pv,pw) along +u cross triangle t (9 floats, u,v,w per
- * corner, grid space)? If so *u_hit is where, and the result is the
- * crossing's orientation: +1 when the corners run counter-clockwise in the
- * (v,w) plane (the face's normal points to +u), -1 clockwise; 0: no
- * crossing. Both windings count. */
-inline int clvox_ray_crosses(global const float *t, float fpv, float fpw, clvox_real *u_hit)
+/* Does the ray at (pv,pw) along +u cross the triangle with corners a, b, c
+ * (3 floats each, u,v,w, grid space)? If so *u_hit is where, and the
+ * result is the crossing's orientation: +1 when the corners run
+ * counter-clockwise in the (v,w) plane (the face's normal points to +u),
+ * -1 clockwise; 0: no crossing. Both windings count. */
+inline int clvox_ray_crosses(global const float *a, global const float *b, global const float *c, float fpv,
+                             float fpw, clvox_real *u_hit)
 {
     clvox_real pv = fpv, pw = fpw;
-    clvox_real Av = (clvox_real)t[1] - pv, Aw = (clvox_real)t[2] - pw;
-    clvox_real Bv = (clvox_real)t[4] - pv, Bw = (clvox_real)t[5] - pw;
-    clvox_real Cv = (clvox_real)t[7] - pv, Cw = (clvox_real)t[8] - pw;
+    clvox_real Av = (clvox_real)a[1] - pv, Aw = (clvox_real)a[2] - pw;
+    clvox_real Bv = (clvox_real)b[1] - pv, Bw = (clvox_real)b[2] - pw;
+    clvox_real Cv = (clvox_real)c[1] - pv, Cw = (clvox_real)c[2] - pw;
     clvox_real eab, ebc, eca;
     int sab = clvox_edge_sign(Av, Aw, Bv, Bw, &eab);
     int sbc = clvox_edge_sign(Bv, Bw, Cv, Cw, &ebc);
@@ -49,10 +50,10 @@ inline int clvox_ray_crosses(global const float *t, float fpv, float fpw, clvox_
     if (sab == 0 || sab != sbc || sab != sca) return 0;
     /* Barycentric interpolation anchored at a: a face of constant u gives
      * exactly that u. The weights share one sign, so den != 0. */
-    clvox_real a = t[0];
-    clvox_real num = eca * ((clvox_real)t[3] - a) + eab * ((clvox_real)t[6] - a);
+    clvox_real ua = a[0];
+    clvox_real num = eca * ((clvox_real)b[0] - ua) + eab * ((clvox_real)c[0] - ua);
     clvox_real den = eab + ebc + eca;
-    *u_hit = a + num / den;
+    *u_hit = ua + num / den;
     return sab;
 }
 

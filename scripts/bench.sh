@@ -2,9 +2,19 @@
 # clvox performance benchmark (not a test): per-stage seconds, whole-process
 # time and peak RSS of build/release/clvox on real meshes at several grid sizes.
 #
-#   scripts/bench.sh [--quick] [--peers] [--repeat R] [--method ray|tetra|all]
+#   scripts/bench.sh [--quick | --big] [--peers] [--repeat R] [--method ray|tetra|all]
+#                    [--peer-timeout S]
 #
 #   --quick      small subset: armadillo at N = 128, 256 and cow at 256
+#   --big        big meshes (issue 10): armadillo 52 k, 832 k, 3.3 M and 13.3 M
+#                triangles (subdivided 0, 2, 3, 4 times) at N = 512 and 1024,
+#                ray method, default inside test (winding) and --inside parity;
+#                with --peers, one table of clvox, VTK and OpenVDB (wall, RSS).
+#                armadillo_s4.ply (250 MB) is made in build/bench/, not in
+#                data/meshes, so that the tests that read every mesh there
+#                do not load it
+#   --peer-timeout S  a peer case running over S seconds is killed and
+#                reported as skipped (default: none; --big: 300)
 #   --peers      also time VTK and OpenVDB on the same cases in the same run
 #                (scripts/bench_peers.py; needs scripts/setup.sh --peers)
 #   --repeat R   runs per case; the run with the best process time is shown, peak
@@ -29,16 +39,18 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 cd "$here"
 
-quick=0 peers=0 repeat=3 peer_repeat=1 methods=all
+quick=0 big=0 peers=0 repeat=3 peer_repeat=1 methods=all peer_timeout=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --quick) quick=1 ;;
+    --big) big=1 ;;
+    --peer-timeout) peer_timeout=${2:?--peer-timeout needs seconds}; shift ;;
     --peers) peers=1 ;;
     --repeat) repeat=${2:?--repeat needs a number}; peer_repeat=$repeat; shift ;;
     --repeat=*) repeat=${1#*=}; peer_repeat=$repeat ;;
     --method) methods=${2:?--method needs ray, tetra or all}; shift ;;
     --method=*) methods=${1#*=} ;;
-    -h|--help) sed -n '2,26p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,36p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench.sh: unknown option '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
@@ -70,15 +82,28 @@ if [ "$quick" -eq 0 ]; then
   for k in 2 3; do
     [ -f "data/meshes/armadillo_s$k.ply" ] || "$tools/subdivide" data/meshes/armadillo.off "$k" "data/meshes/armadillo_s$k.ply" >&2
   done
+  if [ "$big" -eq 1 ] && [ ! -f "$outdir/armadillo_s4.ply" ]; then
+    "$tools/subdivide" data/meshes/armadillo.off 4 "$outdir/armadillo_s4.ply" >&2
+  fi
 fi
+# A case's mesh: data/meshes, else build/bench (the 13.3 M one).
+mesh_path() { if [ -f "data/meshes/$1" ] || [ ! -f "$outdir/$1" ]; then echo "data/meshes/$1"; else echo "$outdir/$1"; fi; }
 
+insides="default"
 if [ "$quick" -eq 1 ]; then
   cases="armadillo.off:128 armadillo.off:256 cow.off:256"
+elif [ "$big" -eq 1 ]; then
+  cases="armadillo.off:512 armadillo.off:1024 armadillo_s2.ply:512 armadillo_s2.ply:1024
+         armadillo_s3.ply:512 armadillo_s3.ply:1024 armadillo_s4.ply:512 armadillo_s4.ply:1024"
+  insides="default parity"
+  [ "$methods" = all ] && methods=ray
+  [ -n "$peer_timeout" ] || peer_timeout=300
 else
   cases="armadillo.off:128 armadillo.off:256 armadillo.off:512 armadillo.off:1024
          armadillo_s2.ply:512 armadillo_s3.ply:512
          bunny00.off:256 bunny00.off:512 bunny00.off:1024 cow.off:256 cow.off:512 cow.off:1024"
 fi
+cases=${CLVOX_BENCH_CASES:-$cases}   # override, e.g. "cow.off:64" to try the script
 help=$("$clvox" --help 2>&1 || true)
 case "$methods" in
   all) mlist="ray"; if grep -q -- 'tetra' <<<"$help"; then mlist="ray tetra"; fi ;;
@@ -92,14 +117,16 @@ trap 'rm -rf "$tmp"' EXIT
 # One clvox run under /usr/bin/time; prints one tab-separated record:
 # triangles grid load setup partition cast classify write total process rss_mb out_mb filled
 run_one() {
-  local mesh=$1 n=$2 method=$3 out="$tmp/out.exr" rc=0 t0 t1
+  local mesh=$1 n=$2 method=$3 inside=${4:-default} out="$tmp/out.exr" rc=0 t0 t1
+  local extra=()
+  [ "$inside" = default ] || extra=(--inside "$inside")
   rm -f "$out"
   t0=$EPOCHREALTIME
-  /usr/bin/time -v -o "$tmp/time.txt" "$clvox" "$mesh" -o "$out" -r "$n" --method "$method" --no-progress \
+  /usr/bin/time -v -o "$tmp/time.txt" "$clvox" "$mesh" -o "$out" -r "$n" --method "$method" "${extra[@]}" --no-progress \
     >"$tmp/stdout.txt" 2>"$tmp/stderr.txt" || rc=$?
   t1=$EPOCHREALTIME
   if [ "$rc" -ne 0 ]; then
-    log "FAILED (exit $rc): $clvox $mesh -r $n --method $method"
+    log "FAILED (exit $rc): $clvox $mesh -r $n --method $method ${extra[*]}"
     sed 's/^/    /' "$tmp/stderr.txt" | tail -n 5 >&2
     return 1
   fi
@@ -146,12 +173,15 @@ results="$tmp/results.tsv"
 : >"$results"
 for c in $cases; do
   mesh=${c%%:*} n=${c##*:}
-  path=data/meshes/$mesh
+  path=$(mesh_path "$mesh")
   [ -f "$path" ] || { log "skipping $mesh (missing)"; continue; }
-  for m in $mlist; do
+  for m0 in $mlist; do
+   for ins in $insides; do
+    m=$m0
+    [ "$ins" = default ] || m="$m0/$ins"
     best="" maxrss=0
     for ((r = 0; r < repeat; r++)); do
-      rec=$(run_one "$path" "$n" "$m") || { best=""; break; }
+      rec=$(run_one "$path" "$n" "$m0" "$ins") || { best=""; break; }
       total=$(cut -f 10 <<<"$rec"); rss=$(cut -f 11 <<<"$rec")
       [ "${rss%.*}" -gt "$maxrss" ] && maxrss=${rss%.*}
       if [ -z "$best" ] || awk -v a="$total" -v b="$(cut -f 10 <<<"$best")" 'BEGIN { exit !(a < b) }'; then best=$rec; fi
@@ -163,6 +193,7 @@ for c in $cases; do
     else
       printf '%s\t%s\t%s\tFAILED\n' "$mesh" "$n" "$m" >>"$results"
     fi
+   done
   done
 done
 
@@ -305,7 +336,11 @@ report="$outdir/results.md"
 
 if [ "$peers" -eq 1 ]; then
   pcases=""
-  for c in $cases; do pcases="$pcases data/meshes/${c%%:*}:${c##*:}"; done
+  for c in $cases; do pcases="$pcases $(mesh_path "${c%%:*}"):${c##*:}"; done
+  ptsv="$tmp/peers.tsv"
+  : >"$ptsv"
+  popts=(--repeat "$peer_repeat" --tsv "$ptsv")
+  [ -z "$peer_timeout" ] || popts+=(--timeout "$peer_timeout")
   log "running the peers (VTK, OpenVDB)"
   {
     echo
@@ -315,8 +350,36 @@ if [ "$peers" -eq 1 ]; then
     echo "written); peak RSS of a fresh Python process per case. VTK: vtkPolyDataToImageStencil,"
     echo "1 thread; OpenVDB: meshToVolume (level set, TBB threads on all cores) + dense copy."
     echo
-    /usr/bin/python3 scripts/bench_peers.py --repeat "$peer_repeat" $pcases
+    /usr/bin/python3 scripts/bench_peers.py "${popts[@]}" $pcases
   } >>"$report"
+  if [ "$big" -eq 1 ]; then
+    {
+      echo
+      echo "## Big meshes: clvox, VTK and OpenVDB in the same run (wall s / peak RSS MB)"
+      echo
+      echo "clvox: the whole process (best of $repeat; RSS the largest), writing the EXR; default = the"
+      echo "winding-number inside test, parity = --inside parity (even-odd, as VTK's stencil)."
+      echo "Peers: in-process seconds from the mesh file to a dense array (best of $peer_repeat), peak RSS"
+      echo "of the Python process${peer_timeout:+; cases over $peer_timeout s were killed and are marked skipped}."
+      echo
+      echo "| mesh | triangles | N | clvox default | clvox parity | VTK | OpenVDB |"
+      echo "|---|---:|---:|---:|---:|---:|---:|"
+      awk -F '\t' '
+        FNR == NR { if ($4 != "FAILED") { c[$1, $2, $3] = sprintf("%.2f / %d", $13, $14); tri[$1] = $4 }
+                    else c[$1, $2, $3] = "failed"
+                    if (!(($1, $2) in seen)) { seen[$1, $2] = 1; order[++n] = $1 SUBSEP $2 }; next }
+        { p[$1, $2, $4] = ($6 ~ /^[0-9.]+$/) ? sprintf("%.2f / %d", $6, $8) : $6 }
+        function g(a, k) { return (k in a) ? a[k] : "-" }
+        END {
+          for (i = 1; i <= n; i++) {
+            split(order[i], k, SUBSEP)
+            printf "| %s | %s | %s | %s | %s | %s | %s |\n", k[1], g(tri, k[1]), k[2], g(c, k[1] SUBSEP k[2] SUBSEP "ray"),
+              g(c, k[1] SUBSEP k[2] SUBSEP "ray/parity"), g(p, "vtk" SUBSEP k[1] SUBSEP k[2]),
+              g(p, "openvdb" SUBSEP k[1] SUBSEP k[2])
+          }
+        }' "$results" "$ptsv"
+    } >>"$report"
+  fi
 fi
 cat "$report"
 log "report written to $outdir/results.md"

@@ -1,8 +1,15 @@
 #!/usr/bin/python3
 """Times two other solid voxelizers on the meshes and grids of scripts/bench.sh.
 
-Usage: /usr/bin/python3 scripts/bench_peers.py [--quick] [--repeat R] [MESH:N ...]
+Usage: /usr/bin/python3 scripts/bench_peers.py [--quick] [--repeat R] [--timeout S] [--tsv FILE] [MESH:N ...]
        (default cases: armadillo at 128..1024, armadillo_s2/_s3, bunny00, cow at 512)
+
+--timeout S: a case (one child process) running longer than S seconds is
+killed and reported as skipped (default: no limit); a peer that timed out
+on a mesh is not run on that mesh at a larger N.
+--tsv FILE: also append one tab-separated record per case to FILE:
+peer, mesh, triangles, N, grid, seconds, CPU seconds, peak RSS MB, inside
+voxels (or peer, mesh, -, N, and "skipped >S s" / "failed").
 
 Each (peer, mesh, N) runs in a fresh child process, so that "peak RSS" is
 that case's own: VmHWM of the child, which includes the Python interpreter,
@@ -237,6 +244,8 @@ def main(argv):
         return 0
     cases = DEFAULT_CASES
     repeat = 1
+    timeout = None
+    tsv = None
     args = []
     it = iter(argv)
     for a in it:
@@ -244,6 +253,10 @@ def main(argv):
             repeat = max(1, int(next(it)))
         elif a.startswith("--repeat="):
             repeat = max(1, int(a.split("=", 1)[1]))
+        elif a == "--timeout":
+            timeout = float(next(it))
+        elif a == "--tsv":
+            tsv = next(it)
         elif a != "--quick":
             args.append(a)
     if "--quick" in argv:
@@ -264,6 +277,11 @@ def main(argv):
     print("| peer | mesh | triangles | N | grid | seconds | CPU seconds | peak RSS MB | inside voxels |")
     print("|---|---|---:|---:|---|---:|---:|---:|---:|")
     sys.stdout.flush()
+    def record(*fields):
+        if tsv:
+            with open(tsv, "a") as f:
+                f.write("\t".join(str(x) for x in fields) + "\n")
+    timed_out = {}  # (peer, mesh) -> the N that timed out
     for path, n in cases:
         if not os.path.isfile(path):
             print("| - | %s | missing (scripts/fetch_meshes.sh, scripts/bench.sh makes the _s2/_s3 PLYs) | %d ||||||" % (path, n))
@@ -271,13 +289,27 @@ def main(argv):
         for peer in PEERS:
             name = os.path.basename(path)
             best = None
+            if (peer, path) in timed_out and timed_out[(peer, path)] <= n:
+                print("| %s | %s | | %d | | skipped: took over %g s at N = %d | | | |"
+                      % (peer, name, n, timeout, timed_out[(peer, path)]))
+                record(peer, name, "-", n, "-", "skipped >%g s" % timeout)
+                sys.stdout.flush()
+                continue
             for _ in range(repeat):
-                r = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", peer, path, str(n)],
-                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                try:
+                    r = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", peer, path, str(n)],
+                                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=timeout)
+                except subprocess.TimeoutExpired:
+                    timed_out[(peer, path)] = n
+                    print("| %s | %s | | %d | | skipped: over %g s | | | |" % (peer, name, n, timeout))
+                    record(peer, name, "-", n, "-", "skipped >%g s" % timeout)
+                    best = None
+                    break
                 line = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
                 if r.returncode != 0 or not line:
                     err = (r.stderr.strip().splitlines() or ["exit %d" % r.returncode])[-1]
                     print("| %s | %s | | %d | | failed: %s | | | |" % (peer, name, n, err[:80]))
+                    record(peer, name, "-", n, "-", "failed")
                     best = None
                     break
                 _, pr, ntri, dims, secs, rss, filled, cpu = line[0].split()
@@ -289,6 +321,7 @@ def main(argv):
             if best:
                 pr, ntri, dims, secs, rss, filled, cpu = best
                 print("| %s | %s | %s | %d | %s | %s | %s | %s | %s |" % (pr, name, ntri, n, dims, secs, cpu, rss, filled))
+                record(pr, name, ntri, n, dims, secs, cpu, rss, filled)
             sys.stdout.flush()
     print("\nLoad average before / after: %s / %s (%d cores)" % (load_before, loadavg(), os.cpu_count() or 0))
     return 0

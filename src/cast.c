@@ -52,8 +52,9 @@ struct clvox__method_state {
     clvox__axes axes;
     uint32_t dim_u, dim_v, dim_w;
     clvox__quadtree qt;
-    cl_mem soup, nodes, refs;
-    float *soup_host;            /* the soup's memory when the buffer uses it (CL_MEM_USE_HOST_PTR) */
+    cl_mem verts, tris, nodes, refs; /* the triangles, indexed; the quadtree (all CL_MEM_USE_HOST_PTR) */
+    float *verts_host;           /* grid-space vertices (owned; the buffer uses them) */
+    uint32_t *tris_owned;        /* the index array when it is not the mesh's own (winding) */
     cl_kernel k_lookup, k_intersect, k_sort, k_classify, k_coverage, k_palette;
     /* winding numbers (kernels/winding.h) */
     int winding;                 /* 1: signed crossings and the winding inside test */
@@ -151,11 +152,14 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max
 static void ray_release(clvox__method_state *s)
 {
     if (!s) return;
-    clvox__release_mem(&s->soup);
-    free(s->soup_host); /* after the buffer that uses it */
-    s->soup_host = NULL;
+    clvox__release_mem(&s->verts);
+    clvox__release_mem(&s->tris);
     clvox__release_mem(&s->nodes);
     clvox__release_mem(&s->refs);
+    free(s->verts_host); /* after the buffers that use them */
+    s->verts_host = NULL;
+    free(s->tris_owned);
+    s->tris_owned = NULL;
     clvox__release_mem(&s->value_of_count);
     clvox__release_mem(&s->p_elements);
     clvox__release_mem(&s->p_cells);
@@ -306,7 +310,7 @@ typedef struct speculation {
     const clvox_voxelize_options *opts;
     uint32_t dim_v, dim_w, leaf_size;
     clvox_context *side;
-    float *soup;
+    float *verts;
     clvox__winding_mesh *wm;
     clvox_status prep_st, tree_st;
     clvox__quadtree qt;
@@ -320,10 +324,74 @@ static void speculate(void *arg, int i, int n)
         sp->prep_st = clvox__winding_prepare_flags(sp->ctx, sp->mesh, sp->opts->weld, CLVOX__PREP_BORROW, sp->wm);
         return;
     }
-    sp->tree_st = clvox__grid_space_soup(sp->side, sp->mesh, sp->grid, sp->axes, &sp->soup);
+    sp->tree_st = clvox__grid_space_vertices(sp->side, sp->mesh, sp->grid, sp->axes, 0, &sp->verts);
     if (sp->tree_st == CLVOX_OK)
-        sp->tree_st = clvox__quadtree_build(sp->side, sp->soup, sp->mesh->triangle_count, sp->dim_v, sp->dim_w,
-                                            sp->opts->quadtree_max_depth, sp->leaf_size, &sp->qt);
+        sp->tree_st = clvox__quadtree_build(sp->side, sp->verts, sp->mesh->tris, sp->mesh->triangle_count, sp->dim_v,
+                                            sp->dim_w, sp->opts->quadtree_max_depth, sp->leaf_size, &sp->qt);
+}
+
+/* The cast's triangles for a winding run, indexed: the prepared triangles,
+ * then the caps, over the mesh's vertices followed by the apexes -- the
+ * view clvox__winding_soup makes, so these are its floats. Without caps the
+ * index array is wm->tris itself (taken). */
+static clvox_status winding_indexed(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    clvox__axes axes, clvox__winding_mesh *wm, float **out_verts, size_t *out_vert_count,
+                                    uint32_t **out_tris, size_t *out_count)
+{
+    *out_verts = NULL;
+    *out_tris = NULL;
+    size_t nt = wm->triangle_count + wm->cap_count;
+    if (nt > SIZE_MAX / (3 * sizeof(uint32_t)) || wm->apex_count > (SIZE_MAX / 12) - mesh->vertex_count)
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "mesh too large");
+    clvox_mesh view = *mesh;
+    float *xyz = NULL;
+    if (wm->apex_count) {
+        xyz = malloc((mesh->vertex_count + wm->apex_count) * 3 * sizeof *xyz);
+        if (!xyz) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap apexes", wm->apex_count);
+        memcpy(xyz, mesh->xyz, mesh->vertex_count * 3 * sizeof *xyz);
+        memcpy(xyz + mesh->vertex_count * 3, wm->apex, wm->apex_count * 3 * sizeof *xyz);
+        view.xyz = xyz;
+        view.vertex_count = mesh->vertex_count + wm->apex_count;
+    }
+    clvox_status st = clvox__grid_space_vertices(ctx, &view, grid, axes, 0, out_verts);
+    free(xyz);
+    if (st != CLVOX_OK) return st;
+    uint32_t *tris = NULL;
+    if (!wm->cap_count) {
+        tris = wm->tris;
+        wm->tris = NULL;
+    } else if ((tris = malloc(nt * 3 * sizeof *tris)) != NULL) {
+        if (wm->triangle_count) memcpy(tris, wm->tris, wm->triangle_count * 3 * sizeof *tris);
+        memcpy(tris + wm->triangle_count * 3, wm->caps, wm->cap_count * 3 * sizeof *tris);
+    } else {
+        free(*out_verts);
+        *out_verts = NULL;
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles and caps", nt);
+    }
+    *out_vert_count = view.vertex_count;
+    *out_tris = tris;
+    *out_count = nt;
+    return CLVOX_OK;
+}
+
+/* clvox__caps_upload from the indexed triangles: the caps follow the
+ * wm->triangle_count surface triangles. */
+static clvox_status caps_upload_indexed(clvox_context *ctx, const float *verts, const uint32_t *tris,
+                                        const clvox__winding_mesh *wm, clvox__axes axes, const clvox_grid *grid,
+                                        clvox__caps *out)
+{
+    size_t n = wm->cap_count;
+    float *soup = malloc((n ? n : 1) * 9 * sizeof *soup);
+    if (!soup) {
+        memset(out, 0, sizeof *out);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu caps", n);
+    }
+    const uint32_t *cap = tris + wm->triangle_count * 3;
+    for (size_t t = 0; t < n; t++)
+        for (int c = 0; c < 3; c++) memcpy(soup + t * 9 + c * 3, verts + (size_t)cap[t * 3 + c] * 3, 3 * sizeof *soup);
+    clvox_status st = clvox__caps_upload(ctx, soup, n, axes, grid, out);
+    free(soup);
+    return st;
 }
 
 static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
@@ -355,15 +423,19 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     clvox_status st = CLVOX_OK;
     if (opts->oversample) st = coverage_prepare(s, opts, run);
     if (st == CLVOX_OK && opts->palette) st = palette_prepare(s, opts);
-    float *soup = NULL;
-    size_t soup_count = mesh->triangle_count;
+    /* The triangles the cast runs over: grid-space vertices and 3 indices
+     * each, the mesh's own unless the winding preparation changed them. */
+    float *verts = NULL;
+    const uint32_t *tris = mesh->tris;
+    uint32_t *tris_owned = NULL;
+    size_t tri_count = mesh->triangle_count, vert_count = mesh->vertex_count;
     double t0 = clvox__now();
     s->winding = opts->inside == CLVOX_INSIDE_WINDING || opts->inside == CLVOX_INSIDE_WINDING_ABS;
     s->abs_mode = opts->inside == CLVOX_INSIDE_WINDING_ABS;
     int have_tree = 0;
     if (st == CLVOX_OK && s->winding) {
         /* surface (oriented) + caps: a closed chain (src/winding_prep.c).
-         * The preparation runs beside the parity soup and quadtree of the
+         * The preparation runs beside the parity vertices and quadtree of the
          * mesh as given: when it changes nothing that the cast sees (no
          * flip, no cap, no triangle dropped; merged vertices have the same
          * positions) those are the prepared ones, bit for bit. Up to
@@ -387,48 +459,58 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
             const int same = st == CLVOX_OK && sp.tree_st == CLVOX_OK && wm.cap_count == 0 &&
                              wm.report.flipped_triangles == 0 && wm.triangle_count == mesh->triangle_count;
             if (same) {
-                soup = sp.soup;
+                verts = sp.verts;
                 s->qt = sp.qt;
                 have_tree = 1;
             } else {
-                free(sp.soup);
+                free(sp.verts);
                 clvox__quadtree_free(&sp.qt);
                 if (st == CLVOX_OK) st = clvox__winding_mesh_own_tris(ctx, mesh, &wm); /* borrowed: copy */
             }
             free(sp.side);
         }
-        if (st == CLVOX_OK && !have_tree) st = clvox__winding_soup(ctx, mesh, grid, s->axes, &wm, &soup, &soup_count);
-        if (st == CLVOX_OK)
-            st = clvox__caps_upload(ctx, soup + wm.triangle_count * 9, wm.cap_count, s->axes, grid, &s->caps);
+        if (st == CLVOX_OK && !have_tree) {
+            st = winding_indexed(ctx, mesh, grid, s->axes, &wm, &verts, &vert_count, &tris_owned, &tri_count);
+            tris = tris_owned;
+        }
+        if (st == CLVOX_OK) st = caps_upload_indexed(ctx, verts, tris, &wm, s->axes, grid, &s->caps);
         if (st == CLVOX_OK) st = clvox__rims_upload(ctx, mesh, grid, wm.rim, wm.rim_count, &s->rims);
         s->surface_count = (cl_uint)wm.triangle_count;
         if (stats) stats->winding = wm.report;
         s->prep = wm.report;
         clvox__winding_mesh_free(&wm);
     } else if (st == CLVOX_OK) {
-        st = clvox__grid_space_soup(ctx, mesh, grid, s->axes, &soup);
+        st = clvox__grid_space_vertices(ctx, mesh, grid, s->axes, 0, &verts);
     }
+    /* held by s from here (ray_release frees them after the buffers) */
+    s->verts_host = verts;
+    s->tris_owned = tris_owned;
     if (st == CLVOX_OK && !have_tree)
-        st = clvox__quadtree_build(ctx, soup, soup_count, s->dim_v, s->dim_w, opts->quadtree_max_depth,
+        st = clvox__quadtree_build(ctx, verts, tris, tri_count, s->dim_v, s->dim_w, opts->quadtree_max_depth,
                                    s->leaf_size, &s->qt);
+    if (st == CLVOX_OK && (!tri_count || !tris)) { /* nothing to index: bind a valid triangle */
+        free(s->tris_owned);
+        tris = s->tris_owned = calloc(3, sizeof *tris_owned);
+        if (!tris) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    }
     if (st != CLVOX_OK) {
-        free(soup);
         ray_release(s);
         return st;
     }
-    cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    /* The soup is the largest array (36 bytes a triangle): the buffer uses
-     * its memory (a CPU device: no second copy) and it is freed with the
-     * buffer. */
-    s->soup = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, soup_count * 9 * sizeof(float), soup, &st,
-                            "triangles");
-    if (s->soup) s->soup_host = soup;
-    else free(soup);
+    /* The buffers use the host arrays in place (a CPU device: no second
+     * copy): the vertices (12 bytes a vertex), the triangles' indices (the
+     * mesh's own, 12 bytes a triangle; read only), the quadtree's nodes and
+     * references (4 bytes each). All live until ray_release. */
+    const cl_mem_flags in_place = CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR;
+    s->verts = clvox__buffer(ctx, in_place, vert_count * 3 * sizeof(float), verts, &st, "vertices");
     if (st == CLVOX_OK)
-        s->nodes = clvox__buffer(ctx, ro, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
+        s->tris = clvox__buffer(ctx, in_place, (tri_count ? tri_count : 1) * 3 * sizeof(uint32_t), (void *)tris, &st,
+                                "triangles");
     if (st == CLVOX_OK)
-        s->refs = clvox__buffer(ctx, ro, (s->qt.ref_count ? s->qt.ref_count : 1) * sizeof(uint32_t), s->qt.refs, &st,
-                              "quadtree refs");
+        s->nodes = clvox__buffer(ctx, in_place, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
+    if (st == CLVOX_OK)
+        s->refs = clvox__buffer(ctx, in_place, (s->qt.ref_count ? s->qt.ref_count : 1) * sizeof(uint32_t), s->qt.refs,
+                                &st, "quadtree refs");
     if (stats) {
         stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
         stats->quadtree_depth = s->qt.depth;
@@ -677,12 +759,13 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
     err |= clSetKernelArg(s->k_intersect, 2, sizeof(cl_mem), &m->leaf);
     err |= clSetKernelArg(s->k_intersect, 3, sizeof(cl_mem), &s->nodes);
     err |= clSetKernelArg(s->k_intersect, 4, sizeof(cl_mem), &s->refs);
-    err |= clSetKernelArg(s->k_intersect, 5, sizeof(cl_mem), &s->soup);
-    err |= clSetKernelArg(s->k_intersect, 6, sizeof(cl_uint), &capacity);
-    err |= clSetKernelArg(s->k_intersect, 7, sizeof(cl_mem), &m->hits);
-    err |= clSetKernelArg(s->k_intersect, 8, sizeof(cl_mem), &m->counts);
-    err |= clSetKernelArg(s->k_intersect, 9, sizeof(cl_mem), &m->signs); /* NULL unless winding */
-    err |= clSetKernelArg(s->k_intersect, 10, sizeof(cl_uint), &s->surface_count);
+    err |= clSetKernelArg(s->k_intersect, 5, sizeof(cl_mem), &s->verts);
+    err |= clSetKernelArg(s->k_intersect, 6, sizeof(cl_mem), &s->tris);
+    err |= clSetKernelArg(s->k_intersect, 7, sizeof(cl_uint), &capacity);
+    err |= clSetKernelArg(s->k_intersect, 8, sizeof(cl_mem), &m->hits);
+    err |= clSetKernelArg(s->k_intersect, 9, sizeof(cl_mem), &m->counts);
+    err |= clSetKernelArg(s->k_intersect, 10, sizeof(cl_mem), &m->signs); /* NULL unless winding */
+    err |= clSetKernelArg(s->k_intersect, 11, sizeof(cl_uint), &s->surface_count);
 
     err |= clSetKernelArg(s->k_sort, 0, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_sort, 1, sizeof(cl_uint), &capacity);

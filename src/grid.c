@@ -169,27 +169,49 @@ static void soup_triangles(void *arg, int i, int n)
             memcpy(&J->soup[t * 9 + c * 3], &J->gv[(size_t)tris[t * 3 + c] * 3], 3 * sizeof(float));
 }
 
+/* Page-aligned: a device buffer can use it in place (CL_MEM_USE_HOST_PTR, cast.c). */
+static float *page_floats(size_t n)
+{
+    size_t bytes = ((n ? n : 1) * sizeof(float) + 4095) / 4096 * 4096;
+    return aligned_alloc(4096, bytes);
+}
+
+clvox_status clvox__grid_space_vertices(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                        clvox__axes axes, int threads, float **out_vertices)
+{
+    *out_vertices = NULL;
+    size_t nv = mesh->vertex_count;
+    if (nv > SIZE_MAX / (3 * sizeof(float)) - 4096)
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "mesh too large");
+    float *gv = page_floats(nv * 3);
+    if (!gv) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu vertices in grid space", nv);
+    if (threads <= 0) threads = clvox__host_threads();
+    if (nv < 10000) threads = 1;
+    soup_job J = {.mesh = mesh, .grid = grid, .axes = axes, .gv = gv};
+    for (int a = 0; a < 3; a++) J.o[a] = grid->origin[a] - mesh->offset[a];
+    clvox__parallel(threads, soup_vertices, &J);
+    *out_vertices = gv;
+    return CLVOX_OK;
+}
+
 clvox_status clvox__grid_space_soup_threads(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                             clvox__axes axes, int threads, float **out_soup)
 {
     *out_soup = NULL;
-    size_t nv = mesh->vertex_count, nt = mesh->triangle_count;
-    if (nt > SIZE_MAX / (9 * sizeof(float)))
+    size_t nt = mesh->triangle_count;
+    if (nt > SIZE_MAX / (9 * sizeof(float)) - 4096)
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "mesh too large");
-    float *gv = malloc((nv ? nv : 1) * 3 * sizeof *gv);
-    /* Page-aligned: a device buffer can use it in place (CL_MEM_USE_HOST_PTR, cast.c). */
-    size_t bytes = ((nt ? nt : 1) * 9 * sizeof(float) + 4095) / 4096 * 4096;
-    float *soup = aligned_alloc(4096, bytes);
-    if (!gv || !soup) {
-        free(gv);
-        free(soup);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles in grid space", nt);
-    }
     if (threads <= 0) threads = clvox__host_threads();
     if (nt < 20000) threads = 1;
+    float *gv = NULL;
+    clvox_status st = clvox__grid_space_vertices(ctx, mesh, grid, axes, threads, &gv);
+    if (st != CLVOX_OK) return st;
+    float *soup = page_floats(nt * 9);
+    if (!soup) {
+        free(gv);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles in grid space", nt);
+    }
     soup_job J = {.mesh = mesh, .grid = grid, .axes = axes, .gv = gv, .soup = soup};
-    for (int a = 0; a < 3; a++) J.o[a] = grid->origin[a] - mesh->offset[a];
-    clvox__parallel(threads, soup_vertices, &J);
     clvox__parallel(threads, soup_triangles, &J);
     free(gv);
     *out_soup = soup;

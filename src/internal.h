@@ -172,6 +172,11 @@ clvox_status clvox__grid_space_soup(clvox_context *ctx, const clvox_mesh *mesh,
 /* The same on `threads` host threads (0: clvox__host_threads()); the same floats. */
 clvox_status clvox__grid_space_soup_threads(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                             clvox__axes axes, int threads, float **out_soup);
+/* The soup's vertices alone, indexed as the mesh's: 3 floats (u,v,w) per
+ * vertex, the same floats the soup holds at each of its corners. 4096-byte
+ * aligned, so that a device buffer can use them in place. `threads` as above. */
+clvox_status clvox__grid_space_vertices(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                        clvox__axes axes, int threads, float **out_vertices);
 
 /* ---- partition (partition.c) ---- */
 
@@ -184,14 +189,18 @@ typedef struct clvox__quadtree {
     size_t leaf_count;
 } clvox__quadtree;
 
-/* Builds the quadtree over the (v,w) projection of the soup, covering the
- * ray plane [-0.5, dim_v-0.5] x [-0.5, dim_w-0.5]. max_depth/leaf_size 0 = auto. */
-clvox_status clvox__quadtree_build(clvox_context *ctx, const float *soup, size_t tri_count,
+/* Builds the quadtree over the (v,w) projection of the triangles, covering
+ * the ray plane [-0.5, dim_v-0.5] x [-0.5, dim_w-0.5]. max_depth/leaf_size
+ * 0 = auto. Triangles: `tris` (3 indices each) into `verts` (grid space,
+ * 3 floats each, clvox__grid_space_vertices), or with tris NULL, `verts` is
+ * a soup (9 floats each, clvox__grid_space_soup): the same tree. */
+clvox_status clvox__quadtree_build(clvox_context *ctx, const float *verts, const uint32_t *tris, size_t tri_count,
                                    uint32_t dim_v, uint32_t dim_w, uint32_t max_depth,
                                    uint32_t leaf_size, clvox__quadtree *out);
 /* The same on `threads` host threads (0: clvox__host_threads()): the same
  * tree, node for node and reference for reference, at any count. */
-clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *soup, size_t tri_count,
+clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *verts, const uint32_t *tris,
+                                           size_t tri_count,
                                            uint32_t dim_v, uint32_t dim_w, uint32_t max_depth,
                                            uint32_t leaf_size, int threads, clvox__quadtree *out);
 void clvox__quadtree_free(clvox__quadtree *qt);

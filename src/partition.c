@@ -26,12 +26,27 @@
  * its triangles and bounds, except for the MAX_REFS guard, which depends on
  * the references made before it; so when the result comes near that guard
  * the tree is built again on one thread. tests/test_partition.c compares
- * the two at 1 to 4 threads. */
+ * the two at 1 to 4 threads.
+ *
+ * Memory. The triangles come indexed (grid-space vertices and the mesh's
+ * own index array) or as a soup. No list of all of them is made: a pass
+ * over the triangles counts the root's children and marks, per triangle,
+ * which ones it goes to; each child's list is then streamed out on its own,
+ * just before it is built. Large nodes make their children's lists one at
+ * a time, shrinking their own list as they go (LEAN_ITEMS), and the
+ * skeleton runs its tasks as soon as their lists add up (PENDING_ITEMS).
+ * armadillo_s3 (3.3 M triangles) at 512^3: the build's peak is about
+ * 50 MB on 1 thread, 55-60 MB on 2 above what it starts with, its 21 MB of
+ * references included; making all four children of every node at once and
+ * all the skeleton's tasks before running them, it was 78 and 105 MB. */
 #include "internal.h"
 #include "parallel.h"
 
 #include <math.h>
 #include <stdatomic.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -43,6 +58,14 @@
 #define SKELETON_DEPTH 3
 /* Fewer triangles than this: one thread. */
 #define MIN_PARALLEL_TRIANGLES 20000
+/* A node holding this many triangles or more makes its children's lists
+ * one at a time instead of all four in one pass, and its own list shrinks
+ * to what the children not made yet need: less memory held at once (the
+ * lists of the top levels are tens of MB), one more pass over the list per
+ * child. */
+#define LEAN_ITEMS ((size_t)1 << 16)
+/* The skeleton runs its tasks when their lists hold this many triangles. */
+#define PENDING_ITEMS ((size_t)1 << 17)
 /* In the skeleton: a node whose subtree is task `first`. */
 #define NODE_TASK 0xFFFFFFFEu
 
@@ -79,7 +102,13 @@ typedef struct build {
     size_t leaves;
     task *tasks;
     size_t task_count, task_cap;
+    size_t tasks_done;    /* tasks [0, tasks_done) have run */
+    size_t pending_items; /* in the lists of the tasks not run yet */
+    int threads;          /* for the tasks */
 } build;
+
+static void run_pending_tasks(build *b);
+static void release_free_memory(void);
 
 static int grow(void **p, size_t *cap, size_t need, size_t elem)
 {
@@ -125,6 +154,9 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
         b->nodes[node].first = (uint32_t)b->task_count++;
         b->nodes[node].count = NODE_TASK;
         b->nodes[node].split_v = b->nodes[node].split_w = 0;
+        /* run the tasks when their lists add up: they are not all held at once */
+        b->pending_items += n;
+        if (b->pending_items >= PENDING_ITEMS) run_pending_tasks(b);
         return 1;
     }
     if (depth > b->depth) b->depth = depth;
@@ -162,6 +194,49 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
         b->leaves++;
         return b->ref_count <= MAX_TOTAL_REFS ? 1 : -1;
     }
+    if (n >= LEAN_ITEMS) { /* one child's list at a time (same lists, same order) */
+        if (!grow((void **)&b->nodes, &b->node_cap, b->node_count + 4, sizeof *b->nodes)) {
+            free(list);
+            return 0;
+        }
+        size_t first = b->node_count;
+        b->node_count += 4;
+        b->nodes[node].split_v = sv;
+        b->nodes[node].split_w = sw;
+        b->nodes[node].first = (uint32_t)first;
+        b->nodes[node].count = CLVOX_QT_INTERNAL;
+        /* The same pass keeps in the list only what the later children
+         * need, and the list shrinks before child q is built. */
+        int ok = 1;
+        for (int q = 0; q < 4 && ok == 1; q++) {
+            item *sub = count[q] ? malloc(count[q] * sizeof *sub) : NULL;
+            if (count[q] && !sub) {
+                ok = 0;
+                break;
+            }
+            item *o = sub;
+            size_t keep = 0;
+            for (size_t i = 0; i < n; i++) {
+                const item it = list[i];
+                int later = 0;
+                for (int r = q + 1; r < 4; r++)
+                    later |= it.v0 <= cv1[r] && it.v1 >= cv0[r] && it.w0 <= cw1[r] && it.w1 >= cw0[r];
+                if (it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q]) *o++ = it;
+                if (later) list[keep++] = it; /* keep <= i */
+            }
+            n = keep;
+            if (!n) {
+                free(list);
+                list = NULL;
+            } else {
+                item *smaller = realloc(list, n * sizeof *list);
+                if (smaller) list = smaller;
+            }
+            ok = build_node(b, first + q, sub, count[q], cv0[q], cw0[q], cv1[q], cw1[q], depth + 1);
+        }
+        free(list);
+        return ok;
+    }
     item *sub[4] = {NULL, NULL, NULL, NULL};
     int ok = grow((void **)&b->nodes, &b->node_cap, b->node_count + 4, sizeof *b->nodes);
     for (int q = 0; q < 4 && ok; q++)
@@ -193,15 +268,20 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
 
 /* ---- boxes of the triangles (parallel parts) --------------------------------------- */
 
-/* The root: its list (R->list), or its four children's lists when the
- * root is split (R->list NULL; made by streaming over the soup, without a
- * list for the root). Owned. */
+struct boxes;
+
+/* The root: its list (R->list), or when the root is split (R->list NULL),
+ * its four children's sizes; each child's list is made when it is built, by
+ * streaming over the triangles (stream_child), so that no list of all the
+ * triangles is ever held. Owned. */
 typedef struct root {
     item *list;
     size_t n;
     item *sub[4];
     size_t count[4];
     float v0, w0, v1, w1;
+    struct boxes *B; /* the pass that streams the children, on `threads` */
+    int threads;
 } root;
 
 static void root_free(root *R)
@@ -212,10 +292,15 @@ static void root_free(root *R)
 }
 
 typedef struct boxes {
-    const float *soup;
+    const float *verts;   /* grid-space vertices, or a soup when tris is NULL */
+    const uint32_t *tris;
     size_t tri_count;
     float v0, w0, v1, w1;
-    int pass; /* 1: count; 2: write the root's or its children's lists */
+    int pass; /* 1: count; 2: write the root's list or child only_q's */
+    int only_q;
+    /* per triangle, from pass 1: the root's children it goes to (bit q),
+     * 0 when it misses the plane; NULL: pass 2 tests again */
+    unsigned char *mask;
     uint32_t leaf_size, max_depth;
     /* per part: triangles over the plane, the split test's sum, each child's count */
     size_t part_n[CLVOX__MAX_HOST_THREADS], part_sum[CLVOX__MAX_HOST_THREADS];
@@ -223,24 +308,47 @@ typedef struct boxes {
     root *R;
 } boxes;
 
-static item box_of(const float *p, uint32_t t)
+/* Triangles ahead whose corners are fetched early (indexed: 3 gathers each). */
+#define PREFETCH 16
+
+static void prefetch_tri(const boxes *B, size_t t)
 {
+#if defined(__GNUC__)
+    if (!B->tris) return;
+    const uint32_t *k = B->tris + t * 3;
+    __builtin_prefetch(B->verts + (size_t)k[0] * 3);
+    __builtin_prefetch(B->verts + (size_t)k[1] * 3);
+    __builtin_prefetch(B->verts + (size_t)k[2] * 3);
+#else
+    (void)B, (void)t;
+#endif
+}
+
+static item box_of(const boxes *B, size_t t)
+{
+    const float *a, *b, *c; /* corners, u,v,w each */
+    if (B->tris) {
+        const uint32_t *k = B->tris + t * 3;
+        a = B->verts + (size_t)k[0] * 3, b = B->verts + (size_t)k[1] * 3, c = B->verts + (size_t)k[2] * 3;
+    } else {
+        a = B->verts + t * 9, b = a + 3, c = a + 6;
+    }
     /* Coordinates are finite: the same values as fminf/fmaxf (a zero's sign
      * does not survive the widening below). */
-    float lv = p[1] < p[4] ? p[1] : p[4], hv = p[1] > p[4] ? p[1] : p[4];
-    float lw = p[2] < p[5] ? p[2] : p[5], hw = p[2] > p[5] ? p[2] : p[5];
-    lv = p[7] < lv ? p[7] : lv, hv = p[7] > hv ? p[7] : hv;
-    lw = p[8] < lw ? p[8] : lw, hw = p[8] > hw ? p[8] : hw;
+    float lv = a[1] < b[1] ? a[1] : b[1], hv = a[1] > b[1] ? a[1] : b[1];
+    float lw = a[2] < b[2] ? a[2] : b[2], hw = a[2] > b[2] ? a[2] : b[2];
+    lv = c[1] < lv ? c[1] : lv, hv = c[1] > hv ? c[1] : hv;
+    lw = c[2] < lw ? c[2] : lw, hw = c[2] > hw ? c[2] : hw;
     /* Widen by a few ulps of the coordinates: the crossing test works on
      * rounded differences, so be conservative. */
     float av = fabsf(lv) > fabsf(hv) ? fabsf(lv) : fabsf(hv);
     float aw = fabsf(lw) > fabsf(hw) ? fabsf(lw) : fabsf(hw);
     float ev = 1e-5f * (1.0f + av), ew = 1e-5f * (1.0f + aw);
-    item it = {lv - ev, lw - ew, hv + ev, hw + ew, t};
+    item it = {lv - ev, lw - ew, hv + ev, hw + ew, (uint32_t)t};
     return it;
 }
 
-/* The root streamed from the soup in parts: pass 1 counts (the root's
+/* The root streamed from the triangles in parts: pass 1 counts (the root's
  * split test and its children's sizes), pass 2 writes, each part at its
  * offset, so the lists are in triangle order as one pass would make them. */
 static void boxes_part(void *arg, int i, int n)
@@ -257,13 +365,22 @@ static void boxes_part(void *arg, int i, int n)
     if (B->pass == 1) {
         size_t k = 0, sum = 0, count[4] = {0, 0, 0, 0};
         for (size_t t = t0; t < t1; t++) {
-            item it = box_of(B->soup + t * 9, (uint32_t)t);
-            if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) continue;
+            if (t + PREFETCH < t1) prefetch_tri(B, t + PREFETCH);
+            item it = box_of(B, t);
+            if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) {
+                if (B->mask) B->mask[t] = 0;
+                continue;
+            }
             k++;
             unsigned lv = it.v0 <= sv, hv = it.v1 >= sv, lw = it.w0 <= sw, hw = it.w1 >= sw;
             sum += (lv + hv) * (lw + hw);
-            for (int q = 0; q < 4; q++)
-                count[q] += it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q];
+            unsigned bits = 0;
+            for (int q = 0; q < 4; q++) {
+                unsigned in = it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q];
+                count[q] += in;
+                bits |= in << q;
+            }
+            if (B->mask) B->mask[t] = (unsigned char)(bits | 16u); /* 16: over the plane */
         }
         B->part_n[i] = k, B->part_sum[i] = sum;
         for (int q = 0; q < 4; q++) B->part_count[i][q] = count[q];
@@ -275,23 +392,35 @@ static void boxes_part(void *arg, int i, int n)
         at += B->part_n[j];
         for (int q = 0; q < 4; q++) sat[q] += B->part_count[j][q];
     }
+    const int q = B->only_q;
+    const unsigned want = R->list ? 16u : 1u << q;
     for (size_t t = t0; t < t1; t++) {
-        item it = box_of(B->soup + t * 9, (uint32_t)t);
+        if (B->mask) { /* pass 1 decided: only the triangles that go there */
+            if (!(B->mask[t] & want)) continue;
+            item it = box_of(B, t);
+            if (R->list) R->list[at++] = it;
+            else R->sub[q][sat[q]++] = it;
+            continue;
+        }
+        if (t + PREFETCH < t1) prefetch_tri(B, t + PREFETCH);
+        item it = box_of(B, t);
         if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) continue;
         if (R->list) {
             R->list[at++] = it;
             continue;
         }
-        for (int q = 0; q < 4; q++)
-            if (it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q]) R->sub[q][sat[q]++] = it;
+        if (it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q]) R->sub[q][sat[q]++] = it;
     }
 }
 
-/* Fills *R from the soup. Returns 0 when memory runs out. */
+/* Fills *R from the triangles (a split root: the children's sizes only).
+ * Returns 0 when memory runs out. */
 static int make_root(boxes *B, int threads, root *R)
 {
     memset(R, 0, sizeof *R);
     R->v0 = B->v0, R->w0 = B->w0, R->v1 = B->v1, R->w1 = B->w1;
+    R->B = B;
+    R->threads = threads;
     B->R = R;
     B->pass = 1;
     clvox__parallel(threads, boxes_part, B);
@@ -308,15 +437,40 @@ static int make_root(boxes *B, int threads, root *R)
         for (int q = 0; q < 4; q++) R->count[q] = 0;
         if (!n) return 1;
     } else {
-        for (int q = 0; q < 4; q++)
-            if (R->count[q] && !(R->sub[q] = malloc(R->count[q] * sizeof *R->sub[q]))) {
-                root_free(R);
-                return 0;
-            }
+        return 1; /* the children are streamed one by one (stream_child) */
     }
     B->pass = 2;
+    B->only_q = -1;
     clvox__parallel(threads, boxes_part, B);
     return 1;
+}
+
+/* Child q of a split root: its list, streamed from the triangles. 0: out of memory. */
+static int stream_child(root *R, int q)
+{
+    if (!R->count[q]) return 1;
+    if (!(R->sub[q] = malloc(R->count[q] * sizeof *R->sub[q]))) return 0;
+    R->B->pass = 2;
+    R->B->only_q = q;
+    clvox__parallel(R->threads, boxes_part, R->B);
+    return 1;
+}
+
+/* Hands the memory freed by the lists back to the system, once the build
+ * is done.
+ * glibc keeps freed blocks below its adaptive mmap threshold, which the
+ * first freed list of tens of MB raises, so without this they stay
+ * resident under everything allocated later. Not done during the build:
+ * trimming after each of the root's children and after children of 2^18
+ * triangles lowered armadillo_s3's peak (512^3, 1 / 2 threads) from
+ * 244 / 252 to 235 / 245 MB but cost the build 0.08 s there and 0.5 s on
+ * 13.3 M triangles (page faults on the memory handed back). Elsewhere:
+ * nothing. */
+static void release_free_memory(void)
+{
+#if defined(__GLIBC__)
+    malloc_trim(0);
+#endif
 }
 
 /* ---- tasks and the final layout ---------------------------------------------------- */
@@ -352,6 +506,18 @@ static void run_tasks(void *arg, int i, int n)
         t->max_depth_reached = b.depth;
         t->leaves = b.leaves;
     }
+}
+
+/* Runs the tasks made since the last call, on b->threads threads. */
+static void run_pending_tasks(build *b)
+{
+    size_t k = b->task_count - b->tasks_done;
+    if (!k) return;
+    tasks_run R = {.proto = b, .tasks = b->tasks + b->tasks_done, .count = k};
+    atomic_init(&R.next, 0);
+    clvox__parallel(b->threads < (int)k ? b->threads : (int)k, run_tasks, &R);
+    b->tasks_done = b->task_count;
+    b->pending_items = 0;
 }
 
 /* Lays out skeleton node s at index g of out, as the one-thread build would. */
@@ -414,14 +580,20 @@ static int build_root(build *b, root *R)
     b->nodes[0].first = 1;
     b->nodes[0].count = CLVOX_QT_INTERNAL;
     b->node_count = 5;
-    int ok = 1, q = 0;
-    for (; q < 4 && ok == 1; q++) {
+    int ok = 1;
+    for (int q = 0; q < 4 && ok == 1; q++) {
         float cv0 = (q & 1) ? sv : R->v0, cv1 = (q & 1) ? R->v1 : sv;
         float cw0 = (q & 2) ? sw : R->w0, cw1 = (q & 2) ? R->w1 : sw;
+        if (!stream_child(R, q)) {
+            ok = 0;
+            break;
+        }
         ok = build_node(b, 1 + (size_t)q, R->sub[q], R->count[q], cv0, cw0, cv1, cw1, 1);
         R->sub[q] = NULL;
+        /* the skeleton: this child's subtrees now, so that their lists
+         * are not all held at once */
+        if (ok == 1) run_pending_tasks(b);
     }
-    for (; q < 4; q++) free(R->sub[q]), R->sub[q] = NULL;
     return ok;
 }
 
@@ -436,18 +608,23 @@ static int build_tree(build *b, root *rt, int threads, int *near_cap)
         root_free(rt);
         return 0;
     }
-    if (threads <= 1) return build_root(b, rt);
+    if (threads <= 1) {
+        /* The references in one reservation (about 1.6 per triangle on
+         * real meshes; grown past it as before): doubling from small
+         * leaves a trail of freed copies the allocator keeps. Pages not
+         * written cost nothing. */
+        size_t cap = n <= (SIZE_MAX / sizeof *b->refs - 1024) / 2 ? 2 * n + 1024 : 0;
+        if (cap && (b->refs = malloc(cap * sizeof *b->refs)) != NULL) b->ref_cap = cap;
+        return build_root(b, rt);
+    }
 
     build sk = *b; /* the skeleton: its own nodes and refs */
     sk.defer_depth = SKELETON_DEPTH;
     b->nodes = NULL;
     b->node_cap = b->node_count = 0;
+    sk.threads = threads;
     int ok = build_root(&sk, rt);
-    if (ok == 1 && sk.task_count) {
-        tasks_run R = {.proto = &sk, .tasks = sk.tasks, .count = sk.task_count};
-        atomic_init(&R.next, 0);
-        clvox__parallel(threads < (int)sk.task_count ? threads : (int)sk.task_count, run_tasks, &R);
-    }
+    if (ok == 1) run_pending_tasks(&sk);
     size_t nodes = sk.node_count, refs = sk.ref_count, leaves = sk.leaves;
     uint32_t depth = sk.depth;
     for (size_t k = 0; ok == 1 && k < sk.task_count; k++) {
@@ -480,9 +657,9 @@ static int build_tree(build *b, root *rt, int threads, int *near_cap)
     return ok;
 }
 
-clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *soup, size_t tri_count, uint32_t dim_v,
-                                           uint32_t dim_w, uint32_t max_depth, uint32_t leaf_size, int threads,
-                                           clvox__quadtree *out)
+clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *verts, const uint32_t *tris,
+                                           size_t tri_count, uint32_t dim_v, uint32_t dim_w, uint32_t max_depth,
+                                           uint32_t leaf_size, int threads, clvox__quadtree *out)
 {
     memset(out, 0, sizeof *out);
     if (tri_count > 0xFFFFFFF0u)
@@ -493,9 +670,10 @@ clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *soup
     build b = {.max_depth = max_depth ? max_depth : clvox__quadtree_auto_depth(dim_v, dim_w, tri_count),
                .leaf_size = leaf_size ? leaf_size : 8};
     if (b.max_depth > 16) b.max_depth = 16;
-    boxes B = {.soup = soup, .tri_count = tri_count, .v0 = -0.5f, .w0 = -0.5f, .v1 = (float)dim_v - 0.5f,
+    boxes B = {.verts = verts, .tris = tris, .tri_count = tri_count, .v0 = -0.5f, .w0 = -0.5f, .v1 = (float)dim_v - 0.5f,
                .w1 = (float)dim_w - 0.5f};
     B.leaf_size = b.leaf_size, B.max_depth = b.max_depth;
+    B.mask = malloc(tri_count ? tri_count : 1); /* 1 byte a triangle; without it, slower */
     int near_cap = 0, ok = 0;
     for (int attempt = 0; attempt < 2; attempt++) {
         root R;
@@ -509,6 +687,8 @@ clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *soup
         b = one;
         threads = 1;
     }
+    free(B.mask);
+    release_free_memory();
     if (ok != 1) {
         free(b.nodes);
         free(b.refs);
@@ -531,10 +711,11 @@ clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *soup
     return CLVOX_OK;
 }
 
-clvox_status clvox__quadtree_build(clvox_context *ctx, const float *soup, size_t tri_count, uint32_t dim_v,
-                                   uint32_t dim_w, uint32_t max_depth, uint32_t leaf_size, clvox__quadtree *out)
+clvox_status clvox__quadtree_build(clvox_context *ctx, const float *verts, const uint32_t *tris, size_t tri_count,
+                                   uint32_t dim_v, uint32_t dim_w, uint32_t max_depth, uint32_t leaf_size,
+                                   clvox__quadtree *out)
 {
-    return clvox__quadtree_build_threads(ctx, soup, tri_count, dim_v, dim_w, max_depth, leaf_size, 0, out);
+    return clvox__quadtree_build_threads(ctx, verts, tris, tri_count, dim_v, dim_w, max_depth, leaf_size, 0, out);
 }
 
 void clvox__quadtree_free(clvox__quadtree *qt)

@@ -1,5 +1,7 @@
 /* The partition on several host threads (src/grid.c, src/partition.c): the
  * grid-space soup and the quadtree at 1, 2, 3 and 4 threads are the same,
+ * built from the soup or from the indexed triangles (grid-space vertices and
+ * the mesh's index array, the cast's input),
  * float for float and node for node (same nodes, same references in the
  * same order), as the one-thread build before threads came in (its code is
  * kept below as the reference), on generated meshes and the CGAL meshes, at
@@ -194,13 +196,27 @@ static void compare_mesh(const char *what, const clvox_mesh *m, uint32_t resolut
         CHECK_OK(tctx, clvox__grid_space_soup_threads(tctx, m, &g, ax, threads, &soup));
         CHECK_MSG(soup && !memcmp(soup, soup1, nt * 9 * sizeof *soup), "%s: soup differs at %d threads", what,
                   threads);
-        clvox__quadtree qt;
-        CHECK_OK(tctx, clvox__quadtree_build_threads(tctx, soup1, nt, dv, dw, max_depth, leaf_size, threads, &qt));
-        CHECK_MSG(same_tree(&qt, &ref),
-                  "%s (%u, axis %d, depth %u, leaf %u), %d threads: %zu/%zu nodes %zu/%zu refs depth %u/%u "
-                  "leaves %zu/%zu", what, resolution, (int)axis, max_depth, leaf_size, threads, qt.node_count,
-                  ref.node_count, qt.ref_count, ref.ref_count, qt.depth, ref.depth, qt.leaf_count, ref.leaf_count);
-        clvox__quadtree_free(&qt);
+        /* the soup's vertices alone: every soup corner is its vertex's floats */
+        float *gv = NULL;
+        CHECK_OK(tctx, clvox__grid_space_vertices(tctx, m, &g, ax, threads, &gv));
+        int corners_ok = gv != NULL;
+        for (size_t t = 0; corners_ok && t < nt; t++)
+            for (int c = 0; c < 3; c++)
+                if (memcmp(soup1 + t * 9 + c * 3, gv + (size_t)m->tris[t * 3 + c] * 3, 3 * sizeof *gv)) corners_ok = 0;
+        CHECK_MSG(corners_ok, "%s: grid-space vertices differ from the soup's corners at %d threads", what, threads);
+        /* the tree from the soup and from the indexed triangles */
+        for (int indexed = 0; indexed <= 1 && gv; indexed++) {
+            clvox__quadtree qt;
+            CHECK_OK(tctx, clvox__quadtree_build_threads(tctx, indexed ? gv : soup1, indexed ? m->tris : NULL, nt, dv,
+                                                         dw, max_depth, leaf_size, threads, &qt));
+            CHECK_MSG(same_tree(&qt, &ref),
+                      "%s (%u, axis %d, depth %u, leaf %u), %d threads, %s: %zu/%zu nodes %zu/%zu refs depth %u/%u "
+                      "leaves %zu/%zu", what, resolution, (int)axis, max_depth, leaf_size, threads,
+                      indexed ? "indexed" : "soup", qt.node_count, ref.node_count, qt.ref_count, ref.ref_count,
+                      qt.depth, ref.depth, qt.leaf_count, ref.leaf_count);
+            clvox__quadtree_free(&qt);
+        }
+        free(gv);
         free(soup);
     }
     clvox__quadtree_free(&ref);
@@ -233,6 +249,11 @@ static void generated(void)
     tmesh sph = tmesh_sphere(0.5, 0.5, 0.5, 0.2, 40);
     for (int k = 0; k < 6; k++) tmesh_append(&mix, &sph);
     compare_tmesh("shells, a big box and a sphere 6 times", &mix, 200);
+    /* Enough triangles for the memory-lean paths (partition.c LEAN_ITEMS:
+     * the root's children made one at a time and shrunk as they go). */
+    tmesh many = tmesh_random_closed(11, 3, 90); /* 291600 triangles */
+    compare_tmesh("291600 triangles in 3 shells", &many, 512);
+    tmesh_free(&many);
     tmesh small = tmesh_box(0, 0, 0, 1, 2, 3);
     compare_tmesh("box", &small, 64);
     tmesh_free(&rnd);

@@ -1,9 +1,17 @@
 """Fixtures for the clvox Python tests, and the "N passed, N failed" line that
 tests/run_tests.sh adds to the suite's total."""
 import os
+import signal
 import subprocess
 
 import pytest
+
+# A process started in the background by a non-interactive shell (`sh -c
+# "... &"`) inherits SIGINT ignored, and Python then installs no
+# KeyboardInterrupt handler: the Ctrl-C tests would see their run finish.
+# Ctrl-C behaves as in a terminal whatever started the tests.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 MESHES = os.path.join(REPO, "data", "meshes")

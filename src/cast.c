@@ -331,9 +331,10 @@ static void speculate(void *arg, int i, int n)
 }
 
 /* The cast's triangles for a winding run, indexed: the prepared triangles,
- * then the caps, over the mesh's vertices followed by the apexes -- the
- * view clvox__winding_soup makes, so these are its floats. Without caps the
- * index array is wm->tris itself (taken). */
+ * then the caps, over the mesh's vertices followed by the apexes (each
+ * vertex through the same grid transform as parity's, so the caps share the
+ * boundary's floats). Without caps the index array is wm->tris itself
+ * (taken). */
 static clvox_status winding_indexed(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                     clvox__axes axes, clvox__winding_mesh *wm, float **out_verts, size_t *out_vert_count,
                                     uint32_t **out_tris, size_t *out_count)

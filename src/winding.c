@@ -1,6 +1,8 @@
-/* Winding numbers, host side (docs/design.md "Winding numbers"): the soup
- * the cast runs over -- the prepared surface followed by its caps -- and the
- * cap tree the consumers refine near the caps (kernels/winding.h). */
+/* Winding numbers, host side (docs/design.md "Winding numbers"): the caps
+ * that close the prepared surface's holes, the cap tree the consumers
+ * refine near the caps and the rims' tree for the gradient bound
+ * (kernels/winding.h). The cast's indexed triangles over surface + caps are
+ * made in src/cast.c (winding_indexed). */
 #include "winding.h"
 
 #include <float.h>
@@ -9,55 +11,6 @@
 #include <string.h>
 
 #define CAP_LEAF 4 /* cap triangles per leaf */
-
-clvox_status clvox__winding_soup(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                 clvox__axes axes, const clvox__winding_mesh *wm, float **out_soup,
-                                 size_t *out_count)
-{
-    *out_soup = NULL;
-    *out_count = 0;
-    size_t nt = wm->triangle_count + wm->cap_count;
-    if (nt > SIZE_MAX / (9 * sizeof(float)) || wm->apex_count > (SIZE_MAX / 12) - mesh->vertex_count)
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "mesh too large");
-    /* A view of the mesh with the apexes after its vertices and the caps
-     * after its triangles, so that clvox__grid_space_soup transforms every
-     * vertex exactly as for parity (caps share the boundary's floats). */
-    clvox_mesh view = *mesh;
-    if (!wm->cap_count) { /* closed: the prepared triangles as they are */
-        view.tris = wm->tris;
-        view.triangle_count = wm->triangle_count;
-        clvox_status st = clvox__grid_space_soup(ctx, &view, grid, axes, out_soup);
-        if (st == CLVOX_OK) *out_count = nt;
-        return st;
-    }
-    uint32_t *tris = malloc((nt ? nt : 1) * 3 * sizeof *tris);
-    float *xyz = NULL;
-    if (tris && wm->apex_count) {
-        xyz = malloc((mesh->vertex_count + wm->apex_count) * 3 * sizeof *xyz);
-        if (xyz) {
-            memcpy(xyz, mesh->xyz, mesh->vertex_count * 3 * sizeof *xyz);
-            memcpy(xyz + mesh->vertex_count * 3, wm->apex, wm->apex_count * 3 * sizeof *xyz);
-        }
-    }
-    if (!tris || (wm->apex_count && !xyz)) {
-        free(tris);
-        free(xyz);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles and caps", nt);
-    }
-    memcpy(tris, wm->tris, wm->triangle_count * 3 * sizeof *tris);
-    if (wm->cap_count) memcpy(tris + wm->triangle_count * 3, wm->caps, wm->cap_count * 3 * sizeof *tris);
-    view.tris = tris;
-    view.triangle_count = nt;
-    if (xyz) {
-        view.xyz = xyz;
-        view.vertex_count = mesh->vertex_count + wm->apex_count;
-    }
-    clvox_status st = clvox__grid_space_soup(ctx, &view, grid, axes, out_soup);
-    free(tris);
-    free(xyz);
-    if (st == CLVOX_OK) *out_count = nt;
-    return st;
-}
 
 typedef struct cap_key {
     double key;

@@ -3,12 +3,6 @@
 #define CLVOX_WINDING_H
 #include "internal.h"
 
-/* The cast's soup for a winding run: the prepared triangles, then the caps
- * (*out_count = both), in grid space as clvox__grid_space_soup. */
-clvox_status clvox__winding_soup(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                 clvox__axes axes, const clvox__winding_mesh *wm, float **out_soup,
-                                 size_t *out_count);
-
 /* The cap tree on the device (kernels/winding.h): nodes, the cap triangles
  * in its leaf order as scaled x, y, z reals, and the voxel size h (3 reals,
  * always set). node_count 0: no caps. */

@@ -67,7 +67,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
          * in [lo + J - G d, hi + J + G d], J the surface steps since u0, d
          * = |u - u0| h: while that interval is on one side of the
          * threshold, the voxel needs no evaluation. */
-        uint exact = 0, k = 0, have = 0, j0 = 0, seg_end = 0, len = 64, cool = 0, wait = 0;
+        uint exact = 0, k = 0, have = 0, j0 = 0, seg_end = 0, cool = 0, wait = 0;
         uint cut[CLVOX_CUT_MAX], cut_n = 0, jcut = 0, fresh_exact = 0;
         clvox_real lo = 0, hi = 0, J = 0, G = 0, Gp = 0;
         const clvox_real step = h[axis];
@@ -83,9 +83,6 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
             if (have && j <= seg_end) {
                 const clvox_real d = G * step * (clvox_real)(j - j0) * (clvox_real)1.000001;
                 inside = clvox_interval_inside(lo + J - d, hi + J + d, abs_mode);
-                if (inside < 0 && len > 1u) len /= 2u; /* the segment was longer than its use */
-            } else if (have) {
-                len = len < (1u << 20) ? len * 2u : len; /* used to its end: try a longer one */
             }
             if (inside < 0) {
                 clvox_real px, py, pz;
@@ -102,11 +99,11 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                                                 alone ? 0u : CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n);
                 jcut = j;
                 uint cut_exact = 0;
-                for (uint i = 0; i < cut_n; i++) cut_exact += cut[i] >> 31;
+                for (uint i = 0; i < cut_n; i++) cut_exact += (cut[i] & CLVOX_CUT_EXACT) != 0;
                 if (fresh) fresh_exact = cut_exact;
                 else if (cut_exact > fresh_exact + fresh_exact / 2u + 2u) cut_n = 0;
                 /* the next segment: as long as the margin lasts at the
-                 * segment's own gradient bound (three tries) */
+                 * segment's own gradient bound (CLVOX_RIM_TRIES tries) */
                 const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
                 clvox_real m = inside ? (lo > thr ? lo - thr : -thr - hi) : (abs_mode ? fmin(thr - hi, lo + thr) : thr - hi);
                 have = 0;
@@ -116,8 +113,8 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                 if (Gp > 0) { /* the last bound predicts this one: G changes slowly along the ray */
                     const clvox_real guess = m / (Gp * step) * (clvox_real)1.25;
                     if (guess < (clvox_real)r) r = guess < 1 ? 1u : (uint)guess;
-                } else if (r > len) {
-                    r = len;
+                } else if (r > 64u) { /* no bound yet on this ray */
+                    r = 64u;
                 }
                 if (alone) {
                     wait--;

@@ -95,9 +95,9 @@ inline clvox_real clvox_cap_solid(global const clvox_real *t, clvox_real px, clv
     return clvox_atan2(det, den) * (clvox_real)0.15915494309189535; /* 2 atan2 / 4pi */
 }
 
-/* Upper bound on |w| of the node's caps seen from any point of the box
- * [q0, q1] (a point when q0 == q1). */
-inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
+/* Squared distance between the node's box and the box [q0, q1] (0 when
+ * they meet); the cap tree's and the rim tree's bounds both start from it. */
+inline clvox_real clvox_node_box_d2(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
 {
     clvox_real d2 = 0;
     for (uint a = 0; a < 3u; a++) {
@@ -105,6 +105,14 @@ inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvo
         const clvox_real g = lo > q1[a] ? lo - q1[a] : (q0[a] > hi ? q0[a] - hi : 0);
         d2 += g * g;
     }
+    return d2;
+}
+
+/* Upper bound on |w| of the node's caps seen from any point of the box
+ * [q0, q1] (a point when q0 == q1). */
+inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
+{
+    const clvox_real d2 = clvox_node_box_d2(n, q0, q1);
     const clvox_real cap = (clvox_real)n->half_count;
     if (d2 == 0) return cap;
     const clvox_real b = (clvox_real)n->area4pi / d2 * (clvox_real)1.000001;
@@ -382,12 +390,7 @@ inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global c
  * distance. */
 inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clvox_real *q0, const clvox_real *q1)
 {
-    clvox_real d2 = 0;
-    for (uint a = 0; a < 3u; a++) {
-        const clvox_real lo = nd->lo[a], hi = nd->hi[a];
-        const clvox_real g = lo > q1[a] ? lo - q1[a] : (q0[a] > hi ? q0[a] - hi : 0);
-        d2 += g * g;
-    }
+    const clvox_real d2 = clvox_node_box_d2(nd, q0, q1);
     return d2 > 0 ? (clvox_real)nd->area4pi / d2 : (clvox_real)INFINITY;
 }
 

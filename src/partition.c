@@ -96,6 +96,12 @@ typedef struct item {
     uint32_t id;
 } item;
 
+/* Does the item's box meet the closed box [v0, v1] x [w0, w1]? */
+static inline int item_meets(const item *it, float v0, float w0, float v1, float w1)
+{
+    return it->v0 <= v1 && it->v1 >= v0 && it->w0 <= w1 && it->w1 >= w0;
+}
+
 typedef struct task {
     item *list; /* owned */
     size_t n;
@@ -196,7 +202,7 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
             unsigned lv = it->v0 <= sv, hv = it->v1 >= sv, lw = it->w0 <= sw, hw = it->w1 >= sw;
             sum += (lv + hv) * (lw + hw); /* quadrants touched: 1, 2 or 4 */
             for (int q = 0; q < 4; q++)
-                count[q] += it->v0 <= cv1[q] && it->v1 >= cv0[q] && it->w0 <= cw1[q] && it->w1 >= cw0[q];
+                count[q] += item_meets(it, cv0[q], cw0[q], cv1[q], cw1[q]);
         }
         leaf = sum >= 3 * n || b->ref_count + sum > MAX_REFS;
     }
@@ -214,17 +220,18 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
         b->leaves++;
         return b->ref_count <= MAX_TOTAL_REFS ? 1 : -1;
     }
+    /* An internal node: its four children are nodes first .. first + 3. */
+    if (!grow((void **)&b->nodes, &b->node_cap, b->node_count + 4, sizeof *b->nodes)) {
+        free(list);
+        return 0;
+    }
+    const size_t first = b->node_count;
+    b->node_count += 4;
+    b->nodes[node].split_v = sv;
+    b->nodes[node].split_w = sw;
+    b->nodes[node].first = (uint32_t)first;
+    b->nodes[node].count = CLVOX_QT_INTERNAL;
     if (n >= LEAN_ITEMS) { /* one child's list at a time (same lists, same order) */
-        if (!grow((void **)&b->nodes, &b->node_cap, b->node_count + 4, sizeof *b->nodes)) {
-            free(list);
-            return 0;
-        }
-        size_t first = b->node_count;
-        b->node_count += 4;
-        b->nodes[node].split_v = sv;
-        b->nodes[node].split_w = sw;
-        b->nodes[node].first = (uint32_t)first;
-        b->nodes[node].count = CLVOX_QT_INTERNAL;
         /* The same pass keeps in the list only what the later children
          * need, and the list shrinks before child q is built. */
         int ok = 1;
@@ -240,8 +247,8 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
                 const item it = list[i];
                 int later = 0;
                 for (int r = q + 1; r < 4; r++)
-                    later |= it.v0 <= cv1[r] && it.v1 >= cv0[r] && it.w0 <= cw1[r] && it.w1 >= cw0[r];
-                if (it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q]) *o++ = it;
+                    later |= item_meets(&it, cv0[r], cw0[r], cv1[r], cw1[r]);
+                if (item_meets(&it, cv0[q], cw0[q], cv1[q], cw1[q])) *o++ = it;
                 if (later) list[keep++] = it; /* keep <= i */
             }
             n = keep;
@@ -258,7 +265,7 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
         return ok;
     }
     item *sub[4] = {NULL, NULL, NULL, NULL};
-    int ok = grow((void **)&b->nodes, &b->node_cap, b->node_count + 4, sizeof *b->nodes);
+    int ok = 1;
     for (int q = 0; q < 4 && ok; q++)
         if (count[q] && !(sub[q] = malloc(count[q] * sizeof *sub[q]))) ok = 0;
     if (!ok) {
@@ -266,18 +273,12 @@ static int build_node(build *b, size_t node, item *list, size_t n, float v0, flo
         free(list);
         return 0;
     }
-    size_t first = b->node_count;
-    b->node_count += 4;
-    b->nodes[node].split_v = sv;
-    b->nodes[node].split_w = sw;
-    b->nodes[node].first = (uint32_t)first;
-    b->nodes[node].count = CLVOX_QT_INTERNAL;
     /* The four lists in one pass, each in the node's order. */
     item *out[4] = {sub[0], sub[1], sub[2], sub[3]};
     for (size_t i = 0; i < n; i++) {
         const item *it = &list[i];
         for (int q = 0; q < 4; q++)
-            if (it->v0 <= cv1[q] && it->v1 >= cv0[q] && it->w0 <= cw1[q] && it->w1 >= cw0[q]) *out[q]++ = *it;
+            if (item_meets(it, cv0[q], cw0[q], cv1[q], cw1[q])) *out[q]++ = *it;
     }
     free(list);
     int q = 0;
@@ -387,7 +388,7 @@ static void boxes_part(void *arg, int i, int n)
         for (size_t t = t0; t < t1; t++) {
             if (t + PREFETCH < t1) prefetch_tri(B, t + PREFETCH);
             item it = box_of(B, t);
-            if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) {
+            if (!item_meets(&it, B->v0, B->w0, B->v1, B->w1)) {
                 if (B->mask) B->mask[t] = 0;
                 continue;
             }
@@ -396,7 +397,7 @@ static void boxes_part(void *arg, int i, int n)
             sum += (lv + hv) * (lw + hw);
             unsigned bits = 0;
             for (int q = 0; q < 4; q++) {
-                unsigned in = it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q];
+                unsigned in = (unsigned)item_meets(&it, cv0[q], cw0[q], cv1[q], cw1[q]);
                 count[q] += in;
                 bits |= in << q;
             }
@@ -429,7 +430,7 @@ static void boxes_part(void *arg, int i, int n)
             R->list[at++] = it;
             continue;
         }
-        if (it.v0 <= cv1[q] && it.v1 >= cv0[q] && it.w0 <= cw1[q] && it.w1 >= cw0[q]) R->sub[q][sat[q]++] = it;
+        if (item_meets(&it, cv0[q], cw0[q], cv1[q], cw1[q])) R->sub[q][sat[q]++] = it;
     }
 }
 

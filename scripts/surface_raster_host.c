@@ -33,18 +33,13 @@ static void atomic_add(uint *p, uint v) { *p += v; }
 #include "overlap.h"
 #include "surface.cl"
 
+/* src/surface.c's cell_range, through the kernel's own clvox_first_cell /
+ * clvox_last_cell (the same rule). */
 static int cell_range(double mn, double mx, uint32_t n, int32_t *lo, int32_t *hi)
 {
-    const double top = (double)n - 1.0;
-    if (!(mn <= top + 0.5) || !(mx >= -0.5)) return 0;
-    double l = mn <= -0.5 ? 0.0 : ceil(mn - 0.5);
-    while (l > 0 && (l - 1.0) + 0.5 >= mn) l -= 1.0;
-    while (l <= top && l + 0.5 < mn) l += 1.0;
-    double h = mx >= top + 0.5 ? top : floor(mx + 0.5);
-    while (h < top && (h + 1.0) - 0.5 <= mx) h += 1.0;
-    while (h >= 0 && h - 0.5 > mx) h -= 1.0;
+    const int l = clvox_first_cell(mn, 0, (int)n - 1), h = clvox_last_cell(mx, 0, (int)n - 1);
     if (l > h) return 0;
-    *lo = (int32_t)l; *hi = (int32_t)h; return 1;
+    *lo = l; *hi = h; return 1;
 }
 static double now(void) { struct timespec t; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t); return t.tv_sec + 1e-9 * t.tv_nsec; }
 int main(int argc, char **argv)

@@ -42,4 +42,14 @@ int test_report(void);
 clvox_context *test_context(void);
 /* Scratch directory for test outputs (created): $CLVOX_TEST_TMP or build/test-tmp. */
 const char *test_tmpdir(void);
+/* nx x ny x nz voxels dividing the box [lo, hi] evenly. */
+clvox_grid test_grid(const double lo[3], const double hi[3], uint32_t nx, uint32_t ny, uint32_t nz);
+/* n voxels along the longest axis of the mesh box, one empty voxel around
+ * (clvox_grid_compute; a failure is a failed check). */
+clvox_grid test_padded_grid(clvox_context *ctx, const clvox_mesh_report *r, uint32_t n);
+/* The library's vertices are relative to the mesh's offset (its first
+ * vertex for OFF files): a CPU reference working on them needs the grid's
+ * origin moved likewise, which is exactly what the library computes
+ * (origin - offset, in double). */
+clvox_grid test_reference_grid(const clvox_mesh *m, const clvox_grid *g);
 #endif

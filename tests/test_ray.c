@@ -21,18 +21,6 @@ static clvox_mesh *to_mesh(const tmesh *t)
     return m;
 }
 
-static clvox_grid make_grid(const double lo[3], const double hi[3], uint32_t nx, uint32_t ny, uint32_t nz)
-{
-    clvox_grid g;
-    uint32_t n[3] = {nx, ny, nz};
-    for (int a = 0; a < 3; a++) {
-        g.dims[a] = n[a];
-        g.origin[a] = lo[a];
-        g.voxel_size[a] = (hi[a] - lo[a]) / n[a];
-    }
-    return g;
-}
-
 static size_t nvox(const clvox_grid *g) { return (size_t)g->dims[0] * g->dims[1] * g->dims[2]; }
 
 static uint64_t count(const uint8_t *v, size_t n)
@@ -83,7 +71,7 @@ static void check_against_reference(const tmesh *t, const clvox_grid *g, const c
 static void test_grid_aligned_boxes(void)
 {
     double glo[3] = {0, 0, 0}, ghi[3] = {16, 16, 16};
-    clvox_grid g = make_grid(glo, ghi, 16, 16, 16); /* h = 1, centres at k + 0.5 */
+    clvox_grid g = test_grid(glo, ghi, 16, 16, 16); /* h = 1, centres at k + 0.5 */
     struct { double lo[3], hi[3]; unsigned sub; } cases[] = {
         {{2, 3, 4}, {9, 7, 12}, 1},          /* faces between centres: exactly covers whole voxels */
         {{1.5, 2.5, 3.5}, {6.5, 9.5, 7.5}, 1}, /* faces through centres: edges/vertices on rays */
@@ -121,7 +109,7 @@ static void test_grid_aligned_boxes(void)
 static void test_random_closed(void)
 {
     double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
-    clvox_grid grids[] = {make_grid(lo, hi, 17, 17, 17), make_grid(lo, hi, 32, 20, 25), make_grid(lo, hi, 40, 40, 40)};
+    clvox_grid grids[] = {test_grid(lo, hi, 17, 17, 17), test_grid(lo, hi, 32, 20, 25), test_grid(lo, hi, 40, 40, 40)};
     for (uint64_t seed = 1; seed <= 6; seed++) {
         tmesh t = tmesh_random_closed(seed, 1 + (unsigned)(seed % 3), 2 + (unsigned)(seed % 4));
         const clvox_grid *g = &grids[seed % 3];
@@ -145,7 +133,7 @@ static double filled_volume(const tmesh *t, uint32_t n, const double lo[3], cons
                             clvox_grid *gout)
 {
     clvox_mesh *m = to_mesh(t);
-    clvox_grid g = make_grid(lo, hi, n, n, n);
+    clvox_grid g = test_grid(lo, hi, n, n, n);
     uint8_t *v = run_axis(m, &g, CLVOX_AXIS_DEFAULT);
     double vol = (double)count(v, nvox(&g)) * g.voxel_size[0] * g.voxel_size[1] * g.voxel_size[2];
     if (keep) *keep = v; else free(v);
@@ -215,7 +203,7 @@ static void test_overflow_and_slabs(void)
 {
     tmesh t = tmesh_random_closed(42, 6, 3);
     double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
-    clvox_grid g = make_grid(lo, hi, 48, 40, 36);
+    clvox_grid g = test_grid(lo, hi, 48, 40, 36);
     clvox_mesh *m = to_mesh(&t);
     clvox_stats s0, s1;
     clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
@@ -256,7 +244,7 @@ static void test_open_mesh(void)
     t.nt -= 2; /* drop one face */
     clvox_mesh *m = to_mesh(&t);
     double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
-    clvox_grid g = make_grid(lo, hi, 20, 20, 20);
+    clvox_grid g = test_grid(lo, hi, 20, 20, 20);
     CHECK(clvox_mesh_get_report(m)->closed == 0);
     /* Only rays along the missing face's normal cross the hole; the others run parallel to it. */
     int seen = 0;
@@ -335,7 +323,7 @@ static void test_long_crossing_lists(void)
         tmesh_free(&b);
     }
     double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
-    clvox_grid g = make_grid(lo, hi, 29, 23, 19);
+    clvox_grid g = test_grid(lo, hi, 29, 23, 19);
     clvox_mesh *m = to_mesh(&t);
     uint8_t *ref = malloc(nvox(&g));
     ref_voxelize(t.xyz, t.nv, t.tri, t.nt, &g, CLVOX_AXIS_X, ref);
@@ -380,7 +368,7 @@ static int cancel_on_partial(void *user, double f)
 static void test_coincident_surfaces(void)
 {
     double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
-    clvox_grid g8 = make_grid(lo, hi, 8, 8, 8);
+    clvox_grid g8 = test_grid(lo, hi, 8, 8, 8);
     /* 32769 copies: 65538 crossings per ray through the box, one more than allowed */
     tmesh big = repeated_box(32769);
     clvox_mesh *m = to_mesh(&big);
@@ -403,7 +391,7 @@ static void test_coincident_surfaces(void)
     CHECK(count(v, sizeof v) == 0 && s.max_crossings == 60000 && s.overflow_rays > 0);
     CHECK_MSG(clvox__now() - t0 < 10.0, "30000 coincident boxes took %.1f s", clvox__now() - t0);
     /* references: no split multiplies them (was 4x per level) */
-    clvox_grid g256 = make_grid(lo, hi, 256, 256, 1);
+    clvox_grid g256 = test_grid(lo, hi, 256, 256, 1);
     uint8_t *w = malloc(nvox(&g256));
     CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, &g256, NULL, w, nvox(&g256), &s));
     CHECK_MSG(s.quadtree_refs <= 8 * ok.nt, "%llu quadtree references for %zu triangles",
@@ -415,7 +403,7 @@ static void test_coincident_surfaces(void)
     /* cancel inside one slow slab: 2000 copies at 160^2 rays, one slab */
     tmesh slow = repeated_box(2000);
     m = to_mesh(&slow);
-    clvox_grid g = make_grid(lo, hi, 160, 160, 40);
+    clvox_grid g = test_grid(lo, hi, 160, 160, 40);
     uint8_t *big_v = malloc(nvox(&g));
     for (int method = CLVOX_METHOD_RAY; method <= CLVOX_METHOD_TETRA; method++) {
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;

@@ -12,30 +12,6 @@ static clvox_context *ctx;
 
 static size_t nvox(const clvox_grid *g) { return (size_t)g->dims[0] * g->dims[1] * g->dims[2]; }
 
-/* N voxels along the longest axis of the mesh box, one empty voxel around. */
-static clvox_grid padded_grid(const clvox_mesh_report *r, uint32_t n)
-{
-    clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
-    go.resolution = n;
-    go.padding = 1;
-    clvox_grid g;
-    memset(&g, 0, sizeof g);
-    CHECK_OK(ctx, clvox_grid_compute(ctx, &go, r->bbox_min, r->bbox_max, &g));
-    return g;
-}
-
-/* The vertices are relative to the mesh's offset (its first vertex for OFF
- * files): the reference works on them with the origin moved likewise, which
- * is exactly what the library computes (origin - offset, in double). */
-static clvox_grid reference_grid(const clvox_mesh *m, const clvox_grid *g)
-{
-    double off[3];
-    clvox_mesh_vertex_offset(m, off);
-    clvox_grid r = *g;
-    for (int a = 0; a < 3; a++) r.origin[a] = g->origin[a] - off[a];
-    return r;
-}
-
 static void check_mesh(const char *name, uint32_t n, int closed_expected)
 {
     char path[256];
@@ -51,11 +27,11 @@ static void check_mesh(const char *name, uint32_t n, int closed_expected)
     const clvox_mesh_report *r = clvox_mesh_get_report(m);
     CHECK_MSG(r->closed == closed_expected, "%s: closed=%d, expected %d (%llu boundary edges)", name, r->closed,
               closed_expected, (unsigned long long)r->boundary_edges);
-    clvox_grid g = padded_grid(r, n);
+    clvox_grid g = test_padded_grid(ctx, r, n);
     size_t nv, nt;
     const float *xyz = clvox_mesh_vertices(m, &nv);
     const uint32_t *tri = clvox_mesh_triangles(m, &nt);
-    clvox_grid gref = reference_grid(m, &g);
+    clvox_grid gref = test_reference_grid(m, &g);
     uint8_t *ref = malloc(nvox(&g)), *dev[3];
     for (int a = 0; a < 3; a++) {
         clvox_axis axis = (clvox_axis)(CLVOX_AXIS_X + a);
@@ -96,7 +72,7 @@ static void check_coverage(const char *name, uint32_t n)
         return;
     }
     const clvox_mesh_report *r = clvox_mesh_get_report(m);
-    clvox_grid g = padded_grid(r, n);
+    clvox_grid g = test_padded_grid(ctx, r, n);
     size_t nv, nt;
     const float *xyz = clvox_mesh_vertices(m, &nv);
     const uint32_t *tri = clvox_mesh_triangles(m, &nt);
@@ -109,7 +85,7 @@ static void check_coverage(const char *name, uint32_t n)
     o.seed = 99;
     o.inside = CLVOX_INSIDE_PARITY;
     CHECK_OK(ctx, clvox_voxelize_to_buffers(ctx, m, &g, &o, NULL, 0, cov, nvox(&g), NULL));
-    clvox_grid gref = reference_grid(m, &g);
+    clvox_grid gref = test_reference_grid(m, &g);
     ref_coverage(xyz, nv, tri, nt, &gref, CLVOX_AXIS_X, 2, 3, 1, 99, ref);
     size_t diff = 0;
     for (size_t i = 0; i < nvox(&g); i++) diff += cov[i] != (float)ref[i] / 12.0f;

@@ -39,18 +39,6 @@ static uint64_t count(const uint8_t *v, size_t n)
     return c;
 }
 
-static clvox_grid make_grid(const double lo[3], const double hi[3], uint32_t nx, uint32_t ny, uint32_t nz)
-{
-    clvox_grid g;
-    uint32_t n[3] = {nx, ny, nz};
-    for (int a = 0; a < 3; a++) {
-        g.dims[a] = n[a];
-        g.origin[a] = lo[a];
-        g.voxel_size[a] = (hi[a] - lo[a]) / n[a];
-    }
-    return g;
-}
-
 /* ================= the oracle alone (CPU) ================= */
 
 static double *to_double(const tmesh *m)
@@ -233,7 +221,7 @@ static void test_oracle_voxelize(void)
 {
     tmesh s = tmesh_sphere(0.51, 0.47, 0.53, 0.37, 12);
     double lo[3] = {0.013, -0.021, 0.007}, hi[3] = {1.031, 0.993, 1.017};
-    clvox_grid gs[2] = {make_grid(lo, hi, 20, 20, 20), make_grid(lo, hi, 24, 17, 13)};
+    clvox_grid gs[2] = {test_grid(lo, hi, 20, 20, 20), test_grid(lo, hi, 24, 17, 13)};
     for (int i = 0; i < 2; i++) {
         clvox_grid *g = &gs[i];
         uint8_t *v = malloc(nvox(g));
@@ -261,7 +249,7 @@ static void test_oracle_voxelize(void)
 static void test_oracle_fast_voxelize(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid g = make_grid(lo, hi, 30, 22, 17);
+    clvox_grid g = test_grid(lo, hi, 30, 22, 17);
     double blo[3] = {0.13, 0.17, 0.11}, bhi[3] = {0.86, 0.79, 0.91}, cc[3] = {0.5, 0.48, 0.12};
     tmesh sp = tmesh_sphere(0.5, 0.49, 0.52, 0.4, 10);
     tmesh ms[7] = {tmesh_open_box(2, blo, bhi, 2, 3, NULL), tmesh_cylinder(cc, 2, 0.35, 0.75, 24, 3, 0),
@@ -380,7 +368,7 @@ static void compare_with_oracle(const char *what, const float *xyz, size_t nv, c
 static void test_corpus_against_oracle(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid grids[3] = {make_grid(lo, hi, 32, 32, 32), make_grid(lo, hi, 40, 32, 24), make_grid(lo, hi, 48, 48, 48)};
+    clvox_grid grids[3] = {test_grid(lo, hi, 32, 32, 32), test_grid(lo, hi, 40, 32, 24), test_grid(lo, hi, 48, 48, 48)};
     for (size_t c = 0; c < ncases; c++) {
         tmesh_case *wc = &cases[c];
         /* CLVOX_WINDING_RAW=1: compare with the mesh as given (no orientation repair), a diagnostic */
@@ -412,7 +400,7 @@ static void test_corpus_against_oracle(void)
 static void test_apex(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid g = make_grid(lo, hi, 36, 30, 26);
+    clvox_grid g = test_grid(lo, hi, 36, 30, 26);
     static const char *const offsets[] = {"0.31", "-0.2", "0.004", "1.5"};
     for (size_t c = 0; c < ncases; c++) {
         tmesh_case *wc = &cases[c];
@@ -444,7 +432,7 @@ static void test_apex(void)
 static void test_invariance(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid g = make_grid(lo, hi, 36, 30, 26);
+    clvox_grid g = test_grid(lo, hi, 36, 30, 26);
     clvox_device_info devs[8];
     size_t ndev = 0;
     if (clvox_list_devices(devs, 8, &ndev) != CLVOX_OK) ndev = 0;
@@ -506,29 +494,6 @@ static void test_invariance(void)
 }
 
 /* Closed, consistently oriented meshes: winding == parity bit for bit, no caps. */
-/* N voxels along the longest axis of the mesh box, one empty voxel around. */
-static clvox_grid padded_grid(const clvox_mesh_report *r, uint32_t n)
-{
-    clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
-    go.resolution = n;
-    go.padding = 1;
-    clvox_grid g;
-    memset(&g, 0, sizeof g);
-    CHECK_OK(ctx, clvox_grid_compute(ctx, &go, r->bbox_min, r->bbox_max, &g));
-    return g;
-}
-
-/* The library's vertices are relative to the mesh's offset: the oracle's
- * grid is moved likewise (as tests/test_real_meshes.c does). */
-static clvox_grid reference_grid(const clvox_mesh *m, const clvox_grid *g)
-{
-    double off[3];
-    clvox_mesh_vertex_offset(m, off);
-    clvox_grid r = *g;
-    for (int a = 0; a < 3; a++) r.origin[a] = g->origin[a] - off[a];
-    return r;
-}
-
 /* Closed, consistently oriented meshes: winding == parity bit for bit, no
  * caps -- except where the surface overlaps itself (w >= 2, or w <= -1:
  * parity is the XOR there, winding the union). The fast oracle (exact
@@ -542,7 +507,7 @@ static void check_same_as_parity(const char *what, const clvox_mesh *m, const cl
     size_t nv, nt, n = nvox(g);
     const float *xyz = clvox_mesh_vertices(m, &nv);
     const uint32_t *tri = clvox_mesh_triangles(m, &nt);
-    clvox_grid gref = reference_grid(m, g);
+    clvox_grid gref = test_reference_grid(m, g);
     if (truth) xyz = truth->xyz, nv = truth->nv, tri = truth->tri, nt = truth->nt, gref = *g; /* repaired mesh */
     uint8_t *ref = malloc(n);
     double *wo = malloc(n * sizeof *wo);
@@ -597,7 +562,7 @@ static clvox_mesh *load_real(const char *name)
 static void test_closed_same_as_parity(void)
 {
     double lo[3] = {-1.1, -1.1, -1.1}, hi[3] = {1.1, 1.1, 1.1};
-    clvox_grid g = make_grid(lo, hi, 48, 40, 44), g96 = make_grid(lo, hi, 64, 64, 64);
+    clvox_grid g = test_grid(lo, hi, 48, 40, 44), g96 = test_grid(lo, hi, 64, 64, 64);
     tmesh t = tmesh_torus(0.013, -0.007, 0.021, 0.7, 0.3, 96, 48);
     check_tmesh_same_as_parity("torus", &t, &g96, NULL);
     tmesh_free(&t);
@@ -628,7 +593,7 @@ static void test_closed_same_as_parity(void)
     tmesh_free(&s2);
     /* random closed shells (test_ray.c's) */
     double ulo[3] = {0, 0, 0}, uhi[3] = {1, 1, 1};
-    clvox_grid ug[3] = {make_grid(ulo, uhi, 17, 17, 17), make_grid(ulo, uhi, 32, 20, 25), make_grid(ulo, uhi, 40, 40, 40)};
+    clvox_grid ug[3] = {test_grid(ulo, uhi, 17, 17, 17), test_grid(ulo, uhi, 32, 20, 25), test_grid(ulo, uhi, 40, 40, 40)};
     for (uint64_t seed = 1; seed <= 6; seed++) {
         t = tmesh_random_closed(seed, 1 + (unsigned)(seed % 3), 2 + (unsigned)(seed % 4));
         char what[64];
@@ -638,7 +603,7 @@ static void test_closed_same_as_parity(void)
     }
     /* grid-aligned boxes (vertices and edges exactly on rays and centres) */
     double glo[3] = {0, 0, 0}, ghi[3] = {16, 16, 16};
-    clvox_grid g16 = make_grid(glo, ghi, 16, 16, 16);
+    clvox_grid g16 = test_grid(glo, ghi, 16, 16, 16);
     t = tmesh_box_subdivided(1.5, 2.5, 3.5, 6.5, 9.5, 7.5, 5);
     check_tmesh_same_as_parity("grid-aligned box", &t, &g16, NULL);
     tmesh_free(&t);
@@ -649,7 +614,7 @@ static void test_closed_same_as_parity(void)
     for (size_t i = 0; i < sizeof real / sizeof real[0]; i++) {
         clvox_mesh *m = load_real(real[i].name);
         if (!m) continue;
-        clvox_grid rg = padded_grid(clvox_mesh_get_report(m), real[i].n);
+        clvox_grid rg = test_padded_grid(ctx, clvox_mesh_get_report(m), real[i].n);
         check_same_as_parity(real[i].name, m, &rg, 1, NULL);
         clvox_mesh_destroy(m);
     }
@@ -692,7 +657,7 @@ static size_t components(const tmesh *t, tmesh *out, size_t max)
 static void check_union(const char *what, const tmesh *t, size_t want_parts)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid g = make_grid(lo, hi, 40, 36, 32);
+    clvox_grid g = test_grid(lo, hi, 40, 36, 32);
     tmesh parts[8];
     size_t np = components(t, parts, 8);
     CHECK_MSG(np == want_parts, "%s: %zu parts, expected %zu", what, np, want_parts);
@@ -741,7 +706,7 @@ static void test_unions(void)
 static void test_cavities(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid g = make_grid(lo, hi, 40, 36, 32);
+    clvox_grid g = test_grid(lo, hi, 40, 36, 32);
     size_t n = nvox(&g);
     double s[3] = {0.41, 0.27, 0.13};
     tmesh want = tmesh_nested_boxes(0.5, 0.5, 0.5, s, 0);
@@ -779,7 +744,7 @@ static void test_cavities(void)
 static void test_coverage_samples(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid g = make_grid(lo, hi, 24, 20, 18);
+    clvox_grid g = test_grid(lo, hi, 24, 20, 18);
     size_t n = nvox(&g);
     double blo[3] = {0.13, 0.17, 0.11}, bhi[3] = {0.86, 0.79, 0.91};
     tmesh t = tmesh_open_box(1, blo, bhi, 3, 1, NULL);
@@ -825,7 +790,7 @@ static void test_coverage_samples(void)
 static void test_options(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid g = make_grid(lo, hi, 32, 28, 30);
+    clvox_grid g = test_grid(lo, hi, 32, 28, 30);
     size_t n = nvox(&g);
     double blo[3] = {0.13, 0.17, 0.11}, bhi[3] = {0.86, 0.79, 0.91};
     /* --weld: the cracked box is the closed box */
@@ -893,7 +858,7 @@ static void test_options(void)
 static void test_winding_report(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
-    clvox_grid g = make_grid(lo, hi, 24, 24, 24);
+    clvox_grid g = test_grid(lo, hi, 24, 24, 24);
     double blo[3] = {0.13, 0.17, 0.11}, bhi[3] = {0.86, 0.79, 0.91};
     clvox_stats s;
 #define STATS_OF(tm)                                                                 \
@@ -994,7 +959,7 @@ static void test_real_open(void)
         tmesh view = {(float *)xyz, nv, nv, (uint32_t *)tri, nt, nt};
         uint64_t bnd, nm, conf;
         tmesh_edge_stats(&view, &bnd, &nm, &conf);
-        clvox_grid g = padded_grid(clvox_mesh_get_report(m), real[i].n), gref = reference_grid(m, &g);
+        clvox_grid g = test_padded_grid(ctx, clvox_mesh_get_report(m), real[i].n), gref = test_reference_grid(m, &g);
         const size_t n = nvox(&g);
         clvox_stats s;
         uint8_t *v = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s);

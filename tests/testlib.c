@@ -1,4 +1,5 @@
 #include "test.h"
+#include <string.h>
 #include <sys/stat.h>
 
 int test_passed, test_failed;
@@ -31,4 +32,36 @@ const char *test_tmpdir(void)
     mkdir("build", 0777);
     mkdir(d, 0777);
     return d;
+}
+
+clvox_grid test_grid(const double lo[3], const double hi[3], uint32_t nx, uint32_t ny, uint32_t nz)
+{
+    clvox_grid g;
+    uint32_t n[3] = {nx, ny, nz};
+    for (int a = 0; a < 3; a++) {
+        g.dims[a] = n[a];
+        g.origin[a] = lo[a];
+        g.voxel_size[a] = (hi[a] - lo[a]) / n[a];
+    }
+    return g;
+}
+
+clvox_grid test_padded_grid(clvox_context *ctx, const clvox_mesh_report *r, uint32_t n)
+{
+    clvox_grid_options go = CLVOX_GRID_OPTIONS_INIT;
+    go.resolution = n;
+    go.padding = 1;
+    clvox_grid g;
+    memset(&g, 0, sizeof g);
+    CHECK_OK(ctx, clvox_grid_compute(ctx, &go, r->bbox_min, r->bbox_max, &g));
+    return g;
+}
+
+clvox_grid test_reference_grid(const clvox_mesh *m, const clvox_grid *g)
+{
+    double off[3];
+    clvox_mesh_vertex_offset(m, off);
+    clvox_grid r = *g;
+    for (int a = 0; a < 3; a++) r.origin[a] = g->origin[a] - off[a];
+    return r;
 }

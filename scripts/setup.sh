@@ -49,6 +49,18 @@ python_readers() {
       echo "setup.sh: pip install of pynrrd/trimesh failed" >&2; return 1; }
 }
 
+# The Python package's optional CPU driver from PyPI (python/README.md "PoCL from PyPI"):
+# with it in build/venv-formats, python/tests/test_packaging.py checks that the wheel's PoCL
+# gives the system PoCL's voxels; without it (offline, 58 MB) that test is skipped.
+python_pocl() {
+  venv="$root/build/venv-formats"
+  if "$venv/bin/python" -c "import pocl_binary_distribution" >/dev/null 2>&1; then return 0; fi
+  echo "setup.sh: installing pocl-binary-distribution into build/venv-formats (optional)"
+  "$venv/bin/pip" install -q --disable-pip-version-check pocl-binary-distribution==3.0 ||
+    echo "setup.sh: pip install of pocl-binary-distribution failed; its test will be skipped" >&2
+  return 0
+}
+
 missing=""
 for p in $pkgs; do
   st=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
@@ -56,8 +68,9 @@ for p in $pkgs; do
 done
 if [ -z "$missing" ]; then
   echo "setup.sh: all packages present"
-  python_readers
-  exit $?
+  python_readers || exit 1
+  python_pocl
+  exit 0
 fi
 
 echo "setup.sh: installing:$missing"
@@ -80,5 +93,6 @@ if ! { $sudo apt-get update -qq && \
   exit 1
 fi
 rm -f "$log"
-python_readers
+python_readers || exit 1
+python_pocl
 echo "setup.sh: done"

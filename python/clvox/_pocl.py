@@ -140,7 +140,10 @@ def use_pocl_binary_distribution(force=False):
     if path is None:
         return None
     os.environ["OCL_ICD_VENDORS"] = path
-    POCL_CPU = _name_unknown_cpu()
+    try:
+        POCL_CPU = _name_unknown_cpu()
+    except (OSError, ValueError):  # no /proc (not Linux): PoCL keeps the name it has
+        POCL_CPU = None
     return path
 
 

@@ -65,13 +65,45 @@ inline double clvox_atan2(double y, double x)
 #define clvox_atan2 atan2
 #endif
 
-/* Solid angle / 4pi of cap triangle t (9 reals, scaled x, y, z) seen from
- * p; positive when p is behind it (on the side its orientation faces away
- * from). p exactly in its plane and inside it (det == 0, den < 0) is taken
- * on the side of p + e1*u + e2*v + e3*w (e1 >> e2 >> e3 > 0), as the
- * cast's tie rules take it: det(p + e) = det(p) - e . N. */
-inline clvox_real clvox_cap_solid(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz,
-                                  uint axis)
+/* The solid angles of several cap triangles at once. Triangle t's is 2
+ * arg(den + i det) (van Oosterom-Strackee), so a sum of them is 2 arg of
+ * the product of the factors den + i det, plus 2pi for each time the
+ * partial product's argument wraps past pi: one atan2 per product, not one
+ * per triangle (it was most of the winding time). Wraps are counted from
+ * the signs of the imaginary parts: with arg z, arg f in (-pi, pi], the
+ * true sum arg z + arg f is above pi exactly when both lie in (0, pi] and
+ * the product does not, below -pi when both are negative and the product's
+ * lies in (0, pi]. Where the rounded product's sign is ambiguous (sum near
+ * +-pi) the wrap and the final atan2 see the same rounded number and agree;
+ * near 0 and +-2pi the imaginary part is a sum of two products of one sign,
+ * so its sign is exact. Error: each product is z f (1 + eta), |eta| <=
+ * sqrt5 u (Brent, Percival, Zimmermann 2007; no contraction), which moves
+ * its argument by at most 1.0001 |eta| < 2.5e-16 per factor in double;
+ * rescaling by powers of two is exact (it keeps the product away from
+ * under- and overflow). A point exactly in a cap's plane and inside it
+ * (det == 0, den < 0) is taken on the side of p + e1*u + e2*v + e3*w
+ * (e1 >> e2 >> e3 > 0), as the cast's tie rules take it: det(p + e) =
+ * det(p) - e . N; it adds +-1/2 to `halves`, not a factor. */
+typedef struct clvox_angles {
+    clvox_real re, im, halves; /* the product; the in-plane halves */
+    int k;                   /* wraps: the sum is arg(re + i im) + 2pi k */
+    uint n;                  /* factors multiplied (for the error bound) */
+} clvox_angles;
+
+inline void clvox_angles_init(clvox_angles *a)
+{
+    a->re = 1;
+    a->im = 0;
+    a->halves = 0;
+    a->k = 0;
+    a->n = 0;
+}
+
+/* Multiplies in cap triangle t (9 reals, scaled x, y, z) seen from p:
+ * positive when p is behind it (on the side its orientation faces away
+ * from). */
+inline void clvox_cap_angle(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz, uint axis,
+                            clvox_angles *a)
 {
     const clvox_real ax = t[0] - px, ay = t[1] - py, az = t[2] - pz;
     const clvox_real bx = t[3] - px, by = t[4] - py, bz = t[5] - pz;
@@ -84,15 +116,42 @@ inline clvox_real clvox_cap_solid(global const clvox_real *t, clvox_real px, clv
         la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la +
         (cx * ax + cy * ay + cz * az) * lb;
     if (det == 0) {
-        if (!(den < 0)) return 0;
+        if (!(den < 0)) return;
         /* N = (b - a) x (c - a), in u, v, w order */
         const clvox_real ux = bx - ax, uy = by - ay, uz = bz - az, vx = cx - ax, vy = cy - ay, vz = cz - az;
         const clvox_real n[3] = {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
         const clvox_real nu = n[axis], nv = n[(axis + 1u) % 3u], nw = n[(axis + 2u) % 3u];
         const clvox_real d = nu != 0 ? -nu : nv != 0 ? -nv : -nw;
-        return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
+        a->halves += d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
+        return;
     }
-    return clvox_atan2(det, den) * (clvox_real)0.15915494309189535; /* 2 atan2 / 4pi */
+    if (isnan(det) || isnan(den)) return; /* as atan2's 0 */
+    const clvox_real zr = a->re, zi = a->im;
+    clvox_real re = zr * den - zi * det, im = zr * det + zi * den;
+    const int up = zi > 0 || (zi == 0 && zr < 0), up2 = im > 0 || (im == 0 && re < 0);
+    if (det > 0 && up && !up2) a->k++;
+    else if (det < 0 && zi < 0 && up2) a->k--;
+    const clvox_real m = fmax(fabs(re), fabs(im));
+#if defined(cl_khr_fp64)
+    const clvox_real big = 0x1p200, small = 0x1p-200;
+#else
+    const clvox_real big = 0x1p40f, small = 0x1p-40f;
+#endif
+    if (m > big || m < small) { /* exact: a power of two */
+        const int e = ilogb(m);
+        re = ldexp(re, -e);
+        im = ldexp(im, -e);
+    }
+    a->re = re;
+    a->im = im;
+    a->n++;
+}
+
+/* The product's solid angle / 4pi: (arg + 2pi k) / 2pi. */
+inline clvox_real clvox_angles_value(const clvox_angles *a)
+{
+    const clvox_real v = a->n ? clvox_atan2(a->im, a->re) * (clvox_real)0.15915494309189535 : (clvox_real)0;
+    return v + (clvox_real)a->k + a->halves;
 }
 
 /* Squared distance between the node's box and the box [q0, q1] (0 when
@@ -207,14 +266,23 @@ inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
 #define CLVOX_CUT_MAX 96
 #define CLVOX_CUT_EXACT 0x80000000u
 
+/* Multiplies the node's caps into a. */
+inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
+                                  clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+{
+    const uint first = nd->tri_first, count = nd->tri_count;
+    for (uint t = 0; t < count; t++) clvox_cap_angle(caps + (size_t)(first + t) * 9u, px, py, pz, axis, a);
+}
+
 /* The node's caps' solid angles / 4pi at p, exactly. */
 inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
-                                       clvox_real py, clvox_real pz, uint axis)
+                                       clvox_real py, clvox_real pz, uint axis, uint *factors)
 {
-    clvox_real S = 0;
-    const uint first = nd->tri_first, count = nd->tri_count;
-    for (uint t = 0; t < count; t++) S += clvox_cap_solid(caps + (size_t)(first + t) * 9u, px, py, pz, axis);
-    return S;
+    clvox_angles a;
+    clvox_angles_init(&a);
+    clvox_cap_node_angles(nd, caps, px, py, pz, axis, &a);
+    *factors += a.n + 1u;
+    return clvox_angles_value(&a);
 }
 
 /* The inside test at p (scaled grid space, x, y, z) given K there:
@@ -240,12 +308,15 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
     uint ex[CLVOX_CUT_MAX];
     uint sp = 0, nex = 0;
     clvox_real S = 0;
+    uint factors = 0; /* factors and atan2s behind S (its error bound) */
     int evaluated = 0, answer = -1, lost = 0; /* lost: the exact nodes do not fit ex */
     if (cut && *cut_n) {
+        clvox_angles all; /* the cut's exact nodes: one product, one atan2 */
+        clvox_angles_init(&all);
         for (uint i = 0; i < *cut_n; i++) {
             const uint nd = cut[i] & ~CLVOX_CUT_EXACT;
             if (cut[i] & CLVOX_CUT_EXACT) {
-                S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis);
+                clvox_cap_node_angles(nodes + nd, caps, px, py, pz, axis, &all);
                 ex[nex++] = nd;
                 evaluated = 1;
             } else {
@@ -254,6 +325,8 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
                 sp++;
             }
         }
+        S = clvox_angles_value(&all);
+        factors = all.n + 1u;
     } else {
         stack[sp] = 0;
         clvox_cap_estimate(nodes, px, py, pz, &se[sp], &sb[sp]);
@@ -268,7 +341,9 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
             E += se[i];
             if (sb[i] > sb[best]) best = i;
         }
-        B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sums' own rounding */
+        /* the sums' own rounding, and S's: 2.5e-16 rad per factor
+         * (clvox_cap_angle) and a few 1e-16 per atan2, over 2pi */
+        B = B * (clvox_real)1.000001 + (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)2e-16;
         const clvox_real w = (clvox_real)K - S - E;
         if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
         const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
@@ -295,7 +370,7 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
         sp--;
         const uint child = nodes[nd].child;
         if (child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
-            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis);
+            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis, &factors);
             evaluated = 1;
             if (nex < CLVOX_CUT_MAX) ex[nex++] = nd;
             else lost = 1;

@@ -24,26 +24,27 @@
 #define CLVOX_TIGHT 8u
 #define CLVOX_TIGHT_F 0.5
 
-/* atan2(y, x) in [-pi, pi] for the cap solid angles, where the runtime's
- * double atan2 was most of the winding time (PoCL: 56 % of a run on a mesh
- * with many holes). Octant reduction, then atan(r) = pi/6 + atan((r sqrt3 -
- * 1) / (r + sqrt3)) above tan(pi/12), so |r| <= 0.268, and the odd series
- * to r^27 (the first term left out is below 1e-18): absolute error a few
- * 1e-16, far inside the 2^-30 the inside test leaves at w = 1/2. Float
- * devices use the builtin. */
+/* atan2(y, x) in [-pi, pi], lane by lane, for the cap solid angles, where
+ * the runtime's double atan2 was most of the winding time (PoCL: 56 % of a
+ * run on a mesh with many holes). Octant reduction, then atan(r) = pi/6 +
+ * atan((r sqrt3 - 1) / (r + sqrt3)) above tan(pi/12), so |r| <= 0.268, and
+ * the odd series to r^27 (the first term left out is below 1e-18):
+ * absolute error a few 1e-16, far inside the 2^-30 the inside test leaves
+ * at w = 1/2. (0, 0) gives 0. Float devices use the builtin. */
 #if defined(cl_khr_fp64)
-inline double clvox_atan2(double y, double x)
+typedef double4 clvox_real4;
+typedef long4 clvox_mask4; /* comparisons of clvox_real4: -1 true, 0 false */
+inline double4 clvox_atan2_4(double4 y, double4 x)
 {
-    const double ax = fabs(x), ay = fabs(y);
-    const double mx = fmax(ax, ay), mn = fmin(ax, ay);
-    if (!(mx > 0)) return 0; /* (0, 0); NaN */
-    double t = mn / mx, off = 0;
-    if (t > 0.2679491924311227) {
-        t = (t * 1.7320508075688772 - 1) / (t + 1.7320508075688772);
-        off = 0.5235987755982989; /* pi/6 */
-    }
-    const double t2 = t * t;
-    double p = -1.0 / 27;
+    const double4 ax = fabs(x), ay = fabs(y);
+    const double4 mx = fmax(ax, ay), mn = fmin(ax, ay);
+    const long4 ok = mx > 0.0;
+    double4 t = mn / select((double4)1.0, mx, ok);
+    const long4 shift = t > 0.2679491924311227;
+    t = select(t, (t * 1.7320508075688772 - 1.0) / (t + 1.7320508075688772), shift);
+    const double4 off = select((double4)0.0, (double4)0.5235987755982989, shift); /* pi/6 */
+    const double4 t2 = t * t;
+    double4 p = (double4)(-1.0 / 27);
     p = p * t2 + 1.0 / 25;
     p = p * t2 - 1.0 / 23;
     p = p * t2 + 1.0 / 21;
@@ -56,43 +57,143 @@ inline double clvox_atan2(double y, double x)
     p = p * t2 - 1.0 / 7;
     p = p * t2 + 1.0 / 5;
     p = p * t2 - 1.0 / 3;
-    double a = off + (t + t * t2 * p);
-    if (ay > ax) a = 1.5707963267948966 - a;
-    if (x < 0) a = 3.141592653589793 - a;
-    return y < 0 ? -a : a;
+    double4 a = off + (t + t * t2 * p);
+    a = select(a, 1.5707963267948966 - a, ay > ax);
+    a = select(a, 3.141592653589793 - a, x < 0.0);
+    a = select(a, -a, y < 0.0);
+    return select((double4)0.0, a, ok);
 }
+#define clvox_convert_real4 convert_double4
 #else
-#define clvox_atan2 atan2
+typedef float4 clvox_real4;
+typedef int4 clvox_mask4;
+#define clvox_atan2_4 atan2
+#define clvox_convert_real4 convert_float4
 #endif
 
-/* Solid angle / 4pi of cap triangle t (9 reals, scaled x, y, z) seen from
- * p; positive when p is behind it (on the side its orientation faces away
- * from). p exactly in its plane and inside it (det == 0, den < 0) is taken
- * on the side of p + e1*u + e2*v + e3*w (e1 >> e2 >> e3 > 0), as the
- * cast's tie rules take it: det(p + e) = det(p) - e . N. */
-inline clvox_real clvox_cap_solid(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz,
-                                  uint axis)
+/* The solid angles of several cap triangles at once, four lanes (the CPU
+ * devices' SIMD). Triangle t's is 2 arg(den + i det) (van Oosterom-
+ * Strackee), so a sum of them is 2 arg of the product of the factors den +
+ * i det, plus 2pi for each time the partial product's argument wraps past
+ * pi: each lane multiplies its triangles' factors, and one atan2 per lane
+ * ends a node or a reused cut, not one per triangle. Wraps are counted
+ * from the signs of the imaginary parts: with arg z, arg f in (-pi, pi],
+ * the true sum arg z + arg f is above pi exactly when both lie in (0, pi]
+ * and the product does not, below -pi exactly when both are negative and
+ * the product's lies in (0, pi]. Where the rounded product's sign is
+ * ambiguous (sum near +-pi) the wrap and the final atan2 see the same
+ * rounded number and agree; near 0 and +-2pi the imaginary part is a sum
+ * of two products of one sign, so its sign is exact. Error: each product
+ * is z f (1 + eta), |eta| <= sqrt5 u (Brent, Percival, Zimmermann 2007; no
+ * contraction), which moves its argument by at most 1.0001 |eta| < 2.5e-16
+ * per factor in double; rescaling by powers of two is exact (it keeps the
+ * products away from under- and overflow). A point exactly in a cap's
+ * plane and inside it (det == 0, den < 0) is taken on the side of p +
+ * e1*u + e2*v + e3*w (e1 >> e2 >> e3 > 0), as the cast's tie rules take
+ * it -- det(p + e) = det(p) - e . N -- and adds +-1/2 to `halves`, not a
+ * factor. */
+typedef struct clvox_angles {
+    clvox_real4 re, im; /* the lanes' products */
+    clvox_mask4 k;      /* the lanes' wraps: the sum is arg(re + i im) + 2pi k */
+    clvox_real halves;  /* the in-plane halves */
+    uint n;             /* factors (for the error bound) */
+} clvox_angles;
+
+inline void clvox_angles_init(clvox_angles *a)
 {
+    a->re = (clvox_real4)1;
+    a->im = (clvox_real4)0;
+    a->k = (clvox_mask4)0;
+    a->halves = 0;
+    a->n = 0;
+}
+
+/* a *= den + i det lane by lane, counting the wraps (den = 1, det = 0:
+ * unchanged, exactly). */
+inline void clvox_angles_mul(clvox_angles *a, clvox_real4 den, clvox_real4 det)
+{
+    const clvox_real4 zr = a->re, zi = a->im;
+    clvox_real4 re = zr * den - zi * det, im = zr * det + zi * den;
+    const clvox_real4 zero = (clvox_real4)0;
+    const clvox_mask4 up = (zi > zero) | ((zi == zero) & (zr < zero));
+    const clvox_mask4 up2 = (im > zero) | ((im == zero) & (re < zero));
+    a->k -= (det > zero) & up & ~up2; /* true is -1 */
+    a->k += (det < zero) & (zi < zero) & up2;
+    const clvox_real4 m = fmax(fabs(re), fabs(im));
+#if defined(cl_khr_fp64)
+    const clvox_real big = 0x1p200, small = 0x1p-200;
+#else
+    const clvox_real big = 0x1p40f, small = 0x1p-40f;
+#endif
+    if (any((m > big) | (m < small))) { /* exact: powers of two */
+        const int4 e = select(ilogb(m), (int4)0, convert_int4(m == zero)); /* 0: no factor makes it */
+        re = ldexp(re, -e);
+        im = ldexp(im, -e);
+    }
+    a->re = re;
+    a->im = im;
+}
+
+/* The tie rule of cap triangle t seen from p when det == 0: +-1/2 when p
+ * is inside it (den < 0), the side of p + e (above). The same arithmetic
+ * as clvox_cap_angles4. */
+inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz,
+                                clvox_real den, uint axis)
+{
+    if (!(den < 0)) return 0;
     const clvox_real ax = t[0] - px, ay = t[1] - py, az = t[2] - pz;
     const clvox_real bx = t[3] - px, by = t[4] - py, bz = t[5] - pz;
     const clvox_real cx = t[6] - px, cy = t[7] - py, cz = t[8] - pz;
-    const clvox_real la = sqrt(ax * ax + ay * ay + az * az);
-    const clvox_real lb = sqrt(bx * bx + by * by + bz * bz);
-    const clvox_real lc = sqrt(cx * cx + cy * cy + cz * cz);
-    const clvox_real det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx);
-    const clvox_real den =
-        la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la +
-        (cx * ax + cy * ay + cz * az) * lb;
-    if (det == 0) {
-        if (!(den < 0)) return 0;
-        /* N = (b - a) x (c - a), in u, v, w order */
-        const clvox_real ux = bx - ax, uy = by - ay, uz = bz - az, vx = cx - ax, vy = cy - ay, vz = cz - az;
-        const clvox_real n[3] = {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
-        const clvox_real nu = n[axis], nv = n[(axis + 1u) % 3u], nw = n[(axis + 2u) % 3u];
-        const clvox_real d = nu != 0 ? -nu : nv != 0 ? -nv : -nw;
-        return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
+    /* N = (b - a) x (c - a), in u, v, w order */
+    const clvox_real ux = bx - ax, uy = by - ay, uz = bz - az, vx = cx - ax, vy = cy - ay, vz = cz - az;
+    const clvox_real n[3] = {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
+    const clvox_real nu = n[axis], nv = n[(axis + 1u) % 3u], nw = n[(axis + 2u) % 3u];
+    const clvox_real d = nu != 0 ? -nu : nv != 0 ? -nv : -nw;
+    return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
+}
+
+/* Multiplies in cap triangles t .. t + count - 1 (count 1 .. 4; 9 reals
+ * each, scaled x, y, z) seen from p, one per lane: positive when p is
+ * behind a triangle (on the side its orientation faces away from). Lanes
+ * past `count` repeat triangle 0 and multiply by 1. */
+inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
+                              uint axis, clvox_angles *a)
+{
+    const uint i1 = count > 1u ? 9u : 0u, i2 = count > 2u ? 18u : 0u, i3 = count > 3u ? 27u : 0u;
+#define CLVOX_G4(k, p) ((clvox_real4)(t[k], t[i1 + (k)], t[i2 + (k)], t[i3 + (k)]) - (p))
+    const clvox_real4 ax = CLVOX_G4(0, px), ay = CLVOX_G4(1, py), az = CLVOX_G4(2, pz);
+    const clvox_real4 bx = CLVOX_G4(3, px), by = CLVOX_G4(4, py), bz = CLVOX_G4(5, pz);
+    const clvox_real4 cx = CLVOX_G4(6, px), cy = CLVOX_G4(7, py), cz = CLVOX_G4(8, pz);
+#undef CLVOX_G4
+    const clvox_real4 la = sqrt(ax * ax + ay * ay + az * az);
+    const clvox_real4 lb = sqrt(bx * bx + by * by + bz * bz);
+    const clvox_real4 lc = sqrt(cx * cx + cy * cy + cz * cz);
+    clvox_real4 det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx);
+    clvox_real4 den = la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la +
+                      (cx * ax + cy * ay + cz * az) * lb;
+    const clvox_real4 zero = (clvox_real4)0;
+    const clvox_mask4 lane = (clvox_mask4)(0, 1, 2, 3) < (clvox_mask4)count;
+    const clvox_mask4 flat = lane & (det == zero);
+    if (any(flat)) { /* rare: the tie rule, lane by lane */
+        clvox_real dv[4];
+        vstore4(den, 0, dv);
+        for (uint i = 0; i < count; i++)
+            if (flat[i]) a->halves += clvox_cap_tie(t + i * 9u, px, py, pz, dv[i], axis);
     }
-    return clvox_atan2(det, den) * (clvox_real)0.15915494309189535; /* 2 atan2 / 4pi */
+    const clvox_mask4 skip = ~lane | (det == zero) | isnan(det) | isnan(den); /* NaN: as atan2's 0 */
+    den = select(den, (clvox_real4)1, skip);
+    det = select(det, zero, skip);
+    clvox_angles_mul(a, den, det);
+    a->n += count;
+}
+
+/* The solid angle / 4pi of everything multiplied in: the lanes' (arg + 2pi
+ * k) / 2pi, summed. */
+inline clvox_real clvox_angles_value(const clvox_angles *a)
+{
+    const clvox_real4 v =
+        clvox_atan2_4(a->im, a->re) * (clvox_real)0.15915494309189535 + clvox_convert_real4(a->k);
+    return (v.s0 + v.s1) + (v.s2 + v.s3) + a->halves;
 }
 
 /* Squared distance between the node's box and the box [q0, q1] (0 when
@@ -207,14 +308,24 @@ inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
 #define CLVOX_CUT_MAX 96
 #define CLVOX_CUT_EXACT 0x80000000u
 
+/* Multiplies the node's caps into a. */
+inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
+                                  clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+{
+    const uint first = nd->tri_first, count = nd->tri_count;
+    for (uint t = 0; t < count; t += 4u)
+        clvox_cap_angles4(caps + (size_t)(first + t) * 9u, min(count - t, 4u), px, py, pz, axis, a);
+}
+
 /* The node's caps' solid angles / 4pi at p, exactly. */
 inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
-                                       clvox_real py, clvox_real pz, uint axis)
+                                       clvox_real py, clvox_real pz, uint axis, uint *factors)
 {
-    clvox_real S = 0;
-    const uint first = nd->tri_first, count = nd->tri_count;
-    for (uint t = 0; t < count; t++) S += clvox_cap_solid(caps + (size_t)(first + t) * 9u, px, py, pz, axis);
-    return S;
+    clvox_angles a;
+    clvox_angles_init(&a);
+    clvox_cap_node_angles(nd, caps, px, py, pz, axis, &a);
+    *factors += a.n + 4u;
+    return clvox_angles_value(&a);
 }
 
 /* The inside test at p (scaled grid space, x, y, z) given K there:
@@ -240,12 +351,15 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
     uint ex[CLVOX_CUT_MAX];
     uint sp = 0, nex = 0;
     clvox_real S = 0;
+    uint factors = 0; /* factors and atan2s behind S (its error bound) */
     int evaluated = 0, answer = -1, lost = 0; /* lost: the exact nodes do not fit ex */
     if (cut && *cut_n) {
+        clvox_angles all; /* the cut's exact nodes: one product, one atan2 */
+        clvox_angles_init(&all);
         for (uint i = 0; i < *cut_n; i++) {
             const uint nd = cut[i] & ~CLVOX_CUT_EXACT;
             if (cut[i] & CLVOX_CUT_EXACT) {
-                S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis);
+                clvox_cap_node_angles(nodes + nd, caps, px, py, pz, axis, &all);
                 ex[nex++] = nd;
                 evaluated = 1;
             } else {
@@ -254,6 +368,8 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
                 sp++;
             }
         }
+        S = clvox_angles_value(&all);
+        factors = all.n + 4u;
     } else {
         stack[sp] = 0;
         clvox_cap_estimate(nodes, px, py, pz, &se[sp], &sb[sp]);
@@ -268,7 +384,9 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
             E += se[i];
             if (sb[i] > sb[best]) best = i;
         }
-        B = B * (clvox_real)1.000001 + (clvox_real)1e-12; /* the sums' own rounding */
+        /* the sums' own rounding, and S's: 2.5e-16 rad per factor
+         * (clvox_angles_mul) and a few 1e-16 per atan2, over 2pi */
+        B = B * (clvox_real)1.000001 + (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)2e-16;
         const clvox_real w = (clvox_real)K - S - E;
         if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
         const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
@@ -295,7 +413,7 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
         sp--;
         const uint child = nodes[nd].child;
         if (child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
-            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis);
+            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis, &factors);
             evaluated = 1;
             if (nex < CLVOX_CUT_MAX) ex[nex++] = nd;
             else lost = 1;

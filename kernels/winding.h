@@ -64,11 +64,14 @@ inline double4 clvox_atan2_4(double4 y, double4 x)
     return select((double4)0.0, a, ok);
 }
 #define clvox_convert_real4 convert_double4
+/* the rounding of S per complex factor or atan2, over 2pi (clvox_angles_mul) */
+#define CLVOX_FACTOR_ERR 2e-16
 #else
 typedef float4 clvox_real4;
 typedef int4 clvox_mask4;
 #define clvox_atan2_4 atan2
 #define clvox_convert_real4 convert_float4
+#define CLVOX_FACTOR_ERR 1.5e-7f /* sqrt5 u, u = 2^-24, plus the builtin atan2's few ulp */
 #endif
 
 /* The solid angles of several cap triangles at once, four lanes (the CPU
@@ -384,9 +387,9 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
             E += se[i];
             if (sb[i] > sb[best]) best = i;
         }
-        /* the sums' own rounding, and S's: 2.5e-16 rad per factor
-         * (clvox_angles_mul) and a few 1e-16 per atan2, over 2pi */
-        B = B * (clvox_real)1.000001 + (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)2e-16;
+        /* the sums' own rounding, and S's: CLVOX_FACTOR_ERR per factor
+         * (clvox_angles_mul) and per atan2 */
+        B = B * (clvox_real)1.000001 + (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)CLVOX_FACTOR_ERR;
         const clvox_real w = (clvox_real)K - S - E;
         if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
         const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);

@@ -104,7 +104,7 @@ def main():
             if a.exact and res <= a.exact:
                 we = igl.winding_number(V, F, Q) > 0.5
                 exact_cols = str(int(np.count_nonzero(we != vox))), str(int(np.count_nonzero(we != fast)))
-            pts = rep.get("winding", {}).get("exact_points", rep.get("winding", {}).get("points_exact", "?"))
+            pts = rep.get("winding", {}).get("exact_points", "-")
             print(f"| {os.path.basename(mesh)} | {len(F)} | {res}³ | {cw:.2f} | {cc:.2f} | {pts} | {iw:.2f} | {ic:.2f} "
                   f"| {iw / cw:.1f} | {ic / cc:.1f} | {int(np.count_nonzero(fast != vox))} | {exact_cols[0]} "
                   f"| {exact_cols[1]} |", flush=True)

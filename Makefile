@@ -27,7 +27,7 @@ endif
 # User flags come last so they win (redis FINAL_CFLAGS).
 FINAL_CFLAGS := $(BASE_CFLAGS) $(OPT) $(CFLAGS)
 FINAL_CXXFLAGS := $(BASE_CXXFLAGS) $(OPT) -Wno-maybe-uninitialized $(CXXFLAGS)
-LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lz -lstdc++ -lm -lpthread
+LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lz -lstdc++ -lm -lpthread -ldl
 # libpng (Debian libpng-dev) only for `clvox preview` in the CLI and for the
 # tests that decode its pictures; the library does not use it.
 PNG_LIBS := -lpng
@@ -50,16 +50,26 @@ endif
 ifeq ($(WITH_OPENVDB)$(OPENVDB_FOUND),10)
   $(error WITH_OPENVDB=1 but OpenVDB (openvdb/openvdb.h with Boost, -lopenvdb) was not found: apt-get install libopenvdb-dev libboost-dev)
 endif
+# The writer (src/write_vdb.cpp) is a plugin, $(BUILD)/libclvox-vdb.so, that
+# the library loads on the first .vdb (src/vdb_plugin.c): linked in, OpenVDB
+# cost every run 27 MB of memory and 40 ms at start. Neither the library nor
+# the programs link -lopenvdb. `make install` puts it in PREFIX/lib/clvox.
+VDB_PLUGIN :=
 ifeq ($(WITH_OPENVDB),1)
-  FINAL_CXXFLAGS += -DCLVOX_HAVE_OPENVDB
-  LIBS += -lopenvdb -lImath-3_1 -ltbb
+  FINAL_CFLAGS += -DCLVOX_HAVE_OPENVDB
+  VDB_PLUGIN := $(BUILD)/libclvox-vdb.so
 endif
-# A changed choice rebuilds the shim.
+VDB_LIBS := -lopenvdb -lImath-3_1 -ltbb
+# A changed choice rebuilds the loader. It looks for the plugin beside the
+# library or the program (installed: lib/clvox/), then in this build's
+# directory (for programs elsewhere that link this build's libclvox.a, such
+# as the Python extension).
 .DEFAULT_GOAL := all
 OPENVDB_STAMP := $(BUILD)/gen/openvdb-$(WITH_OPENVDB)
 $(OPENVDB_STAMP):
 	@mkdir -p $(dir $@) && rm -f $(BUILD)/gen/openvdb-* && touch $@
-$(BUILD)/src/write_vdb.o: $(OPENVDB_STAMP)
+$(BUILD)/src/vdb_plugin.o: $(OPENVDB_STAMP)
+$(BUILD)/src/vdb_plugin.o: FINAL_CFLAGS += -DCLVOX_VDB_PLUGIN_DIR='"$(abspath $(BUILD))"'
 
 ifeq ($(V),1)
   Q :=
@@ -69,7 +79,7 @@ endif
 
 CLI_SRC := src/cli.c src/cli_args.c src/cli_info.c src/cli_run.c src/cli_common.c src/cli_json.c src/cli_batch.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c src/cli_convert.c
 LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
-LIB_CXX := $(wildcard src/*.cpp)
+LIB_CXX := $(filter-out src/write_vdb.cpp,$(wildcard src/*.cpp))
 # Kernel program = shared types + prelude + sampler + palette + overlap + winding + one file per stage.
 KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h kernels/winding.h $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
 KERNEL_C := $(BUILD)/gen/kernels_embedded.c
@@ -84,10 +94,10 @@ TEST_BINS := $(TEST_SRCS:tests/%.c=$(BUILD)/tests/%)
 STATIC_LIB := $(BUILD)/libclvox.a
 SHARED_LIB := $(BUILD)/libclvox.so
 CLI_BIN := $(BUILD)/clvox
-DEPS := $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_SUPPORT_OBJ:.o=.d) $(TEST_BINS:%=%.d)
+DEPS := $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_SUPPORT_OBJ:.o=.d) $(TEST_BINS:%=%.d) $(BUILD)/vdb/write_vdb.d
 
 .PHONY: all test check install uninstall clean bench tests fuzz fuzz-run
-all: $(STATIC_LIB) $(SHARED_LIB) $(CLI_BIN)
+all: $(STATIC_LIB) $(SHARED_LIB) $(CLI_BIN) $(VDB_PLUGIN)
 	$(Q)ln -sf $(CONFIG)/clvox build/clvox
 
 $(BUILD)/%.o: %.c
@@ -107,6 +117,19 @@ $(KERNEL_C): $(KERNEL_FILES) scripts/embed_kernels.sh
 
 $(BUILD)/gen/kernels_embedded.o: $(KERNEL_C)
 	$(Q)$(CC) -std=c11 -fPIC $(OPT) -c $< -o $@
+
+# The plugin: no undefined symbol (it calls the library only through the
+# table it is handed). Default visibility: compiled with -fvisibility=hidden,
+# OpenVDB's own templates bound to the plugin's copies and
+# openvdb::initialize() crashed.
+$(BUILD)/vdb/write_vdb.o: src/write_vdb.cpp $(OPENVDB_STAMP)
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  CXX   $< (plugin)")
+	$(Q)$(CXX) $(FINAL_CXXFLAGS) -DCLVOX_HAVE_OPENVDB -MMD -MP -c $< -o $@
+
+$(BUILD)/libclvox-vdb.so: $(BUILD)/vdb/write_vdb.o
+	@$(if $(filter 0,$(V)),echo "  LD    $@")
+	$(Q)$(CXX) -shared -Wl,--no-undefined $(FINAL_LDFLAGS) -o $@ $^ $(VDB_LIBS)
 
 $(STATIC_LIB): $(LIB_OBJ)
 	@$(if $(filter 0,$(V)),echo "  AR    $@")
@@ -200,13 +223,14 @@ install: all
 	ln -sf libclvox.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/libclvox.so.$(word 1,$(subst ., ,$(VERSION)))
 	ln -sf libclvox.so.$(VERSION) $(DESTDIR)$(PREFIX)/lib/libclvox.so
 	install -m 755 $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/clvox
+	$(if $(VDB_PLUGIN),install -d $(DESTDIR)$(PREFIX)/lib/clvox && install -m 755 $(VDB_PLUGIN) $(DESTDIR)$(PREFIX)/lib/clvox/libclvox-vdb.so)
 	sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@VERSION@|$(VERSION)|g' -e 's|@LIBS_PRIVATE@|$(LIBS)|g' scripts/clvox.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/clvox.pc
 
 uninstall:
 	rm -f $(DESTDIR)$(PREFIX)/include/clvox.h $(DESTDIR)$(PREFIX)/lib/libclvox.a \
 	  $(DESTDIR)$(PREFIX)/lib/libclvox.so* $(DESTDIR)$(PREFIX)/bin/clvox \
 	  $(DESTDIR)$(PREFIX)/lib/pkgconfig/clvox.pc
-	rm -rf $(DESTDIR)$(PREFIX)/share/clvox
+	rm -rf $(DESTDIR)$(PREFIX)/share/clvox $(DESTDIR)$(PREFIX)/lib/clvox
 
 clean:
 	rm -rf build

@@ -257,8 +257,10 @@ static clvox_status resolve_format(clvox_context *ctx, const char *path, const c
     if (o->flags && o->format != CLVOX_FORMAT_NPY)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "packed bits, float32 and uint32 are npy options (not %s)",
                            clvox_format_name(o->format));
-    if (o->format == CLVOX_FORMAT_VDB && !clvox__vdb_available())
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "cannot write '%s': clvox was built without OpenVDB", path);
+    if (o->format == CLVOX_FORMAT_VDB) { /* loads the writer: a missing one fails here, before any work */
+        clvox_status st = clvox__vdb_load(ctx, path);
+        if (st != CLVOX_OK) return st;
+    }
     const clvox_compression c = o->compression;
     if (o->format == CLVOX_FORMAT_NRRD && (c == CLVOX_COMPRESSION_RLE || c == CLVOX_COMPRESSION_PIZ))
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NRRD is written raw (none) or gzip (zip), not %s",

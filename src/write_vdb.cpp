@@ -1,8 +1,9 @@
-/* OpenVDB (.vdb) writer: the second C++ shim (the first: mesh_openmesh.cpp).
- * Optional at build time: the Makefile defines CLVOX_HAVE_OPENVDB and links
- * -lopenvdb when Debian's libopenvdb-dev is there; without it this file only
- * says so (clvox__vdb_available() == 0, and output.c refuses .vdb before any
- * work with "clvox was built without OpenVDB").
+/* OpenVDB (.vdb) writer: the second C++ shim (the first: mesh_openmesh.cpp),
+ * built as its own plugin, libclvox-vdb.so, when Debian's libopenvdb-dev is
+ * there (the Makefile's WITH_OPENVDB); the library loads it on the first
+ * .vdb (vdb_plugin.c says why and from where). It links no clvox code: the
+ * few library functions it calls come in the host table the library hands
+ * to its entry point (the macros below route the calls there).
  *
  * The file holds FLOAT grids (GRID_FOG_VOLUME, background 0): "density" =
  * coverage when the run has it, else occupancy 0/1; a run with both also gets
@@ -24,7 +25,19 @@ extern "C" {
 }
 #undef _Static_assert
 
-#ifdef CLVOX_HAVE_OPENVDB
+#ifndef CLVOX_HAVE_OPENVDB
+#error "write_vdb.cpp is the OpenVDB plugin: build it with OpenVDB (the Makefile's WITH_OPENVDB=1)"
+#endif
+
+namespace {
+const clvox__vdb_host *g_host; /* set by the entry point */
+}
+#define clvox__fail (g_host->fail)
+#define clvox__outfile_create (g_host->outfile_create)
+#define clvox__outfile_write (g_host->outfile_write)
+#define clvox__outfile_finish (g_host->outfile_finish)
+#define clvox__outfile_discard (g_host->outfile_discard)
+
 #include <openvdb/openvdb.h>
 #include <openvdb/io/Stream.h>
 #include <openvdb/tools/Prune.h>
@@ -274,32 +287,14 @@ clvox_status vdb_finish(void *state, uint64_t *bytes)
 
 } // namespace
 
-extern "C" int clvox__vdb_available(void) { return 1; }
-
-extern "C" const clvox__fmt_ops clvox__fmt_vdb = {
-    "vdb", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE, 1, vdb_open, vdb_write, vdb_finish, vdb_abort};
-
-#else /* !CLVOX_HAVE_OPENVDB */
-
-namespace {
-clvox_status vdb_open(clvox_context *ctx, const clvox__fmt_info *info, void **state)
+/* The plugin's entry point (the library looks it up by name): its ops, or NULL for
+ * a library of another version or layout. */
+extern "C" __attribute__((visibility("default"))) const clvox__fmt_ops *
+clvox__vdb_plugin(const clvox__vdb_host *host, uint32_t abi, const char *version)
 {
-    *state = nullptr;
-    return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "cannot write '%s': clvox was built without OpenVDB",
-                       info->path);
+    static const clvox__fmt_ops ops = {
+        "vdb", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE, 1, vdb_open, vdb_write, vdb_finish, vdb_abort};
+    if (!host || abi != CLVOX__VDB_ABI || !version || std::strcmp(version, CLVOX_VERSION_STRING) != 0) return nullptr;
+    g_host = host;
+    return &ops;
 }
-clvox_status vdb_write(void *, const clvox__fmt_slab *) { return CLVOX_ERR_INTERNAL; }
-clvox_status vdb_finish(void *, uint64_t *bytes)
-{
-    if (bytes) *bytes = 0;
-    return CLVOX_ERR_INTERNAL;
-}
-void vdb_abort(void *) {}
-} // namespace
-
-extern "C" int clvox__vdb_available(void) { return 0; }
-
-extern "C" const clvox__fmt_ops clvox__fmt_vdb = {
-    "vdb", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE, 1, vdb_open, vdb_write, vdb_finish, vdb_abort};
-
-#endif

@@ -51,6 +51,18 @@ static void clear_dir(void)
     if (d) closedir(d);
 }
 
+/* Is a file whose path contains `name` mapped into this process? */
+static int maps_has(const char *name)
+{
+    FILE *f = fopen("/proc/self/maps", "r");
+    char line[4096];
+    int found = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (strstr(line, name)) found = 1;
+    if (f) fclose(f);
+    return found;
+}
+
 static int write_raw(const char *path, const void *data, size_t bytes)
 {
     FILE *f = fopen(path, "wb");
@@ -166,8 +178,42 @@ int main(void)
     CHECK(access(tmp("two.json"), F_OK) == 0);
 
     /* OpenVDB: a FLOAT grid "density" (occupancy, or coverage; both: also "occupancy"), read back with
-     * pyopenvdb; without OpenVDB at build time, refused with one line before any work, nothing written */
+     * pyopenvdb; without OpenVDB at build time, refused with one line before any work, nothing written.
+     * The writer is a plugin (src/vdb_plugin.c): libopenvdb is not in the process before the first .vdb,
+     * a plugin that is missing or not clvox's is refused with the reason, and one that the build made
+     * (beside this program's directory) must load. */
+    char plugin[4096] = "", lib[4096] = "";
+    {
+        char exe[4000];
+        ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+        CHECK(len > 0);
+        exe[len > 0 ? len : 0] = 0;
+        char *slash = strrchr(exe, '/');
+        if (slash) *slash = 0; /* build/CONFIG/tests */
+        snprintf(plugin, sizeof plugin, "%s/../libclvox-vdb.so", exe);
+        snprintf(lib, sizeof lib, "%s/../libclvox.so", exe);
+    }
+    const int built_with_vdb = access(plugin, F_OK) == 0;
+    CHECK_MSG(!maps_has("libopenvdb"), "libopenvdb is loaded before any .vdb was written");
+    if (built_with_vdb) {
+        setenv("CLVOX_VDB_PLUGIN", tmp("none.so"), 1);
+        CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("p1.vdb")), CLVOX_ERR_INVALID_ARGUMENT);
+        CHECK_MSG(strstr(clvox_context_error(ctx), "none.so: no such file") != NULL, "%s", clvox_context_error(ctx));
+        setenv("CLVOX_VDB_PLUGIN", lib, 1); /* a shared object, not the plugin */
+        CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("p2.vdb")), CLVOX_ERR_INVALID_ARGUMENT);
+        CHECK_MSG(strstr(clvox_context_error(ctx), "is not the OpenVDB writer of this clvox") != NULL, "%s",
+                  clvox_context_error(ctx));
+        CHECK(write_raw(tmp("garbage.so"), "not an ELF file", 15));
+        setenv("CLVOX_VDB_PLUGIN", tmp("garbage.so"), 1);
+        CHECK_STATUS(ctx, to_file(ctx, mesh, &g, &vo, 0, 0, tmp("p3.vdb")), CLVOX_ERR_INVALID_ARGUMENT);
+        CHECK_MSG(strstr(clvox_context_error(ctx), "cannot load") != NULL, "%s", clvox_context_error(ctx));
+        unsetenv("CLVOX_VDB_PLUGIN");
+        CHECK(access(tmp("p1.vdb"), F_OK) != 0 && access(tmp("p2.vdb"), F_OK) != 0 && access(tmp("p3.vdb"), F_OK) != 0);
+        CHECK_MSG(!maps_has("libopenvdb"), "a refused plugin left libopenvdb loaded");
+    }
     clvox_status vst = to_file(ctx, mesh, &g, &vo, 0, 0, tmp("occ.vdb"));
+    CHECK_MSG(vst == CLVOX_OK || !built_with_vdb, "%s is there but .vdb failed: %s", plugin, clvox_context_error(ctx));
+    CHECK(maps_has("libopenvdb") == (vst == CLVOX_OK));
     if (vst == CLVOX_OK) {
         g_vdb = 1;
         CHECK(check_py("vdb", tmp("occ.vdb"), tmp("ref.u8"), "u8", &g, 0));

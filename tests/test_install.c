@@ -112,6 +112,16 @@ int main(void)
     CHECK(run("mkdir -p '%s/run' && cd '%s/run' && env -u CLVOX_DEFAULT_MESH '%s/bin/clvox' -r 32 -q && "
               "test -s default.exr && '%s/bin/clvox' info default.exr | grep -q '32 x'",
               root, root, prefix, prefix));
+    /* The .vdb writer plugin (when the build made one): installed in lib/clvox,
+     * and the installed binary loads that copy, not the build tree's. */
+    char built_plugin[1200];
+    snprintf(built_plugin, sizeof built_plugin, "build/%s/libclvox-vdb.so", config);
+    if (access(built_plugin, F_OK) == 0) {
+        CHECK_MSG(is_file("lib/clvox/libclvox-vdb.so", 1), "lib/clvox/libclvox-vdb.so not installed");
+        CHECK(run("cd '%s/run' && LD_DEBUG=files '%s/bin/clvox' -r 16 -q -o v.vdb 2>'%s/run/ld.log' && test -s v.vdb && "
+                  "grep -q 'file=%s/lib/clvox/libclvox-vdb.so ' '%s/run/ld.log'",
+                  root, prefix, root, prefix, root));
+    }
     if (test_failed == 0) run("rm -rf '%s' '%s.log'", root, root);
     return test_report();
 }

@@ -39,14 +39,11 @@ FINAL_LDFLAGS := $(SAN_LDFLAGS) $(LDFLAGS)
 # refused with "clvox was built without OpenVDB"), WITH_OPENVDB=1 insists.
 OPENVDB_FOUND := $(shell printf '\043include <openvdb/openvdb.h>\n' | $(CXX) -std=c++17 -E -x c++ - >/dev/null 2>&1 && \
   printf 'int main(){return 0;}' | $(CXX) -x c++ - -o /dev/null -lopenvdb >/dev/null 2>&1 && echo 1 || echo 0)
-# The sanitize build goes without it by default: libopenvdb pulls in
-# log4cplus, whose thread pool starts at load time, and LeakSanitizer hangs
-# at exit in the children test_fuzz_smoke forks from a threaded process.
-ifeq ($(CONFIG),sanitize)
-  WITH_OPENVDB ?= 0
-else
-  WITH_OPENVDB ?= $(OPENVDB_FOUND)
-endif
+# The sanitize build has it too: linked in, libopenvdb's log4cplus thread
+# pool started at load time and LeakSanitizer hung at exit in the children
+# test_fuzz_smoke forks; as a plugin it is loaded only by runs that write a
+# .vdb.
+WITH_OPENVDB ?= $(OPENVDB_FOUND)
 ifeq ($(WITH_OPENVDB)$(OPENVDB_FOUND),10)
   $(error WITH_OPENVDB=1 but OpenVDB (openvdb/openvdb.h with Boost, -lopenvdb) was not found: apt-get install libopenvdb-dev libboost-dev)
 endif

@@ -699,5 +699,9 @@ void print_help(void)
 "                           <exe dir>/../../tests/data/default.obj,\n"
 "                           tests/data/default.obj, the first that exists)\n"
 "  POCL_CACHE_DIR           must be a writable directory when the device is PoCL\n"
-"                           (else PoCL reports no device at all)\n", stdout);
+"                           (else PoCL reports no device at all)\n"
+"  CLVOX_CACHE_DIR          where the compiled kernel program is kept between\n"
+"                           runs (default $XDG_CACHE_HOME/clvox or\n"
+"                           ~/.cache/clvox; off: build it in every run)\n"
+"  CLVOX_VDB_PLUGIN         the OpenVDB writer plugin to load for .vdb output\n", stdout);
 }

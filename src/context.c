@@ -275,13 +275,20 @@ static clvox_status select_device(clvox_context *ctx, const char *sel, device_en
 static clvox_status build_program(clvox_context *ctx)
 {
     cl_int err;
+    /* Correctly rounded division keeps device results equal to the CPU reference. */
+    const char *opts = "-cl-fp32-correctly-rounded-divide-sqrt";
+    if ((ctx->program = clvox__program_cache_load(ctx, opts)) != NULL) {
+        ctx->program_cached = 1;
+        return CLVOX_OK;
+    }
     ctx->program = clCreateProgramWithSource(ctx->cl, clvox__kernel_source_count,
                                              (const char **)clvox__kernel_sources, NULL, &err);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateProgramWithSource");
-    /* Correctly rounded division keeps device results equal to the CPU reference. */
-    const char *opts = "-cl-fp32-correctly-rounded-divide-sqrt";
     err = clBuildProgram(ctx->program, 1, &ctx->device_id, opts, NULL, NULL);
-    if (err == CL_SUCCESS) return CLVOX_OK;
+    if (err == CL_SUCCESS) {
+        clvox__program_cache_store(ctx, ctx->program, opts);
+        return CLVOX_OK;
+    }
     size_t len = 0;
     char log[6000] = "";
     clGetProgramBuildInfo(ctx->program, ctx->device_id, CL_PROGRAM_BUILD_LOG, sizeof log - 1, log, &len);

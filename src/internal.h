@@ -32,6 +32,7 @@ struct clvox_context {
     cl_context cl;
     cl_command_queue queue; /* in-order, profiling enabled */
     cl_program program;     /* all kernels, built once per context */
+    int program_cached;     /* 1: program made from the cached binary (program_cache.c) */
     size_t real_size;       /* sizeof(clvox_real) in the kernels: 8 with fp64, else 4 */
 };
 
@@ -42,6 +43,12 @@ clvox_status clvox__fail(clvox_context *ctx, clvox_status status, const char *fm
 /* Same for an OpenCL error: "<what>: CL_OUT_OF_RESOURCES (-5)". */
 clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what);
 const char *clvox__cl_error_name(cl_int err);
+/* The kernel program's binary kept between processes (program_cache.c):
+ * the program built from the cached binary for ctx's device, or NULL (off,
+ * a miss, a bad file, a binary the driver refuses: build from source); and
+ * storing a program built from source. Neither ever fails the caller. */
+cl_program clvox__program_cache_load(clvox_context *ctx, const char *options);
+void clvox__program_cache_store(clvox_context *ctx, cl_program program, const char *options);
 /* Creates kernel `name` from the context's program. */
 clvox_status clvox__kernel(clvox_context *ctx, const char *name, cl_kernel *out);
 /* clCreateBuffer with the error recorded in ctx (status in *st, NULL

@@ -12,6 +12,9 @@ fi
 # PoCL needs a writable kernel cache, else it reports no device at all.
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"
+# The kernel program's binary between processes (src/program_cache.c): in
+# the build tree, not the user's ~/.cache.
+export CLVOX_CACHE_DIR="${CLVOX_CACHE_DIR:-$here/build/clvox-cache}"
 export CLVOX_TEST_TMP="${CLVOX_TEST_TMP:-$here/build/test-tmp}"
 mkdir -p "$CLVOX_TEST_TMP"
 export CLVOX_BIN="$here/$build/clvox"

@@ -49,6 +49,10 @@ const char *clvox__cl_error_name(cl_int err);
  * storing a program built from source. Neither ever fails the caller. */
 cl_program clvox__program_cache_load(clvox_context *ctx, const char *options);
 void clvox__program_cache_store(clvox_context *ctx, cl_program program, const char *options);
+/* A cache file's n bytes: 1 when it is whole and for `identity`, with the
+ * binary at file + *bin_off, *bin_len bytes; else 0 (fuzzed: fuzz_program_cache). */
+int clvox__program_cache_parse(const unsigned char *file, size_t n, const char *identity, size_t *bin_off,
+                               size_t *bin_len);
 /* Creates kernel `name` from the context's program. */
 clvox_status clvox__kernel(clvox_context *ctx, const char *name, cl_kernel *out);
 /* clCreateBuffer with the error recorded in ctx (status in *st, NULL

@@ -135,30 +135,37 @@ static uint64_t get64(const unsigned char *p)
     return v;
 }
 
-/* The binary in e->path when the file is whole and for this identity. */
-static unsigned char *read_binary(const cache_entry *e, size_t *size)
+int clvox__program_cache_parse(const unsigned char *file, size_t n, const char *identity, size_t *bin_off,
+                               size_t *bin_len)
+{
+    const size_t m = sizeof MAGIC - 1, il = strlen(identity);
+    if (n < m + 8 || memcmp(file, MAGIC, m) != 0 || get64(file + m) != il) return 0;
+    if (n - m - 8 < il + 8 || memcmp(file + m + 8, identity, il) != 0) return 0;
+    const size_t off = m + 8 + il + 8;
+    const uint64_t len = get64(file + m + 8 + il);
+    if (len == 0 || len > MAX_BINARY || n - off < 8 || len != n - off - 8) return 0;
+    if (get64(file + n - 8) != fnv1a(FNV_BASIS, file + off, (size_t)len)) return 0;
+    *bin_off = off;
+    *bin_len = (size_t)len;
+    return 1;
+}
+
+/* The file's bytes when it is whole and for this identity; *bin points into them. */
+static unsigned char *read_binary(const cache_entry *e, const unsigned char **bin, size_t *size)
 {
     FILE *f = fopen(e->path, "rb");
     if (!f) return NULL;
-    unsigned char *bin = NULL, head[sizeof MAGIC - 1 + 8], len8[8], sum8[8];
-    char *ident = NULL;
-    size_t il = strlen(e->identity);
-    if (fread(head, 1, sizeof head, f) != sizeof head || memcmp(head, MAGIC, sizeof MAGIC - 1) != 0 ||
-        get64(head + sizeof MAGIC - 1) != il)
-        goto fail;
-    if (!(ident = malloc(il)) || fread(ident, 1, il, f) != il || memcmp(ident, e->identity, il) != 0) goto fail;
-    if (fread(len8, 1, 8, f) != 8) goto fail;
-    uint64_t n = get64(len8);
-    if (n == 0 || n > MAX_BINARY || !(bin = malloc((size_t)n))) goto fail;
-    if (fread(bin, 1, (size_t)n, f) != n || fread(sum8, 1, 8, f) != 8 || fgetc(f) != EOF) goto fail;
-    if (get64(sum8) != fnv1a(FNV_BASIS, bin, (size_t)n)) goto fail;
-    free(ident);
-    fclose(f);
-    *size = (size_t)n;
-    return bin;
-fail:
-    free(ident);
-    free(bin);
+    unsigned char *data = NULL;
+    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+    const size_t most = MAX_BINARY + sizeof MAGIC + MAX_IDENTITY + 32;
+    size_t off = 0;
+    if (n > 0 && (size_t)n <= most && fseek(f, 0, SEEK_SET) == 0 && (data = malloc((size_t)n)) != NULL &&
+        fread(data, 1, (size_t)n, f) == (size_t)n && clvox__program_cache_parse(data, (size_t)n, e->identity, &off, size)) {
+        fclose(f);
+        *bin = data + off;
+        return data;
+    }
+    free(data);
     fclose(f);
     return NULL;
 }
@@ -169,9 +176,9 @@ cl_program clvox__program_cache_load(clvox_context *ctx, const char *options)
     if (!e) return NULL;
     cl_program program = NULL;
     size_t size = 0;
-    unsigned char *bin = entry_for(ctx, options, e) ? read_binary(e, &size) : NULL;
-    if (bin) {
-        const unsigned char *b = bin;
+    const unsigned char *b = NULL;
+    unsigned char *file = entry_for(ctx, options, e) ? read_binary(e, &b, &size) : NULL;
+    if (file) {
         cl_int err, status = CL_SUCCESS;
         program = clCreateProgramWithBinary(ctx->cl, 1, &ctx->device_id, &size, &b, &status, &err);
         if (err != CL_SUCCESS || status != CL_SUCCESS) {
@@ -184,7 +191,7 @@ cl_program clvox__program_cache_load(clvox_context *ctx, const char *options)
             (void)utimensat(AT_FDCWD, e->path, NULL, 0); /* used: kept longest by prune() */
         }
     }
-    free(bin);
+    free(file);
     free(e);
     return program;
 }

@@ -35,18 +35,20 @@ static int binaries(char *one, size_t size)
     return n;
 }
 
-static void clear_dir(void)
+static void clear_dir_at(const char *dir)
 {
-    DIR *d = opendir(g_dir);
+    DIR *d = opendir(dir);
     struct dirent *e;
-    char p[4096];
+    char p[8192];
     while (d && (e = readdir(d))) {
         if (e->d_name[0] == '.' && (e->d_name[1] == 0 || (e->d_name[1] == '.' && e->d_name[2] == 0))) continue;
-        snprintf(p, sizeof p, "%s/%s", g_dir, e->d_name);
+        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
         unlink(p);
     }
     if (d) closedir(d);
 }
+
+static void clear_dir(void) { clear_dir_at(g_dir); }
 
 static long file_size(const char *path)
 {
@@ -205,6 +207,8 @@ int main(void)
     snprintf(home, sizeof home, "%s/home", g_dir);
     mkdir(home, 0777);
     setenv("HOME", home, 1);
+    snprintf(path, sizeof path, "%s/.cache/clvox", home);
+    clear_dir_at(path); /* an earlier run's binary there */
     CHECK(voxelize(&t, vox, n, &cached) && cached == 0);
     CHECK(voxelize(&t, vox, n, &cached) && cached == 1 && memcmp(vox, ref, n) == 0);
     snprintf(path, sizeof path, "%s/.cache/clvox", home);

@@ -194,7 +194,14 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         }
         qsort(keys, count, sizeof *keys, cmp_cap_key);
         for (uint32_t i = 0; i < count; i++) order[first + i] = keys[i].index;
+        /* caps: the split falls on a multiple of CAP_LEAF, so that the
+         * leaves hold CAP_LEAF caps (one per vector lane, kernels/winding.h)
+         * but for at most one per node; rim edges: halves */
         uint32_t half = count / 2;
+        if (!segments) {
+            uint32_t blocks = (count + CAP_LEAF - 1) / CAP_LEAF;
+            half = blocks / 2 * CAP_LEAF;
+        }
         uint32_t c = (uint32_t)node_count;
         node_count += 2;
         nd->child = c;

@@ -272,24 +272,65 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
  * and that is tighter -- the kernel x / |x|^3 changes by at most 2 r /
  * (d - r)^3 over the sphere, so the error is at most 2 A r / (4pi (d -
  * r)^3), plus a margin for the float N -- else 0 and the zeroth-order
- * bound. */
+ * bound. Either is a valid bound (which one is only a matter of
+ * tightness). The error's one division and few products are covered by
+ * its factor 1.000001; the estimate's rounding, a few ulp of |est| <= A /
+ * (4pi (d - r)^2), by the 1e-6 A / (4pi (d - r)^2) margin. */
 inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
                                clvox_real *est, clvox_real *err)
 {
     const clvox_real b0 = clvox_cap_bound(n, px, py, pz);
     const clvox_real x = n->centre[0] - px, y = n->centre[1] - py, z = n->centre[2] - pz;
-    const clvox_real d = sqrt(x * x + y * y + z * z), r = n->radius;
+    const clvox_real d2 = x * x + y * y + z * z, d = sqrt(d2), r = n->radius, a = n->area4pi;
     if (d > r) {
-        const clvox_real dr = d - r, a = n->area4pi;
-        const clvox_real e1 = 2 * a * r / (dr * dr * dr) * (clvox_real)1.000001 + (clvox_real)1e-6 * a / (dr * dr);
+        const clvox_real idr = (clvox_real)1 / (d - r);
+        const clvox_real e1 = a * (idr * idr) * ((2 * r) * idr * (clvox_real)1.000001 + (clvox_real)1e-6);
         if (e1 < b0) {
-            *est = (n->normal4pi[0] * x + n->normal4pi[1] * y + n->normal4pi[2] * z) / (d * d * d);
+            *est = (n->normal4pi[0] * x + n->normal4pi[1] * y + n->normal4pi[2] * z) / (d2 * d);
             *err = e1;
             return;
         }
     }
     *est = 0;
     *err = b0;
+}
+
+/* clvox_cap_estimate of the nodes m and n at once, in two lanes, choosing lane by lane between the dipole and the box bound as it
+ * does (its arithmetic, so the same numbers: the box distance per axis is
+ * max(lo - p, p - hi, 0), exactly its branches' value). */
+#if defined(cl_khr_fp64)
+typedef double2 clvox_real2;
+typedef long2 clvox_mask2;
+#else
+typedef float2 clvox_real2;
+typedef int2 clvox_mask2;
+#endif
+inline void clvox_cap_estimate2(global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
+                                clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
+{
+#define CLVOX_N2(f) ((clvox_real2)(m->f, n->f))
+    const clvox_real2 zero = (clvox_real2)0;
+    const clvox_real2 gx = fmax(fmax(CLVOX_N2(lo[0]) - px, px - CLVOX_N2(hi[0])), zero);
+    const clvox_real2 gy = fmax(fmax(CLVOX_N2(lo[1]) - py, py - CLVOX_N2(hi[1])), zero);
+    const clvox_real2 gz = fmax(fmax(CLVOX_N2(lo[2]) - pz, pz - CLVOX_N2(hi[2])), zero);
+    const clvox_real2 db2 = gx * gx + gy * gy + gz * gz;
+    const clvox_real2 a = CLVOX_N2(area4pi), cap = CLVOX_N2(half_count);
+    const clvox_real2 bb = a / db2 * (clvox_real)1.000001;
+    const clvox_real2 b0 = select(select(cap, bb, bb < cap), cap, db2 == zero);
+    const clvox_real2 x = CLVOX_N2(centre[0]) - px, y = CLVOX_N2(centre[1]) - py, z = CLVOX_N2(centre[2]) - pz;
+    const clvox_real2 r = CLVOX_N2(radius);
+    const clvox_real2 d2 = x * x + y * y + z * z, d = sqrt(d2);
+    const clvox_real2 idr = (clvox_real)1 / (d - r);
+    const clvox_real2 e1 = a * (idr * idr) * ((2 * r) * idr * (clvox_real)1.000001 + (clvox_real)1e-6);
+    const clvox_real2 e =
+        (CLVOX_N2(normal4pi[0]) * x + CLVOX_N2(normal4pi[1]) * y + CLVOX_N2(normal4pi[2]) * z) / (d2 * d);
+#undef CLVOX_N2
+    const clvox_mask2 dip = (d > r) & (e1 < b0);
+    const clvox_real2 es = select(zero, e, dip), er = select(b0, e1, dip);
+    est[0] = es.s0;
+    est[1] = es.s1;
+    err[0] = er.s0;
+    err[1] = er.s1;
 }
 
 /* Inside (1), outside (0) or undecided (-1) for every w in [lo, hi]. */
@@ -366,11 +407,13 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
                 ex[nex++] = nd;
                 evaluated = 1;
             } else {
-                stack[sp] = nd;
-                clvox_cap_estimate(nodes + nd, px, py, pz, &se[sp], &sb[sp]);
-                sp++;
+                stack[sp++] = nd;
             }
         }
+        uint i = 0; /* the frontier's estimates, two at a time */
+        for (; i + 1u < sp; i += 2u)
+            clvox_cap_estimate2(nodes + stack[i], nodes + stack[i + 1u], px, py, pz, se + i, sb + i);
+        if (i < sp) clvox_cap_estimate(nodes + stack[i], px, py, pz, &se[i], &sb[i]);
         S = clvox_angles_value(&all);
         factors = all.n + 4u;
     } else {
@@ -379,36 +422,56 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
         sp++;
     }
     uint extra = 0;
+    /* Running sums of the frontier's bounds and estimates pick the steps
+     * at which to look: only where they decide (or once decided, in the
+     * tight phase) are the sums taken afresh, in frontier order, and it is
+     * those that decide and bound w. The running ones drift by their
+     * subtractions, which can only cost a step or a fresh sum, never the
+     * rigour of the answer. */
+    clvox_real Br = 0, Er = 0;
+    for (uint i = 0; i < sp; i++) {
+        Br += sb[i];
+        Er += se[i];
+    }
     for (;;) {
-        clvox_real B = 0, E = 0;
         uint best = 0;
-        for (uint i = 0; i < sp; i++) {
-            B += sb[i];
-            E += se[i];
+        for (uint i = 1; i < sp; i++)
             if (sb[i] > sb[best]) best = i;
-        }
         /* the sums' own rounding, and S's: CLVOX_FACTOR_ERR per factor
          * (clvox_angles_mul) and per atan2 */
-        B = B * (clvox_real)1.000001 + (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)CLVOX_FACTOR_ERR;
-        const clvox_real w = (clvox_real)K - S - E;
-        if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
-        const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
-        if (sp == 0 || (answer >= 0 && (extra++ >= tight || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
-            if (evaluated) (*exact)++;
-            *wlo = w - B;
-            *whi = w + B; /* w lies in [w - B, w + B] */
-            if (cut) {
-                if (lost || sp + nex > CLVOX_CUT_MAX) {
-                    *cut_n = 0;
-                } else {
-                    for (uint i = 0; i < sp; i++) cut[i] = stack[i];
-                    for (uint i = 0; i < nex; i++) cut[sp + i] = ex[i] | CLVOX_CUT_EXACT;
-                    *cut_n = sp + nex;
-                }
+        const clvox_real slack = (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)CLVOX_FACTOR_ERR;
+        const clvox_real wr = (clvox_real)K - S - Er, Bq = Br * (clvox_real)1.000001 + slack;
+        if (sp == 0 || answer >= 0 || clvox_interval_inside(wr - Bq, wr + Bq, abs_mode) >= 0) {
+            clvox_real B = 0, E = 0;
+            for (uint i = 0; i < sp; i++) {
+                B += sb[i];
+                E += se[i];
             }
-            if (answer >= 0) return answer;
-            return abs_mode ? (w > thr || w < -thr) : w > thr;
+            Br = B;
+            Er = E;
+            B = B * (clvox_real)1.000001 + slack;
+            const clvox_real w = (clvox_real)K - S - E;
+            if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
+            const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
+            if (sp == 0 || (answer >= 0 && (extra++ >= tight || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
+                if (evaluated) (*exact)++;
+                *wlo = w - B;
+                *whi = w + B; /* w lies in [w - B, w + B] */
+                if (cut) {
+                    if (lost || sp + nex > CLVOX_CUT_MAX) {
+                        *cut_n = 0;
+                    } else {
+                        for (uint i = 0; i < sp; i++) cut[i] = stack[i];
+                        for (uint i = 0; i < nex; i++) cut[sp + i] = ex[i] | CLVOX_CUT_EXACT;
+                        *cut_n = sp + nex;
+                    }
+                }
+                if (answer >= 0) return answer;
+                return abs_mode ? (w > thr || w < -thr) : w > thr;
+            }
         }
+        Br -= sb[best];
+        Er -= se[best];
         const uint nd = stack[best];
         stack[best] = stack[sp - 1u];
         sb[best] = sb[sp - 1u];
@@ -421,11 +484,12 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
             if (nex < CLVOX_CUT_MAX) ex[nex++] = nd;
             else lost = 1;
         } else {
-            for (uint c = 0; c < 2u; c++) {
-                stack[sp] = child + c;
-                clvox_cap_estimate(nodes + child + c, px, py, pz, &se[sp], &sb[sp]);
-                sp++;
-            }
+            stack[sp] = child;
+            stack[sp + 1u] = child + 1u;
+            clvox_cap_estimate2(nodes + child, nodes + child + 1u, px, py, pz, se + sp, sb + sp);
+            Br += sb[sp] + sb[sp + 1u];
+            Er += se[sp] + se[sp + 1u];
+            sp += 2u;
         }
     }
 }

@@ -435,13 +435,27 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
     }
     for (;;) {
         uint best = 0;
-        for (uint i = 1; i < sp; i++)
-            if (sb[i] > sb[best]) best = i;
+        clvox_real bv = sb[0]; /* the first largest bound (sp == 0: unused) */
+        for (uint i = 1; i < sp; i++) {
+            const int gt = sb[i] > bv;
+            best = gt ? i : best;
+            bv = gt ? sb[i] : bv;
+        }
         /* the sums' own rounding, and S's: CLVOX_FACTOR_ERR per factor
          * (clvox_angles_mul) and per atan2 */
         const clvox_real slack = (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)CLVOX_FACTOR_ERR;
         const clvox_real wr = (clvox_real)K - S - Er, Bq = Br * (clvox_real)1.000001 + slack;
-        if (sp == 0 || answer >= 0 || clvox_interval_inside(wr - Bq, wr + Bq, abs_mode) >= 0) {
+        /* decided: the tight phase ends after `tight` steps, or where the
+         * bound is within CLVOX_TIGHT_F of w's distance from the threshold */
+        int last = 0, look;
+        if (answer >= 0) {
+            last = extra++ >= tight;
+            const clvox_real dr = abs_mode ? fmin(fabs(wr - thr), fabs(wr + thr)) : fabs(wr - thr);
+            look = last || Bq <= (clvox_real)CLVOX_TIGHT_F * dr;
+        } else {
+            look = sp == 0 || clvox_interval_inside(wr - Bq, wr + Bq, abs_mode) >= 0;
+        }
+        if (look) {
             clvox_real B = 0, E = 0;
             for (uint i = 0; i < sp; i++) {
                 B += sb[i];
@@ -451,9 +465,12 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
             Er = E;
             B = B * (clvox_real)1.000001 + slack;
             const clvox_real w = (clvox_real)K - S - E;
-            if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
+            if (answer < 0) {
+                answer = clvox_interval_inside(w - B, w + B, abs_mode);
+                if (answer >= 0) last = extra++ >= tight;
+            }
             const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
-            if (sp == 0 || (answer >= 0 && (extra++ >= tight || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
+            if (sp == 0 || (answer >= 0 && (last || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
                 if (evaluated) (*exact)++;
                 *wlo = w - B;
                 *whi = w + B; /* w lies in [w - B, w + B] */

@@ -20,7 +20,10 @@
 /* Crossing signs: +-1 on the surface, +-2 on a cap (kernels/intersect.cl);
  * K counts them all as +-1. */
 #define CLVOX_UNIT(s) ((s) > 0 ? 1 : -1)
-#define CLVOX_CAP_STACK 48
+/* The refinement's frontier: where it is full, the node it would open is
+ * evaluated exactly, whole (at 48, that was most of the exact work on
+ * meshes full of holes: elephant-with-holes). */
+#define CLVOX_CAP_STACK 128
 #define CLVOX_TIGHT 8u
 #define CLVOX_TIGHT_F 0.5
 
@@ -155,19 +158,16 @@ inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px, clvox
     return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
 }
 
-/* Multiplies in cap triangles t .. t + count - 1 (count 1 .. 4; 9 reals
- * each, scaled x, y, z) seen from p, one per lane: positive when p is
+/* Multiplies in the cap triangles with corners a, b, c (lane by lane, in
+ * p's frame: corner - p) seen from p, one per lane: positive when p is
  * behind a triangle (on the side its orientation faces away from). Lanes
- * past `count` repeat triangle 0 and multiply by 1. */
-inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
-                              uint axis, clvox_angles *a)
+ * past `count` multiply by 1; t: the triangles as 9 reals each (scaled x,
+ * y, z), for the tie rule. */
+inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_real4 az, clvox_real4 bx, clvox_real4 by,
+                                clvox_real4 bz, clvox_real4 cx, clvox_real4 cy, clvox_real4 cz,
+                                global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
+                                uint axis, clvox_angles *a)
 {
-    const uint i1 = count > 1u ? 9u : 0u, i2 = count > 2u ? 18u : 0u, i3 = count > 3u ? 27u : 0u;
-#define CLVOX_G4(k, p) ((clvox_real4)(t[k], t[i1 + (k)], t[i2 + (k)], t[i3 + (k)]) - (p))
-    const clvox_real4 ax = CLVOX_G4(0, px), ay = CLVOX_G4(1, py), az = CLVOX_G4(2, pz);
-    const clvox_real4 bx = CLVOX_G4(3, px), by = CLVOX_G4(4, py), bz = CLVOX_G4(5, pz);
-    const clvox_real4 cx = CLVOX_G4(6, px), cy = CLVOX_G4(7, py), cz = CLVOX_G4(8, pz);
-#undef CLVOX_G4
     const clvox_real4 la = sqrt(ax * ax + ay * ay + az * az);
     const clvox_real4 lb = sqrt(bx * bx + by * by + bz * bz);
     const clvox_real4 lc = sqrt(cx * cx + cy * cy + cz * cz);
@@ -188,6 +188,30 @@ inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real
     det = select(det, zero, skip);
     clvox_angles_mul(a, den, det);
     a->n += count;
+}
+
+/* Multiplies in cap triangles t .. t + count - 1 (count 1 .. 4; 9 reals
+ * each, scaled x, y, z) seen from p, one per lane. Lanes past `count`
+ * repeat triangle 0 and multiply by 1. */
+inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
+                              uint axis, clvox_angles *a)
+{
+    const uint i1 = count > 1u ? 9u : 0u, i2 = count > 2u ? 18u : 0u, i3 = count > 3u ? 27u : 0u;
+#define CLVOX_G4(k, p) ((clvox_real4)(t[k], t[i1 + (k)], t[i2 + (k)], t[i3 + (k)]) - (p))
+    clvox_cap_angles4_v(CLVOX_G4(0, px), CLVOX_G4(1, py), CLVOX_G4(2, pz), CLVOX_G4(3, px), CLVOX_G4(4, py),
+                        CLVOX_G4(5, pz), CLVOX_G4(6, px), CLVOX_G4(7, py), CLVOX_G4(8, pz), t, count, px, py, pz,
+                        axis, a);
+#undef CLVOX_G4
+}
+
+/* The same for a leaf's lane-major copy (clvox_cap_node.block): real k of
+ * lane l at blk[4k + l], the same numbers, one vector load each. */
+inline void clvox_cap_block4(global const clvox_real *blk, global const clvox_real *t, uint count, clvox_real px,
+                             clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+{
+    clvox_cap_angles4_v(vload4(0, blk) - px, vload4(1, blk) - py, vload4(2, blk) - pz, vload4(3, blk) - px,
+                        vload4(4, blk) - py, vload4(5, blk) - pz, vload4(6, blk) - px, vload4(7, blk) - py,
+                        vload4(8, blk) - pz, t, count, px, py, pz, axis, a);
 }
 
 /* The solid angle / 4pi of everything multiplied in: the lanes' (arg + 2pi
@@ -349,7 +373,7 @@ inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
  * (clvox_winding_inside_m): node ids, CLVOX_CUT_EXACT on those evaluated
  * exactly. Any cut (frontier + exact nodes covering every leaf once) is a
  * valid start; a neighbour's saves most of the descent. */
-#define CLVOX_CUT_MAX 96
+#define CLVOX_CUT_MAX 192 /* above the frontier's CLVOX_CAP_STACK: a cut holds it and the exact nodes */
 #define CLVOX_CUT_EXACT 0x80000000u
 
 /* Multiplies the node's caps into a. */
@@ -357,6 +381,10 @@ inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const 
                                   clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
 {
     const uint first = nd->tri_first, count = nd->tri_count;
+    if (nd->block) { /* a leaf (at most 4 caps) */
+        clvox_cap_block4(caps + nd->block, caps + (size_t)first * 9u, count, px, py, pz, axis, a);
+        return;
+    }
     for (uint t = 0; t < count; t += 4u)
         clvox_cap_angles4(caps + (size_t)(first + t) * 9u, min(count - t, 4u), px, py, pz, axis, a);
 }

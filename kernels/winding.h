@@ -479,7 +479,7 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
         if (answer >= 0) {
             last = extra++ >= tight;
             const clvox_real dr = abs_mode ? fmin(fabs(wr - thr), fabs(wr + thr)) : fabs(wr - thr);
-            look = last || Bq <= (clvox_real)CLVOX_TIGHT_F * dr;
+            look = sp == 0 || last || Bq <= (clvox_real)CLVOX_TIGHT_F * dr;
         } else {
             look = sp == 0 || clvox_interval_inside(wr - Bq, wr + Bq, abs_mode) >= 0;
         }

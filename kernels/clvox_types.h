@@ -52,13 +52,16 @@ typedef struct clvox_column {
  * child+1. Rounded so that bounds stay bounds: the box outwards, area4pi >=
  * their area / 4pi, the sphere (centre, radius) holds them; normal4pi is
  * their vector area / 4pi (for the dipole term); half_count = tri_count / 2
- * (no triangle subtends more than half the sphere). */
+ * (no triangle subtends more than half the sphere). block: on a cap leaf,
+ * where its caps are again, lane-major (the index of the first real: real
+ * k of lane l at block + 4k + l, lanes past tri_count repeating the
+ * first), after the caps themselves in the same buffer; 0 elsewhere. */
 typedef struct clvox_cap_node {
     clvox_f32 lo[3], area4pi;
     clvox_f32 hi[3], half_count;
     clvox_f32 centre[3], radius;
     clvox_f32 normal4pi[3], pad0;
-    clvox_u32 child, tri_first, tri_count, pad1;
+    clvox_u32 child, tri_first, tri_count, block;
 } clvox_cap_node;
 
 #if defined(__cplusplus)

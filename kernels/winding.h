@@ -20,7 +20,10 @@
 /* Crossing signs: +-1 on the surface, +-2 on a cap (kernels/intersect.cl);
  * K counts them all as +-1. */
 #define CLVOX_UNIT(s) ((s) > 0 ? 1 : -1)
-#define CLVOX_CAP_STACK 48
+/* The refinement's frontier: where it is full, the node it would open is
+ * evaluated exactly, whole (at 48, that was most of the exact work on
+ * meshes full of holes: elephant-with-holes). */
+#define CLVOX_CAP_STACK 128
 #define CLVOX_TIGHT 8u
 #define CLVOX_TIGHT_F 0.5
 
@@ -155,19 +158,16 @@ inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px, clvox
     return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
 }
 
-/* Multiplies in cap triangles t .. t + count - 1 (count 1 .. 4; 9 reals
- * each, scaled x, y, z) seen from p, one per lane: positive when p is
+/* Multiplies in the cap triangles with corners a, b, c (lane by lane, in
+ * p's frame: corner - p) seen from p, one per lane: positive when p is
  * behind a triangle (on the side its orientation faces away from). Lanes
- * past `count` repeat triangle 0 and multiply by 1. */
-inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
-                              uint axis, clvox_angles *a)
+ * past `count` multiply by 1; t: the triangles as 9 reals each (scaled x,
+ * y, z), for the tie rule. */
+inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_real4 az, clvox_real4 bx, clvox_real4 by,
+                                clvox_real4 bz, clvox_real4 cx, clvox_real4 cy, clvox_real4 cz,
+                                global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
+                                uint axis, clvox_angles *a)
 {
-    const uint i1 = count > 1u ? 9u : 0u, i2 = count > 2u ? 18u : 0u, i3 = count > 3u ? 27u : 0u;
-#define CLVOX_G4(k, p) ((clvox_real4)(t[k], t[i1 + (k)], t[i2 + (k)], t[i3 + (k)]) - (p))
-    const clvox_real4 ax = CLVOX_G4(0, px), ay = CLVOX_G4(1, py), az = CLVOX_G4(2, pz);
-    const clvox_real4 bx = CLVOX_G4(3, px), by = CLVOX_G4(4, py), bz = CLVOX_G4(5, pz);
-    const clvox_real4 cx = CLVOX_G4(6, px), cy = CLVOX_G4(7, py), cz = CLVOX_G4(8, pz);
-#undef CLVOX_G4
     const clvox_real4 la = sqrt(ax * ax + ay * ay + az * az);
     const clvox_real4 lb = sqrt(bx * bx + by * by + bz * bz);
     const clvox_real4 lc = sqrt(cx * cx + cy * cy + cz * cz);
@@ -188,6 +188,30 @@ inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real
     det = select(det, zero, skip);
     clvox_angles_mul(a, den, det);
     a->n += count;
+}
+
+/* Multiplies in cap triangles t .. t + count - 1 (count 1 .. 4; 9 reals
+ * each, scaled x, y, z) seen from p, one per lane. Lanes past `count`
+ * repeat triangle 0 and multiply by 1. */
+inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
+                              uint axis, clvox_angles *a)
+{
+    const uint i1 = count > 1u ? 9u : 0u, i2 = count > 2u ? 18u : 0u, i3 = count > 3u ? 27u : 0u;
+#define CLVOX_G4(k, p) ((clvox_real4)(t[k], t[i1 + (k)], t[i2 + (k)], t[i3 + (k)]) - (p))
+    clvox_cap_angles4_v(CLVOX_G4(0, px), CLVOX_G4(1, py), CLVOX_G4(2, pz), CLVOX_G4(3, px), CLVOX_G4(4, py),
+                        CLVOX_G4(5, pz), CLVOX_G4(6, px), CLVOX_G4(7, py), CLVOX_G4(8, pz), t, count, px, py, pz,
+                        axis, a);
+#undef CLVOX_G4
+}
+
+/* The same for a leaf's lane-major copy (clvox_cap_node.block): real k of
+ * lane l at blk[4k + l], the same numbers, one vector load each. */
+inline void clvox_cap_block4(global const clvox_real *blk, global const clvox_real *t, uint count, clvox_real px,
+                             clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+{
+    clvox_cap_angles4_v(vload4(0, blk) - px, vload4(1, blk) - py, vload4(2, blk) - pz, vload4(3, blk) - px,
+                        vload4(4, blk) - py, vload4(5, blk) - pz, vload4(6, blk) - px, vload4(7, blk) - py,
+                        vload4(8, blk) - pz, t, count, px, py, pz, axis, a);
 }
 
 /* The solid angle / 4pi of everything multiplied in: the lanes' (arg + 2pi
@@ -272,24 +296,65 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
  * and that is tighter -- the kernel x / |x|^3 changes by at most 2 r /
  * (d - r)^3 over the sphere, so the error is at most 2 A r / (4pi (d -
  * r)^3), plus a margin for the float N -- else 0 and the zeroth-order
- * bound. */
+ * bound. Either is a valid bound (which one is only a matter of
+ * tightness). The error's one division and few products are covered by
+ * its factor 1.000001; the estimate's rounding, a few ulp of |est| <= A /
+ * (4pi (d - r)^2), by the 1e-6 A / (4pi (d - r)^2) margin. */
 inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
                                clvox_real *est, clvox_real *err)
 {
     const clvox_real b0 = clvox_cap_bound(n, px, py, pz);
     const clvox_real x = n->centre[0] - px, y = n->centre[1] - py, z = n->centre[2] - pz;
-    const clvox_real d = sqrt(x * x + y * y + z * z), r = n->radius;
+    const clvox_real d2 = x * x + y * y + z * z, d = sqrt(d2), r = n->radius, a = n->area4pi;
     if (d > r) {
-        const clvox_real dr = d - r, a = n->area4pi;
-        const clvox_real e1 = 2 * a * r / (dr * dr * dr) * (clvox_real)1.000001 + (clvox_real)1e-6 * a / (dr * dr);
+        const clvox_real idr = (clvox_real)1 / (d - r);
+        const clvox_real e1 = a * (idr * idr) * ((2 * r) * idr * (clvox_real)1.000001 + (clvox_real)1e-6);
         if (e1 < b0) {
-            *est = (n->normal4pi[0] * x + n->normal4pi[1] * y + n->normal4pi[2] * z) / (d * d * d);
+            *est = (n->normal4pi[0] * x + n->normal4pi[1] * y + n->normal4pi[2] * z) / (d2 * d);
             *err = e1;
             return;
         }
     }
     *est = 0;
     *err = b0;
+}
+
+/* clvox_cap_estimate of the nodes m and n at once, in two lanes, choosing lane by lane between the dipole and the box bound as it
+ * does (its arithmetic, so the same numbers: the box distance per axis is
+ * max(lo - p, p - hi, 0), exactly its branches' value). */
+#if defined(cl_khr_fp64)
+typedef double2 clvox_real2;
+typedef long2 clvox_mask2;
+#else
+typedef float2 clvox_real2;
+typedef int2 clvox_mask2;
+#endif
+inline void clvox_cap_estimate2(global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
+                                clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
+{
+#define CLVOX_N2(f) ((clvox_real2)(m->f, n->f))
+    const clvox_real2 zero = (clvox_real2)0;
+    const clvox_real2 gx = fmax(fmax(CLVOX_N2(lo[0]) - px, px - CLVOX_N2(hi[0])), zero);
+    const clvox_real2 gy = fmax(fmax(CLVOX_N2(lo[1]) - py, py - CLVOX_N2(hi[1])), zero);
+    const clvox_real2 gz = fmax(fmax(CLVOX_N2(lo[2]) - pz, pz - CLVOX_N2(hi[2])), zero);
+    const clvox_real2 db2 = gx * gx + gy * gy + gz * gz;
+    const clvox_real2 a = CLVOX_N2(area4pi), cap = CLVOX_N2(half_count);
+    const clvox_real2 bb = a / db2 * (clvox_real)1.000001;
+    const clvox_real2 b0 = select(select(cap, bb, bb < cap), cap, db2 == zero);
+    const clvox_real2 x = CLVOX_N2(centre[0]) - px, y = CLVOX_N2(centre[1]) - py, z = CLVOX_N2(centre[2]) - pz;
+    const clvox_real2 r = CLVOX_N2(radius);
+    const clvox_real2 d2 = x * x + y * y + z * z, d = sqrt(d2);
+    const clvox_real2 idr = (clvox_real)1 / (d - r);
+    const clvox_real2 e1 = a * (idr * idr) * ((2 * r) * idr * (clvox_real)1.000001 + (clvox_real)1e-6);
+    const clvox_real2 e =
+        (CLVOX_N2(normal4pi[0]) * x + CLVOX_N2(normal4pi[1]) * y + CLVOX_N2(normal4pi[2]) * z) / (d2 * d);
+#undef CLVOX_N2
+    const clvox_mask2 dip = (d > r) & (e1 < b0);
+    const clvox_real2 es = select(zero, e, dip), er = select(b0, e1, dip);
+    est[0] = es.s0;
+    est[1] = es.s1;
+    err[0] = er.s0;
+    err[1] = er.s1;
 }
 
 /* Inside (1), outside (0) or undecided (-1) for every w in [lo, hi]. */
@@ -308,7 +373,7 @@ inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
  * (clvox_winding_inside_m): node ids, CLVOX_CUT_EXACT on those evaluated
  * exactly. Any cut (frontier + exact nodes covering every leaf once) is a
  * valid start; a neighbour's saves most of the descent. */
-#define CLVOX_CUT_MAX 96
+#define CLVOX_CUT_MAX 192 /* above the frontier's CLVOX_CAP_STACK: a cut holds it and the exact nodes */
 #define CLVOX_CUT_EXACT 0x80000000u
 
 /* Multiplies the node's caps into a. */
@@ -316,6 +381,10 @@ inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const 
                                   clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
 {
     const uint first = nd->tri_first, count = nd->tri_count;
+    if (nd->block) { /* a leaf (at most 4 caps) */
+        clvox_cap_block4(caps + nd->block, caps + (size_t)first * 9u, count, px, py, pz, axis, a);
+        return;
+    }
     for (uint t = 0; t < count; t += 4u)
         clvox_cap_angles4(caps + (size_t)(first + t) * 9u, min(count - t, 4u), px, py, pz, axis, a);
 }
@@ -366,11 +435,13 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
                 ex[nex++] = nd;
                 evaluated = 1;
             } else {
-                stack[sp] = nd;
-                clvox_cap_estimate(nodes + nd, px, py, pz, &se[sp], &sb[sp]);
-                sp++;
+                stack[sp++] = nd;
             }
         }
+        uint i = 0; /* the frontier's estimates, two at a time */
+        for (; i + 1u < sp; i += 2u)
+            clvox_cap_estimate2(nodes + stack[i], nodes + stack[i + 1u], px, py, pz, se + i, sb + i);
+        if (i < sp) clvox_cap_estimate(nodes + stack[i], px, py, pz, &se[i], &sb[i]);
         S = clvox_angles_value(&all);
         factors = all.n + 4u;
     } else {
@@ -379,36 +450,73 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
         sp++;
     }
     uint extra = 0;
+    /* Running sums of the frontier's bounds and estimates pick the steps
+     * at which to look: only where they decide (or once decided, in the
+     * tight phase) are the sums taken afresh, in frontier order, and it is
+     * those that decide and bound w. The running ones drift by their
+     * subtractions, which can only cost a step or a fresh sum, never the
+     * rigour of the answer. */
+    clvox_real Br = 0, Er = 0;
+    for (uint i = 0; i < sp; i++) {
+        Br += sb[i];
+        Er += se[i];
+    }
     for (;;) {
-        clvox_real B = 0, E = 0;
         uint best = 0;
-        for (uint i = 0; i < sp; i++) {
-            B += sb[i];
-            E += se[i];
-            if (sb[i] > sb[best]) best = i;
+        clvox_real bv = sb[0]; /* the first largest bound (sp == 0: unused) */
+        for (uint i = 1; i < sp; i++) {
+            const int gt = sb[i] > bv;
+            best = gt ? i : best;
+            bv = gt ? sb[i] : bv;
         }
         /* the sums' own rounding, and S's: CLVOX_FACTOR_ERR per factor
          * (clvox_angles_mul) and per atan2 */
-        B = B * (clvox_real)1.000001 + (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)CLVOX_FACTOR_ERR;
-        const clvox_real w = (clvox_real)K - S - E;
-        if (answer < 0) answer = clvox_interval_inside(w - B, w + B, abs_mode);
-        const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
-        if (sp == 0 || (answer >= 0 && (extra++ >= tight || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
-            if (evaluated) (*exact)++;
-            *wlo = w - B;
-            *whi = w + B; /* w lies in [w - B, w + B] */
-            if (cut) {
-                if (lost || sp + nex > CLVOX_CUT_MAX) {
-                    *cut_n = 0;
-                } else {
-                    for (uint i = 0; i < sp; i++) cut[i] = stack[i];
-                    for (uint i = 0; i < nex; i++) cut[sp + i] = ex[i] | CLVOX_CUT_EXACT;
-                    *cut_n = sp + nex;
-                }
-            }
-            if (answer >= 0) return answer;
-            return abs_mode ? (w > thr || w < -thr) : w > thr;
+        const clvox_real slack = (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)CLVOX_FACTOR_ERR;
+        const clvox_real wr = (clvox_real)K - S - Er, Bq = Br * (clvox_real)1.000001 + slack;
+        /* decided: the tight phase ends after `tight` steps, or where the
+         * bound is within CLVOX_TIGHT_F of w's distance from the threshold */
+        int last = 0, look;
+        if (answer >= 0) {
+            last = extra++ >= tight;
+            const clvox_real dr = abs_mode ? fmin(fabs(wr - thr), fabs(wr + thr)) : fabs(wr - thr);
+            look = sp == 0 || last || Bq <= (clvox_real)CLVOX_TIGHT_F * dr;
+        } else {
+            look = sp == 0 || clvox_interval_inside(wr - Bq, wr + Bq, abs_mode) >= 0;
         }
+        if (look) {
+            clvox_real B = 0, E = 0;
+            for (uint i = 0; i < sp; i++) {
+                B += sb[i];
+                E += se[i];
+            }
+            Br = B;
+            Er = E;
+            B = B * (clvox_real)1.000001 + slack;
+            const clvox_real w = (clvox_real)K - S - E;
+            if (answer < 0) {
+                answer = clvox_interval_inside(w - B, w + B, abs_mode);
+                if (answer >= 0) last = extra++ >= tight;
+            }
+            const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
+            if (sp == 0 || (answer >= 0 && (last || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
+                if (evaluated) (*exact)++;
+                *wlo = w - B;
+                *whi = w + B; /* w lies in [w - B, w + B] */
+                if (cut) {
+                    if (lost || sp + nex > CLVOX_CUT_MAX) {
+                        *cut_n = 0;
+                    } else {
+                        for (uint i = 0; i < sp; i++) cut[i] = stack[i];
+                        for (uint i = 0; i < nex; i++) cut[sp + i] = ex[i] | CLVOX_CUT_EXACT;
+                        *cut_n = sp + nex;
+                    }
+                }
+                if (answer >= 0) return answer;
+                return abs_mode ? (w > thr || w < -thr) : w > thr;
+            }
+        }
+        Br -= sb[best];
+        Er -= se[best];
         const uint nd = stack[best];
         stack[best] = stack[sp - 1u];
         sb[best] = sb[sp - 1u];
@@ -421,11 +529,12 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
             if (nex < CLVOX_CUT_MAX) ex[nex++] = nd;
             else lost = 1;
         } else {
-            for (uint c = 0; c < 2u; c++) {
-                stack[sp] = child + c;
-                clvox_cap_estimate(nodes + child + c, px, py, pz, &se[sp], &sb[sp]);
-                sp++;
-            }
+            stack[sp] = child;
+            stack[sp + 1u] = child + 1u;
+            clvox_cap_estimate2(nodes + child, nodes + child + 1u, px, py, pz, se + sp, sb + sp);
+            Br += sb[sp] + sb[sp + 1u];
+            Er += se[sp] + se[sp + 1u];
+            sp += 2u;
         }
     }
 }

@@ -182,7 +182,7 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         nd->area4pi = round_up(area / (4.0 * 3.14159265358979323846) * (1.0 + 1e-9));
         nd->half_count = round_up(0.5 * count);
         nd->child = 0;
-        nd->pad1 = 0;
+        nd->block = 0;
         if (count <= CAP_LEAF) continue;
         int axis = 0;
         for (int a = 1; a < 3; a++)
@@ -194,7 +194,14 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         }
         qsort(keys, count, sizeof *keys, cmp_cap_key);
         for (uint32_t i = 0; i < count; i++) order[first + i] = keys[i].index;
+        /* caps: the split falls on a multiple of CAP_LEAF, so that the
+         * leaves hold CAP_LEAF caps (one per vector lane, kernels/winding.h)
+         * but for at most one per node; rim edges: halves */
         uint32_t half = count / 2;
+        if (!segments) {
+            uint32_t blocks = (count + CAP_LEAF - 1) / CAP_LEAF;
+            half = blocks / 2 * CAP_LEAF;
+        }
         uint32_t c = (uint32_t)node_count;
         node_count += 2;
         nd->child = c;
@@ -205,16 +212,48 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         stack[sp++] = c;
         stack[sp++] = c + 1;
     }
+    /* caps: after them, each leaf's caps again, lane-major (36 reals a
+     * leaf, clvox_cap_node.block), for the kernels' vector loads */
+    size_t leaves = 0, reals = n * 9;
+    if (!segments) {
+        for (size_t i = 0; i < node_count; i++) leaves += nodes[i].child == 0;
+        if (n * 9 + leaves * 36 <= UINT32_MAX) reals += leaves * 36;
+        else leaves = 0; /* too many for a u32 index: the kernels read the caps one by one */
+    }
+    if (reals > n * 9) {
+        void *t = realloc(tris, reals * rs);
+        if (!t) {
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n);
+            goto done;
+        }
+        tris = t;
+    }
     for (size_t i = 0; i < n; i++)
         for (int k = 0; k < 9; k++) {
             double v = q[(size_t)order[i] * 9 + k];
             if (rs == 8) ((double *)tris)[i * 9 + k] = v;
             else ((float *)tris)[i * 9 + k] = (float)v;
         }
+    if (leaves) {
+        size_t at = n * 9;
+        for (size_t i = 0; i < node_count; i++) {
+            clvox_cap_node *nd = &nodes[i];
+            if (nd->child != 0) continue;
+            nd->block = (uint32_t)at;
+            for (int k = 0; k < 9; k++)
+                for (uint32_t l = 0; l < 4; l++) {
+                    uint32_t t = nd->tri_first + (l < nd->tri_count ? l : 0);
+                    double v = q[(size_t)order[t] * 9 + k];
+                    if (rs == 8) ((double *)tris)[at + 4 * (size_t)k + l] = v;
+                    else ((float *)tris)[at + 4 * (size_t)k + l] = (float)v;
+                }
+            at += 36;
+        }
+    }
     out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, node_count * sizeof *nodes, nodes, &st,
                                "cap tree");
     if (st == CLVOX_OK)
-        out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * 9 * rs, tris, &st,
+        out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, reals * rs, tris, &st,
                                   segments ? "boundary edges" : "caps");
     out->node_count = (cl_uint)node_count;
     out->cap_count = n;

@@ -30,6 +30,9 @@
 #include "../kernels/sampler.h"
 
 #include <math.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -320,8 +323,11 @@ static void speculate(void *arg, int i, int n)
 {
     speculation *sp = arg;
     (void)n;
-    if (i == 0) {
+    if (i == 1) {
         sp->prep_st = clvox__winding_prepare_flags(sp->ctx, sp->mesh, sp->opts->weld, CLVOX__PREP_BORROW, sp->wm);
+#if defined(__GLIBC__)
+        malloc_trim(0);
+#endif
         return;
     }
     sp->tree_st = clvox__grid_space_vertices(sp->side, sp->mesh, sp->grid, sp->axes, 0, &sp->verts);

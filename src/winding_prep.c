@@ -86,6 +86,9 @@
 #include "winding.h"
 
 #include <math.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -648,7 +651,7 @@ typedef struct prep {
     size_t nv;
     const uint32_t *tris; /* the mesh's triangles, or out->tris after merging */
     size_t nt;
-    uint32_t *uf;        /* orientation union-find, then the patches (in ws: cid) */
+    uint32_t *uf;        /* orientation union-find, then the patches (ws: pf) */
     uint32_t *bstart;    /* nblocks + 1: each block's triangle entries (build_edges) */
     uint32_t *chunks;    /* nchunks + 1: first block of each chunk */
     size_t nblocks, nchunks;
@@ -657,8 +660,8 @@ typedef struct prep {
     unsigned shift;      /* block of vertex v: v >> shift */
     uint64_t *entry;     /* uses of the special edges: hi << 32 | triangle << 1 | (1: the use runs lo -> hi) */
     size_t nentry, cap_entry;
-    uint32_t *cid;       /* patch of each triangle (= uf, in ws) */
-    unsigned char *flip; /* 1: triangle reversed relative to its patch's first triangle */
+    uint32_t *pf;        /* each triangle's patch << 1 | flip (1: reversed relative to the
+                            patch's first triangle), in place of uf (in ws) */
     uint32_t *first;     /* first triangle of each patch */
     unsigned char *pstate;
     double *vol;         /* 6 x signed volume per patch */
@@ -671,6 +674,9 @@ typedef struct prep {
     int vol_done;        /* vol/vabs of the only patch summed with the patches (closed) */
     double vol0, vabs0;
 } prep;
+
+#define PATCH(P, t) ((P)->pf[t] >> 1)
+#define FLIP(P, t) ((P)->pf[t] & 1u)
 
 static clvox_status oom(prep *P, const char *what)
 {
@@ -794,13 +800,14 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     for (size_t ch = 0; ch < P->nchunks; ch++) {
         /* the chunk's entries, blocks k0..k1-1, in triangle order */
         const size_t k0 = P->chunks[ch], k1 = P->chunks[ch + 1], base = bs[k0];
+        const size_t nk = k1 - k0;
         for (size_t k = k0; k < k1; k++) cur[k] = bs[k] - (uint32_t)base;
         for (size_t t = 0; t < nt; t++) {
             uint32_t lo, mid;
             lo_mid(tris + 3 * t, &lo, &mid);
             size_t bl = lo >> shift, bm = mid >> shift;
-            if (bl - k0 < k1 - k0) ent[cur[bl]++] = (uint32_t)t;
-            if (bm != bl && bm - k0 < k1 - k0) ent[cur[bm]++] = (uint32_t)t;
+            if (bl - k0 < nk) ent[cur[bl]++] = (uint32_t)t;
+            if (bm != bl && bm - k0 < nk) ent[cur[bm]++] = (uint32_t)t;
         }
         for (size_t blk = k0; blk < k1; blk++) {
             const uint32_t *be = ent + (bs[blk] - base);
@@ -866,18 +873,15 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     key = NULL;
     loc = cnt = ent = cur = NULL;
     *nonmanifold = nm;
-    P->flip = malloc(nt ? nt : 1);
-    if (!P->flip) goto nomem;
     /* Patches numbered by their roots (their smallest triangles) in
      * triangle order, flips relative to the root. A parent is always
      * smaller than its child (roots link under smaller roots, halving
      * skips to a grandparent), so in triangle order the parent's patch and
-     * flip are already final: uf[t] becomes t's patch in place, without a
-     * find. While every triangle is in the first patch, its volume about
-     * its first vertex is summed as patch_volumes would (used when it is
-     * the only patch and closed). */
-    uint32_t *cid = uf;
-    unsigned char *flip = P->flip;
+     * flip are already final: uf[t] becomes t's patch << 1 | flip in place,
+     * without a find. While every triangle is in the first patch, its
+     * volume about its first vertex is summed as patch_volumes would (used
+     * when it is the only patch and closed). */
+    uint32_t *pf = uf;
     const float *xyz = P->xyz;
     const float *o0 = xyz + 3 * (size_t)tris[0];
     const double ox = o0[0], oy = o0[1], oz = o0[2];
@@ -885,16 +889,13 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     size_t nc = 0, t = 0;
     for (; t < nt; t++) {
         uint32_t e = uf[t], y = e >> 1;
-        unsigned char f;
         if (y == t) {
             if (nc) break;
-            cid[t] = (uint32_t)nc++;
-            f = 0;
+            pf[t] = (uint32_t)nc++ << 1;
         } else {
-            f = (unsigned char)((e & 1u) ^ flip[y]);
-            cid[t] = cid[y]; /* 0 */
+            pf[t] = (e & 1u) ^ pf[y]; /* patch 0 */
         }
-        flip[t] = f;
+        const unsigned f = pf[t] & 1u;
         if (t + 16 < nt) /* the corners of a later triangle */
             for (int q = 0; q < 3; q++) PREFETCH(xyz + 3 * (size_t)tris[3 * (t + 16) + q]);
         const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
@@ -909,15 +910,9 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     P->vabs0 = vabs;
     for (; t < nt; t++) {
         uint32_t e = uf[t], y = e >> 1;
-        if (y == t) {
-            cid[t] = (uint32_t)nc++;
-            flip[t] = 0;
-        } else {
-            flip[t] = (unsigned char)((e & 1u) ^ flip[y]);
-            cid[t] = cid[y];
-        }
+        pf[t] = y == t ? (uint32_t)nc++ << 1 : (e & 1u) ^ pf[y];
     }
-    P->cid = cid;
+    P->pf = pf;
     P->uf = NULL;
     P->ncomp = nc;
     P->first = malloc((nc ? nc : 1) * sizeof *P->first);
@@ -927,10 +922,10 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     P->org = calloc((nc ? nc : 1) * 3, sizeof *P->org);
     P->depth = calloc(nc ? nc : 1, sizeof *P->depth);
     if (!P->first || !P->pstate || !P->vol || !P->vabs || !P->org || !P->depth) goto nomem;
-    for (size_t u = nt; u-- > 0;) P->first[P->cid[u]] = (uint32_t)u;
+    for (size_t u = nt; u-- > 0;) P->first[PATCH(P, u)] = (uint32_t)u;
     uint64_t nonor = 0;
     for (size_t k = 0; k < nconf; k++) {
-        unsigned char *s = &P->pstate[P->cid[conflicts[k]]];
+        unsigned char *s = &P->pstate[PATCH(P, conflicts[k])];
         if (!(*s & P_NONORIENT)) nonor++;
         *s |= P_NONORIENT;
     }
@@ -972,8 +967,8 @@ static clvox_status patch_boundaries(prep *P)
         /* (patch << 1 | direction), direction 1 = lo -> hi after the patch-relative flip. */
         for (size_t k = 0; k < n; k++) {
             uint32_t u = (uint32_t)P->entry[b + k], t = u >> 1;
-            unsigned dir = (u & 1u) ^ P->flip[t];
-            scratch[k] = (uint64_t)P->cid[t] << 1 | dir;
+            unsigned dir = (u & 1u) ^ FLIP(P, t);
+            scratch[k] = (uint64_t)PATCH(P, t) << 1 | dir;
         }
         sort_u64(scratch, n);
         for (size_t k = 0; k < n;) {
@@ -1016,13 +1011,13 @@ static void patch_volumes(prep *P)
     const uint32_t *tris = P->tris;
     const float *xyz = P->xyz;
     for (size_t t = 0; t < P->nt; t++) {
-        uint32_t c = P->cid[t];
+        uint32_t c = PATCH(P, t);
         const double *o = P->org + 3 * (size_t)c;
         const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
                     *d = xyz + 3 * (size_t)tris[3 * t + 2];
         double v, va;
         vol_term(a, b, d, o[0], o[1], o[2], &v, &va);
-        P->vol[c] += P->flip[t] ? -v : v;
+        P->vol[c] += FLIP(P, t) ? -v : v;
         P->vabs[c] += va;
     }
 }
@@ -1082,7 +1077,7 @@ static clvox_status nesting(prep *P, size_t nclosed)
         k++;
     }
     for (size_t t = 0; t < nt; t++) {
-        uint32_t s = slot[P->cid[t]];
+        uint32_t s = slot[PATCH(P, t)];
         if (s == NONE) continue;
         cbox *bx = &box[s];
         for (int q = 0; q < 3; q++) {
@@ -1136,9 +1131,9 @@ static clvox_status nesting(prep *P, size_t nclosed)
             tlist = malloc((nt ? nt : 1) * sizeof *tlist);
             stamp = malloc((P->nv ? P->nv : 1) * sizeof *stamp);
             if (!tstart || !tlist || !stamp) goto nomem;
-            for (size_t t = 0; t < nt; t++) tstart[P->cid[t] + 1]++;
+            for (size_t t = 0; t < nt; t++) tstart[PATCH(P, t) + 1]++;
             for (size_t c = 0; c < nc; c++) tstart[c + 1] += tstart[c];
-            for (size_t t = 0; t < nt; t++) tlist[tstart[P->cid[t]]++] = (uint32_t)t;
+            for (size_t t = 0; t < nt; t++) tlist[tstart[PATCH(P, t)]++] = (uint32_t)t;
             for (size_t c = nc; c > 0; c--) tstart[c] = tstart[c - 1];
             tstart[0] = 0;
             memset(stamp, 0xFF, (P->nv ? P->nv : 1) * sizeof *stamp);
@@ -1375,6 +1370,9 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
     if (nt < nws) { /* rep and the table are done with: hand back the rest */
         uint32_t *g = realloc(ws, nt * sizeof *ws);
         if (g) ws = g;
+#if defined(__GLIBC__)
+        malloc_trim(0);
+#endif
     }
     P.uf = ws;
 
@@ -1408,7 +1406,7 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
         if (volume_sign(&P, c) == (odd ? 1 : -1)) P.pstate[c] |= P_FLIP;
     }
     uint64_t flipped = 0;
-    for (size_t t = 0; t < nt; t++) flipped += P.flip[t] ^ !!(P.pstate[P.cid[t]] & P_FLIP);
+    for (size_t t = 0; t < nt; t++) flipped += FLIP(&P, t) ^ !!(P.pstate[PATCH(&P, t)] & P_FLIP);
     rep_out->flipped_triangles = flipped;
     if (!out->tris && (flipped || !(flags & CLVOX__PREP_BORROW))) {
         out->tris = malloc(3 * nt * sizeof *out->tris);
@@ -1419,7 +1417,7 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
         memcpy(out->tris, mesh->tris, 3 * nt * sizeof *out->tris);
     }
     for (size_t t = 0; flipped && t < nt; t++) {
-        if (!(P.flip[t] ^ !!(P.pstate[P.cid[t]] & P_FLIP))) continue;
+        if (!(FLIP(&P, t) ^ !!(P.pstate[PATCH(&P, t)] & P_FLIP))) continue;
         uint32_t *tr = out->tris + 3 * t, s = tr[1];
         tr[1] = tr[2];
         tr[2] = s;
@@ -1436,7 +1434,6 @@ done:
     free(P.bstart);
     free(P.chunks);
     free(P.entry);
-    free(P.flip);
     free(P.first);
     free(P.pstate);
     free(P.vol);

@@ -76,10 +76,13 @@
  * nest). Outward closed meshes without wrongly oriented nested shells come
  * out bit for bit (same triangles, same order, no caps); with
  * CLVOX__PREP_BORROW such a result is not even copied. Host memory at the
- * peak: 13 bytes per triangle (half-edge ids, flips) and 12-20 per vertex
- * (one scratch array for the merge table, then the union-find), plus 12 per
- * triangle for the prepared triangles unless borrowed (3.3 M triangles:
- * ~66 MB borrowed, ~106 MB copied; it was ~180 MB).
+ * peak: the larger of the merge (12-20 bytes per vertex: rep and its table)
+ * and the orientation (4 bytes per triangle for the union-find, then each
+ * triangle's patch and flip, in the merge's array shrunk; plus one chunk of
+ * the edge buckets, about 1.5 / NCHUNKS triangle entries of 4 bytes per
+ * triangle), plus 12 per triangle for the prepared triangles unless borrowed
+ * (3.3 M triangles: ~23 MB borrowed, ~63 MB copied; it was ~66 / ~106 MB
+ * with all the half-edges at once and a flip array, ~180 MB before that).
  * Measured: armadillo_s3 (3.3 M triangles, closed) 0.19-0.23 s of CPU on
  * the shared 2-core development box, load 4 (0.24-0.27 s before; see
  * docs/benchmarks.md "Winding numbers"). */

@@ -79,10 +79,11 @@
  * peak: the larger of the merge (12-20 bytes per vertex: rep and its table)
  * and the orientation (4 bytes per triangle for the union-find, then each
  * triangle's patch and flip, in the merge's array shrunk; plus one chunk of
- * the edge buckets, about 1.5 / NCHUNKS triangle entries of 4 bytes per
- * triangle), plus 12 per triangle for the prepared triangles unless borrowed
- * (3.3 M triangles: ~23 MB borrowed, ~63 MB copied; it was ~66 / ~106 MB
- * with all the half-edges at once and a flip array, ~180 MB before that).
+ * the edge buckets, whose 1-2 entries of 4 bytes a triangle (1.8 on
+ * armadillo_s3) are laid out 1 / NCHUNKS at a time), plus 12 per triangle
+ * for the prepared triangles unless borrowed (3.3 M triangles: ~23 MB
+ * borrowed, ~63 MB copied; it was ~66 / ~106 MB with all the half-edges at
+ * once and a flip array, ~180 MB before that).
  * Measured: armadillo_s3 (3.3 M triangles, closed) 0.19-0.23 s of CPU on
  * the shared 2-core development box, load 4 (0.24-0.27 s before; see
  * docs/benchmarks.md "Winding numbers"). */
@@ -705,7 +706,8 @@ static void lo_mid(const uint32_t *tr, uint32_t *lo, uint32_t *mid)
  * about equal size, orient_patches), each by one more pass over the
  * triangles whose writes go to a few hundred places; orient_patches then
  * sorts each block by vertex in the caches. 3.3 M triangles: 4 chunks of
- * about 5 MB instead of 40 MB of half-edge ids. */
+ * about 6 MB instead of 40 MB of half-edge ids, and no slower (one pass
+ * more, but one gather per triangle entry instead of one per half-edge). */
 #define NCHUNKS 4
 static clvox_status build_edges(prep *P)
 {
@@ -1370,7 +1372,10 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
         goto done;
     }
     P.nt = nt;
-    if (nt < nws) { /* rep and the table are done with: hand back the rest */
+    /* rep and the table are done with: the rest goes back to the system
+     * (glibc keeps a shrunk block's tail resident below its adaptive mmap
+     * threshold; 10 MB on armadillo_s3) */
+    if (nt < nws) {
         uint32_t *g = realloc(ws, nt * sizeof *ws);
         if (g) ws = g;
 #if defined(__GLIBC__)

@@ -747,12 +747,16 @@ static clvox_status build_edges(prep *P)
     free(uses);
     P->most = most;
     /* chunks: runs of blocks closed as soon as they hold total / NCHUNKS
-     * entries (at most NCHUNKS of them) */
+     * entries (rounded up), the last one at the last block; when the full
+     * ones took every entry, the empty blocks left join the last of them:
+     * at most NCHUNKS chunks, none empty */
     size_t total = bs[nb], target = (total + NCHUNKS - 1) / NCHUNKS, nc = 0, cmost = 0;
     P->chunks[0] = 0;
     for (size_t k = 0; k < nb; k++) {
         size_t held = bs[k + 1] - bs[P->chunks[nc]];
-        if (held >= target || k + 1 == nb) {
+        if (k + 1 == nb && !held && nc) {
+            P->chunks[nc] = (uint32_t)nb;
+        } else if (held >= target || k + 1 == nb) {
             if (held > cmost) cmost = held;
             P->chunks[++nc] = (uint32_t)(k + 1);
         }

@@ -30,6 +30,9 @@
 #include "../kernels/sampler.h"
 
 #include <math.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -300,8 +303,15 @@ static clvox_status palette_prepare(clvox__method_state *s, const clvox_voxelize
     return st;
 }
 
-/* The winding preparation (part 0) beside the parity soup and quadtree of
- * the mesh as given (part 1, on a copy of the context for its messages). */
+/* The winding preparation (part 1, on a second thread) beside the parity
+ * vertices and quadtree of the mesh as given (part 0, on the calling thread
+ * as in a parity run, on a copy of the context for its messages). This way
+ * round the partition's lists come from the allocator's main arena as in
+ * parity runs: on the second thread they came from a second arena whose
+ * freed memory stayed resident (armadillo_s3 at 512^3: 20 MB more than
+ * parity after the partition, through the cast). The preparation's own
+ * freed scratch is handed back (glibc) as soon as it is done, before the
+ * partition's peak at the end of its build. */
 typedef struct speculation {
     clvox_context *ctx;
     const clvox_mesh *mesh;
@@ -320,8 +330,11 @@ static void speculate(void *arg, int i, int n)
 {
     speculation *sp = arg;
     (void)n;
-    if (i == 0) {
+    if (i == 1) {
         sp->prep_st = clvox__winding_prepare_flags(sp->ctx, sp->mesh, sp->opts->weld, CLVOX__PREP_BORROW, sp->wm);
+#if defined(__GLIBC__)
+        malloc_trim(0);
+#endif
         return;
     }
     sp->tree_st = clvox__grid_space_vertices(sp->side, sp->mesh, sp->grid, sp->axes, 0, &sp->verts);
@@ -441,9 +454,10 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
          * flip, no cap, no triangle dropped; merged vertices have the same
          * positions) those are the prepared ones, bit for bit. Up to
          * SPECULATE_MAX triangles: both at once cost the preparation's
-         * memory on top of the soup's (armadillo_s3, 3.3 M triangles, 512^3:
-         * 1.13 -> 1.00 s; peak 387 MB parity, 449 MB winding, the preparation
-         * borrowing the mesh's triangles). */
+         * memory on top of the partition's (armadillo_s3, 3.3 M triangles,
+         * 512^3: 1.13 -> 1.00 s when it was added; the preparation borrows
+         * the mesh's triangles and holds about 23 MB at a time, see
+         * src/winding_prep.c and docs/benchmarks.md). */
         clvox__winding_mesh wm;
         speculation sp = {ctx, mesh, grid, s->axes, opts, s->dim_v, s->dim_w, s->leaf_size, NULL, NULL, &wm,
                           CLVOX_OK, CLVOX_OK, {0}};

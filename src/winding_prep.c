@@ -76,16 +76,23 @@
  * nest). Outward closed meshes without wrongly oriented nested shells come
  * out bit for bit (same triangles, same order, no caps); with
  * CLVOX__PREP_BORROW such a result is not even copied. Host memory at the
- * peak: 13 bytes per triangle (half-edge ids, flips) and 12-20 per vertex
- * (one scratch array for the merge table, then the union-find), plus 12 per
- * triangle for the prepared triangles unless borrowed (3.3 M triangles:
- * ~66 MB borrowed, ~106 MB copied; it was ~180 MB).
+ * peak: the larger of the merge (12-20 bytes per vertex: rep and its table)
+ * and the orientation (4 bytes per triangle for the union-find, then each
+ * triangle's patch and flip, in the merge's array shrunk; plus one chunk of
+ * the edge buckets, whose 1-2 entries of 4 bytes a triangle (1.8 on
+ * armadillo_s3) are laid out 1 / NCHUNKS at a time), plus 12 per triangle
+ * for the prepared triangles unless borrowed (3.3 M triangles: ~23 MB
+ * borrowed, ~63 MB copied; it was ~66 / ~106 MB with all the half-edges at
+ * once and a flip array, ~180 MB before that).
  * Measured: armadillo_s3 (3.3 M triangles, closed) 0.19-0.23 s of CPU on
  * the shared 2-core development box, load 4 (0.24-0.27 s before; see
  * docs/benchmarks.md "Winding numbers"). */
 #include "winding.h"
 
 #include <math.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -457,7 +464,6 @@ static int pbound_push(pbound_list *l, uint32_t lo, uint32_t hi, uint32_t patch,
     return 0;
 }
 
-#define NEXT_CORNER(i) ((i) % 3 == 2 ? (i) - 2 : (i) + 1)
 
 /* det(a - o, b - o, d - o) (6 x the signed volume of the tetrahedron) and
  * its permanent, which bounds |v| and, times a few ulps, its rounding error. */
@@ -649,15 +655,17 @@ typedef struct prep {
     size_t nv;
     const uint32_t *tris; /* the mesh's triangles, or out->tris after merging */
     size_t nt;
-    uint32_t *uf;        /* orientation union-find, then the patches (in ws: cid) */
-    uint32_t *half;      /* half-edge ids by block of their smaller vertex */
-    uint32_t *bstart;    /* nblocks + 1: the blocks in half */
-    size_t nblocks, most; /* most: the largest block */
+    uint32_t *uf;        /* orientation union-find, then the patches (ws: pf) */
+    uint32_t *bstart;    /* nblocks + 1: each block's triangle entries (build_edges) */
+    uint32_t *chunks;    /* nchunks + 1: first block of each chunk */
+    size_t nblocks, nchunks;
+    size_t most;         /* the most edge uses in one block */
+    size_t chunk_most;   /* the most entries in one chunk */
     unsigned shift;      /* block of vertex v: v >> shift */
     uint64_t *entry;     /* uses of the special edges: hi << 32 | triangle << 1 | (1: the use runs lo -> hi) */
     size_t nentry, cap_entry;
-    uint32_t *cid;       /* patch of each triangle (= uf, in ws) */
-    unsigned char *flip; /* 1: triangle reversed relative to its patch's first triangle */
+    uint32_t *pf;        /* each triangle's patch << 1 | flip (1: reversed relative to the
+                            patch's first triangle), in place of uf (in ws) */
     uint32_t *first;     /* first triangle of each patch */
     unsigned char *pstate;
     double *vol;         /* 6 x signed volume per patch */
@@ -671,18 +679,39 @@ typedef struct prep {
     double vol0, vabs0;
 } prep;
 
+#define PATCH(P, t) ((P)->pf[t] >> 1)
+#define FLIP(P, t) ((P)->pf[t] & 1u)
+
 static clvox_status oom(prep *P, const char *what)
 {
     return clvox__fail(P->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory %s (%zu triangles)", what, P->nt);
 }
 
-/* The half-edges (ids 3t + corner: the edge from that corner to the next)
- * by block of their smaller vertex (vertices v >> shift), in id order: one
- * pass whose writes go to a few thousand places, not to one per vertex
- * (orient_patches sorts each block by vertex in the caches). */
+/* The smallest and the middle corner of triangle t: the smaller vertex of
+ * its edges (two start at the smallest corner, one at the middle one). */
+static void lo_mid(const uint32_t *tr, uint32_t *lo, uint32_t *mid)
+{
+    uint32_t a = tr[0], b = tr[1], c = tr[2];
+    uint32_t mn = a < b ? a : b, mx = a < b ? b : a;
+    *lo = mn < c ? mn : c;
+    *mid = c < mn ? mn : c > mx ? mx : c;
+}
+
+/* The edges by block of their smaller vertex (vertices v >> shift), as
+ * triangle entries: a triangle is entered once in each block that holds the
+ * smaller vertex of one of its edges (the block of its smallest corner, and
+ * that of its middle corner when it differs), so at most 2 entries a
+ * triangle instead of 3 half-edges. Only the offsets are made here: the
+ * entries are laid out one chunk of blocks at a time (NCHUNKS chunks of
+ * about equal size, orient_patches), each by one more pass over the
+ * triangles whose writes go to a few hundred places; orient_patches then
+ * sorts each block by vertex in the caches. 3.3 M triangles: 4 chunks of
+ * about 6 MB instead of 40 MB of half-edge ids, and no slower (one pass
+ * more, but one gather per triangle entry instead of one per half-edge). */
+#define NCHUNKS 4
 static clvox_status build_edges(prep *P)
 {
-    size_t ne = 3 * P->nt, nv = P->nv;
+    size_t nt = P->nt, nv = P->nv;
     const uint32_t *tris = P->tris;
     unsigned shift = 0;
     while ((nv >> shift) > 2048) shift++;
@@ -690,26 +719,50 @@ static clvox_status build_edges(prep *P)
     P->shift = shift;
     P->nblocks = nb;
     P->bstart = calloc(nb + 1, sizeof *P->bstart);
-    P->half = malloc((ne ? ne : 1) * sizeof *P->half);
-    if (!P->bstart || !P->half) return oom(P, "for the edges");
-    uint32_t *bs = P->bstart, *half = P->half;
-    for (size_t i = 0; i < ne; i++) {
-        uint32_t a = tris[i], b = tris[NEXT_CORNER(i)];
-        bs[((a < b ? a : b) >> shift) + 1]++;
+    P->chunks = malloc((NCHUNKS + 1) * sizeof *P->chunks);
+    uint32_t *uses = calloc(nb, sizeof *uses);
+    if (!P->bstart || !P->chunks || !uses) {
+        free(uses);
+        return oom(P, "for the edges");
+    }
+    uint32_t *bs = P->bstart;
+    for (size_t t = 0; t < nt; t++) {
+        uint32_t lo, mid;
+        lo_mid(tris + 3 * t, &lo, &mid);
+        size_t bl = lo >> shift, bm = mid >> shift;
+        bs[bl + 1]++;
+        if (bm != bl) {
+            bs[bm + 1]++;
+            uses[bl] += 2;
+            uses[bm] += 1;
+        } else {
+            uses[bl] += 3;
+        }
     }
     size_t most = 0;
     for (size_t k = 0; k < nb; k++) {
-        if (bs[k + 1] > most) most = bs[k + 1];
+        if (uses[k] > most) most = uses[k];
         bs[k + 1] += bs[k];
     }
+    free(uses);
     P->most = most;
-    for (size_t i = 0; i < ne; i++) {
-        uint32_t a = tris[i], b = tris[NEXT_CORNER(i)];
-        half[bs[(a < b ? a : b) >> shift]++] = (uint32_t)i;
+    /* chunks: runs of blocks closed as soon as they hold total / NCHUNKS
+     * entries (rounded up), the last one at the last block; when the full
+     * ones took every entry, the empty blocks left join the last of them:
+     * at most NCHUNKS chunks, none empty */
+    size_t total = bs[nb], target = (total + NCHUNKS - 1) / NCHUNKS, nc = 0, cmost = 0;
+    P->chunks[0] = 0;
+    for (size_t k = 0; k < nb; k++) {
+        size_t held = bs[k + 1] - bs[P->chunks[nc]];
+        if (k + 1 == nb && !held && nc) {
+            P->chunks[nc] = (uint32_t)nb;
+        } else if (held >= target || k + 1 == nb) {
+            if (held > cmost) cmost = held;
+            P->chunks[++nc] = (uint32_t)(k + 1);
+        }
     }
-    /* bs[k] is now the end of block k; shift back to starts. */
-    for (size_t k = nb; k > 0; k--) bs[k] = bs[k - 1];
-    bs[0] = 0;
+    P->nchunks = nc;
+    P->chunk_most = cmost;
     return CLVOX_OK;
 }
 
@@ -742,82 +795,102 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     uint32_t *conflicts = NULL;
     size_t nconf = 0, capconf = 0;
     clvox_status st = CLVOX_OK;
-    const uint32_t *tris = P->tris, *half = P->half, *bs = P->bstart;
+    const uint32_t *tris = P->tris, *bs = P->bstart;
     const unsigned shift = P->shift;
     const size_t most = P->most ? P->most : 1, vspan = (size_t)1 << shift;
     uint64_t *key = malloc(2 * most * sizeof *key), *raw = key ? key + most : NULL;
     uint32_t *loc = malloc(most * sizeof *loc), *cnt = malloc((vspan + 1) * sizeof *cnt);
-    if (!key || !loc || !cnt) goto nomem;
+    uint32_t *ent = malloc((P->chunk_most ? P->chunk_most : 1) * sizeof *ent);
+    uint32_t *cur = malloc(P->nblocks * sizeof *cur);
+    if (!key || !loc || !cnt || !ent || !cur) goto nomem;
     for (size_t t = 0; t < nt; t++) uf[t] = (uint32_t)t << 1;
-    const size_t ne = 3 * nt;
     uint64_t nm = 0;
     enum { AHEAD = 16 };
-    for (size_t blk = 0; blk < P->nblocks; blk++) {
-        size_t b0 = bs[blk], m = bs[blk + 1] - b0, v0 = blk << shift;
-        if (!m) continue;
-        /* The block's uses as keys, then by vertex (stable: id order). */
-        memset(cnt, 0, (vspan + 1) * sizeof *cnt);
-        for (size_t k = 0; k < m; k++) {
-            uint32_t h = half[b0 + k];
-            if (b0 + k + 64 < ne) PREFETCH(&tris[half[b0 + k + 64]]); /* little index locality: fetch ahead */
-            uint32_t a = tris[h], c = tris[NEXT_CORNER(h)];
-            uint32_t lo = a < c ? a : c, hi = a < c ? c : a;
-            raw[k] = (uint64_t)hi << 32 | (uint64_t)(h / 3) << 1 | (uint64_t)(a < c);
-            loc[k] = (uint32_t)(lo - v0);
-            cnt[loc[k] + 1]++;
+    for (size_t ch = 0; ch < P->nchunks; ch++) {
+        /* the chunk's entries, blocks k0..k1-1, in triangle order */
+        const size_t k0 = P->chunks[ch], k1 = P->chunks[ch + 1], base = bs[k0];
+        const size_t nk = k1 - k0;
+        for (size_t k = k0; k < k1; k++) cur[k] = bs[k] - (uint32_t)base;
+        for (size_t t = 0; t < nt; t++) {
+            uint32_t lo, mid;
+            lo_mid(tris + 3 * t, &lo, &mid);
+            size_t bl = lo >> shift, bm = mid >> shift;
+            if (bl - k0 < nk) ent[cur[bl]++] = (uint32_t)t;
+            if (bm != bl && bm - k0 < nk) ent[cur[bm]++] = (uint32_t)t;
         }
-        for (size_t q = 0; q < vspan; q++) cnt[q + 1] += cnt[q];
-        for (size_t k = 0; k < m; k++) key[cnt[loc[k]]++] = raw[k];
-        /* cnt[q] is now the end of vertex v0 + q's uses. */
-        for (size_t q = 0, i0 = 0; q < vspan && i0 < m; i0 = cnt[q], q++) {
-            size_t e = cnt[q];
-            if (e - i0 > 1) sort_u64(key + i0, e - i0);
-            for (size_t i = i0; i < e;) {
-                size_t j = i + 1;
-                while (j < e && key[j] >> 32 == key[i] >> 32) j++;
-                if (j - i == 2) {
-                    if (j + AHEAD + 1 < m) {
-                        PREFETCH(&uf[(uint32_t)key[j + AHEAD] >> 1]);
-                        PREFETCH(&uf[(uint32_t)key[j + AHEAD + 1] >> 1]);
-                    }
-                    uint32_t u0 = (uint32_t)key[i], u1 = (uint32_t)key[i + 1];
-                    unsigned rel = !((u0 ^ u1) & 1u); /* same direction: one must flip */
-                    if (pf_union(uf, u0 >> 1, u1 >> 1, rel)) {
-                        if (special_push(P, (uint32_t)(v0 + q), key + i, j - i)) goto nomem;
-                        if (nconf == capconf) {
-                            capconf = capconf ? 2 * capconf : 64;
-                            uint32_t *g = realloc(conflicts, capconf * sizeof *g);
-                            if (!g) goto nomem;
-                            conflicts = g;
-                        }
-                        conflicts[nconf++] = u0 >> 1;
-                    }
-                } else {
-                    nm += j - i > 2;
-                    if (special_push(P, (uint32_t)(v0 + q), key + i, j - i)) goto nomem;
+        for (size_t blk = k0; blk < k1; blk++) {
+            const uint32_t *be = ent + (bs[blk] - base);
+            size_t nb_ent = bs[blk + 1] - bs[blk], v0 = blk << shift, m = 0;
+            if (!nb_ent) continue;
+            /* The block's uses as keys (hi << 32 | triangle << 1 | direction),
+             * then by vertex; the sort below orders each vertex's keys in full. */
+            memset(cnt, 0, (vspan + 1) * sizeof *cnt);
+            for (size_t k = 0; k < nb_ent; k++) {
+                uint32_t t = be[k];
+                if (k + 32 < nb_ent) PREFETCH(&tris[3 * (size_t)be[k + 32]]); /* little index locality: fetch ahead */
+                const uint32_t *tr = tris + 3 * (size_t)t;
+                for (int q = 0; q < 3; q++) {
+                    uint32_t a = tr[q], c = tr[q == 2 ? 0 : q + 1];
+                    uint32_t lo = a < c ? a : c, hi = a < c ? c : a;
+                    if ((lo >> shift) != blk) continue;
+                    raw[m] = (uint64_t)hi << 32 | (uint64_t)t << 1 | (uint64_t)(a < c);
+                    loc[m] = (uint32_t)(lo - v0);
+                    cnt[loc[m] + 1]++;
+                    m++;
                 }
-                i = j;
+            }
+            for (size_t q = 0; q < vspan; q++) cnt[q + 1] += cnt[q];
+            for (size_t k = 0; k < m; k++) key[cnt[loc[k]]++] = raw[k];
+            /* cnt[q] is now the end of vertex v0 + q's uses. */
+            for (size_t q = 0, i0 = 0; q < vspan && i0 < m; i0 = cnt[q], q++) {
+                size_t e = cnt[q];
+                if (e - i0 > 1) sort_u64(key + i0, e - i0);
+                for (size_t i = i0; i < e;) {
+                    size_t j = i + 1;
+                    while (j < e && key[j] >> 32 == key[i] >> 32) j++;
+                    if (j - i == 2) {
+                        if (j + AHEAD + 1 < m) {
+                            PREFETCH(&uf[(uint32_t)key[j + AHEAD] >> 1]);
+                            PREFETCH(&uf[(uint32_t)key[j + AHEAD + 1] >> 1]);
+                        }
+                        uint32_t u0 = (uint32_t)key[i], u1 = (uint32_t)key[i + 1];
+                        unsigned rel = !((u0 ^ u1) & 1u); /* same direction: one must flip */
+                        if (pf_union(uf, u0 >> 1, u1 >> 1, rel)) {
+                            if (special_push(P, (uint32_t)(v0 + q), key + i, j - i)) goto nomem;
+                            if (nconf == capconf) {
+                                capconf = capconf ? 2 * capconf : 64;
+                                uint32_t *g = realloc(conflicts, capconf * sizeof *g);
+                                if (!g) goto nomem;
+                                conflicts = g;
+                            }
+                            conflicts[nconf++] = u0 >> 1;
+                        }
+                    } else {
+                        nm += j - i > 2;
+                        if (special_push(P, (uint32_t)(v0 + q), key + i, j - i)) goto nomem;
+                    }
+                    i = j;
+                }
             }
         }
     }
     free(key);
     free(loc);
     free(cnt);
+    free(ent);
+    free(cur);
     key = NULL;
-    loc = cnt = NULL;
+    loc = cnt = ent = cur = NULL;
     *nonmanifold = nm;
-    P->flip = malloc(nt ? nt : 1);
-    if (!P->flip) goto nomem;
     /* Patches numbered by their roots (their smallest triangles) in
      * triangle order, flips relative to the root. A parent is always
      * smaller than its child (roots link under smaller roots, halving
      * skips to a grandparent), so in triangle order the parent's patch and
-     * flip are already final: uf[t] becomes t's patch in place, without a
-     * find. While every triangle is in the first patch, its volume about
-     * its first vertex is summed as patch_volumes would (used when it is
-     * the only patch and closed). */
-    uint32_t *cid = uf;
-    unsigned char *flip = P->flip;
+     * flip are already final: uf[t] becomes t's patch << 1 | flip in place,
+     * without a find. While every triangle is in the first patch, its
+     * volume about its first vertex is summed as patch_volumes would (used
+     * when it is the only patch and closed). */
+    uint32_t *pf = uf;
     const float *xyz = P->xyz;
     const float *o0 = xyz + 3 * (size_t)tris[0];
     const double ox = o0[0], oy = o0[1], oz = o0[2];
@@ -825,16 +898,13 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     size_t nc = 0, t = 0;
     for (; t < nt; t++) {
         uint32_t e = uf[t], y = e >> 1;
-        unsigned char f;
         if (y == t) {
             if (nc) break;
-            cid[t] = (uint32_t)nc++;
-            f = 0;
+            pf[t] = (uint32_t)nc++ << 1;
         } else {
-            f = (unsigned char)((e & 1u) ^ flip[y]);
-            cid[t] = cid[y]; /* 0 */
+            pf[t] = (e & 1u) ^ pf[y]; /* patch 0 */
         }
-        flip[t] = f;
+        const unsigned f = pf[t] & 1u;
         if (t + 16 < nt) /* the corners of a later triangle */
             for (int q = 0; q < 3; q++) PREFETCH(xyz + 3 * (size_t)tris[3 * (t + 16) + q]);
         const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
@@ -849,15 +919,9 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     P->vabs0 = vabs;
     for (; t < nt; t++) {
         uint32_t e = uf[t], y = e >> 1;
-        if (y == t) {
-            cid[t] = (uint32_t)nc++;
-            flip[t] = 0;
-        } else {
-            flip[t] = (unsigned char)((e & 1u) ^ flip[y]);
-            cid[t] = cid[y];
-        }
+        pf[t] = y == t ? (uint32_t)nc++ << 1 : (e & 1u) ^ pf[y];
     }
-    P->cid = cid;
+    P->pf = pf;
     P->uf = NULL;
     P->ncomp = nc;
     P->first = malloc((nc ? nc : 1) * sizeof *P->first);
@@ -867,10 +931,10 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
     P->org = calloc((nc ? nc : 1) * 3, sizeof *P->org);
     P->depth = calloc(nc ? nc : 1, sizeof *P->depth);
     if (!P->first || !P->pstate || !P->vol || !P->vabs || !P->org || !P->depth) goto nomem;
-    for (size_t u = nt; u-- > 0;) P->first[P->cid[u]] = (uint32_t)u;
+    for (size_t u = nt; u-- > 0;) P->first[PATCH(P, u)] = (uint32_t)u;
     uint64_t nonor = 0;
     for (size_t k = 0; k < nconf; k++) {
-        unsigned char *s = &P->pstate[P->cid[conflicts[k]]];
+        unsigned char *s = &P->pstate[PATCH(P, conflicts[k])];
         if (!(*s & P_NONORIENT)) nonor++;
         *s |= P_NONORIENT;
     }
@@ -882,6 +946,8 @@ done:
     free(key);
     free(loc);
     free(cnt);
+    free(ent);
+    free(cur);
     free(conflicts);
     return st;
 }
@@ -910,8 +976,8 @@ static clvox_status patch_boundaries(prep *P)
         /* (patch << 1 | direction), direction 1 = lo -> hi after the patch-relative flip. */
         for (size_t k = 0; k < n; k++) {
             uint32_t u = (uint32_t)P->entry[b + k], t = u >> 1;
-            unsigned dir = (u & 1u) ^ P->flip[t];
-            scratch[k] = (uint64_t)P->cid[t] << 1 | dir;
+            unsigned dir = (u & 1u) ^ FLIP(P, t);
+            scratch[k] = (uint64_t)PATCH(P, t) << 1 | dir;
         }
         sort_u64(scratch, n);
         for (size_t k = 0; k < n;) {
@@ -954,13 +1020,13 @@ static void patch_volumes(prep *P)
     const uint32_t *tris = P->tris;
     const float *xyz = P->xyz;
     for (size_t t = 0; t < P->nt; t++) {
-        uint32_t c = P->cid[t];
+        uint32_t c = PATCH(P, t);
         const double *o = P->org + 3 * (size_t)c;
         const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
                     *d = xyz + 3 * (size_t)tris[3 * t + 2];
         double v, va;
         vol_term(a, b, d, o[0], o[1], o[2], &v, &va);
-        P->vol[c] += P->flip[t] ? -v : v;
+        P->vol[c] += FLIP(P, t) ? -v : v;
         P->vabs[c] += va;
     }
 }
@@ -1020,7 +1086,7 @@ static clvox_status nesting(prep *P, size_t nclosed)
         k++;
     }
     for (size_t t = 0; t < nt; t++) {
-        uint32_t s = slot[P->cid[t]];
+        uint32_t s = slot[PATCH(P, t)];
         if (s == NONE) continue;
         cbox *bx = &box[s];
         for (int q = 0; q < 3; q++) {
@@ -1074,9 +1140,9 @@ static clvox_status nesting(prep *P, size_t nclosed)
             tlist = malloc((nt ? nt : 1) * sizeof *tlist);
             stamp = malloc((P->nv ? P->nv : 1) * sizeof *stamp);
             if (!tstart || !tlist || !stamp) goto nomem;
-            for (size_t t = 0; t < nt; t++) tstart[P->cid[t] + 1]++;
+            for (size_t t = 0; t < nt; t++) tstart[PATCH(P, t) + 1]++;
             for (size_t c = 0; c < nc; c++) tstart[c + 1] += tstart[c];
-            for (size_t t = 0; t < nt; t++) tlist[tstart[P->cid[t]]++] = (uint32_t)t;
+            for (size_t t = 0; t < nt; t++) tlist[tstart[PATCH(P, t)]++] = (uint32_t)t;
             for (size_t c = nc; c > 0; c--) tstart[c] = tstart[c - 1];
             tstart[0] = 0;
             memset(stamp, 0xFF, (P->nv ? P->nv : 1) * sizeof *stamp);
@@ -1265,10 +1331,10 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
     uint32_t *ws = NULL;
 
     /* 1-2. merge, weld, re-index, drop. One scratch array (ws) serves the
-     * merge (rep, its table) and then the edge buckets and the union-find
-     * (start, uf, then the patches): fewer fresh pages to fault in. */
+     * merge (rep, its table) and then, shrunk to one word a triangle, the
+     * union-find (uf, then the patches): fewer fresh pages to fault in. */
     size_t cap = pow2_at_least(2 * nv), nws = nv + cap;
-    if (nws < nv + 1 + nt_in) nws = nv + 1 + nt_in;
+    if (nws < nt_in) nws = nt_in;
     ws = malloc(nws * sizeof *ws);
     if (!ws) {
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory preparing %zu triangles", nt_in);
@@ -1310,16 +1376,26 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
         goto done;
     }
     P.nt = nt;
-    P.uf = ws + nv + 1;
+    /* rep and the table are done with: the rest goes back to the system
+     * (glibc keeps a shrunk block's tail resident below its adaptive mmap
+     * threshold; 10 MB on armadillo_s3) */
+    if (nt < nws) {
+        uint32_t *g = realloc(ws, nt * sizeof *ws);
+        if (g) ws = g;
+#if defined(__GLIBC__)
+        malloc_trim(0);
+#endif
+    }
+    P.uf = ws;
 
     /* 3. edges and orientation patches. */
     if ((st = build_edges(&P)) != CLVOX_OK) goto done;
     if ((st = orient_patches(&P, &rep_out->nonmanifold_edges, &rep_out->nonorientable_components)) != CLVOX_OK)
         goto done;
-    free(P.half);
     free(P.bstart);
-    P.half = NULL;
+    free(P.chunks);
     P.bstart = NULL;
+    P.chunks = NULL;
     rep_out->components = P.ncomp;
     if ((st = patch_boundaries(&P)) != CLVOX_OK) goto done;
     free(P.entry);
@@ -1342,7 +1418,7 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
         if (volume_sign(&P, c) == (odd ? 1 : -1)) P.pstate[c] |= P_FLIP;
     }
     uint64_t flipped = 0;
-    for (size_t t = 0; t < nt; t++) flipped += P.flip[t] ^ !!(P.pstate[P.cid[t]] & P_FLIP);
+    for (size_t t = 0; t < nt; t++) flipped += FLIP(&P, t) ^ !!(P.pstate[PATCH(&P, t)] & P_FLIP);
     rep_out->flipped_triangles = flipped;
     if (!out->tris && (flipped || !(flags & CLVOX__PREP_BORROW))) {
         out->tris = malloc(3 * nt * sizeof *out->tris);
@@ -1353,7 +1429,7 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
         memcpy(out->tris, mesh->tris, 3 * nt * sizeof *out->tris);
     }
     for (size_t t = 0; flipped && t < nt; t++) {
-        if (!(P.flip[t] ^ !!(P.pstate[P.cid[t]] & P_FLIP))) continue;
+        if (!(FLIP(&P, t) ^ !!(P.pstate[PATCH(&P, t)] & P_FLIP))) continue;
         uint32_t *tr = out->tris + 3 * t, s = tr[1];
         tr[1] = tr[2];
         tr[2] = s;
@@ -1367,10 +1443,9 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
 done:
     free(ws);
     free(bedges);
-    free(P.half);
     free(P.bstart);
+    free(P.chunks);
     free(P.entry);
-    free(P.flip);
     free(P.first);
     free(P.pstate);
     free(P.vol);

@@ -74,11 +74,13 @@ def _name_unknown_cpu():
 
     PoCL keeps the name as a `char *llvm_cpu` in its device object (struct _cl_device_id,
     the cl_device_id itself) and passes it to clang and to the code generator at every
-    kernel build. This finds that pointer: the only 8-byte field within the object's first
-    4 KiB that points to the string "generic" (every address is checked against
-    /proc/self/maps before it is read), and points it at a string of ours. Anything else
-    (another PoCL, no such field, two of them) changes nothing, and builds fail as before.
-    Returns the name given, or None."""
+    kernel build. This finds that pointer: the first 8-byte field from the object's start
+    (within 4 KiB) that points to the string "generic" (every address is checked against
+    /proc/self/maps before it is read), and points it at a string of ours. The first, not
+    the only one: the object is smaller than 4 KiB, and what the heap puts after it may
+    hold another pointer to a "generic" (whether it does changed with the Python code
+    that ran before, and with it every kernel build). Anything else (another PoCL, no such
+    field) changes nothing, and builds fail as before. Returns the name given, or None."""
     choice = os.environ.get("CLVOX_POCL_CPU", "")
     if choice == "0":
         return None
@@ -109,19 +111,20 @@ def _name_unknown_cpu():
             continue
         ok, writable = _mapped("r"), _mapped("w")
         for d in devs:
-            fields = []
+            field = None
             for off in range(0, 4096, 8):
                 if not ok(d + off, 8):
                     break
                 v = ctypes.c_uint64.from_address(d + off).value
                 if v and ok(v, 8) and ctypes.string_at(v, 8) == b"generic\0":
-                    fields.append(off)
-            if len(fields) != 1 or not writable(d + fields[0], 8):
+                    field = off
+                    break
+            if field is None or not writable(d + field, 8):
                 continue
             name = choice or _target_for_features(_cpu_flags())
             buf = ctypes.create_string_buffer(name.encode())
             _keep.append(buf)
-            ctypes.c_uint64.from_address(d + fields[0]).value = ctypes.addressof(buf)
+            ctypes.c_uint64.from_address(d + field).value = ctypes.addressof(buf)
             given = name
     return given
 

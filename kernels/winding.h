@@ -368,52 +368,57 @@ inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, cl
     }
 }
 
-/* clvox_cap_estimate of the nodes m and n at once, in two lanes (its
- * arithmetic, so the same numbers: the box distance per axis is max(lo -
- * p, p - hi, 0), exactly its branches' value). */
-#if defined(cl_khr_fp64)
-typedef double2 clvox_real2;
-typedef long2 clvox_mask2;
-#else
-typedef float2 clvox_real2;
-typedef int2 clvox_mask2;
-#endif
+/* clvox_cap_estimate of four nodes at once, lane by lane (its arithmetic,
+ * so the same numbers: the box distance per axis is max(lo - p, p - hi,
+ * 0), exactly its branches' value). */
+inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clvox_cap_node *l,
+                                global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
+                                clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
+{
+#define CLVOX_N4(f) ((clvox_real4)(k->f, l->f, m->f, n->f))
+    const clvox_real4 zero = (clvox_real4)0;
+    const clvox_real4 gx = fmax(fmax(CLVOX_N4(lo[0]) - px, px - CLVOX_N4(hi[0])), zero);
+    const clvox_real4 gy = fmax(fmax(CLVOX_N4(lo[1]) - py, py - CLVOX_N4(hi[1])), zero);
+    const clvox_real4 gz = fmax(fmax(CLVOX_N4(lo[2]) - pz, pz - CLVOX_N4(hi[2])), zero);
+    const clvox_real4 db2 = gx * gx + gy * gy + gz * gz;
+    const clvox_real4 a = CLVOX_N4(area4pi), cap = CLVOX_N4(half_count);
+    const clvox_real4 bb = a / db2 * (clvox_real)1.000001;
+    const clvox_real4 b0 = select(select(cap, bb, bb < cap), cap, db2 == zero);
+    const clvox_real4 x = CLVOX_N4(centre[0]) - px, y = CLVOX_N4(centre[1]) - py, z = CLVOX_N4(centre[2]) - pz;
+    const clvox_real4 r = CLVOX_N4(radius);
+    const clvox_real4 d2 = x * x + y * y + z * z, d = sqrt(d2);
+    const clvox_real4 dm = d * (1 - (clvox_real)CLVOX_EST_DREL) - r;
+    const clvox_real4 idr = (clvox_real)1 / dm, idr2 = idr * idr;
+    const clvox_real4 e1 = a * idr2 * ((2 * r) * idr * (clvox_real)CLVOX_EST_ROUND + (clvox_real)CLVOX_EST_M0);
+    const clvox_real4 e2 = (3 * CLVOX_N4(second4pi)) * (idr2 * idr2) * (clvox_real)CLVOX_EST_ROUND +
+                           a * idr2 * ((clvox_real)CLVOX_EST_M0 + (clvox_real)CLVOX_EST_M1 * r * idr);
+    const clvox_real4 id = (clvox_real)1 / d, id2 = id * id, id3 = id2 * id;
+    const clvox_real4 nx = CLVOX_N4(normal4pi[0]) * x + CLVOX_N4(normal4pi[1]) * y + CLVOX_N4(normal4pi[2]) * z;
+    const clvox_real4 qf = (CLVOX_N4(quad4pi[0]) * x * x + CLVOX_N4(quad4pi[1]) * y * y + CLVOX_N4(quad4pi[2]) * z * z) +
+                           2 * (CLVOX_N4(quad4pi[3]) * x * y + CLVOX_N4(quad4pi[4]) * x * z +
+                                CLVOX_N4(quad4pi[5]) * y * z);
+#undef CLVOX_N4
+    const clvox_mask4 ok = dm > zero;
+    const clvox_mask4 use1 = ok & (e1 < b0);
+    clvox_real4 es = select(zero, nx * id3, use1), er = select(b0, e1, use1);
+    const clvox_mask4 use2 = ok & (e2 < er);
+    es = select(es, (nx * d2 + qf) * (id3 * id2), use2);
+    er = select(er, e2, use2);
+    vstore4(es, 0, est);
+    vstore4(er, 0, err);
+}
+
+/* The same for two nodes (a node's children): lanes 2 and 3 repeat them
+ * (on the CPU devices a vector of four doubles costs what one of two does). */
 inline void clvox_cap_estimate2(global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
                                 clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
 {
-#define CLVOX_N2(f) ((clvox_real2)(m->f, n->f))
-    const clvox_real2 zero = (clvox_real2)0;
-    const clvox_real2 gx = fmax(fmax(CLVOX_N2(lo[0]) - px, px - CLVOX_N2(hi[0])), zero);
-    const clvox_real2 gy = fmax(fmax(CLVOX_N2(lo[1]) - py, py - CLVOX_N2(hi[1])), zero);
-    const clvox_real2 gz = fmax(fmax(CLVOX_N2(lo[2]) - pz, pz - CLVOX_N2(hi[2])), zero);
-    const clvox_real2 db2 = gx * gx + gy * gy + gz * gz;
-    const clvox_real2 a = CLVOX_N2(area4pi), cap = CLVOX_N2(half_count);
-    const clvox_real2 bb = a / db2 * (clvox_real)1.000001;
-    const clvox_real2 b0 = select(select(cap, bb, bb < cap), cap, db2 == zero);
-    const clvox_real2 x = CLVOX_N2(centre[0]) - px, y = CLVOX_N2(centre[1]) - py, z = CLVOX_N2(centre[2]) - pz;
-    const clvox_real2 r = CLVOX_N2(radius);
-    const clvox_real2 d2 = x * x + y * y + z * z, d = sqrt(d2);
-    const clvox_real2 dm = d * (1 - (clvox_real)CLVOX_EST_DREL) - r;
-    const clvox_real2 idr = (clvox_real)1 / dm, idr2 = idr * idr;
-    const clvox_real2 e1 = a * idr2 * ((2 * r) * idr * (clvox_real)CLVOX_EST_ROUND + (clvox_real)CLVOX_EST_M0);
-    const clvox_real2 e2 = (3 * CLVOX_N2(second4pi)) * (idr2 * idr2) * (clvox_real)CLVOX_EST_ROUND +
-                           a * idr2 * ((clvox_real)CLVOX_EST_M0 + (clvox_real)CLVOX_EST_M1 * r * idr);
-    const clvox_real2 id = (clvox_real)1 / d, id2 = id * id, id3 = id2 * id;
-    const clvox_real2 nx = CLVOX_N2(normal4pi[0]) * x + CLVOX_N2(normal4pi[1]) * y + CLVOX_N2(normal4pi[2]) * z;
-    const clvox_real2 qf = (CLVOX_N2(quad4pi[0]) * x * x + CLVOX_N2(quad4pi[1]) * y * y + CLVOX_N2(quad4pi[2]) * z * z) +
-                           2 * (CLVOX_N2(quad4pi[3]) * x * y + CLVOX_N2(quad4pi[4]) * x * z +
-                                CLVOX_N2(quad4pi[5]) * y * z);
-#undef CLVOX_N2
-    const clvox_mask2 ok = dm > zero;
-    const clvox_mask2 use1 = ok & (e1 < b0);
-    clvox_real2 es = select(zero, nx * id3, use1), er = select(b0, e1, use1);
-    const clvox_mask2 use2 = ok & (e2 < er);
-    es = select(es, (nx * d2 + qf) * (id3 * id2), use2);
-    er = select(er, e2, use2);
-    est[0] = es.s0;
-    est[1] = es.s1;
-    err[0] = er.s0;
-    err[1] = er.s1;
+    clvox_real e[4], b[4];
+    clvox_cap_estimate4(m, n, m, n, px, py, pz, e, b);
+    est[0] = e[0];
+    est[1] = e[1];
+    err[0] = b[0];
+    err[1] = b[1];
 }
 
 /* Inside (1), outside (0) or undecided (-1) for every w in [lo, hi]. */
@@ -497,7 +502,10 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
                 stack[sp++] = nd;
             }
         }
-        uint i = 0; /* the frontier's estimates, two at a time */
+        uint i = 0; /* the frontier's estimates, four or two at a time */
+        for (; i + 3u < sp; i += 4u)
+            clvox_cap_estimate4(nodes + stack[i], nodes + stack[i + 1u], nodes + stack[i + 2u], nodes + stack[i + 3u],
+                                px, py, pz, se + i, sb + i);
         for (; i + 1u < sp; i += 2u)
             clvox_cap_estimate2(nodes + stack[i], nodes + stack[i + 1u], px, py, pz, se + i, sb + i);
         if (i < sp) clvox_cap_estimate(nodes + stack[i], px, py, pz, &se[i], &sb[i]);

@@ -11,10 +11,6 @@
 #include <string.h>
 
 #define CAP_LEAF 4 /* cap triangles per leaf */
-/* The nodes' centre: their box's (0) or their caps' area centroid (1). */
-#ifndef CAP_CENTROID
-#define CAP_CENTROID 0
-#endif
 
 typedef struct cap_key {
     double key;
@@ -144,7 +140,7 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         uint32_t first = nd->tri_first, count = nd->tri_count;
         double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
         double clo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, chi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
-        double area = 0.0, vec[3] = {0, 0, 0}, gsum[3] = {0, 0, 0};
+        double area = 0.0, vec[3] = {0, 0, 0};
         for (uint32_t i = first; i < first + count; i++) {
             const double *p = q + (size_t)order[i] * 9;
             for (int a = 0; a < 3; a++) {
@@ -164,18 +160,13 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             }
             double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
                    cz = e1[0] * e2[1] - e1[1] * e2[0];
-            const double ta = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
-            area += ta;
+            area += 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
             vec[0] += 0.5 * cx, vec[1] += 0.5 * cy, vec[2] += 0.5 * cz;
-            for (int a = 0; a < 3; a++) gsum[a] += ta * (p[a] + p[3 + a] + p[6 + a]) / 3.0;
         }
         for (int a = 0; a < 3; a++) {
             nd->lo[a] = round_down(lo[a]);
             nd->hi[a] = round_up(hi[a]);
             nd->centre[a] = (float)(0.5 * (lo[a] + hi[a]));
-#if CAP_CENTROID
-            if (area > 0) nd->centre[a] = (float)(gsum[a] / area);
-#endif
             nd->normal4pi[a] = (float)(vec[a] / (4.0 * 3.14159265358979323846));
         }
         /* the sphere, and the moments about the float centre c the kernels

@@ -357,7 +357,8 @@ inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, cl
     const clvox_real id = (clvox_real)1 / d, id2 = id * id, id3 = id2 * id;
     const clvox_real nx = n->normal4pi[0] * x + n->normal4pi[1] * y + n->normal4pi[2] * z;
     global const clvox_f32 *q = n->quad4pi;
-    const clvox_real qf = (q[0] * x * x + q[1] * y * y + q[2] * z * z) + 2 * (q[3] * x * y + q[4] * x * z + q[5] * y * z);
+    const clvox_real qf =
+        (q[0] * x * x + q[1] * y * y + q[2] * z * z) + 2 * (q[3] * x * y + q[4] * x * z + q[5] * y * z);
     if (e1 < *err) {
         *est = nx * id3;
         *err = e1;
@@ -394,9 +395,9 @@ inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clv
                            a * idr2 * ((clvox_real)CLVOX_EST_M0 + (clvox_real)CLVOX_EST_M1 * r * idr);
     const clvox_real4 id = (clvox_real)1 / d, id2 = id * id, id3 = id2 * id;
     const clvox_real4 nx = CLVOX_N4(normal4pi[0]) * x + CLVOX_N4(normal4pi[1]) * y + CLVOX_N4(normal4pi[2]) * z;
-    const clvox_real4 qf = (CLVOX_N4(quad4pi[0]) * x * x + CLVOX_N4(quad4pi[1]) * y * y + CLVOX_N4(quad4pi[2]) * z * z) +
-                           2 * (CLVOX_N4(quad4pi[3]) * x * y + CLVOX_N4(quad4pi[4]) * x * z +
-                                CLVOX_N4(quad4pi[5]) * y * z);
+    const clvox_real4 qf =
+        (CLVOX_N4(quad4pi[0]) * x * x + CLVOX_N4(quad4pi[1]) * y * y + CLVOX_N4(quad4pi[2]) * z * z) +
+        2 * (CLVOX_N4(quad4pi[3]) * x * y + CLVOX_N4(quad4pi[4]) * x * z + CLVOX_N4(quad4pi[5]) * y * z);
 #undef CLVOX_N4
     const clvox_mask4 ok = dm > zero;
     const clvox_mask4 use1 = ok & (e1 < b0);

@@ -52,25 +52,32 @@ typedef struct clvox_column {
  * child+1. Rounded so that bounds stay bounds: the box outwards, area4pi >=
  * their area / 4pi, the sphere (centre, radius) holds them; normal4pi is
  * their vector area / 4pi (for the dipole term); half_count = tri_count / 2
- * (no triangle subtends more than half the sphere). block: on a cap leaf,
- * where its caps are again, lane-major (the index of the first real: real
- * k of lane l at block + 4k + l, lanes past tri_count repeating the
- * first), after the caps themselves in the same buffer; 0 elsewhere. */
+ * (no triangle subtends more than half the sphere). About the (float)
+ * centre c, in double, then stored: second4pi >= the integral of |y - c|^2
+ * dA / 4pi (rounded up), quad4pi = tr(M) I - 3 sym(M) in the order xx, yy,
+ * zz, xy, xz, yz (rounded to nearest), M_ij = the integral of n_i (y -
+ * c)_j dA / 4pi (n dA: the vector area element), for the first-order term
+ * (kernels/winding.h clvox_cap_estimate); both 0 in the rims' tree. block:
+ * on a cap leaf, where its caps are again, lane-major (the index of the
+ * first real: real k of lane l at block + 4k + l, lanes past tri_count
+ * repeating the first), after the caps themselves in the same buffer; 0
+ * elsewhere. */
 typedef struct clvox_cap_node {
     clvox_f32 lo[3], area4pi;
     clvox_f32 hi[3], half_count;
     clvox_f32 centre[3], radius;
-    clvox_f32 normal4pi[3], pad0;
+    clvox_f32 normal4pi[3], second4pi;
     clvox_u32 child, tri_first, tri_count, block;
+    clvox_f32 quad4pi[6];
 } clvox_cap_node;
 
 #if defined(__cplusplus)
-static_assert(sizeof(clvox_cap_node) == 80, "clvox_cap_node layout");
+static_assert(sizeof(clvox_cap_node) == 104, "clvox_cap_node layout");
 static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
 static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
 static_assert(sizeof(clvox_column) == 16, "clvox_column layout");
 #elif !defined(__OPENCL_VERSION__)
-_Static_assert(sizeof(clvox_cap_node) == 80, "clvox_cap_node layout");
+_Static_assert(sizeof(clvox_cap_node) == 104, "clvox_cap_node layout");
 _Static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");
 _Static_assert(sizeof(clvox_ray) == 16, "clvox_ray layout");
 _Static_assert(sizeof(clvox_column) == 16, "clvox_column layout");

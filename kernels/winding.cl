@@ -163,3 +163,37 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
     if (out_stride == 0 && (j & 31u)) o[j >> 5] = word; /* the last, partial word */
     filled[gid] = cnt;
 }
+
+/* For tests/test_winding.c only: pair i's node nodes[node_of[i]] seen from
+ * point pts[3i ..] (scaled x, y, z), 12 reals per pair: the estimate and
+ * bound of clvox_cap_estimate, of clvox_cap_estimate2 (both lanes the same
+ * node: lane 0, lane 1), the exact clvox_cap_node_exact and its factors,
+ * and of clvox_cap_estimate4 with the node in lanes 0 and 3 (the root in
+ * 1 and 2). */
+kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const clvox_real *caps,
+                                global const uint *node_of, global const clvox_real *pts, uint count,
+                                global clvox_real *out)
+{
+    const uint i = get_global_id(0);
+    if (i >= count) return;
+    global const clvox_cap_node *nd = nodes + node_of[i];
+    const clvox_real px = pts[3 * i], py = pts[3 * i + 1], pz = pts[3 * i + 2];
+    clvox_real e[4], b[4], e1, b1;
+    global clvox_real *o = out + (size_t)i * 12u;
+    clvox_cap_estimate(nd, px, py, pz, &e1, &b1);
+    o[0] = e1;
+    o[1] = b1;
+    clvox_cap_estimate2(nd, nd, px, py, pz, e, b);
+    o[2] = e[0];
+    o[3] = b[0];
+    o[4] = e[1];
+    o[5] = b[1];
+    uint factors = 0;
+    o[6] = clvox_cap_node_exact(nd, caps, px, py, pz, 0u, &factors);
+    o[7] = (clvox_real)factors;
+    clvox_cap_estimate4(nd, nodes, nodes, nd, px, py, pz, e, b);
+    o[8] = e[0];
+    o[9] = b[0];
+    o[10] = e[3];
+    o[11] = b[3];
+}

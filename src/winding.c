@@ -169,16 +169,43 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             nd->centre[a] = (float)(0.5 * (lo[a] + hi[a]));
             nd->normal4pi[a] = (float)(vec[a] / (4.0 * 3.14159265358979323846));
         }
-        double r2 = 0.0;
-        for (uint32_t i = first; i < first + count; i++)
+        /* the sphere, and the moments about the float centre c the kernels
+         * use (clvox_cap_node): per flat triangle (area A, vector area S,
+         * centroid g, corners v), M += S (g - c)^T exactly and the second
+         * moment is A (|g - c|^2 + sum |v - g|^2 / 12) */
+        double r2 = 0.0, M[3][3] = {{0}}, second = 0.0;
+        const double cc[3] = {nd->centre[0], nd->centre[1], nd->centre[2]};
+        for (uint32_t i = first; i < first + count; i++) {
+            const double *p = q + (size_t)order[i] * 9;
             for (int c = 0; c < 3; c++) {
-                const double *p = q + (size_t)order[i] * 9 + c * 3;
-                double dx = p[0] - nd->centre[0], dy = p[1] - nd->centre[1], dz = p[2] - nd->centre[2];
+                double dx = p[c * 3] - cc[0], dy = p[c * 3 + 1] - cc[1], dz = p[c * 3 + 2] - cc[2];
                 double d2 = dx * dx + dy * dy + dz * dz;
                 if (d2 > r2) r2 = d2;
             }
+            if (segments) continue;
+            double g[3], e1[3], e2[3], spread = 0.0, gc2 = 0.0;
+            for (int a = 0; a < 3; a++) {
+                g[a] = (p[a] + p[3 + a] + p[6 + a]) / 3.0;
+                e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
+                gc2 += (g[a] - cc[a]) * (g[a] - cc[a]);
+                for (int c = 0; c < 3; c++) spread += (p[c * 3 + a] - g[a]) * (p[c * 3 + a] - g[a]);
+            }
+            const double S[3] = {0.5 * (e1[1] * e2[2] - e1[2] * e2[1]), 0.5 * (e1[2] * e2[0] - e1[0] * e2[2]),
+                                 0.5 * (e1[0] * e2[1] - e1[1] * e2[0])};
+            const double A = sqrt(S[0] * S[0] + S[1] * S[1] + S[2] * S[2]);
+            second += A * (gc2 + spread / 12.0);
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++) M[a][b] += S[a] * (g[b] - cc[b]);
+        }
         nd->radius = round_up(sqrt(r2) * (1.0 + 1e-9));
-        nd->pad0 = 0;
+        {
+            const double k = 1.0 / (4.0 * 3.14159265358979323846);
+            const double tr = M[0][0] + M[1][1] + M[2][2];
+            const int ia[6] = {0, 1, 2, 0, 0, 1}, ib[6] = {0, 1, 2, 1, 2, 2};
+            for (int e = 0; e < 6; e++)
+                nd->quad4pi[e] = (float)(k * ((ia[e] == ib[e] ? tr : 0.0) - 1.5 * (M[ia[e]][ib[e]] + M[ib[e]][ia[e]])));
+            nd->second4pi = round_up(second * k * (1.0 + 1e-9));
+        }
         nd->area4pi = round_up(area / (4.0 * 3.14159265358979323846) * (1.0 + 1e-9));
         nd->half_count = round_up(0.5 * count);
         nd->child = 0;

@@ -18,6 +18,7 @@
 #include "meshgen.h"
 #include "reference.h"
 #include "test.h"
+#include "winding.h" /* src/: the cap tree (internal) */
 
 #include <math.h>
 #include <string.h>
@@ -1018,6 +1019,202 @@ static void test_real_open(void)
     }
 }
 
+/* ---- the cap tree's node estimates (kernels/winding.h clvox_cap_estimate) ---- */
+
+static void emit_cap(float *out, size_t *n, size_t max, const double *a, const double *b, const double *c)
+{
+    if (*n >= max) return;
+    float *t = out + 9 * (*n)++;
+    for (int k = 0; k < 3; k++) t[k] = (float)a[k], t[3 + k] = (float)b[k], t[6 + k] = (float)c[k];
+}
+
+/* Cap soups made in code (grid space, x, y, z): a curved dome, a random
+ * soup, a wavy fan with rim slivers as src/winding.c makes them, thin
+ * needles. Returns the triangle count (9 floats each in out). */
+static size_t estimate_soup(int kind, float *out, size_t max, uint64_t *s)
+{
+    size_t n = 0;
+    if (kind == 0) { /* a dome: the sphere of radius 10 about (20, 20, 10) above 30 degrees latitude */
+        const int rings = 8, sectors = 24;
+        for (int i = 0; i < rings; i++)
+            for (int j = 0; j < sectors; j++) {
+                double v[4][3];
+                for (int c = 0; c < 4; c++) {
+                    double t = PI / 3 * (i + (c == 1 || c == 2)) / rings, f = 2 * PI * (j + (c >= 2)) / sectors;
+                    v[c][0] = 20 + 10 * sin(t) * cos(f), v[c][1] = 20 + 10 * sin(t) * sin(f), v[c][2] = 10 + 10 * cos(t);
+                }
+                emit_cap(out, &n, max, v[0], v[1], v[2]);
+                if (i > 0) emit_cap(out, &n, max, v[0], v[2], v[3]);
+            }
+    } else if (kind == 1) { /* a random soup in a box of 20 */
+        for (int t = 0; t < 96; t++) {
+            double c[3], v[9];
+            for (int k = 0; k < 3; k++) c[k] = 20 * tmesh_rng_uniform(s);
+            for (int k = 0; k < 9; k++) v[k] = c[k % 3] + 3 * (tmesh_rng_uniform(s) - 0.5);
+            emit_cap(out, &n, max, v, v + 3, v + 6);
+        }
+    } else if (kind == 2) { /* a wavy loop of 64 corners: slivers cut off as src/winding.c does, then a fan */
+        double v[64][3];
+        const double apex[3] = {15, 15, 7.3};
+        size_t m = 64;
+        for (size_t i = 0; i < m; i++) {
+            double f = 2 * PI * (double)i / (double)m;
+            v[i][0] = 15 + 12 * cos(f), v[i][1] = 15 + 9 * sin(f), v[i][2] = 6 + 2.5 * sin(3 * f);
+        }
+        while (m > 8) {
+            size_t k = 0;
+            for (size_t i = 0; i + 2 <= m; i += 2) {
+                emit_cap(out, &n, max, v[(i + 2) % m], v[i + 1], v[i]);
+                memmove(v[k++], v[i], sizeof v[i]);
+            }
+            m = k;
+        }
+        for (size_t i = 0; i < m; i++) emit_cap(out, &n, max, v[(i + 1) % m], v[i], apex);
+    } else { /* needles: long thin triangles, random directions */
+        for (int t = 0; t < 40; t++) {
+            double a[3], b[3], c[3];
+            for (int k = 0; k < 3; k++) {
+                a[k] = 5 + 10 * tmesh_rng_uniform(s);
+                b[k] = a[k] + 8 * (tmesh_rng_uniform(s) - 0.5);
+                c[k] = a[k] + 0.3 * (tmesh_rng_uniform(s) - 0.5);
+            }
+            emit_cap(out, &n, max, a, b, c);
+        }
+    }
+    return n;
+}
+
+/* Every node of the cap tree of each soup, seen from points at d = t r
+ * from its centre (t from 0.5 to 1000, several near 2.5) in random
+ * directions: the device's estimate must lie within its bound of the
+ * brute-force sum of the node's solid angles (ref_solid_angle, double),
+ * the two- and four-lane estimates must equal the single one, and the node's exact
+ * value the sum. The first-order estimate must be the one taken far off. */
+static void test_cap_estimates(void)
+{
+    if (ctx->real_size != 8) {
+        printf("cap estimates: skipped (the device has no double)\n");
+        return;
+    }
+    static const double ratio[] = {0.5, 0.9, 1.02, 1.2, 1.5, 1.8, 2.2, 2.4, 2.5, 2.6, 2.8, 3, 4, 6, 10, 30, 100, 1000};
+    const size_t nr = sizeof ratio / sizeof ratio[0], dirs = 3;
+    static const char *const names[] = {"dome", "random soup", "wavy fan", "needles"};
+    cl_kernel k = NULL;
+    CHECK_OK(ctx, clvox__kernel(ctx, "clvox_winding_probe", &k));
+    if (!k) return;
+    uint64_t seed = 0x5eedcafe;
+    for (int kind = 0; kind < 4; kind++) {
+        float soup[9 * 512];
+        const size_t n = estimate_soup(kind, soup, 512, &seed);
+        clvox_grid grid;
+        memset(&grid, 0, sizeof grid);
+        grid.voxel_size[0] = 0.9, grid.voxel_size[1] = 1.1, grid.voxel_size[2] = 1.3;
+        clvox__caps caps;
+        CHECK_OK(ctx, clvox__caps_upload(ctx, soup, n, clvox__axes_for(CLVOX_AXIS_X), &grid, &caps));
+        const size_t nn = caps.node_count, pairs = nn * nr * dirs;
+        clvox_cap_node *nodes = malloc(nn * sizeof *nodes);
+        double *tris = malloc(n * 9 * sizeof *tris), *pts = malloc(pairs * 3 * sizeof *pts),
+               *res = malloc(pairs * 12 * sizeof *res);
+        cl_uint *node_of = malloc(pairs * sizeof *node_of);
+        CHECK(nodes && tris && pts && res && node_of);
+        cl_int e = clEnqueueReadBuffer(ctx->queue, caps.nodes, CL_TRUE, 0, nn * sizeof *nodes, nodes, 0, NULL, NULL);
+        e |= clEnqueueReadBuffer(ctx->queue, caps.tris, CL_TRUE, 0, n * 9 * sizeof *tris, tris, 0, NULL, NULL);
+        CHECK(e == CL_SUCCESS);
+        size_t at = 0;
+        for (size_t j = 0; j < nn; j++)
+            for (size_t i = 0; i < nr; i++)
+                for (size_t r = 0; r < dirs; r++, at++) {
+                    double u[3], l = 0;
+                    do {
+                        l = 0;
+                        for (int a = 0; a < 3; a++) u[a] = 2 * tmesh_rng_uniform(&seed) - 1, l += u[a] * u[a];
+                    } while (l > 1 || l < 1e-4);
+                    const double t = ratio[i] * (1 + 0.01 * (tmesh_rng_uniform(&seed) - 0.5));
+                    for (int a = 0; a < 3; a++) pts[3 * at + a] = nodes[j].centre[a] + t * nodes[j].radius * u[a] / sqrt(l);
+                    node_of[at] = (cl_uint)j;
+                }
+        cl_int ce = CL_SUCCESS;
+        cl_mem bn = clCreateBuffer(ctx->cl, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, pairs * sizeof *node_of, node_of, &ce);
+        cl_mem bp = clCreateBuffer(ctx->cl, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, pairs * 3 * sizeof *pts, pts, &ce);
+        cl_mem bo = clCreateBuffer(ctx->cl, CL_MEM_WRITE_ONLY, pairs * 12 * sizeof *res, NULL, &ce);
+        cl_uint cnt = (cl_uint)pairs;
+        e = clSetKernelArg(k, 0, sizeof(cl_mem), &caps.nodes);
+        e |= clSetKernelArg(k, 1, sizeof(cl_mem), &caps.tris);
+        e |= clSetKernelArg(k, 2, sizeof(cl_mem), &bn);
+        e |= clSetKernelArg(k, 3, sizeof(cl_mem), &bp);
+        e |= clSetKernelArg(k, 4, sizeof(cl_uint), &cnt);
+        e |= clSetKernelArg(k, 5, sizeof(cl_mem), &bo);
+        size_t global = pairs;
+        e |= clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, NULL, 0, NULL, NULL);
+        e |= clEnqueueReadBuffer(ctx->queue, bo, CL_TRUE, 0, pairs * 12 * sizeof *res, res, 0, NULL, NULL);
+        CHECK(ce == CL_SUCCESS && e == CL_SUCCESS);
+        size_t bad = 0, unpaired = 0, inexact = 0, first = 0, far = 0, far_first = 0;
+        double worst = 0, worst_first = 0, worst_near = 0;
+        for (size_t i = 0; i < pairs; i++) {
+            const clvox_cap_node *nd = &nodes[node_of[i]];
+            const double *p = pts + 3 * i, *o = res + 12 * i;
+            double w = 0, dc[3], db2 = 0;
+            for (uint32_t t = nd->tri_first; t < nd->tri_first + nd->tri_count; t++) {
+                double A[3], B[3], C[3];
+                for (int a = 0; a < 3; a++) {
+                    A[a] = tris[9 * t + a] - p[a];
+                    B[a] = tris[9 * t + 3 + a] - p[a];
+                    C[a] = tris[9 * t + 6 + a] - p[a];
+                }
+                w += ref_solid_angle(A, B, C) / (4 * PI);
+            }
+            for (int a = 0; a < 3; a++) {
+                dc[a] = nd->centre[a] - p[a];
+                double g = fmax(fmax(nd->lo[a] - p[a], p[a] - nd->hi[a]), 0.0);
+                db2 += g * g;
+            }
+            const double d = sqrt(dc[0] * dc[0] + dc[1] * dc[1] + dc[2] * dc[2]), r = nd->radius;
+            /* the bounds 0 and 1 without margins: smaller than either, it is bound 2 */
+            const double b0 = db2 > 0 ? fmin(nd->area4pi / db2, nd->half_count) : nd->half_count;
+            const double e1 = d > r ? 2 * nd->area4pi * r / ((d - r) * (d - r) * (d - r)) : INFINITY;
+            const int is_first = o[1] < 0.999 * fmin(b0, e1);
+            const double gap = fabs(w - o[0]), rel = o[1] > 0 ? gap / o[1] : 0;
+            if (!(gap <= o[1] + 1e-13)) {
+                if (bad++ < 5)
+                    fprintf(stderr, "  %s node %u at d/r %.3g: sum %.17g, estimate %.17g +- %.3g\n", names[kind],
+                            node_of[i], d / r, w, o[0], o[1]);
+            }
+            if (o[0] != o[2] || o[0] != o[4] || o[1] != o[3] || o[1] != o[5] || o[0] != o[8] || o[0] != o[10] ||
+                o[1] != o[9] || o[1] != o[11])
+                unpaired++;
+            if (!(fabs(o[6] - w) <= 1e-12)) inexact++;
+            if (rel > worst) worst = rel;
+            if (is_first) {
+                first++;
+                if (rel > worst_first) worst_first = rel;
+                if (d < 3 * r && rel > worst_near) worst_near = rel;
+            }
+            if (d >= 4 * r && nd->tri_count > 0) {
+                far++;
+                far_first += (size_t)is_first;
+            }
+        }
+        CHECK_MSG(bad == 0, "%s: %zu of %zu estimates outside their bound", names[kind], bad, pairs);
+        CHECK_MSG(unpaired == 0, "%s: %zu estimates of two or four lanes differ from the single one", names[kind], unpaired);
+        CHECK_MSG(inexact == 0, "%s: %zu exact node values differ from the brute-force sum", names[kind], inexact);
+        CHECK_MSG(far_first == far && far > 0, "%s: the first-order estimate taken at %zu of %zu pairs at d >= 4 r",
+                  names[kind], far_first, far);
+        printf("cap estimates %-12s %zu caps, %zu nodes, %zu pairs (%zu first-order): |sum - estimate| / bound "
+               "at most %.3f, first-order %.3f (%.3f at d < 3 r)\n",
+               names[kind], n, nn, pairs, first, worst, worst_first, worst_near);
+        clReleaseMemObject(bn);
+        clReleaseMemObject(bp);
+        clReleaseMemObject(bo);
+        clvox__caps_release(&caps);
+        free(nodes);
+        free(tris);
+        free(pts);
+        free(res);
+        free(node_of);
+    }
+    clReleaseKernel(k);
+}
+
 int main(int argc, char **argv)
 {
     /* test_winding [oracle | SECTION]: only the CPU oracle, or only the
@@ -1041,6 +1238,7 @@ int main(int argc, char **argv)
         {"union", test_unions},            {"cavities", test_cavities},
         {"report", test_winding_report},   {"real", test_real_open},
         {"coverage", test_coverage_samples}, {"apex", test_apex},
+        {"estimates", test_cap_estimates},
     };
     for (size_t i = 0; i < sizeof sections / sizeof sections[0]; i++)
         if (!only || strstr(sections[i].name, only)) sections[i].fn();

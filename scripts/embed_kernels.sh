@@ -9,7 +9,9 @@ tmp=$out.tmp
   echo "const char *const clvox__kernel_sources[] = {"
   for f in "$@"; do
     echo "/* $f */"
-    awk '{ gsub(/\\/, "\\\\"); gsub(/"/, "\\\""); printf "\"%s\\n\"\n", $0 }' "$f"
+    # sed, not awk: awk's gsub treats backslashes in the replacement
+    # differently across awks (mawk left them undoubled)
+    sed -e 's/\\/\\\\/g' -e 's/"/\\"/g' -e 's/^/"/' -e 's/$/\\n"/' "$f"
     echo ","
   done
   echo "};"

@@ -247,12 +247,6 @@ inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvo
     return b < cap ? b : cap;
 }
 
-inline clvox_real clvox_cap_bound(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz)
-{
-    const clvox_real q[3] = {px, py, pz};
-    return clvox_cap_bound_box(n, q, q);
-}
-
 /* Inside from K alone (no caps near): w = K exactly, K >= 1 (abs: K != 0). */
 inline int clvox_k_inside(int K, uint abs_mode) { return abs_mode ? K != 0 : K >= 1; }
 
@@ -305,7 +299,7 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
  * k! P_k(cos) / |x|^(k+1) with |P_k| <= 1, and a symmetric form's norm is
  * its sup on the diagonal (Banach, 1938). Integrated, with a = area / 4pi,
  * N = normal4pi, s = second4pi, Q' = quad4pi (clvox_cap_node):
- *   0. |w| <= b0, the box bound (clvox_cap_bound);
+ *   0. |w| <= b0, the box bound (clvox_cap_bound_box at p);
  *   1. w = N . x / d^3 +- 2 a r / (d - r)^3 (the dipole; |D^2| = 2 / d^3);
  *   2. w = (N . x d^2 + x^T Q' x) / d^5 +- 3 s / (d - r)^4 (the first-
  *      order term is the sum of M_ij DF_ij = x^T (tr(M) I - 3 sym(M)) x /
@@ -340,38 +334,9 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
 #endif
 #define CLVOX_EST_M0 8e-6 /* of a / (d - r)^2 */
 #define CLVOX_EST_M1 4e-5 /* of a r / (d - r)^3 */
-inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
-                               clvox_real *est, clvox_real *err)
-{
-    const clvox_real b0 = clvox_cap_bound(n, px, py, pz);
-    const clvox_real x = n->centre[0] - px, y = n->centre[1] - py, z = n->centre[2] - pz;
-    const clvox_real d2 = x * x + y * y + z * z, d = sqrt(d2), r = n->radius, a = n->area4pi;
-    const clvox_real dm = d * (1 - (clvox_real)CLVOX_EST_DREL) - r;
-    *est = 0;
-    *err = b0;
-    if (!(dm > 0)) return;
-    const clvox_real idr = (clvox_real)1 / dm, idr2 = idr * idr;
-    const clvox_real e1 = a * idr2 * ((2 * r) * idr * (clvox_real)CLVOX_EST_ROUND + (clvox_real)CLVOX_EST_M0);
-    const clvox_real e2 = (3 * (clvox_real)n->second4pi) * (idr2 * idr2) * (clvox_real)CLVOX_EST_ROUND +
-                          a * idr2 * ((clvox_real)CLVOX_EST_M0 + (clvox_real)CLVOX_EST_M1 * r * idr);
-    const clvox_real id = (clvox_real)1 / d, id2 = id * id, id3 = id2 * id;
-    const clvox_real nx = n->normal4pi[0] * x + n->normal4pi[1] * y + n->normal4pi[2] * z;
-    global const clvox_f32 *q = n->quad4pi;
-    const clvox_real qf =
-        (q[0] * x * x + q[1] * y * y + q[2] * z * z) + 2 * (q[3] * x * y + q[4] * x * z + q[5] * y * z);
-    if (e1 < *err) {
-        *est = nx * id3;
-        *err = e1;
-    }
-    if (e2 < *err) {
-        *est = (nx * d2 + qf) * (id3 * id2);
-        *err = e2;
-    }
-}
-
-/* clvox_cap_estimate of four nodes at once, lane by lane (its arithmetic,
- * so the same numbers: the box distance per axis is max(lo - p, p - hi,
- * 0), exactly its branches' value). */
+/* The estimates and bounds above for four nodes at once, lane by lane (the
+ * zeroth-order one is clvox_cap_bound_box's at a point: the box distance
+ * per axis is max(lo - p, p - hi, 0), exactly its branches' value). */
 inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clvox_cap_node *l,
                                 global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
                                 clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
@@ -407,6 +372,17 @@ inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clv
     er = select(er, e2, use2);
     vstore4(es, 0, est);
     vstore4(er, 0, err);
+}
+
+/* The same for one node (the root; a frontier's odd one out): every lane
+ * the node, one body for all. */
+inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
+                               clvox_real *est, clvox_real *err)
+{
+    clvox_real e[4], b[4];
+    clvox_cap_estimate4(n, n, n, n, px, py, pz, e, b);
+    *est = e[0];
+    *err = b[0];
 }
 
 /* The same for two nodes (a node's children): lanes 2 and 3 repeat them

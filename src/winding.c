@@ -45,6 +45,15 @@ void clvox__caps_release(clvox__caps *c)
     c->cap_count = 0;
 }
 
+#define FOUR_PI (4.0 * 3.14159265358979323846)
+
+/* Real i of a device array of doubles (rs 8) or floats (rs 4). */
+static void put_real(void *arr, size_t rs, size_t i, double v)
+{
+    if (rs == 8) ((double *)arr)[i] = v;
+    else ((float *)arr)[i] = (float)v;
+}
+
 /* The tree over n items of 9 scaled reals each (q, consumed): triangles,
  * or with `segments` edges q[0..2] -> q[3..5] (q[6..8] = q[3..5]), whose
  * "area" is their length. */
@@ -59,14 +68,8 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
     /* h is needed even without caps (the kernels take it) */
     size_t rs = ctx->real_size;
     {
-        unsigned char hb[24];
-        for (int a = 0; a < 3; a++) {
-            if (rs == 8) memcpy(hb + 8 * a, &h3[a], 8);
-            else {
-                float f = (float)h3[a];
-                memcpy(hb + 4 * a, &f, 4);
-            }
-        }
+        double hb[3];
+        for (int a = 0; a < 3; a++) put_real(hb, rs, (size_t)a, h3[a]);
         out->h = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 3 * rs, hb, &st, "voxel size");
     }
     if (st != CLVOX_OK || n == 0) {
@@ -167,7 +170,7 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             nd->lo[a] = round_down(lo[a]);
             nd->hi[a] = round_up(hi[a]);
             nd->centre[a] = (float)(0.5 * (lo[a] + hi[a]));
-            nd->normal4pi[a] = (float)(vec[a] / (4.0 * 3.14159265358979323846));
+            nd->normal4pi[a] = (float)(vec[a] / FOUR_PI);
         }
         /* the sphere, and the moments about the float centre c the kernels
          * use (clvox_cap_node): per flat triangle (area A, vector area S,
@@ -199,14 +202,14 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         }
         nd->radius = round_up(sqrt(r2) * (1.0 + 1e-9));
         {
-            const double k = 1.0 / (4.0 * 3.14159265358979323846);
+            const double k = 1.0 / FOUR_PI;
             const double tr = M[0][0] + M[1][1] + M[2][2];
             const int ia[6] = {0, 1, 2, 0, 0, 1}, ib[6] = {0, 1, 2, 1, 2, 2};
             for (int e = 0; e < 6; e++)
                 nd->quad4pi[e] = (float)(k * ((ia[e] == ib[e] ? tr : 0.0) - 1.5 * (M[ia[e]][ib[e]] + M[ib[e]][ia[e]])));
             nd->second4pi = round_up(second * k * (1.0 + 1e-9));
         }
-        nd->area4pi = round_up(area / (4.0 * 3.14159265358979323846) * (1.0 + 1e-9));
+        nd->area4pi = round_up(area / FOUR_PI * (1.0 + 1e-9));
         nd->half_count = round_up(0.5 * count);
         nd->child = 0;
         nd->block = 0;
@@ -256,11 +259,7 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         tris = t;
     }
     for (size_t i = 0; i < n; i++)
-        for (int k = 0; k < 9; k++) {
-            double v = q[(size_t)order[i] * 9 + k];
-            if (rs == 8) ((double *)tris)[i * 9 + k] = v;
-            else ((float *)tris)[i * 9 + k] = (float)v;
-        }
+        for (int k = 0; k < 9; k++) put_real(tris, rs, i * 9 + k, q[(size_t)order[i] * 9 + k]);
     if (leaves) {
         size_t at = n * 9;
         for (size_t i = 0; i < node_count; i++) {
@@ -270,9 +269,7 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             for (int k = 0; k < 9; k++)
                 for (uint32_t l = 0; l < 4; l++) {
                     uint32_t t = nd->tri_first + (l < nd->tri_count ? l : 0);
-                    double v = q[(size_t)order[t] * 9 + k];
-                    if (rs == 8) ((double *)tris)[at + 4 * (size_t)k + l] = v;
-                    else ((float *)tris)[at + 4 * (size_t)k + l] = (float)v;
+                    put_real(tris, rs, at + 4 * (size_t)k + l, q[(size_t)order[t] * 9 + k]);
                 }
             at += 36;
         }

@@ -408,11 +408,6 @@ static void boxes_part(void *arg, int i, int n)
     size_t t0, t1;
     clvox__part_range(B->tri_count, i, n, &t0, &t1);
     float sv = 0.5f * (B->v0 + B->v1), sw = 0.5f * (B->w0 + B->w1);
-    float cv0[4], cv1[4], cw0[4], cw1[4];
-    for (int q = 0; q < 4; q++) {
-        cv0[q] = (q & 1) ? sv : B->v0, cv1[q] = (q & 1) ? B->v1 : sv;
-        cw0[q] = (q & 2) ? sw : B->w0, cw1[q] = (q & 2) ? B->w1 : sw;
-    }
     if (B->pass == 1) {
         size_t k = 0, sum = 0, count[4] = {0, 0, 0, 0};
         for (size_t t = t0; t < t1; t++) {
@@ -423,14 +418,9 @@ static void boxes_part(void *arg, int i, int n)
                 continue;
             }
             k++;
-            unsigned lv = it.v0 <= sv, hv = it.v1 >= sv, lw = it.w0 <= sw, hw = it.w1 >= sw;
-            sum += (lv + hv) * (lw + hw);
-            unsigned bits = 0;
-            for (int q = 0; q < 4; q++) {
-                unsigned in = (unsigned)item_meets(&it, cv0[q], cw0[q], cv1[q], cw1[q]);
-                count[q] += in;
-                bits |= in << q;
-            }
+            const unsigned bits = item_quadrants(&it, sv, sw); /* it meets the root */
+            for (int q = 0; q < 4; q++) count[q] += bits >> q & 1u;
+            sum += (bits & 1u) + (bits >> 1 & 1u) + (bits >> 2 & 1u) + (bits >> 3); /* quadrants touched */
             if (B->mask) B->mask[t] = (unsigned char)(bits | 16u); /* 16: over the plane */
         }
         B->part_n[i] = k, B->part_sum[i] = sum;
@@ -455,12 +445,12 @@ static void boxes_part(void *arg, int i, int n)
         }
         if (t + PREFETCH < t1) prefetch_tri(B, t + PREFETCH);
         item it = box_of(B, t);
-        if (!(it.v0 <= B->v1 && it.v1 >= B->v0 && it.w0 <= B->w1 && it.w1 >= B->w0)) continue;
+        if (!item_meets(&it, B->v0, B->w0, B->v1, B->w1)) continue;
         if (R->list) {
             R->list[at++] = it;
             continue;
         }
-        if (item_meets(&it, cv0[q], cw0[q], cv1[q], cw1[q])) R->sub[q][sat[q]++] = it;
+        if (item_quadrants(&it, sv, sw) >> q & 1u) R->sub[q][sat[q]++] = it;
     }
 }
 

@@ -90,6 +90,16 @@ static inline int clvox__cmp_u64(const void *pa, const void *pb)
     return (a > b) - (a < b);
 }
 
+/* 64-bit FNV-1a over n bytes, continuing from h (start: CLVOX__FNV_BASIS):
+ * palette and render-map identities, the program cache's checksum. */
+#define CLVOX__FNV_BASIS 0xcbf29ce484222325ull
+static inline uint64_t clvox__fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *b = (const unsigned char *)data; /* also C++ (write_vdb.cpp) */
+    for (size_t i = 0; i < n; i++) h = (h ^ b[i]) * 0x100000001b3ull;
+    return h;
+}
+
 /* ---- palettes (palette.c) ---- */
 
 /* The palette's flat arrays (kernels/palette.h layout), borrowed: valid

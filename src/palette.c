@@ -705,20 +705,12 @@ clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_pale
     return CLVOX_OK;
 }
 
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *b = data;
-    for (size_t i = 0; i < n; i++) h = (h ^ b[i]) * 0x100000001B3ull;
-    return h;
-}
-
 uint64_t clvox_palette_hash(const clvox_palette *p)
 {
     if (!p) return 0;
-    uint64_t h = 0xCBF29CE484222325ull;
-    h = fnv1a(h, p->elements, p->count * sizeof *p->elements);
-    h = fnv1a(h, p->cells, p->ncells * sizeof *p->cells);
-    return fnv1a(h, p->planes, p->nplanes * sizeof *p->planes);
+    uint64_t h = clvox__fnv1a(CLVOX__FNV_BASIS, p->elements, p->count * sizeof *p->elements);
+    h = clvox__fnv1a(h, p->cells, p->ncells * sizeof *p->cells);
+    return clvox__fnv1a(h, p->planes, p->nplanes * sizeof *p->planes);
 }
 
 const char *clvox_palette_source(const clvox_palette *p) { return p ? p->source : NULL; }

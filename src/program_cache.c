@@ -44,14 +44,6 @@ typedef struct cache_entry {
     char identity[MAX_IDENTITY];
 } cache_entry;
 
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 0x100000001b3ull;
-    return h;
-}
-#define FNV_BASIS 0xcbf29ce484222325ull
-
 /* A second hash of the sources, independent of FNV: 64-bit multiply-mix. */
 static uint64_t mix64(uint64_t h, const void *data, size_t n)
 {
@@ -98,10 +90,10 @@ static void device_string(cl_device_id d, cl_device_info what, char *out, size_t
 static int entry_for(clvox_context *ctx, const char *options, cache_entry *e)
 {
     if (!cache_dir(e->dir, sizeof e->dir)) return 0;
-    uint64_t h1 = FNV_BASIS, h2 = 0;
+    uint64_t h1 = CLVOX__FNV_BASIS, h2 = 0;
     for (unsigned i = 0; i < clvox__kernel_source_count; i++) {
         size_t len = strlen(clvox__kernel_sources[i]);
-        h1 = fnv1a(h1, clvox__kernel_sources[i], len + 1); /* the NUL separates the files */
+        h1 = clvox__fnv1a(h1, clvox__kernel_sources[i], len + 1); /* the NUL separates the files */
         h2 = mix64(h2, clvox__kernel_sources[i], len + 1);
     }
     char platform[512] = "", device[256] = "", vendor[256] = "", dversion[256] = "", driver[256] = "";
@@ -117,7 +109,7 @@ static int entry_for(clvox_context *ctx, const char *options, cache_entry *e)
                      CLVOX_VERSION_STRING, (unsigned long long)h1, (unsigned long long)h2, options, platform, device,
                      vendor, dversion, driver, sizeof(void *));
     if (n <= 0 || (size_t)n >= sizeof e->identity) return 0;
-    uint64_t key = fnv1a(FNV_BASIS, e->identity, (size_t)n);
+    uint64_t key = clvox__fnv1a(CLVOX__FNV_BASIS, e->identity, (size_t)n);
     n = snprintf(e->path, sizeof e->path, "%s/%016llx" SUFFIX, e->dir, (unsigned long long)key);
     return n > 0 && (size_t)n < sizeof e->path;
 }
@@ -144,7 +136,7 @@ int clvox__program_cache_parse(const unsigned char *file, size_t n, const char *
     const size_t off = m + 8 + il + 8;
     const uint64_t len = get64(file + m + 8 + il);
     if (len == 0 || len > MAX_BINARY || n - off < 8 || len != n - off - 8) return 0;
-    if (get64(file + n - 8) != fnv1a(FNV_BASIS, file + off, (size_t)len)) return 0;
+    if (get64(file + n - 8) != clvox__fnv1a(CLVOX__FNV_BASIS, file + off, (size_t)len)) return 0;
     *bin_off = off;
     *bin_len = (size_t)len;
     return 1;
@@ -266,7 +258,7 @@ void clvox__program_cache_store(clvox_context *ctx, cl_program program, const ch
     memcpy(head, MAGIC, sizeof MAGIC - 1);
     put64(head + sizeof MAGIC - 1, il);
     put64(len8, size);
-    put64(sum8, fnv1a(FNV_BASIS, bin, size));
+    put64(sum8, clvox__fnv1a(CLVOX__FNV_BASIS, bin, size));
     int ok = write_all(fd, head, sizeof head) && write_all(fd, e->identity, il) && write_all(fd, len8, 8) &&
              write_all(fd, bin, size) && write_all(fd, sum8, 8);
     ok = close(fd) == 0 && ok;

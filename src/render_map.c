@@ -75,12 +75,7 @@ struct clvox_render_map {
 
 /* ---- building blocks --------------------------------------------------------- */
 
-static uint64_t name_hash(const char *s)
-{
-    uint64_t h = 0xCBF29CE484222325ull;
-    for (; *s; s++) h = (h ^ (unsigned char)*s) * 0x100000001B3ull;
-    return h;
-}
+static uint64_t name_hash(const char *s) { return clvox__fnv1a(CLVOX__FNV_BASIS, s, strlen(s)); }
 
 static int grow(void **p, size_t *cap, size_t need, size_t elem)
 {

@@ -203,8 +203,9 @@ int main(void)
     /* HOME-based default when CLVOX_CACHE_DIR is unset: HOME/.cache/clvox */
     unsetenv("CLVOX_CACHE_DIR");
     unsetenv("XDG_CACHE_HOME");
-    char home[2100];
-    snprintf(home, sizeof home, "%s/home", g_dir);
+    char home[3200], cwd[1024] = ""; /* HOME counts only when absolute (the test's dir may be relative) */
+    if (g_dir[0] != '/' && !getcwd(cwd, sizeof cwd)) cwd[0] = 0;
+    snprintf(home, sizeof home, "%s%s%s/home", cwd, cwd[0] ? "/" : "", g_dir);
     mkdir(home, 0777);
     setenv("HOME", home, 1);
     snprintf(path, sizeof path, "%s/.cache/clvox", home);

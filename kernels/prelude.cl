@@ -1,5 +1,8 @@
 /* Shared helpers of all clvox kernels. Prepended to every stage file.
- * No contraction: a*b - c*d must round exactly as the CPU reference does. */
+ * No contraction: a*b - c*d must round exactly as the CPU reference does.
+ * (Embedded as C string literals by scripts/embed_kernels.sh: a backslash
+ * like this one, \, or "quotes" must come through as written;
+ * tests/test_program_cache.c compares every embedded source with its file.) */
 #pragma OPENCL FP_CONTRACT OFF
 
 /* Crossings are computed in double where the device has it: a crossing a

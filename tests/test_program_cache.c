@@ -95,8 +95,35 @@ static int voxelize(const tmesh *t, uint8_t *vox, size_t n, int *cached)
     return ok;
 }
 
+/* The library's embedded kernel sources are the files in kernels/ byte for
+ * byte (scripts/embed_kernels.sh escapes backslashes and quotes: prelude.cl
+ * has both). */
+static void test_embedded_sources(void)
+{
+    int backslash = 0;
+    for (unsigned i = 0; i < clvox__kernel_source_count; i++) {
+        char path[512];
+        snprintf(path, sizeof path, "kernels/%s", clvox__kernel_names[i]);
+        FILE *f = fopen(path, "rb");
+        CHECK_MSG(f != NULL, "%s: cannot open (run from the repository root)", path);
+        if (!f) continue;
+        const char *src = clvox__kernel_sources[i];
+        size_t n = strlen(src), at = 0, same = 1;
+        int c;
+        while ((c = fgetc(f)) != EOF) {
+            if (at >= n || (unsigned char)src[at] != (unsigned)c) same = 0;
+            backslash |= c == '\\';
+            at++;
+        }
+        fclose(f);
+        CHECK_MSG(same && at == n, "%s: the embedded source differs from the file", path);
+    }
+    CHECK_MSG(backslash, "no kernel file has a backslash: the escaping goes unchecked");
+}
+
 int main(void)
 {
+    test_embedded_sources();
     snprintf(g_dir, sizeof g_dir, "%s/program-cache", test_tmpdir());
     mkdir(g_dir, 0777);
     clear_dir();

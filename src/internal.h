@@ -115,6 +115,16 @@ extern const unsigned clvox__kernel_source_count;
 
 /* ---- mesh (mesh.c, mesh_openmesh.cpp) ---- */
 
+/* The report's signed volume, for the winding preparation's sign of a mesh
+ * that is one closed patch (it would sum the same terms again): vol6 =
+ * sum over the triangles, in order, of (a-o).((b-o)x(c-o)) in double, o =
+ * the first corner of the first triangle (mesh_report.c); perm_bound >=
+ * the sum of those determinants' permanents (12 nt Mx My Mz, M = the
+ * vertices' largest distance from o along each axis). */
+typedef struct clvox__mesh_volume {
+    double vol6, perm_bound;
+} clvox__mesh_volume;
+
 struct clvox_mesh {
     float *xyz;          /* 3 per vertex, relative to offset */
     double offset[3];    /* added to xyz: the first vertex of an OFF/OBJ file (read
@@ -123,6 +133,7 @@ struct clvox_mesh {
     uint32_t *tris;      /* 3 per triangle */
     size_t triangle_count;
     clvox_mesh_report report;
+    clvox__mesh_volume volume;
 };
 
 /* What the OpenMesh shim hands back: polygons as read (not validated). */

@@ -1446,6 +1446,7 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
     uint32_t *tris = NULL;
     clvox_mesh *m = NULL;
     clvox_mesh_report r;
+    clvox__mesh_volume volume;
     memset(&r, 0, sizeof r);
     r.input_vertices = r.vertices = nv;
     r.input_faces = nf;
@@ -1529,7 +1530,7 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
 
     /* Box of the vertices in use, degenerate triangles, volume, boundary and
      * non-manifold edges, duplicates (mesh_report.c). */
-    if (clvox__mesh_analyze(xyz, nv, tris, kept, 0, 0, &r) != 0) {
+    if (clvox__mesh_analyze(xyz, nv, tris, kept, 0, 0, &r, &volume) != 0) {
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory for the report on %zu triangles", what, kept);
         goto fail;
     }
@@ -1551,6 +1552,7 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
     m->tris = tris;
     m->triangle_count = kept;
     m->report = r;
+    m->volume = volume;
     *out = m;
     return CLVOX_OK;
 

@@ -96,7 +96,7 @@ static void sorted_corners(const float *xyz, const uint32_t *tris, size_t t, uin
 /* Box, degenerate triangles, volume, as one loop (apex at the first vertex
  * used: cancellation stays small far from the origin; the sum does not
  * depend on the apex when the mesh is closed). */
-static void ref_geometry(const float *xyz, const uint32_t *tris, size_t kept, clvox_mesh_report *r)
+static void ref_geometry(const float *xyz, const uint32_t *tris, size_t kept, clvox_mesh_report *r, double *vol6_out)
 {
     const float *o = xyz + 3 * (size_t)tris[0];
     double apex[3] = {o[0], o[1], o[2]};
@@ -125,6 +125,7 @@ static void ref_geometry(const float *xyz, const uint32_t *tris, size_t kept, cl
                 A[2] * (B[0] * C[1] - B[1] * C[0]);
     }
     r->enclosed_volume = fabs(vol6) / 6.0;
+    *vol6_out = vol6;
 }
 
 
@@ -305,9 +306,10 @@ done:
     return rc;
 }
 
-static int analyze_reference(const float *xyz, size_t nv, const uint32_t *tris, size_t nt, clvox_mesh_report *r)
+static int analyze_reference(const float *xyz, size_t nv, const uint32_t *tris, size_t nt, clvox_mesh_report *r,
+                             double *vol6)
 {
-    ref_geometry(xyz, tris, nt, r);
+    ref_geometry(xyz, tris, nt, r, vol6);
     if (ref_edge_analysis(tris, nt, nv, &r->boundary_edges, &r->nonmanifold_faces) != 0) return -1;
     if (ref_duplicate_analysis(xyz, nv, tris, nt, &r->duplicate_triangles) != 0) return -1;
     return 0;
@@ -683,7 +685,7 @@ static int replay_complex(const uint32_t *tris, size_t nt, const uint64_t *cx, s
 typedef void (*pass_fn)(void *, int, int);
 
 static int analyze_fast(const float *xyz, size_t nv, const uint32_t *tris, size_t nt, int threads,
-                        clvox_mesh_report *r)
+                        clvox_mesh_report *r, double *vol6_out)
 {
     analysis *A = calloc(1, sizeof *A);
     if (!A) return -1;
@@ -729,6 +731,7 @@ static int analyze_fast(const float *xyz, size_t nv, const uint32_t *tris, size_
     double vol6 = 0.0;
     for (size_t t = 0; t < nt; t++) vol6 += term[t];
     r->enclosed_volume = fabs(vol6) / 6.0;
+    *vol6_out = vol6;
 
     bucket_offsets(A->tcount, A->tbuckets, n, A->tstart);
     clvox__parallel(n, pass_scatter_triangles, A);
@@ -786,9 +789,10 @@ done:
 }
 
 int clvox__mesh_analyze(const float *xyz, size_t nv, const uint32_t *tris, size_t nt, int threads, int reference,
-                        clvox_mesh_report *r)
+                        clvox_mesh_report *r, clvox__mesh_volume *vol)
 {
     r->degenerate_triangles = r->boundary_edges = r->nonmanifold_faces = r->duplicate_triangles = 0;
+    if (vol) vol->vol6 = vol->perm_bound = 0.0;
     if (!nt) {
         for (int a = 0; a < 3; a++) r->bbox_min[a] = r->bbox_max[a] = 0.0;
         r->enclosed_volume = 0.0;
@@ -796,8 +800,24 @@ int clvox__mesh_analyze(const float *xyz, size_t nv, const uint32_t *tris, size_
     }
     if (threads <= 0) threads = clvox__host_threads();
     if (threads > CLVOX__MAX_HOST_THREADS) threads = CLVOX__MAX_HOST_THREADS;
+    double vol6 = 0.0;
+    int rc;
     /* Vertex indices beyond 25 bits do not fit the edge buckets. */
     if (reference || bits_for(nv) > (32 + MAX_EDGE_BUCKET_BITS - 1) / 2)
-        return analyze_reference(xyz, nv, tris, nt, r);
-    return analyze_fast(xyz, nv, tris, nt, threads, r);
+        rc = analyze_reference(xyz, nv, tris, nt, r, &vol6);
+    else
+        rc = analyze_fast(xyz, nv, tris, nt, threads, r, &vol6);
+    if (rc == 0 && vol) {
+        /* Each term's permanent is at most 6 Mx My Mz (|A0| (|B1 C2| +
+         * |B2 C1|) + ...); twice that covers its rounding and the sum's. */
+        const float *o = xyz + 3 * (size_t)tris[0];
+        double m = 12.0 * (double)nt;
+        for (int a = 0; a < 3; a++) {
+            double lo = (double)o[a] - r->bbox_min[a], hi = r->bbox_max[a] - (double)o[a];
+            m *= lo > hi ? lo : hi;
+        }
+        vol->vol6 = vol6;
+        vol->perm_bound = m;
+    }
+    return rc;
 }

@@ -675,8 +675,7 @@ typedef struct prep {
     size_t ncomp;
     span_list special;
     pbound_list pb;
-    int vol_done;        /* vol/vabs of the only patch summed with the patches (closed) */
-    double vol0, vabs0;
+    int any_flip;        /* some triangle is reversed relative to its patch's first */
 } prep;
 
 #define PATCH(P, t) ((P)->pf[t] >> 1)
@@ -887,40 +886,15 @@ static clvox_status orient_patches(prep *P, uint64_t *nonmanifold, uint64_t *con
      * smaller than its child (roots link under smaller roots, halving
      * skips to a grandparent), so in triangle order the parent's patch and
      * flip are already final: uf[t] becomes t's patch << 1 | flip in place,
-     * without a find. While every triangle is in the first patch, its
-     * volume about its first vertex is summed as patch_volumes would (used
-     * when it is the only patch and closed). */
-    uint32_t *pf = uf;
-    const float *xyz = P->xyz;
-    const float *o0 = xyz + 3 * (size_t)tris[0];
-    const double ox = o0[0], oy = o0[1], oz = o0[2];
-    double vol = 0, vabs = 0;
-    size_t nc = 0, t = 0;
-    for (; t < nt; t++) {
-        uint32_t e = uf[t], y = e >> 1;
-        if (y == t) {
-            if (nc) break;
-            pf[t] = (uint32_t)nc++ << 1;
-        } else {
-            pf[t] = (e & 1u) ^ pf[y]; /* patch 0 */
-        }
-        const unsigned f = pf[t] & 1u;
-        if (t + 16 < nt) /* the corners of a later triangle */
-            for (int q = 0; q < 3; q++) PREFETCH(xyz + 3 * (size_t)tris[3 * (t + 16) + q]);
-        const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
-                    *d = xyz + 3 * (size_t)tris[3 * t + 2];
-        double v, va;
-        vol_term(a, b, d, ox, oy, oz, &v, &va);
-        vol += f ? -v : v;
-        vabs += va;
-    }
-    P->vol_done = t == nt;
-    P->vol0 = vol;
-    P->vabs0 = vabs;
-    for (; t < nt; t++) {
+     * without a find. */
+    uint32_t *pf = uf, flips = 0;
+    size_t nc = 0;
+    for (size_t t = 0; t < nt; t++) {
         uint32_t e = uf[t], y = e >> 1;
         pf[t] = y == t ? (uint32_t)nc++ << 1 : (e & 1u) ^ pf[y];
+        flips |= pf[t];
     }
+    P->any_flip = flips & 1u;
     P->pf = pf;
     P->uf = NULL;
     P->ncomp = nc;
@@ -1029,6 +1003,38 @@ static void patch_volumes(prep *P)
         P->vol[c] += FLIP(P, t) ? -v : v;
         P->vabs[c] += va;
     }
+}
+
+/* The volume of a mesh that is one closed patch, about the first corner of
+ * its first triangle (as the sum the mesh report made, mesh_report.c): when
+ * the patch is the mesh's triangles as they are (no vertex merged, no
+ * triangle flipped relative to the first) that sum is this one, term for
+ * term; its sign is then taken as is when it lies beyond the tolerance of
+ * the report's bound on the permanents (so beyond that of their sum, and
+ * volume_sign decides as on the sum below). Else summed here. */
+static void single_patch_volume(prep *P)
+{
+    const clvox_mesh *m = P->mesh;
+    const uint32_t *tris = P->tris;
+    if (tris == m->tris && P->nt == m->triangle_count && !P->any_flip &&
+        fabs(m->volume.vol6) > 1e-12 * m->volume.perm_bound) {
+        P->vol[0] = m->volume.vol6;
+        P->vabs[0] = m->volume.perm_bound;
+        return;
+    }
+    const float *xyz = P->xyz, *o = xyz + 3 * (size_t)tris[0];
+    const double ox = o[0], oy = o[1], oz = o[2];
+    double vol = 0, vabs = 0;
+    for (size_t t = 0; t < P->nt; t++) {
+        const float *a = xyz + 3 * (size_t)tris[3 * t], *b = xyz + 3 * (size_t)tris[3 * t + 1],
+                    *d = xyz + 3 * (size_t)tris[3 * t + 2];
+        double v, va;
+        vol_term(a, b, d, ox, oy, oz, &v, &va);
+        vol += FLIP(P, t) ? -v : v;
+        vabs += va;
+    }
+    P->vol[0] = vol;
+    P->vabs[0] = vabs;
 }
 
 /* The sign of a patch's volume, 0 when it is within 1e-12 of the sum of
@@ -1405,12 +1411,8 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
     rep_out->closed_components = nclosed;
 
     /* 4. signs. */
-    if (P.vol_done && P.ncomp == 1 && nclosed == 1) { /* summed with the patches, about the same origin */
-        P.vol[0] = P.vol0;
-        P.vabs[0] = P.vabs0;
-    } else {
-        patch_volumes(&P);
-    }
+    if (P.ncomp == 1 && nclosed == 1) single_patch_volume(&P);
+    else patch_volumes(&P);
     if (nclosed >= 2 && (st = nesting(&P, nclosed)) != CLVOX_OK) goto done; /* boxes first, inside */
     for (size_t c = 0; c < P.ncomp; c++) {
         int odd = (P.pstate[c] & P_OPEN) ? 0 : (int)(P.depth[c] & 1u);

@@ -23,11 +23,33 @@ static int same_double(double a, double b) { return !memcmp(&a, &b, sizeof a); }
 static void compare(const char *what, const float *xyz, size_t nv, const uint32_t *tris, size_t nt)
 {
     clvox_mesh_report ref, fast;
+    clvox__mesh_volume vref, vfast;
     memset(&ref, 0, sizeof ref);
-    CHECK_MSG(clvox__mesh_analyze(xyz, nv, tris, nt, 1, 1, &ref) == 0, "%s: reference failed", what);
+    CHECK_MSG(clvox__mesh_analyze(xyz, nv, tris, nt, 1, 1, &ref, &vref) == 0, "%s: reference failed", what);
+    /* the signed sum and the permanents' bound, brute force */
+    {
+        const float *o = xyz + 3 * (size_t)tris[0];
+        double v6 = 0, perm = 0;
+        for (size_t t = 0; t < nt; t++) {
+            double q[3][3];
+            for (int c = 0; c < 3; c++)
+                for (int a = 0; a < 3; a++) q[c][a] = (double)xyz[3 * (size_t)tris[3 * t + c] + a] - o[a];
+            v6 += q[0][0] * (q[1][1] * q[2][2] - q[1][2] * q[2][1]) + q[0][1] * (q[1][2] * q[2][0] - q[1][0] * q[2][2]) +
+                  q[0][2] * (q[1][0] * q[2][1] - q[1][1] * q[2][0]);
+            perm += fabs(q[0][0]) * (fabs(q[1][1] * q[2][2]) + fabs(q[1][2] * q[2][1])) +
+                    fabs(q[0][1]) * (fabs(q[1][2] * q[2][0]) + fabs(q[1][0] * q[2][2])) +
+                    fabs(q[0][2]) * (fabs(q[1][0] * q[2][1]) + fabs(q[1][1] * q[2][0]));
+        }
+        CHECK_MSG(same_double(vref.vol6, v6), "%s: signed volume %.17g, brute force %.17g", what, vref.vol6, v6);
+        CHECK_MSG(vref.perm_bound >= perm, "%s: permanents %.17g above their bound %.17g", what, perm,
+                  vref.perm_bound);
+    }
     for (int threads = 1; threads <= 4; threads++) {
         memset(&fast, 0xAB, sizeof fast);
-        CHECK_MSG(clvox__mesh_analyze(xyz, nv, tris, nt, threads, 0, &fast) == 0, "%s: failed", what);
+        CHECK_MSG(clvox__mesh_analyze(xyz, nv, tris, nt, threads, 0, &fast, &vfast) == 0, "%s: failed", what);
+        CHECK_MSG(same_double(vfast.vol6, vref.vol6) && same_double(vfast.perm_bound, vref.perm_bound),
+                  "%s, %d threads: signed volume %.17g/%.17g bound %.17g/%.17g", what, threads, vfast.vol6, vref.vol6,
+                  vfast.perm_bound, vref.perm_bound);
         int ok = fast.degenerate_triangles == ref.degenerate_triangles && fast.boundary_edges == ref.boundary_edges &&
                  fast.nonmanifold_faces == ref.nonmanifold_faces &&
                  fast.duplicate_triangles == ref.duplicate_triangles &&

@@ -571,6 +571,25 @@ static void test_zero_volume(void)
         prep_free(&p);
         tmesh_free(&sheet);
     }
+    /* One closed patch of zero volume (a back-to-back pair, the mesh's only
+     * patch: the report's volume is within its tolerance, so the sum is
+     * made again) keeps its orientation, either way round. */
+    for (int way = 0; way < 2; way++) {
+        tmesh pair = {0};
+        tmesh_add_vertex(&pair, 0.1f, 0.2f, 0.3f);
+        tmesh_add_vertex(&pair, 0.9f, 0.25f, 0.35f);
+        tmesh_add_vertex(&pair, 0.4f, 0.8f, 0.3f);
+        tmesh_add_tri(&pair, 0, way ? 2 : 1, way ? 1 : 2);
+        tmesh_add_tri(&pair, 0, way ? 1 : 2, way ? 2 : 1);
+        p = prep_tmesh(&pair, 0);
+        CHECK_OK(ctx, p.st);
+        CHECK(p.w.report.components == 1 && p.w.report.closed_components == 1);
+        CHECK_MSG(p.w.report.flipped_triangles == 0, "back-to-back pair %d: %llu flipped", way,
+                  (unsigned long long)p.w.report.flipped_triangles);
+        CHECK(p.w.report.holes == 0 && chain_closed(&p));
+        prep_free(&p);
+        tmesh_free(&pair);
+    }
 }
 
 static void test_crack_and_weld(void)

@@ -141,6 +141,19 @@ const float *clvox_mesh_vertices(const clvox_mesh *mesh, size_t *vertex_count);
 void clvox_mesh_vertex_offset(const clvox_mesh *mesh, double offset[3]);
 const uint32_t *clvox_mesh_triangles(const clvox_mesh *mesh, size_t *triangle_count);
 
+/* Optional, for a caller with other work to do meanwhile: starts the mesh
+ * preparation of the winding inside test (merging, orientation, holes and
+ * their caps; docs/design.md "Winding numbers") for weld distance `weld` on
+ * a host thread of its own and returns at once. The next voxelization of
+ * this mesh with the winding test (the default of the ray method) takes it
+ * when its weld is the same (else drops it and prepares), waiting for it if
+ * need be; its errors are that voxelization's. clvox_mesh_destroy waits for
+ * it. The command-line tool starts it while it creates the device context.
+ * The result is the same either way. Returns CLVOX_OK (also when one for
+ * this weld is on its way), or an error when no thread could be started
+ * (nothing changed). */
+clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, double weld);
+
 /* ---- grid ---------------------------------------------------------------- */
 
 typedef struct clvox_grid_options {

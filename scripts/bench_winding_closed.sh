@@ -84,9 +84,12 @@ trap 'rm -rf "$TMP"' EXIT
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$TMP/pocl}"
 mkdir -p "$POCL_CACHE_DIR"
 echo "load before: $(cut -d' ' -f1-3 /proc/loadavg)"
-run() { # bin mode mesh -> "seconds rss_kb cpu_seconds"
-    /usr/bin/time -f "%e %M %U %S" -o "$TMP/t" "$1" "$3" -r "$N" --inside "$2" --no-progress -q -o "$TMP/x.exr" >/dev/null
-    awk '{printf "%s %s %.2f\n", $1, $2, $3 + $4}' "$TMP/t"
+run() { # bin mode mesh -> "seconds rss_kb cpu_seconds" (wall to the ms: time's %e has 10 ms steps)
+    local t0 t1
+    t0=$(date +%s%N)
+    /usr/bin/time -f "%M %U %S" -o "$TMP/t" "$1" "$3" -r "$N" --inside "$2" --no-progress -q -o "$TMP/x.exr" >/dev/null
+    t1=$(date +%s%N)
+    awk -v ns=$((t1 - t0)) '{printf "%.3f %s %.2f\n", ns / 1e9, $1, $2 + $3}' "$TMP/t"
 }
 median() { sort -g | awk '{a[NR]=$1} END {print (NR % 2) ? a[(NR+1)/2] : (a[NR/2] + a[NR/2+1]) / 2}'; }
 for mesh in "${MESHES[@]}"; do

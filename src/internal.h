@@ -134,6 +134,7 @@ struct clvox_mesh {
     size_t triangle_count;
     clvox_mesh_report report;
     clvox__mesh_volume volume;
+    struct clvox__prep_ahead *ahead; /* winding preparation on its way (winding_prep.c), or NULL */
 };
 
 /* What the OpenMesh shim hands back: polygons as read (not validated). */

@@ -29,6 +29,7 @@
  * repeated index dropped, polygons fanned, zero-area triangles kept (they
  * matter for parity), at least one triangle. */
 #include "mesh_internal.h"
+#include "winding.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -1553,6 +1554,7 @@ static clvox_status build_mesh(clvox_context *ctx, const char *what, float *xyz,
     m->triangle_count = kept;
     m->report = r;
     m->volume = volume;
+    m->ahead = NULL;
     *out = m;
     return CLVOX_OK;
 
@@ -1718,6 +1720,7 @@ clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t
 void clvox_mesh_destroy(clvox_mesh *mesh)
 {
     if (!mesh) return;
+    clvox__prep_ahead_drop(mesh); /* its thread reads the mesh */
     free(mesh->xyz);
     free(mesh->tris);
     free(mesh);

@@ -93,6 +93,7 @@
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -1459,4 +1460,89 @@ done:
     free(P.pb.a);
     rep_out->seconds = clvox__now() - t0;
     return st;
+}
+
+/* ---- the preparation ahead ---------------------------------------------------------------- */
+
+/* Started by clvox_mesh_prepare_winding while the caller does other work
+ * (the command-line tool: creating the device context, about 30 ms on one
+ * core with the other idle), taken by the cast's speculation in place of
+ * its own preparation (src/cast.c). Its messages go to a context of its
+ * own (the caller's may be in use meanwhile). */
+typedef struct clvox__prep_ahead {
+    pthread_t thread;
+    const clvox_mesh *mesh;
+    double weld;
+    clvox_status st;
+    clvox__winding_mesh wm;
+    clvox_context msg;
+} clvox__prep_ahead;
+
+static void *prep_ahead_main(void *arg)
+{
+    clvox__prep_ahead *a = arg;
+    a->st = clvox__winding_prepare_flags(&a->msg, a->mesh, a->weld, CLVOX__PREP_BORROW, &a->wm);
+#if defined(__GLIBC__)
+    malloc_trim(0); /* its scratch back to the system before the partition's peak */
+#endif
+    return NULL;
+}
+
+/* Waits for a and frees it, result and all. */
+static void prep_ahead_free(clvox__prep_ahead *a)
+{
+    if (!a) return;
+    pthread_join(a->thread, NULL);
+    clvox__winding_mesh_free(&a->wm);
+    free(a);
+}
+
+clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, double weld)
+{
+    if (!mesh) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "winding preparation: no mesh");
+    if (!(weld >= 0) || !isfinite(weld))
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "weld distance %g: must be 0 or a finite positive number",
+                           weld);
+    clvox__prep_ahead *old = __atomic_exchange_n(&mesh->ahead, NULL, __ATOMIC_ACQ_REL);
+    if (old && old->weld == weld) { /* already on its way */
+        __atomic_store_n(&mesh->ahead, old, __ATOMIC_RELEASE);
+        return CLVOX_OK;
+    }
+    prep_ahead_free(old);
+    clvox__prep_ahead *a = calloc(1, sizeof *a);
+    if (!a) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    a->mesh = mesh;
+    a->weld = weld;
+    a->msg.host_only = 1;
+    if (pthread_create(&a->thread, NULL, prep_ahead_main, a) != 0) {
+        free(a);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "winding preparation: cannot start a thread");
+    }
+    __atomic_store_n(&mesh->ahead, a, __ATOMIC_RELEASE);
+    return CLVOX_OK;
+}
+
+int clvox__prep_ahead_take(clvox_context *ctx, const clvox_mesh *mesh, double weld, clvox_status *st,
+                           clvox__winding_mesh *out)
+{
+    /* the mesh is the caller's const one; the holder is the mesh's own
+     * scratch, taken by one caller only (the exchange) */
+    clvox__prep_ahead *a = __atomic_exchange_n(&((clvox_mesh *)mesh)->ahead, NULL, __ATOMIC_ACQ_REL);
+    if (!a) return 0;
+    pthread_join(a->thread, NULL);
+    if (a->weld != weld) {
+        clvox__winding_mesh_free(&a->wm);
+        free(a);
+        return 0;
+    }
+    *st = a->st;
+    if (a->st != CLVOX_OK) clvox__fail(ctx, a->st, "%s", a->msg.error);
+    *out = a->wm; /* moved */
+    free(a);
+    return 1;
+}
+
+void clvox__prep_ahead_drop(clvox_mesh *mesh)
+{
+    if (mesh) prep_ahead_free(__atomic_exchange_n(&mesh->ahead, NULL, __ATOMIC_ACQ_REL));
 }

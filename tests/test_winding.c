@@ -1215,6 +1215,73 @@ static void test_cap_estimates(void)
     clReleaseKernel(k);
 }
 
+/* clvox_mesh_prepare_winding: a preparation started ahead gives the same
+ * voxels and report as one made by the voxelization; one for another weld
+ * is dropped; its errors are the voxelization's; destroying the mesh waits
+ * for it (ASan: nothing leaks, nothing read after free). */
+static int same_report(const clvox_winding_report *a, const clvox_winding_report *b)
+{
+    return a->flipped_triangles == b->flipped_triangles && a->cap_triangles == b->cap_triangles &&
+           a->holes == b->holes && a->components == b->components && a->merged_vertices == b->merged_vertices &&
+           a->welded_vertices == b->welded_vertices && a->cavities == b->cavities;
+}
+
+static void test_prepare_ahead(void)
+{
+    for (size_t i = 0; i < ncases; i++) {
+        clvox_mesh *m = to_mesh(&cases[i].mesh);
+        if (!m) continue;
+        clvox_grid g = test_padded_grid(ctx, clvox_mesh_get_report(m), 24);
+        const size_t n = nvox(&g);
+        clvox_stats s0, s1;
+        uint8_t *plain = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s0);
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.0));
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.0)); /* on its way: kept */
+        uint8_t *ahead = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s1);
+        CHECK_MSG(ndiff(plain, ahead, n) == 0 && same_report(&s0.winding, &s1.winding),
+                  "%s: prepared ahead, %zu voxels differ", cases[i].name, ndiff(plain, ahead, n));
+        free(ahead);
+        /* for another weld: dropped, prepared again */
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.5));
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 1e-4)); /* replaces the first */
+        ahead = run_inside(m, &g, CLVOX_INSIDE_WINDING, &s1);
+        CHECK_MSG(ndiff(plain, ahead, n) == 0 && same_report(&s0.winding, &s1.winding),
+                  "%s: prepared ahead for another weld, %zu voxels differ", cases[i].name, ndiff(plain, ahead, n));
+        free(ahead);
+        /* a parity run leaves it for the winding run after it */
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.0));
+        free(run_inside(m, &g, CLVOX_INSIDE_PARITY, NULL));
+        ahead = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s1);
+        CHECK_MSG(ndiff(plain, ahead, n) == 0 && same_report(&s0.winding, &s1.winding),
+                  "%s: prepared ahead of a parity run, %zu voxels differ", cases[i].name, ndiff(plain, ahead, n));
+        free(ahead);
+        free(plain);
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.0));
+        clvox_mesh_destroy(m); /* waits for it */
+    }
+    /* errors: a weld that leaves no triangle fails the voxelization alike */
+    tmesh s = tmesh_sphere(0, 0, 0, 1, 6);
+    clvox_mesh *m = to_mesh(&s);
+    if (m) {
+        clvox_grid g = test_padded_grid(ctx, clvox_mesh_get_report(m), 16);
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.weld = 100.0;
+        clvox_status st0, st1;
+        free(run_in(ctx, m, &g, &o, NULL, &st0));
+        char msg0[512];
+        snprintf(msg0, sizeof msg0, "%s", clvox_context_error(ctx));
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 100.0));
+        free(run_in(ctx, m, &g, &o, NULL, &st1));
+        CHECK_MSG(st0 == CLVOX_ERR_MESH_EMPTY && st1 == st0 && strcmp(msg0, clvox_context_error(ctx)) == 0,
+                  "weld 100: %s (%s) then %s (%s)", clvox_status_string(st0), msg0, clvox_status_string(st1),
+                  clvox_context_error(ctx));
+        CHECK(clvox_mesh_prepare_winding(ctx, m, -1.0) == CLVOX_ERR_INVALID_ARGUMENT);
+        CHECK(clvox_mesh_prepare_winding(ctx, NULL, 0.0) == CLVOX_ERR_INVALID_ARGUMENT);
+        clvox_mesh_destroy(m);
+    }
+    tmesh_free(&s);
+}
+
 int main(int argc, char **argv)
 {
     /* test_winding [oracle | SECTION]: only the CPU oracle, or only the
@@ -1238,7 +1305,7 @@ int main(int argc, char **argv)
         {"union", test_unions},            {"cavities", test_cavities},
         {"report", test_winding_report},   {"real", test_real_open},
         {"coverage", test_coverage_samples}, {"apex", test_apex},
-        {"estimates", test_cap_estimates},
+        {"estimates", test_cap_estimates}, {"ahead", test_prepare_ahead},
     };
     for (size_t i = 0; i < sizeof sections / sizeof sections[0]; i++)
         if (!only || strstr(sections[i].name, only)) sections[i].fn();

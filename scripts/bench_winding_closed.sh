@@ -19,8 +19,8 @@
 # against build/release/libclvox.a: 9 runs per mesh, median and minimum of
 # wall and thread CPU), for this tree with CLVOX__PREP_BORROW (as the cast's
 # speculation) and without, and with --base-tree DIR for DIR's
-# build/release/libclvox.a and headers (another worktree, e.g. /work/main),
-# K rounds interleaved.
+# build/release/libclvox.a and headers (another worktree, e.g. /work/main)
+# the same two, K rounds interleaved.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 N=512
@@ -56,10 +56,12 @@ if [ "$PREP" = 1 ]; then
     PB=(build/tools/bench_winding_prep_borrow build/tools/bench_winding_prep)
     PN=("this, borrowed" "this, copied")
     if [ -n "$BASE_TREE" ]; then
+        $CC -DCLVOX_BENCH_BORROW -I"$BASE_TREE/include" -I"$BASE_TREE/src" scripts/bench_winding_prep.c \
+            "$BASE_TREE/build/release/libclvox.a" $LIBS -o build/tools/bench_winding_prep_base_borrow
         $CC -I"$BASE_TREE/include" -I"$BASE_TREE/src" scripts/bench_winding_prep.c \
             "$BASE_TREE/build/release/libclvox.a" $LIBS -o build/tools/bench_winding_prep_base
-        PB+=(build/tools/bench_winding_prep_base)
-        PN+=("base")
+        PB+=(build/tools/bench_winding_prep_base_borrow build/tools/bench_winding_prep_base)
+        PN+=("base, borrowed" "base, copied")
     fi
     echo "load before: $(cut -d' ' -f1-3 /proc/loadavg)"
     for mesh in "${MESHES[@]}"; do

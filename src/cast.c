@@ -458,7 +458,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
          * SPECULATE_MAX triangles: both at once cost the preparation's
          * memory on top of the partition's (armadillo_s3, 3.3 M triangles,
          * 512^3: 1.13 -> 1.00 s when it was added; the preparation borrows
-         * the mesh's triangles and holds about 23 MB at a time, see
+         * the mesh's triangles and holds about 26 MB at a time, see
          * src/winding_prep.c and docs/benchmarks.md). */
         clvox__winding_mesh wm;
         speculation sp = {ctx, mesh, grid, s->axes, opts, s->dim_v, s->dim_w, s->leaf_size, NULL, NULL, &wm,

@@ -141,19 +141,6 @@ const float *clvox_mesh_vertices(const clvox_mesh *mesh, size_t *vertex_count);
 void clvox_mesh_vertex_offset(const clvox_mesh *mesh, double offset[3]);
 const uint32_t *clvox_mesh_triangles(const clvox_mesh *mesh, size_t *triangle_count);
 
-/* Optional, for a caller with other work to do meanwhile: starts the mesh
- * preparation of the winding inside test (merging, orientation, holes and
- * their caps; docs/design.md "Winding numbers") for weld distance `weld` on
- * a host thread of its own and returns at once. The next voxelization of
- * this mesh with the winding test (the default of the ray method) takes it
- * when its weld is the same (else drops it and prepares), waiting for it if
- * need be; its errors are that voxelization's. clvox_mesh_destroy waits for
- * it. The command-line tool starts it while it creates the device context.
- * The result is the same either way. Returns CLVOX_OK (also when one for
- * this weld is on its way), or an error when no thread could be started
- * (nothing changed). */
-clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, double weld);
-
 /* ---- grid ---------------------------------------------------------------- */
 
 typedef struct clvox_grid_options {
@@ -326,6 +313,21 @@ typedef struct clvox_voxelize_options {
     CLVOX_AXIS_DEFAULT, 0, 0, 0, 0, CLVOX_COMPRESSION_DEFAULT, 0, CLVOX_TETRA_ORIGIN_CENTROID, \
     {0,0,0}, NULL, NULL, 0, 0, 0, 0, 0, 0, 0.0, NULL, CLVOX_METRIC_NEAREST, 0, 0, 0.0, 0.0, CLVOX_MODE_SOLID, \
     CLVOX_INSIDE_DEFAULT, 0.0 }
+
+/* Optional, for a caller with other work to do meanwhile: when a
+ * voxelization with `options` (NULL: the defaults) runs the winding inside
+ * test -- the default of the ray method's solid and conservative modes --
+ * starts its mesh preparation (merging, welding within options->weld,
+ * orientation, holes and their caps; docs/design.md "Winding numbers") on
+ * a host thread of its own and returns at once; else does nothing. The
+ * next voxelization of this mesh with the winding test takes it when its
+ * weld is the same (else drops it and prepares), waiting for it if need
+ * be; its errors are that voxelization's. clvox_mesh_destroy waits for it.
+ * The command-line tool starts it while it creates the device context. The
+ * result is the same either way. Returns CLVOX_OK (also when one for this
+ * weld is on its way), or an error for a bad weld or when no thread could
+ * be started (nothing changed). */
+clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, const clvox_voxelize_options *options);
 
 /* Per-voxel channels a run can produce (clvox_voxelize_options.channels). */
 #define CLVOX_CHANNEL_OCCUPANCY 0x1u /* 0/1: inside (binary), or coverage > threshold */

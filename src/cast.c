@@ -331,9 +331,8 @@ static void speculate(void *arg, int i, int n)
     speculation *sp = arg;
     (void)n;
     if (i == 1) {
-        /* the preparation started ahead (clvox_mesh_prepare_winding), else here */
-        if (clvox__prep_ahead_take(sp->ctx, sp->mesh, sp->opts->weld, &sp->prep_st, sp->wm)) return;
-        sp->prep_st = clvox__winding_prepare_flags(sp->ctx, sp->mesh, sp->opts->weld, CLVOX__PREP_BORROW, sp->wm);
+        /* (or the one started ahead, clvox_mesh_prepare_winding) */
+        sp->prep_st = clvox__winding_prepare_or_take(sp->ctx, sp->mesh, sp->opts->weld, CLVOX__PREP_BORROW, sp->wm);
 #if defined(__GLIBC__)
         malloc_trim(0);
 #endif
@@ -465,11 +464,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
                           CLVOX_OK, CLVOX_OK, {0}};
         sp.side = mesh->triangle_count <= SPECULATE_MAX ? malloc(sizeof *sp.side) : NULL;
         if (mesh->triangle_count > SPECULATE_MAX) {
-            if (clvox__prep_ahead_take(ctx, mesh, opts->weld, &st, &wm)) {
-                if (st == CLVOX_OK) st = clvox__winding_mesh_own_tris(ctx, mesh, &wm); /* borrowed: copy */
-            } else {
-                st = clvox__winding_prepare(ctx, mesh, opts->weld, &wm);
-            }
+            st = clvox__winding_prepare_or_take(ctx, mesh, opts->weld, 0, &wm);
         } else if (!sp.side) {
             memset(&wm, 0, sizeof wm);
             st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");

@@ -536,13 +536,11 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     res->have_grid = 1;
 
     if (!s->dev) { /* once per session: the kernel build is paid by the first mesh */
-        /* The winding preparation meanwhile, on the core the set-up leaves
-         * idle (later meshes prepare beside their partition, src/cast.c);
-         * when no thread starts, the voxelization prepares as usual. */
-        const clvox_inside in = a->vox.inside;
-        if (a->vox.method == CLVOX_METHOD_RAY && a->vox.mode != CLVOX_MODE_SURFACE &&
-            (in == CLVOX_INSIDE_DEFAULT || in == CLVOX_INSIDE_WINDING || in == CLVOX_INSIDE_WINDING_ABS))
-            (void)clvox_mesh_prepare_winding(s->host, mesh, a->vox.weld);
+        /* The winding preparation (if these options use it) meanwhile, on
+         * the core the set-up leaves idle (later meshes prepare beside their
+         * partition, src/cast.c); when no thread starts, the voxelization
+         * prepares as usual and reports any error. */
+        (void)clvox_mesh_prepare_winding(s->host, mesh, &a->vox);
         double t1 = now_seconds();
         clvox_context_options dco = CLVOX_CONTEXT_OPTIONS_INIT;
         dco.device = a->device;

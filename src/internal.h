@@ -323,6 +323,10 @@ extern const clvox__method clvox__method_ray;   /* cast.c  */
 extern const clvox__method clvox__method_tetra; /* tetra.c */
 extern const clvox__method clvox__method_surface; /* surface.c */
 
+/* 1 when a voxelization with these options runs the winding test, *weld
+ * its weld distance (voxelize.c). */
+int clvox__options_winding(const clvox_voxelize_options *options, double *weld);
+
 /* HALF bit pattern of x in [0, 1], rounded to nearest even (voxelize.c). */
 uint16_t clvox__half_from_unit(double x);
 

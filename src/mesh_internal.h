@@ -60,7 +60,7 @@ int clvox__stl_read_binary(const unsigned char *p, size_t n, clvox__raw_mesh *ra
  * and duplicate_triangles of *r. threads: host threads to use (0: the
  * default, clvox__host_threads()); the result does not depend on it.
  * reference != 0: the earlier single-threaded implementation, for tests.
- * nt >= 1. vol (may be NULL) gets the signed volume sum and its bound
+ * nt >= 1. vol gets the signed volume sum and its bound
  * (clvox__mesh_volume). Returns 0, or -1 when memory runs out. */
 int clvox__mesh_analyze(const float *xyz, size_t nv, const uint32_t *tris, size_t nt, int threads, int reference,
                         clvox_mesh_report *r, clvox__mesh_volume *vol);

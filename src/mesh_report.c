@@ -792,7 +792,7 @@ int clvox__mesh_analyze(const float *xyz, size_t nv, const uint32_t *tris, size_
                         clvox_mesh_report *r, clvox__mesh_volume *vol)
 {
     r->degenerate_triangles = r->boundary_edges = r->nonmanifold_faces = r->duplicate_triangles = 0;
-    if (vol) vol->vol6 = vol->perm_bound = 0.0;
+    vol->vol6 = vol->perm_bound = 0.0;
     if (!nt) {
         for (int a = 0; a < 3; a++) r->bbox_min[a] = r->bbox_max[a] = 0.0;
         r->enclosed_volume = 0.0;
@@ -807,7 +807,7 @@ int clvox__mesh_analyze(const float *xyz, size_t nv, const uint32_t *tris, size_
         rc = analyze_reference(xyz, nv, tris, nt, r, &vol6);
     else
         rc = analyze_fast(xyz, nv, tris, nt, threads, r, &vol6);
-    if (rc == 0 && vol) {
+    if (rc == 0) {
         /* Each term's permanent is at most 6 Mx My Mz (|A0| (|B1 C2| +
          * |B2 C1|) + ...); twice that covers its rounding and the sum's. */
         const float *o = xyz + 3 * (size_t)tris[0];

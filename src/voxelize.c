@@ -136,6 +136,23 @@ uint16_t clvox__half_from_unit(double x)
     return (uint16_t)nearbyint(ldexp(x, 24)); /* subnormal: k * 2^-24 (1024 = the smallest normal) */
 }
 
+/* Whether a voxelization with these options runs the winding test: the
+ * ray method in a solid or conservative mode with a winding inside (or the
+ * default), as check_inputs resolves it; *weld its weld. 0 for options it
+ * would refuse by their size. */
+int clvox__options_winding(const clvox_voxelize_options *in, double *weld)
+{
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    if (in) {
+        if (in->size < sizeof(size_t) || in->size > sizeof o) return 0;
+        memcpy(&o, in, in->size);
+    }
+    *weld = o.weld;
+    return o.method == CLVOX_METHOD_RAY && o.mode != CLVOX_MODE_SURFACE &&
+           (o.inside == CLVOX_INSIDE_DEFAULT || o.inside == CLVOX_INSIDE_WINDING ||
+            o.inside == CLVOX_INSIDE_WINDING_ABS);
+}
+
 static clvox_status check_inputs(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                  const clvox_voxelize_options *in, clvox_voxelize_options *o)
 {

@@ -34,14 +34,15 @@ clvox_status clvox__winding_mesh_own_tris(clvox_context *ctx, const clvox_mesh *
 
 /* The preparation ahead (clvox_mesh_prepare_winding): a borrowing
  * (CLVOX__PREP_BORROW) preparation on its own host thread, held by the
- * mesh. clvox__prep_ahead_take waits for the mesh's, if any, and takes it:
- * 1 when it was for `weld` (*st its status, ctx its message on an error,
- * *out its result), else 0 (none, or for another weld: dropped).
- * clvox__prep_ahead_drop waits for it and frees it (clvox_mesh_destroy). */
-int clvox__prep_ahead_take(clvox_context *ctx, const clvox_mesh *mesh, double weld, clvox_status *st,
-                           clvox__winding_mesh *out);
+ * mesh. clvox__winding_prepare_or_take is clvox__winding_prepare_flags for
+ * the cast: it waits for the mesh's preparation ahead, if any, and takes it
+ * when it was for `weld` (its status, its message in ctx; a copy of the
+ * triangles it borrowed unless flags has CLVOX__PREP_BORROW), else drops it
+ * and prepares. clvox__prep_ahead_drop waits for it and frees it
+ * (clvox_mesh_destroy). */
+clvox_status clvox__winding_prepare_or_take(clvox_context *ctx, const clvox_mesh *mesh, double weld, unsigned flags,
+                                            clvox__winding_mesh *out);
 void clvox__prep_ahead_drop(clvox_mesh *mesh);
-
 /* Closes boundary loops with caps (src/winding.c, "caps"): loop k is the
  * vertices verts[start[k] .. start[k+1]) (edges v[i] -> v[i+1], the last
  * back to the first; the array is used as scratch). Appends to wm->caps and

@@ -1314,6 +1314,14 @@ clvox_status clvox__winding_mesh_own_tris(clvox_context *ctx, const clvox_mesh *
     return CLVOX_OK;
 }
 
+static int weld_ok(double weld) { return weld >= 0 && isfinite(weld); }
+
+static clvox_status weld_fail(clvox_context *ctx, double weld)
+{
+    return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "weld distance %g: must be 0 or a finite positive number",
+                       weld);
+}
+
 clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *mesh, double weld, unsigned flags,
                                           clvox__winding_mesh *out)
 {
@@ -1321,9 +1329,7 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
     if (!out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "winding preparation: no output");
     memset(out, 0, sizeof *out);
     if (!mesh) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "winding preparation: no mesh");
-    if (!(weld >= 0) || isinf(weld))
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "weld distance %g: must be 0 or a finite positive number",
-                           weld);
+    if (!weld_ok(weld)) return weld_fail(ctx, weld);
     size_t nv = mesh->vertex_count, nt_in = mesh->triangle_count;
     if (nt_in > UINT32_MAX / 3 || nv >= UINT32_MAX)
         return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "winding preparation: mesh too large (%zu triangles)", nt_in);
@@ -1497,12 +1503,12 @@ static void prep_ahead_free(clvox__prep_ahead *a)
     free(a);
 }
 
-clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, double weld)
+clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, const clvox_voxelize_options *options)
 {
     if (!mesh) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "winding preparation: no mesh");
-    if (!(weld >= 0) || !isfinite(weld))
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "weld distance %g: must be 0 or a finite positive number",
-                           weld);
+    double weld;
+    if (!clvox__options_winding(options, &weld)) return CLVOX_OK; /* nothing to prepare */
+    if (!weld_ok(weld)) return weld_fail(ctx, weld);
     clvox__prep_ahead *old = __atomic_exchange_n(&mesh->ahead, NULL, __ATOMIC_ACQ_REL);
     if (old && old->weld == weld) { /* already on its way */
         __atomic_store_n(&mesh->ahead, old, __ATOMIC_RELEASE);
@@ -1522,24 +1528,24 @@ clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, do
     return CLVOX_OK;
 }
 
-int clvox__prep_ahead_take(clvox_context *ctx, const clvox_mesh *mesh, double weld, clvox_status *st,
-                           clvox__winding_mesh *out)
+clvox_status clvox__winding_prepare_or_take(clvox_context *ctx, const clvox_mesh *mesh, double weld, unsigned flags,
+                                            clvox__winding_mesh *out)
 {
     /* the mesh is the caller's const one; the holder is the mesh's own
      * scratch, taken by one caller only (the exchange) */
-    clvox__prep_ahead *a = __atomic_exchange_n(&((clvox_mesh *)mesh)->ahead, NULL, __ATOMIC_ACQ_REL);
-    if (!a) return 0;
-    pthread_join(a->thread, NULL);
-    if (a->weld != weld) {
-        clvox__winding_mesh_free(&a->wm);
-        free(a);
-        return 0;
+    clvox__prep_ahead *a = mesh ? __atomic_exchange_n(&((clvox_mesh *)mesh)->ahead, NULL, __ATOMIC_ACQ_REL) : NULL;
+    if (a && a->weld != weld) {
+        prep_ahead_free(a);
+        a = NULL;
     }
-    *st = a->st;
-    if (a->st != CLVOX_OK) clvox__fail(ctx, a->st, "%s", a->msg.error);
+    if (!a) return clvox__winding_prepare_flags(ctx, mesh, weld, flags, out);
+    pthread_join(a->thread, NULL);
+    clvox_status st = a->st;
+    if (st != CLVOX_OK) clvox__fail(ctx, st, "%s", a->msg.error);
     *out = a->wm; /* moved */
     free(a);
-    return 1;
+    if (st == CLVOX_OK && !(flags & CLVOX__PREP_BORROW)) st = clvox__winding_mesh_own_tris(ctx, mesh, out);
+    return st;
 }
 
 void clvox__prep_ahead_drop(clvox_mesh *mesh)

@@ -1226,6 +1226,14 @@ static int same_report(const clvox_winding_report *a, const clvox_winding_report
            a->welded_vertices == b->welded_vertices && a->cavities == b->cavities;
 }
 
+/* clvox_mesh_prepare_winding with the default options but for the weld */
+static clvox_status start_ahead(clvox_mesh *m, double weld)
+{
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    o.weld = weld;
+    return clvox_mesh_prepare_winding(ctx, m, &o);
+}
+
 static void test_prepare_ahead(void)
 {
     for (size_t i = 0; i < ncases; i++) {
@@ -1235,28 +1243,28 @@ static void test_prepare_ahead(void)
         const size_t n = nvox(&g);
         clvox_stats s0, s1;
         uint8_t *plain = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s0);
-        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.0));
-        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.0)); /* on its way: kept */
+        CHECK_OK(ctx, start_ahead(m, 0.0));
+        CHECK_OK(ctx, start_ahead(m, 0.0)); /* on its way: kept */
         uint8_t *ahead = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s1);
         CHECK_MSG(ndiff(plain, ahead, n) == 0 && same_report(&s0.winding, &s1.winding),
                   "%s: prepared ahead, %zu voxels differ", cases[i].name, ndiff(plain, ahead, n));
         free(ahead);
         /* for another weld: dropped, prepared again */
-        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.5));
-        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 1e-4)); /* replaces the first */
+        CHECK_OK(ctx, start_ahead(m, 0.5));
+        CHECK_OK(ctx, start_ahead(m, 1e-4)); /* replaces the first */
         ahead = run_inside(m, &g, CLVOX_INSIDE_WINDING, &s1);
         CHECK_MSG(ndiff(plain, ahead, n) == 0 && same_report(&s0.winding, &s1.winding),
                   "%s: prepared ahead for another weld, %zu voxels differ", cases[i].name, ndiff(plain, ahead, n));
         free(ahead);
         /* a parity run leaves it for the winding run after it */
-        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.0));
+        CHECK_OK(ctx, start_ahead(m, 0.0));
         free(run_inside(m, &g, CLVOX_INSIDE_PARITY, NULL));
         ahead = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s1);
         CHECK_MSG(ndiff(plain, ahead, n) == 0 && same_report(&s0.winding, &s1.winding),
                   "%s: prepared ahead of a parity run, %zu voxels differ", cases[i].name, ndiff(plain, ahead, n));
         free(ahead);
         free(plain);
-        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 0.0));
+        CHECK_OK(ctx, start_ahead(m, 0.0));
         clvox_mesh_destroy(m); /* waits for it */
     }
     /* errors: a weld that leaves no triangle fails the voxelization alike */
@@ -1270,13 +1278,32 @@ static void test_prepare_ahead(void)
         free(run_in(ctx, m, &g, &o, NULL, &st0));
         char msg0[512];
         snprintf(msg0, sizeof msg0, "%s", clvox_context_error(ctx));
-        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, 100.0));
+        CHECK_OK(ctx, start_ahead(m, 100.0));
         free(run_in(ctx, m, &g, &o, NULL, &st1));
         CHECK_MSG(st0 == CLVOX_ERR_MESH_EMPTY && st1 == st0 && strcmp(msg0, clvox_context_error(ctx)) == 0,
                   "weld 100: %s (%s) then %s (%s)", clvox_status_string(st0), msg0, clvox_status_string(st1),
                   clvox_context_error(ctx));
-        CHECK(clvox_mesh_prepare_winding(ctx, m, -1.0) == CLVOX_ERR_INVALID_ARGUMENT);
-        CHECK(clvox_mesh_prepare_winding(ctx, NULL, 0.0) == CLVOX_ERR_INVALID_ARGUMENT);
+        CHECK(start_ahead(m, -1.0) == CLVOX_ERR_INVALID_ARGUMENT);
+        CHECK(clvox_mesh_prepare_winding(ctx, NULL, NULL) == CLVOX_ERR_INVALID_ARGUMENT);
+        /* options without the winding test start nothing */
+        o = (clvox_voxelize_options)CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.inside = CLVOX_INSIDE_PARITY;
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, &o));
+        CHECK(m->ahead == NULL);
+        o = (clvox_voxelize_options)CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.method = CLVOX_METHOD_TETRA;
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, &o));
+        CHECK(m->ahead == NULL);
+        o = (clvox_voxelize_options)CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.mode = CLVOX_MODE_SURFACE;
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, &o));
+        CHECK(m->ahead == NULL);
+        o = (clvox_voxelize_options)CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.mode = CLVOX_MODE_CONSERVATIVE; /* its solid part is the ray method's */
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, &o));
+        CHECK(m->ahead != NULL);
+        CHECK_OK(ctx, clvox_mesh_prepare_winding(ctx, m, NULL)); /* the defaults: the same weld, kept */
+        CHECK(m->ahead != NULL);
         clvox_mesh_destroy(m);
     }
     tmesh_free(&s);

@@ -25,6 +25,7 @@
 #include <dirent.h>
 #include <errno.h>
 #include <inttypes.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -454,6 +455,69 @@ typedef struct batch_counts {
     size_t ok, failed, skipped, run;
 } batch_counts;
 
+/* The next mesh, loaded while this one is voxelized: a batch of small
+ * meshes leaves most of a second core idle (loading, writing and the device
+ * waits run on one), and a mesh's load was a third of its time
+ * (docs/benchmarks.md "Batch: the next mesh loaded ahead"). The thread loads
+ * it with a host context of its own (its messages) and starts its winding
+ * preparation (clvox_mesh_prepare_winding); vox_run takes the mesh.
+ * Meshes over PREFETCH_MAX_BYTES are not loaded ahead, so that two big
+ * meshes are never held at once. */
+#define PREFETCH_MAX_BYTES (64ull << 20)
+
+typedef struct prefetch {
+    pthread_t thread;
+    int running;                       /* a thread to join */
+    size_t k;                          /* the selected item it loads */
+    const char *path;
+    const clvox_voxelize_options *vox;
+    clvox_context *ctx;                /* host-only, this thread's */
+    clvox_mesh *mesh;
+    clvox_status st;
+    double seconds;
+} prefetch;
+
+static void *prefetch_main(void *arg)
+{
+    prefetch *p = arg;
+    double t0 = cli_now();
+    p->st = clvox_mesh_load(p->ctx, p->path, &p->mesh);
+    p->seconds = cli_now() - t0;
+    if (p->st == CLVOX_OK) (void)clvox_mesh_prepare_winding(p->ctx, p->mesh, p->vox); /* errors: the cast's */
+    return NULL;
+}
+
+/* Waits for the thread; the mesh (or the failed load) stays in p. */
+static void prefetch_join(prefetch *p)
+{
+    if (!p->running) return;
+    pthread_join(p->thread, NULL);
+    p->running = 0;
+}
+
+static int would_skip(const batch_opts *o, const batch_item *it)
+{
+    struct stat sb;
+    return o->skip_existing && lstat(it->output, &sb) == 0 && S_ISREG(sb.st_mode);
+}
+
+/* Starts loading the first item after k that will run (not skipped), if it
+ * is a regular file of at most PREFETCH_MAX_BYTES. */
+static void prefetch_start(prefetch *p, const batch_opts *o, batch_item **sel, size_t K, size_t k)
+{
+    if (!p->ctx || p->running || p->mesh) return;
+    size_t j = k + 1;
+    while (j < K && would_skip(o, sel[j])) j++;
+    struct stat sb;
+    if (j >= K || stat(sel[j]->mesh, &sb) != 0 || !S_ISREG(sb.st_mode) || (uint64_t)sb.st_size > PREFETCH_MAX_BYTES)
+        return;
+    p->k = j;
+    p->path = sel[j]->mesh;
+    p->st = CLVOX_OK;
+    p->seconds = 0;
+    if (pthread_create(&p->thread, NULL, prefetch_main, p) == 0) p->running = 1;
+}
+
 static void progress_line(const cli_args *a, size_t k, size_t K, const batch_item *it, const vox_result *res)
 {
     if (a->quiet) return;
@@ -475,6 +539,8 @@ int cmd_batch(int argc, char **argv)
     vox_result *res = NULL;
     vox_session s;
     memset(&s, 0, sizeof s);
+    prefetch pf;
+    memset(&pf, 0, sizeof pf);
     int rc = parse_args(argc, argv, 0, 1, batch_extra, &o, &a);
     if (rc != EXIT_OK) goto done;
     if (a.help) {
@@ -539,19 +605,44 @@ int cmd_batch(int argc, char **argv)
     double start = cli_now();
     batch_counts c = {0, 0, 0, 0};
     int first_failure = EXIT_OK, cancelled = 0;
+    if (K > 1) {
+        clvox_context_options ho = CLVOX_CONTEXT_OPTIONS_INIT;
+        ho.host_only = 1;
+        if (clvox_context_create(&ho, &pf.ctx) != CLVOX_OK) { /* no loading ahead, nothing else lost */
+            clvox_context_destroy(pf.ctx);
+            pf.ctx = NULL;
+        }
+        pf.vox = &a.vox;
+    }
     for (size_t k = 0; k < K; k++) {
         batch_item *it = sel[k];
         if (cli_interrupted()) { cancelled = 1; break; }
-        vox_job job = {it->mesh, it->output, it->grid_by, it->grid, (int64_t)(it - list.items), it->source, it->line};
+        vox_job job = {it->mesh, it->output, it->grid_by, it->grid, (int64_t)(it - list.items), it->source, it->line,
+                       0, NULL, CLVOX_OK, NULL, 0};
+        if (pf.ctx && (pf.running || pf.mesh) && pf.k == k) { /* this mesh was loaded ahead */
+            prefetch_join(&pf);
+            job.preloaded = 1;
+            job.mesh_ahead = pf.mesh;
+            job.mesh_status = pf.st;
+            job.mesh_ctx = pf.ctx;
+            job.mesh_seconds = pf.seconds;
+            pf.mesh = NULL;
+        }
         struct stat sb;
         if (o.skip_existing && lstat(it->output, &sb) == 0 && S_ISREG(sb.st_mode)) {
+            clvox_mesh_destroy(job.mesh_ahead); /* its output appeared meanwhile */
             memset(res, 0, sizeof *res);
             res->status = "skipped";
             res->output_size = (uint64_t)sb.st_size;
             c.skipped++;
         } else {
             c.run++;
+            /* the next load ahead, beside this run -- after it where this
+             * run reports a failed load ahead (its message is in pf.ctx) */
+            const int failed_ahead = job.preloaded && !job.mesh_ahead;
+            if (!failed_ahead) prefetch_start(&pf, &o, sel, K, k);
             int r = vox_run(&s, &job, res);
+            if (failed_ahead) prefetch_start(&pf, &o, sel, K, k);
             if (r == EXIT_OK) {
                 c.ok++;
             } else if (r == EXIT_CANCELLED) {
@@ -574,6 +665,9 @@ int cmd_batch(int argc, char **argv)
         if (cancelled || res->fatal) break;
         if (res->rc != EXIT_OK && !o.keep_going) break;
     }
+    prefetch_join(&pf); /* a batch cut short: the mesh loaded ahead is not run */
+    clvox_mesh_destroy(pf.mesh);
+    pf.mesh = NULL;
     double seconds = cli_now() - start;
     size_t not_run = K - c.ok - c.failed - c.skipped;
     double rate = seconds > 0 ? (double)c.ok / seconds : 0;
@@ -611,6 +705,9 @@ int cmd_batch(int argc, char **argv)
     rc = cli_finish_stdout(rc, NULL);
 
 done:
+    prefetch_join(&pf);
+    clvox_mesh_destroy(pf.mesh);
+    clvox_context_destroy(pf.ctx);
     vox_session_close(&s);
     free(res);
     free(sel);

@@ -491,7 +491,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     double wall_start = now_seconds();
     memset(res, 0, sizeof *res);
     res->status = "failed";
-    clvox_mesh *mesh = NULL;
+    clvox_mesh *mesh = job->preloaded ? job->mesh_ahead : NULL; /* ours from here on */
     clvox_status st;
     int rc;
     const char *saved_prefix = g_fail_prefix;
@@ -512,12 +512,20 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
         goto done;
     }
 
-    double t0 = now_seconds();
-    if ((st = clvox_mesh_load(s->host, job->mesh, &mesh)) != CLVOX_OK) {
-        rc = fail_status(s->host, st, ROLE_INPUT);
-        goto done;
+    if (job->preloaded) {
+        if (!mesh) {
+            rc = fail_status(job->mesh_ctx, job->mesh_status, ROLE_INPUT);
+            goto done;
+        }
+        res->load_seconds = job->mesh_seconds;
+    } else {
+        double t0 = now_seconds();
+        if ((st = clvox_mesh_load(s->host, job->mesh, &mesh)) != CLVOX_OK) {
+            rc = fail_status(s->host, st, ROLE_INPUT);
+            goto done;
+        }
+        res->load_seconds = now_seconds() - t0;
     }
-    res->load_seconds = now_seconds() - t0;
     if (g_interrupted) { rc = fail_message(EXIT_CANCELLED, "cancelled"); goto done; }
     const clvox_mesh_report *report = clvox_mesh_get_report(mesh);
     res->report = *report;

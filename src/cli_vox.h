@@ -77,6 +77,15 @@ typedef struct vox_job {
     int64_t n;                  /* position in the batch list, -1 for a single run */
     const char *source;         /* "MANIFEST:LINE" or NULL */
     unsigned line;              /* manifest line, 0 if none */
+    /* A mesh loaded ahead (batch, cli_batch.c): with `preloaded` vox_run
+     * takes mesh_ahead (and destroys it in every case) instead of loading
+     * the mesh, or where that load failed (mesh_ahead NULL) reports
+     * mesh_status with mesh_ctx's message. */
+    int preloaded;
+    clvox_mesh *mesh_ahead;
+    clvox_status mesh_status;
+    clvox_context *mesh_ctx;
+    double mesh_seconds;
 } vox_job;
 
 typedef struct vox_result {

@@ -703,6 +703,7 @@ static void test_batch_basic(void)
              "assert [x['input'] for x in m] == A[0:3], m\n"
              "assert m[1]['grid']['dims'] == [8, 4, 4] and m[0]['filled_voxels'] == 512\n"
              "assert m[0]['seconds']['setup'] > 0 and m[1]['seconds']['setup'] == 0 == m[2]['seconds']['setup']\n"
+             "assert all(x['seconds']['load'] > 0 for x in m), m  # the later ones loaded ahead\n"
              "assert len(m[2]['warnings']) == 0 and m[2]['filled_voxels'] == 512\n"
              "b = recs[3]\n"
              "assert b['type'] == 'batch' and b['meshes'] == 3 and b['ok'] == 3 and b['failed'] == 0, b\n"

@@ -64,6 +64,12 @@ static enum mesh_format format_of(const char *path, const char **ext_out)
     return FMT_UNKNOWN;
 }
 
+int clvox__is_mesh_path(const char *path)
+{
+    const char *ext;
+    return path && format_of(path, &ext) != FMT_UNKNOWN;
+}
+
 static uint32_t le32(const unsigned char *p)
 {
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;

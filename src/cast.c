@@ -39,6 +39,8 @@
 
 #define DEFAULT_HIT_CAPACITY 32u
 #define SPECULATE_MAX (4u << 20) /* triangles: see ray_prepare */
+#define SLOW_FIRST_RAYS 2048u     /* ray_slab: the first batch where there are caps */
+#define SLOW_BATCH_SECONDS 0.25   /* ... and the wall time a batch is sized for */
 
 /* Device buffers of one batch. */
 typedef struct batch_mem {
@@ -69,6 +71,7 @@ struct clvox__method_state {
     uint64_t leaf_max;           /* most triangles in one quadtree leaf */
     batch_mem mem;               /* the fast pass */
     size_t batch_items;          /* items per fast-pass batch (work-bounded) */
+    size_t batch_now;            /* items in the next batch (ray_slab; 0: not set yet) */
     int (*poll)(void *, double); /* clvox__run.poll */
     void *poll_user;
     uint64_t max_alloc;          /* the device's largest buffer */
@@ -742,7 +745,13 @@ static clvox_status winding_enqueue(clvox__method_state *s, const batch_mem *m, 
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->rims.node_count);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->rims.tris);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_classify_winding)");
-    size_t local = 64, global = ((size_t)n + local - 1) / local * local;
+    /* Near caps a ray's cost varies a thousandfold and the batches are
+     * short (ray_slab): on a CPU device, work-groups of 4 rays so that a
+     * batch does not end waiting for one work-group of 64 costly rays
+     * (2 cores, cylinder at 256^3 in batches: 0.99 s with 64, 0.82 with 4,
+     * 0.94 in one batch of 64; docs/benchmarks.md) */
+    const int cpu = strcmp(ctx->device.type, "cpu") == 0;
+    size_t local = s->caps.node_count > 0 && cpu ? 4 : 64, global = ((size_t)n + local - 1) / local * local;
     err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_classify_winding");
     return CLVOX_OK;
@@ -973,10 +982,23 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
     /* z-rays are the same for every slab: count them once. */
     const int count_rays = s->axis != CLVOX_AXIS_Z || z0 == 0;
     const size_t R = s->coverage ? s->R : 1;
-    const size_t per = s->batch_items; /* items (rays or columns) per batch */
+    /* Items (rays or columns) per batch: batch_items, but where there are
+     * caps the winding classify can take seconds a batch (b9_mesh: 12 s for
+     * its one batch at 256^3), and it is between batches that the progress
+     * bar moves and SIGINT is heard; there the batches start at
+     * SLOW_FIRST_RAYS rays and are sized from the last one's wall time to
+     * take about SLOW_BATCH_SECONDS (the rays are independent: the same
+     * voxels whatever the batches). */
+    const int slow = s->winding && s->caps.node_count > 0;
+    if (s->batch_now == 0) {
+        s->batch_now = s->batch_items;
+        if (slow && s->batch_now > SLOW_FIRST_RAYS / R) s->batch_now = SLOW_FIRST_RAYS / R ? SLOW_FIRST_RAYS / R : 1;
+    }
     clvox_status st = CLVOX_OK;
-    for (size_t c0 = 0; st == CLVOX_OK && c0 < columns; c0 += per) {
-        const size_t k = columns - c0 < per ? columns - c0 : per;
+    for (size_t c0 = 0, k = 0; st == CLVOX_OK && c0 < columns; c0 += k) {
+        const size_t per = s->batch_now;
+        k = columns - c0 < per ? columns - c0 : per;
+        const double t_batch = slow ? clvox__now() : 0.0;
         for (size_t i = 0; i < k; i++) {
             uint32_t v, w;
             clvox_u32 base, bit;
@@ -992,6 +1014,12 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
         st = cast_batch(s, &s->mem, s->rays_host, (cl_uint)(k * R), s->cols_host, (cl_uint)k, &t, s->counts_host,
                         s->filled_host, s->sums_host, s->pstats_host, s->pvolume_host, ss);
         if (st != CLVOX_OK) break;
+        if (slow) {
+            const double dt = clvox__now() - t_batch;
+            double next = dt > 0 ? (double)k * SLOW_BATCH_SECONDS / dt : (double)s->batch_items;
+            if (next > 2.0 * (double)per) next = 2.0 * (double)per; /* grow gently: a batch's cost varies */
+            s->batch_now = next >= (double)s->batch_items ? s->batch_items : next < 1.0 ? 1u : (size_t)next;
+        }
 
         /* Tally; compact the items that overflowed to the front (in place:
          * over <= i), with their rays and first-pass counts. */

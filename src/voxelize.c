@@ -328,7 +328,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     stats.peak_slab_bytes += depth * all_slices; /* method working set + slab planes */
     uint32_t slabs = (Z + depth - 1) / depth, done = 0;
     poll.slabs = slabs;
-    poll.last = clvox__now();
+    poll.last = -1e300; /* the first poll inside a slab is passed on, then at most 10 a second */
     for (uint32_t z0 = 0; st == CLVOX_OK && z0 < Z; z0 += depth) {
         uint32_t nz = Z - z0 < depth ? Z - z0 : depth;
         clvox__slab_stats ss;

@@ -1309,6 +1309,52 @@ static void test_prepare_ahead(void)
     tmesh_free(&s);
 }
 
+/* Where there are caps, a slab's rays go in batches sized to take about a
+ * quarter of a second (src/cast.c ray_slab): the progress callback is called
+ * inside a single slab and can cancel it there, and the voxels do not depend
+ * on the batches (one slab of 9216 rays, then slabs of 5 slices). */
+static int batch_calls, batch_partial, batch_cancel;
+static int batch_progress(void *user, double f)
+{
+    (void)user;
+    batch_calls++;
+    if (f < 1.0) batch_partial = 1;
+    return !(batch_cancel && f < 1.0);
+}
+
+static void test_batches(void)
+{
+    tmesh t = tmesh_sphere_holes(5, 0.5, 0.5, 0.5, 0.45, 24, 8);
+    clvox_mesh *m = to_mesh(&t);
+    if (!m) return;
+    clvox_grid g = {{96, 96, 96}, {0, 0, 0}, {1.0 / 96, 1.0 / 96, 1.0 / 96}};
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    o.ray_axis = CLVOX_AXIS_X;
+    o.slab_depth = 96;
+    o.progress = batch_progress;
+    batch_calls = batch_partial = batch_cancel = 0;
+    clvox_stats s1, s2;
+    uint8_t *one = run(m, &g, &o, &s1);
+    CHECK_MSG(s1.winding.cap_triangles > 0 && batch_partial, "one slab: %d progress calls, none inside it (%llu caps)", batch_calls, (unsigned long long)s1.winding.cap_triangles);
+    o.slab_depth = 5;
+    o.progress = NULL;
+    uint8_t *many = run(m, &g, &o, &s2);
+    CHECK_MSG(ndiff(one, many, nvox(&g)) == 0 && s1.winding.exact_points == s2.winding.exact_points,
+              "one slab vs slabs of 5: %zu voxels differ, exact points %llu vs %llu", ndiff(one, many, nvox(&g)),
+              (unsigned long long)s1.winding.exact_points, (unsigned long long)s2.winding.exact_points);
+    o.slab_depth = 96;
+    o.progress = batch_progress;
+    batch_cancel = 1;
+    clvox_status st;
+    free(run_in(ctx, m, &g, &o, NULL, &st));
+    CHECK_MSG(st == CLVOX_ERR_CANCELLED && strstr(clvox_context_error(ctx), "within slab"),
+              "cancelled inside the slab: %s (%s)", clvox_status_string(st), clvox_context_error(ctx));
+    free(one);
+    free(many);
+    clvox_mesh_destroy(m);
+    tmesh_free(&t);
+}
+
 int main(int argc, char **argv)
 {
     /* test_winding [oracle | SECTION]: only the CPU oracle, or only the
@@ -1333,6 +1379,7 @@ int main(int argc, char **argv)
         {"report", test_winding_report},   {"real", test_real_open},
         {"coverage", test_coverage_samples}, {"apex", test_apex},
         {"estimates", test_cap_estimates}, {"ahead", test_prepare_ahead},
+        {"batches", test_batches},
     };
     for (size_t i = 0; i < sizeof sections / sizeof sections[0]; i++)
         if (!only || strstr(sections[i].name, only)) sections[i].fn();

@@ -1,5 +1,6 @@
 # clvox — build, test, install.
-#   make [CONFIG=release|debug|sanitize] [V=1]    library, clvox binary
+#   make [CONFIG=release|debug|sanitize|tsan] [V=1]  library, clvox binary
+#                                                  (tsan: ThreadSanitizer, scripts/check_threads.sh)
 #   make test                                      build and run the test suite
 #   make install PREFIX=/usr/local DESTDIR=
 CONFIG ?= release
@@ -21,8 +22,11 @@ else ifeq ($(CONFIG),debug)
 else ifeq ($(CONFIG),sanitize)
   OPT := -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
   SAN_LDFLAGS := -fsanitize=address,undefined
+else ifeq ($(CONFIG),tsan)
+  OPT := -O1 -g -fsanitize=thread -fno-omit-frame-pointer
+  SAN_LDFLAGS := -fsanitize=thread
 else
-  $(error CONFIG must be release, debug or sanitize)
+  $(error CONFIG must be release, debug, sanitize or tsan)
 endif
 # User flags come last so they win (redis FINAL_CFLAGS).
 FINAL_CFLAGS := $(BASE_CFLAGS) $(OPT) $(CFLAGS)

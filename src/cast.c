@@ -71,7 +71,9 @@ struct clvox__method_state {
     uint64_t leaf_max;           /* most triangles in one quadtree leaf */
     batch_mem mem;               /* the fast pass */
     size_t batch_items;          /* items per fast-pass batch (work-bounded) */
-    size_t batch_now;            /* items in the next batch (ray_slab; 0: not set yet) */
+    int timed;                   /* caps: batches sized by their time (ray_slab) */
+    size_t batch_now;            /* items in the next batch: batch_items, or fewer where timed */
+    size_t winding_local;        /* work-group size of the winding classify (winding_enqueue) */
     int (*poll)(void *, double); /* clvox__run.poll */
     void *poll_user;
     uint64_t max_alloc;          /* the device's largest buffer */
@@ -560,6 +562,19 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         uint64_t k = CLVOX__BATCH_TESTS / per_item;
         s->batch_items = k < 1 ? 1 : k > max_items ? max_items : (size_t)k;
     }
+    /* Where there are caps the winding classify near them is the cost, not
+     * the intersection tests that bound batch_items (b9_mesh: 12 s for the
+     * one batch of its one slab at 256^3), and it is between batches that
+     * the progress bar moves and SIGINT is heard: there the first batch is
+     * SLOW_FIRST_RAYS rays and ray_slab sizes the next ones by time. Near
+     * caps a ray's cost also varies a thousandfold, so that on a CPU device
+     * work-groups of 4 rays keep a short batch from ending on one group of
+     * 64 costly rays (2 cores, cylinder at 256^3 in batches: 0.99 s with
+     * 64, 0.82 with 4, 0.94 in one batch of 64; docs/benchmarks.md). */
+    s->timed = s->caps.node_count > 0;
+    const size_t first = SLOW_FIRST_RAYS / (s->coverage ? s->R : 1); /* items: rays or columns */
+    s->batch_now = s->timed && first < s->batch_items ? (first ? first : 1) : s->batch_items;
+    s->winding_local = s->timed && strcmp(ctx->device.type, "cpu") == 0 ? 4 : 64;
     if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage, s->palette, s->winding);
     if (st == CLVOX_OK) {
         s->rays_host = malloc(max_rays * sizeof *s->rays_host);
@@ -745,13 +760,7 @@ static clvox_status winding_enqueue(clvox__method_state *s, const batch_mem *m, 
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->rims.node_count);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->rims.tris);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_classify_winding)");
-    /* Near caps a ray's cost varies a thousandfold and the batches are
-     * short (ray_slab): on a CPU device, work-groups of 4 rays so that a
-     * batch does not end waiting for one work-group of 64 costly rays
-     * (2 cores, cylinder at 256^3 in batches: 0.99 s with 64, 0.82 with 4,
-     * 0.94 in one batch of 64; docs/benchmarks.md) */
-    const int cpu = strcmp(ctx->device.type, "cpu") == 0;
-    size_t local = s->caps.node_count > 0 && cpu ? 4 : 64, global = ((size_t)n + local - 1) / local * local;
+    size_t local = s->winding_local, global = ((size_t)n + local - 1) / local * local;
     err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_classify_winding");
     return CLVOX_OK;
@@ -982,23 +991,14 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
     /* z-rays are the same for every slab: count them once. */
     const int count_rays = s->axis != CLVOX_AXIS_Z || z0 == 0;
     const size_t R = s->coverage ? s->R : 1;
-    /* Items (rays or columns) per batch: batch_items, but where there are
-     * caps the winding classify can take seconds a batch (b9_mesh: 12 s for
-     * its one batch at 256^3), and it is between batches that the progress
-     * bar moves and SIGINT is heard; there the batches start at
-     * SLOW_FIRST_RAYS rays and are sized from the last one's wall time to
-     * take about SLOW_BATCH_SECONDS (the rays are independent: the same
-     * voxels whatever the batches). */
-    const int slow = s->winding && s->caps.node_count > 0;
-    if (s->batch_now == 0) {
-        s->batch_now = s->batch_items;
-        if (slow && s->batch_now > SLOW_FIRST_RAYS / R) s->batch_now = SLOW_FIRST_RAYS / R ? SLOW_FIRST_RAYS / R : 1;
-    }
+    /* Items (rays or columns) per batch: s->batch_now, where timed sized
+     * from the last batch's wall time to take about SLOW_BATCH_SECONDS (the
+     * rays are independent: the same voxels whatever the batches). */
     clvox_status st = CLVOX_OK;
     for (size_t c0 = 0, k = 0; st == CLVOX_OK && c0 < columns; c0 += k) {
         const size_t per = s->batch_now;
         k = columns - c0 < per ? columns - c0 : per;
-        const double t_batch = slow ? clvox__now() : 0.0;
+        const double t_batch = s->timed ? clvox__now() : 0.0;
         for (size_t i = 0; i < k; i++) {
             uint32_t v, w;
             clvox_u32 base, bit;
@@ -1014,7 +1014,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
         st = cast_batch(s, &s->mem, s->rays_host, (cl_uint)(k * R), s->cols_host, (cl_uint)k, &t, s->counts_host,
                         s->filled_host, s->sums_host, s->pstats_host, s->pvolume_host, ss);
         if (st != CLVOX_OK) break;
-        if (slow) {
+        if (s->timed) {
             const double dt = clvox__now() - t_batch;
             double next = dt > 0 ? (double)k * SLOW_BATCH_SECONDS / dt : (double)s->batch_items;
             if (next > 2.0 * (double)per) next = 2.0 * (double)per; /* grow gently: a batch's cost varies */

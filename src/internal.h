@@ -64,12 +64,12 @@ void clvox__release_mem(cl_mem *m);
 /* Seconds of device time an event took (0 if profiling info is missing). */
 double clvox__event_seconds(cl_event ev);
 double clvox__now(void); /* monotonic seconds */
+/* A name the mesh loader reads by its extension (obj, off, ply, stl, om; any case). */
+int clvox__is_mesh_path(const char *path);
 /* Reads a small text file (palette, render map) whole into a malloc'ed
  * buffer (*data, *size bytes; free it). `what` names it in messages
  * ("cannot open palette 'P': ..."); a file over max_bytes is
  * CLVOX_ERR_PALETTE_FORMAT "P: larger than N bytes". */
-/* A name the mesh loader reads by its extension (obj, off, ply, stl, om; any case). */
-int clvox__is_mesh_path(const char *path);
 clvox_status clvox__read_text_file(clvox_context *ctx, const char *path, const char *what, size_t max_bytes,
                                    char **data, size_t *size);
 /* "512 bytes", "12.3 KB", "999 MB", "2.1 GB": decimal units, 3 digits, for messages. */

@@ -7,8 +7,62 @@
  * classified by runs from K alone, like parity; on a closed mesh there are
  * no caps and that is every ray. Rays near a cap decide voxel by voxel. */
 
-#define CLVOX_RIM_TRIES 4u
-#define CLVOX_RIM_BUDGET 12u
+#define CLVOX_RIM_BUDGET 12u /* steps of the segments' M2 bound */
+#define CLVOX_SEG_MAX 256u   /* voxels between anchors at most */
+#if defined(cl_khr_fp64)
+#define CLVOX_LERP_ERR 1e-12 /* the line's rounding, of the values' size */
+#else
+#define CLVOX_LERP_ERR 1e-5f
+#endif
+
+/* Moves K (the signed crossings beyond) and Jc (the surface steps so far)
+ * along the ray to voxel centre u: crossings at or before u are passed. */
+inline void clvox_winding_advance(global const clvox_real *hh, global const char *sg, uint n, clvox_real u, uint *k,
+                                  int *K, clvox_real *Jc)
+{
+    while (*k < n && hh[*k] <= u) {
+        const int un = CLVOX_UNIT(sg[*k]);
+        *K -= un;
+        if (sg[*k] == 1 || sg[*k] == -1) *Jc -= (clvox_real)un;
+        (*k)++;
+    }
+}
+
+/* The inside test at ray voxel u (clvox_winding_inside_m), started from
+ * the last evaluation's tree cut (any cut is a valid start; a neighbour's
+ * saves most of the descent), which is dropped once it has grown much past
+ * a fresh start's (a cut only refines). */
+inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                            global const clvox_real *caps, uint axis, global const clvox_real *h, clvox_real u,
+                            clvox_real rv, clvox_real rw, uint tight, uint *exact, clvox_real *lo, clvox_real *hi,
+                            uint *cut, uint *cut_n, uint *fresh_exact)
+{
+    clvox_real px, py, pz;
+    clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
+    const int fresh = *cut_n == 0;
+    const int inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, tight, exact,
+                                              lo, hi, cut, cut_n);
+    uint cut_exact = 0;
+    for (uint i = 0; i < *cut_n; i++) cut_exact += (cut[i] & CLVOX_CUT_EXACT) != 0;
+    if (fresh) *fresh_exact = cut_exact;
+    else if (cut_exact > *fresh_exact + *fresh_exact / 2u + 2u) *cut_n = 0;
+    return inside;
+}
+
+/* Voxel j's answer into the ray's bits and count. */
+inline void clvox_emit(global uint *o, uint out_stride, uint bit, uint j, int inside, uint *word, uint *cnt)
+{
+    *cnt += (uint)inside;
+    if (out_stride == 0) {
+        if (inside) *word |= 1u << (j & 31u);
+        if ((j & 31u) == 31u) {
+            o[j >> 5] = *word;
+            *word = 0;
+        }
+    } else if (inside) {
+        atomic_or(o + (size_t)j * out_stride, bit);
+    }
+}
 kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
                                    global const char *signs, global const uint *counts, uint capacity,
                                    uint u_begin, uint u_count, uint out_stride, global uint *out,
@@ -58,106 +112,105 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
             if (k < n) K -= CLVOX_UNIT(sg[k]);
         }
     } else {
-        /* Voxel by voxel, sparsely: an evaluation at u0 gives an interval
-         * [lo, hi] that holds w(u0). Along the ray w changes smoothly (|grad
-         * w| <= G over a segment: the rims' field, clvox_rim_gradient)
-         * except at surface crossings, where it steps by exactly the
-         * crossing's -unit sign (K changes and w_caps does not; at cap
-         * crossings K and w_caps step together). So on the segment w(u) lies
-         * in [lo + J - G d, hi + J + G d], J the surface steps since u0, d
-         * = |u - u0| h: while that interval is on one side of the
-         * threshold, the voxel needs no evaluation. */
-        uint exact = 0, k = 0, have = 0, j0 = 0, seg_end = 0, cool = 0, wait = 0;
-        uint cut[CLVOX_CUT_MAX], cut_n = 0, jcut = 0, fresh_exact = 0;
-        clvox_real lo = 0, hi = 0, J = 0, G = 0, Gp = 0;
-        const clvox_real step = h[axis];
-        for (j = 0; j < u_count; j++) {
-            const clvox_real u = (clvox_real)(u_begin + j);
-            while (k < n && hh[k] <= u) {
-                const int un = CLVOX_UNIT(sg[k]);
-                K -= un;
-                if (sg[k] == 1 || sg[k] == -1) J -= (clvox_real)un;
-                k++;
+        /* Voxel by voxel, sparsely. Along the ray w minus the surface
+         * steps (the crossings' -units since the ray's start, Jc: K changes
+         * there and w_caps does not; at cap crossings K and w_caps step
+         * together) is a smooth function g of u away from the rim, with
+         * |g''| <= M2 on a segment (clvox_rim_bound, order 2). So between
+         * two evaluated voxels (anchors) a and b, g lies within M2 (u - ua)
+         * (ub - u) / 2 of the line through their intervals: a voxel whose
+         * interval from that is on one side of the threshold needs no
+         * evaluation. One that is not is evaluated and becomes the next
+         * anchor a, the segment's M2 still holding. The next segment's
+         * length is the one at which the line's error at its middle is
+         * half the last anchor's margin. */
+        uint exact = 0, k = 0, cut[CLVOX_CUT_MAX], cut_n = 0, fresh_exact = 0, s = 16u, wait = 0, cool = 0;
+        clvox_real Jc = 0, lo = 0, hi = 0;
+        const clvox_real step = h[axis], thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
+        clvox_winding_advance(hh, sg, n, (clvox_real)u_begin, &k, &K, &Jc);
+        int inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h, (clvox_real)u_begin, rv, rw,
+                                      CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n, &fresh_exact);
+        clvox_real la = lo - Jc, ha = hi - Jc; /* anchor a: g's interval */
+        clvox_emit(o, out_stride, bit, 0u, inside, &word, &cnt);
+        j = 0;
+        while (j + 1u < u_count) {
+            const uint jb = j + s < u_count - 1u ? j + s : u_count - 1u;
+            uint kb = k;
+            int Kb = K;
+            clvox_real Jb = Jc;
+            clvox_winding_advance(hh, sg, n, (clvox_real)(u_begin + jb), &kb, &Kb, &Jb);
+            const int ib = clvox_winding_at(Kb, abs_mode, nodes, node_count, caps, axis, h,
+                                            (clvox_real)(u_begin + jb), rv, rw, CLVOX_TIGHT, &exact, &lo, &hi, cut,
+                                            &cut_n, &fresh_exact);
+            const clvox_real lb = lo - Jb, hb = hi - Jb;
+            const clvox_real mb = ib ? (lo > thr ? lo - thr : -thr - hi)
+                                     : (abs_mode ? fmin(thr - hi, lo + thr) : thr - hi); /* b's margin */
+            clvox_real M2 = (clvox_real)INFINITY;
+            if (jb > j + 1u) {
+                const clvox_real g0[3] = {(clvox_real)(u_begin + j), rv, rw},
+                                 g1[3] = {(clvox_real)(u_begin + jb), rv, rw};
+                clvox_real q0[3], q1[3];
+                clvox_scaled_box(axis, g0, g1, h, q0, q1);
+                M2 = clvox_rim_bound(rims, rim_count, rim_edges, q0, q1, CLVOX_RIM_BUDGET, 2u);
             }
-            int inside = -1;
-            if (have && j <= seg_end) {
-                const clvox_real d = G * step * (clvox_real)(j - j0) * (clvox_real)1.000001;
-                inside = clvox_interval_inside(lo + J - d, hi + J + d, abs_mode);
+            const int smooth = isfinite(M2);
+            uint ja = j;
+            for (uint i = j + 1u; i < jb; i++) {
+                clvox_winding_advance(hh, sg, n, (clvox_real)(u_begin + i), &k, &K, &Jc);
+                inside = -1;
+                if (smooth) {
+                    const clvox_real t = (clvox_real)(i - ja) / (clvox_real)(jb - ja);
+                    const clvox_real e = (clvox_real)((i - ja) * (jb - i)) * (step * step) * (clvox_real)0.5 * M2 *
+                                             (clvox_real)1.000001 +
+                                         (clvox_real)CLVOX_LERP_ERR *
+                                             ((clvox_real)1 + fabs(la) + fabs(ha) + fabs(lb) + fabs(hb) + fabs(Jc));
+                    const clvox_real l = la + t * (lb - la) + Jc, u = ha + t * (hb - ha) + Jc;
+                    inside = clvox_interval_inside(l - e, u + e, abs_mode);
+                }
+                if (inside < 0) {
+                    inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
+                                              (clvox_real)(u_begin + i), rv, rw, smooth ? CLVOX_TIGHT : 0u, &exact,
+                                              &lo, &hi, cut, &cut_n, &fresh_exact);
+                    ja = i;
+                    la = lo - Jc;
+                    ha = hi - Jc;
+                }
+                clvox_emit(o, out_stride, bit, i, inside, &word, &cnt);
             }
-            if (inside < 0) {
-                clvox_real px, py, pz;
-                clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
-                /* where the last search found no segment, the next voxels
-                 * are evaluated alone, without the search or the tighter
-                 * interval it needs (1, 2, 4, 8 voxels as it keeps failing) */
-                const int alone = wait > 0;
-                /* the last point's tree cut, when it is near (8 voxels) and has not
-                 * grown much past a fresh start's (it only refines) */
-                if (j > jcut + 8u) cut_n = 0;
-                const int fresh = cut_n == 0;
-                inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis,
-                                                alone ? 0u : CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n);
-                jcut = j;
-                uint cut_exact = 0;
-                for (uint i = 0; i < cut_n; i++) cut_exact += (cut[i] & CLVOX_CUT_EXACT) != 0;
-                if (fresh) fresh_exact = cut_exact;
-                else if (cut_exact > fresh_exact + fresh_exact / 2u + 2u) cut_n = 0;
-                /* the next segment: as long as the margin lasts at the
-                 * segment's own gradient bound (CLVOX_RIM_TRIES tries) */
-                const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
-                clvox_real m = inside ? (lo > thr ? lo - thr : -thr - hi) : (abs_mode ? fmin(thr - hi, lo + thr) : thr - hi);
-                have = 0;
-                J = 0;
-                j0 = j;
-                uint r = u_count - 1u - j, bad = r + 1u;
-                if (Gp > 0) { /* the last bound predicts this one: G changes slowly along the ray */
-                    const clvox_real guess = m / (Gp * step) * (clvox_real)1.25;
-                    if (guess < (clvox_real)r) r = guess < 1 ? 1u : (uint)guess;
-                } else if (r > 64u) { /* no bound yet on this ray */
-                    r = 64u;
+            clvox_winding_advance(hh, sg, n, (clvox_real)(u_begin + jb), &k, &K, &Jc);
+            clvox_emit(o, out_stride, bit, jb, ib, &word, &cnt);
+            la = lb;
+            ha = hb;
+            const uint len = jb - j;
+            j = jb;
+            /* the next length: error M2 (L h)^2 / 8 at the middle = margin /
+             * 2. Under 2 no voxel lies between: voxel by voxel for a while
+             * (1, 2, 4, 8 as it keeps failing), then a segment of 4 again
+             * for a fresh M2. */
+            if (len == 1u && wait > 0u) {
+                wait--;
+                s = 1u;
+            } else {
+                uint want = 4u;
+                if (len > 1u && !smooth) {
+                    want = len / 2u;
+                } else if (len > 1u && mb > 0) {
+                    const clvox_real w = sqrt((clvox_real)4 * mb / M2) / step;
+                    want = w >= (clvox_real)(2u * len + 2u) ? 2u * len + 2u : (uint)w;
+                } else if (!(mb > 0)) {
+                    want = 0u;
                 }
-                if (alone) {
-                    wait--;
-                    r = 0;
+                if (want >= 2u) {
+                    s = want < CLVOX_SEG_MAX ? want : CLVOX_SEG_MAX;
+                    cool = 0u;
+                } else {
+                    s = 1u;
+                    cool = cool == 0u ? 1u : cool < 8u ? cool * 2u : 8u;
+                    wait = cool - 1u;
                 }
-                for (uint it = 0; m > 0 && r > 0 && it < CLVOX_RIM_TRIES; it++) {
-                    const clvox_real g0[3] = {u, rv, rw}, g1[3] = {u + (clvox_real)r, rv, rw};
-                    clvox_real q0[3], q1[3];
-                    clvox_scaled_box(axis, g0, g1, h, q0, q1);
-                    const clvox_real Gs = clvox_rim_gradient(rims, rim_count, rim_edges, q0, q1, CLVOX_RIM_BUDGET);
-                    const clvox_real s = !isfinite(Gs) ? 0 : Gs > 0 ? m / (Gs * step) : (clvox_real)r;
-                    uint next;
-                    if (isfinite(Gs)) Gp = Gs;
-                    if (s >= (clvox_real)r) { /* valid for r; a longer one, up to the last that failed */
-                        G = Gs;
-                        have = 1;
-                        seg_end = j + r;
-                        next = s < (clvox_real)(bad - 1u) ? (uint)s : bad - 1u;
-                        if (next <= r + r / 4u) break;
-                        r = next;
-                    } else { /* too long: as long as its bound allows (shorter: a smaller bound) */
-                        bad = r;
-                        next = !isfinite(Gs) ? r / 4u : (uint)s;
-                        if (have && next <= seg_end - j) break;
-                        r = next;
-                    }
-                }
-                if (!alone) {
-                    cool = have ? 0u : (cool == 0u ? 1u : cool < 8u ? cool * 2u : 8u);
-                    wait = cool;
-                }
-            }
-            cnt += (uint)inside;
-            if (out_stride == 0) {
-                if (inside) word |= 1u << (j & 31u);
-                if ((j & 31u) == 31u) {
-                    o[j >> 5] = word;
-                    word = 0;
-                }
-            } else if (inside) {
-                atomic_or(o + (size_t)j * out_stride, bit);
             }
         }
+        j = u_count;
         if (exact) atomic_add(exact_points, exact);
     }
     if (out_stride == 0 && (j & 31u)) o[j >> 5] = word; /* the last, partial word */

@@ -1,6 +1,6 @@
 /* Winding numbers, host side (docs/design.md "Winding numbers"): the caps
  * that close the prepared surface's holes, the cap tree the consumers
- * refine near the caps and the rims' tree for the gradient bound
+ * refine near the caps and the rims' tree for the derivative bounds
  * (kernels/winding.h). The cast's indexed triangles over surface + caps are
  * made in src/cast.c (winding_indexed). */
 #include "winding.h"
@@ -385,7 +385,7 @@ clvox_status clvox__winding_cap_loops(clvox_context *ctx, const clvox_mesh *mesh
 {
     cap_out o = {wm->caps, wm->cap_count, wm->cap_count, wm->apex, wm->apex_count, wm->apex_count};
     int rc = 0;
-    /* the rims (the loops' edges) bound the winding number's gradient */
+    /* the rims (the loops' edges) bound the winding number's derivatives */
     size_t edges = start[loops];
     uint32_t *rim = realloc(wm->rim, (wm->rim_count + edges) * 2 * sizeof *rim + 1);
     if (!rim) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu boundary edges", edges);

@@ -17,7 +17,7 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
                                 const clvox_grid *grid, clvox__caps *out);
 void clvox__caps_release(clvox__caps *c);
 /* The rims' tree: n boundary edges (rim, 2 vertex indices each) in scaled
- * grid space, area4pi = length / 4pi (kernels/winding.h clvox_rim_gradient);
+ * grid space, area4pi = length / 4pi (kernels/winding.h clvox_rim_bound);
  * tris holds the edges in leaf order, 9 reals each (end, start, start). */
 clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                 const uint32_t *rim, size_t n, clvox__caps *out);

@@ -250,3 +250,20 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
     o[10] = e[3];
     o[11] = b[3];
 }
+
+/* For tests/test_winding.c only: the rims' bounds over segments segs[6i ..]
+ * (q0 then q1, scaled x, y, z): out[2i] order 1, out[2i + 1] order 2, at
+ * the classify's budget. */
+kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
+                            global const clvox_real *segs, uint count, global clvox_real *out)
+{
+    const uint i = get_global_id(0);
+    if (i >= count) return;
+    clvox_real q0[3], q1[3];
+    for (uint a = 0; a < 3u; a++) {
+        q0[a] = segs[6 * i + a];
+        q1[a] = segs[6 * i + 3 + a];
+    }
+    out[2 * i] = clvox_rim_bound(rims, rim_count, edges, q0, q1, CLVOX_RIM_BUDGET, 1u);
+    out[2 * i + 1] = clvox_rim_bound(rims, rim_count, edges, q0, q1, CLVOX_RIM_BUDGET, 2u);
+}

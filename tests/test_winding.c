@@ -1322,6 +1322,177 @@ static int batch_progress(void *user, double f)
     return !(batch_cancel && f < 1.0);
 }
 
+/* Does the segment [q0, q0 + len e_axis] come within `eps` of triangle
+ * (a, b, c)? (Conservative: near an edge or the plane's ends counts.) */
+static int segment_near_triangle(const double *q0, int axis, double len, const double *a, const double *b,
+                                 const double *c, double eps)
+{
+    const int i = (axis + 1) % 3, j = (axis + 2) % 3;
+    const double px = q0[i], py = q0[j];
+    const double d1 = (b[i] - a[i]) * (py - a[j]) - (b[j] - a[j]) * (px - a[i]);
+    const double d2 = (c[i] - b[i]) * (py - b[j]) - (c[j] - b[j]) * (px - b[i]);
+    const double d3 = (a[i] - c[i]) * (py - c[j]) - (a[j] - c[j]) * (px - c[i]);
+    const double area = (b[i] - a[i]) * (c[j] - a[j]) - (b[j] - a[j]) * (c[i] - a[i]);
+    const double m = eps * (fabs(area) + 1e-300) * 8;
+    if (!((d1 >= -m && d2 >= -m && d3 >= -m) || (d1 <= m && d2 <= m && d3 <= m))) return 0;
+    if (fabs(area) < 1e-14) return 1; /* edge-on */
+    /* the plane's coordinate along the axis at (px, py), barycentric */
+    const double l1 = d2 / area, l2 = d3 / area, l3 = d1 / area;
+    const double t = l1 * a[axis] + l2 * b[axis] + l3 * c[axis];
+    return t >= q0[axis] - eps && t <= q0[axis] + len + eps;
+}
+
+/* The rims' derivative bounds (clvox_rim_bound, which the classify's along-
+ * ray interpolation rests on) against the exact winding number's own
+ * differences: along a segment that crosses no face, w is smooth, and a
+ * first difference (w(t + d) - w(t)) / d is w' somewhere between, a second
+ * difference (w(t + d) - 2 w(t) + w(t - d)) / d^2 is w'' somewhere between,
+ * so neither may exceed the segment's bound of its order. */
+static void test_rim_bounds(void)
+{
+    if (ctx->real_size != 8) {
+        printf("rim bounds: skipped (the device has no fp64)\n");
+        return;
+    }
+    cl_kernel k = NULL;
+    CHECK_OK(ctx, clvox__kernel(ctx, "clvox_rim_probe", &k));
+    if (!k) return;
+    const double cyl_c[3] = {0.3, 0.5, 0.5};
+    tmesh shapes[2] = {tmesh_sphere_holes(7, 0.5, 0.5, 0.5, 0.4, 16, 12), tmesh_cylinder(cyl_c, 0, 0.3, 0.4, 24, 6, 0)};
+    static const char *const names[] = {"sphere with 12 holes", "open tube"};
+    uint64_t seed = 0x7157b0d5;
+    for (int sh = 0; sh < 2; sh++) {
+        tmesh *t = &shapes[sh];
+        clvox_mesh *m = to_mesh(t);
+        if (!m) continue;
+        clvox_grid g = {{64, 64, 64}, {0, 0, 0}, {1.0 / 64, 1.0 / 64, 1.0 / 64}};
+        /* scaled grid space, as clvox__rims_upload puts the edges */
+        double *v = malloc(t->nv * 3 * sizeof *v);
+        uint64_t *keys = malloc(t->nt * 3 * sizeof *keys);
+        uint32_t *rim = malloc(t->nt * 3 * 2 * sizeof *rim);
+        CHECK(v && keys && rim);
+        for (size_t i = 0; i < t->nv * 3; i++)
+            v[i] = (double)clvox__grid_coord(t->xyz[i], g.origin[i % 3], g.voxel_size[i % 3]) * g.voxel_size[i % 3];
+        /* boundary edges: those of one triangle only (these meshes are
+         * manifold), directed as that triangle has them */
+        for (size_t f = 0; f < t->nt; f++)
+            for (int e = 0; e < 3; e++) {
+                uint64_t a = t->tri[3 * f + e], b = t->tri[3 * f + (e + 1) % 3];
+                keys[3 * f + e] = a < b ? a << 32 | b : b << 32 | a;
+            }
+        size_t nrim = 0;
+        for (size_t x = 0; x < t->nt * 3; x++) {
+            size_t same = 0;
+            for (size_t y = 0; y < t->nt * 3; y++) same += keys[y] == keys[x];
+            if (same == 1) {
+                rim[2 * nrim] = t->tri[3 * (x / 3) + x % 3];
+                rim[2 * nrim + 1] = t->tri[3 * (x / 3) + (x % 3 + 1) % 3];
+                nrim++;
+            }
+        }
+        clvox__caps rims;
+        CHECK_OK(ctx, clvox__rims_upload(ctx, m, &g, rim, nrim, &rims));
+        enum { SEGS = 600, STEPS = 8 };
+        double *segs = malloc(SEGS * 6 * sizeof *segs), *res = malloc(SEGS * 2 * sizeof *res);
+        double *len = malloc(SEGS * sizeof *len);
+        int *axis = malloc(SEGS * sizeof *axis);
+        CHECK(segs && res && len && axis);
+        for (int i = 0; i < SEGS; i++) {
+            axis[i] = (int)(tmesh_rng_uniform(&seed) * 3);
+            len[i] = 0.01 + 0.3 * tmesh_rng_uniform(&seed);
+            for (int a = 0; a < 3; a++) segs[6 * i + a] = segs[6 * i + 3 + a] = -0.1 + 1.2 * tmesh_rng_uniform(&seed);
+            segs[6 * i + 3 + axis[i]] += len[i];
+        }
+        cl_int ce = CL_SUCCESS;
+        cl_mem bs = clCreateBuffer(ctx->cl, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, SEGS * 6 * sizeof *segs, segs, &ce);
+        cl_mem bo = clCreateBuffer(ctx->cl, CL_MEM_WRITE_ONLY, SEGS * 2 * sizeof *res, NULL, &ce);
+        cl_uint cnt = SEGS;
+        cl_int e = clSetKernelArg(k, 0, sizeof(cl_mem), &rims.nodes);
+        e |= clSetKernelArg(k, 1, sizeof(cl_uint), &rims.node_count);
+        e |= clSetKernelArg(k, 2, sizeof(cl_mem), &rims.tris);
+        e |= clSetKernelArg(k, 3, sizeof(cl_mem), &bs);
+        e |= clSetKernelArg(k, 4, sizeof(cl_uint), &cnt);
+        e |= clSetKernelArg(k, 5, sizeof(cl_mem), &bo);
+        size_t global = SEGS;
+        e |= clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, NULL, 0, NULL, NULL);
+        e |= clEnqueueReadBuffer(ctx->queue, bo, CL_TRUE, 0, SEGS * 2 * sizeof *res, res, 0, NULL, NULL);
+        CHECK(ce == CL_SUCCESS && e == CL_SUCCESS);
+        size_t tested = 0, crossing = 0, infinite = 0, bad1 = 0, bad2 = 0;
+        double worst1 = 0, worst2 = 0;
+        for (int i = 0; i < SEGS; i++) {
+            const double *q0 = segs + 6 * i;
+            int near = 0;
+            for (size_t f = 0; f < t->nt && !near; f++)
+                near = segment_near_triangle(q0, axis[i], len[i], v + 3 * t->tri[3 * f], v + 3 * t->tri[3 * f + 1],
+                                             v + 3 * t->tri[3 * f + 2], 1e-9);
+            if (near) {
+                crossing++;
+                continue;
+            }
+            if (!isfinite(res[2 * i]) || !isfinite(res[2 * i + 1])) {
+                infinite++;
+                continue;
+            }
+            double w[STEPS + 1];
+            const double d = len[i] / STEPS;
+            for (int s = 0; s <= STEPS; s++) {
+                double p[3] = {q0[0], q0[1], q0[2]};
+                p[axis[i]] += d * s;
+                w[s] = 0;
+                for (size_t f = 0; f < t->nt; f++) {
+                    double A[3], B[3], C[3];
+                    for (int a = 0; a < 3; a++) {
+                        A[a] = v[3 * t->tri[3 * f] + a] - p[a];
+                        B[a] = v[3 * t->tri[3 * f + 1] + a] - p[a];
+                        C[a] = v[3 * t->tri[3 * f + 2] + a] - p[a];
+                    }
+                    w[s] += ref_solid_angle(A, B, C) / (4 * PI);
+                }
+            }
+            tested++;
+            const double tol = 1e-12 / (d * d);
+            for (int s = 0; s < STEPS; s++) {
+                const double g1 = fabs(w[s + 1] - w[s]) / d;
+                if (!(g1 <= res[2 * i] + tol)) bad1++;
+                if (res[2 * i] > 0 && g1 / res[2 * i] > worst1) worst1 = g1 / res[2 * i];
+                if (s == 0) continue;
+                const double g2 = fabs(w[s + 1] - 2 * w[s] + w[s - 1]) / (d * d);
+                if (!(g2 <= res[2 * i + 1] + tol)) {
+                    if (bad2++ < 3)
+                        fprintf(stderr, "  %s: segment %d: second difference %.6g > bound %.6g\n", names[sh], i, g2,
+                                res[2 * i + 1]);
+                }
+                if (res[2 * i + 1] > 0 && g2 / res[2 * i + 1] > worst2) worst2 = g2 / res[2 * i + 1];
+            }
+        }
+        CHECK_MSG(bad1 == 0 && bad2 == 0, "%s: %zu first and %zu second differences above the rims' bounds",
+                  names[sh], bad1, bad2);
+        CHECK_MSG(tested > SEGS / 2, "%s: only %zu of %d segments tested (%zu cross a face, %zu infinite)", names[sh],
+                  tested, SEGS, crossing, infinite);
+        /* a bound that is never approached would be useless: the worst
+         * difference reaches a fair part of it */
+        CHECK_MSG(worst2 > 0.02 && worst1 > 0.02, "%s: differences at most %.3g (order 1) and %.3g (order 2) of the bounds",
+                  names[sh], worst1, worst2);
+        printf("rim bounds %-22s %zu rim edges, %zu segments tested (%zu cross a face, %zu may touch a rim): "
+               "differences at most %.3f (gradient) and %.3f (second derivative) of the bounds\n",
+               names[sh], nrim, tested, crossing, infinite, worst1, worst2);
+        clReleaseMemObject(bs);
+        clReleaseMemObject(bo);
+        clvox__caps_release(&rims);
+        free(segs);
+        free(res);
+        free(len);
+        free(axis);
+        free(v);
+        free(keys);
+        free(rim);
+        clvox_mesh_destroy(m);
+    }
+    tmesh_free(&shapes[0]);
+    tmesh_free(&shapes[1]);
+    clReleaseKernel(k);
+}
+
 static void test_batches(void)
 {
     tmesh t = tmesh_sphere_holes(5, 0.5, 0.5, 0.5, 0.45, 24, 8);
@@ -1379,7 +1550,7 @@ int main(int argc, char **argv)
         {"report", test_winding_report},   {"real", test_real_open},
         {"coverage", test_coverage_samples}, {"apex", test_apex},
         {"estimates", test_cap_estimates}, {"ahead", test_prepare_ahead},
-        {"batches", test_batches},
+        {"batches", test_batches},         {"rims", test_rim_bounds},
     };
     for (size_t i = 0; i < sizeof sections / sizeof sections[0]; i++)
         if (!only || strstr(sections[i].name, only)) sections[i].fn();

@@ -116,7 +116,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
          * steps (the crossings' -units since the ray's start, Jc: K changes
          * there and w_caps does not; at cap crossings K and w_caps step
          * together) is a smooth function g of u away from the rim, with
-         * |g''| <= M2 on a segment (clvox_rim_bound, order 2). So between
+         * |g''| <= M2 on a segment (clvox_rim_bound). So between
          * two evaluated voxels (anchors) a and b, g lies within M2 (u - ua)
          * (ub - u) / 2 of the line through their intervals: a voxel whose
          * interval from that is on one side of the threshold needs no
@@ -151,7 +151,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                                  g1[3] = {(clvox_real)(u_begin + jb), rv, rw};
                 clvox_real q0[3], q1[3];
                 clvox_scaled_box(axis, g0, g1, h, q0, q1);
-                M2 = clvox_rim_bound(rims, rim_count, rim_edges, q0, q1, CLVOX_RIM_BUDGET, 2u);
+                M2 = clvox_rim_bound(rims, rim_count, rim_edges, q0, q1, CLVOX_RIM_BUDGET);
             }
             const int smooth = isfinite(M2);
             uint ja = j;
@@ -251,9 +251,8 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
     o[11] = b[3];
 }
 
-/* For tests/test_winding.c only: the rims' bounds over segments segs[6i ..]
- * (q0 then q1, scaled x, y, z): out[2i] order 1, out[2i + 1] order 2, at
- * the classify's budget. */
+/* For tests/test_winding.c only: the rims' bound over segment segs[6i ..]
+ * (q0 then q1, scaled x, y, z) into out[i], at the classify's budget. */
 kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
                             global const clvox_real *segs, uint count, global clvox_real *out)
 {
@@ -264,6 +263,5 @@ kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, g
         q0[a] = segs[6 * i + a];
         q1[a] = segs[6 * i + 3 + a];
     }
-    out[2 * i] = clvox_rim_bound(rims, rim_count, edges, q0, q1, CLVOX_RIM_BUDGET, 1u);
-    out[2 * i + 1] = clvox_rim_bound(rims, rim_count, edges, q0, q1, CLVOX_RIM_BUDGET, 2u);
+    out[i] = clvox_rim_bound(rims, rim_count, edges, q0, q1, CLVOX_RIM_BUDGET);
 }

@@ -645,11 +645,10 @@ inline clvox_real clvox_segment_distance(const clvox_real *p0, const clvox_real 
     return d > 0 ? d : 0;
 }
 
-/* A rim leaf's bound: the sum over its edges of length / (4pi d^2) (order
- * 1) or 2 length / (4pi d^3) (order 2), d each edge's own distance to the
- * segment [q0, q1]. */
+/* A rim leaf's bound: the sum over its edges of 2 length / (4pi d^3), d
+ * each edge's own distance to the segment [q0, q1]. */
 inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global const clvox_real *edges,
-                                       const clvox_real *q0, const clvox_real *q1, uint order)
+                                       const clvox_real *q0, const clvox_real *q1)
 {
     clvox_real G = 0;
     for (uint e = 0; e < nd->tri_count; e++) {
@@ -658,34 +657,28 @@ inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global c
         if (!(d > 0)) return (clvox_real)INFINITY;
         clvox_real len2 = 0;
         for (uint i = 0; i < 3u; i++) len2 += (ed[3 + i] - ed[i]) * (ed[3 + i] - ed[i]);
-        const clvox_real t = sqrt(len2) * (clvox_real)(0.07957747154594767 * 1.000001) / (d * d); /* 1/4pi */
-        G += order == 1u ? t : 2 * t / d;
+        G += 2 * sqrt(len2) * (clvox_real)(0.07957747154594767 * 1.000001) / (d * d * d); /* 1/4pi */
     }
     return G;
 }
 
-/* A rim node's bound from its box: length / (4pi d^2) (order 1) or 2
- * length / (4pi d^3) (order 2), d the boxes' distance. */
-inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clvox_real *q0, const clvox_real *q1,
-                                      uint order)
+/* A rim node's bound from its box: 2 length / (4pi d^3), d the boxes'
+ * distance. */
+inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clvox_real *q0, const clvox_real *q1)
 {
     const clvox_real d2 = clvox_node_box_d2(nd, q0, q1);
-    if (!(d2 > 0)) return (clvox_real)INFINITY;
-    const clvox_real t = (clvox_real)nd->area4pi / d2;
-    return order == 1u ? t : 2 * t / sqrt(d2);
+    return d2 > 0 ? 2 * (clvox_real)nd->area4pi / (d2 * sqrt(d2)) : (clvox_real)INFINITY;
 }
 
-/* Upper bounds on w's derivatives along the segment [q0, q1] (q0 <= q1, a
- * point or a segment along one axis) away from the rim: w's gradient is the
- * field of the rim (the surface's boundary edges) as a current loop, the
- * line integral of dl x F(y - p) / 4pi with F(x) = x / |x|^3 = -grad
- * 1/|x|, and the k-th derivative of 1/|x| has norm k! / |x|^(k+1)
- * (clvox_cap_estimate4), so
- *   order 1: |grad w| <= (1/4pi) sum of length / distance^2,
- *   order 2: |d^2 w / du^2| <= (2/4pi) sum of length / distance^3
- * for every unit direction u (rims: a tree of the boundary edges, area4pi
- * holding length / 4pi, edges its leaves' edges). Both hold across the
- * surface too, where w steps by the crossing's unit: w minus those steps is
+/* Upper bound on w's second derivative along the segment [q0, q1] (q0 <=
+ * q1, a point or a segment along one axis) away from the rim: w's gradient
+ * is the field of the rim (the surface's boundary edges) as a current
+ * loop, the line integral of dl x F(y - p) / 4pi with F(x) = x / |x|^3 =
+ * -grad 1/|x|, and the k-th derivative of 1/|x| has norm k! / |x|^(k+1)
+ * (clvox_cap_estimate4), so |d^2 w / du^2| <= (2/4pi) sum of length /
+ * distance^3 for every unit direction u (rims: a tree of the boundary
+ * edges, area4pi holding length / 4pi, edges its leaves' edges). It holds
+ * across the surface too, where w steps by the crossing's unit: w minus those steps is
  * smooth along a ray away from the rim. Refined best-first, `budget` steps
  * at most: a node's box bound is replaced by its children's, a leaf's by
  * its edges' own; stops when the largest refinable term is under 5 % of
@@ -694,14 +687,14 @@ inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clv
 #define CLVOX_RIM_FINAL 0x80000000u /* an entry bounded edge by edge */
 #define CLVOX_RIM_LEAF 0x40000000u  /* a leaf bounded by its box */
 inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
-                                  const clvox_real *q0, const clvox_real *q1, uint budget, uint order)
+                                  const clvox_real *q0, const clvox_real *q1, uint budget)
 {
     if (rim_count == 0) return 0;
     uint stack[CLVOX_CAP_STACK];
     clvox_real sb[CLVOX_CAP_STACK];
     uint sp = 1, inf = 0;
     stack[0] = rims[0].child == 0 ? CLVOX_RIM_LEAF : 0u;
-    sb[0] = clvox_rim_box_bound(rims, q0, q1, order);
+    sb[0] = clvox_rim_box_bound(rims, q0, q1);
     clvox_real G = 0; /* the finite entries' sum; inf: how many are infinite */
     if (isfinite(sb[0])) G = sb[0];
     else inf = 1;
@@ -719,7 +712,7 @@ inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_co
         if (isfinite(sb[best])) G -= sb[best];
         else inf--;
         if (e & CLVOX_RIM_LEAF) {
-            sb[best] = clvox_rim_leaf_bound(rims + nd, edges, q0, q1, order);
+            sb[best] = clvox_rim_leaf_bound(rims + nd, edges, q0, q1);
             if (!isfinite(sb[best])) return (clvox_real)INFINITY; /* an edge may touch the segment */
             stack[best] = nd | CLVOX_RIM_FINAL;
             G += sb[best];
@@ -729,7 +722,7 @@ inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_co
         for (uint c = 0; c < 2u; c++) {
             const uint slot = c == 0 ? best : sp++;
             stack[slot] = (child + c) | (rims[child + c].child == 0 ? CLVOX_RIM_LEAF : 0u);
-            sb[slot] = clvox_rim_box_bound(rims + child + c, q0, q1, order);
+            sb[slot] = clvox_rim_box_bound(rims + child + c, q0, q1);
             if (isfinite(sb[slot])) G += sb[slot];
             else inf++;
         }

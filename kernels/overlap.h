@@ -31,7 +31,7 @@
 #ifndef CLVOX_OVERLAP_H
 #define CLVOX_OVERLAP_H
 
-#if !defined(__OPENCL_VERSION__) || defined(cl_khr_fp64)
+#if !defined(__OPENCL_VERSION__) || defined(CLVOX_FP64)
 
 #ifdef __OPENCL_VERSION__
 /* The exact expansions are rarely reached: kept out of line so that the
@@ -173,5 +173,5 @@ CLVOX_OV_FN int clvox_o3_sign(const double *v, double qx, double qy, double qz)
     return clvox_o3_sign_pre(v, m, pm, qx, qy, qz);
 }
 
-#endif /* !__OPENCL_VERSION__ || cl_khr_fp64 */
+#endif /* !__OPENCL_VERSION__ || CLVOX_FP64 */
 #endif /* CLVOX_OVERLAP_H */

@@ -8,8 +8,10 @@
 /* Crossings are computed in double where the device has it: a crossing a
  * millionth of a voxel from a centre must still land on the right side of
  * it, so that the ray and tetra methods agree bit for bit. Without fp64 the
- * same code runs in float (consistent, but only float-accurate). */
-#if defined(cl_khr_fp64)
+ * same code runs in float (consistent, but only float-accurate). Kernels
+ * test CLVOX_FP64, not cl_khr_fp64. */
+#if defined(cl_khr_fp64) && !defined(CLVOX_NO_FP64) /* CLVOX_NO_FP64: float on any device (src/context.c) */
+#define CLVOX_FP64 1
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 typedef double clvox_real;
 #else

@@ -22,8 +22,7 @@
 #define CLVOX_SURFACE_ROW_AXES 3
 #endif
 
-#if defined(cl_khr_fp64)
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#if defined(CLVOX_FP64)
 /* every operation rounded as written (the filters' error bounds assume it) */
 #pragma OPENCL FP_CONTRACT OFF
 
@@ -408,4 +407,4 @@ kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uin
     if (count) atomic_add(filled, count);
 }
 
-#endif /* cl_khr_fp64 */
+#endif /* CLVOX_FP64 */

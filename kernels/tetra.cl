@@ -22,8 +22,7 @@
  * symbolic perturbation P + e*t0 + e^2*t1 + e^3*t2 (t = the ray axes u,v,w):
  * the sign of the first non-zero of n.t0, n.t1, n.t2. */
 
-#if defined(cl_khr_fp64)
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#if defined(CLVOX_FP64)
 
 /* Slices and rows within this distance (voxel units) of a tetrahedron are
  * visited, far more than the rounding of F (about 1e-11 voxel). */
@@ -428,4 +427,4 @@ kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, u
     if (count) atomic_add(filled, count);
 }
 
-#endif /* cl_khr_fp64 */
+#endif /* CLVOX_FP64 */

@@ -9,7 +9,7 @@
 
 #define CLVOX_RIM_BUDGET 12u /* steps of the segments' M2 bound */
 #define CLVOX_SEG_MAX 256u   /* voxels between anchors at most */
-#if defined(cl_khr_fp64)
+#if defined(CLVOX_FP64)
 #define CLVOX_LERP_ERR 1e-12 /* the line's rounding, of the values' size */
 #else
 #define CLVOX_LERP_ERR 1e-5f

@@ -36,7 +36,7 @@
  * the odd series to r^27 (the first term left out is below 1e-18):
  * absolute error a few 1e-16, far inside the 2^-30 the inside test leaves
  * at w = 1/2. (0, 0) gives 0. Float devices use the builtin. */
-#if defined(cl_khr_fp64)
+#if defined(CLVOX_FP64)
 typedef double4 clvox_real4;
 typedef long4 clvox_mask4; /* comparisons of clvox_real4: -1 true, 0 false */
 inline double4 clvox_atan2_4(double4 y, double4 x)
@@ -128,7 +128,7 @@ inline void clvox_angles_mul(clvox_angles *a, clvox_real4 den, clvox_real4 det)
     a->k -= (det > zero) & up & ~up2; /* true is -1 */
     a->k += (det < zero) & (zi < zero) & up2;
     const clvox_real4 m = fmax(fabs(re), fabs(im));
-#if defined(cl_khr_fp64)
+#if defined(CLVOX_FP64)
     const clvox_real big = 0x1p200, small = 0x1p-200;
 #else
     const clvox_real big = 0x1p40f, small = 0x1p-40f;
@@ -327,7 +327,7 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
  *   dominate; in float (u = 6e-8) the evaluation, 5.5e-6 and 2.5e-5 at
  *   most. The box bound's one division and few products are covered by its
  *   factor 1.000001. */
-#if defined(cl_khr_fp64)
+#if defined(CLVOX_FP64)
 #define CLVOX_EST_DREL 1e-14
 #define CLVOX_EST_ROUND 1.000001
 #else

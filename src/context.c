@@ -275,8 +275,12 @@ static clvox_status select_device(clvox_context *ctx, const char *sel, device_en
 static clvox_status build_program(clvox_context *ctx)
 {
     cl_int err;
-    /* Correctly rounded division keeps device results equal to the CPU reference. */
-    const char *opts = "-cl-fp32-correctly-rounded-divide-sqrt";
+    /* Correctly rounded division keeps device results equal to the CPU
+     * reference. CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device
+     * without fp64 (a developer's check of the float path on PoCL). */
+    const char *f = getenv("CLVOX_KERNEL_FLOAT");
+    const char *opts = f && strcmp(f, "1") == 0 ? "-cl-fp32-correctly-rounded-divide-sqrt -DCLVOX_NO_FP64"
+                                                : "-cl-fp32-correctly-rounded-divide-sqrt";
     if ((ctx->program = clvox__program_cache_load(ctx, opts)) != NULL) {
         ctx->program_cached = 1;
         return CLVOX_OK;

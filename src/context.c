@@ -279,8 +279,9 @@ static clvox_status build_program(clvox_context *ctx)
      * reference. CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device
      * without fp64 (a developer's check of the float path on PoCL). */
     const char *f = getenv("CLVOX_KERNEL_FLOAT");
-    const char *opts = f && strcmp(f, "1") == 0 ? "-cl-fp32-correctly-rounded-divide-sqrt -DCLVOX_NO_FP64"
-                                                : "-cl-fp32-correctly-rounded-divide-sqrt";
+    ctx->kernels_float = f && strcmp(f, "1") == 0;
+    const char *opts = ctx->kernels_float ? "-cl-fp32-correctly-rounded-divide-sqrt -DCLVOX_NO_FP64"
+                                          : "-cl-fp32-correctly-rounded-divide-sqrt";
     if ((ctx->program = clvox__program_cache_load(ctx, opts)) != NULL) {
         ctx->program_cached = 1;
         return CLVOX_OK;
@@ -301,6 +302,16 @@ static clvox_status build_program(clvox_context *ctx)
         if (*c == '\n') *c = ' '; /* one-line message */
     return clvox__fail(ctx, CLVOX_ERR_KERNEL_BUILD, "clBuildProgram: %s (%d): %s", clvox__cl_error_name(err),
                        (int)err, log);
+}
+
+clvox_status clvox__need_fp64(clvox_context *ctx, const char *what)
+{
+    if (ctx->kernels_float)
+        return clvox__fail(ctx, CLVOX_ERR_NO_DEVICE,
+                           "%s needs double precision (cl_khr_fp64): CLVOX_KERNEL_FLOAT=1 built the kernels in float",
+                           what);
+    return clvox__fail(ctx, CLVOX_ERR_NO_DEVICE, "%s needs double precision (cl_khr_fp64), which device '%s' lacks",
+                       what, ctx->device.name);
 }
 
 /* The kernels compute crossings in double when the device compiler offers

@@ -34,6 +34,7 @@ struct clvox_context {
     cl_program program;     /* all kernels, built once per context */
     int program_cached;     /* 1: program made from the cached binary (program_cache.c) */
     size_t real_size;       /* sizeof(clvox_real) in the kernels: 8 with fp64, else 4 */
+    int kernels_float;      /* 1: CLVOX_KERNEL_FLOAT=1 built them without fp64 (build_program) */
 };
 
 /* Records the message and returns `status`, so that reporting and returning
@@ -42,6 +43,10 @@ clvox_status clvox__fail(clvox_context *ctx, clvox_status status, const char *fm
     CLVOX__PRINTF(3, 4);
 /* Same for an OpenCL error: "<what>: CL_OUT_OF_RESOURCES (-5)". */
 clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what);
+/* CLVOX_ERR_NO_DEVICE for `what` (a stage whose kernels exist only with
+ * fp64): "WHAT needs double precision ...", naming the device or the
+ * CLVOX_KERNEL_FLOAT that made the kernels float. */
+clvox_status clvox__need_fp64(clvox_context *ctx, const char *what);
 const char *clvox__cl_error_name(cl_int err);
 /* The kernel program's binary kept between processes (program_cache.c):
  * the program built from the cached binary for ctx's device, or NULL (off,

@@ -155,12 +155,7 @@ static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
         cl_int err;
         s->k_raster = clCreateKernel(ctx->program, "clvox_surface_raster", &err);
         if (err == CL_INVALID_KERNEL_NAME)
-            st = clvox__fail(ctx, CLVOX_ERR_NO_DEVICE,
-                             "surface mode needs double precision (cl_khr_fp64), which device '%s' lacks%s",
-                             ctx->device.name,
-                             ctx->real_size == 4 && getenv("CLVOX_KERNEL_FLOAT")
-                                 ? " (or CLVOX_KERNEL_FLOAT=1 built the kernels in float)"
-                                 : "");
+            st = clvox__need_fp64(ctx, "surface mode");
         else if (err != CL_SUCCESS)
             st = clvox__cl_fail(ctx, err, "clCreateKernel(clvox_surface_raster)");
     }

@@ -848,7 +848,8 @@ static void test_options(void)
     } else { /* float kernels (CLVOX_KERNEL_FLOAT=1): tetra refuses to run at all */
         o.inside = CLVOX_INSIDE_DEFAULT;
         CHECK(clvox_voxelize_to_memory(ctx, mb, &g, &o, buf, n, &s) != CLVOX_OK &&
-              strstr(clvox_context_error(ctx), "double precision") != NULL);
+              strstr(clvox_context_error(ctx), "double precision") != NULL &&
+              strstr(clvox_context_error(ctx), "CLVOX_KERNEL_FLOAT") != NULL);
     }
     CHECK(strcmp(clvox_inside_name(CLVOX_INSIDE_WINDING), "winding") == 0 &&
           strcmp(clvox_inside_name(CLVOX_INSIDE_WINDING_ABS), "winding-abs") == 0 &&

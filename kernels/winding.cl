@@ -151,7 +151,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                                  g1[3] = {(clvox_real)(u_begin + jb), rv, rw};
                 clvox_real q0[3], q1[3];
                 clvox_scaled_box(axis, g0, g1, h, q0, q1);
-                M2 = clvox_rim_bound(rims, rim_count, rim_edges, q0, q1, CLVOX_RIM_BUDGET);
+                M2 = clvox_rim_bound(rims, rim_count, rim_edges, q0, q1, axis, CLVOX_RIM_BUDGET);
             }
             const int smooth = isfinite(M2);
             uint ja = j;
@@ -183,8 +183,11 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
             ha = hb;
             const uint len = jb - j;
             j = jb;
-            /* the next length: error M2 (L h)^2 / 8 at the middle = margin /
-             * 2. Under 2 no voxel lies between: voxel by voxel for a while
+            /* the next length: error M2 (L h)^2 / 8 at the middle = 3/8 of the
+             * margin (about the lengths that 1/2 gave with the older M2, 4/3
+             * of this one; 1/2 with this M2 made longer segments, which
+             * failed more often: cylinder +26 % evaluations). Under 2 no
+             * voxel lies between: voxel by voxel for a while
              * (1, 2, 4, 8 as it keeps failing), then a segment of 4 again
              * for a fresh M2. */
             if (len == 1u && wait > 0u) {
@@ -195,7 +198,7 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                 if (len > 1u && !smooth) {
                     want = len / 2u;
                 } else if (len > 1u && mb > 0) {
-                    const clvox_real w = sqrt((clvox_real)4 * mb / M2) / step;
+                    const clvox_real w = sqrt((clvox_real)3 * mb / M2) / step;
                     want = w >= (clvox_real)(2u * len + 2u) ? 2u * len + 2u : (uint)w;
                 } else if (!(mb > 0)) {
                     want = 0u;
@@ -252,7 +255,8 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
 }
 
 /* For tests/test_winding.c only: the rims' bound over segment segs[6i ..]
- * (q0 then q1, scaled x, y, z) into out[i], at the classify's budget. */
+ * (q0 then q1, scaled x, y, z, along the axis where they differ) into
+ * out[i], at the classify's budget. */
 kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
                             global const clvox_real *segs, uint count, global clvox_real *out)
 {
@@ -263,5 +267,6 @@ kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, g
         q0[a] = segs[6 * i + a];
         q1[a] = segs[6 * i + 3 + a];
     }
-    out[i] = clvox_rim_bound(rims, rim_count, edges, q0, q1, CLVOX_RIM_BUDGET);
+    const uint axis = q1[1] != q0[1] ? 1u : (q1[2] != q0[2] ? 2u : 0u);
+    out[i] = clvox_rim_bound(rims, rim_count, edges, q0, q1, axis, CLVOX_RIM_BUDGET);
 }

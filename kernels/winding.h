@@ -645,56 +645,61 @@ inline clvox_real clvox_segment_distance(const clvox_real *p0, const clvox_real 
     return d > 0 ? d : 0;
 }
 
-/* A rim leaf's bound: the sum over its edges of 2 length / (4pi d^3), d
- * each edge's own distance to the segment [q0, q1]. */
+/* A rim leaf's bound along axis `axis`: the sum over its edges of 1.5
+ * |e x u| / (4pi d^3), |e x u| the edge's length across the axis, d its
+ * own distance to the segment [q0, q1] (clvox_rim_bound). */
 inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global const clvox_real *edges,
-                                       const clvox_real *q0, const clvox_real *q1)
+                                       const clvox_real *q0, const clvox_real *q1, uint axis)
 {
+    const uint a1 = (axis + 1u) % 3u, a2 = (axis + 2u) % 3u;
     clvox_real G = 0;
     for (uint e = 0; e < nd->tri_count; e++) {
         global const clvox_real *ed = edges + (size_t)(nd->tri_first + e) * 9u;
         const clvox_real d = clvox_segment_distance(q0, q1, ed, ed + 3);
         if (!(d > 0)) return (clvox_real)INFINITY;
-        clvox_real len2 = 0;
-        for (uint i = 0; i < 3u; i++) len2 += (ed[3 + i] - ed[i]) * (ed[3 + i] - ed[i]);
-        G += 2 * sqrt(len2) * (clvox_real)(0.07957747154594767 * 1.000001) / (d * d * d); /* 1/4pi */
+        const clvox_real x1 = ed[3 + a1] - ed[a1], x2 = ed[3 + a2] - ed[a2];
+        G += (clvox_real)1.5 * sqrt(x1 * x1 + x2 * x2) * (clvox_real)(0.07957747154594767 * 1.000001) / (d * d * d);
     }
     return G;
 }
 
-/* A rim node's bound from its box: 2 length / (4pi d^3), d the boxes'
- * distance. */
-inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clvox_real *q0, const clvox_real *q1)
+/* A rim node's bound from its box: 1.5 (its edges' length across the axis,
+ * over 4pi) / d^3, d the boxes' distance. */
+inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clvox_real *q0, const clvox_real *q1,
+                                      uint axis)
 {
     const clvox_real d2 = clvox_node_box_d2(nd, q0, q1);
-    return d2 > 0 ? 2 * (clvox_real)nd->area4pi / (d2 * sqrt(d2)) : (clvox_real)INFINITY;
+    return d2 > 0 ? (clvox_real)1.5 * (clvox_real)nd->normal4pi[axis] / (d2 * sqrt(d2)) : (clvox_real)INFINITY;
 }
 
-/* Upper bound on w's second derivative along the segment [q0, q1] (q0 <=
- * q1, a point or a segment along one axis) away from the rim: w's gradient
- * is the field of the rim (the surface's boundary edges) as a current
- * loop, the line integral of dl x F(y - p) / 4pi with F(x) = x / |x|^3 =
- * -grad 1/|x|, and the k-th derivative of 1/|x| has norm k! / |x|^(k+1)
- * (clvox_cap_estimate4), so |d^2 w / du^2| <= (2/4pi) sum of length /
- * distance^3 for every unit direction u (rims: a tree of the boundary
- * edges, area4pi holding length / 4pi, edges its leaves' edges). It holds
- * across the surface too, where w steps by the crossing's unit: w minus those steps is
- * smooth along a ray away from the rim. Refined best-first, `budget` steps
- * at most: a node's box bound is replaced by its children's, a leaf's by
- * its edges' own; stops when the largest refinable term is under 5 % of
- * the total. INFINITY when the segment may touch a rim edge, or the budget
- * runs out before the bound is finite. */
+/* Upper bound on w's second derivative along axis `axis` (x, y or z: the
+ * ray's) over the segment [q0, q1] (q0 <= q1, a point or a segment along
+ * that axis) away from the rim: w's gradient is the field of the rim (the
+ * surface's boundary edges) as a current loop, the line integral of dl x
+ * F(y - p) / 4pi with F(x) = x / |x|^3, so along the unit axis u
+ * d^2 w / du^2 = (1/4pi) integral of 3 (x.u) (x.(u x dl)) / |x|^5, x = y -
+ * p. With x.u = |x| cos t, x.(u x dl) <= |x| sin t |u x dl| and |cos t sin
+ * t| <= 1/2, |d^2 w / du^2| <= (1.5/4pi) sum of |e x u| / distance^3 over
+ * the edges e (rims: a tree of the boundary edges, normal4pi[a] holding
+ * the nodes' edge lengths across axis a over 4pi, edges its leaves'
+ * edges). It holds across the surface too, where w steps by the
+ * crossing's unit: w minus those steps is smooth along a ray away from the
+ * rim. Refined best-first, `budget` steps at most: a node's box bound is
+ * replaced by its children's, a leaf's by its edges' own; stops when the
+ * largest refinable term is under 5 % of the total. INFINITY when the
+ * segment may touch a rim edge, or the budget runs out before the bound
+ * is finite. */
 #define CLVOX_RIM_FINAL 0x80000000u /* an entry bounded edge by edge */
 #define CLVOX_RIM_LEAF 0x40000000u  /* a leaf bounded by its box */
 inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
-                                  const clvox_real *q0, const clvox_real *q1, uint budget)
+                                  const clvox_real *q0, const clvox_real *q1, uint axis, uint budget)
 {
     if (rim_count == 0) return 0;
     uint stack[CLVOX_CAP_STACK];
     clvox_real sb[CLVOX_CAP_STACK];
     uint sp = 1, inf = 0;
     stack[0] = rims[0].child == 0 ? CLVOX_RIM_LEAF : 0u;
-    sb[0] = clvox_rim_box_bound(rims, q0, q1);
+    sb[0] = clvox_rim_box_bound(rims, q0, q1, axis);
     clvox_real G = 0; /* the finite entries' sum; inf: how many are infinite */
     if (isfinite(sb[0])) G = sb[0];
     else inf = 1;
@@ -712,7 +717,7 @@ inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_co
         if (isfinite(sb[best])) G -= sb[best];
         else inf--;
         if (e & CLVOX_RIM_LEAF) {
-            sb[best] = clvox_rim_leaf_bound(rims + nd, edges, q0, q1);
+            sb[best] = clvox_rim_leaf_bound(rims + nd, edges, q0, q1, axis);
             if (!isfinite(sb[best])) return (clvox_real)INFINITY; /* an edge may touch the segment */
             stack[best] = nd | CLVOX_RIM_FINAL;
             G += sb[best];
@@ -722,7 +727,7 @@ inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_co
         for (uint c = 0; c < 2u; c++) {
             const uint slot = c == 0 ? best : sp++;
             stack[slot] = (child + c) | (rims[child + c].child == 0 ? CLVOX_RIM_LEAF : 0u);
-            sb[slot] = clvox_rim_box_bound(rims + child + c, q0, q1);
+            sb[slot] = clvox_rim_box_bound(rims + child + c, q0, q1, axis);
             if (isfinite(sb[slot])) G += sb[slot];
             else inf++;
         }

@@ -157,8 +157,12 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             }
             double e1[3], e2[3];
             for (int a = 0; a < 3; a++) e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
-            if (segments) { /* the edge's length */
+            if (segments) { /* the edge's length, and its length across each axis in vec */
                 area += sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+                for (int a = 0; a < 3; a++) {
+                    const double x1 = e1[(a + 1) % 3], x2 = e1[(a + 2) % 3];
+                    vec[a] += sqrt(x1 * x1 + x2 * x2);
+                }
                 continue;
             }
             double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
@@ -170,7 +174,8 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             nd->lo[a] = round_down(lo[a]);
             nd->hi[a] = round_up(hi[a]);
             nd->centre[a] = (float)(0.5 * (lo[a] + hi[a]));
-            nd->normal4pi[a] = (float)(vec[a] / FOUR_PI);
+            /* rims: an upper bound (clvox_rim_box_bound) */
+            nd->normal4pi[a] = segments ? round_up(vec[a] / FOUR_PI * (1.0 + 1e-9)) : (float)(vec[a] / FOUR_PI);
         }
         /* the sphere, and the moments about the float centre c the kernels
          * use (clvox_cap_node): per flat triangle (area A, vector area S,

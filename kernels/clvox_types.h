@@ -57,9 +57,9 @@ typedef struct clvox_column {
  * dA / 4pi (rounded up), quad4pi = tr(M) I - 3 sym(M) in the order xx, yy,
  * zz, xy, xz, yz (rounded to nearest), M_ij = the integral of n_i (y -
  * c)_j dA / 4pi (n dA: the vector area element), for the first-order term
- * (kernels/winding.h clvox_cap_estimate); both 0 in the rims' tree, where
- * area4pi bounds the edges' length / 4pi and normal4pi[a] their length
- * across axis a / 4pi (clvox_rim_box_bound), both rounded up. block:
+ * (kernels/winding.h clvox_cap_estimate); both 0 in the rims' tree, and
+ * so is area4pi there, where normal4pi[a] bounds the edges' length across
+ * axis a / 4pi (clvox_rim_box_bound; rounded up). block:
  * on a cap leaf, where its caps are again, lane-major (the index of the
  * first real: real k of lane l at block + 4k + l, lanes past tri_count
  * repeating the first), after the caps themselves in the same buffer; 0

@@ -157,8 +157,7 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             }
             double e1[3], e2[3];
             for (int a = 0; a < 3; a++) e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
-            if (segments) { /* the edge's length, and its length across each axis in vec */
-                area += sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+            if (segments) { /* the edge's length across each axis, in vec (area stays 0) */
                 for (int a = 0; a < 3; a++) {
                     const double x1 = e1[(a + 1) % 3], x2 = e1[(a + 2) % 3];
                     vec[a] += sqrt(x1 * x1 + x2 * x2);

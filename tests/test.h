@@ -52,4 +52,9 @@ clvox_grid test_padded_grid(clvox_context *ctx, const clvox_mesh_report *r, uint
  * origin moved likewise, which is exactly what the library computes
  * (origin - offset, in double). */
 clvox_grid test_reference_grid(const clvox_mesh *m, const clvox_grid *g);
+/* CPU seconds this process has used so far (user + system, every thread,
+ * PoCL's workers included). Tests bound work by CPU time, never by wall
+ * time: another process's load stretches the wall clock, not this one's
+ * CPU time, so a bound on it does not turn red on a busy machine. */
+double test_cpu_seconds(void);
 #endif

@@ -1026,13 +1026,12 @@ static void test_special_outputs(void)
         }
     }
 
-    /* clvox info on a FIFO: refused at once (before: blocked in open) */
+    /* clvox info on a FIFO: refused at once (before: blocked in open, which
+     * the runner's RUN_TIMEOUT_S turns into a failed check, not a hang) */
     path_join(p, sizeof p, g_dir, "info-fifo.exr");
     unlink(p);
     CHECK(mkfifo(p, 0666) == 0);
-    double t0 = now_s();
     expect_failure("info on a FIFO", 4, NULL, ARGS("info", p));
-    CHECK_MSG(now_s() - t0 < 10, "info on a FIFO took %.1f s", now_s() - t0);
     expect_failure("preview of a FIFO", 4, NULL, ARGS("preview", p, "-o", exr));
     unlink(p);
     unlink(exr);

@@ -1,5 +1,6 @@
 #include "test.h"
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 int test_passed, test_failed;
@@ -64,4 +65,12 @@ clvox_grid test_reference_grid(const clvox_mesh *m, const clvox_grid *g)
     clvox_grid r = *g;
     for (int a = 0; a < 3; a++) r.origin[a] = g->origin[a] - off[a];
     return r;
+}
+
+double test_cpu_seconds(void)
+{
+    struct rusage u;
+    if (getrusage(RUSAGE_SELF, &u) != 0) return 0.0;
+    return (double)u.ru_utime.tv_sec + 1e-6 * (double)u.ru_utime.tv_usec + (double)u.ru_stime.tv_sec +
+           1e-6 * (double)u.ru_stime.tv_usec;
 }

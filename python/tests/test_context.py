@@ -82,18 +82,20 @@ def test_ctrl_c_raises_keyboard_interrupt_and_leaves_no_file(ctx, tmp, to_file):
     assert threading.current_thread() is threading.main_thread()
     timer = threading.Timer(0.6, os.kill, (os.getpid(), signal.SIGINT))
     out = tmp / "long.exr"
-    t0 = time.monotonic()
+    cpu0 = time.process_time()
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            # about 15 s on a 2-core CPU device when not interrupted
+            # about 15 s (30 s of CPU) on a 2-core CPU device when not interrupted
             if to_file:
                 ctx.voxelize_to_file(DEFAULT, out, resolution=512, oversample=16)
             else:
                 ctx.voxelize(DEFAULT, resolution=512, oversample=16)
     finally:
         timer.cancel()
-    assert time.monotonic() - t0 < 6
+    # The run stopped early: CPU time (every thread of this process), not
+    # wall time, which a loaded machine stretches.
+    assert time.process_time() - cpu0 < 6
     assert os.listdir(tmp) == []
     assert ctx.voxelize(DEFAULT, resolution=8).occupancy.any()
 
@@ -105,16 +107,21 @@ def test_gil_released(ctx):
 
     def spin():
         while not stop.is_set():
-            ticks.append(1)
+            ticks.append(time.monotonic())
             time.sleep(0.005)
     th = threading.Thread(target=spin)
     th.start()
     t0 = time.monotonic()
     ctx.voxelize(DEFAULT, resolution=256, oversample=8)
-    dt = time.monotonic() - t0
+    t1 = time.monotonic()
     stop.set()
     th.join()
-    assert len(ticks) > 0.3 * dt / 0.005
+    # Ticks inside the call: with the GIL held the thread could not run at
+    # all there; released, it runs every few ms (the call lasts about a
+    # second). Not a share of the call's wall time: a loaded machine
+    # delays a sleeping thread's wake-ups, so that share is noise.
+    inside = sum(1 for t in ticks if t0 < t < t1)
+    assert inside >= 5, (inside, t1 - t0)
 
 
 def test_context_busy_in_other_thread(ctx):

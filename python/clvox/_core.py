@@ -395,6 +395,9 @@ class Context:
     while the library works)."""
 
     def __init__(self, device=None, host_only=False):
+        from . import _pocl
+        if _pocl.POCL_ERROR and not host_only:  # the wheel's PoCL would fail every kernel build
+            raise Error(lib.CLVOX_ERR_KERNEL_BUILD, _pocl.POCL_ERROR)
         opts = ffi.new("clvox_context_options *")
         opts.size = ffi.sizeof("clvox_context_options")
         if isinstance(device, (bool, np.bool_)) or not (device is None or isinstance(device, (str, numbers.Integral,

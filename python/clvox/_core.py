@@ -338,6 +338,7 @@ class _Run:
         self.handle = ffi.new_handle(self)
         self.c.handle = self.handle
         self.c.call_python = 1
+        self.done = threading.Event()  # set when the library call has returned
 
 
 def _progress_onerror(exc_type, exc_value, tb):
@@ -575,10 +576,15 @@ class Context:
     def _call(self, run, fn, *args):
         tid = threading.get_ident()
         _current_run[tid] = run
+        with _live_mu:
+            _live_calls.add(run)
         try:
             st = fn(*args)  # cffi releases the GIL for the call
         finally:
             _current_run.pop(tid, None)
+            with _live_mu:
+                _live_calls.discard(run)
+            run.done.set()
         if run.exc is not None:
             raise run.exc
         if st == lib.CLVOX_ERR_CANCELLED and run.c.out_of_memory:
@@ -687,8 +693,9 @@ class Context:
                    prefetch=1, **options):
         """Yields Slab objects (z0 and (nz, Y, X) arrays) in increasing z while the library runs
         in a worker thread, for volumes larger than memory: at most `prefetch` slabs wait
-        in the queue. Leaving the loop early (break, an exception, close()) cancels the run.
-        The Context is busy until the iterator is exhausted or closed. The grid is the
+        in the queue. Leaving the loop early (break, an exception, close(), or dropping the
+        iterator) cancels the run and frees the Context; so does the end of the interpreter.
+        The Context is busy until the iterator is exhausted, closed or dropped. The grid is the
         iterator's .grid attribute ((X, Y, Z), origin, voxel_size) once created."""
         return _SlabIterator(self, mesh, dict(resolution=resolution, dims=dims, voxel_size=voxel_size, box=box,
                                               pad=pad), progress, prefetch, options)
@@ -783,17 +790,24 @@ class _SlabRun:
 
 
 _live_runs = set()  # iter_slabs runs whose worker has not ended
+_live_calls = set()  # _Run of library calls in progress (voxelize, voxelize_to_file), any thread
 _live_mu = threading.Lock()
 
 
 @atexit.register
 def _cancel_live_runs():
-    # At exit, before the interpreter is torn down: a worker still inside the library would
-    # call back into a finalizing interpreter (a crash), so cancel each run and wait for it.
+    # At exit, before the interpreter is torn down: a library call still going in another
+    # (daemon) thread would call back into a finalizing interpreter (a crash), so cancel
+    # each run and wait for it. A cancelled run stops at the library's next poll; the C
+    # progress trampoline sees the flag without entering Python.
     with _live_mu:
-        runs = list(_live_runs)
+        runs, calls = list(_live_runs), list(_live_calls)
+    for r in calls:
+        r.c.cancel = 1
     for w in runs:
         w.cancel()
+    for r in calls:
+        r.done.wait(60)  # a bound only against a library that never polls; runs stop in well under 1 s
 
 
 class _SlabIterator:

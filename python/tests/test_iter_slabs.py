@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """iter_slabs left early without with/close(): the run is cancelled and the Context freed;
-an iterator still running at exit does not crash the interpreter (issue 32, defect 7)."""
+an iterator, or a call in a daemon thread, still running at exit does not crash the
+interpreter (issue 32, defect 7)."""
 import gc
-import os
 import subprocess
 import sys
 
@@ -78,7 +78,7 @@ def test_dropped_iterator_cancels_run(ctx):
 
 
 ABANDON = r"""
-import gc, sys, clvox
+import gc, sys, threading, clvox
 path = sys.argv[1]
 ctx = clvox.Context()
 kw = dict(resolution=32, slab_depth=2)
@@ -97,6 +97,11 @@ other = clvox.Context()
 loop = [other.iter_slabs(path, resolution=32, slab_depth=1, prefetch=4)]
 loop.append(loop)  # another one at exit, in a cycle
 next(loop[0])
+third = clvox.Context()  # and a voxelize call in a daemon thread, inside the library at exit
+started = threading.Event()
+threading.Thread(target=third.voxelize, args=(path,), kwargs=dict(resolution=256, oversample=8, slab_depth=1,
+                 progress=lambda f: started.set()), daemon=True).start()
+started.wait()
 print("ok", flush=True)
 """
 

@@ -1,7 +1,11 @@
 """clvox Python binding (cffi, API mode). See python/README.md."""
+import atexit
+import math
+import numbers
 import os
 import queue
 import threading
+import weakref
 
 import numpy as np
 
@@ -69,8 +73,27 @@ _INVALID = {lib.CLVOX_ERR_INVALID_ARGUMENT, lib.CLVOX_ERR_MESH_INVALID, lib.CLVO
             lib.CLVOX_ERR_GRID, lib.CLVOX_ERR_MESH_FORMAT, lib.CLVOX_ERR_PALETTE_FORMAT}
 
 
+# The library's messages are written for the CLI; these name the Python arguments instead.
+_CLI_WORDS = (("give --box, --dims or --voxel-size", "give box=, dims= or voxel_size="),
+              ("use --inside parity", "use inside='parity'"),
+              ("take --compression none or the default", "take compression='none' or None, the default"),
+              ("(no --compression)", "(no compression=)"),
+              ("(choose one with --channel)", "(choose one with channels=)"),
+              ("(use -r N with a cube --box, or --dims N,N,N on a cubic box)",
+               "(use resolution=N with a cube box=, or dims=(N, N, N) on a cubic box)"),
+              ("(use -r N with a cube --box)", "(use resolution=N with a cube box=)"),
+              ("(see clvox --list-devices)", "(see clvox.devices())"))
+
+
+def _python_words(msg):
+    for cli, py in _CLI_WORDS:
+        msg = msg.replace(cli, py)
+    return msg
+
+
 def _error(status, ctx_ptr):
     msg = ffi.string(lib.clvox_context_error(ctx_ptr)).decode("utf-8", "replace") if ctx_ptr != ffi.NULL else ""
+    msg = _python_words(msg)
     if status == lib.CLVOX_ERR_IO and "No such file" in msg:
         return FileNotFoundError(2, msg)
     if status == lib.CLVOX_ERR_OUT_OF_MEMORY:
@@ -259,6 +282,50 @@ def _as_arrays(vertices, faces):
     return v, f
 
 
+# ---- arguments ------------------------------------------------------------------
+# Numbers are checked here, naming the Python argument: cffi would raise OverflowError for a
+# negative value and silently truncate 32.5 to 32; bool is not a number here.
+
+_U32 = 0xFFFFFFFF
+_U64 = 0xFFFFFFFFFFFFFFFF
+
+
+def _int_arg(name, value, lo, hi=_U32):
+    """An integer argument (int or numpy integer) in [lo, hi] (hi None: no upper bound)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {value!r}")
+    v = int(value)
+    if v < lo:
+        raise ValueError(f"{name} must be >= {lo}, got {v}")
+    if hi is not None and v > hi:
+        raise ValueError(f"{name} must be <= {hi}, got {v}")
+    return v
+
+
+def _float_arg(name, value, lo=None, positive=False):
+    """A finite real argument (int, float or a numpy number), >= lo, or > 0 when positive."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v}")
+    if positive and not v > 0:
+        raise ValueError(f"{name} must be > 0, got {v}")
+    if lo is not None and v < lo:
+        raise ValueError(f"{name} must be >= {lo}, got {v}")
+    return v
+
+
+def _seq_arg(name, value, n, what):
+    """The items of a sequence of n values (a tuple, list or 1-D array), for name's checks."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or not hasattr(value, "__iter__"):
+        raise TypeError(f"{name} must be {what}, got {value!r}")
+    items = list(np.asarray(value, dtype=object).reshape(-1)) if isinstance(value, np.ndarray) else list(value)
+    if len(items) != n:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    return items
+
+
 # ---- context --------------------------------------------------------------------
 
 class _Run:
@@ -271,6 +338,7 @@ class _Run:
         self.handle = ffi.new_handle(self)
         self.c.handle = self.handle
         self.c.call_python = 1
+        self.done = threading.Event()  # set when the library call has returned
 
 
 def _progress_onerror(exc_type, exc_value, tb):
@@ -328,8 +396,16 @@ class Context:
     while the library works)."""
 
     def __init__(self, device=None, host_only=False):
+        from . import _pocl
+        if _pocl.POCL_ERROR and not host_only:  # the wheel's PoCL would fail every kernel build
+            raise Error(lib.CLVOX_ERR_KERNEL_BUILD, _pocl.POCL_ERROR)
         opts = ffi.new("clvox_context_options *")
         opts.size = ffi.sizeof("clvox_context_options")
+        if isinstance(device, (bool, np.bool_)) or not (device is None or isinstance(device, (str, numbers.Integral,
+                                                                                           np.integer))):
+            raise TypeError(f"device must be None, a name or an index from clvox.devices(), got {device!r}")
+        if device is not None and not isinstance(device, str):
+            device = _int_arg("device", device, 0)
         dev = None if device is None else str(device).encode()
         keep = ffi.new("char[]", dev) if dev is not None else ffi.NULL
         opts.device = keep
@@ -407,31 +483,40 @@ class Context:
         self._check(st)
         return Mesh(out[0], "arrays")
 
-    def _grid(self, m, resolution, dims, voxel_size, box, pad):
+    @staticmethod
+    def _grid_options(resolution, dims, voxel_size, box, pad):
         g = ffi.new("clvox_grid_options *")
         g.size = ffi.sizeof("clvox_grid_options")
+        given = [n for n, v in (("resolution", resolution), ("dims", dims), ("voxel_size", voxel_size))
+                 if v is not None]
+        if len(given) > 1:
+            raise ValueError(f"give only one of resolution, dims and voxel_size (got {' and '.join(given)})")
         if resolution is not None:
-            g.resolution = int(resolution)
+            g.resolution = _int_arg("resolution", resolution, 1)
         if dims is not None:
-            d = tuple(int(x) for x in dims)
-            if len(d) != 3:
-                raise ValueError("dims must be (X, Y, Z)")
-            g.dims = d
+            g.dims = tuple(_int_arg("dims", x, 1) for x in _seq_arg("dims", dims, 3, "(X, Y, Z)"))
         if voxel_size is not None:
-            vs = np.broadcast_to(np.asarray(voxel_size, dtype=np.float64), (3,))
-            g.voxel_size = tuple(float(x) for x in vs)
+            if isinstance(voxel_size, (numbers.Real, np.number)) or (isinstance(voxel_size, np.ndarray)
+                                                                    and voxel_size.ndim == 0):
+                vs = (voxel_size,) * 3
+            else:
+                vs = _seq_arg("voxel_size", voxel_size, 3, "a number or (sx, sy, sz)")
+            g.voxel_size = tuple(_float_arg("voxel_size", x, positive=True) for x in vs)
         if box is not None:
-            b = np.asarray(box, dtype=np.float64).reshape(-1)
-            if b.shape != (6,):
-                raise ValueError("box must be (x0, y0, z0, x1, y1, z1) or ((x0, y0, z0), (x1, y1, z1))")
+            what = "(x0, y0, z0, x1, y1, z1) or ((x0, y0, z0), (x1, y1, z1))"
+            try:
+                flat = np.asarray(box, dtype=object).reshape(-1)
+            except (ValueError, TypeError):
+                raise ValueError(f"box must be {what}, got {box!r}") from None
+            b = [_float_arg("box", x) for x in _seq_arg("box", flat, 6, what)]
+            for a in range(3):
+                if b[a + 3] < b[a]:
+                    raise ValueError(f"box: the maximum {b[a + 3]} is below the minimum {b[a]} on axis {'xyz'[a]}")
             g.use_box = 1
             g.box_min = tuple(b[:3])
             g.box_max = tuple(b[3:])
-        g.padding = int(pad)
-        rep = lib.clvox_mesh_get_report(m._ptr)
-        grid = ffi.new("clvox_grid *")
-        self._check(lib.clvox_grid_compute(self._ptr, g, rep.bbox_min, rep.bbox_max, grid))
-        return grid
+        g.padding = _int_arg("pad", pad, 0)
+        return g
 
     def _options(self, run, *, mode="solid", method="ray", axis=None, oversample=None, stochastic=False, seed=0,
                  threshold=None, channels=None, palette=None, metric="nearest", no_early_out=False,
@@ -445,27 +530,31 @@ class Context:
         o.compression = _choice(_COMPRESSIONS, compression, "compression")
         o.metric = _choice(_METRICS, metric, "metric")
         o.inside = _choice(_INSIDE, inside, "inside")
-        o.weld = float(weld)
+        o.weld = _float_arg("weld", weld, lo=0.0)
         if oversample is not None:
-            if isinstance(oversample, (tuple, list)):
-                n, m = (int(x) for x in oversample)
+            if isinstance(oversample, (tuple, list, np.ndarray)):
+                n, m = (_int_arg("oversample", x, 1) for x in _seq_arg("oversample", oversample, 2, "K or (N, M)"))
             else:
-                n = m = int(oversample)
-            if n < 1 or m < 1:
-                raise ValueError("oversample must be >= 1 (K, or (N, M))")
+                n = m = _int_arg("oversample", oversample, 1)
             o.oversample, o.oversample_points = n, m
         o.stochastic = 1 if stochastic else 0
-        o.seed = int(seed)
+        o.seed = _int_arg("seed", seed, 0, _U64)
         if threshold is not None:
-            o.threshold_set, o.threshold = 1, float(threshold)
+            t = _float_arg("threshold", threshold)
+            if not 0 <= t <= 1:
+                raise ValueError(f"threshold must be in [0, 1], got {t}")
+            o.threshold_set, o.threshold = 1, t
         o.channels = _channels_mask(channels)
         o.palette_no_early_out = 1 if no_early_out else 0
         if shortcut is not None:
             o.nearest_shortcut = 1
-            if shortcut != "auto":
-                o.shortcut_alpha, o.shortcut_beta = (float(x) for x in shortcut)
-        o.slab_depth, o.quadtree_max_depth, o.quadtree_leaf_size = int(slab_depth), int(depth), int(leaf)
-        o.threads = int(threads)
+            if not (isinstance(shortcut, str) and shortcut == "auto"):
+                o.shortcut_alpha, o.shortcut_beta = (_float_arg("shortcut", x) for x in
+                                                     _seq_arg("shortcut", shortcut, 2, '"auto" or (alpha, beta)'))
+        o.slab_depth = _int_arg("slab_depth", slab_depth, 0)
+        o.quadtree_max_depth = _int_arg("depth", depth, 0)
+        o.quadtree_leaf_size = _int_arg("leaf", leaf, 0)
+        o.threads = _int_arg("threads", threads, 0)
         o.progress = _fn('pyclvox_progress')
         o.progress_user = run.c
         pal = None
@@ -487,10 +576,15 @@ class Context:
     def _call(self, run, fn, *args):
         tid = threading.get_ident()
         _current_run[tid] = run
+        with _live_mu:
+            _live_calls.add(run)
         try:
             st = fn(*args)  # cffi releases the GIL for the call
         finally:
             _current_run.pop(tid, None)
+            with _live_mu:
+                _live_calls.discard(run)
+            run.done.set()
         if run.exc is not None:
             raise run.exc
         if st == lib.CLVOX_ERR_CANCELLED and run.c.out_of_memory:
@@ -500,10 +594,15 @@ class Context:
     def _prepare(self, mesh, resolution, dims, voxel_size, box, pad, progress, kw):
         if self.host_only:
             raise RuntimeError("a host_only Context can not voxelize")
-        m = self._mesh(mesh)
-        grid = self._grid(m, resolution, dims, voxel_size, box, pad)
+        if progress is not None and not callable(progress):
+            raise TypeError(f"progress must be None or a function f(fraction), got {progress!r}")
+        g = self._grid_options(resolution, dims, voxel_size, box, pad)  # arguments first, then the mesh
         run = _Run(progress)
         opts, pal = self._options(run, **kw)
+        m = self._mesh(mesh)
+        rep = lib.clvox_mesh_get_report(m._ptr)
+        grid = ffi.new("clvox_grid *")
+        self._check(lib.clvox_grid_compute(self._ptr, g, rep.bbox_min, rep.bbox_max, grid))
         return m, grid, run, opts, pal
 
     # -- public --
@@ -594,8 +693,9 @@ class Context:
                    prefetch=1, **options):
         """Yields Slab objects (z0 and (nz, Y, X) arrays) in increasing z while the library runs
         in a worker thread, for volumes larger than memory: at most `prefetch` slabs wait
-        in the queue. Leaving the loop early (break, an exception, close()) cancels the run.
-        The Context is busy until the iterator is exhausted or closed. The grid is the
+        in the queue. Leaving the loop early (break, an exception, close(), or dropping the
+        iterator) cancels the run and frees the Context; so does the end of the interpreter.
+        The Context is busy until the iterator is exhausted, closed or dropped. The grid is the
         iterator's .grid attribute ((X, Y, Z), origin, voxel_size) once created."""
         return _SlabIterator(self, mesh, dict(resolution=resolution, dims=dims, voxel_size=voxel_size, box=box,
                                               pad=pad), progress, prefetch, options)
@@ -606,56 +706,141 @@ class Context:
             return _read(self._ptr, path, channels)
 
 
-class _SlabIterator:
-    _DONE = object()
+class _SlabRun:
+    """The worker side of one iter_slabs run: the worker thread, the queue and the Context's
+    lock. It holds no reference to its _SlabIterator, so an iterator that is dropped without
+    close() (a `break`, an exception, `del`) is freed at once and its finalizer cancels the
+    run, waits for the worker and frees the Context."""
+    DONE = object()
 
-    def __init__(self, ctx, mesh, grid_kw, progress, prefetch, options):
-        if not ctx._lock.acquire(blocking=False):
-            raise RuntimeError("this clvox.Context is running another call")
-        try:
-            if ctx._ptr is None:
-                raise ValueError("the clvox.Context is closed")
-            self.ctx = ctx
-            self.m, grid, self.run, self.opts, self.pal = ctx._prepare(mesh, grid_kw["resolution"], grid_kw["dims"],
-                                                                       grid_kw["voxel_size"], grid_kw["box"],
-                                                                       grid_kw["pad"], progress, options)
-        except BaseException:
-            ctx._lock.release()
-            raise
-        self.run.c.call_python = 0  # the worker thread gets no signals; the consumer sees them
-        self.grid_c = grid
-        self.dims = tuple(grid.dims)
-        self.origin = tuple(grid.origin)
-        self.voxel_size = tuple(grid.voxel_size)
-        self.queue = queue.Queue(maxsize=max(1, int(prefetch)))
-        self.stats = None
-        self.status = None
+    def __init__(self, ctx, m, grid_c, run, opts, pal, prefetch):
+        self.ctx, self.m, self.grid_c, self.run, self.opts, self.pal = ctx, m, grid_c, run, opts, pal
+        self.queue = queue.Queue(maxsize=prefetch)
         self.closed = False
-        self.run.slab_handle = ffi.new_handle(self)
-        self.thread = threading.Thread(target=self._work, daemon=True)
-        self.thread.start()
+        self.status = None
+        self.stats = None
+        self._released = False
+        self._mu = threading.Lock()
+        self.handle = ffi.new_handle(self)
+        self.thread = threading.Thread(target=self._work, daemon=True, name="clvox.iter_slabs")
+
+    def start(self):
+        with _live_mu:
+            _live_runs.add(self)
+        try:
+            self.thread.start()
+        except BaseException:
+            with _live_mu:
+                _live_runs.discard(self)
+            raise
 
     def _work(self):
         stats = ffi.new("clvox_stats *")
         try:
-            st = lib.clvox_voxelize_slabs(self.ctx._ptr, self.m._ptr, self.grid_c, self.opts, _fn('pyclvox_py_slab'),
-                                          self.run.slab_handle, stats)
+            st = lib.clvox_voxelize_slabs(self.ctx._ptr, self.m._ptr, self.grid_c, self.opts,
+                                          _fn('pyclvox_py_slab'), self.handle, stats)
             self.status = st
             self.stats = _stats_dict(stats)
         except BaseException as e:  # pragma: no cover - defensive
             self.status = e
         finally:
-            self._put(self._DONE)
+            self.put(self.DONE)
+            with _live_mu:
+                _live_runs.discard(self)
+            if self.closed:  # abandoned: nobody takes DONE, the worker frees the Context itself
+                self.release()
 
-    def _put(self, item):
-        while True:
-            if self.closed and item is not self._DONE:
-                return False
+    def put(self, item):
+        """Queues a slab (or DONE); False once the run is closed (the consumer is gone)."""
+        while not self.closed:
             try:
-                self.queue.put(item, timeout=0.1)
+                self.queue.put(item, timeout=0.05)
                 return True
             except queue.Full:
                 continue
+        return False
+
+    def release(self):
+        """Frees the Context's lock, once."""
+        with self._mu:
+            if self._released:
+                return
+            self._released = True
+        self.ctx._lock.release()
+
+    def cancel(self):
+        """Stops the run and frees the Context: the library sees the cancel at its next slab
+        or progress poll; this waits for the worker unless it is the worker's own thread (a
+        finalizer run by the garbage collector there), which then frees the Context itself."""
+        self.run.c.cancel = 1
+        self.closed = True
+        if self.thread.ident is None:  # never started
+            self.release()
+            return
+        if threading.current_thread() is self.thread:
+            return
+        while self.thread.is_alive():
+            try:  # empty the queue: a worker waiting to put a slab goes on, and sees the cancel
+                while True:
+                    self.queue.get_nowait()
+            except queue.Empty:
+                pass
+            self.thread.join(timeout=0.005)
+        self.release()
+
+
+_live_runs = set()  # iter_slabs runs whose worker has not ended
+_live_calls = set()  # _Run of library calls in progress (voxelize, voxelize_to_file), any thread
+_live_mu = threading.Lock()
+
+
+@atexit.register
+def _cancel_live_runs():
+    # At exit, before the interpreter is torn down: a library call still going in another
+    # (daemon) thread would call back into a finalizing interpreter (a crash), so cancel
+    # each run and wait for it. A cancelled run stops at the library's next poll; the C
+    # progress trampoline sees the flag without entering Python.
+    with _live_mu:
+        runs, calls = list(_live_runs), list(_live_calls)
+    for r in calls:
+        r.c.cancel = 1
+    for w in runs:
+        w.cancel()
+    for r in calls:
+        r.done.wait(60)  # a bound only against a library that never polls; runs stop in well under 1 s
+
+
+class _SlabIterator:
+    """What Context.iter_slabs returns: consumes the worker's queue. Dropping it (break, an
+    exception, del) cancels the run like close()."""
+
+    def __init__(self, ctx, mesh, grid_kw, progress, prefetch, options):
+        prefetch = _int_arg("prefetch", prefetch, 1)
+        if not ctx._lock.acquire(blocking=False):
+            raise RuntimeError("this clvox.Context is running another call (use one Context per thread; "
+                               "a slab iterator holds its Context until it is exhausted or closed)")
+        try:
+            if ctx._ptr is None:
+                raise ValueError("the clvox.Context is closed")
+            m, grid, run, opts, pal = ctx._prepare(mesh, grid_kw["resolution"], grid_kw["dims"],
+                                                   grid_kw["voxel_size"], grid_kw["box"], grid_kw["pad"],
+                                                   progress, options)
+            run.c.call_python = 0  # the worker thread gets no signals; the consumer sees them
+            w = _SlabRun(ctx, m, grid, run, opts, pal, prefetch)
+            w.start()
+        except BaseException:
+            ctx._lock.release()
+            raise
+        self._w = w
+        self._progress = progress
+        self.dims = tuple(grid.dims)
+        self.origin = tuple(grid.origin)
+        self.voxel_size = tuple(grid.voxel_size)
+        self.grid = (self.dims, self.origin, self.voxel_size)
+        self.stats = None
+        self.status = None
+        self.closed = False
+        self._finalizer = weakref.finalize(self, _SlabRun.cancel, w)
 
     def __iter__(self):
         return self
@@ -663,44 +848,36 @@ class _SlabIterator:
     def __next__(self):
         if self.closed:
             raise StopIteration
+        w = self._w
         while True:
             try:
-                item = self.queue.get(timeout=0.1)  # a timeout, so that Ctrl-C is seen here
+                item = w.queue.get(timeout=0.1)  # a timeout, so that Ctrl-C is seen here
                 break
             except queue.Empty:
                 continue
-        if item is self._DONE:
-            self._finish()
-            st = self.status
+        if item is _SlabRun.DONE:
+            self.closed = True
+            self._finalizer.detach()
+            w.thread.join()
+            w.release()
+            self.stats, self.status = w.stats, w.status
+            st = w.status
             if isinstance(st, BaseException):
                 raise st
             if st != lib.CLVOX_OK:
-                raise _error(st, self.ctx._ptr)
+                raise _error(st, w.ctx._ptr)
             raise StopIteration
-        if self.run.progress is not None and self.run.progress((item.z0 + item.nz) / self.dims[2]) is False:
+        if self._progress is not None and self._progress((item.z0 + item.nz) / self.dims[2]) is False:
             self.close()
             raise CancelledError(lib.CLVOX_ERR_CANCELLED, "cancelled by the progress callback")
         return item
-
-    def _finish(self):
-        if not self.closed:
-            self.closed = True
-            self.thread.join()
-            self.ctx._lock.release()
 
     def close(self):
         """Cancels the run (if still going) and frees the Context."""
         if self.closed:
             return
-        self.run.c.cancel = 1
         self.closed = True
-        while self.thread.is_alive():
-            try:
-                self.queue.get(timeout=0.05)
-            except queue.Empty:
-                pass
-        self.thread.join()
-        self.ctx._lock.release()
+        self._finalizer()
 
     def __enter__(self):
         return self
@@ -708,19 +885,13 @@ class _SlabIterator:
     def __exit__(self, *exc):
         self.close()
 
-    def __del__(self):
-        try:
-            self.close()
-        except Exception:
-            pass
-
 
 @ffi.def_extern()
 def pyclvox_py_slab(user, slab):
-    it = ffi.from_handle(user)
-    if it.run.c.cancel:
+    w = ffi.from_handle(user)
+    if w.closed or w.run.c.cancel:
         return 1
-    X, Y = it.dims[0], it.dims[1]
+    X, Y = w.grid_c.dims[0], w.grid_c.dims[1]
     nz = slab.nz
     n = X * Y * nz
 
@@ -732,7 +903,7 @@ def pyclvox_py_slab(user, slab):
 
     s = Slab(int(slab.z0), take(slab.occupancy, "uint8_t", np.bool_), take(slab.coverage, "float", np.float32),
              take(slab.element, "uint16_t", np.uint16), take(slab.score, "float", np.float32))
-    return 0 if it._put(s) else 1
+    return 0 if w.put(s) else 1
 
 
 # ---- reading volumes --------------------------------------------------------------

@@ -10,19 +10,30 @@ off. It must happen before the first Context or clvox.devices() call of the proc
 
 CPUs newer than the wheel's LLVM (PoCL 3.0 with LLVM 14.0.6, October 2022: e.g. AMD Zen 5,
 CPUID family 26) are named "generic" by LLVM's host detection, and every kernel build then
-fails with "unknown target CPU 'generic'" (PoCL issue 1049; PoCL has no setting for it and
-rejects -mcpu build options). When that wheel's device says "generic", clvox gives it the
-name of the code-generation target that matches the kernel library PoCL picked from the
-CPU's features (see _target_for_features); CLVOX_POCL_CPU=NAME chooses another LLVM CPU
-name, CLVOX_POCL_CPU=0 leaves the device alone. See _name_unknown_cpu for how."""
+fails with "unknown target CPU 'generic'" (PoCL issue 1049). PoCL 3.0 has no setting for the
+name (no environment variable; it rejects -mcpu build options) and 3.0 is the wheel's latest
+release. The device says so through the public API: its CL_DEVICE_VERSION ends in
+"-generic" (PoCL's HSTR, "<driver>-<triple>-<cpu>"). Then, by default, nothing is changed
+and POCL_ERROR says what to do; clvox.Context raises it (clvox.Error, kernel_build): install
+the system's PoCL, or opt in with CLVOX_POCL_CPU=NAME, an LLVM CPU name, which clvox writes
+into PoCL's device object (see _set_llvm_cpu: only inside that object, only the one field
+that holds the CPU name). CLVOX_POCL_CPU=0 leaves the device alone without the error (the
+builds fail with PoCL's own message)."""
 import ctypes
 import glob
 import os
 
 POCL_CPU = None
-"""The LLVM CPU name clvox gave the wheel's PoCL device, or None when it needed none."""
+"""The LLVM CPU name clvox gave the wheel's PoCL device (CLVOX_POCL_CPU=NAME), or None."""
 
-_keep = []  # the CPU name strings handed to PoCL live as long as the process
+POCL_ERROR = None
+"""Why the wheel's PoCL cannot build kernels in this process, or None; clvox.Context raises it."""
+
+# sizeof(struct _cl_device_id) in the wheel's libpocl (PoCL 3.0-rc2, LLVM 14.0.6): the stride
+# of its device array (clGetDeviceIDs with POCL_DEVICES="pthread pthread basic" gives devices
+# 1024 bytes apart). The CPU name field (`char *llvm_cpu`, right after `char
+# *llvm_target_triplet`) is at offset 640 there. Nothing past this size is read or written.
+_DEVICE_SIZE = 1024
 
 
 def _pocl_library():
@@ -69,33 +80,20 @@ def _mapped(perm):
     return lambda a, n: any(lo <= a and a + n <= hi for lo, hi in spans)
 
 
-def _name_unknown_cpu():
-    """Gives the wheel's PoCL 3.0 CPU device a CPU name LLVM knows, when it has "generic".
-
-    PoCL keeps the name as a `char *llvm_cpu` in its device object (struct _cl_device_id,
-    the cl_device_id itself) and passes it to clang and to the code generator at every
-    kernel build. This finds that pointer: the first 8-byte field from the object's start
-    (within 4 KiB) that points to the string "generic" (every address is checked against
-    /proc/self/maps before it is read), and points it at a string of ours. The first, not
-    the only one: the object is smaller than 4 KiB, and what the heap puts after it may
-    hold another pointer to a "generic" (whether it does changed with the Python code
-    that ran before, and with it every kernel build). Anything else (another PoCL, no such
-    field) changes nothing, and builds fail as before. Returns the name given, or None."""
-    choice = os.environ.get("CLVOX_POCL_CPU", "")
-    if choice == "0":
-        return None
+def _opencl_cpu_devices():
+    """(cl_device_id, CL_DEVICE_VERSION) of every CPU device of the PoCL 3.0 platforms."""
     try:
         cl = ctypes.CDLL("libOpenCL.so.1")
     except OSError:
-        return None
+        return []
     vp, u32 = ctypes.c_void_p, ctypes.c_uint32
     n = u32()
     if cl.clGetPlatformIDs(0, None, ctypes.byref(n)) != 0 or n.value == 0:
-        return None
+        return []
     platforms = (vp * n.value)()
     if cl.clGetPlatformIDs(n.value, platforms, None) != 0:
-        return None
-    given = None
+        return []
+    out = []
     for p in platforms:
         text = ctypes.create_string_buffer(512)
         if cl.clGetPlatformInfo(vp(p), 0x0901, 512, text, None) != 0:  # CL_PLATFORM_VERSION
@@ -109,31 +107,80 @@ def _name_unknown_cpu():
         devs = (vp * nd.value)()
         if cl.clGetDeviceIDs(vp(p), cpu_type, nd.value, devs, None) != 0:
             continue
-        ok, writable = _mapped("r"), _mapped("w")
         for d in devs:
-            field = None
-            for off in range(0, 4096, 8):
-                if not ok(d + off, 8):
-                    break
-                v = ctypes.c_uint64.from_address(d + off).value
-                if v and ok(v, 8) and ctypes.string_at(v, 8) == b"generic\0":
-                    field = off
-                    break
-            if field is None or not writable(d + field, 8):
-                continue
-            name = choice or _target_for_features(_cpu_flags())
-            buf = ctypes.create_string_buffer(name.encode())
-            _keep.append(buf)
-            ctypes.c_uint64.from_address(d + field).value = ctypes.addressof(buf)
-            given = name
-    return given
+            version = ctypes.create_string_buffer(512)
+            if d and cl.clGetDeviceInfo(vp(d), 0x102F, 512, version, None) == 0:  # CL_DEVICE_VERSION
+                out.append((d, version.value.decode("ascii", "replace")))
+    return out
+
+
+def _set_llvm_cpu(device, version, name, size=_DEVICE_SIZE):
+    """Points PoCL's `char *llvm_cpu` in the device object at `name` (opt-in only).
+
+    The field is the one 8-byte field of the object's first `size` bytes that points to
+    "generic" while the field before it points to the target triple that the device's HSTR
+    (`version`, "...-<triple>-generic") names; with no such field, or more than one, nothing
+    is written. Every address is checked against /proc/self/maps before it is read or
+    written. The new name is a malloc'd copy (libc strdup), so that PoCL may free it; it lives
+    as long as the process. Returns True when the field was changed."""
+    hstr = version.rsplit(" ", 1)[-1]
+    if not hstr.endswith("-generic"):
+        return False
+    head = hstr[:-len("-generic")]
+    triples = [head[i + 1:].encode() for i, c in enumerate(head) if c == "-"]
+    readable, writable = _mapped("r"), _mapped("w")
+    if not readable(device, size):
+        return False
+
+    def points_to(off, text):
+        v = ctypes.c_uint64.from_address(device + off).value
+        return bool(v) and readable(v, len(text) + 1) and ctypes.string_at(v, len(text) + 1) == text + b"\0"
+
+    fields = [off for off in range(8, size - 7, 8)
+              if points_to(off, b"generic") and any(points_to(off - 8, t) for t in triples)]
+    if len(fields) != 1 or not writable(device + fields[0], 8):
+        return False
+    libc = ctypes.CDLL(None)
+    libc.strdup.restype = ctypes.c_void_p
+    libc.strdup.argtypes = [ctypes.c_char_p]
+    copy = libc.strdup(name.encode())
+    if not copy:
+        return False
+    ctypes.c_uint64.from_address(device + fields[0]).value = copy
+    return True
+
+
+def _check_cpu_name():
+    """(name given, error): see the module's doc. Changes PoCL's memory only with
+    CLVOX_POCL_CPU=NAME."""
+    choice = os.environ.get("CLVOX_POCL_CPU", "").strip()
+    if choice == "0":
+        return None, None
+    generic = [(d, v) for d, v in _opencl_cpu_devices() if v.endswith("-generic")]
+    if not generic:
+        return None, None
+    suggest = _target_for_features(_cpu_flags())
+    if not choice:
+        return None, ("the pocl-binary-distribution wheel's PoCL 3.0 (LLVM 14.0.6) does not know this CPU (it names "
+                      "it 'generic'), so it cannot build clvox's kernels (PoCL issue 1049). Fixes: install the "
+                      "system's PoCL (Debian/Ubuntu: apt install pocl-opencl-icd) or another OpenCL driver; or set "
+                      f"CLVOX_POCL_CPU={suggest} (an LLVM CPU name; this one matches the kernel library PoCL picked "
+                      "for this CPU's features) to have clvox write that name into PoCL's device object, a "
+                      "workaround that changes PoCL's memory for every OpenCL user in this process")
+    changed = [_set_llvm_cpu(d, v, choice) for d, v in generic]
+    if not all(changed):
+        return (choice if any(changed) else None), (
+            f"CLVOX_POCL_CPU={choice}: the CPU name field was not found in the pocl-binary-distribution wheel's "
+            "device object (not the PoCL 3.0 layout clvox knows), nothing was changed there; install the system's "
+            "PoCL (Debian/Ubuntu: apt install pocl-opencl-icd) or another OpenCL driver")
+    return choice, None
 
 
 def use_pocl_binary_distribution(force=False):
     """Makes OpenCL use the pocl-binary-distribution wheel's PoCL. Without force, only when
     the process has no OpenCL driver of its own (see the module's doc). Returns the library
     path used, or None. Call it before the first Context; later calls change nothing."""
-    global POCL_CPU
+    global POCL_CPU, POCL_ERROR
     if not force:
         if os.environ.get("OCL_ICD_VENDORS") or os.environ.get("OPENCL_VENDOR_PATH"):
             return None
@@ -144,9 +191,9 @@ def use_pocl_binary_distribution(force=False):
         return None
     os.environ["OCL_ICD_VENDORS"] = path
     try:
-        POCL_CPU = _name_unknown_cpu()
+        POCL_CPU, POCL_ERROR = _check_cpu_name()
     except (OSError, ValueError):  # no /proc (not Linux): PoCL keeps the name it has
-        POCL_CPU = None
+        POCL_CPU, POCL_ERROR = None, None
     return path
 
 

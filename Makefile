@@ -246,4 +246,4 @@ uninstall:
 clean:
 	rm -rf build
 
--include $(DEPS) $(FUZZ_LIB_OBJ:.o=.d)
+-include $(DEPS) $(FUZZ_LIB_OBJ:.o=.d) $(FUZZ_CLI_manifest:.o=.d)

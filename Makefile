@@ -78,8 +78,10 @@ else
   Q := @
 endif
 
-CLI_SRC := src/cli.c src/cli_args.c src/cli_info.c src/cli_run.c src/cli_common.c src/cli_json.c src/cli_batch.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c src/cli_convert.c
+CLI_SRC := src/cli.c src/cli_args.c src/cli_info.c src/cli_run.c src/cli_common.c src/cli_json.c src/cli_batch.c src/cli_manifest.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c src/cli_convert.c
 LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
+# The batch manifest parser and what it calls (fuzz_manifest, test_fuzz_smoke).
+MANIFEST_CLI_SRC := src/cli_manifest.c src/cli_args.c src/cli_common.c
 LIB_CXX := $(filter-out src/write_vdb.cpp,$(wildcard src/*.cpp))
 # Kernel program = shared types + prelude + sampler + palette + overlap + winding + one file per stage.
 KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h kernels/winding.h $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
@@ -145,10 +147,14 @@ $(CLI_BIN): $(CLI_OBJ) $(STATIC_LIB)
 	@$(if $(filter 0,$(V)),echo "  LD    $@")
 	$(Q)$(CC) $(FINAL_LDFLAGS) -o $@ $(CLI_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS)
 
+# test_fuzz_smoke replays the manifest target: it links that CLI code.
+TEST_CLI_test_fuzz_smoke := $(MANIFEST_CLI_SRC:%.c=$(BUILD)/%.o)
+$(BUILD)/tests/test_fuzz_smoke: $(TEST_CLI_test_fuzz_smoke)
+
 $(BUILD)/tests/%: tests/%.c $(TEST_SUPPORT_OBJ) $(STATIC_LIB)
 	@mkdir -p $(dir $@)
 	@$(if $(filter 0,$(V)),echo "  TEST  $<")
-	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(STATIC_LIB) $(LIBS) $(PNG_LIBS) $(TEST_LIBS)
+	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(TEST_CLI_$*) $(STATIC_LIB) $(LIBS) $(PNG_LIBS) $(TEST_LIBS)
 
 # The Python package's tests (python/tests) run as one more test program.
 $(BUILD)/tests/test_python: tests/test_python.sh
@@ -198,12 +204,16 @@ $(FUZZ_DIR)/gen/kernels_embedded.o: $(KERNEL_C)
 	@mkdir -p $(dir $@)
 	$(Q)$(FUZZ_CC) -std=c11 -fPIC -O1 -c $< -o $@
 
+# Targets of CLI code link the CLI files they need (FUZZ_CLI_<name>).
+FUZZ_CLI_manifest := $(MANIFEST_CLI_SRC:%.c=$(FUZZ_DIR)/%.o)
+$(FUZZ_DIR)/fuzz_manifest: $(FUZZ_CLI_manifest)
+
 $(FUZZ_DIR)/fuzz_%: tests/fuzz/fuzz_%.c $(wildcard tests/fuzz/*.h) $(FUZZ_LIB_OBJ)
 	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@.o
-	$(Q)$(FUZZ_CXX) -fsanitize=fuzzer,address,undefined -o $@ $@.o $(FUZZ_LIB_OBJ) $(LIBS)
+	$(Q)$(FUZZ_CXX) -fsanitize=fuzzer,address,undefined -o $@ $@.o $(FUZZ_CLI_$*) $(FUZZ_LIB_OBJ) $(LIBS)
 
 fuzz: $(FUZZ_BINS)
-.SECONDARY: $(FUZZ_LIB_OBJ)
+.SECONDARY: $(FUZZ_LIB_OBJ) $(FUZZ_CLI_manifest)
 
 fuzz-run: fuzz
 	$(Q)for b in $(FUZZ_BINS); do n=$${b##*/fuzz_}; mkdir -p $(FUZZ_DIR)/corpus_$$n; \
@@ -236,4 +246,4 @@ uninstall:
 clean:
 	rm -rf build
 
--include $(DEPS) $(FUZZ_LIB_OBJ:.o=.d)
+-include $(DEPS) $(FUZZ_LIB_OBJ:.o=.d) $(FUZZ_CLI_manifest:.o=.d)

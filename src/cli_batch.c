@@ -7,7 +7,8 @@
  *            then --manifest FILE (one mesh per line, optional overrides);
  *            n = the position in that list, from 0
  *   outputs  -o TEMPLATE with {stem} {name} {dir} {n} (default {stem}.exr),
- *            or a manifest line's own -o; two meshes may not share one
+ *            or a manifest line's own -o; no two meshes may write one file,
+ *            however its path is spelled (check_outputs)
  *   shards   --shard I/N runs the meshes with n % N == I
  *   results  a progress line per mesh on stderr, a JSON record per mesh on
  *            stdout with --json, a final summary; a failed mesh is recorded
@@ -20,6 +21,7 @@
 
 #include "cli_common.h"
 #include "cli_json.h"
+#include "cli_manifest.h"
 #include "cli_vox.h"
 
 #include <dirent.h>
@@ -46,6 +48,7 @@ typedef struct batch_item {
     clvox_grid_options grid;
     unsigned line;            /* manifest line, 0 if none */
     char *source;             /* "MANIFEST:LINE" or NULL */
+    int own_output;           /* output from the manifest line, not the template */
 } batch_item;
 
 typedef struct batch_list {
@@ -73,17 +76,22 @@ static void print_batch_help(void)
 "                           --voxel-size S[,S,S]. Fields are separated by spaces\n"
 "                           or tabs; \"double quotes\" hold a field with spaces (\\\"\n"
 "                           and \\\\ inside them); blank lines and lines starting\n"
-"                           with # are skipped. Paths are relative to the current\n"
-"                           directory. A malformed line stops the batch before\n"
-"                           it starts (FILE:LINE: why, exit 2)\n"
+"                           with # are skipped (a quoted \"#x.obj\" is a mesh).\n"
+"                           Paths are relative to the current directory. A\n"
+"                           malformed line stops the batch before it starts\n"
+"                           (FILE:LINE: why, exit 2)\n"
 "\n"
 "Outputs:\n"
 "  -o, --output TEMPLATE    output name of each mesh (default {stem}.exr):\n"
 "                           {stem} the mesh file name without its extension,\n"
 "                           {name} with it, {dir} the mesh's directory (. if\n"
 "                           none), {n} its position in the list, {{ and }} braces.\n"
-"                           Two meshes with the same output are refused before\n"
-"                           the batch starts (use {dir} or {n})\n"
+"                           Two meshes writing one file are refused before the\n"
+"                           batch starts, in every shard (use {dir} or {n}):\n"
+"                           paths are compared as files (out/./x.exr,\n"
+"                           a/../out/x.exr and a link to out/ are out/x.exr),\n"
+"                           with the files an output writes beside it (OUT.json,\n"
+"                           OUT.<channel>.npy)\n"
 "  --skip-existing          do not voxelize a mesh whose output exists (outputs\n"
 "                           are only ever named when complete, so an interrupted\n"
 "                           batch resumes where it stopped)\n"
@@ -255,39 +263,26 @@ static int add_dir(batch_list *l, const char *dir)
     return rc;
 }
 
-/* The next field of a manifest line (in place), NULL at the end; *why on error. */
-static char *next_field(char **cursor, const char **why)
+/* A manifest line's mesh into the list (manifest_parse's callback). */
+typedef struct manifest_sink {
+    batch_list *list;
+    const char *path;
+} manifest_sink;
+
+static int manifest_add(void *user, const manifest_entry *e)
 {
-    char *p = *cursor;
-    while (*p == ' ' || *p == '\t') p++;
-    if (*p == '\0') return NULL;
-    char *start = p, *w = p;
-    if (*p == '"') {
-        p++;
-        for (;;) {
-            if (*p == '\0') {
-                *why = "unterminated \"quote\"";
-                return NULL;
-            }
-            if (*p == '"') { p++; break; }
-            if (*p == '\\' && (p[1] == '"' || p[1] == '\\')) p++;
-            *w++ = *p++;
-        }
-        if (*p != '\0' && *p != ' ' && *p != '\t') {
-            *why = "text right after a closing quote";
-            return NULL;
-        }
-        if (w == start) {
-            *why = "empty \"\" field";
-            return NULL;
-        }
-    } else {
-        while (*p && *p != ' ' && *p != '\t') *w++ = *p++;
-    }
-    if (*p) p++;
-    *w = '\0';
-    *cursor = p;
-    return start;
+    manifest_sink *m = user;
+    batch_item *it = list_add(m->list, e->mesh);
+    if (!it) return 1;
+    it->line = e->line;
+    it->grid_by = e->grid_by;
+    it->grid = e->grid;
+    size_t sl = strlen(m->path) + 16;
+    if (!(it->source = malloc(sl))) return 1;
+    snprintf(it->source, sl, "%s:%u", m->path, e->line);
+    if (e->output && !(it->output = dup_str(e->output))) return 1;
+    it->own_output = e->output != NULL;
+    return 0;
 }
 
 static int add_manifest(batch_list *l, const char *path, const cli_args *a)
@@ -297,79 +292,34 @@ static int add_manifest(batch_list *l, const char *path, const cli_args *a)
     if (!S_ISREG(sb.st_mode)) return fail(EXIT_INPUT, "batch: --manifest '%s': not a regular file", path);
     FILE *f = fopen(path, "rb");
     if (!f) return fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, strerror(errno));
-    char *line = NULL;
-    size_t cap = 0;
-    ssize_t len;
-    unsigned lineno = 0;
+    char *text = NULL;
+    size_t len = 0, cap = 0;
     int rc = EXIT_OK;
-    while (rc == EXIT_OK && (len = getline(&line, &cap, f)) >= 0) {
-        lineno++;
-        if (memchr(line, '\0', (size_t)len)) {
-            rc = fail(EXIT_USAGE, "%s:%u: a NUL byte", path, lineno);
+    for (;;) {
+        if (cap - len < 65536) {
+            size_t ncap = cap ? 2 * cap : 65536;
+            char *g = ncap > cap ? realloc(text, ncap) : NULL;
+            if (!g) { rc = fail(EXIT_RUNTIME, "batch: --manifest '%s': out of memory", path); break; }
+            text = g;
+            cap = ncap;
+        }
+        size_t got = fread(text + len, 1, cap - len, f);
+        len += got;
+        if (got == 0) {
+            if (ferror(f)) rc = fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, strerror(errno));
             break;
         }
-        while (len > 0 && (line[len - 1] == '\n' || line[len - 1] == '\r')) line[--len] = '\0';
-        char *cur = line;
-        const char *why = NULL;
-        char *mesh = next_field(&cur, &why);
-        if (!mesh && !why) continue; /* blank */
-        if (mesh && mesh[0] == '#' && line[strspn(line, " \t")] == '#') continue; /* comment */
-        if (mesh && mesh[0] == '-') {
-            rc = fail(EXIT_USAGE, "%s:%u: the line must start with the mesh, not '%s' (write ./%s for a file of that name)",
-                      path, lineno, mesh, mesh);
-            break;
-        }
-        char *out = NULL;
-        int grid_by = 0;
-        clvox_grid_options grid = a->grid;
-        const char *grid_opt = NULL;
-        while (!why) {
-            char *opt = next_field(&cur, &why);
-            if (!opt) break;
-            char *val = next_field(&cur, &why);
-            if (why) break;
-            if (!val) {
-                static char m[96];
-                snprintf(m, sizeof m, "%.40s needs a value", opt);
-                why = m;
-                break;
-            }
-            if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-                if (out) { why = "-o given twice"; break; }
-                out = val;
-            } else if (strcmp(opt, "-r") == 0 || strcmp(opt, "--resolution") == 0 || strcmp(opt, "--dims") == 0 ||
-                       strcmp(opt, "--voxel-size") == 0) {
-                if (a->like) { why = "a grid override (-r, --dims, --voxel-size) can not be combined with --like"; break; }
-                if (grid_opt) { why = "more than one of -r, --dims, --voxel-size"; break; }
-                grid_opt = opt;
-                why = grid_option_parse(opt, val, &grid, &grid_by);
-            } else {
-                static char m[160];
-                snprintf(m, sizeof m, "unknown option '%.60s' (a line is MESH [-o OUT] [-r N | --dims X,Y,Z | "
-                                      "--voxel-size S])", opt);
-                why = m;
-            }
-        }
-        if (why) {
-            rc = fail(EXIT_USAGE, "%s:%u: %s", path, lineno, why);
-            break;
-        }
-        batch_item *it = list_add(l, mesh);
-        char src[64];
-        if (it) {
-            it->line = lineno;
-            it->grid_by = grid_by;
-            it->grid = grid;
-            size_t sl = strlen(path) + sizeof src;
-            it->source = malloc(sl);
-            if (it->source) snprintf(it->source, sl, "%s:%u", path, lineno);
-            if (out) it->output = dup_str(out);
-        }
-        if (!it || !it->source || (out && !it->output)) rc = fail(EXIT_RUNTIME, "out of memory");
     }
-    if (rc == EXIT_OK && ferror(f)) rc = fail(EXIT_INPUT, "batch: --manifest '%s': read error", path);
-    free(line);
     fclose(f);
+    if (rc == EXIT_OK) {
+        manifest_sink m = {l, path};
+        unsigned bad = 0;
+        char why[400];
+        int r = manifest_parse(text, len, &a->grid, a->like != NULL, manifest_add, &m, &bad, why, sizeof why);
+        if (r == -1) rc = fail(EXIT_USAGE, "%s:%u: %s", path, bad, why);
+        else if (r != 0) rc = fail(EXIT_RUNTIME, "out of memory");
+    }
+    free(text);
     return rc;
 }
 
@@ -443,10 +393,246 @@ static char *expand_template(const char *tpl, const char *mesh, uint64_t n, cons
     return b.s;
 }
 
-static int cmp_item_output(const void *a, const void *b)
+/* ---- one file, many spellings ---- */
+
+/* A file as the system finds it: the (st_dev, st_ino) of the deepest
+ * directory on its path that exists (its own directory, when that exists)
+ * and the rest of the path below that directory (the missing directories,
+ * without "." and empty components, then the file's name). out/x.exr,
+ * out/./x.exr, out//x.exr, a/../out/x.exr and link-to-out/x.exr are one
+ * file; outputs are compared so, not as strings. */
+typedef struct file_id {
+    uint64_t dev, ino; /* 0, 0: not even the top directory could be read */
+    char *rest;
+    char *path;        /* the file as spelled: an output, or a file written beside it */
+    size_t item;       /* list index */
+} file_id;
+
+/* The last directory resolved (consecutive outputs mostly share one). */
+typedef struct dir_id {
+    char *dir;         /* as spelled; NULL: none yet */
+    uint64_t dev, ino;
+    char *missing;     /* "" or "a/b/": the part that does not exist */
+} dir_id;
+
+/* "comp/rest" (malloc'ed), NULL when out of memory. */
+static char *prepend_dir(const char *comp, size_t n, const char *rest)
 {
-    const batch_item *x = *(batch_item *const *)a, *y = *(batch_item *const *)b;
-    return strcmp(x->output, y->output);
+    size_t rl = strlen(rest);
+    char *s = malloc(n + 1 + rl + 1);
+    if (!s) return NULL;
+    memcpy(s, comp, n);
+    s[n] = '/';
+    memcpy(s + n + 1, rest, rl + 1);
+    return s;
+}
+
+/* d for directory `dir`: 0, or -1 when out of memory. */
+static int resolve_dir(dir_id *d, const char *dir)
+{
+    if (d->dir && strcmp(d->dir, dir) == 0) return 0;
+    free(d->dir);
+    free(d->missing);
+    d->dir = dup_str(dir);
+    d->missing = dup_str("");
+    char *buf = dup_str(dir);
+    int rc = d->dir && d->missing && buf ? 0 : -1;
+    while (rc == 0) {
+        struct stat sb;
+        if (stat(buf, &sb) == 0) {
+            d->dev = (uint64_t)sb.st_dev;
+            d->ino = (uint64_t)sb.st_ino;
+            break;
+        }
+        size_t n = strlen(buf);
+        while (n > 1 && buf[n - 1] == '/') n--;
+        buf[n] = '\0';
+        char *slash = strrchr(buf, '/');
+        if ((!slash && strcmp(buf, ".") == 0) || (slash == buf && n == 1)) { /* "." or "/" unreadable */
+            char *m = prepend_dir(dir, strlen(dir), "");
+            if (!m) { rc = -1; break; }
+            free(d->missing);
+            d->missing = m;
+            d->dev = d->ino = 0;
+            break;
+        }
+        const char *comp = slash ? slash + 1 : buf;
+        if (strcmp(comp, ".") != 0) {
+            char *m = prepend_dir(comp, strlen(comp), d->missing);
+            if (!m) { rc = -1; break; }
+            free(d->missing);
+            d->missing = m;
+        }
+        if (!slash) strcpy(buf, ".");
+        else if (slash == buf) buf[1] = '\0';
+        else *slash = '\0';
+    }
+    free(buf);
+    if (rc != 0) { /* nothing half-made stays cached */
+        free(d->dir);
+        d->dir = NULL;
+    }
+    return rc;
+}
+
+/* The identity of file `path` of item `item` into *f: 0, or -1 when out of
+ * memory. */
+static int identify(dir_id *d, const char *path, size_t item, file_id *f)
+{
+    const char *slash = strrchr(path, '/');
+    const char *name = slash ? slash + 1 : path;
+    char *dir = slash == path ? dup_str("/") : slash ? malloc((size_t)(slash - path) + 1) : dup_str(".");
+    if (!dir) return -1;
+    if (slash && slash != path) {
+        memcpy(dir, path, (size_t)(slash - path));
+        dir[slash - path] = '\0';
+    }
+    int rc = resolve_dir(d, dir);
+    free(dir);
+    if (rc != 0) return -1;
+    size_t ml = strlen(d->missing), nl = strlen(name);
+    f->dev = d->dev;
+    f->ino = d->ino;
+    f->item = item;
+    f->path = dup_str(path);
+    f->rest = malloc(ml + nl + 1);
+    if (!f->path || !f->rest) {
+        free(f->path);
+        free(f->rest);
+        return -1;
+    }
+    memcpy(f->rest, d->missing, ml);
+    memcpy(f->rest + ml, name, nl + 1);
+    return 0;
+}
+
+/* The files output `out` writes: itself; for .npy and .nrrd also those of
+ * its other channels, OUT.<channel>.npy, and for .npy the sidecar OUT.json
+ * (the library's names: output.c clvox__channel_path, write_npy.c). Every
+ * channel a run could produce counts, whatever this run's options. Up to 5
+ * into m (malloc'ed, member 0 = out); the count, or -1 out of memory. */
+static int output_members(const char *out, clvox_format format, char *m[5])
+{
+    if (format == CLVOX_FORMAT_AUTO) format = clvox_format_from_path(out);
+    int k = 0;
+    if (!(m[k++] = dup_str(out))) return -1;
+    if (format != CLVOX_FORMAT_NPY && format != CLVOX_FORMAT_NRRD) return k;
+    /* the extension's dot, as output.c's ext_at finds it */
+    const char *slash = strrchr(out, '/'), *dot = strrchr(out, '.');
+    size_t n = strlen(out), e = n;
+    if (dot && !(slash && dot < slash) && dot != out && !(slash && dot == slash + 1)) e = (size_t)(dot - out);
+    static const char *const insert[4] = {".coverage", ".element", ".score", ".json"};
+    for (int i = 0; i < 4; i++) {
+        int sidecar = i == 3;
+        if (sidecar && format != CLVOX_FORMAT_NPY) break;
+        size_t il = strlen(insert[i]), tail = sidecar ? 0 : n - e;
+        char *p = malloc(e + il + tail + 1);
+        if (!p) {
+            while (k > 0) free(m[--k]);
+            return -1;
+        }
+        memcpy(p, out, e);
+        memcpy(p + e, insert[i], il);
+        memcpy(p + e + il, out + e, tail);
+        p[e + il + tail] = '\0';
+        m[k++] = p;
+    }
+    return k;
+}
+
+static int same_file(const file_id *x, const file_id *y)
+{
+    return x->dev == y->dev && x->ino == y->ino && strcmp(x->rest, y->rest) == 0;
+}
+
+static int cmp_file_id(const void *a, const void *b)
+{
+    const file_id *x = a, *y = b;
+    if (x->dev != y->dev) return x->dev < y->dev ? -1 : 1;
+    if (x->ino != y->ino) return x->ino < y->ino ? -1 : 1;
+    int c = strcmp(x->rest, y->rest);
+    if (c) return c;
+    return x->item < y->item ? -1 : x->item > y->item;
+}
+
+/* "'MESH'" or "'MESH' (FILE:LINE)" */
+static void describe_mesh(const batch_item *it, char *buf, size_t size)
+{
+    if (it->source) snprintf(buf, size, "'%s' (%s)", it->mesh, it->source);
+    else snprintf(buf, size, "'%s'", it->mesh);
+}
+
+/* "'OUT'" or "'FILE' (written with 'OUT')" */
+static void describe_file(const file_id *f, const batch_item *it, char *buf, size_t size)
+{
+    if (strcmp(f->path, it->output) == 0) snprintf(buf, size, "'%s'", f->path);
+    else snprintf(buf, size, "'%s' (written with '%s')", f->path, it->output);
+}
+
+/* Refuses a list where two meshes would write one file: the same output,
+ * spelled alike or not, or a file one writes beside its output (a .npy's
+ * sidecar, another channel's file). All listed meshes are compared, not
+ * only this shard's: shards run at once. EXIT_OK or the reported error. */
+static int check_outputs(const batch_list *l, clvox_format format)
+{
+    file_id *ids = NULL;
+    size_t count = 0, cap = 0;
+    dir_id d;
+    memset(&d, 0, sizeof d);
+    int rc = EXIT_OK;
+    for (size_t i = 0; i < l->count && rc == EXIT_OK; i++) {
+        char *m[5];
+        int k = output_members(l->items[i].output, format, m);
+        if (k < 0) { rc = fail(EXIT_RUNTIME, "out of memory"); break; }
+        if (count + (size_t)k > cap) {
+            size_t nc = cap ? 2 * cap : 256;
+            file_id *g = realloc(ids, nc * sizeof *g);
+            if (!g) rc = fail(EXIT_RUNTIME, "out of memory");
+            else ids = g, cap = nc;
+        }
+        for (int j = 0; j < k; j++) {
+            if (rc == EXIT_OK && identify(&d, m[j], i, &ids[count]) == 0) count++;
+            else if (rc == EXIT_OK) rc = fail(EXIT_RUNTIME, "out of memory");
+            free(m[j]);
+        }
+    }
+    free(d.dir);
+    free(d.missing);
+    if (rc == EXIT_OK && count > 1) {
+        qsort(ids, count, sizeof *ids, cmp_file_id);
+        /* runs of one file, their meshes in list order; reported: the
+         * clash whose later mesh comes first in the list */
+        size_t best_a = 0, best_b = 0, found = 0;
+        for (size_t r = 0, e; r < count; r = e) {
+            for (e = r + 1; e < count && same_file(&ids[r], &ids[e]); e++) {
+            }
+            size_t j = r + 1;
+            while (j < e && ids[j].item == ids[r].item) j++;
+            if (j < e && (!found || ids[j].item < ids[best_b].item)) best_a = r, best_b = j, found = 1;
+        }
+        if (found) {
+            const batch_item *x = &l->items[ids[best_a].item], *y = &l->items[ids[best_b].item];
+            char mx[600], my[600], fx[1200], fy[1200];
+            describe_mesh(x, mx, sizeof mx);
+            describe_mesh(y, my, sizeof my);
+            const char *hint = x->own_output || y->own_output ? "" : " (put {dir} or {n} in -o)";
+            if (strcmp(ids[best_a].path, ids[best_b].path) == 0 && strcmp(ids[best_a].path, x->output) == 0 &&
+                strcmp(ids[best_b].path, y->output) == 0) {
+                rc = usage_error("batch: %s and %s would both be written to '%s'%s", mx, my, x->output, hint);
+            } else {
+                describe_file(&ids[best_a], x, fx, sizeof fx);
+                describe_file(&ids[best_b], y, fy, sizeof fy);
+                rc = usage_error("batch: %s and %s would both be written to one file: %s and %s are the same file%s",
+                                 mx, my, fx, fy, hint);
+            }
+        }
+    }
+    for (size_t i = 0; i < count; i++) {
+        free(ids[i].rest);
+        free(ids[i].path);
+    }
+    free(ids);
+    return rc;
 }
 
 /* ---- the run ---- */
@@ -569,34 +755,23 @@ int cmd_batch(int argc, char **argv)
         goto done;
     }
 
-    /* this shard's meshes, their outputs, no two the same */
+    /* every mesh's output, no two writing one file (all shards' meshes:
+     * shards run at once), then this shard's meshes */
+    for (size_t n = 0; n < list.count; n++) {
+        batch_item *it = &list.items[n];
+        if (it->output) continue;
+        it->output = expand_template(tpl, it->mesh, n, &why);
+        if (!it->output) {
+            rc = why ? fail(EXIT_USAGE, "batch: -o '%s' for '%s': %s", tpl, it->mesh, why)
+                     : fail(EXIT_RUNTIME, "out of memory");
+            goto done;
+        }
+    }
+    if ((rc = check_outputs(&list, a.out.format)) != EXIT_OK) goto done;
     size_t K = 0;
     if (!(sel = malloc(list.count * sizeof *sel))) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
-    for (size_t n = 0; n < list.count; n++) {
-        if (n % o.shard_n != o.shard_i) continue;
-        batch_item *it = &list.items[n];
-        if (!it->output) {
-            it->output = expand_template(tpl, it->mesh, n, &why);
-            if (!it->output) {
-                rc = why ? fail(EXIT_USAGE, "batch: -o '%s' for '%s': %s", tpl, it->mesh, why)
-                         : fail(EXIT_RUNTIME, "out of memory");
-                goto done;
-            }
-        }
-        sel[K++] = it;
-    }
-    if (K > 1) {
-        batch_item **sorted = malloc(K * sizeof *sorted);
-        if (!sorted) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
-        memcpy(sorted, sel, K * sizeof *sorted);
-        qsort(sorted, K, sizeof *sorted, cmp_item_output);
-        for (size_t k = 1; k < K && rc == EXIT_OK; k++)
-            if (strcmp(sorted[k - 1]->output, sorted[k]->output) == 0)
-                rc = usage_error("batch: '%s' and '%s' would both be written to '%s' (put {dir} or {n} in -o)",
-                                 sorted[k - 1]->mesh, sorted[k]->mesh, sorted[k]->output);
-        free(sorted);
-        if (rc != EXIT_OK) goto done;
-    }
+    for (size_t n = 0; n < list.count; n++)
+        if (n % o.shard_n == o.shard_i) sel[K++] = &list.items[n];
 
     if ((rc = vox_session_open(&s, &a)) != EXIT_OK) goto done;
     s.batch = 1;

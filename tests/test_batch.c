@@ -932,6 +932,132 @@ static void test_batch_lists(void)
     reset_out();
 }
 
+/* A manifest whose lines are the given strings; then runs the batch on it
+ * with args after "--manifest FILE". */
+static void run_manifest(run_result *r, const char *text, const char *const *args)
+{
+    char man[PATH_MAX];
+    in_path(man, "same.txt");
+    CHECK(write_text(man, text));
+    const char *argv[16] = {"batch", "--manifest", man};
+    size_t k = 3;
+    for (size_t i = 0; args[i] && k < 15; i++) argv[k++] = args[i];
+    argv[k] = NULL;
+    run_cli(r, argv);
+}
+
+/* A collision must be refused before anything runs: exit 2, one line
+ * holding `needle`, nothing written. */
+static void expect_same_file(const char *what, const run_result *r, const char *needle)
+{
+    CHECK_MSG(r->code == 2, "%s: exit %d, expected 2 (one file written twice); stderr: %s", what, r->code, r->err);
+    CHECK_MSG(count_lines(r->err) == 1 && strstr(r->err, needle), "%s: one error line with '%s': %s", what, needle,
+              r->err);
+    CHECK_MSG(dir_count(g_out) == 0, "%s: files written", what);
+    reset_out();
+}
+
+/* Quoted "#x.obj" is a mesh, not a comment; one output file under two
+ * spellings (./, a symbolic link to the directory, dir/.., a .npy's
+ * sidecar or channel file, two spellings of one mesh through {dir}, lines
+ * of two shards) is refused like two equal names. */
+static void test_batch_same_file(void)
+{
+    char hash[PATH_MAX], cube[PATH_MAX], box[PATH_MAX], o1[PATH_MAX], o2[PATH_MAX], lnk[PATH_MAX], p[PATH_MAX];
+    static char text[8 * PATH_MAX];
+    in_path(hash, "#x.obj");
+    CHECK(write_text(hash, CUBE_OBJ));
+    in_path(cube, "cube.obj");
+    in_path(box, "box.obj");
+    run_result r;
+
+    /* "#x.obj" quoted is run (relative: the line starts with '#' inside
+     * the quotes); an unquoted '#' line is still a comment */
+    out_path(o1, "hash.exr");
+    snprintf(text, sizeof text, "# %s -o %s\n\"#x.obj\" -o \"%s\"\n  #%s\n", box, o1, o1, box);
+    in_path(p, "same.txt");
+    CHECK(write_text(p, text));
+    run_cli_ex(&r, g_in, ARGS("batch", "--manifest", "same.txt", "-r", "8", "--json"), 0);
+    CHECK_MSG(r.code == 0, "quoted #x.obj: exit %d: %s", r.code, r.err);
+    CHECK_MSG(filled_of(o1) == 512, "quoted #x.obj: its output");
+    py_check("quoted #x.obj", r.out_path,
+             "assert recs[0]['input'] == A[0] and recs[0]['line'] == 2 and recs[0]['status'] == 'ok', recs\n"
+             "assert len(recs) == 2 and recs[1]['meshes'] == 1, recs\n",
+             "#x.obj",
+             NULL);
+    run_free(&r);
+    reset_out();
+
+    /* out/x.exr and out/./x.exr */
+    out_path(o1, "x.exr");
+    out_path(o2, "./x.exr");
+    snprintf(text, sizeof text, "%s -o %s\n%s -o %s\n", cube, o1, box, o2);
+    run_manifest(&r, text, ARGS("-r", "4"));
+    expect_same_file("out/./x.exr", &r, "are the same file");
+    CHECK_MSG(strstr(r.err, "same.txt:1") && strstr(r.err, "same.txt:2"), "the error names both lines: %s", r.err);
+    run_free(&r);
+    /* a symbolic link to the directory; out//x.exr; in/../out/x.exr */
+    path_join(lnk, sizeof lnk, g_dir, "lnk");
+    unlink(lnk);
+    CHECK(symlink(g_out, lnk) == 0);
+    const char *name[] = {"x.exr", "/x.exr", "../out/x.exr"}; /* g_out is DIR/out, g_in DIR/in */
+    const char *base[] = {lnk, g_out, g_in};
+    for (int i = 0; i < 3; i++) {
+        path_join(o2, sizeof o2, base[i], name[i]);
+        snprintf(text, sizeof text, "%s -o %s\n%s -o %s\n", cube, o1, box, o2);
+        run_manifest(&r, text, ARGS("-r", "4"));
+        expect_same_file(o2, &r, "are the same file");
+        run_free(&r);
+    }
+    /* a directory that does not exist yet, spelled two ways */
+    out_path(o1, "new/x.exr");
+    out_path(o2, "new/./x.exr");
+    snprintf(text, sizeof text, "%s -o %s\n%s -o %s\n", cube, o1, box, o2);
+    run_manifest(&r, text, ARGS("-r", "4"));
+    expect_same_file("missing directory", &r, "are the same file");
+    run_free(&r);
+    /* a .npy writes OUT.json and OUT.<channel>.npy beside it */
+    out_path(o1, "v.npy");
+    static const char *const beside[] = {"v.json", "v.coverage.npy"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(p, sizeof p, "./%s", beside[i]);
+        out_path(o2, p);
+        snprintf(text, sizeof text, "%s -o %s\n%s -o %s\n", cube, o1, box, o2);
+        run_manifest(&r, text, ARGS("-r", "4"));
+        expect_same_file(beside[i], &r, "written with");
+        run_free(&r);
+    }
+    /* one mesh spelled two ways, one template: in/cube.obj, in/d2/../cube.obj */
+    char d2[PATH_MAX], cube_b[PATH_MAX], tpl[PATH_MAX];
+    in_path(d2, "d2");
+    mkdir(d2, 0777);
+    path_join(cube_b, sizeof cube_b, d2, "../cube.obj");
+    snprintf(tpl, sizeof tpl, "{dir}/../%s/{stem}.exr", strrchr(g_out, '/') + 1);
+    run_cli(&r, ARGS("batch", cube, cube_b, "-r", "4", "-o", tpl));
+    expect_same_file("{dir} of one mesh spelled twice", &r, "are the same file");
+    CHECK_MSG(strstr(r.err, "{dir} or {n}"), "template outputs: the hint: %s", r.err);
+    run_free(&r);
+    /* two shards: each refuses the list (they would run at once) */
+    out_path(o1, "x.exr");
+    out_path(o2, "./x.exr");
+    snprintf(text, sizeof text, "%s -o %s\n%s -o %s\n", cube, o1, box, o2);
+    for (int i = 0; i < 2; i++) {
+        run_manifest(&r, text, ARGS("-r", "4", "--shard", i ? "1/2" : "0/2"));
+        expect_same_file("across shards", &r, "are the same file");
+        run_free(&r);
+    }
+    /* different files under odd spellings are fine */
+    out_path(o2, "./y.exr");
+    snprintf(text, sizeof text, "%s -o %s\n%s -o %s\n", cube, o1, box, o2);
+    run_manifest(&r, text, ARGS("-r", "4"));
+    CHECK_MSG(r.code == 0 && dir_count(g_out) == 2, "x.exr and ./y.exr: exit %d: %s", r.code, r.err);
+    out_path(p, "y.exr");
+    CHECK(filled_of(p) == 4 * 2 * 2); /* box at -r 4: 4x2x2 voxels */
+    run_free(&r);
+    reset_out();
+    unlink(lnk);
+}
+
 /* Ctrl-C in the middle of a batch: exit 130, the summary says so, every
  * file left is a complete volume, no temporary. */
 static void test_batch_cancel(void)
@@ -1052,6 +1178,7 @@ int main(void)
     test_batch_basic();
     test_batch_failures();
     test_batch_lists();
+    test_batch_same_file();
     test_batch_cancel();
     return test_report();
 }

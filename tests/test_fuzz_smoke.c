@@ -3,7 +3,7 @@
  * targets' own checks, without libFuzzer: the mesh targets' property check
  * (fuzz/fuzz_mesh.h), the EXR reader target, the palette parser target and
  * the render map parser target, the --like header target, the program
- * cache file target,
+ * cache file target, the batch manifest target,
  * compiled here a second time with gcc. Each input runs in a child process with a time limit, so a crash,
  * an abort inside OpenMesh, a hang or (under CONFIG=sanitize) a sanitizer
  * report fails that input alone. Runs from the repository root (run_tests.sh). */
@@ -30,6 +30,9 @@
 #define LLVMFuzzerTestOneInput fuzz_program_cache_one_input
 #include "fuzz/fuzz_program_cache.c" /* the program cache file target, renamed */
 #undef LLVMFuzzerTestOneInput
+#define LLVMFuzzerTestOneInput fuzz_manifest_one_input
+#include "fuzz/fuzz_manifest.c" /* the batch manifest target, renamed (links src/cli_manifest.c: Makefile) */
+#undef LLVMFuzzerTestOneInput
 
 typedef struct target {
     const char *name; /* fuzz_<name>.c, seeds_<name>/, regress_<name>/ */
@@ -41,7 +44,7 @@ typedef struct target {
 static const target targets[] = {
     {"volume_read", NULL, LLVMFuzzerTestOneInput, 1}, {"palette", NULL, fuzz_palette_one_input, 0},
     {"render_map", NULL, fuzz_render_map_one_input, 0}, {"like_header", NULL, fuzz_like_header_one_input, 0},
-    {"program_cache", NULL, fuzz_program_cache_one_input, 0},
+    {"program_cache", NULL, fuzz_program_cache_one_input, 0}, {"manifest", NULL, fuzz_manifest_one_input, 0},
     {"mesh_obj", "obj", NULL, 0}, {"mesh_off", "off", NULL, 0}, {"mesh_ply", "ply", NULL, 0},
     {"mesh_stl", "stl", NULL, 0}, {"mesh_om", "om", NULL, 0},
 };

@@ -38,7 +38,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -1582,6 +1581,71 @@ int clvox__mesh_native_enabled(void)
     return !(e && !strcmp(e, "openmesh"));
 }
 
+/* The same file, unchanged: inode, size, modification and change times
+ * (a write or a truncation moves them). */
+static int same_file_state(const struct stat *a, const struct stat *b)
+{
+    return a->st_dev == b->st_dev && a->st_ino == b->st_ino && a->st_size == b->st_size &&
+           a->st_mtim.tv_sec == b->st_mtim.tv_sec && a->st_mtim.tv_nsec == b->st_mtim.tv_nsec &&
+           a->st_ctim.tv_sec == b->st_ctim.tv_sec && a->st_ctim.tv_nsec == b->st_ctim.tv_nsec;
+}
+
+/* now: the file's fstat or stat after the read (NULL: it has no name any more). */
+static clvox_status changed_while_reading(clvox_context *ctx, const char *path, const struct stat *before,
+                                          const struct stat *now)
+{
+    if (!now)
+        return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read mesh '%s': file changed or truncated while reading (%s)",
+                           path, "removed or renamed");
+    return clvox__fail(ctx, CLVOX_ERR_IO,
+                       "cannot read mesh '%s': file changed or truncated while reading (%lld bytes when opened, "
+                       "%lld now)",
+                       path, (long long)before->st_size, (long long)now->st_size);
+}
+
+/* The whole of fd, whose fstat was *before, into a malloc'd buffer of
+ * st_size + 1 bytes (a NUL after the end). Read, not mapped: a mapped file
+ * that shrinks (another program still writing it, a network file system)
+ * kills the process with SIGBUS at the first page past its new end, and a
+ * library cannot catch that. A file that ends early, grows, or whose fstat
+ * differs afterwards (size, mtime, ctime) is CLVOX_ERR_IO "changed or
+ * truncated while reading". */
+static clvox_status read_whole_file(clvox_context *ctx, const char *path, int fd, const struct stat *before,
+                                    unsigned char **out)
+{
+    *out = NULL;
+    size_t n = (size_t)before->st_size;
+    unsigned char *buf = malloc(n + 1);
+    if (!buf) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s' (%zu bytes)", path, n);
+    size_t done = 0;
+    while (done <= n) { /* n + 1 bytes asked for: one more tells a file that grew */
+        size_t want = n + 1 - done;
+        if (want > ((size_t)1 << 30)) want = (size_t)1 << 30;
+        ssize_t got = read(fd, buf + done, want);
+        if (got < 0 && errno == EINTR) continue;
+        if (got < 0) {
+            int e = errno;
+            free(buf);
+            return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read mesh '%s': %s", path, strerror(e));
+        }
+        if (got == 0) break;
+        done += (size_t)got;
+    }
+    struct stat after;
+    if (fstat(fd, &after) != 0) {
+        int e = errno;
+        free(buf);
+        return clvox__fail(ctx, CLVOX_ERR_IO, "cannot stat mesh '%s': %s", path, strerror(e));
+    }
+    if (done != n || !same_file_state(before, &after)) {
+        free(buf);
+        return changed_while_reading(ctx, path, before, &after);
+    }
+    buf[n] = 0;
+    *out = buf;
+    return CLVOX_OK;
+}
+
 /* Everything clvox_mesh_load does before build_mesh: open, check, read
  * (natively or through OpenMesh) into *raw (freed on failure). */
 clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw)
@@ -1622,18 +1686,19 @@ clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__r
         return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "'%s' is too large", path);
     }
     size_t n = (size_t)sb.st_size;
-    void *map = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fd, 0);
-    close(fd);
-    if (map == MAP_FAILED) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot map '%s': %s", path, strerror(errno));
-    posix_madvise(map, n, POSIX_MADV_SEQUENTIAL);
+    unsigned char *data = NULL;
+    clvox_status st = read_whole_file(ctx, path, fd, &sb, &data);
+    if (st) {
+        close(fd);
+        return st;
+    }
 
     expect ex;
     memset(&ex, 0, sizeof ex);
     clvox__raw_mesh raw;
     memset(&raw, 0, sizeof raw);
     int parsed = 0; /* read here, not by OpenMesh (OBJ, ASCII OFF) */
-    const unsigned char *p = map;
-    clvox_status st;
+    const unsigned char *p = data;
     switch (fmt) {
     case FMT_OBJ: st = check_obj(ctx, path, (const char *)p, n, &raw, &parsed); break;
     case FMT_OFF: st = check_off(ctx, path, p, n, &ex, &raw, &parsed); break;
@@ -1656,15 +1721,38 @@ clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__r
     case FMT_OM: st = check_om(ctx, path, p, n); break;
     default: st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "unhandled format"); break;
     }
-    munmap(map, n);
-    if (st) return st;
+    free(data);
+    if (st) {
+        close(fd);
+        return st;
+    }
 
     if (!parsed) {
+        /* OpenMesh opens the file again by name (through iostreams: a
+         * shorter file is an early end there, not SIGBUS): the checked bytes
+         * must still be what it reads, so the file must be unchanged
+         * before, and after, as seen through fd and through the name. */
+        struct stat now;
+        int named = stat(path, &now) == 0;
+        if (!named || !same_file_state(&sb, &now)) {
+            close(fd);
+            return changed_while_reading(ctx, path, &sb, named ? &now : NULL);
+        }
         char err[512];
         err[0] = 0;
         int rc = clvox__openmesh_read(path, &raw, err, sizeof err);
+        struct stat now_fd;
+        int same = fstat(fd, &now_fd) == 0 && same_file_state(&sb, &now_fd);
+        named = stat(path, &now) == 0;
+        close(fd);
+        if (!same || !named || !same_file_state(&sb, &now)) {
+            clvox__raw_mesh_free(&raw);
+            return changed_while_reading(ctx, path, &sb, named ? &now : NULL);
+        }
         if (rc == -2) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot read '%s': %s", path, err);
         if (rc != 0) return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "cannot read '%s': %s", path, err);
+    } else {
+        close(fd);
     }
 
     if ((ex.have_vertices && raw.vertex_count != ex.vertices) || (ex.have_faces && raw.face_count != ex.faces)) {

@@ -9,6 +9,7 @@
 #define _XOPEN_SOURCE 700
 #endif
 #include "exrgen.h"
+#include "meshgen.h"
 #include "test.h"
 
 #include <dirent.h>
@@ -215,6 +216,13 @@ static int count_lines(const char *s)
 {
     int n = 0;
     for (; *s; s++) n += *s == '\n';
+    return n;
+}
+
+static int count_of(const char *text, const char *needle)
+{
+    int n = 0;
+    for (const char *t = text; (t = strstr(t, needle)) != NULL; t++) n++;
     return n;
 }
 
@@ -1105,6 +1113,80 @@ static void test_batch_cancel(void)
     reset_out();
 }
 
+/* A mesh that another program keeps cutting and writing back while the
+ * batch reads it (a file still being written, a network file system): the
+ * batch records each of its loads as ok or failed (exit 4, "changed or
+ * truncated while reading" or a truncated-file error) and goes on with the
+ * rest. The old reader mapped the file: a page past the new end was SIGBUS
+ * and the whole batch died (exit 135), the meshes after it not written. */
+static void test_batch_changing_mesh(void)
+{
+    char changing[PATH_MAX], cube[PATH_MAX], box[PATH_MAX], tpl[PATH_MAX], p[PATH_MAX];
+    in_path(changing, "changing.off");
+    in_path(cube, "cube.obj");
+    in_path(box, "box.obj");
+    out_path(tpl, "{n}_{stem}.exr");
+    tmesh sphere = tmesh_sphere(0, 0, 0, 1, 160); /* 102 k triangles, 3.9 MB of OFF */
+    CHECK(tmesh_write_off(&sphere, changing) == 0);
+    tmesh_free(&sphere);
+    char *data = read_all(changing);
+    size_t n = strlen(data), cut = n / 2;
+    CHECK(n > 1000000);
+
+    fflush(stdout);
+    fflush(stderr);
+    pid_t parent = getpid(), trunc = fork();
+    if (trunc == 0) { /* cut, write back, a millisecond whole; until killed */
+        int fd = open(changing, O_WRONLY | O_CLOEXEC);
+        if (fd < 0) _exit(2);
+        for (;;) {
+            if (getppid() != parent) _exit(0);
+            if (ftruncate(fd, (off_t)cut) != 0) _exit(2);
+            for (size_t done = cut; done < n;) {
+                ssize_t w = pwrite(fd, data + done, n - done, (off_t)done);
+                if (w <= 0) _exit(2);
+                done += (size_t)w;
+            }
+            struct timespec whole = {0, 1000 * 1000};
+            nanosleep(&whole, NULL);
+        }
+    }
+    CHECK(trunc > 0);
+    run_result r;
+    run_cli(&r, ARGS("batch", cube, changing, changing, changing, changing, changing, changing, box, "-r", "4", "-o",
+                     tpl, "--json"));
+    if (trunc > 0) {
+        kill(trunc, SIGKILL);
+        waitpid(trunc, NULL, 0);
+    }
+    free(data);
+    CHECK_MSG(r.code == 0 || r.code == 4, "changing mesh: batch exit %d (135: SIGBUS): %s", r.code, r.err);
+    CHECK_MSG(strstr(r.out, "{\"type\":\"batch\",\"meshes\":8,") != NULL, "changing mesh: no batch record: %s", r.out);
+    out_path(p, "0_cube.exr");
+    CHECK(filled_of(p) == 64);
+    out_path(p, "7_box.exr");
+    CHECK(filled_of(p) == 4 * 2 * 2);
+    py_check("changing mesh", r.out_path,
+             "m = recs[:8]\n"
+             "assert len(recs) == 9 and [x['n'] for x in m] == list(range(8)), recs\n"
+             "assert m[0]['status'] == 'ok' and m[7]['status'] == 'ok', m\n"
+             "c = m[1:7]\n"
+             "assert all(x['status'] in ('ok', 'failed') for x in c), c\n"
+             "bad = [x for x in c if x['status'] == 'failed']\n"
+             "assert all(x['exit_code'] == 4 and A[0] in x['error'] and x['output_size'] is None for x in bad), bad\n"
+             "good = [x for x in c if x['status'] == 'ok']\n"
+             "assert len(set(x['filled_voxels'] for x in good)) <= 1, good  # all the whole sphere\n"
+             "b = recs[8]\n"
+             "assert b['meshes'] == 8 and b['ok'] == 2 + len(good) and b['failed'] == len(bad), b\n"
+             "assert b['exit_code'] == (4 if bad else 0), b\n",
+             changing, NULL);
+    printf("batch with a changing mesh: exit %d, %d of its 6 loads failed (%d 'changed or truncated')\n", r.code,
+           lines_starting(r.err, "clvox: error: "), count_of(r.err, "changed or truncated while reading"));
+    run_free(&r);
+    unlink(changing);
+    reset_out();
+}
+
 static void make_inputs(void)
 {
     char p[PATH_MAX];
@@ -1180,5 +1262,6 @@ int main(void)
     test_batch_lists();
     test_batch_same_file();
     test_batch_cancel();
+    test_batch_changing_mesh();
     return test_report();
 }

@@ -4,11 +4,14 @@
 #include "meshgen.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <locale.h>
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -986,6 +989,130 @@ static void test_performance(void)
     free(t);
 }
 
+/* ---- a file that changes while it is read ---- */
+
+/* The child that changes the file: cut it to `cut` bytes, write the rest
+ * back, leave it whole for a millisecond, over and over, until killed. */
+static pid_t start_truncator(const char *path, const unsigned char *data, size_t n, size_t cut)
+{
+    fflush(stdout);
+    fflush(stderr);
+    pid_t parent = getpid();
+    pid_t pid = fork();
+    if (pid != 0) return pid;
+    int fd = open(path, O_WRONLY | O_CLOEXEC);
+    if (fd < 0) _exit(2);
+    for (;;) {
+        if (getppid() != parent) _exit(0); /* the test program is gone */
+        if (ftruncate(fd, (off_t)cut) != 0) _exit(2);
+        for (size_t done = cut; done < n;) {
+            ssize_t w = pwrite(fd, data + done, n - done, (off_t)done);
+            if (w <= 0) _exit(2);
+            done += (size_t)w;
+        }
+        struct timespec whole = {0, 1000 * 1000}; /* a while whole: some loads see it so */
+        nanosleep(&whole, NULL);
+    }
+}
+
+/* Loads `path` `loads` times in a forked child while another child keeps
+ * cutting and restoring it. Every load must either give the whole mesh
+ * (nt triangles) or fail cleanly: CLVOX_ERR_IO "changed or truncated while
+ * reading", or a format error when it saw the cut file whole and unchanged
+ * (it is then a truncated mesh). Never a signal: the old reader mapped the
+ * file, and a page past the new end is SIGBUS. The loads run in a child so
+ * that such a crash is counted here, not the end of this program. */
+static void changing_file_loads(const char *name, const unsigned char *data, size_t n, size_t cut, size_t nt,
+                                int loads)
+{
+    const char *p = write_bytes(name, data, n);
+    pid_t trunc = start_truncator(p, data, n, cut);
+    CHECK(trunc > 0);
+    int fds[2]; /* the counts, from the loader; made after the truncator forked, which must not hold it open */
+    if (pipe(fds) != 0) exit(1);
+    pid_t loader = fork();
+    if (loader == 0) {
+        close(fds[0]);
+        int count[4] = {0, 0, 0, 0}; /* whole, changed, truncated view, anything else */
+        for (int i = 0; i < loads; i++) {
+            clvox_mesh *m = NULL;
+            clvox_status st = clvox_mesh_load(ctx, p, &m);
+            const char *msg = clvox_context_error(ctx);
+            if (st == CLVOX_OK && clvox_mesh_get_report(m)->triangles == nt) count[0]++;
+            else if (st == CLVOX_ERR_IO && strstr(msg, "changed or truncated while reading") && strstr(msg, p)) count[1]++;
+            else if (st == CLVOX_ERR_MESH_FORMAT || st == CLVOX_ERR_MESH_EMPTY) count[2]++;
+            else {
+                count[3]++;
+                fprintf(stderr, "%s: load %d: %s: %s\n", name, i, clvox_status_string(st), st ? msg : "wrong count");
+            }
+            clvox_mesh_destroy(m);
+        }
+        if (write(fds[1], count, sizeof count) != (ssize_t)sizeof count) _exit(3);
+        _exit(count[3] ? 1 : 0);
+    }
+    close(fds[1]);
+    int status = 0, count[4] = {0, 0, 0, 0};
+    CHECK(loader > 0 && waitpid(loader, &status, 0) == loader);
+    ssize_t got = loader > 0 ? read(fds[0], count, sizeof count) : -1; /* the loader is gone: no wait here */
+    close(fds[0]);
+    if (trunc > 0) {
+        kill(trunc, SIGKILL);
+        int ts;
+        waitpid(trunc, &ts, 0);
+    }
+    CHECK_MSG(WIFEXITED(status) && WEXITSTATUS(status) == 0, "%s: the loading process %s %d", name,
+              WIFSIGNALED(status) ? "died of signal" : "exited with", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
+    CHECK_MSG(got == (ssize_t)sizeof count && count[0] + count[1] + count[2] == loads && !count[3],
+              "%s: %d whole, %d changed, %d cut, %d other of %d", name, count[0], count[1], count[2], count[3], loads);
+    printf("%s while changing: %d whole, %d 'changed', %d cut loads of %d\n", name, count[0], count[1], count[2], loads);
+    /* Unchanged again, it loads whole. */
+    p = write_bytes(name, data, n);
+    clvox_mesh *m = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, p, &m));
+    CHECK(m && clvox_mesh_get_report(m)->triangles == nt);
+    clvox_mesh_destroy(m);
+    remove(p);
+}
+
+static void test_changing_file(void)
+{
+    float *v;
+    uint32_t *t;
+    size_t nv, nt;
+    sphere(160, &v, &nv, &t, &nt); /* 102 k triangles: OFF 3.6 MB, binary PLY 1.6 MB */
+    bytes off = {0};
+    char line[128];
+    snprintf(line, sizeof line, "OFF\n%zu %zu 0\n", nv, nt);
+    put_str(&off, line);
+    for (size_t i = 0; i < nv; i++) {
+        snprintf(line, sizeof line, "%.9g %.9g %.9g\n", (double)v[3 * i], (double)v[3 * i + 1], (double)v[3 * i + 2]);
+        put_str(&off, line);
+    }
+    for (size_t i = 0; i < nt; i++) {
+        snprintf(line, sizeof line, "3 %u %u %u\n", (unsigned)t[3 * i], (unsigned)t[3 * i + 1], (unsigned)t[3 * i + 2]);
+        put_str(&off, line);
+    }
+    changing_file_loads("changing.off", off.p, off.n, off.n / 2, nt, 40);
+    free(off.p);
+
+    bytes ply = {0};
+    char head[256];
+    snprintf(head, sizeof head,
+             "ply\nformat binary_little_endian 1.0\nelement vertex %zu\nproperty float x\nproperty float y\n"
+             "property float z\nelement face %zu\nproperty list uchar int vertex_indices\nend_header\n",
+             nv, nt);
+    put_str(&ply, head);
+    for (size_t i = 0; i < 3 * nv; i++) put_lef(&ply, v[i]);
+    for (size_t i = 0; i < nt; i++) {
+        put_u8(&ply, 3);
+        for (int c = 0; c < 3; c++) put_le32(&ply, t[3 * i + c]);
+    }
+    changing_file_loads("changing.ply", ply.p, ply.n, ply.n / 3, nt, 40);
+    free(ply.p);
+    free(v);
+    free(t);
+}
+
 /* Text coordinates: whatever the spelling (digit counts, exponents, signs,
  * leading and trailing zeros, no integer or no fraction part), the stored
  * value is what strtod gives (the readers' fast path for plain decimals
@@ -1056,6 +1183,7 @@ int main(void)
     test_bad_files();
     test_obj();
     test_number_spellings();
+    test_changing_file();
     test_bad_arrays();
     test_performance();
 

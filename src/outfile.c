@@ -12,7 +12,8 @@
  * Only regular files are replaced: anything else at `path` (directory,
  * symbolic link, device node, FIFO, socket) is refused at create and again
  * just before the rename; a symbolic link is neither replaced nor written
- * through. */
+ * through. A set of files (npy, NRRD channels) is named by
+ * clvox__outfile_finish_set, below: whole or not at all. */
 #if defined(__linux__) && !defined(_GNU_SOURCE)
 #define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
 #endif

@@ -39,7 +39,8 @@ size_t clvox__raster_set_line(char *buf, size_t size, const clvox__raster_member
 clvox_status clvox__raster_open(clvox_context *ctx, const clvox__fmt_info *info, const clvox__raster_spec *spec,
                                 void *user, clvox__raster **out);
 clvox_status clvox__raster_write(clvox__raster *r, const clvox__fmt_slab *s);
-/* Names every file; frees r (also on failure, leaving nothing). */
+/* Names every file, the set's marker last (clvox__outfile_finish_set); frees r.
+ * On failure nothing new is left and the previous set is as it was. */
 clvox_status clvox__raster_finish(clvox__raster *r, uint64_t *bytes);
 void clvox__raster_abort(clvox__raster *r); /* NULL-safe */
 #endif

@@ -276,6 +276,15 @@ static void test_output_sets(clvox_context *ctx)
         CHECK(unlink(tmp(cov)) == 0);
         CHECK_MSG(!clvox__output_complete(tmp(out), why, sizeof why) && strstr(why, "missing"), "%s: %s", out, why);
         CHECK(copy_file(tmp(a_cov), tmp(cov)) && clvox__output_complete(tmp(out), NULL, 0));
+        /* the same with named temporary files (no O_TMPFILE) */
+        clvox__exr_no_tmpfile = 1;
+        clvox__outset_fail_at = 2;
+        CHECK_STATUS(ctx, write_set(ctx, tmp(out), &g, 2, NULL), CLVOX_ERR_IO);
+        clvox__outset_fail_at = 0;
+        CHECK(same_file(tmp(out), tmp(a_main)) && same_file(tmp(cov), tmp(a_cov)) && hidden_entries() == 0);
+        CHECK_OK(ctx, write_set(ctx, tmp(out), &g, 2, NULL));
+        clvox__exr_no_tmpfile = 0;
+        CHECK(!same_file(tmp(out), tmp(a_main)) && clvox__output_complete(tmp(out), NULL, 0) && hidden_entries() == 0);
     }
     /* a sidecar without sizes and CRCs (earlier clvox): cannot be checked */
     const char *legacy = "{\"format\": \"npy\", \"dims\": [8, 4, 3], \"origin\": [0, 0, 0], \"voxel_size\": [1, 1, 1], "

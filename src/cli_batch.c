@@ -23,6 +23,7 @@
 #include "cli_json.h"
 #include "cli_manifest.h"
 #include "cli_vox.h"
+#include "output_set.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -94,7 +95,9 @@ static void print_batch_help(void)
 "                           OUT.<channel>.npy)\n"
 "  --skip-existing          do not voxelize a mesh whose output exists (outputs\n"
 "                           are only ever named when complete, so an interrupted\n"
-"                           batch resumes where it stopped)\n"
+"                           batch resumes where it stopped); a set of files\n"
+"                           (npy, NRRD channels) counts only when its marker\n"
+"                           (OUT.json, OUT.nrrd) agrees with every file in it\n"
 "\n"
 "Runs:\n"
 "  --shard I/N              only the meshes with n % N == I (0 <= I < N): N\n"
@@ -681,10 +684,11 @@ static void prefetch_join(prefetch *p)
     p->running = 0;
 }
 
+/* --skip-existing: the output is there and whole (a set of files only when
+ * its marker agrees with every member, output_set.c); else it is redone. */
 static int would_skip(const batch_opts *o, const batch_item *it)
 {
-    struct stat sb;
-    return o->skip_existing && lstat(it->output, &sb) == 0 && S_ISREG(sb.st_mode);
+    return o->skip_existing && clvox__output_complete(it->output, NULL, 0);
 }
 
 /* Starts loading the first item after k that will run (not skipped), if it
@@ -804,7 +808,11 @@ int cmd_batch(int argc, char **argv)
             pf.mesh = NULL;
         }
         struct stat sb;
-        if (o.skip_existing && lstat(it->output, &sb) == 0 && S_ISREG(sb.st_mode)) {
+        char incomplete[1024] = "";
+        int whole = o.skip_existing && clvox__output_complete(it->output, incomplete, sizeof incomplete);
+        if (o.skip_existing && !whole && !a.quiet && lstat(it->output, &sb) == 0)
+            fprintf(stderr, "clvox: warning: %s; voxelizing it again\n", incomplete); /* a set left mixed */
+        if (whole && lstat(it->output, &sb) == 0) {
             clvox_mesh_destroy(job.mesh_ahead); /* its output appeared meanwhile */
             memset(res, 0, sizeof *res);
             res->status = "skipped";

@@ -20,6 +20,7 @@
 #include "cli_json.h"
 #include "cli_vox.h"
 #include "grid_like.h"
+#include "output_set.h"
 
 #include <errno.h>
 #include <math.h>
@@ -358,7 +359,8 @@ static char *like_read_head(const char *path, size_t max, size_t *len, int *whol
  *   .exr          a clvox EXR (its header and the first slice of one channel)
  *   .nrrd, .nhdr  a NRRD header, clvox's or another tool's (src/grid_like.c)
  *   .json         the sidecar clvox writes next to a .npy
- *   .npy          its sidecar: OUT.json (for OUT.<channel>.npy also OUT.json) */
+ *   .npy          its sidecar: OUT.json (for OUT.<channel>.npy also OUT.json),
+ *                 once OUT.json agrees with every file of the set (output_set.c) */
 static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out)
 {
     const char *base = path_basename(path);
@@ -385,6 +387,14 @@ static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out
                 int rc = fail(EXIT_INPUT, "--like '%s': no readable sidecar '%s' next to it (clvox writes OUT.json "
                                           "with every OUT.npy)",
                               path, file);
+                free(file);
+                return rc;
+            }
+        }
+        if (file) { /* the grid of OUT.json is that of the .npy only when the set is whole */
+            char why[1024];
+            if (!clvox__npy_set_complete(file, path, why, sizeof why)) {
+                int rc = fail(EXIT_INPUT, "--like '%s': %s (--like '%s' takes its grid anyway)", path, why, file);
                 free(file);
                 return rc;
             }

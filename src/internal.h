@@ -395,6 +395,13 @@ clvox_status clvox__outfile_pwrite(clvox__outfile *f, const void *data, size_t s
 clvox_status clvox__outfile_finish(clvox__outfile *f, uint64_t *bytes);
 /* Closes and removes the unnamed file. NULL-safe, idempotent. */
 void clvox__outfile_discard(clvox__outfile *f);
+/* Names a set of complete files together, files[n-1] (the marker) last: every
+ * target is checked before any is touched, and a failure midway renames back
+ * the old files that members already placed had replaced; nothing this run
+ * did not create is unlinked (outfile.c). Discards every file, either way. */
+clvox_status clvox__outfile_finish_set(clvox__outfile *const *files, size_t n);
+/* Tests only: k > 0 makes the rename of member k-1 of the next sets fail (EIO). */
+extern int clvox__outset_fail_at;
 
 /* ---- other output formats (output.c, write_npy.c, write_nrrd.c, write_binvox.c) ---- */
 

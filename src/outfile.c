@@ -12,7 +12,8 @@
  * Only regular files are replaced: anything else at `path` (directory,
  * symbolic link, device node, FIFO, socket) is refused at create and again
  * just before the rename; a symbolic link is neither replaced nor written
- * through. */
+ * through. A set of files (npy, NRRD channels) is named by
+ * clvox__outfile_finish_set, below: whole or not at all. */
 #if defined(__linux__) && !defined(_GNU_SOURCE)
 #define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
 #endif
@@ -27,6 +28,7 @@
 #include <unistd.h>
 
 int clvox__exr_no_tmpfile;
+int clvox__outset_fail_at;
 
 clvox_status clvox__outfile_check_target(clvox_context *ctx, const char *path)
 {
@@ -235,4 +237,143 @@ void clvox__outfile_discard(clvox__outfile *f)
     free(f->path);
     f->tmp = f->dir = f->path = NULL;
     f->ctx = NULL;
+}
+
+/* ---- sets of files (write_raster.c: npy and NRRD channels with their marker) ----
+ *
+ * A set replaces the files of the previous set as a whole or not at all:
+ *  1. every member is complete, non-empty and synced, and every name is free
+ *     or a regular file, before any name is touched;
+ *  2. each member gets a hidden name in its directory (.clvox-<pid>-<n>.tmp);
+ *  3. the members are renamed into place in order, the marker last; before a
+ *     member replaces an old file, the old file gets a second hidden name
+ *     (a hard link), so that a failure at member k renames the old files of
+ *     members 0..k-1 back; a member that replaced nothing is unlinked only
+ *     while it is still this run's file (same device and inode). Where the
+ *     file system has no hard links, an old file cannot be restored: the new
+ *     member stays, and the old marker, not renamed, no longer agrees with it
+ *     (output_set.c says so to every reader).
+ * Nothing that this run did not create is ever unlinked. A kill in step 3 can
+ * leave hidden .clvox-*.tmp files and a mixed set whose marker disagrees. */
+
+typedef struct set_entry {
+    dev_t dev;
+    ino_t ino;
+    char *backup; /* hidden second name of the old file, or NULL */
+    int had_old;  /* something (a regular file) was replaced */
+} set_entry;
+
+/* Gives the complete, synced file a hidden name (f->tmp) in its directory. */
+static clvox_status stage(clvox__outfile *f)
+{
+#ifdef O_TMPFILE
+    if (f->unnamed) {
+        size_t n = strlen(f->dir) + 64;
+        f->tmp = malloc(n);
+        if (!f->tmp) return clvox__fail(f->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+        for (int attempt = 0; attempt < 100; attempt++) {
+            if (!temp_name(f->tmp, n, f->dir)) break;
+            if (link_unnamed(f->fd, f->tmp) == 0) return CLVOX_OK;
+            if (errno != EEXIST) break;
+        }
+        int e = errno;
+        free(f->tmp);
+        f->tmp = NULL;
+        return clvox__fail(f->ctx, CLVOX_ERR_IO, "cannot name '%s': %s", f->path, strerror(e));
+    }
+#endif
+    int fd = f->fd; /* named already: closed before the rename */
+    f->fd = -1;
+    if (close(fd) != 0) return clvox__fail(f->ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", f->path, strerror(errno));
+    return CLVOX_OK;
+}
+
+/* A hidden second name for the old file at `path` (NULL: none could be made). */
+static char *backup_of(const clvox__outfile *f)
+{
+    size_t n = strlen(f->dir) + 64;
+    char *b = malloc(n);
+    if (!b) return NULL;
+    for (int attempt = 0; attempt < 100; attempt++) {
+        if (!temp_name(b, n, f->dir)) break;
+        if (link(f->path, b) == 0) return b;
+        if (errno != EEXIST) break;
+    }
+    free(b);
+    return NULL;
+}
+
+clvox_status clvox__outfile_finish_set(clvox__outfile *const *files, size_t n)
+{
+    if (n == 0) return CLVOX_OK;
+    clvox_context *ctx = files[0]->ctx;
+    clvox_status st = CLVOX_OK;
+    set_entry *e = calloc(n, sizeof *e);
+    if (!e) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    /* 1. complete and synced; every name free or a regular file */
+    for (size_t i = 0; i < n && st == CLVOX_OK; i++) {
+        clvox__outfile *f = files[i];
+        struct stat sb;
+        if (fstat(f->fd, &sb) != 0 || sb.st_size <= 0)
+            st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: the file being written is empty", f->path);
+        else if (fdatasync(f->fd) != 0)
+            st = clvox__fail(ctx, CLVOX_ERR_IO, "writing '%s' failed: %s", f->path, strerror(errno));
+        else
+            e[i].dev = sb.st_dev, e[i].ino = sb.st_ino;
+    }
+    for (size_t i = 0; i < n && st == CLVOX_OK; i++) st = clvox__outfile_check_target(ctx, files[i]->path);
+    /* 2. hidden names */
+    for (size_t i = 0; i < n && st == CLVOX_OK; i++) st = stage(files[i]);
+    /* 3. into place, the marker last */
+    size_t placed = 0;
+    for (; placed < n && st == CLVOX_OK; placed++) {
+        clvox__outfile *f = files[placed];
+        set_entry *s = &e[placed];
+        st = clvox__outfile_check_target(ctx, f->path); /* again: something may have appeared */
+        if (st != CLVOX_OK) break;
+        struct stat sb;
+        s->had_old = lstat(f->path, &sb) == 0;
+        if (s->had_old) s->backup = backup_of(f);
+        int failed = clvox__outset_fail_at == (int)placed + 1 ? (errno = EIO, 1) : rename(f->tmp, f->path) != 0;
+        if (failed) {
+            st = clvox__fail(ctx, CLVOX_ERR_IO, "cannot replace '%s': %s", f->path, strerror(errno));
+            if (s->backup) unlink(s->backup); /* a second name of the old file, which is still in place */
+            free(s->backup);
+            s->backup = NULL;
+            break;
+        }
+        free(f->tmp);
+        f->tmp = NULL; /* renamed: nothing to unlink */
+    }
+    if (st != CLVOX_OK) { /* put back what the placed members replaced */
+        const char *kept = NULL;
+        while (placed-- > 0) {
+            clvox__outfile *f = files[placed];
+            set_entry *s = &e[placed];
+            struct stat sb;
+            if (s->backup) {
+                if (rename(s->backup, f->path) == 0) {
+                    free(s->backup);
+                    s->backup = NULL;
+                } else if (!kept) {
+                    kept = s->backup; /* the old file's only name now: kept, and said */
+                }
+            } else if (!s->had_old && lstat(f->path, &sb) == 0 && sb.st_dev == s->dev && sb.st_ino == s->ino) {
+                unlink(f->path); /* this run's file at a name that was free */
+            }
+        }
+        if (kept) {
+            const char *msg = clvox_context_error(ctx);
+            char first[512];
+            snprintf(first, sizeof first, "%s", msg ? msg : "");
+            clvox__fail(ctx, st, "%s (the old file is kept as '%s')", first, kept);
+        }
+    }
+    for (size_t i = 0; e && i < n; i++) {
+        if (st == CLVOX_OK && e[i].backup) unlink(e[i].backup); /* the old file's second name */
+        free(e[i].backup);
+    }
+    free(e);
+    for (size_t i = 0; i < n; i++) clvox__outfile_discard(files[i]); /* closes; unlinks hidden names not placed */
+    return st;
 }

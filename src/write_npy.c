@@ -6,7 +6,8 @@
  * values) or <f4 (exactly count/samples) with CLVOX_OUTPUT_FLOAT32; element
  * <u2, or <u4 with CLVOX_OUTPUT_UINT32. Files: OUT.npy holds the main
  * channel (occupancy, else element, else coverage), the others
- * OUT.<channel>.npy; OUT.json describes the grid (README "Output formats"). */
+ * OUT.<channel>.npy; OUT.json describes the grid and is the set's marker,
+ * named last, with each file's size and CRC-32 (README "Output formats"). */
 #include "write_raster.h"
 
 #include <stdio.h>
@@ -34,9 +35,9 @@ static const char *npy_descr(clvox__dtype t)
 }
 
 static clvox_status npy_header(clvox_context *ctx, const clvox__fmt_info *info, uint32_t channel, clvox__dtype t,
-                               const char *file, void *user, char **out, size_t *len)
+                               const char *file, void *user, const char *set_line, char **out, size_t *len)
 {
-    (void)channel, (void)file, (void)user;
+    (void)channel, (void)file, (void)user, (void)set_line; /* the set's marker is the sidecar */
     const clvox_grid *g = info->grid;
     unsigned long long last = t == CLVOX__BITS ? ((unsigned long long)g->dims[0] + 7) / 8 : g->dims[0];
     char dict[256];
@@ -75,17 +76,17 @@ static void json_str(char *buf, size_t size, size_t *at, const char *s)
 
 #define JSON_ADD(...) do { if (at < size) at += (size_t)snprintf(j + at, size - at, __VA_ARGS__); } while (0)
 
-static clvox_status npy_sidecar(clvox_context *ctx, const clvox__fmt_info *info, void *user, char **path, char **text)
+/* OUT.json, the set's marker (named last): the grid, and for each channel its
+ * file with that file's size and CRC-32, which readers and batch
+ * --skip-existing compare with the files (output_set.c). */
+static clvox_status npy_sidecar(clvox_context *ctx, const clvox__fmt_info *info, const clvox__raster_member *m,
+                                size_t nm, void *user, char **text)
 {
     (void)user;
     const clvox_grid *g = info->grid;
-    *path = clvox__replace_ext(info->path, ".json");
     size_t size = 4096;
     char *j = malloc(size);
-    if (!*path || !j) {
-        free(j);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-    }
+    if (!j) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     size_t at = 0;
     JSON_ADD("{\n  \"clvox_version\": \"%s\",\n  \"format\": \"npy\",\n", CLVOX_VERSION_STRING);
     JSON_ADD("  \"dims\": [%u, %u, %u],\n  \"shape\": [%u, %u, %u],\n", g->dims[0], g->dims[1], g->dims[2],
@@ -98,34 +99,24 @@ static clvox_status npy_sidecar(clvox_context *ctx, const clvox__fmt_info *info,
     JSON_ADD(",\n  \"parameters\": ");
     json_str(j, size, &at, info->parameters);
     JSON_ADD(",\n  \"channels\": {");
-    static const uint32_t order[4] = {CLVOX_CHANNEL_OCCUPANCY, CLVOX_CHANNEL_COVERAGE, CLVOX_CHANNEL_ELEMENT,
-                                      CLVOX_CHANNEL_SCORE};
-    int first = 1;
-    for (int i = 0; i < 4; i++) {
-        if (!(info->channels & order[i])) continue;
-        char *file = clvox__channel_path(info->path, order[i], info->channels);
-        if (!file) {
-            free(j);
-            return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-        }
-        const char *base = strrchr(file, '/') ? strrchr(file, '/') + 1 : file;
-        clvox__dtype t = npy_dtype(info, order[i]);
-        JSON_ADD("%s\n    \"%s\": {\"file\": ", first ? "" : ",", clvox__channel_name(order[i]));
+    for (size_t i = 0; i < nm; i++) {
+        const char *base = strrchr(m[i].path, '/') ? strrchr(m[i].path, '/') + 1 : m[i].path;
+        clvox__dtype t = npy_dtype(info, m[i].channel);
+        JSON_ADD("%s\n    \"%s\": {\"file\": ", i ? "," : "", clvox__channel_name(m[i].channel));
         json_str(j, size, &at, base);
-        JSON_ADD(", \"dtype\": \"%s\", \"packed_bits\": %s}", npy_descr(t) + 1, t == CLVOX__BITS ? "true" : "false");
-        free(file);
-        first = 0;
+        JSON_ADD(", \"dtype\": \"%s\", \"packed_bits\": %s, \"bytes\": %llu, \"crc32\": \"%08x\"}", npy_descr(t) + 1,
+                 t == CLVOX__BITS ? "true" : "false", (unsigned long long)m[i].bytes, (unsigned)m[i].crc32);
     }
     JSON_ADD("\n  }\n}\n");
     if (at >= size) {
         free(j);
-        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "the sidecar of '%s' is too long", info->path);
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "the sidecar of '%s' is too long", m[0].path);
     }
     *text = j;
     return CLVOX_OK;
 }
 
-static const clvox__raster_spec npy_spec = {0, npy_dtype, npy_header, npy_sidecar};
+static const clvox__raster_spec npy_spec = {0, npy_dtype, npy_header, ".json", npy_sidecar};
 
 static clvox_status npy_open(clvox_context *ctx, const clvox__fmt_info *info, void **state)
 {

@@ -6,7 +6,10 @@
  * superior" (so ITK/SimpleITK and 3D Slicer take the mesh coordinates as
  * given, as Slicer loads meshes in LPS), space directions diag(h), and space
  * origin = the centre of voxel (0,0,0) = clvox origin + h/2 (NRRD positions
- * are sample centres; clvox's origin is the corner of the first voxel). */
+ * are sample centres; clvox's origin is the corner of the first voxel).
+ * With two or more channels, OUT.nrrd is the set's marker, named last: its
+ * header's last line "clvox_set:= coverage:<bytes>:<crc32> ..." records the
+ * size and CRC-32 of each other channel's file (output_set.c checks them). */
 #include "write_raster.h"
 
 #include <stdio.h>
@@ -26,7 +29,7 @@ static clvox__dtype nrrd_dtype(const clvox__fmt_info *info, uint32_t channel)
 static int nrrd_gzip(clvox_compression c) { return c != CLVOX_COMPRESSION_NONE; }
 
 static clvox_status nrrd_header(clvox_context *ctx, const clvox__fmt_info *info, uint32_t channel, clvox__dtype t,
-                                const char *file, void *user, char **out, size_t *len)
+                                const char *file, void *user, const char *set_line, char **out, size_t *len)
 {
     (void)file, (void)user;
     const clvox_grid *g = info->grid;
@@ -50,12 +53,14 @@ static clvox_status nrrd_header(clvox_context *ctx, const clvox__fmt_info *info,
                      "clvox_channel:=%s\n"
                      "clvox_origin_corner:=%.17g %.17g %.17g\n"
                      "clvox_method:=%s\n"
+                     "%s"
                      "\n",
                      CLVOX_VERSION_STRING, clvox__channel_name(channel),
                      t == CLVOX__U8 ? "uint8" : t == CLVOX__U16 ? "uint16" : "float", g->dims[0], g->dims[1],
                      g->dims[2], h[0], h[1], h[2], nrrd_gzip(info->compression) ? "gzip" : "raw",
                      o[0] + 0.5 * h[0], o[1] + 0.5 * h[1], o[2] + 0.5 * h[2], CLVOX_VERSION_STRING,
-                     clvox__channel_name(channel), o[0], o[1], o[2], info->method ? info->method : "");
+                     clvox__channel_name(channel), o[0], o[1], o[2], info->method ? info->method : "",
+                     set_line ? set_line : "");
     if (n < 0 || (size_t)n >= size || strchr(info->method ? info->method : "", '\n')) {
         free(s);
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "cannot make the NRRD header of '%s'", info->path);
@@ -65,8 +70,8 @@ static clvox_status nrrd_header(clvox_context *ctx, const clvox__fmt_info *info,
     return CLVOX_OK;
 }
 
-static const clvox__raster_spec nrrd_raw = {0, nrrd_dtype, nrrd_header, NULL};
-static const clvox__raster_spec nrrd_gz = {1, nrrd_dtype, nrrd_header, NULL};
+static const clvox__raster_spec nrrd_raw = {0, nrrd_dtype, nrrd_header, NULL, NULL};
+static const clvox__raster_spec nrrd_gz = {1, nrrd_dtype, nrrd_header, NULL, NULL};
 
 static clvox_status nrrd_open(clvox_context *ctx, const clvox__fmt_info *info, void **state)
 {

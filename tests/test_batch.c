@@ -541,6 +541,74 @@ static int same_bytes(const char *a, const char *b)
     return same;
 }
 
+static int copy_bytes(const char *from, const char *to)
+{
+    FILE *a = fopen(from, "rb"), *b = fopen(to, "wb");
+    int ok = a && b, c;
+    while (ok && (c = getc(a)) != EOF) ok = putc(c, b) != EOF;
+    if (a) fclose(a);
+    if (b && fclose(b) != 0) ok = 0;
+    return ok;
+}
+
+/* A set of files (npy; NRRD with two channels) mixed from two runs, as a
+ * kill between two renames leaves it: batch --skip-existing voxelizes it
+ * again (with a warning) instead of skipping it for ever, --like refuses it;
+ * once redone, the set is skipped. */
+static void test_batch_mixed_sets(void)
+{
+    char box[PATH_MAX], cube[PATH_MAX];
+    in_path(box, "box.obj");
+    in_path(cube, "cube.obj");
+    static const char *const exts[2] = {"npy", "nrrd"};
+    for (int e = 0; e < 2; e++) {
+        char m[PATH_MAX], o[PATH_MAX], mixed_from[PATH_MAX], mixed_to[PATH_MAX], keep[PATH_MAX], name[64];
+        snprintf(name, sizeof name, "m.%s", exts[e]);
+        out_path(m, name);
+        snprintf(name, sizeof name, "o.%s", exts[e]);
+        out_path(o, name);
+        /* npy: another run's OUT.npy beside this set's OUT.json; NRRD:
+         * another run's OUT.coverage.nrrd beside this set's OUT.nrrd */
+        snprintf(name, sizeof name, e == 0 ? "o.%s" : "o.coverage.%s", exts[e]);
+        out_path(mixed_from, name);
+        snprintf(name, sizeof name, e == 0 ? "m.%s" : "m.coverage.%s", exts[e]);
+        out_path(mixed_to, name);
+        out_path(keep, "keep.bin");
+        run_result r;
+        run_cli(&r, ARGS("batch", box, "-r", "8", "--box", "0,0,0,2,2,2", "--oversample", "2", "--channels",
+                         "occupancy,coverage", "-o", m, "-q"));
+        CHECK_MSG(r.code == 0, "mixed %s: exit %d: %s", exts[e], r.code, r.err);
+        run_free(&r);
+        run_cli(&r, ARGS(cube, "-r", "8", "--box", "0,0,0,2,2,2", "--oversample", "2", "--channels",
+                         "occupancy,coverage", "-o", o, "-q"));
+        CHECK_MSG(r.code == 0, "mixed %s: exit %d: %s", exts[e], r.code, r.err);
+        run_free(&r);
+        CHECK(copy_bytes(mixed_to, keep) && !same_bytes(mixed_to, mixed_from));
+        CHECK(copy_bytes(mixed_from, mixed_to));
+        if (e == 0) {
+            char like[PATH_MAX];
+            out_path(like, "like.npy");
+            run_cli(&r, ARGS(cube, "--like", m, "-o", like));
+            CHECK_MSG(r.code == 4 && count_lines(r.err) == 1 && strstr(r.err, "mixed set") && !file_exists(like),
+                      "--like a mixed npy set: exit %d: %s", r.code, r.err);
+            run_free(&r);
+        }
+        run_cli(&r, ARGS("batch", box, "-r", "8", "--box", "0,0,0,2,2,2", "--oversample", "2", "--channels",
+                         "occupancy,coverage", "-o", m, "--skip-existing"));
+        CHECK_MSG(r.code == 0 && strstr(r.out, "1 meshes: 1 ok, 0 failed, 0 skipped"),
+                  "--skip-existing on a mixed %s set: exit %d: %s", exts[e], r.code, r.out);
+        CHECK_MSG(strstr(r.err, "mixed set") && strstr(r.err, "voxelizing it again"), "%s", r.err);
+        CHECK_MSG(same_bytes(mixed_to, keep), "%s: not redone", mixed_to);
+        run_free(&r);
+        run_cli(&r, ARGS("batch", box, "-r", "8", "--box", "0,0,0,2,2,2", "--oversample", "2", "--channels",
+                         "occupancy,coverage", "-o", m, "--skip-existing"));
+        CHECK_MSG(r.code == 0 && strstr(r.out, "1 meshes: 0 ok, 0 failed, 1 skipped"),
+                  "--skip-existing on a whole %s set: exit %d: %s", exts[e], r.code, r.out);
+        run_free(&r);
+        reset_out();
+    }
+}
+
 /* --like on clvox's own NRRD and NumPy outputs (same volume again), a
  * Slicer-style NRRD header, and malformed headers (exit 4, one line). */
 static void test_like_formats(void)
@@ -1263,5 +1331,6 @@ int main(void)
     test_batch_same_file();
     test_batch_cancel();
     test_batch_changing_mesh();
+    test_batch_mixed_sets();
     return test_report();
 }

@@ -8,6 +8,8 @@
 #include "meshgen.h"
 #include "spawn.h"
 #include "test.h"
+#include "internal.h"    /* clvox__outset_fail_at */
+#include "output_set.h"  /* clvox__output_complete */
 
 #include <dirent.h>
 #include <stdio.h>
@@ -104,6 +106,197 @@ static clvox_status to_file(clvox_context *ctx, clvox_mesh *m, const clvox_grid 
     oo.flags = flags;
     oo.compression = c;
     return clvox_voxelize_to_file(ctx, m, g, vo, &oo, path, NULL);
+}
+
+/* ---- sets of files (npy, NRRD channels): replaced whole or not at all ---- */
+
+static char *slurp(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    char *b = NULL;
+    size_t n = 0, cap = 0;
+    for (;;) {
+        if (n == cap) {
+            char *nb = realloc(b, cap = cap ? 2 * cap : 4096);
+            if (!nb) break;
+            b = nb;
+        }
+        size_t got = fread(b + n, 1, cap - n, f);
+        if (got == 0) break;
+        n += got;
+    }
+    fclose(f);
+    *len = n;
+    return b;
+}
+
+static int same_file(const char *a, const char *b)
+{
+    size_t na = 0, nb = 0;
+    char *x = slurp(a, &na), *y = slurp(b, &nb);
+    int same = x && y && na == nb && memcmp(x, y, na) == 0;
+    free(x);
+    free(y);
+    return same;
+}
+
+static int copy_file(const char *from, const char *to)
+{
+    size_t n = 0;
+    char *b = slurp(from, &n);
+    int ok = b && write_raw(to, b, n);
+    free(b);
+    return ok;
+}
+
+static int hidden_entries(void) /* .clvox-*.tmp left in the scratch directory */
+{
+    DIR *d = opendir(g_dir);
+    int n = 0;
+    struct dirent *e;
+    while (d && (e = readdir(d)))
+        if (strncmp(e->d_name, ".clvox-", 7) == 0) n++;
+    if (d) closedir(d);
+    return n;
+}
+
+typedef void (*before_finish_fn)(const char *path);
+
+/* Writes occupancy + coverage (values from `seed`) to `path` through
+ * clvox_volume_writer; `before` runs after the last slice, before the files are named. */
+static clvox_status write_set(clvox_context *ctx, const char *path, const clvox_grid *g, int seed,
+                              before_finish_fn before)
+{
+    clvox_volume_writer *w = NULL;
+    clvox_status st = clvox_volume_writer_open(ctx, path, g, CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE,
+                                               NULL, &w);
+    if (st != CLVOX_OK) return st;
+    const size_t plane = (size_t)g->dims[0] * g->dims[1];
+    float v[64];
+    for (uint32_t z = 0; z < g->dims[2] && st == CLVOX_OK; z++) {
+        for (size_t i = 0; i < plane; i++) v[i] = (float)((i * 7 + z * 3 + (size_t)seed) % 5) / 4.0f;
+        st = clvox_volume_writer_slice(w, CLVOX_CHANNEL_OCCUPANCY, z, v);
+        if (st == CLVOX_OK) st = clvox_volume_writer_slice(w, CLVOX_CHANNEL_COVERAGE, z, v);
+    }
+    if (st != CLVOX_OK) {
+        clvox_volume_writer_abort(w);
+        return st;
+    }
+    if (before) before(path);
+    return clvox_volume_writer_finish(w, NULL);
+}
+
+static void dir_at_coverage(const char *path) /* something appears at OUT.coverage.EXT mid-run */
+{
+    char p[2400];
+    snprintf(p, sizeof p, "%s", path);
+    char *dot = strrchr(p, '.'), ext[16];
+    snprintf(ext, sizeof ext, "%s", dot);
+    snprintf(dot, sizeof p - (size_t)(dot - p), ".coverage%s", ext);
+    unlink(p);
+    mkdir(p, 0777);
+}
+
+static void dir_at_json(const char *path)
+{
+    char p[2400];
+    snprintf(p, sizeof p, "%s", path);
+    strcpy(strrchr(p, '.'), ".json");
+    unlink(p);
+    mkdir(p, 0777);
+}
+
+static void test_output_sets(clvox_context *ctx)
+{
+    clear_dir();
+    clvox_grid g = {{8, 4, 3}, {0.5, -1, 2}, {0.25, 0.25, 0.25}};
+    static const char *const exts[2] = {"npy", "nrrd"};
+    for (int e = 0; e < 2; e++) {
+        const int npy = e == 0;
+        char out[64], cov[64], json[64], a_main[64], a_cov[64], a_json[64], b[64], b_main[64], b_cov[64];
+        snprintf(out, sizeof out, "s.%s", exts[e]);
+        snprintf(cov, sizeof cov, "s.coverage.%s", exts[e]);
+        snprintf(json, sizeof json, "s.json");
+        snprintf(a_main, sizeof a_main, "a.%s", exts[e]);
+        snprintf(a_cov, sizeof a_cov, "a.coverage.%s", exts[e]);
+        snprintf(a_json, sizeof a_json, "a.json");
+        snprintf(b, sizeof b, "b.%s", exts[e]);
+        snprintf(b_main, sizeof b_main, "b.%s", exts[e]);
+        snprintf(b_cov, sizeof b_cov, "b.coverage.%s", exts[e]);
+        /* the old, complete set, and a copy of it */
+        CHECK_OK(ctx, write_set(ctx, tmp(out), &g, 1, NULL));
+        CHECK(copy_file(tmp(out), tmp(a_main)) && copy_file(tmp(cov), tmp(a_cov)));
+        if (npy) CHECK(copy_file(tmp(json), tmp(a_json)));
+        char why[1024] = "";
+        CHECK_MSG(clvox__output_complete(tmp(out), why, sizeof why), "%s: %s", out, why);
+
+        /* (1) a later member cannot be named (a directory appeared at
+         * OUT.coverage.EXT, or at the marker OUT.json, mid-run): the run
+         * fails and the old files are all still there, byte for byte */
+        CHECK_STATUS(ctx, write_set(ctx, tmp(out), &g, 2, dir_at_coverage), CLVOX_ERR_IO);
+        CHECK_MSG(strstr(clvox_context_error(ctx), "is a directory") != NULL, "%s", clvox_context_error(ctx));
+        CHECK_MSG(same_file(tmp(out), tmp(a_main)), "%s: the old main file is gone or changed", out);
+        if (npy) CHECK(same_file(tmp(json), tmp(a_json)));
+        CHECK(rmdir(tmp(cov)) == 0 && copy_file(tmp(a_cov), tmp(cov)));
+        if (npy) {
+            CHECK_STATUS(ctx, write_set(ctx, tmp(out), &g, 2, dir_at_json), CLVOX_ERR_IO);
+            CHECK_MSG(same_file(tmp(out), tmp(a_main)) && same_file(tmp(cov), tmp(a_cov)),
+                      "%s: the old members are gone or changed", out);
+            CHECK(rmdir(tmp(json)) == 0 && copy_file(tmp(a_json), tmp(json)));
+        }
+        /* a rename that fails midway (member 2, then the marker): the old
+         * files the placed members replaced are renamed back */
+        for (int k = 2; k <= (npy ? 3 : 2); k++) {
+            clvox__outset_fail_at = k;
+            CHECK_STATUS(ctx, write_set(ctx, tmp(out), &g, 2, NULL), CLVOX_ERR_IO);
+            clvox__outset_fail_at = 0;
+            CHECK_MSG(same_file(tmp(out), tmp(a_main)) && same_file(tmp(cov), tmp(a_cov)) &&
+                          (!npy || same_file(tmp(json), tmp(a_json))),
+                      "%s: rename %d failed: the old set was not put back", out, k);
+            CHECK_MSG(hidden_entries() == 0, "%s: %d hidden files left", out, hidden_entries());
+        }
+        /* ... and where there was no old set, nothing is left */
+        int before = entries();
+        clvox__outset_fail_at = 2;
+        CHECK_STATUS(ctx, write_set(ctx, tmp("new.npy"), &g, 2, NULL), CLVOX_ERR_IO);
+        clvox__outset_fail_at = 0;
+        CHECK_MSG(entries() == before && hidden_entries() == 0, "%d files, %d before", entries(), before);
+
+        /* (2) a mixed set (a kill between two renames): the main file of
+         * another run beside this set's marker and members is not trusted */
+        CHECK_OK(ctx, write_set(ctx, tmp(b), &g, 3, NULL));
+        CHECK(clvox__output_complete(tmp(b), NULL, 0));
+        CHECK(copy_file(tmp(b_main), tmp(out)));
+        why[0] = '\0';
+        CHECK_MSG(!clvox__output_complete(tmp(out), why, sizeof why) && strstr(why, "mixed set"), "%s: %s", out, why);
+        CHECK(copy_file(tmp(a_main), tmp(out)) && clvox__output_complete(tmp(out), NULL, 0));
+        CHECK(copy_file(tmp(b_cov), tmp(cov)));
+        CHECK_MSG(!clvox__output_complete(tmp(out), why, sizeof why) && strstr(why, "mixed set"), "%s: %s", out, why);
+        CHECK(unlink(tmp(cov)) == 0);
+        CHECK_MSG(!clvox__output_complete(tmp(out), why, sizeof why) && strstr(why, "missing"), "%s: %s", out, why);
+        CHECK(copy_file(tmp(a_cov), tmp(cov)) && clvox__output_complete(tmp(out), NULL, 0));
+        /* the same with named temporary files (no O_TMPFILE) */
+        clvox__exr_no_tmpfile = 1;
+        clvox__outset_fail_at = 2;
+        CHECK_STATUS(ctx, write_set(ctx, tmp(out), &g, 2, NULL), CLVOX_ERR_IO);
+        clvox__outset_fail_at = 0;
+        CHECK(same_file(tmp(out), tmp(a_main)) && same_file(tmp(cov), tmp(a_cov)) && hidden_entries() == 0);
+        CHECK_OK(ctx, write_set(ctx, tmp(out), &g, 2, NULL));
+        clvox__exr_no_tmpfile = 0;
+        CHECK(!same_file(tmp(out), tmp(a_main)) && clvox__output_complete(tmp(out), NULL, 0) && hidden_entries() == 0);
+    }
+    /* a sidecar without sizes and CRCs (earlier clvox): cannot be checked */
+    const char *legacy = "{\"format\": \"npy\", \"dims\": [8, 4, 3], \"origin\": [0, 0, 0], \"voxel_size\": [1, 1, 1], "
+                         "\"channels\": {\"occupancy\": {\"file\": \"s.npy\", \"dtype\": \"u1\", \"packed_bits\": false}}}\n";
+    CHECK(write_raw(tmp("s.json"), legacy, strlen(legacy)));
+    char why[1024] = "";
+    CHECK_MSG(!clvox__output_complete(tmp("s.npy"), why, sizeof why) && strstr(why, "earlier clvox"), "%s", why);
+    /* one file: complete when it is a regular file */
+    CHECK(write_raw(tmp("one.exr"), "x", 1) && clvox__output_complete(tmp("one.exr"), NULL, 0));
+    CHECK(mkdir(tmp("d.exr"), 0777) == 0 && !clvox__output_complete(tmp("d.exr"), NULL, 0));
+    rmdir(tmp("d.exr"));
+    clear_dir();
 }
 
 static int cancel_at_once(void *user, double f)
@@ -361,6 +554,7 @@ int main(void)
         spawn_free(&r);
         CHECK_MSG(entries() == before, "%d files, %d before", entries(), before);
     }
+    test_output_sets(ctx);
     clvox_mesh_destroy(mesh);
     tmesh_free(&t);
     free(occ);

@@ -98,7 +98,7 @@ static inline int clvox__cmp_u64(const void *pa, const void *pb)
 }
 
 /* 64-bit FNV-1a over n bytes, continuing from h (start: CLVOX__FNV_BASIS):
- * palette and render-map identities, the program cache's checksum. */
+ * palette and render-map identities. */
 #define CLVOX__FNV_BASIS 0xcbf29ce484222325ull
 static inline uint64_t clvox__fnv1a(uint64_t h, const void *data, size_t n)
 {
@@ -106,6 +106,19 @@ static inline uint64_t clvox__fnv1a(uint64_t h, const void *data, size_t n)
     for (size_t i = 0; i < n; i++) h = (h ^ b[i]) * 0x100000001b3ull;
     return h;
 }
+
+/* SHA-256 (sha256.c, FIPS 180-4): the program cache's identity and entry
+ * checksum. init, update any number of times, final; or all at once. */
+typedef struct clvox__sha256_state {
+    uint32_t h[8];
+    uint64_t bytes;
+    unsigned char buf[64];
+    size_t used;
+} clvox__sha256_state;
+void clvox__sha256_init(clvox__sha256_state *s);
+void clvox__sha256_update(clvox__sha256_state *s, const void *data, size_t n);
+void clvox__sha256_final(clvox__sha256_state *s, unsigned char out[32]);
+void clvox__sha256(const void *data, size_t n, unsigned char out[32]);
 
 /* ---- palettes (palette.c) ---- */
 

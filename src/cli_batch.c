@@ -30,6 +30,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #define DEFAULT_TEMPLATE "{stem}.exr"
 
@@ -292,11 +293,15 @@ static char *next_field(char **cursor, const char **why)
 
 static int add_manifest(batch_list *l, const char *path, const cli_args *a)
 {
-    struct stat sb;
-    if (stat(path, &sb) != 0) return fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, strerror(errno));
-    if (!S_ISREG(sb.st_mode)) return fail(EXIT_INPUT, "batch: --manifest '%s': not a regular file", path);
-    FILE *f = fopen(path, "rb");
-    if (!f) return fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, strerror(errno));
+    const char *open_why = NULL;
+    int fd = cli_open_regular_read(path, &open_why);
+    if (fd < 0) return fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, open_why);
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        int e = errno;
+        close(fd);
+        return fail(EXIT_RUNTIME, "batch: --manifest '%s': %s", path, strerror(e));
+    }
     char *line = NULL;
     size_t cap = 0;
     ssize_t len;
@@ -367,7 +372,7 @@ static int add_manifest(batch_list *l, const char *path, const cli_args *a)
         }
         if (!it || !it->source || (out && !it->output)) rc = fail(EXIT_RUNTIME, "out of memory");
     }
-    if (rc == EXIT_OK && ferror(f)) rc = fail(EXIT_INPUT, "batch: --manifest '%s': read error", path);
+    if (rc == EXIT_OK && ferror(f)) rc = fail(EXIT_INPUT, "batch: --manifest '%s': cannot read: %s", path, strerror(errno));
     free(line);
     fclose(f);
     return rc;

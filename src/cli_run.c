@@ -473,9 +473,9 @@ int vox_session_open(vox_session *s, const cli_args *a)
         int builtin = 0;
         for (size_t i = 0; clvox_palette_builtin_name(i); i++) builtin |= strcmp(a->palette, clvox_palette_builtin_name(i)) == 0;
         if (builtin) st = clvox_palette_builtin(s->host, a->palette, &s->palette);
-        else if (!is_readable_file(a->palette))
-            return usage_error("--palette '%s': not a built-in palette (binary, planar10, paper46, paper78) and not a "
-                               "readable file",
+        else if (access(a->palette, F_OK) != 0 && errno == ENOENT) /* anything there: the loader says what is wrong */
+            return usage_error("--palette '%s': not a built-in palette (binary, planar10, paper46, paper78) and no "
+                               "such file",
                                a->palette);
         else st = clvox_palette_load(s->host, a->palette, &s->palette);
         if (st != CLVOX_OK) return fail_status(s->host, st, ROLE_INPUT);

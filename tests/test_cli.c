@@ -1058,7 +1058,8 @@ static void test_special_outputs(void)
 
 /* Inputs that are not regular files (issue 32): a FIFO as the palette of
  * `palette show` or as --like (.nrrd, .nhdr, .json) is refused at once with
- * the reason, exit 4 (before: open blocked until the run's 60 s limit); a
+ * the reason, exit 4 (before: open blocked until the run's 60 s limit; a
+ * run's --palette FIFO was a usage error, exit 2); a
  * directory says why ("Is a directory"; before: "cannot read palette
  * 'd.txt'" and nothing more). */
 static void test_special_inputs(void)
@@ -1075,6 +1076,8 @@ static void test_special_inputs(void)
         CHECK(mkfifo(p, 0666) == 0);
         if (i == 0) {
             expect_failure_msg("palette show FIFO", 4, NULL, ARGS("palette", "show", p), "not a regular file");
+            /* before: exit 2, "not a built-in palette ... and not a readable file" */
+            expect_failure_msg("--palette FIFO", 4, NULL, ARGS(cube, "--palette", p, "-o", out), "not a regular file");
         } else {
             snprintf(what, sizeof what, "--like FIFO.%s", exts[i]);
             expect_failure_msg(what, 4, NULL, ARGS(cube, "--like", p, "-o", out), "not a regular file");

@@ -161,10 +161,16 @@ static void run_prog(run_result *r, const char *cwd, const char *const *argv, do
         int o = open(r->out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (in < 0 || o < 0 || e < 0 || dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
-        struct sigaction ign;
+        /* default dispositions, whatever this test inherited (a background
+         * job of a script starts with SIGINT ignored, which clvox keeps) */
+        struct sigaction ign, dfl;
         memset(&ign, 0, sizeof ign);
         ign.sa_handler = SIG_IGN;
-        if (g_child_ignore_sighup && sigaction(SIGHUP, &ign, NULL) != 0) _exit(126);
+        memset(&dfl, 0, sizeof dfl);
+        dfl.sa_handler = SIG_DFL;
+        if (sigaction(SIGINT, &dfl, NULL) != 0 || sigaction(SIGTERM, &dfl, NULL) != 0 ||
+            sigaction(SIGHUP, g_child_ignore_sighup ? &ign : &dfl, NULL) != 0)
+            _exit(126);
         execvp(argv[0], (char *const *)argv);
         _exit(127);
     }

@@ -255,10 +255,17 @@ static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_ex
         int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (in < 0 || o < 0 || e < 0) _exit(126);
         if (dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
-        struct sigaction ign;
+        /* default dispositions, whatever this test inherited (a background
+         * job of a script starts with SIGINT ignored, and clvox keeps a
+         * signal ignored that it inherited ignored) */
+        struct sigaction ign, dfl;
         memset(&ign, 0, sizeof ign);
         ign.sa_handler = SIG_IGN;
-        if (g_child_ignore_sighup && sigaction(SIGHUP, &ign, NULL) != 0) _exit(126);
+        memset(&dfl, 0, sizeof dfl);
+        dfl.sa_handler = SIG_DFL;
+        if (sigaction(SIGINT, &dfl, NULL) != 0 || sigaction(SIGTERM, &dfl, NULL) != 0 ||
+            sigaction(SIGHUP, g_child_ignore_sighup ? &ign : &dfl, NULL) != 0)
+            _exit(126);
         if (g_child_fsize_limit > 0) {
             struct rlimit rl = {(rlim_t)g_child_fsize_limit, (rlim_t)g_child_fsize_limit};
             if (sigaction(SIGXFSZ, &ign, NULL) != 0 || setrlimit(RLIMIT_FSIZE, &rl) != 0) _exit(126);

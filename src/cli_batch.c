@@ -33,6 +33,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #define DEFAULT_TEMPLATE "{stem}.exr"
 
@@ -290,11 +291,15 @@ static int manifest_add(void *user, const manifest_entry *e)
 
 static int add_manifest(batch_list *l, const char *path, const cli_args *a)
 {
-    struct stat sb;
-    if (stat(path, &sb) != 0) return fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, strerror(errno));
-    if (!S_ISREG(sb.st_mode)) return fail(EXIT_INPUT, "batch: --manifest '%s': not a regular file", path);
-    FILE *f = fopen(path, "rb");
-    if (!f) return fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, strerror(errno));
+    const char *open_why = NULL;
+    int fd = cli_open_regular_read(path, &open_why);
+    if (fd < 0) return fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, open_why);
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        int e = errno;
+        close(fd);
+        return fail(EXIT_RUNTIME, "batch: --manifest '%s': %s", path, strerror(e));
+    }
     char *text = NULL;
     size_t len = 0, cap = 0;
     int rc = EXIT_OK;

@@ -13,6 +13,7 @@
 #endif
 
 #include "cli_common.h"
+#include "cli_vox.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -47,6 +48,12 @@ const char *cli_last_error(void) { return g_last_error; }
 
 int fail_message(int code, const char *message)
 {
+    /* A call that a SIGINT/SIGTERM/SIGHUP interrupted (EINTR) failed: that
+     * is the cancellation the signal asked for, not an input or output error. */
+    if (code != EXIT_OK && code != EXIT_CANCELLED && cli_interrupted() && message && strstr(message, strerror(EINTR))) {
+        code = EXIT_CANCELLED;
+        message = "cancelled";
+    }
     progress_erase();
     fputs("clvox: error: ", stderr);
     if (g_fail_prefix && *g_fail_prefix) {
@@ -381,6 +388,31 @@ int is_readable_file(const char *path)
 {
     struct stat sb;
     return stat(path, &sb) == 0 && S_ISREG(sb.st_mode) && access(path, R_OK) == 0;
+}
+
+int cli_open_regular_read(const char *path, const char **why)
+{
+    int fd;
+    do fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY); /* a FIFO would block here */
+    while (fd < 0 && errno == EINTR && !cli_interrupted());
+    if (fd < 0) {
+        *why = strerror(errno);
+        return -1;
+    }
+    struct stat sb;
+    int flags;
+    if (fstat(fd, &sb) != 0 || (S_ISREG(sb.st_mode) && ((flags = fcntl(fd, F_GETFL)) < 0 ||
+                                                        fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0))) {
+        *why = strerror(errno);
+        close(fd);
+        return -1;
+    }
+    if (!S_ISREG(sb.st_mode)) {
+        *why = S_ISDIR(sb.st_mode) ? strerror(EISDIR) : "not a regular file (a FIFO, socket or device)";
+        close(fd);
+        return -1;
+    }
+    return fd;
 }
 
 void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3])

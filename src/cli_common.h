@@ -102,6 +102,12 @@ void format_volume(double v, int digits, char *buf, size_t size);
 const char *path_basename(const char *path);
 /* 1 when `path` is a regular file this process can read. */
 int is_readable_file(const char *path);
+/* Opens `path` for reading only if it is a regular file, without ever
+ * blocking (a FIFO is opened O_NONBLOCK and refused, never read): the
+ * descriptor (O_CLOEXEC, blocking), or -1 with *why the reason for the
+ * message (strerror, "Is a directory", "not a regular file (...)"). Every
+ * file the CLI reads itself is opened through this. */
+int cli_open_regular_read(const char *path, const char **why);
 
 /* The label column of the summaries: printf(LABEL "...", "grid", ...). */
 #define LABEL "%-13s"

@@ -14,6 +14,8 @@ typedef struct convert_state {
     clvox_volume_writer *w;
     uint32_t channel;
     clvox_status st;
+    const clvox_context *ctx;
+    char why[1024]; /* the writer's message: the reader's "cancelled" replaces it in the context */
 } convert_state;
 
 static int stop_at_once(void *user, uint32_t z, const float *values)
@@ -26,7 +28,10 @@ static int put_slice(void *user, uint32_t z, const float *values)
 {
     convert_state *s = user;
     s->st = clvox_volume_writer_slice(s->w, s->channel, z, values);
-    return s->st != CLVOX_OK;
+    if (s->st == CLVOX_OK) return 0;
+    const char *msg = clvox_context_error(s->ctx);
+    snprintf(s->why, sizeof s->why, "%s", msg && *msg ? msg : clvox_status_string(s->st));
+    return 1;
 }
 
 static uint32_t channel_bit(const char *name)
@@ -155,11 +160,11 @@ int cmd_convert(int argc, char **argv)
     }
     for (int k = 0; k < 4 && st == CLVOX_OK; k++) {
         if (!(want & (1u << k))) continue;
-        convert_state cs = {w, 1u << k, CLVOX_OK};
+        convert_state cs = {w, 1u << k, CLVOX_OK, ctx, ""};
         st = clvox_volume_read_slices(ctx, in, channel_names[k], NULL, put_slice, &cs);
         if (st == CLVOX_ERR_CANCELLED && cs.st != CLVOX_OK) {
             st = cs.st;
-            rc = fail_status(ctx, st, ROLE_OUTPUT);
+            rc = fail_message(exit_code_for(st, ROLE_OUTPUT), cs.why);
         } else if (st != CLVOX_OK) {
             rc = fail_status(ctx, st, ROLE_INPUT);
         }

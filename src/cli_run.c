@@ -57,15 +57,23 @@ static void on_signal(int sig)
     g_interrupted = 1;
 }
 
+/* SIGINT, SIGTERM and SIGHUP (a closed terminal) cancel the run, except a
+ * signal the process inherited ignored: `nohup clvox ... &` (SIGHUP) and a
+ * background job of a non-interactive shell (SIGINT) asked not to be
+ * stopped by it. No SA_RESTART: a call blocked in the kernel returns EINTR
+ * and the run ends as cancelled (fail_message). */
 static void install_signal_handlers(void)
 {
+    static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
     sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    sigaction(SIGHUP, &sa, NULL); /* a closed terminal cancels like SIGTERM */
+    for (size_t i = 0; i < sizeof sigs / sizeof *sigs; i++) {
+        struct sigaction old;
+        if (sigaction(sigs[i], NULL, &old) == 0 && old.sa_handler == SIG_IGN) continue;
+        sigaction(sigs[i], &sa, NULL);
+    }
 }
 
 static void format_duration(double s, char *buf, size_t size)
@@ -333,18 +341,31 @@ static int stop_at_first_slice(void *user, uint32_t z, const float *values)
  * ended within them), or NULL with the one-line error already printed. */
 static char *like_read_head(const char *path, size_t max, size_t *len, int *whole)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        fail(EXIT_INPUT, "--like '%s': cannot open: %s", path, strerror(errno));
+    const char *why = NULL;
+    int fd = cli_open_regular_read(path, &why);
+    if (fd < 0) {
+        fail(EXIT_INPUT, "--like '%s': cannot open: %s", path, why);
         return NULL;
     }
     char *b = malloc(max + 1);
-    size_t n = b ? fread(b, 1, max + 1, f) : 0;
-    int err = b && ferror(f);
-    fclose(f);
-    if (!b || err) {
+    if (!b) {
+        close(fd);
+        fail(EXIT_RUNTIME, "--like '%s': out of memory", path);
+        return NULL;
+    }
+    size_t n = 0; /* one byte more than max: tells a longer file */
+    int err = 0;
+    while (n < max + 1) {
+        ssize_t got = read(fd, b + n, max + 1 - n);
+        if (got < 0 && errno == EINTR && !g_interrupted) continue;
+        if (got < 0) err = errno;
+        if (got <= 0) break;
+        n += (size_t)got;
+    }
+    close(fd);
+    if (err) {
         free(b);
-        fail(EXIT_INPUT, "--like '%s': %s", path, b ? "read error" : "out of memory");
+        fail(EXIT_INPUT, "--like '%s': cannot read: %s", path, strerror(err));
         return NULL;
     }
     *whole = n <= max;
@@ -462,9 +483,9 @@ int vox_session_open(vox_session *s, const cli_args *a)
         int builtin = 0;
         for (size_t i = 0; clvox_palette_builtin_name(i); i++) builtin |= strcmp(a->palette, clvox_palette_builtin_name(i)) == 0;
         if (builtin) st = clvox_palette_builtin(s->host, a->palette, &s->palette);
-        else if (!is_readable_file(a->palette))
-            return usage_error("--palette '%s': not a built-in palette (binary, planar10, paper46, paper78) and not a "
-                               "readable file",
+        else if (access(a->palette, F_OK) != 0 && errno == ENOENT) /* anything there: the loader says what is wrong */
+            return usage_error("--palette '%s': not a built-in palette (binary, planar10, paper46, paper78) and no "
+                               "such file",
                                a->palette);
         else st = clvox_palette_load(s->host, a->palette, &s->palette);
         if (st != CLVOX_OK) return fail_status(s->host, st, ROLE_INPUT);

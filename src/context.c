@@ -4,10 +4,13 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 static const char *const status_strings[CLVOX_STATUS_COUNT] = {
     [CLVOX_OK] = "success",
@@ -433,23 +436,57 @@ void clvox__release_mem(cl_mem *m)
     *m = NULL;
 }
 
+int clvox__open_regular_read(const char *path, struct stat *sb, const char **why)
+{
+    struct stat local;
+    if (!sb) sb = &local;
+    int fd;
+    do fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    while (fd < 0 && errno == EINTR);
+    if (fd < 0) {
+        *why = strerror(errno);
+        return -1;
+    }
+    int flags;
+    if (fstat(fd, sb) != 0 || (S_ISREG(sb->st_mode) && ((flags = fcntl(fd, F_GETFL)) < 0 ||
+                                                         fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0))) {
+        *why = strerror(errno);
+        close(fd);
+        return -1;
+    }
+    if (!S_ISREG(sb->st_mode)) {
+        *why = S_ISDIR(sb->st_mode) ? strerror(EISDIR) : "not a regular file (a FIFO, socket or device)";
+        close(fd);
+        return -1;
+    }
+    return fd;
+}
+
 clvox_status clvox__read_text_file(clvox_context *ctx, const char *path, const char *what, size_t max_bytes,
                                    char **data, size_t *size)
 {
     *data = NULL;
     *size = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open %s '%.3000s': %s", what, path, strerror(errno));
+    const char *why = NULL;
+    int fd = clvox__open_regular_read(path, NULL, &why);
+    if (fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open %s '%.3000s': %s", what, path, why);
     char *buf = malloc(max_bytes + 1);
     if (!buf) {
-        fclose(f);
+        close(fd);
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
     }
-    size_t n = fread(buf, 1, max_bytes + 1, f); /* one byte more: tells a file that is too large */
-    int err = ferror(f);
-    fclose(f);
+    size_t n = 0; /* one byte more than max_bytes: tells a file that is too large */
+    int err = 0;
+    while (n < max_bytes + 1) {
+        ssize_t got = read(fd, buf + n, max_bytes + 1 - n);
+        if (got < 0 && errno == EINTR) continue; /* a regular file: the read goes on */
+        if (got < 0) err = errno;
+        if (got <= 0) break;
+        n += (size_t)got;
+    }
+    close(fd);
     clvox_status st = CLVOX_OK;
-    if (err) st = clvox__fail(ctx, CLVOX_ERR_IO, "cannot read %s '%.3000s'", what, path);
+    if (err) st = clvox__fail(ctx, CLVOX_ERR_IO, "cannot read %s '%.3000s': %s", what, path, strerror(err));
     else if (n > max_bytes)
         st = clvox__fail(ctx, CLVOX_ERR_PALETTE_FORMAT, "%.3000s: larger than %zu bytes", path, max_bytes);
     if (st != CLVOX_OK) {

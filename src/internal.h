@@ -71,6 +71,15 @@ double clvox__event_seconds(cl_event ev);
 double clvox__now(void); /* monotonic seconds */
 /* A name the mesh loader reads by its extension (obj, off, ply, stl, om; any case). */
 int clvox__is_mesh_path(const char *path);
+/* Opens `path` for reading only if it is a regular file, never blocking on
+ * the way (a FIFO would block in open(2) until a writer comes: it is opened
+ * O_NONBLOCK, checked with fstat, then put back in blocking mode). Returns
+ * the descriptor (O_CLOEXEC), *sb filled when sb is not NULL; or -1 with
+ * *why the reason for a message: strerror(errno) of the failing call, "Is
+ * a directory", or "not a regular file (a FIFO, socket or device)". Every
+ * file the library reads by name is opened through this. */
+struct stat;
+int clvox__open_regular_read(const char *path, struct stat *sb, const char **why);
 /* Reads a small text file (palette, render map) whole into a malloc'ed
  * buffer (*data, *size bytes; free it). `what` names it in messages
  * ("cannot open palette 'P': ..."); a file over max_bytes is

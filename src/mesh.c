@@ -1654,24 +1654,12 @@ clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__r
 
     const char *ext;
     enum mesh_format fmt = format_of(path, &ext);
-    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-    if (fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open mesh '%s': %s", path, strerror(errno));
+    /* Only a regular file: a directory named x.stl makes OpenMesh loop
+     * forever; FIFOs and devices could block or never end. */
     struct stat sb;
-    if (fstat(fd, &sb) != 0) {
-        int e = errno;
-        close(fd);
-        return clvox__fail(ctx, CLVOX_ERR_IO, "cannot stat mesh '%s': %s", path, strerror(e));
-    }
-    /* A directory named x.stl makes OpenMesh loop forever; fifos and devices
-     * could block or never end. */
-    if (S_ISDIR(sb.st_mode)) {
-        close(fd);
-        return clvox__fail(ctx, CLVOX_ERR_IO, "'%s' is a directory, not a mesh file", path);
-    }
-    if (!S_ISREG(sb.st_mode)) {
-        close(fd);
-        return clvox__fail(ctx, CLVOX_ERR_IO, "'%s' is not a regular file", path);
-    }
+    const char *why = NULL;
+    int fd = clvox__open_regular_read(path, &sb, &why);
+    if (fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open mesh '%s': %s", path, why);
     if (fmt == FMT_UNKNOWN) {
         close(fd);
         return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,

@@ -849,13 +849,9 @@ static clvox_status reader_open(reader *r, clvox_context *ctx, const char *path,
     /* Opened once, without blocking (a FIFO would block in open), and only a
      * regular file is read: the library reads through this descriptor. */
     struct stat sb;
-    r->fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    if (r->fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
-    if (fstat(r->fd, &sb) != 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': %s", path, strerror(errno));
-    if (S_ISDIR(sb.st_mode)) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': it is a directory", path);
-    if (!S_ISREG(sb.st_mode))
-        return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': it is not a regular file (a device, FIFO or socket)",
-                           path);
+    const char *why = NULL;
+    r->fd = clvox__open_regular_read(path, &sb, &why);
+    if (r->fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': %s", path, why);
     r->file_size = (uint64_t)sb.st_size;
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;

@@ -23,10 +23,12 @@
 #define _GNU_SOURCE /* dladdr */
 #include "internal.h"
 
+#include <errno.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #ifdef CLVOX_HAVE_OPENVDB
 #include <dlfcn.h>
@@ -51,6 +53,12 @@ static int try_plugin(const char *path)
 {
     char file[PATH_MAX];
     if (!realpath(path, file)) return 0; /* "lib/clvox/x.so", not "bin/../lib/clvox/x.so" */
+    struct stat sb; /* dlopen would block on a FIFO */
+    if (stat(file, &sb) != 0 || !S_ISREG(sb.st_mode)) {
+        snprintf(g_error, sizeof g_error, "cannot load %s (%s)", file,
+                 S_ISDIR(sb.st_mode) ? strerror(EISDIR) : "not a regular file");
+        return 0;
+    }
     void *h = dlopen(file, RTLD_NOW | RTLD_LOCAL);
     if (!h) {
         const char *e = dlerror();

@@ -233,6 +233,10 @@ clvox_status vdb_finish(void *state, uint64_t *bytes)
     if (bytes) *bytes = 0;
     VdbWriter *w = static_cast<VdbWriter *>(state);
     clvox_status st = CLVOX_OK;
+    /* Outside the try: when a write fails, the stream throws (badbit) with
+     * "basic_ios::clear: iostream error"; the cause (strerror, e.g. No space
+     * left on device) is the streambuf's status and already in the context. */
+    OutfileBuf buf(&w->of);
     try {
         const uint32_t Z = w->grid.dims[2];
         if (((w->channels & CLVOX_CHANNEL_OCCUPANCY) && w->next_occ != Z) ||
@@ -257,7 +261,6 @@ clvox_status vdb_finish(void *state, uint64_t *bytes)
                                              int(w->grid.dims[0]), int(w->grid.dims[1]), int(w->grid.dims[2]))));
             grids.push_back(g);
         }
-        OutfileBuf buf(&w->of);
         {
             std::ostream os(&buf);
             os.exceptions(std::ios::badbit);
@@ -275,11 +278,13 @@ clvox_status vdb_finish(void *state, uint64_t *bytes)
         st = clvox__fail(w->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory writing '%s'", w->path.c_str());
     } catch (const std::exception &e) {
         /* a failed write has its message already (the streambuf's status) */
-        if (st == CLVOX_OK)
+        if (buf.status() != CLVOX_OK) st = buf.status();
+        else if (st == CLVOX_OK)
             st = clvox__fail(w->ctx, CLVOX_ERR_IO, "OpenVDB: writing '%s' failed: %s", w->path.c_str(), e.what());
     } catch (...) {
-        st = clvox__fail(w->ctx, CLVOX_ERR_INTERNAL, "OpenVDB: writing '%s' failed: unknown exception",
-                         w->path.c_str());
+        st = buf.status() != CLVOX_OK ? buf.status()
+                                      : clvox__fail(w->ctx, CLVOX_ERR_INTERNAL,
+                                                    "OpenVDB: writing '%s' failed: unknown exception", w->path.c_str());
     }
     vdb_abort(w);
     return st;

@@ -139,6 +139,10 @@ static double now_s(void)
 /* Runs argv (argv[0] is the program) in cwd (NULL: ours). sigint_after > 0:
  * SIGINT once that many seconds have passed and a file under g_out exists
  * or is open (the batch is under way). */
+/* What run_prog sends (SIGINT unless set), whether the child starts with
+ * SIGHUP ignored (as under nohup), and how many signals the last run got. */
+static int g_signal = SIGINT, g_child_ignore_sighup, g_signals_sent;
+
 static void run_prog(run_result *r, const char *cwd, const char *const *argv, double sigint_after)
 {
     char err_path[PATH_MAX], name[32];
@@ -150,6 +154,7 @@ static void run_prog(run_result *r, const char *cwd, const char *const *argv, do
     fflush(stdout);
     fflush(stderr);
     r->code = -1;
+    g_signals_sent = 0;
     pid_t pid = fork();
     if (pid == 0) {
         if (cwd && chdir(cwd) != 0) _exit(126);
@@ -157,6 +162,16 @@ static void run_prog(run_result *r, const char *cwd, const char *const *argv, do
         int o = open(r->out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (in < 0 || o < 0 || e < 0 || dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
+        /* default dispositions, whatever this test inherited (a background
+         * job of a script starts with SIGINT ignored, which clvox keeps) */
+        struct sigaction ign, dfl;
+        memset(&ign, 0, sizeof ign);
+        ign.sa_handler = SIG_IGN;
+        memset(&dfl, 0, sizeof dfl);
+        dfl.sa_handler = SIG_DFL;
+        if (sigaction(SIGINT, &dfl, NULL) != 0 || sigaction(SIGTERM, &dfl, NULL) != 0 ||
+            sigaction(SIGHUP, g_child_ignore_sighup ? &ign : &dfl, NULL) != 0)
+            _exit(126);
         execvp(argv[0], (char *const *)argv);
         _exit(127);
     }
@@ -173,7 +188,7 @@ static void run_prog(run_result *r, const char *cwd, const char *const *argv, do
             if (w < 0 && errno != EINTR) break;
             double t = now_s() - start;
             if (sigint_after > 0 && !sent && t >= sigint_after && dir_count(g_out) > 0) {
-                kill(pid, SIGINT);
+                kill(pid, g_signal);
                 sent = 1;
             }
             if (t > RUN_TIMEOUT_S) {
@@ -185,6 +200,7 @@ static void run_prog(run_result *r, const char *cwd, const char *const *argv, do
             struct timespec ts = {0, 5 * 1000 * 1000};
             nanosleep(&ts, NULL);
         }
+        g_signals_sent = sent;
     }
     r->out = read_all(r->out_path);
     r->err = read_all(err_path);
@@ -1134,6 +1150,40 @@ static void test_batch_same_file(void)
     unlink(lnk);
 }
 
+/* `nohup clvox batch ... &` (issue 32): a SIGHUP inherited ignored stays
+ * ignored, so the batch runs to the end (before: the hang-up cancelled it,
+ * exit 130). The SIGHUP is sent once the first volume exists. */
+static void test_batch_nohup(void)
+{
+    char man[PATH_MAX], tpl[PATH_MAX], mesh[PATH_MAX];
+    const char *def = getenv("CLVOX_TEST_MESH");
+    if (!def || !*def) def = "tests/data/default.obj";
+    if (!absolute_path(def, mesh, sizeof mesh)) {
+        printf("SKIP: no %s for the nohup test\n", def);
+        return;
+    }
+    enum { MESHES = 24 };
+    in_path(man, "nohup.txt");
+    FILE *f = fopen(man, "w");
+    CHECK(f != NULL);
+    if (!f) return;
+    for (int i = 0; i < MESHES; i++) fprintf(f, "%s\n", mesh);
+    CHECK(fclose(f) == 0);
+    out_path(tpl, "{n}.exr");
+    g_signal = SIGHUP;
+    g_child_ignore_sighup = 1;
+    run_result r;
+    run_cli_ex(&r, NULL, ARGS("batch", "--manifest", man, "-r", "96", "-o", tpl), 0.001);
+    g_signal = SIGINT;
+    g_child_ignore_sighup = 0;
+    CHECK_MSG(g_signals_sent == 1, "nohup batch: ended (exit %d) before its first volume existed: no SIGHUP sent",
+              r.code);
+    CHECK_MSG(r.code == 0 && dir_count(g_out) == MESHES, "nohup batch: exit %d, %d of %d volumes: %s", r.code,
+              dir_count(g_out), MESHES, r.err);
+    run_free(&r);
+    reset_out();
+}
+
 /* Ctrl-C in the middle of a batch: exit 130, the summary says so, every
  * file left is a complete volume, no temporary. */
 static void test_batch_cancel(void)
@@ -1332,5 +1382,6 @@ int main(void)
     test_batch_cancel();
     test_batch_changing_mesh();
     test_batch_mixed_sets();
+    test_batch_nohup();
     return test_report();
 }

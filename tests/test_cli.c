@@ -22,6 +22,7 @@
 #include <signal.h>
 #include <stdint.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
 #include <sys/types.h>
@@ -190,6 +191,13 @@ static const char **make_env(const char *const *extra)
  * set), g_signal_count times 0.2 s apart; with g_signal_when_open, only once
  * the child has a file open in g_out (its output being written). */
 static int g_signal = SIGINT, g_signal_count = 1, g_signal_when_open;
+/* How many signals the last run_cli_ex sent. */
+static int g_signals_sent;
+/* Set for the next runs: the child starts with SIGHUP ignored (as under
+ * nohup); with a file size limit (RLIMIT_FSIZE, SIGXFSZ ignored: a write
+ * past it fails with EFBIG, a full disk without a file system to fill). */
+static int g_child_ignore_sighup;
+static long g_child_fsize_limit;
 
 /* 1 when process pid has a descriptor open on a file under g_out. */
 static int has_output_open(pid_t pid)
@@ -237,6 +245,7 @@ static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_ex
     fflush(stdout);
     fflush(stderr);
     r->code = -1;
+    g_signals_sent = 0;
     pid_t pid = fork();
     if (pid == 0) {
         /* child: only async-signal-safe calls */
@@ -246,6 +255,21 @@ static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_ex
         int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (in < 0 || o < 0 || e < 0) _exit(126);
         if (dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
+        /* default dispositions, whatever this test inherited (a background
+         * job of a script starts with SIGINT ignored, and clvox keeps a
+         * signal ignored that it inherited ignored) */
+        struct sigaction ign, dfl;
+        memset(&ign, 0, sizeof ign);
+        ign.sa_handler = SIG_IGN;
+        memset(&dfl, 0, sizeof dfl);
+        dfl.sa_handler = SIG_DFL;
+        if (sigaction(SIGINT, &dfl, NULL) != 0 || sigaction(SIGTERM, &dfl, NULL) != 0 ||
+            sigaction(SIGHUP, g_child_ignore_sighup ? &ign : &dfl, NULL) != 0)
+            _exit(126);
+        if (g_child_fsize_limit > 0) {
+            struct rlimit rl = {(rlim_t)g_child_fsize_limit, (rlim_t)g_child_fsize_limit};
+            if (sigaction(SIGXFSZ, &ign, NULL) != 0 || setrlimit(RLIMIT_FSIZE, &rl) != 0) _exit(126);
+        }
         execve(g_bin, (char *const *)argv, (char *const *)env);
         _exit(127);
     }
@@ -277,6 +301,7 @@ static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_ex
             struct timespec ts = {0, 5 * 1000 * 1000};
             nanosleep(&ts, NULL);
         }
+        g_signals_sent = sent;
     } else {
         fprintf(stderr, "fork failed: %s\n", strerror(errno));
     }
@@ -1035,6 +1060,108 @@ static void test_special_outputs(void)
     expect_failure("preview of a FIFO", 4, NULL, ARGS("preview", p, "-o", exr));
     unlink(p);
     unlink(exr);
+}
+
+/* Inputs that are not regular files (issue 32): a FIFO as the palette of
+ * `palette show` or as --like (.nrrd, .nhdr, .json) is refused at once with
+ * the reason, exit 4 (before: open blocked until the run's 60 s limit; a
+ * run's --palette FIFO was a usage error, exit 2); a
+ * directory says why ("Is a directory"; before: "cannot read palette
+ * 'd.txt'" and nothing more). */
+static void test_special_inputs(void)
+{
+    char cube[PATH_MAX], out[PATH_MAX], p[PATH_MAX], what[96];
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    path_join(out, sizeof out, g_out, "x.exr");
+    const char *exts[] = {"txt", "nrrd", "nhdr", "json"};
+    for (size_t i = 0; i < sizeof exts / sizeof *exts; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "in-fifo.%s", exts[i]);
+        path_join(p, sizeof p, g_dir, name);
+        unlink(p);
+        CHECK(mkfifo(p, 0666) == 0);
+        if (i == 0) {
+            expect_failure_msg("palette show FIFO", 4, NULL, ARGS("palette", "show", p), "not a regular file");
+            /* before: exit 2, "not a built-in palette ... and not a readable file" */
+            expect_failure_msg("--palette FIFO", 4, NULL, ARGS(cube, "--palette", p, "-o", out), "not a regular file");
+        } else {
+            snprintf(what, sizeof what, "--like FIFO.%s", exts[i]);
+            expect_failure_msg(what, 4, NULL, ARGS(cube, "--like", p, "-o", out), "not a regular file");
+        }
+        unlink(p);
+    }
+    const char *dirs[] = {"in-dir.txt", "in-dir.nrrd"};
+    for (size_t i = 0; i < 2; i++) {
+        path_join(p, sizeof p, g_dir, dirs[i]);
+        rmdir(p);
+        CHECK(mkdir(p, 0777) == 0);
+        if (i == 0) expect_failure_msg("palette show DIR", 4, NULL, ARGS("palette", "show", p), strerror(EISDIR));
+        else expect_failure_msg("--like DIR.nrrd", 4, NULL, ARGS(cube, "--like", p, "-o", out), strerror(EISDIR));
+        rmdir(p);
+    }
+}
+
+/* `nohup clvox ... &` (issue 32): a SIGHUP the process inherited ignored
+ * stays ignored, so the run completes (before: the handler was installed
+ * over SIG_IGN and the hang-up cancelled it, exit 130, no output). The
+ * SIGHUPs are sent while the output is being written (the handlers are in
+ * place by then); the check that one was sent keeps a run that ended too
+ * soon from passing unchecked. */
+static void test_nohup(void)
+{
+    char cube[PATH_MAX], out[PATH_MAX];
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    path_join(out, sizeof out, g_out, "nohup.exr"); /* g_out: has_output_open looks there */
+    unlink(out);
+    g_child_ignore_sighup = 1;
+    g_signal = SIGHUP;
+    g_signal_count = 3;
+    g_signal_when_open = 1;
+    run_result r;
+    run_cli_ex(&r, NULL, NULL, ARGS(cube, "-r", "700", "--slab", "1", "--compression", "zip", "-o", out), 0.001);
+    g_child_ignore_sighup = 0;
+    g_signal = SIGINT;
+    g_signal_count = 1;
+    g_signal_when_open = 0;
+    CHECK_MSG(g_signals_sent >= 1, "nohup: the run ended (exit %d) before its output was open: no SIGHUP was sent",
+              r.code);
+    CHECK_MSG(r.code == 0 && file_size(out) > 0 && filled_count(r.out, NULL) > 0,
+              "nohup: %d SIGHUP sent: exit %d, expected 0 and the volume; stderr: %s", g_signals_sent, r.code, r.err);
+    run_free(&r);
+    unlink(out);
+}
+
+/* A write that fails (RLIMIT_FSIZE: EFBIG, as a full disk gives ENOSPC) is
+ * reported with its cause and the file (issue 32): `clvox convert` said
+ * "reading 'IN.exr' cancelled after slice N"; the VDB writer (when built)
+ * said "basic_ios::clear: iostream error". */
+static void test_write_failure_messages(void)
+{
+    char cube[PATH_MAX], in[PATH_MAX], out[PATH_MAX], plugin[PATH_MAX], what[64];
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    path_join(in, sizeof in, g_dir, "convert-in.exr");
+    run_result r;
+    run_cli(&r, NULL, ARGS(cube, "-r", "64", "--compression", "none", "-q", "-o", in));
+    CHECK_MSG(r.code == 0 && file_size(in) > 65536, "convert input: exit %d: %s", r.code, r.err);
+    run_free(&r);
+    snprintf(plugin, sizeof plugin, "%s", g_bin);
+    char *slash = strrchr(plugin, '/');
+    if (slash) snprintf(slash + 1, sizeof plugin - (size_t)(slash + 1 - plugin), "libclvox-vdb.so");
+    int have_vdb = file_exists(plugin);
+    if (!have_vdb) printf("test_cli: %s not built: the VDB writer's message is not checked\n", plugin);
+    const char *outs[] = {"x.npy", "x.nrrd", "x.vdb"};
+    char want[PATH_MAX + 64];
+    for (size_t i = 0; i < sizeof outs / sizeof *outs; i++) {
+        if (i == 2 && !have_vdb) continue;
+        path_join(out, sizeof out, g_out, outs[i]);
+        snprintf(what, sizeof what, "convert to %s past RLIMIT_FSIZE", outs[i]);
+        snprintf(want, sizeof want, "'%s' failed: %s", out, strerror(EFBIG));
+        g_child_fsize_limit = 16384;
+        expect_failure_msg(what, 5, NULL,
+                           ARGS("convert", in, out, "--compression", "none"), want);
+        g_child_fsize_limit = 0;
+    }
+    unlink(in);
 }
 
 /* Absolute form of `path` (not normalised); 0 if it does not exist. */
@@ -1913,6 +2040,9 @@ int main(void)
     test_palette_run();
     test_palette_run_errors();
     test_special_outputs();
+    test_special_inputs();
+    test_write_failure_messages();
+    test_nohup();
     test_cancel();
     test_kill();
     return test_report();

@@ -687,6 +687,23 @@ static void test_cli_handmade(void)
     CHECK(write_text(bad_pal, "element x\n cell\n 1 0 0\nend\n"));
     snprintf(want, sizeof want, "%s:3:", bad_pal);
     run_fail("bad palette file", 4, want, ARGS("instances", vol, "--palette", bad_pal, "-o", out));
+    /* a FIFO or a directory as --palette or --render-map (issue 32): refused at
+     * once with the reason (before: a FIFO blocked in open until the 60 s
+     * limit; a directory said "cannot read palette 'd.txt'" and no why) */
+    char fifo[PATH_MAX], dir[PATH_MAX];
+    path_join(fifo, sizeof fifo, g_dir, "fifo.txt");
+    path_join(dir, sizeof dir, g_dir, "dir.txt");
+    unlink(fifo);
+    rmdir(dir);
+    CHECK(mkfifo(fifo, 0666) == 0 && mkdir(dir, 0777) == 0);
+    run_fail("FIFO as --palette", 4, "not a regular file", ARGS("instances", vol, "--palette", fifo, "-o", out));
+    run_fail("FIFO as --render-map", 4, "not a regular file",
+             ARGS("instances", vol, "--palette", "paper46", "--render-map", fifo, "-o", out));
+    run_fail("directory as --palette", 4, strerror(EISDIR), ARGS("instances", vol, "--palette", dir, "-o", out));
+    run_fail("directory as --render-map", 4, strerror(EISDIR),
+             ARGS("instances", vol, "--palette", "paper46", "--render-map", dir, "-o", out));
+    unlink(fifo);
+    rmdir(dir);
     /* outputs */
     run_fail("missing -o", 2, "missing -o OUT.csv", ARGS("instances", vol, "--palette", "paper46"));
     run_fail("missing volume argument", 2, "missing VOLUME.exr", ARGS("instances", "-o", out));

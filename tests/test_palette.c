@@ -10,8 +10,11 @@
  * exact, so "same samples" is "same set up to its boundary". */
 #include "test.h"
 
+#include <errno.h>
 #include <math.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #define N 32u
 #define NPTS (N * N * N)
@@ -397,6 +400,25 @@ static void test_bad_files(void)
     clvox_palette *p = NULL;
     CHECK_STATUS(ctx, clvox_palette_load(ctx, "tests/data/no-such-palette.txt", &p), CLVOX_ERR_IO);
     CHECK(p == NULL && strstr(clvox_context_error(ctx), "no-such-palette.txt"));
+    /* not a regular file (issue 32): a FIFO is refused without blocking in
+     * open (alarm: before, the load hung), a directory names the reason */
+    char path[4096];
+    snprintf(path, sizeof path, "%s/palette-fifo.txt", test_tmpdir());
+    unlink(path);
+    CHECK(mkfifo(path, 0666) == 0);
+    alarm(60);
+    CHECK_STATUS(ctx, clvox_palette_load(ctx, path, &p), CLVOX_ERR_IO);
+    alarm(0);
+    CHECK(p == NULL && strstr(clvox_context_error(ctx), "not a regular file") &&
+          strstr(clvox_context_error(ctx), "palette-fifo.txt"));
+    unlink(path);
+    snprintf(path, sizeof path, "%s/palette-dir.txt", test_tmpdir());
+    rmdir(path);
+    CHECK(mkdir(path, 0777) == 0);
+    CHECK_STATUS(ctx, clvox_palette_load(ctx, path, &p), CLVOX_ERR_IO);
+    CHECK(p == NULL && strstr(clvox_context_error(ctx), strerror(EISDIR)) &&
+          strstr(clvox_context_error(ctx), "palette-dir.txt"));
+    rmdir(path);
 }
 
 static void test_arguments(void)

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # clvox — build, test, install.
 #   make [CONFIG=release|debug|sanitize|tsan] [V=1]  library, clvox binary
 #                                                  (tsan: ThreadSanitizer, scripts/check_threads.sh)
@@ -51,8 +52,8 @@ WITH_OPENVDB ?= $(OPENVDB_FOUND)
 ifeq ($(WITH_OPENVDB)$(OPENVDB_FOUND),10)
   $(error WITH_OPENVDB=1 but OpenVDB (openvdb/openvdb.h with Boost, -lopenvdb) was not found: apt-get install libopenvdb-dev libboost-dev)
 endif
-# The writer (src/write_vdb.cpp) is a plugin, $(BUILD)/libclvox-vdb.so, that
-# the library loads on the first .vdb (src/vdb_plugin.c): linked in, OpenVDB
+# The writer (src/io/write_vdb.cpp) is a plugin, $(BUILD)/libclvox-vdb.so, that
+# the library loads on the first .vdb (src/io/vdb_plugin.c): linked in, OpenVDB
 # cost every run 27 MB of memory and 40 ms at start. Neither the library nor
 # the programs link -lopenvdb. `make install` puts it in PREFIX/lib/clvox.
 VDB_PLUGIN :=
@@ -69,8 +70,8 @@ VDB_LIBS := -lopenvdb -lImath-3_1 -ltbb
 OPENVDB_STAMP := $(BUILD)/gen/openvdb-$(WITH_OPENVDB)
 $(OPENVDB_STAMP):
 	@mkdir -p $(dir $@) && rm -f $(BUILD)/gen/openvdb-* && touch $@
-$(BUILD)/src/vdb_plugin.o: $(OPENVDB_STAMP)
-$(BUILD)/src/vdb_plugin.o: FINAL_CFLAGS += -DCLVOX_VDB_PLUGIN_DIR='"$(abspath $(BUILD))"'
+$(BUILD)/src/io/vdb_plugin.o: $(OPENVDB_STAMP)
+$(BUILD)/src/io/vdb_plugin.o: FINAL_CFLAGS += -DCLVOX_VDB_PLUGIN_DIR='"$(abspath $(BUILD))"'
 
 ifeq ($(V),1)
   Q :=
@@ -78,11 +79,11 @@ else
   Q := @
 endif
 
-CLI_SRC := src/cli.c src/cli_args.c src/cli_info.c src/cli_run.c src/cli_common.c src/cli_json.c src/cli_batch.c src/cli_manifest.c src/cli_preview.c src/cli_palette.c src/cli_instances.c src/cli_mesh.c src/cli_convert.c
-LIB_C := $(filter-out $(CLI_SRC),$(wildcard src/*.c))
+CLI_SRC := $(wildcard src/cli/*.c)
+LIB_C := $(wildcard src/*.c) $(filter-out src/cli/%,$(wildcard src/*/*.c))
 # The batch manifest parser and what it calls (fuzz_manifest, test_fuzz_smoke).
-MANIFEST_CLI_SRC := src/cli_manifest.c src/cli_args.c src/cli_common.c
-LIB_CXX := $(filter-out src/write_vdb.cpp,$(wildcard src/*.cpp))
+MANIFEST_CLI_SRC := src/cli/cli_manifest.c src/cli/cli_args.c src/cli/cli_common.c
+LIB_CXX := $(filter-out src/io/write_vdb.cpp,$(wildcard src/*/*.cpp))
 # Kernel program = shared types + prelude + sampler + palette + overlap + winding + one file per stage.
 KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h kernels/winding.h $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
 KERNEL_C := $(BUILD)/gen/kernels_embedded.c
@@ -125,7 +126,7 @@ $(BUILD)/gen/kernels_embedded.o: $(KERNEL_C)
 # table it is handed). Default visibility: compiled with -fvisibility=hidden,
 # OpenVDB's own templates bound to the plugin's copies and
 # openvdb::initialize() crashed.
-$(BUILD)/vdb/write_vdb.o: src/write_vdb.cpp $(OPENVDB_STAMP)
+$(BUILD)/vdb/write_vdb.o: src/io/write_vdb.cpp $(OPENVDB_STAMP)
 	@mkdir -p $(dir $@)
 	@$(if $(filter 0,$(V)),echo "  CXX   $< (plugin)")
 	$(Q)$(CXX) $(FINAL_CXXFLAGS) -DCLVOX_HAVE_OPENVDB -MMD -MP -c $< -o $@

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * clvox — OpenCL voxelization of triangle meshes, streamed to OpenEXR.
  *

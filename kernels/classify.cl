@@ -1,6 +1,7 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Stage classify: voxel centre u = i is inside when the number of crossings
  * strictly beyond it (u_hit > i) is odd (Thon et al. 3.3.3). Writes
- * occupancy bits (the slab format of src/internal.h) and the number of
+ * occupancy bits (the slab format of src/core/internal.h) and the number of
  * filled voxels of each ray.
  *  - out_stride == 0: the ray runs along x and is one bit row, which it
  *    writes whole, word by word (no atomics, no clearing needed);

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Structs shared by the host (C11) and the OpenCL kernels.
  * Only fixed-width scalars, explicit padding; sizes pinned on the host.

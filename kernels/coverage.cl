@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Stage coverage: oversampled grey-level counting (Thon et al. 3.3.4), a
  * consumer of the cast like classify. One work-item per voxel column: its
  * R = N*N rays (sorted crossings from the cast) and M points per voxel on

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Stage cast: crossings of each ray with the triangles of its leaf.
  * Keeps at most `capacity` crossings per ray but counts all of them, so the
  * host can redo the rays that overflowed with a larger buffer. With `signs`
@@ -7,7 +8,7 @@
  * crossings leave the winding number continuous.
  * Triangles are indexed: tris holds 3 vertex indices per triangle into
  * verts (grid space, u,v,w per vertex), the floats a soup would repeat at
- * every corner (src/grid.c), so the crossings are the soup's bit for bit. */
+ * every corner (src/grid/grid.c), so the crossings are the soup's bit for bit. */
 
 kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
                             global const uint *leaf_of_ray, global const clvox_qt_node *nodes,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Exact predicates of surface voxelization (triangle / closed voxel cell
  * overlap), in the common subset of C11 and OpenCL C: the kernel

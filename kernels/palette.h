@@ -1,6 +1,7 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Palettes of sub-voxel elements (Cavagnino & Gribaudo), in the common
- * subset of C11 and OpenCL C: the host (src/palette.c, the CPU reference of
+ * subset of C11 and OpenCL C: the host (src/palette/palette.c, the CPU reference of
  * the scoring) and the palette-scoring kernel compile this same source, so
  * both decide membership bit for bit alike.
  *
@@ -22,7 +23,7 @@
  * coefficients a, b, c in {0, +-1, +-2} and d a multiple of 1/2, so every
  * product is exact (a power-of-two scaling) and a fused multiply-add could
  * not change a result anyway; with dyadic sample points the sums are exact
- * too (src/palette.c relies on this for its duplicate test).
+ * too (src/palette/palette.c relies on this for its duplicate test).
  *
  * Layout. Three flat arrays: elements, cells, planes. Element e owns cells
  * [first_cell, first_cell + cell_count); cell c owns planes

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Stage palette scoring: Monte Carlo palette voxelization (Cavagnino &
  * Gribaudo 3, 3.1), the cast's third consumer. One work-item per voxel
  * column: its R = N*N rays (sorted crossings from the cast, positions from

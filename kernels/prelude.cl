@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Shared helpers of all clvox kernels. Prepended to every stage file.
  * No contraction: a*b - c*d must round exactly as the CPU reference does.
  * (Embedded as C string literals by scripts/embed_kernels.sh: a backslash
@@ -10,7 +11,7 @@
  * it, so that the ray and tetra methods agree bit for bit. Without fp64 the
  * same code runs in float (consistent, but only float-accurate). Kernels
  * test CLVOX_FP64, not cl_khr_fp64. */
-#if defined(cl_khr_fp64) && !defined(CLVOX_NO_FP64) /* CLVOX_NO_FP64: float on any device (src/context.c) */
+#if defined(cl_khr_fp64) && !defined(CLVOX_NO_FP64) /* CLVOX_NO_FP64: float on any device (src/core/context.c) */
 #define CLVOX_FP64 1
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 typedef double clvox_real;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Stage partition (device side): find the quadtree leaf under each ray. */
 
 kernel void clvox_quadtree_lookup(global const clvox_ray *rays, uint ray_count,

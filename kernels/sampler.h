@@ -1,7 +1,8 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * The sampler of grey-level (coverage) voxelization, in the common subset of
  * C11 and OpenCL C: the kernels (kernels/coverage.cl), the host (ray
- * positions, src/cast.c) and the CPU reference (tests/reference.c) compile
+ * positions, src/cast/cast.c) and the CPU reference (tests/reference.c) compile
  * this same source, so they draw the same samples bit for bit.
  *
  * Generator: Philox4x32-10, the counter-based generator of Salmon, Moraes,

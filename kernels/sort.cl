@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Stage cast: sort each ray's crossings by increasing u. Short lists (the
  * fast pass keeps at most `capacity`, 32 by default) are insertion-sorted in
  * private memory; long ones (overflow redo: up to CLVOX__MAX_CROSSINGS, e.g.

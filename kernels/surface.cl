@@ -1,4 +1,5 @@
-/* Stage surface: every voxel whose closed cell meets a triangle (src/surface.c
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Stage surface: every voxel whose closed cell meets a triangle (src/raster/surface.c
  * has the argument). Each task rasterises one triangle over a few slices z =
  * k and rows y = j of the current slab: per row, the cells x whose closed box
  * [x -+ 1/2] x [j -+ 1/2] x [k -+ 1/2] meets the closed triangle form one

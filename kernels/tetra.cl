@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Stage tetra: Rueda et al., sections 3-4. Every mesh triangle
  * (a,b,c) and the common point O span a tetrahedron; a voxel centre covered
  * by an odd number of them is inside (Lemma 1). Each task scan-converts one
@@ -10,7 +11,7 @@
  * gives the presence bit of each voxel. Two markers per (tetrahedron, row)
  * whatever the length of the span.
  *
- * Exactness (see src/tetra.c for the argument): every face of a tetrahedron
+ * Exactness (see src/raster/tetra.c for the argument): every face of a tetrahedron
  * is judged by an affine function F(P) = n.(P - A) in double precision,
  * where (n, A) depend only on the unordered vertex set of the face (O, p, q
  * with p < q in lexicographic order, or the sorted triangle), so the face
@@ -402,7 +403,7 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
 }
 
 /* Prefix XOR along each row, in place: difference markers -> occupancy bits
- * (the slab format of src/internal.h, bits past X cleared), and the count
+ * (the slab format of src/core/internal.h, bits past X cleared), and the count
  * of filled voxels. rows = Y * nz. */
 kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, uint rows, global uint *filled)
 {

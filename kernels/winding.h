@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Winding numbers: the inside test of the cast's consumers when the mesh is
  * open (docs/design.md "Winding numbers").
  *

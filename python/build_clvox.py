@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """cffi (API mode) builder for clvox._clvox.
 
 Links the clvox C library statically, so the extension needs only the system

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Build: pip install ./python  (or pip wheel ./python); see python/README.md.
 from setuptools import setup
 

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # clvox performance benchmark (not a test): per-stage seconds, whole-process
 # time and peak RSS of build/release/clvox on real meshes at several grid sizes.
 #

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Batch throughput: COUNT small meshes voxelized by one `clvox batch` process
 # vs one `clvox` process per mesh, at each resolution in RES.
 #   scripts/bench_batch.sh [COUNT [PER_PROCESS_COUNT]]   (defaults 1000 1000)

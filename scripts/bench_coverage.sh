@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Grey-level (coverage) benchmark, not a test: the paper's Table 1 (Thon et
 # al.: Athena, 91 k faces, 512^3: 5.3 s binary, 30 s 2x2x2, 88 s 3x3x3, 169 s
 # 4x4x4) for clvox on this machine.

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Quadtree depth sweep (Thon et al. Table 3: how max depth trades partition
 # time against cast time). Not a test. Runs build/release/clvox with
 # --depth 1..12 (and 0 = auto) on the given meshes at one grid size and prints

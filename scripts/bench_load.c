@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Mesh load throughput, not a test: clvox_mesh_load on each file with the
  * native readers and with OpenMesh's (CLVOX_MESH_READER=openmesh), best of R
  * runs, page cache warm (one untimed load first). MB/s = file bytes / best
@@ -11,7 +12,7 @@
  *   bench_load --ascii obj|off|ply|stl IN OUT   writes them as text (%.9g: exact) */
 #define _POSIX_C_SOURCE 200809L
 #include "clvox.h"
-#include "mesh_internal.h" /* clvox__mesh_read_raw: the reader alone (needs -Isrc) */
+#include "mesh/mesh_internal.h" /* clvox__mesh_read_raw: the reader alone (needs -Isrc) */
 
 #include <stdint.h>
 #include <stdio.h>

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Mesh load throughput (issue 10), not a test: MB/s of clvox_mesh_load with
 # the native binary PLY / binary STL readers against OpenMesh's
 # (CLVOX_MESH_READER=openmesh), page cache warm, best of R runs (default 10;

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Palette voxelization benchmark, not a test (issue 8; Cavagnino & Gribaudo's
 # complexity O(I J K t p |P|) before early-outs).
 #

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Partition (grid-space transform + quadtree) and whole-process seconds
 # against host threads and triangle count (not a test; issue 10). Runs
 # `clvox MESH -r N --inside parity` with CLVOX_HOST_THREADS=1..T, the

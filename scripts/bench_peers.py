@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Times two other solid voxelizers on the meshes and grids of scripts/bench.sh.
 
 Usage: /usr/bin/python3 scripts/bench_peers.py [--quick] [--repeat R] [--timeout S] [--tsv FILE] [MESH:N ...]

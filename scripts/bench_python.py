@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Python binding overhead, measured (python/README.md "Performance").
 
     make && scripts/bench_python.py [--mesh data/meshes/armadillo.off] [--reps 5]

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Surface and conservative voxelization benchmark (issue 11), not a test:
 # --mode surface and --mode conservative against the solid run of the same
 # mesh and grid, and trimesh's surface voxelization (the peer users pick) in

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Before/after benchmark of the surface raster (issue 11), not a test: a
 # base clvox binary (e.g. main's build) against this build, interleaved
 # round by round so that load on the shared machine hits both alike.

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Winding-number inside test, accuracy and cost (not a test; issue 9):
 # for the winding corpus (tests/meshgen.c tmesh_winding_corpus: open,
 # cracked, mis-oriented, overlapping, non-manifold meshes) and real open

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # Closed-mesh cost of the winding default against parity (issue 9: winding
 # within 1.1x of parity's whole-process time), not a test:
 #

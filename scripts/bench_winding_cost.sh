@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Cost of the winding inside test on open meshes, two builds interleaved
 # (not a test; issue 9): whole-process wall and CPU seconds (user + system,
 # the steadier figure on a shared machine), best of R rounds, and how many

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """clvox's exact winding-number voxelization vs libigl's fast winding number
 (issue 9; a benchmark, not a test).
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """IoU of voxel volumes against the exact winding-number oracle, for
 scripts/bench_winding.sh (not a test).
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The exact winding-number oracle for scripts/bench_winding.sh (not a test).
  *
  *   bench_winding_oracle corpus DIR

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The winding preparation alone (scripts/bench_winding_closed.sh --prep),
  * not a test: loads a mesh, runs clvox__winding_prepare R times (with
  * -DCLVOX_BENCH_BORROW: clvox__winding_prepare_flags with CLVOX__PREP_BORROW,
@@ -5,8 +6,8 @@
  * its wall and thread CPU time (user + sys, page faults included).
  *
  *   bench_winding_prep MESH [R]    (R default 9, at most 64) */
-#include "internal.h"
-#include "winding.h"
+#include "core/internal.h"
+#include "winding/winding.h"
 
 #include <stdio.h>
 #include <stdlib.h>

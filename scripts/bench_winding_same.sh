@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Byte-identity of two builds' winding outputs (not a test; issue 9): runs
 # both on every open mesh under data/meshes (or the ones named) with each
 # option set and cmp's the files. Base outputs are kept in CACHE and

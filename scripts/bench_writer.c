@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Times the EXR writer alone (no OpenCL): a sphere of radius 0.4 N in an N^3
  * grid, streamed in slabs of occupancy bits, for each compression and thread
  * count; then, for N <= 512, the sphere's coverage (HALF: 0 outside, 1
@@ -5,7 +6,7 @@
  * with occupancy; then a palette run's planes: element (0 outside, 1 inside,
  * 2..45 on the shell by position) alone and with score (HALF 1 off the
  * shell, the coverage's grey on it), and all four channels. Not a test;
- * numbers for src/write_exr.c and README. Built with -DBENCH_BASELINE
+ * numbers for src/io/write_exr.c and README. Built with -DBENCH_BASELINE
  * (against an older clvox whose writer has no element and score) it runs the
  * first three sets only; BENCH_SETS=035 in the environment runs sets 0, 3
  * and 5 of the six.
@@ -17,7 +18,7 @@
  * Prints: N, channels, compression, threads, writer seconds (wall, best of 2,
  * making the data excluded), the CPU seconds of that run, file MB. */
 #define _POSIX_C_SOURCE 200809L
-#include "internal.h"
+#include "core/internal.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Builds a Blender scene from `clvox instances` output by geometry instancing
 (Cavagnino & Gribaudo, section 4: "a simple Blender script that reconstructs
 the original object using geometry instancing"), saves it and renders it.

@@ -1,9 +1,10 @@
 #!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
 # ThreadSanitizer over the code that runs host threads of its own: the
-# partition, the mesh report and the soup's grid passes (src/parallel.c),
+# partition, the mesh report and the soup's grid passes (src/core/parallel.c),
 # the cast's speculation, the EXR writer's encoders, the winding
 # preparation started ahead (clvox_mesh_prepare_winding), `clvox instances`'
-# scorer and `clvox batch` loading the next mesh ahead (src/cli_batch.c) --
+# scorer and `clvox batch` loading the next mesh ahead (src/cli/cli_batch.c) --
 # batch runs to the end, cut short by SIGINT and with --skip-existing. Every
 # process writes its reports to build/tsan/reports.*; a check passes when it
 # exits as expected and no report appeared. Not part of `make test` (about

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Turns the kernel sources into a C file of string literals, so that an
 # installed clvox needs no source tree. Usage: embed_kernels.sh OUT.c FILE...
 set -eu

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Fetches the real test meshes (data/meshes/*.off: armadillo, bunny00, cow,
 # elephant, knot1, fandisk, ChineseDragon-10kv, ...) from Debian's
 # libcgal-demo package without installing it (it depends on Qt): the .deb is

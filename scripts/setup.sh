@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Installs the Debian 12 packages clvox needs to build, run and test.
 #   scripts/setup.sh           build + test dependencies (Python: the binding in python/ and its tests)
 #   scripts/setup.sh --peers   also VTK, OpenVDB and NumPy for scripts/bench.sh --peers

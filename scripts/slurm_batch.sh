@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # One clvox batch shard per Slurm array task (README "Batch runs").
 #   sbatch scripts/slurm_batch.sh MANIFEST OUTDIR [RESOLUTION]
 # Re-submitting after a time-out resumes: finished outputs are skipped.

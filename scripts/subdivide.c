@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * subdivide — benchmark helper: makes large closed meshes from small ones.
  *

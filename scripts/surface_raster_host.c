@@ -1,6 +1,7 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Host build of the surface raster (kernels/surface.cl), for profiling and
  * counting, not a test: compiles the kernel as C (OpenCL qualifiers and
- * atomics as plain C), makes the tasks as src/surface.c does (slabs of 76
+ * atomics as plain C), makes the tasks as src/raster/surface.c does (slabs of 76
  * slices, tasks of SPT slices x RPT rows) and runs every task on one thread,
  * best of REPS, thread CPU time (less disturbed by a loaded machine than
  * PoCL's device time). "filled" must equal clvox's count for the same mesh
@@ -33,7 +34,7 @@ static void atomic_add(uint *p, uint v) { *p += v; }
 #include "overlap.h"
 #include "surface.cl"
 
-/* src/surface.c's cell_range, through the kernel's own clvox_first_cell /
+/* src/raster/surface.c's cell_range, through the kernel's own clvox_first_cell /
  * clvox_last_cell (the same rule). */
 static int cell_range(double mn, double mx, uint32_t n, int32_t *lo, int32_t *hi)
 {
@@ -82,7 +83,7 @@ int main(int argc, char **argv)
             uint32_t nz = Z - z0 < slab ? Z - z0 : slab; int32_t zend = (int32_t)(z0 + nz); n = 0;
             for (int32_t c0 = (int32_t)z0; c0 < zend; c0 += spt) {
                 for (size_t i = 0; i < kept; i++) {
-                    /* as bin_slab in src/surface.c: runs of spt slices from the triangle's first slice in
+                    /* as bin_slab in src/raster/surface.c: runs of spt slices from the triangle's first slice in
                      * the slab, listed by the chunk of spt slices their first slice is in */
                     const int32_t *r = rng + 4 * i;
                     const int32_t first = r[0] > (int32_t)z0 ? r[0] : (int32_t)z0, last = r[1] < zend - 1 ? r[1] : zend - 1;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Counts the voxels where one channel of two clvox volumes differs (for the
  * benchmarks: what a faster setting changes). Holds A's channel in memory
  * (4 bytes per voxel: 67 MB at 256^3) and streams B against it.

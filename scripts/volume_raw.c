@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Writes the occupancy of a clvox volume as raw bytes (0/1, x fastest, then
  * y, then z) for the benchmarks' comparison with other voxelizers
  * (scripts/bench_surface_trimesh.py reads it with numpy).

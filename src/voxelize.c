@@ -1,8 +1,9 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Driver: runs a method slab by slab and hands each slab's planes
  * (occupancy bit rows and/or coverage values, see internal.h), in
  * increasing z, to a sink (EXR writer, caller callback or dense memory).
  * Memory is one slab of each plane whatever the number of slices. */
-#include "internal.h"
+#include "core/internal.h"
 
 #include <math.h>
 #include <stddef.h>

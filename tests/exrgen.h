@@ -1,5 +1,6 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* An independent writer of clvox-layout EXR volumes for the tests: uses
- * OpenEXRCore directly (not clvox's src/write_exr.c), any channels and types,
+ * OpenEXRCore directly (not clvox's src/io/write_exr.c), any channels and types,
  * scanline or tiled, any compression. X x (Y*Z) pixels; voxel (x,y,z) is
  * pixel (x, y + z*Y). */
 #ifndef CLVOX_TEST_EXRGEN_H

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Independent read-back of clvox's npy, NRRD, binvox and OpenVDB files (tests/test_formats.c).
    formats_check.py FORMAT FILE REF DTYPE X Y Z OX OY OZ H [bits | grid=NAME]
 vdb: pyopenvdb (Debian python3-openvdb); grid=NAME reads that grid (default density).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Deterministic test meshes; see meshgen.h. */
 #include "meshgen.h"
 #include <math.h>

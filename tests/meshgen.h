@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Deterministic test meshes with exact answers (after lz4's datagen).
  * Generators return closed, consistently outward-oriented 2-manifolds with
  * shared vertices (CCW seen from outside). A zeroed tmesh is a valid empty

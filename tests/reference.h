@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Slow, obviously correct CPU reference of the ray method: every triangle is
  * tested against every voxel column, with the arithmetic of docs/design.md
  * ("The exact crossing test"), so the OpenCL result must match bit for bit. */

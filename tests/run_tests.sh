@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Runs every test program in $1/tests and adds up their "N passed, N failed"
 # lines. Usage: sh tests/run_tests.sh build/release
 set -u
@@ -12,7 +13,7 @@ fi
 # PoCL needs a writable kernel cache, else it reports no device at all.
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"
-# The kernel program's binary between processes (src/program_cache.c): in
+# The kernel program's binary between processes (src/core/program_cache.c): in
 # the build tree, not the user's ~/.cache.
 export CLVOX_CACHE_DIR="${CLVOX_CACHE_DIR:-$here/build/clvox-cache}"
 export CLVOX_TEST_TMP="${CLVOX_TEST_TMP:-$here/build/test-tmp}"
@@ -46,7 +47,7 @@ for t in "$build"/tests/test_*; do
   run_one "$(basename "$t")" "$t"
 done
 # The kernels' float path (devices without fp64) on PoCL: built with
-# -DCLVOX_NO_FP64 (CLVOX_KERNEL_FLOAT=1, src/context.c), test_winding again;
+# -DCLVOX_NO_FP64 (CLVOX_KERNEL_FLOAT=1, src/core/context.c), test_winding again;
 # it says "skipped (the device has no double)" where it runs in float.
 t="$build/tests/test_winding"
 if [ -z "${CLVOX_QUICK:-}" ] && [ -x "$t" ]; then

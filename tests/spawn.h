@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Running another program from a test: fork + execvp, standard input from
  * /dev/null, standard output and error captured, a time limit. Used by the
  * tests that drive the clvox binary or Blender (test_instances, test_blender). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Minimal test harness: CHECK / CHECK_OK print file:line on failure; each
  * test program ends with one "N passed, N failed" line (tests/run_tests.sh
  * adds them up). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* End-to-end tests of --json, clvox info --json, --like and clvox batch: runs
  * the binary ($CLVOX_BIN, default build/release/clvox) with fork/execve,
  * stdout and stderr captured into files, and parses the JSON records with

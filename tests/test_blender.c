@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* scripts/blender_instances.py, run by Blender when `blender` is on PATH
  * (CLVOX_WITH_BLENDER=1 scripts/setup.sh installs it; CI does). Without it
  * the test prints a SKIP line and "0 passed, 0 failed": nothing was checked.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 #ifndef _XOPEN_SOURCE
 #define _XOPEN_SOURCE 700 /* mknod */
 #endif

@@ -1,8 +1,9 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Context, device selection, status strings, progress/cancel and the
  * streaming memory bound. */
 #include "meshgen.h"
 #include "test.h"
-#include "internal.h"
+#include "core/internal.h"
 
 #include <math.h>
 #include <stdlib.h>

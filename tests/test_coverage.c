@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Grey-level voxelization (coverage, Thon et al. 3.3.4): the sampler against
  * its published known answers, HALF rounding against every HALF value,
  * exact fractions of boxes, the CPU reference bit for bit (uniform and
@@ -7,7 +8,7 @@
 #include "meshgen.h"
 #include "reference.h"
 #include "test.h"
-#include "internal.h"
+#include "core/internal.h"
 #include "../kernels/sampler.h"
 
 #include <math.h>

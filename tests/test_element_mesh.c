@@ -1,5 +1,6 @@
-/* Element geometry (src/element_mesh.c) and the PLY export of palette
- * volumes (src/element_ply.c).
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Element geometry (src/palette/element_mesh.c) and the PLY export of palette
+ * volumes (src/palette/element_ply.c).
  *
  * Geometry, for every element of binary, planar10, paper46, paper78,
  * palettes/blocks.txt and a test palette of tilted, overlapping, redundant
@@ -15,8 +16,8 @@
  * the element, else in none.
  */
 #include "test.h"
-#include "internal.h"
-#include "element_mesh.h"
+#include "core/internal.h"
+#include "palette/element_mesh.h"
 
 #include <dirent.h>
 #include <errno.h>

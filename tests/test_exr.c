@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 #ifndef _XOPEN_SOURCE
 #define _XOPEN_SOURCE 700 /* mknod, S_IFCHR */
 #endif
@@ -6,7 +7,7 @@
  * (no file and no temporary file left), and bounded memory. No OpenCL. */
 #include "test.h"
 #include "exrgen.h"
-#include "internal.h"
+#include "core/internal.h"
 
 #include <OpenEXR/openexr.h>
 

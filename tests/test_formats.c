@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Output formats (npy, NRRD, binvox, OpenVDB; README "Output formats"): each file
  * read back by an independent reader (NumPy, pynrrd, trimesh's binvox loader, pyopenvdb;
  * tests/formats_check.py, run with build/venv-formats/bin/python from
@@ -8,8 +9,8 @@
 #include "meshgen.h"
 #include "spawn.h"
 #include "test.h"
-#include "internal.h"    /* clvox__outset_fail_at */
-#include "output_set.h"  /* clvox__output_complete */
+#include "core/internal.h"    /* clvox__outset_fail_at */
+#include "io/output_set.h"  /* clvox__output_complete */
 
 #include <dirent.h>
 #include <stdio.h>
@@ -372,7 +373,7 @@ int main(void)
 
     /* OpenVDB: a FLOAT grid "density" (occupancy, or coverage; both: also "occupancy"), read back with
      * pyopenvdb; without OpenVDB at build time, refused with one line before any work, nothing written.
-     * The writer is a plugin (src/vdb_plugin.c): libopenvdb is not in the process before the first .vdb,
+     * The writer is a plugin (src/io/vdb_plugin.c): libopenvdb is not in the process before the first .vdb,
      * a plugin that is missing or not clvox's is refused with the reason, and one that the build made
      * (beside this program's directory) must load. */
     char plugin[4096] = "", lib[4096] = "";

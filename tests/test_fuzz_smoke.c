@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Replays every fuzz seed corpus (tests/fuzz/seeds_<name>/) and every input a
  * fuzzer or an issue once found (tests/fuzz/regress_<name>/) through the fuzz
  * targets' own checks, without libFuzzer: the mesh targets' property check
@@ -31,7 +32,7 @@
 #include "fuzz/fuzz_program_cache.c" /* the program cache file target, renamed */
 #undef LLVMFuzzerTestOneInput
 #define LLVMFuzzerTestOneInput fuzz_manifest_one_input
-#include "fuzz/fuzz_manifest.c" /* the batch manifest target, renamed (links src/cli_manifest.c: Makefile) */
+#include "fuzz/fuzz_manifest.c" /* the batch manifest target, renamed (links src/cli/cli_manifest.c: Makefile) */
 #undef LLVMFuzzerTestOneInput
 
 typedef struct target {

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* `make install` into a scratch DESTDIR, then use what was installed the way
  * a user would: the files are there, clvox.pc gives flags that build a
  * program against the static and against the shared library, that program

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Render maps and `clvox instances`:
  *  - the thresholds rule of Cavagnino & Gribaudo (section 4) at the ends of
  *    its intervals (B = 1, B exactly a threshold, just below one, B = 0, and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The mesh stage: every format, the report, and every bad input we know
  * OpenMesh mishandles (hangs, throws, silent garbage), written at test time. */
 #include "test.h"

@@ -1,4 +1,5 @@
-/* The native binary PLY and STL readers (src/mesh_ply.c, src/mesh_stl.c)
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The native binary PLY and STL readers (src/mesh/mesh_ply.c, src/mesh/mesh_stl.c)
  * against OpenMesh's (CLVOX_MESH_READER=openmesh, the reader clvox used
  * before): the same vertices, triangles, offset and report, bit for bit, for
  * generated meshes and the CGAL meshes in data/meshes (when present) written

@@ -1,4 +1,5 @@
-/* The mesh report's analysis (src/mesh_report.c): the default implementation
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The mesh report's analysis (src/mesh/mesh_report.c): the default implementation
  * (bucketed passes on the host threads) against the reference (the earlier
  * single-threaded code, kept for this), bit for bit, at 1, 2, 3 and 4
  * threads: box (with the sign of zero), degenerate triangles, volume,
@@ -8,7 +9,7 @@
  * enough for several threads) and on every mesh in data/meshes when present. */
 #include "test.h"
 #include "meshgen.h"
-#include "mesh_internal.h"
+#include "mesh/mesh_internal.h"
 
 #include <dirent.h>
 #include <math.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The test mesh generators: closed, oriented, exact volumes, writers, voxel-count
  * helper and point oracle. Uses no OpenCL. */
 #include "test.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Palettes (issue 8, data): the built-in counts 2, 10, 46, 78; index 0
  * empty and 1 full everywhere; all elements distinct; paper78's complements
  * exact; paper46 closed under the 48 cube symmetries and each element the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Palette voxelization (Cavagnino & Gribaudo): the scoring kernel against a
  * CPU reference of the same samples (every element at every sample), for
  * every metric, palette, ray axis and both samplings; early-outs and the

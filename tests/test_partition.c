@@ -1,4 +1,5 @@
-/* The partition on several host threads (src/grid.c, src/partition.c): the
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The partition on several host threads (src/grid/grid.c, src/grid/partition.c): the
  * grid-space soup and the quadtree at 1, 2, 3 and 4 threads are the same,
  * built from the soup or from the indexed triangles (grid-space vertices and
  * the mesh's index array, the cast's input),
@@ -8,7 +9,7 @@
  * several grids, ray axes, depths and leaf sizes. */
 #include "test.h"
 #include "meshgen.h"
-#include "internal.h"
+#include "core/internal.h"
 
 #include <dirent.h>
 #include <math.h>

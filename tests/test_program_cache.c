@@ -1,4 +1,5 @@
-/* The kernel program's binary between processes (src/program_cache.c): a
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The kernel program's binary between processes (src/core/program_cache.c): a
  * context stores it, the next one is made from it and gives the same voxels;
  * a corrupt, truncated, foreign or refused file is a miss that is rebuilt
  * and rewritten; a binary that crashes the driver costs one run, not every
@@ -7,7 +8,7 @@
  * a directory that cannot be used, or CLVOX_CACHE_DIR=off, only means no
  * cache; at most 8 binaries are kept, and a killed store's temporary file is
  * removed. Also: SHA-256 against FIPS 180-4's test vectors. */
-#include "internal.h"
+#include "core/internal.h"
 #include "meshgen.h"
 #include "spawn.h"
 #include "test.h"
@@ -242,7 +243,7 @@ static int run_child(uint64_t want, int *cached, int *code, int quiet)
     return ok;
 }
 
-/* SHA-256 (src/sha256.c) against FIPS 180-4's examples and, for the padding
+/* SHA-256 (src/core/sha256.c) against FIPS 180-4's examples and, for the padding
  * edges (55/56 and 119/120 bytes fit one or need two more blocks), against
  * Python's hashlib; fed whole and in uneven pieces. */
 static void test_sha256(void)

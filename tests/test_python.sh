@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # The Python package's tests (python/tests, pytest), run by tests/run_tests.sh
 # like the C test programs: the Makefile copies this script to
 # build/$CONFIG/tests/test_python. It compiles the cffi extension against

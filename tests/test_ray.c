@@ -1,9 +1,10 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The ray method (Thon et al.) against exact answers, the CPU reference, and
  * itself (axes, slabs, overflow, determinism). */
 #include "meshgen.h"
 #include "reference.h"
 #include "test.h"
-#include "internal.h"
+#include "core/internal.h"
 
 #include <math.h>
 #include <string.h>

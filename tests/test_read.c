@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Reading volumes back, any channel: clvox_volume_read_slices returns every
  * sample (HALF, FLOAT, UINT) of files written by an independent writer
  * (tests/exrgen.c, OpenEXRCore directly) in every layout, including chunks

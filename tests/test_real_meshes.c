@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Real meshes from Debian's libcgal-demo (fetched by scripts/fetch_meshes.sh
  * into data/meshes/): the OpenCL result equals the CPU reference bit for
  * bit, and closed meshes give the same occupancy along x, y and z. */

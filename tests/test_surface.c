@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Surface and conservative voxelization (docs/design.md "Surface
  * voxelization"). Oracles nobody tuned:
  *  - the exact predicates of kernels/overlap.h against GMP rationals, on
@@ -197,7 +198,7 @@ static int ref_overlap(const double *v, const int c[3])
     return n > 0;
 }
 
-/* Grid-space soup exactly as src/grid.c makes it. Caller frees. */
+/* Grid-space soup exactly as src/grid/grid.c makes it. Caller frees. */
 static double *grid_soup(const clvox_mesh *mesh, const clvox_grid *g, size_t *nt_out)
 {
     size_t nv, nt;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The tetra method (Rueda et al.) against the ray method: two independent
  * algorithms, so any disagreement is a bug in one of them. Closed meshes in
  * general position: equal voxel for voxel, except centres within the ray

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The winding-number inside test (issue 9, docs/design.md "Winding
  * numbers"): the CPU oracle against itself and closed forms, then the
  * device through the public API against the oracle, voxel for voxel, on a
@@ -18,7 +19,7 @@
 #include "meshgen.h"
 #include "reference.h"
 #include "test.h"
-#include "winding.h" /* src/: the cap tree (internal) */
+#include "winding/winding.h" /* src/: the cap tree (internal) */
 
 #include <math.h>
 #include <string.h>
@@ -1036,7 +1037,7 @@ static void emit_cap(float *out, size_t *n, size_t max, const double *a, const d
 }
 
 /* Cap soups made in code (grid space, x, y, z): a curved dome, a random
- * soup, a wavy fan with rim slivers as src/winding.c makes them, thin
+ * soup, a wavy fan with rim slivers as src/winding/winding.c makes them, thin
  * needles. Returns the triangle count (9 floats each in out). */
 static size_t estimate_soup(int kind, float *out, size_t max, uint64_t *s)
 {
@@ -1060,7 +1061,7 @@ static size_t estimate_soup(int kind, float *out, size_t max, uint64_t *s)
             for (int k = 0; k < 9; k++) v[k] = c[k % 3] + 3 * (tmesh_rng_uniform(s) - 0.5);
             emit_cap(out, &n, max, v, v + 3, v + 6);
         }
-    } else if (kind == 2) { /* a wavy loop of 64 corners: slivers cut off as src/winding.c does, then a fan */
+    } else if (kind == 2) { /* a wavy loop of 64 corners: slivers cut off as src/winding/winding.c does, then a fan */
         double v[64][3];
         const double apex[3] = {15, 15, 7.3};
         size_t m = 64;
@@ -1317,7 +1318,7 @@ static void test_prepare_ahead(void)
 }
 
 /* Where there are caps, a slab's rays go in batches sized to take about a
- * quarter of a second (src/cast.c ray_slab): the progress callback is called
+ * quarter of a second (src/cast/cast.c ray_slab): the progress callback is called
  * inside a single slab and can cancel it there, and the voxels do not depend
  * on the batches (one slab of 9216 rays, then slabs of 5 slices). */
 static int batch_calls, batch_partial, batch_cancel;

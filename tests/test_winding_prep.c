@@ -1,11 +1,12 @@
-/* Mesh preparation for the winding inside test (src/winding_prep.c):
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Mesh preparation for the winding inside test (src/winding/winding_prep.c):
  * merging, welding, orientation repair, patch signs with nesting (cavities),
  * boundary loops and caps. Host only; also times the 3.3 M-triangle
  * armadillo (printed, not asserted). */
 #include "test.h"
 #include "meshgen.h"
-#include "internal.h"
-#include "winding.h"
+#include "core/internal.h"
+#include "winding/winding.h"
 
 #include <math.h>
 #include <stdint.h>

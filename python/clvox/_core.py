@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """clvox Python binding (cffi, API mode). See python/README.md."""
 import atexit
 import math

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """PoCL from PyPI (pip install "clvox[pocl]"): the pocl-binary-distribution wheel ships a
 CPU OpenCL driver (libpocl) for machines without a system OpenCL ICD.
 

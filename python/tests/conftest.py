@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Fixtures for the clvox Python tests, and the "N passed, N failed" line that
 tests/run_tests.sh adds to the suite's total."""
 import os

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """numpy in: dtypes, layouts, trimesh-like objects, bad arrays."""
 import struct
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Python results equal the CLI's EXR voxel for voxel."""
 import numpy as np
 import pytest

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Context reuse, errors, cancel, Ctrl-C, progress."""
 import os
 import signal

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """ctx.voxelize_to_file in every format: the CLI's files, byte for byte."""
 import os
 import signal

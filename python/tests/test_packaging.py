@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """pip wheel ./python works; the pocl extra's PoCL gives the same voxels."""
 import json
 import os

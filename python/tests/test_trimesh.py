@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """trimesh objects as input (trimesh: build/venv-formats, scripts/setup.sh; skipped without it)."""
 import tracemalloc
 

@@ -1,11 +1,12 @@
-/* libFuzzer target: the --like grid readers (src/grid_like.c) on arbitrary
+/* SPDX-License-Identifier: Apache-2.0 */
+/* libFuzzer target: the --like grid readers (src/grid/grid_like.c) on arbitrary
  * bytes, both the NRRD header parser and the .npy JSON sidecar parser. Every
  * input must give either a valid grid (dims 1..CLVOX_MAX_AXIS, finite
  * origin, positive finite voxel size) or CLVOX_ERR_GRID / out of memory with
  * a one-line message; never a crash, a hang or an out-of-bounds access.
  * Build and run: make fuzz-run FUZZ_SECONDS=60 FUZZ_ONLY=like_header */
 #include "clvox.h"
-#include "grid_like.h"
+#include "grid/grid_like.h"
 
 #include <math.h>
 #include <stdint.h>

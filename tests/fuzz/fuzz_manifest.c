@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* libFuzzer target: the `clvox batch --manifest` parser (manifest_parse,
- * src/cli_manifest.c) on arbitrary bytes. Every input must give either
+ * src/cli/cli_manifest.c) on arbitrary bytes. Every input must give either
  * mesh entries or one malformed line (its number within the input, a
  * one-line reason); never a crash, an out-of-bounds access or unbounded
  * work. Entries must be well formed (a mesh that is not empty and does not
@@ -11,15 +11,15 @@
  * must parse to the same entries. With --like, the first line with a grid
  * override must be the one refused.
  * Build and run: make fuzz-run FUZZ_SECONDS=60 FUZZ_ONLY=manifest */
-#include "cli_manifest.h"
-#include "cli_vox.h"
+#include "cli/cli_manifest.h"
+#include "cli/cli_vox.h"
 
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* cli_common.c asks whether a signal stopped the run (src/cli_run.c); the
+/* cli_common.c asks whether a signal stopped the run (src/cli/cli_run.c); the
  * parser alone installs no handlers. */
 int cli_interrupted(void) { return 0; }
 

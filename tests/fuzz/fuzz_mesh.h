@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The property check shared by the mesh fuzz targets (fuzz_mesh_<ext>.c:
  * libFuzzer, clang) and the replay test (tests/test_fuzz_smoke.c: gcc, every
  * seed and regression input, in `make test`).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* libFuzzer target: clvox_mesh_load on a .stl file of arbitrary bytes, with the
  * property checks of fuzz_mesh.h. Seeds: tests/fuzz/seeds_mesh_stl/; inputs that
  * once failed: tests/fuzz/regress_mesh_stl/ (both replayed by test_fuzz_smoke).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* libFuzzer target: clvox's palette file parser (clvox_palette_parse, the
  * core of clvox_palette_load) on arbitrary bytes. Every input must give
  * either a palette whose index 0 is empty and 1 full (checked at the voxel

@@ -1,12 +1,13 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* libFuzzer target: the kernel program cache's file check
- * (clvox__program_cache_parse, src/program_cache.c) on arbitrary bytes, for
+ * (clvox__program_cache_parse, src/core/program_cache.c) on arbitrary bytes, for
  * the identity "fuzz identity\n". An accepted file must be exactly magic,
  * length, that identity, length, a non-empty binary and the SHA-256 of all
  * that (clvox__sha256, checked against FIPS 180-4's vectors in
  * test_program_cache), with the binary inside the input; never a crash, an
  * out-of-bounds read or a wrong acceptance.
  * Build and run: make fuzz-run FUZZ_SECONDS=60 FUZZ_ONLY=program_cache */
-#include "internal.h"
+#include "core/internal.h"
 
 #include <stdint.h>
 #include <stdlib.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* libFuzzer target: clvox's render map parser (clvox_render_map_parse, the
  * core of clvox_render_map_load) on arbitrary bytes, against two built-in
  * palettes (paper78: symmetry images and complements; planar10: few names).

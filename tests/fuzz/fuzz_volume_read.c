@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* libFuzzer target: clvox's EXR volume reader (clvox_volume_read,
  * clvox_volume_read_slices of every channel clvox writes, and
  * clvox_volume_palette, which parses a palette text from the header) on

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 // Writes the OM seeds of fuzz_mesh_om with OpenMesh itself (OM 2.2, as
 // OpenMesh 9.0 writes it): a tetrahedron as a TriMesh, the unit cube as a
 // PolyMesh (quads), the tetrahedron with vertex normals.

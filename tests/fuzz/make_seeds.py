@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Writes the small seed corpora of the mesh fuzz targets
 (tests/fuzz/seeds_mesh_<ext>/): valid files of a few hundred bytes covering
 each reader's variants. The OM seeds are written by OpenMesh itself

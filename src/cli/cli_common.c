@@ -1,0 +1,433 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/*
+ * Helpers shared by the command-line files: the one-line error contract,
+ * exit codes for library statuses, strict number and option parsing, the
+ * early output check, and the sizes, volumes and lines the summaries print.
+ * Moved here from cli.c unchanged when `clvox preview` got its own file
+ * (cli_preview.c), the summary helpers when cli.c was split by stage.
+ */
+#if defined(__linux__) && !defined(_GNU_SOURCE)
+#define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
+#endif
+#ifndef _POSIX_C_SOURCE
+#define _POSIX_C_SOURCE 200809L
+#endif
+
+#include "cli_common.h"
+#include "cli_vox.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* The progress line, if one is on screen, is erased before anything else
+ * is written to stderr. */
+int g_progress_line_len;
+
+void progress_erase(void)
+{
+    if (g_progress_line_len > 0) {
+        fprintf(stderr, "\r%*s\r", g_progress_line_len, "");
+        fflush(stderr);
+        g_progress_line_len = 0;
+    }
+}
+
+/* Prints "clvox: error: <message>" as exactly one line (newlines in the
+ * message, e.g. a kernel build log, become " | "; other control bytes "?")
+ * and returns `code`. */
+const char *g_fail_prefix;
+static char g_last_error[1024];
+
+const char *cli_last_error(void) { return g_last_error; }
+
+int fail_message(int code, const char *message)
+{
+    /* A call that a SIGINT/SIGTERM/SIGHUP interrupted (EINTR) failed: that
+     * is the cancellation the signal asked for, not an input or output error. */
+    if (code != EXIT_OK && code != EXIT_CANCELLED && cli_interrupted() && message && strstr(message, strerror(EINTR))) {
+        code = EXIT_CANCELLED;
+        message = "cancelled";
+    }
+    progress_erase();
+    fputs("clvox: error: ", stderr);
+    if (g_fail_prefix && *g_fail_prefix) {
+        for (const char *p = g_fail_prefix; *p; p++)
+            fputc(((unsigned char)*p < 0x20 || *p == 0x7f) ? '?' : *p, stderr);
+        fputs(": ", stderr);
+    }
+    size_t kept = 0;
+    const char *s = message && *message ? message : "unknown error";
+    size_t n = strlen(s);
+    while (n > 0 && (s[n - 1] == '\n' || s[n - 1] == '\r' || s[n - 1] == ' ')) n--;
+    int pending_break = 0;
+    for (size_t i = 0; i < n; i++) {
+        char c = s[i];
+        if (c == '\n' || c == '\r') {
+            pending_break = 1;
+            continue;
+        }
+        if (pending_break) {
+            fputs(" | ", stderr);
+            if (kept + 3 < sizeof g_last_error) {
+                memcpy(g_last_error + kept, " | ", 3);
+                kept += 3;
+            }
+            pending_break = 0;
+        }
+        /* control bytes (from file names or file contents) would garble the line */
+        char out = c == '\t' ? ' ' : ((unsigned char)c < 0x20 || c == 0x7f) ? '?' : c;
+        fputc(out, stderr);
+        if (kept + 1 < sizeof g_last_error) g_last_error[kept++] = out;
+    }
+    g_last_error[kept] = '\0';
+    fputc('\n', stderr);
+    return code;
+}
+
+int fail(int code, const char *fmt, ...)
+{
+    char buf[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    return fail_message(code, buf);
+}
+
+int exit_code_for(clvox_status st, role r)
+{
+    switch (st) {
+    case CLVOX_OK: return EXIT_OK;
+    case CLVOX_ERR_INVALID_ARGUMENT: return EXIT_USAGE;
+    case CLVOX_ERR_IO: return r == ROLE_INPUT ? EXIT_INPUT : r == ROLE_OUTPUT ? EXIT_OUTPUT : EXIT_RUNTIME;
+    case CLVOX_ERR_EXR: return r == ROLE_INPUT ? EXIT_INPUT : EXIT_RUNTIME;
+    case CLVOX_ERR_MESH_FORMAT:
+    case CLVOX_ERR_MESH_INVALID:
+    case CLVOX_ERR_MESH_EMPTY:
+    case CLVOX_ERR_PALETTE_FORMAT: return EXIT_INPUT;
+    case CLVOX_ERR_GRID: return EXIT_GRID;
+    case CLVOX_ERR_NO_DEVICE: return EXIT_NO_DEVICE;
+    case CLVOX_ERR_CANCELLED: return EXIT_CANCELLED;
+    case CLVOX_ERR_OUT_OF_MEMORY:
+    case CLVOX_ERR_OPENCL:
+    case CLVOX_ERR_KERNEL_BUILD:
+    case CLVOX_ERR_INTERNAL:
+    case CLVOX_STATUS_COUNT: break;
+    }
+    return EXIT_RUNTIME;
+}
+
+/* Reports a library failure: the context's message, else the status string. */
+int fail_status(const clvox_context *ctx, clvox_status st, role r)
+{
+    const char *msg = ctx ? clvox_context_error(ctx) : "";
+    if (st == CLVOX_ERR_CANCELLED) return fail_message(EXIT_CANCELLED, msg && *msg ? msg : "cancelled");
+    return fail_message(exit_code_for(st, r), msg && *msg ? msg : clvox_status_string(st));
+}
+
+/* Returns NULL on success, else why `s` is not acceptable. */
+const char *parse_u32(const char *s, uint32_t min, uint32_t *out, const char **end_out)
+{
+    if (!s || *s == '\0') return "empty value";
+    if (*s == '-') return "must not be negative";
+    if (*s < '0' || *s > '9') return "not a non-negative integer";
+    errno = 0;
+    char *end = NULL;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (end == s) return "not a non-negative integer";
+    if (end_out) *end_out = end;
+    else if (*end != '\0') return "not a non-negative integer";
+    if (errno == ERANGE || v > UINT32_MAX) return "too large";
+    if (v < min) return min == 1 ? "must be at least 1" : "too small";
+    *out = (uint32_t)v;
+    return NULL;
+}
+
+int usage_error(const char *fmt, ...)
+{
+    char buf[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    return fail(EXIT_USAGE, "%s (see clvox --help)", buf);
+}
+
+/* Matches argv[*i] against a short and/or long option that takes a value;
+ * accepts "-r 16", "-r16", "--opt 16" and "--opt=16". Returns 1 on a match
+ * (*missing = 1 when the value is absent), 0 otherwise. */
+int match_value(int argc, char **argv, int *i, const char *short_name, const char *long_name, const char **value,
+                int *missing)
+{
+    const char *a = argv[*i];
+    *missing = 0;
+    if (short_name && strncmp(a, short_name, 2) == 0 && a[1] != '-') {
+        if (a[2] != '\0') {
+            *value = a + 2;
+            return 1;
+        }
+    } else if (long_name) {
+        size_t n = strlen(long_name);
+        if (strncmp(a, long_name, n) != 0) return 0;
+        if (a[n] == '=') {
+            *value = a + n + 1;
+            return 1;
+        }
+        if (a[n] != '\0') return 0; /* --padding is not --pad */
+    } else {
+        return 0;
+    }
+    if (*i + 1 >= argc) {
+        *missing = 1;
+        return 1;
+    }
+    *value = argv[++*i];
+    return 1;
+}
+
+/* Fails early (creating nothing) when the output can not possibly be written. */
+int check_output(const char *path)
+{
+    struct stat sb;
+    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) return fail(EXIT_OUTPUT, "cannot write '%s': it is a directory", path);
+    if (lstat(path, &sb) == 0 && !S_ISREG(sb.st_mode)) {
+        if (S_ISLNK(sb.st_mode))
+            return fail(EXIT_OUTPUT, "cannot write '%s': it is a symbolic link (clvox replaces only regular files)",
+                        path);
+        return fail(EXIT_OUTPUT,
+                    "cannot write '%s': it is not a regular file (a device, FIFO or socket; clvox replaces only "
+                    "regular files)",
+                    path);
+    }
+    size_t len = strlen(path);
+    if (len > 0 && path[len - 1] == '/') return fail(EXIT_OUTPUT, "cannot write '%s': not a file name", path);
+
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else if ((size_t)(slash - path) >= sizeof dir) return fail(EXIT_OUTPUT, "cannot write '%s': path too long", path);
+    else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+
+    if (stat(dir, &sb) != 0)
+        return fail(EXIT_OUTPUT, "cannot write '%s': directory '%s': %s", path, dir, strerror(errno));
+    if (!S_ISDIR(sb.st_mode)) return fail(EXIT_OUTPUT, "cannot write '%s': '%s' is not a directory", path, dir);
+    if (access(dir, W_OK | X_OK) != 0)
+        return fail(EXIT_OUTPUT, "cannot write '%s': directory '%s': %s", path, dir, strerror(errno));
+    return EXIT_OK;
+}
+
+int has_channel(const char *list, const char *name)
+{
+    size_t n = strlen(name);
+    for (const char *p = list; p && *p;) {
+        const char *comma = strchr(p, ',');
+        size_t len = comma ? (size_t)(comma - p) : strlen(p);
+        if (len == n && strncmp(p, name, n) == 0) return 1;
+        p = comma ? comma + 1 : NULL;
+    }
+    return 0;
+}
+
+/* ---- output files (the scheme of the library's EXR writer, write_exr.c) ---- */
+
+static int out_temp_name(char *buf, size_t size, const char *dir)
+{
+    static unsigned counter;
+    int n = snprintf(buf, size, "%s/.clvox-%ld-%u.tmp", dir, (long)getpid(), counter++);
+    return n > 0 && (size_t)n < size;
+}
+
+int out_file_create(out_file *of, const char *path, char *why, size_t why_size)
+{
+    memset(of, 0, sizeof *of);
+    of->fd = -1;
+    const char *slash = strrchr(path, '/');
+    size_t dn = !slash ? 1 : slash == path ? 1 : (size_t)(slash - path);
+    if (dn >= sizeof of->dir) {
+        snprintf(why, why_size, "%s", strerror(ENAMETOOLONG));
+        return -1;
+    }
+    memcpy(of->dir, !slash ? "." : path, dn);
+    of->dir[dn] = '\0';
+#ifdef O_TMPFILE
+    int fd = open(of->dir, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+    if (fd >= 0) {
+        char proc[64];
+        snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
+        if (access(proc, F_OK) == 0) {
+            of->fd = fd;
+            of->unnamed = 1;
+            return 0;
+        }
+        close(fd);
+    } else if (errno != EOPNOTSUPP && errno != EISDIR && errno != EINVAL) {
+        snprintf(why, why_size, "%s", strerror(errno));
+        return -1;
+    }
+#endif
+    for (int attempt = 0; attempt < 100; attempt++) {
+        if (!out_temp_name(of->tmp, sizeof of->tmp, of->dir)) break;
+        of->fd = open(of->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (of->fd >= 0) return 0;
+        if (errno != EEXIST) {
+            snprintf(why, why_size, "%s", strerror(errno));
+            of->tmp[0] = '\0';
+            return -1;
+        }
+    }
+    of->tmp[0] = '\0';
+    snprintf(why, why_size, "no free temporary name in '%s'", of->dir);
+    return -1;
+}
+
+#ifdef O_TMPFILE
+static int out_link(int fd, const char *name)
+{
+    char proc[64];
+    snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
+    if (linkat(AT_FDCWD, proc, AT_FDCWD, name, AT_SYMLINK_FOLLOW) == 0) return 0;
+    if (errno != ENOENT) return -1;
+    return linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH);
+}
+#endif
+
+int out_file_commit(out_file *of, const char *path, char *why, size_t why_size)
+{
+    struct stat sb;
+    if (lstat(path, &sb) == 0 && !S_ISREG(sb.st_mode)) {
+        snprintf(why, why_size, "it is not a regular file");
+        out_file_discard(of);
+        return -1;
+    }
+#ifdef O_TMPFILE
+    if (of->unnamed) {
+        int linked = out_link(of->fd, path) == 0;
+        if (!linked && errno == EEXIST) { /* replace it: a unique name, renamed over it at once */
+            for (int attempt = 0; attempt < 100; attempt++) {
+                if (!out_temp_name(of->tmp, sizeof of->tmp, of->dir)) break;
+                if (out_link(of->fd, of->tmp) == 0) break;
+                of->tmp[0] = '\0';
+                if (errno != EEXIST) break;
+            }
+            if (!of->tmp[0]) {
+                snprintf(why, why_size, "%s", strerror(errno));
+                out_file_discard(of);
+                return -1;
+            }
+        } else if (!linked) {
+            snprintf(why, why_size, "%s", strerror(errno));
+            out_file_discard(of);
+            return -1;
+        }
+    }
+#endif
+    if (of->tmp[0] && rename(of->tmp, path) != 0) {
+        snprintf(why, why_size, "cannot rename '%s': %s", of->tmp, strerror(errno));
+        out_file_discard(of);
+        return -1;
+    }
+    of->tmp[0] = '\0';
+    out_file_discard(of); /* closes the descriptor; nothing left to unlink */
+    return 0;
+}
+
+void out_file_discard(out_file *of)
+{
+    if (of->fd >= 0) close(of->fd);
+    of->fd = -1;
+    if (of->tmp[0]) unlink(of->tmp);
+    of->tmp[0] = '\0';
+}
+
+/* ---- what the summaries print (clvox MESH, info, --list-devices) ---- */
+
+void format_bytes(uint64_t bytes, char *buf, size_t size)
+{
+    static const char *const units[] = {"bytes", "KiB", "MiB", "GiB", "TiB"};
+    if (bytes < 1024) {
+        snprintf(buf, size, "%llu bytes", (unsigned long long)bytes);
+        return;
+    }
+    double v = (double)bytes;
+    int u = 0;
+    while (v >= 1024.0 && u < 4) {
+        v /= 1024.0;
+        u++;
+    }
+    snprintf(buf, size, "%.2f %s", v, units[u]);
+}
+
+/* count voxels of size h[0] x h[1] x h[2]: 0 for no voxel even when the
+ * voxel volume overflows (no 0 * inf = nan). */
+double voxels_volume(double count, const double h[3])
+{
+    return count == 0 ? 0.0 : count * h[0] * h[1] * h[2];
+}
+
+/* A volume for the summary: %.*g, or words when it overflowed a double. */
+void format_volume(double v, int digits, char *buf, size_t size)
+{
+    if (isfinite(v)) snprintf(buf, size, "%.*g", digits, v);
+    else snprintf(buf, size, "%s", "(too large for a double)");
+}
+
+const char *path_basename(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    return slash ? slash + 1 : path;
+}
+
+int is_readable_file(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode) && access(path, R_OK) == 0;
+}
+
+int cli_open_regular_read(const char *path, const char **why)
+{
+    int fd;
+    do fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY); /* a FIFO would block here */
+    while (fd < 0 && errno == EINTR && !cli_interrupted());
+    if (fd < 0) {
+        *why = strerror(errno);
+        return -1;
+    }
+    struct stat sb;
+    int flags;
+    if (fstat(fd, &sb) != 0 || (S_ISREG(sb.st_mode) && ((flags = fcntl(fd, F_GETFL)) < 0 ||
+                                                        fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0))) {
+        *why = strerror(errno);
+        close(fd);
+        return -1;
+    }
+    if (!S_ISREG(sb.st_mode)) {
+        *why = S_ISDIR(sb.st_mode) ? strerror(EISDIR) : "not a regular file (a FIFO, socket or device)";
+        close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3])
+{
+    char size[96];
+    if (h[0] == h[1] && h[1] == h[2]) snprintf(size, sizeof size, "voxel %.6g", h[0]);
+    else snprintf(size, sizeof size, "voxel %.6g x %.6g x %.6g", h[0], h[1], h[2]);
+    printf(LABEL "%u x %u x %u voxels, %s, origin (%.6g, %.6g, %.6g)\n", "grid", (unsigned)dims[0],
+           (unsigned)dims[1], (unsigned)dims[2], size, origin[0], origin[1], origin[2]);
+}
+
+void print_filled_line(uint64_t filled, uint64_t total)
+{
+    double pct = total ? 100.0 * (double)filled / (double)total : 0.0;
+    printf(LABEL "%llu of %llu voxels (%.2f %%)\n", "filled", (unsigned long long)filled,
+           (unsigned long long)total, pct);
+}

@@ -1,0 +1,518 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Private interfaces between clvox's pipeline stages. Not installed. */
+#ifndef CLVOX_INTERNAL_H
+#define CLVOX_INTERNAL_H
+
+#define CL_TARGET_OPENCL_VERSION 120
+#include <CL/cl.h>
+#include <stdarg.h>
+#include <stdint.h>
+
+#include "clvox.h"
+#include "../../kernels/clvox_types.h"
+#include "../../kernels/palette.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(__GNUC__)
+#define CLVOX__PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define CLVOX__PRINTF(a, b)
+#endif
+
+/* ---- context (context.c) ---- */
+
+struct clvox_context {
+    char error[8192];
+    int host_only;
+    clvox_device_info device;
+    cl_platform_id platform;
+    cl_device_id device_id;
+    cl_context cl;
+    cl_command_queue queue; /* in-order, profiling enabled */
+    cl_program program;     /* all kernels, built once per context */
+    int program_cached;     /* 1: program made from the cached binary (program_cache.c) */
+    size_t real_size;       /* sizeof(clvox_real) in the kernels: 8 with fp64, else 4 */
+    int kernels_float;      /* 1: CLVOX_KERNEL_FLOAT=1 built them without fp64 (build_program) */
+};
+
+/* Records the message and returns `status`, so that reporting and returning
+ * an error is one expression: return clvox__fail(ctx, CLVOX_ERR_IO, "…", …); */
+clvox_status clvox__fail(clvox_context *ctx, clvox_status status, const char *fmt, ...)
+    CLVOX__PRINTF(3, 4);
+/* Same for an OpenCL error: "<what>: CL_OUT_OF_RESOURCES (-5)". */
+clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what);
+/* CLVOX_ERR_NO_DEVICE for `what` (a stage whose kernels exist only with
+ * fp64): "WHAT needs double precision ...", naming the device or the
+ * CLVOX_KERNEL_FLOAT that made the kernels float. */
+clvox_status clvox__need_fp64(clvox_context *ctx, const char *what);
+const char *clvox__cl_error_name(cl_int err);
+/* The kernel program's binary kept between processes (program_cache.c):
+ * the program built from the cached binary for ctx's device, or NULL (off,
+ * a miss, a bad file, a binary the driver refuses: build from source); and
+ * storing a program built from source. Neither ever fails the caller. */
+cl_program clvox__program_cache_load(clvox_context *ctx, const char *options);
+void clvox__program_cache_store(clvox_context *ctx, cl_program program, const char *options);
+/* A cache file's n bytes: 1 when it is whole and for `identity`, with the
+ * binary at file + *bin_off, *bin_len bytes; else 0 (fuzzed: fuzz_program_cache). */
+int clvox__program_cache_parse(const unsigned char *file, size_t n, const char *identity, size_t *bin_off,
+                               size_t *bin_len);
+/* Creates kernel `name` from the context's program. */
+clvox_status clvox__kernel(clvox_context *ctx, const char *name, cl_kernel *out);
+/* clCreateBuffer with the error recorded in ctx (status in *st, NULL
+ * returned); zero bytes allocate a small buffer so it can still be bound. */
+cl_mem clvox__buffer(clvox_context *ctx, cl_mem_flags flags, size_t bytes, void *host, clvox_status *st,
+                     const char *what);
+/* Releases *m if set and clears it. */
+void clvox__release_mem(cl_mem *m);
+/* Seconds of device time an event took (0 if profiling info is missing). */
+double clvox__event_seconds(cl_event ev);
+double clvox__now(void); /* monotonic seconds */
+/* A name the mesh loader reads by its extension (obj, off, ply, stl, om; any case). */
+int clvox__is_mesh_path(const char *path);
+/* Opens `path` for reading only if it is a regular file, never blocking on
+ * the way (a FIFO would block in open(2) until a writer comes: it is opened
+ * O_NONBLOCK, checked with fstat, then put back in blocking mode). Returns
+ * the descriptor (O_CLOEXEC), *sb filled when sb is not NULL; or -1 with
+ * *why the reason for a message: strerror(errno) of the failing call, "Is
+ * a directory", or "not a regular file (a FIFO, socket or device)". Every
+ * file the library reads by name is opened through this. */
+struct stat;
+int clvox__open_regular_read(const char *path, struct stat *sb, const char **why);
+/* Reads a small text file (palette, render map) whole into a malloc'ed
+ * buffer (*data, *size bytes; free it). `what` names it in messages
+ * ("cannot open palette 'P': ..."); a file over max_bytes is
+ * CLVOX_ERR_PALETTE_FORMAT "P: larger than N bytes". */
+clvox_status clvox__read_text_file(clvox_context *ctx, const char *path, const char *what, size_t max_bytes,
+                                   char **data, size_t *size);
+/* "512 bytes", "12.3 KB", "999 MB", "2.1 GB": decimal units, 3 digits, for messages. */
+void clvox__format_size(uint64_t bytes, char *buf, size_t size);
+
+/* Ascending insertion sort of a few 64-bit keys, and qsort's comparison
+ * for them (mesh report, winding preparation). */
+static inline void clvox__sort_u64_small(uint64_t *a, size_t n)
+{
+    for (size_t i = 1; i < n; i++) {
+        uint64_t v = a[i];
+        size_t j = i;
+        for (; j > 0 && a[j - 1] > v; j--) a[j] = a[j - 1];
+        a[j] = v;
+    }
+}
+static inline int clvox__cmp_u64(const void *pa, const void *pb)
+{
+    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
+    return (a > b) - (a < b);
+}
+
+/* 64-bit FNV-1a over n bytes, continuing from h (start: CLVOX__FNV_BASIS):
+ * palette and render-map identities. */
+#define CLVOX__FNV_BASIS 0xcbf29ce484222325ull
+static inline uint64_t clvox__fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *b = (const unsigned char *)data; /* also C++ (write_vdb.cpp) */
+    for (size_t i = 0; i < n; i++) h = (h ^ b[i]) * 0x100000001b3ull;
+    return h;
+}
+
+/* SHA-256 (sha256.c, FIPS 180-4): the program cache's identity and entry
+ * checksum. init, update any number of times, final; or all at once. */
+typedef struct clvox__sha256_state {
+    uint32_t h[8];
+    uint64_t bytes;
+    unsigned char buf[64];
+    size_t used;
+} clvox__sha256_state;
+void clvox__sha256_init(clvox__sha256_state *s);
+void clvox__sha256_update(clvox__sha256_state *s, const void *data, size_t n);
+void clvox__sha256_final(clvox__sha256_state *s, unsigned char out[32]);
+void clvox__sha256(const void *data, size_t n, unsigned char out[32]);
+
+/* ---- palettes (palette.c) ---- */
+
+/* The palette's flat arrays (kernels/palette.h layout), borrowed: valid
+ * while the palette lives; for upload to the scoring kernel. */
+void clvox__palette_arrays(const clvox_palette *p, const clvox_element **elements, size_t *element_count,
+                           const clvox_cell **cells, size_t *cell_count, const clvox_halfspace **planes,
+                           size_t *plane_count);
+
+/* Embedded kernel sources (generated from kernels/ at build time). */
+extern const char *const clvox__kernel_sources[];
+extern const char *const clvox__kernel_names[];
+extern const unsigned clvox__kernel_source_count;
+
+/* ---- mesh (mesh.c, mesh_openmesh.cpp) ---- */
+
+/* The report's signed volume, for the winding preparation's sign of a mesh
+ * that is one closed patch (it would sum the same terms again): vol6 =
+ * sum over the triangles, in order, of (a-o).((b-o)x(c-o)) in double, o =
+ * the first corner of the first triangle (mesh_report.c); perm_bound >=
+ * the sum of those determinants' permanents (12 nt Mx My Mz, M = the
+ * vertices' largest distance from o along each axis). */
+typedef struct clvox__mesh_volume {
+    double vol6, perm_bound;
+} clvox__mesh_volume;
+
+struct clvox_mesh {
+    float *xyz;          /* 3 per vertex, relative to offset */
+    double offset[3];    /* added to xyz: the first vertex of an OFF/OBJ file (read
+                            in double), else 0, so far-off meshes keep their precision */
+    size_t vertex_count;
+    uint32_t *tris;      /* 3 per triangle */
+    size_t triangle_count;
+    clvox_mesh_report report;
+    clvox__mesh_volume volume;
+    struct clvox__prep_ahead *ahead; /* winding preparation on its way (winding_prep.c), or NULL */
+};
+
+/* What the OpenMesh shim hands back: polygons as read (not validated). */
+typedef struct clvox__raw_mesh {
+    float *xyz;               /* malloc'ed, 3 per vertex, relative to offset */
+    double offset[3];         /* 0, or the first vertex (text readers parse in double) */
+    size_t vertex_count;
+    uint32_t *face_sizes;     /* malloc'ed, corners per face */
+    uint32_t *face_indices;   /* malloc'ed, all corners concatenated */
+    size_t face_count;
+    size_t index_count;
+    uint64_t nonmanifold_faces;
+} clvox__raw_mesh;
+
+/* C++ shim around OpenMesh::IO::read_mesh. Never throws. Returns 0 on
+ * success, else writes a one-line reason into err. */
+int clvox__openmesh_read(const char *path, clvox__raw_mesh *out, char *err, size_t err_size);
+void clvox__raw_mesh_free(clvox__raw_mesh *raw);
+
+/* ---- winding preparation (winding_prep.c) ---- */
+
+/* The mesh made ready for the winding-number inside test (docs/design.md
+ * "Winding numbers"): vertices at equal positions merged (and welded within
+ * `weld`), triangles oriented by propagation across manifold edges with one
+ * sign per patch (outwards, cavities inwards), and the boundary chain left
+ * after that -- the edges whose net multiplicity is not zero -- split into
+ * loops, each closed by a fan of cap triangles from an apex, so that
+ * surface + caps is a closed chain. */
+typedef struct clvox__winding_mesh {
+    uint32_t *tris;        /* 3 per triangle, oriented; indices into the mesh's vertices (after merging) */
+    size_t triangle_count; /* the mesh's count minus report.dropped_triangles */
+    uint32_t *caps;        /* 3 per cap triangle: an index < the mesh's vertex_count is a mesh vertex,
+                              index vertex_count + a is apex a */
+    size_t cap_count;
+    float *apex;           /* 3 per apex, the mesh's coordinates (relative to its offset) */
+    size_t apex_count;
+    uint32_t *rim;         /* 2 per directed boundary edge (from, to): the caps' loops as given */
+    size_t rim_count;
+    clvox_winding_report report; /* all but exact_points */
+} clvox__winding_mesh;
+
+/* weld: 0 or the weld distance (mesh units). Fills *out (free it with
+ * clvox__winding_mesh_free, also after a failure). */
+clvox_status clvox__winding_prepare(clvox_context *ctx, const clvox_mesh *mesh, double weld,
+                                    clvox__winding_mesh *out);
+void clvox__winding_mesh_free(clvox__winding_mesh *w);
+
+/* ---- grid space ---- */
+
+/* The ray axis u and the ray plane (v,w) as a permutation of (x,y,z):
+ * perm[0] = u, perm[1] = v, perm[2] = w. */
+typedef struct clvox__axes {
+    int perm[3];
+} clvox__axes;
+clvox__axes clvox__axes_for(clvox_axis axis);
+
+/* One grid-space coordinate: x (the mesh's, relative to its offset) on an
+ * axis whose origin is o (the grid's origin minus the mesh's offset) and
+ * voxel size h, in double, rounded once (voxel centres at integers). */
+static inline float clvox__grid_coord(float x, double o, double h) { return (float)(((double)x - o) / h - 0.5); }
+
+/* Triangle soup in grid coordinates (voxel centres at integers, permuted so
+ * that index 0 is u): 9 floats per triangle (a.uvw, b.uvw, c.uvw). Each
+ * vertex is transformed once, so shared vertices stay bit-identical and a
+ * closed mesh stays closed. */
+clvox_status clvox__grid_space_soup(clvox_context *ctx, const clvox_mesh *mesh,
+                                    const clvox_grid *grid, clvox__axes axes, float **out_soup);
+/* The same on `threads` host threads (0: clvox__host_threads()); the same floats. */
+clvox_status clvox__grid_space_soup_threads(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                            clvox__axes axes, int threads, float **out_soup);
+/* The soup's vertices alone, indexed as the mesh's: 3 floats (u,v,w) per
+ * vertex, the same floats the soup holds at each of its corners. 4096-byte
+ * aligned, so that a device buffer can use them in place. `threads` as above. */
+clvox_status clvox__grid_space_vertices(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                        clvox__axes axes, int threads, float **out_vertices);
+
+/* ---- partition (partition.c) ---- */
+
+typedef struct clvox__quadtree {
+    clvox_qt_node *nodes;
+    size_t node_count;
+    uint32_t *refs;
+    size_t ref_count;
+    uint32_t depth;       /* deepest level reached */
+    size_t leaf_count;
+} clvox__quadtree;
+
+/* Builds the quadtree over the (v,w) projection of the triangles, covering
+ * the ray plane [-0.5, dim_v-0.5] x [-0.5, dim_w-0.5]. max_depth/leaf_size
+ * 0 = auto. Triangles: `tris` (3 indices each) into `verts` (grid space,
+ * 3 floats each, clvox__grid_space_vertices), or with tris NULL, `verts` is
+ * a soup (9 floats each, clvox__grid_space_soup): the same tree. */
+clvox_status clvox__quadtree_build(clvox_context *ctx, const float *verts, const uint32_t *tris, size_t tri_count,
+                                   uint32_t dim_v, uint32_t dim_w, uint32_t max_depth,
+                                   uint32_t leaf_size, clvox__quadtree *out);
+/* The same on `threads` host threads (0: clvox__host_threads()): the same
+ * tree, node for node and reference for reference, at any count. */
+clvox_status clvox__quadtree_build_threads(clvox_context *ctx, const float *verts, const uint32_t *tris,
+                                           size_t tri_count,
+                                           uint32_t dim_v, uint32_t dim_w, uint32_t max_depth,
+                                           uint32_t leaf_size, int threads, clvox__quadtree *out);
+void clvox__quadtree_free(clvox__quadtree *qt);
+uint32_t clvox__quadtree_auto_depth(uint32_t dim_v, uint32_t dim_w, size_t tri_count);
+
+/* ---- methods: each fills slabs of occupancy bits ---- */
+
+/* One slab: slices z0 .. z0+nz-1 of the output as bit rows: row (z - z0, y)
+ * is clvox__row_words(X) 32-bit words at ((z - z0) * Y + y) * words, voxel
+ * x is bit x % 32 of word x / 32 (1 = inside), bits past X are 0. One bit
+ * per voxel: the device writes, and the writer reads, 16 times less than
+ * half values would take. */
+static inline uint32_t clvox__row_words(uint32_t X) { return (X + 31u) / 32u; }
+
+/* Device planes of one slab; a plane is NULL when the run does not produce
+ * that channel. coverage: one HALF (as uint16 bits) per voxel, x fastest,
+ * X*Y per slice. */
+typedef struct clvox__slab_out {
+    cl_mem occupancy; /* bit rows (above) */
+    cl_mem coverage;  /* HALF bits */
+    cl_mem element;   /* palette runs: uint16 element index per voxel, x fastest */
+    cl_mem score;     /* palette runs: HALF bits of the score (or the equivalence count) */
+} clvox__slab_out;
+
+/* The same planes mapped on the host, as the sinks get them. */
+typedef struct clvox__slab_planes {
+    const uint32_t *occupancy_bits; /* bit rows, or NULL */
+    const uint16_t *coverage_half;  /* HALF bits per voxel, or NULL */
+    const uint16_t *element;        /* element index per voxel, or NULL */
+    const uint16_t *score_half;     /* HALF bits of the score per voxel, or NULL */
+} clvox__slab_planes;
+
+typedef struct clvox__slab_stats {
+    double cast_seconds, classify_seconds;
+    uint64_t filled, rays, odd_parity_rays, overflow_rays;
+    uint64_t coverage_count; /* samples inside, summed over the slab's voxels */
+    uint64_t palette_early, palette_shortcut, palette_scored; /* voxels decided by each step */
+    uint64_t palette_nonempty; /* voxels whose element is not empty */
+    double palette_volume;     /* sum of the chosen elements' volumes (voxel units) */
+    uint64_t exact_points;     /* winding: points whose cap solid angles were evaluated */
+    uint32_t max_crossings;
+} clvox__slab_stats;
+
+/* What the driver asks of a method beyond the options. */
+typedef struct clvox__run {
+    uint32_t channels;    /* CLVOX_CHANNEL_* planes the slabs must hold */
+    int coverage_counts;  /* 1: the coverage and score planes hold sample counts
+                             (uint16) rather than HALF bits of count / samples */
+    /* Called between the batches of a long slab with the fraction of the
+     * slab done, in (0, 1); returns 0 to stop, and the method then fails
+     * with CLVOX_ERR_CANCELLED. NULL: never called. */
+    int (*poll)(void *user, double slab_fraction);
+    void *poll_user;
+    /* 1: the slab's occupancy plane already holds another method's bits
+     * (conservative mode: the solid); OR into them, do not clear, and count
+     * the union. Only the surface method takes it. */
+    int accumulate;
+} clvox__run;
+
+/* Most crossings one ray may have (the ray method fails with
+ * CLVOX_ERR_MESH_INVALID beyond it: that many surfaces on one line are
+ * duplicated or coincident copies, whose parity is meaningless, and their
+ * buffers and sorting would cost seconds per ray). 8 bytes each. */
+#define CLVOX__MAX_CROSSINGS 65536u
+/* Ray-triangle tests per batch of rays, at most (estimated from the largest
+ * quadtree leaf): about 0.25 s on a 2-core CPU device, so a cancel is seen
+ * within that time however slow a slab is. */
+#define CLVOX__BATCH_TESTS (128ull << 20)
+
+typedef struct clvox__method_state clvox__method_state;
+
+typedef struct clvox__method {
+    const char *name;
+    clvox_status (*prepare)(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                            const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
+                            clvox_stats *stats, clvox__method_state **out);
+    /* Computes the slab into the device planes of `out` (those not NULL)
+     * and may leave commands queued; the driver reads them back. */
+    clvox_status (*slab)(clvox__method_state *st, uint32_t z0, uint32_t nz, const clvox__slab_out *out,
+                         clvox__slab_stats *ss);
+    void (*release)(clvox__method_state *st);
+    /* Text for the EXR "clvoxParameters" attribute. */
+    void (*describe)(const clvox__method_state *st, char *buf, size_t size);
+} clvox__method;
+
+extern const clvox__method clvox__method_ray;   /* cast.c  */
+extern const clvox__method clvox__method_tetra; /* tetra.c */
+extern const clvox__method clvox__method_surface; /* surface.c */
+
+/* 1 when a voxelization with these options runs the winding test, *weld
+ * its weld distance (voxelize.c). */
+int clvox__options_winding(const clvox_voxelize_options *options, double *weld);
+
+/* HALF bit pattern of x in [0, 1], rounded to nearest even (voxelize.c). */
+uint16_t clvox__half_from_unit(double x);
+
+/* ---- EXR (write_exr.c, read_exr.c) ---- */
+
+typedef struct clvox__exr_writer clvox__exr_writer;
+
+typedef struct clvox__exr_meta {
+    const char *method;      /* "ray" | "tetra" */
+    const char *parameters;  /* free text, e.g. "axis=x depth=9 leaf=8" */
+    const clvox_palette *palette; /* palette runs: recorded in the header, else NULL */
+    const char *metric;      /* palette runs: clvox_metric_name */
+} clvox__exr_meta;
+
+/* Opens `path` for streaming: the data goes to an unnamed file in the same
+ * directory (O_TMPFILE; a short named temporary where the file system lacks
+ * it), given the name `path` by clvox__exr_finish. Anything at `path` that
+ * is not a regular file (directory, symbolic link, device, FIFO, socket) is
+ * refused with CLVOX_ERR_IO, here and again just before the rename. `channels` is a
+ * CLVOX_CHANNEL_* mask (0 = occupancy), any combination of "occupancy" HALF
+ * 0.0/1.0, "coverage" HALF, "element" UINT and "score" HALF. meta->palette
+ * adds the palette attributes (a palette whose text does not fit an EXR
+ * string is refused here). Layout: see README "Output format (EXR)". */
+clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
+                             const clvox__exr_meta *meta, uint32_t channels, clvox_compression compression,
+                             uint32_t threads, clvox__exr_writer **out);
+/* Slices must arrive in increasing z, without gaps. planes holds the
+ * channels the writer was opened with: occupancy as Y*nz bit rows (the slab
+ * format above; the file gets HALF 0.0 / 1.0), coverage and score as X*Y*nz
+ * HALF bits, element as X*Y*nz uint16 indices (the file gets UINT). */
+clvox_status clvox__exr_write_slab(clvox__exr_writer *w, uint32_t z0, uint32_t nz,
+                                   const clvox__slab_planes *planes);
+/* Completes the file and renames it into place; *bytes = file size. Frees w. */
+clvox_status clvox__exr_finish(clvox__exr_writer *w, uint64_t *bytes);
+/* Deletes the temporary file and frees w. NULL-safe. */
+void clvox__exr_abort(clvox__exr_writer *w);
+/* Tests only: nonzero makes the writer use the named temporary file (the
+ * fallback for file systems without O_TMPFILE). */
+extern int clvox__exr_no_tmpfile;
+
+/* ---- output files (outfile.c) ---- */
+
+/* A file written without a name and named only when complete (outfile.c). */
+typedef struct clvox__outfile {
+    clvox_context *ctx; /* NULL until created, and again after discard */
+    char *path, *dir, *tmp;
+    int fd, unnamed;
+    uint64_t written;   /* bytes written by clvox__outfile_write */
+} clvox__outfile;
+/* Refuses an existing `path` that is not a regular file. */
+clvox_status clvox__outfile_check_target(clvox_context *ctx, const char *path);
+/* Creates the unnamed file in the directory of `path` (CLVOX_ERR_IO). */
+clvox_status clvox__outfile_create(clvox__outfile *f, clvox_context *ctx, const char *path);
+/* Appends (every byte checked); pwrite at an offset. */
+clvox_status clvox__outfile_write(clvox__outfile *f, const void *data, size_t size);
+clvox_status clvox__outfile_pwrite(clvox__outfile *f, const void *data, size_t size, uint64_t offset);
+/* Syncs the complete file and names it `path`; *bytes = its size. Discards
+ * it on failure; either way nothing is left to discard. */
+clvox_status clvox__outfile_finish(clvox__outfile *f, uint64_t *bytes);
+/* Closes and removes the unnamed file. NULL-safe, idempotent. */
+void clvox__outfile_discard(clvox__outfile *f);
+/* Names a set of complete files together, files[n-1] (the marker) last: every
+ * target is checked before any is touched, and a failure midway renames back
+ * the old files that members already placed had replaced; nothing this run
+ * did not create is unlinked (outfile.c). Discards every file, either way. */
+clvox_status clvox__outfile_finish_set(clvox__outfile *const *files, size_t n);
+/* Tests only: k > 0 makes the rename of member k-1 of the next sets fail (EIO). */
+extern int clvox__outset_fail_at;
+
+/* ---- other output formats (output.c, write_npy.c, write_nrrd.c, write_binvox.c) ---- */
+
+/* One slab as the format writers take it: any plane may be NULL (not in this
+ * slab). coverage and score come both as HALF bits and as floats. */
+typedef struct clvox__fmt_slab {
+    uint32_t z0, nz;
+    const uint32_t *occupancy_bits; /* bit rows (the slab format above) */
+    const uint16_t *coverage_half;
+    const float *coverage;
+    const uint16_t *element;
+    const uint16_t *score_half;
+    const float *score;
+} clvox__fmt_slab;
+
+typedef struct clvox__fmt_info {
+    const char *path;
+    const clvox_grid *grid;
+    uint32_t channels;    /* CLVOX_CHANNEL_* */
+    uint32_t flags;       /* CLVOX_OUTPUT_* */
+    clvox_compression compression;
+    const char *method, *parameters;
+} clvox__fmt_info;
+
+typedef struct clvox__fmt_ops {
+    const char *name;
+    uint32_t channels;    /* the channels the format can hold */
+    int one_channel;      /* 1: one channel per file */
+    clvox_status (*open)(clvox_context *ctx, const clvox__fmt_info *info, void **state);
+    clvox_status (*write)(void *state, const clvox__fmt_slab *slab);
+    clvox_status (*finish)(void *state, uint64_t *bytes);
+    void (*abort)(void *state);
+} clvox__fmt_ops;
+extern const clvox__fmt_ops clvox__fmt_npy, clvox__fmt_nrrd, clvox__fmt_binvox;
+/* OpenVDB (.vdb), optional at build time (CLVOX_HAVE_OPENVDB). The writer
+ * (write_vdb.cpp) is a plugin, libclvox-vdb.so, that vdb_plugin.c loads on
+ * the first .vdb: linked in, libopenvdb cost every run 27 MB of resident
+ * memory and 40 ms at start. clvox__fmt_vdb forwards to the plugin's ops;
+ * clvox__vdb_load (called before any work) loads it, or fails with the
+ * reason: built without OpenVDB, or the plugin not found or not matching. */
+extern const clvox__fmt_ops clvox__fmt_vdb;
+clvox_status clvox__vdb_load(clvox_context *ctx, const char *path);
+
+/* What the plugin calls back into the library (it links no clvox code), and
+ * its one exported entry point, which returns its ops or NULL when `abi` or
+ * `version` is not the one it was built with. */
+typedef struct clvox__vdb_host {
+    clvox_status (*fail)(clvox_context *ctx, clvox_status status, const char *fmt, ...);
+    clvox_status (*outfile_create)(clvox__outfile *f, clvox_context *ctx, const char *path);
+    clvox_status (*outfile_write)(clvox__outfile *f, const void *data, size_t size);
+    clvox_status (*outfile_finish)(clvox__outfile *f, uint64_t *bytes);
+    void (*outfile_discard)(clvox__outfile *f);
+} clvox__vdb_host;
+#define CLVOX__VDB_PLUGIN_NAME "libclvox-vdb.so"
+#define CLVOX__VDB_PLUGIN_ENTRY "clvox__vdb_plugin"
+/* Changes when a struct the two sides share changes size. */
+#define CLVOX__VDB_ABI                                                                                                \
+    ((uint32_t)(sizeof(clvox__vdb_host) | sizeof(clvox__outfile) << 8 | sizeof(clvox__fmt_info) << 16 |             \
+                (sizeof(clvox__fmt_slab) + sizeof(clvox__fmt_ops) + sizeof(clvox_grid)) << 24))
+typedef const clvox__fmt_ops *(*clvox__vdb_plugin_fn)(const clvox__vdb_host *host, uint32_t abi, const char *version);
+
+/* Sample types of the raster formats (npy, NRRD). */
+typedef enum clvox__dtype { CLVOX__U8, CLVOX__BITS, CLVOX__F16, CLVOX__F32, CLVOX__U16, CLVOX__U32 } clvox__dtype;
+size_t clvox__dtype_row_bytes(clvox__dtype t, uint32_t X);
+/* Rows of the slab's `channel` as the file stores them (little-endian): rows
+ * = Y*nz, each clvox__dtype_row_bytes; 0 when the slab lacks that plane. */
+int clvox__encode_rows(const clvox__fmt_slab *s, uint32_t channel, clvox__dtype t, uint32_t X, size_t rows,
+                       uint8_t *out);
+/* "occupancy", "coverage", "element", "score" for one CLVOX_CHANNEL_* bit. */
+const char *clvox__channel_name(uint32_t channel);
+/* The file's main channel: occupancy, else element, else coverage, else score. */
+uint32_t clvox__main_channel(uint32_t channels);
+/* The file of `channel`: `path` for the main channel, else the channel's name
+ * before the extension ("out.npy" -> "out.coverage.npy"); malloc'ed, NULL when out of memory. */
+char *clvox__channel_path(const char *path, uint32_t channel, uint32_t channels);
+/* `path` with its extension replaced by `ext` ("out.npy" -> "out.json"). */
+char *clvox__replace_ext(const char *path, const char *ext);
+
+/* The pipeline for output.c: coverage and score as sample counts (samples
+ * per voxel in *samples), the sink opened once the method is prepared. */
+typedef clvox_status (*clvox__open_fn)(void *user, const char *method, const char *params);
+typedef clvox_status (*clvox__sink_fn)(void *user, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes);
+clvox_status clvox__voxelize_counts(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    const clvox_voxelize_options *options, clvox__open_fn open_sink,
+                                    clvox__sink_fn sink, void *user, uint32_t *channels, uint32_t *samples,
+                                    clvox_stats *stats);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* CLVOX_INTERNAL_H */

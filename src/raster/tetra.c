@@ -1,0 +1,531 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Stage tetra: solid voxelization by simplicial coverings (A. J. Rueda,
+ * C. Ogayar, R. J. Segura, F. R. Feito, "Fast and Simple Hardware
+ * Accelerated Voxelizations Using Simplicial Coverings"), the second solid
+ * method beside the ray method (cast.c). kernels/tetra.cl does the device work.
+ *
+ * Method. Every mesh triangle (a,b,c) and one common point O span the
+ * tetrahedron T = (O,a,b,c). A voxel centre covered by an odd number of them
+ * is inside the mesh (Lemma 1). Binning: prepare computes each
+ * tetrahedron's slice range once; per slab, the host lists tasks (triangle,
+ * a run of at most `slices_per_task` slices), chunk of slices by chunk of
+ * slices, so tasks running together touch the same slices of presence bits.
+ * Raster: each task scan-converts its tetrahedron slice by slice: at z = k
+ * the cross-section is a triangle or a quad (paper, section 4, Table 1),
+ * whose rows y = j are spans [L, U) of voxel centres, XOR-ed into a
+ * one-bit-per-voxel presence buffer as two difference markers (atomic_xor on
+ * 32-bit words); the resolve kernel's prefix XOR along x gives the presence
+ * bits, in place: the presence buffer is the driver's slab buffer itself.
+ * Memory: that buffer (X*Y*nz/8 bytes), the triangle soup, one task list:
+ * bounded like the ray method.
+ *
+ * Grid space and O. The soup comes from clvox__grid_space_soup (one rounding
+ * per vertex, x,y,z order: slices are z = const). O is chosen in world
+ * coordinates (area-weighted surface centroid by default, bounding-box
+ * centre, or a given point) and rounded to grid space once, like a vertex.
+ *
+ * Exactness. A centre P is in T when the four face functions of T have the
+ * signs of T's orientation. Each face is judged by F(P) = n.(P - A) with
+ *   - internal faces (O,p,q): A = O, n = (p-O) x (q-O) for p < q in
+ *     lexicographic (x,y,z) order of the float coordinates, negated for the
+ *     other orientation; the face (O,a,b) shared by the tetrahedra of the two
+ *     triangles on edge ab depends only on the set {O,a,b}, so both compute
+ *     bit for bit the same F (same products, same order) with opposite
+ *     required signs: every centre goes to exactly one side;
+ *   - mesh faces: the three vertices sorted the same way (a duplicated
+ *     triangle gives the same function);
+ *   - F = n.x*(x-A.x) + (n.y*(y-A.y) + n.z*(z-A.z)) in double, in exactly
+ *     that order, which is monotone in x (rounding is monotone), so along
+ *     a row each face's sign flips at one integer threshold and T covers an
+ *     interval [L, U) of centres: L the largest threshold of the faces that
+ *     bound T from below in x, U the smallest of the others. The kernel
+ *     takes the bound from the extreme closed-form root (first integer
+ *     beyond it), and evaluates F at the integers only when that root lies
+ *     within a tolerance (1e-7 voxel and more, far above the rounding) of an
+ *     integer, so the spans are exactly those of the per-point test. Double
+ *     precision has a 53-bit mantissa: for grid-aligned meshes (small dyadic
+ *     coordinates) every F is exact.
+ * Ties (F == 0: P on a mesh face, on a plane through O and a mesh edge, or
+ * P == O) are broken by the symbolic perturbation P' = P + e*t0 + e^2*t1 +
+ * e^3*t2 (e -> 0+), where (t0,t1,t2) are the ray method's axes (u,v,w) (x,y,z
+ * by default): F(P') has the sign of the first non-zero of F(P), n.t0, n.t1,
+ * n.t2. P' is a real point in general position for all planes at once, so
+ * the count is Lemma 1's count for P' and the parity is exact for any closed
+ * mesh (every edge used by an even number of triangles) and any O: inside
+ * O, outside, on a voxel centre or on the surface (tetrahedra flat through O
+ * cover nothing). The ray method classifies a centre on the surface as the
+ * point moved by e along u and then (e, e^2) in (v,w) (design.md), which is
+ * the same P': the two methods agree bit for bit, and a box [lo,hi] holds
+ * exactly the centres with lo <= c < hi. Degenerate triangles give flat
+ * tetrahedra and cover nothing, as they give no crossing in the ray method.
+ * Self-intersecting or overlapping shells: the result is the parity of the
+ * number of shells around the centre (inside an odd number of them), as
+ * for the ray method.
+ *
+ * Limits: with rounding (non-dyadic input), F can be wrong for points
+ * within about 1e-11 voxel of a plane; the shared-face consistency still
+ * holds, so only such points can be misclassified. The ray method computes
+ * its crossings in double too, so the two methods agree bit for bit on
+ * every test (tests/test_tetra.c compares every voxel, no tolerance). The
+ * kernels need cl_khr_fp64; without it prepare fails with
+ * CLVOX_ERR_NO_DEVICE. */
+#include "core/internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Slices of one tetrahedron per task: enough work per task to amortise its
+ * set-up, small enough to balance long and short tetrahedra. */
+#define DEFAULT_SLICES_PER_TASK 32u
+/* Same margin as CLVOX_TETRA_MARGIN in kernels/tetra.cl (voxel units). */
+#define BIN_MARGIN 1e-3
+
+struct clvox__method_state {
+    clvox_context *ctx;
+    clvox_grid grid;
+    clvox_tetra_origin origin_kind;
+    double origin[3];    /* world */
+    float origin_g[3];   /* grid space */
+    clvox_axis tie_axis; /* X, Y or Z (resolved) */
+    cl_uint tie_order;   /* axes u | v << 2 | w << 4 */
+    size_t tri_count;    /* tetrahedra kept (those that meet the grid), in Morton order */
+    int32_t *klo, *khi;  /* slices of each tetrahedron */
+    uint32_t slices_per_task;
+    uint32_t words_per_row;
+    cl_uint *tasks_host; /* 4 per task */
+    size_t task_cap;     /* tasks the host and device buffers hold */
+    cl_mem soup, tasks, filled; /* the presence bits live in the driver's slab buffer */
+    cl_kernel k_raster, k_resolve;
+    int (*poll)(void *, double); /* clvox__run.poll */
+    void *poll_user;
+};
+
+/* Target duration of one raster chunk between polls (seconds). */
+#define RASTER_CHUNK_SECONDS 0.15
+
+static void tetra_release(clvox__method_state *s)
+{
+    if (!s) return;
+    clvox__release_mem(&s->soup);
+    clvox__release_mem(&s->tasks);
+    clvox__release_mem(&s->filled);
+    if (s->k_raster) clReleaseKernel(s->k_raster);
+    if (s->k_resolve) clReleaseKernel(s->k_resolve);
+    free(s->klo);
+    free(s->khi);
+    free(s->tasks_host);
+    free(s);
+}
+
+/* O in world coordinates (the mesh's vertices are relative to mesh->offset). */
+static clvox_status choose_origin(clvox_context *ctx, const clvox_mesh *mesh, const clvox_voxelize_options *opts,
+                                  double o[3])
+{
+    const float *v = mesh->xyz;
+    const uint32_t *t = mesh->tris;
+    size_t nt = mesh->triangle_count;
+    if (opts->tetra_origin == CLVOX_TETRA_ORIGIN_POINT) {
+        for (int a = 0; a < 3; a++) {
+            if (!isfinite(opts->tetra_point[a]))
+                return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "tetra_point is not finite");
+            o[a] = opts->tetra_point[a];
+        }
+        return CLVOX_OK;
+    }
+    if (opts->tetra_origin == CLVOX_TETRA_ORIGIN_BBOX_CENTER) {
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (size_t i = 0; i < 3 * nt; i++)
+            for (int a = 0; a < 3; a++) {
+                double x = v[(size_t)t[i] * 3 + a];
+                if (x < lo[a]) lo[a] = x;
+                if (x > hi[a]) hi[a] = x;
+            }
+        for (int a = 0; a < 3; a++) o[a] = 0.5 * (lo[a] + hi[a]) + mesh->offset[a];
+        return CLVOX_OK;
+    }
+    if (opts->tetra_origin != CLVOX_TETRA_ORIGIN_CENTROID)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "unknown tetra origin %d", (int)opts->tetra_origin);
+    /* Area-weighted centroid of the surface; the corner mean if it has no area. */
+    double sum[3] = {0, 0, 0}, mean[3] = {0, 0, 0}, area = 0;
+    for (size_t i = 0; i < nt; i++) {
+        const float *p = v + (size_t)t[3 * i] * 3, *q = v + (size_t)t[3 * i + 1] * 3, *r = v + (size_t)t[3 * i + 2] * 3;
+        double u[3], w[3];
+        for (int a = 0; a < 3; a++) {
+            u[a] = (double)q[a] - p[a];
+            w[a] = (double)r[a] - p[a];
+        }
+        double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2], cz = u[0] * w[1] - u[1] * w[0];
+        double ar = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+        area += ar;
+        for (int a = 0; a < 3; a++) {
+            double c = ((double)p[a] + q[a] + r[a]) / 3.0;
+            sum[a] += ar * c;
+            mean[a] += c;
+        }
+    }
+    for (int a = 0; a < 3; a++) o[a] = (area > 0 ? sum[a] / area : mean[a] / (double)nt) + mesh->offset[a];
+    return CLVOX_OK;
+}
+
+/* 10 bits of x spread to every third bit. */
+static uint32_t spread3(uint32_t x)
+{
+    x &= 0x3FF;
+    x = (x | x << 16) & 0x030000FF;
+    x = (x | x << 8) & 0x0300F00F;
+    x = (x | x << 4) & 0x030C30C3;
+    x = (x | x << 2) & 0x09249249;
+    return x;
+}
+
+/* Keeps the tetrahedra that meet the grid (klo <= khi) and sorts them by
+ * the Morton code of their triangle's centroid (grid space), so that tasks
+ * run together read nearby triangles and touch nearby rows of presence
+ * bits: *soup, klo, khi and tri_count are replaced. Stable LSD radix sort,
+ * 2 x 15 bits. */
+static clvox_status sort_tetrahedra(clvox__method_state *s, float **soup)
+{
+    size_t n = 0, nt = s->tri_count;
+    for (size_t i = 0; i < nt; i++) n += s->klo[i] <= s->khi[i];
+    size_t cap = n ? n : 1;
+    uint32_t *key = malloc(cap * sizeof *key), *idx = malloc(cap * sizeof *idx);
+    uint32_t *key2 = malloc(cap * sizeof *key2), *idx2 = malloc(cap * sizeof *idx2);
+    uint32_t *cnt = calloc(1u << 15, sizeof *cnt);
+    float *out = malloc(cap * 9 * sizeof *out);
+    int32_t *klo = malloc(cap * sizeof *klo), *khi = malloc(cap * sizeof *khi);
+    clvox_status st = CLVOX_OK;
+    if (!key || !idx || !key2 || !idx2 || !cnt || !out || !klo || !khi) {
+        st = clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory sorting %zu tetrahedra", n);
+        goto done;
+    }
+    double scale[3];
+    for (int a = 0; a < 3; a++) scale[a] = 1023.0 / (s->grid.dims[a] > 1 ? s->grid.dims[a] - 1 : 1);
+    n = 0;
+    for (size_t i = 0; i < nt; i++) {
+        if (s->klo[i] > s->khi[i]) continue;
+        const float *t = *soup + i * 9;
+        uint32_t code = 0;
+        for (int a = 0; a < 3; a++) {
+            double c = ((double)t[a] + t[3 + a] + t[6 + a]) / 3.0 * scale[a];
+            code |= spread3((uint32_t)(c < 0 ? 0 : c > 1023 ? 1023 : c)) << a;
+        }
+        key[n] = code;
+        idx[n++] = (uint32_t)i;
+    }
+    for (int pass = 0; pass < 2; pass++) {
+        memset(cnt, 0, (1u << 15) * sizeof *cnt);
+        for (size_t i = 0; i < n; i++) cnt[(key[i] >> (15 * pass)) & 0x7FFF]++;
+        uint32_t sum = 0;
+        for (uint32_t b = 0; b < 1u << 15; b++) {
+            uint32_t c = cnt[b];
+            cnt[b] = sum;
+            sum += c;
+        }
+        for (size_t i = 0; i < n; i++) {
+            uint32_t d = cnt[(key[i] >> (15 * pass)) & 0x7FFF]++;
+            key2[d] = key[i];
+            idx2[d] = idx[i];
+        }
+        uint32_t *t = key;
+        key = key2;
+        key2 = t;
+        t = idx;
+        idx = idx2;
+        idx2 = t;
+    }
+    for (size_t i = 0; i < n; i++) {
+        memcpy(out + i * 9, *soup + (size_t)idx[i] * 9, 9 * sizeof *out);
+        klo[i] = s->klo[idx[i]];
+        khi[i] = s->khi[idx[i]];
+    }
+    free(*soup);
+    *soup = out;
+    out = NULL;
+    free(s->klo);
+    free(s->khi);
+    s->klo = klo;
+    s->khi = khi;
+    klo = khi = NULL;
+    s->tri_count = n;
+done:
+    free(key);
+    free(idx);
+    free(key2);
+    free(idx2);
+    free(cnt);
+    free(out);
+    free(klo);
+    free(khi);
+    return st;
+}
+
+static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                  const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
+                                  clvox_stats *stats, clvox__method_state **out)
+{
+    /* occupancy only: the driver refuses coverage for tetra */
+    (void)slab_depth; /* per-slab memory is the driver's slab buffer */
+    *out = NULL;
+    clvox__method_state *s = calloc(1, sizeof *s);
+    if (!s) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    s->ctx = ctx;
+    s->poll = run->poll;
+    s->poll_user = run->poll_user;
+    s->grid = *grid;
+    s->origin_kind = opts->tetra_origin;
+    s->tri_count = mesh->triangle_count;
+    s->slices_per_task = DEFAULT_SLICES_PER_TASK;
+    s->tie_axis = opts->ray_axis == CLVOX_AXIS_DEFAULT ? CLVOX_AXIS_X : opts->ray_axis;
+    clvox__axes tie = clvox__axes_for(s->tie_axis);
+    s->tie_order = (cl_uint)(tie.perm[0] | tie.perm[1] << 2 | tie.perm[2] << 4);
+    const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
+    s->words_per_row = (X + 31) / 32;
+
+    double t0 = clvox__now();
+    clvox_status st = choose_origin(ctx, mesh, opts, s->origin);
+    for (int a = 0; st == CLVOX_OK && a < 3; a++) {
+        double g = (s->origin[a] - grid->origin[a]) / grid->voxel_size[a] - 0.5;
+        s->origin_g[a] = (float)g;
+        if (!isfinite(s->origin_g[a]))
+            st = clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "tetra origin %g on axis %c is out of range",
+                             s->origin[a], "xyz"[a]);
+    }
+    float *soup = NULL;
+    if (st == CLVOX_OK) st = clvox__grid_space_soup(ctx, mesh, grid, clvox__axes_for(CLVOX_AXIS_X), &soup);
+    if (st == CLVOX_OK) {
+        s->klo = malloc((s->tri_count ? s->tri_count : 1) * sizeof *s->klo);
+        s->khi = malloc((s->tri_count ? s->tri_count : 1) * sizeof *s->khi);
+        if (!s->klo || !s->khi) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for tetrahedra");
+    }
+    /* Slices each tetrahedron spans (closed range widened by the margin);
+     * tetrahedra that miss the grid's centres altogether are dropped. */
+    const double m = BIN_MARGIN;
+    const double lim[3] = {(double)X - 1, (double)Y - 1, (double)Z - 1};
+    for (size_t i = 0; st == CLVOX_OK && i < s->tri_count; i++) {
+        double lo[3], hi[3];
+        for (int a = 0; a < 3; a++) lo[a] = hi[a] = s->origin_g[a];
+        for (int c = 0; c < 3; c++)
+            for (int a = 0; a < 3; a++) {
+                double x = soup[i * 9 + c * 3 + a];
+                if (x < lo[a]) lo[a] = x;
+                if (x > hi[a]) hi[a] = x;
+            }
+        int miss = 0;
+        for (int a = 0; a < 3; a++) miss |= hi[a] + m < 0 || lo[a] - m > lim[a];
+        if (miss) {
+            s->klo[i] = 1;
+            s->khi[i] = 0;
+            continue;
+        }
+        double kl = ceil(lo[2] - m), kh = floor(hi[2] + m);
+        s->klo[i] = (int32_t)(kl < 0 ? 0 : kl);
+        s->khi[i] = (int32_t)(kh > lim[2] ? lim[2] : kh);
+    }
+    if (st == CLVOX_OK) st = sort_tetrahedra(s, &soup);
+    cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
+    if (st == CLVOX_OK) s->soup = clvox__buffer(ctx, ro, s->tri_count * 9 * sizeof(float), soup, &st, "triangles");
+    free(soup);
+    if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
+
+    if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
+    if (st == CLVOX_OK) {
+        cl_int err;
+        s->k_raster = clCreateKernel(ctx->program, "clvox_tetra_raster", &err);
+        if (err == CL_INVALID_KERNEL_NAME)
+            st = clvox__need_fp64(ctx, "method tetra");
+        else if (err != CL_SUCCESS)
+            st = clvox__cl_fail(ctx, err, "clCreateKernel(clvox_tetra_raster)");
+    }
+    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_tetra_resolve", &s->k_resolve);
+    if (stats) {
+        uint64_t b = (uint64_t)s->tri_count * (9 * 4 + 8); /* + the slab's bits, counted by the driver */
+        if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;
+    }
+    if (st != CLVOX_OK) {
+        tetra_release(s);
+        return st;
+    }
+    *out = s;
+    return CLVOX_OK;
+}
+
+/* The slab's tasks into tasks_host; grows the host and device buffers. */
+static clvox_status push_task(clvox__method_state *s, size_t *n, size_t tri, int32_t k, int32_t end)
+{
+    if (*n == s->task_cap) {
+        size_t cap = s->task_cap ? 2 * s->task_cap : 4096;
+        cl_uint *p = realloc(s->tasks_host, cap * 4 * sizeof *p);
+        if (!p) return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu tasks", cap);
+        s->tasks_host = p;
+        s->task_cap = cap;
+        clvox__release_mem(&s->tasks); /* re-created at the new size */
+    }
+    cl_uint *q = s->tasks_host + 4 * (*n)++;
+    q[0] = (cl_uint)tri;
+    q[1] = (cl_uint)k;
+    q[2] = (cl_uint)end;
+    q[3] = 0;
+    return CLVOX_OK;
+}
+
+/* The slab's tasks into tasks_host, chunk of slices by chunk of slices (so
+ * that tasks run together touch the same few slices of presence bits);
+ * grows the host and device buffers. */
+static clvox_status bin_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, size_t *count)
+{
+    const int32_t per = (int32_t)s->slices_per_task;
+    size_t n = 0;
+    for (int32_t c0 = (int32_t)z0; c0 < (int32_t)(z0 + nz); c0 += per) {
+        int32_t c1 = c0 + per - 1 < (int32_t)(z0 + nz) - 1 ? c0 + per - 1 : (int32_t)(z0 + nz) - 1;
+        for (size_t i = 0; i < s->tri_count; i++) {
+            int32_t a = s->klo[i] > c0 ? s->klo[i] : c0;
+            int32_t b = s->khi[i] < c1 ? s->khi[i] : c1;
+            if (a > b) continue;
+            clvox_status st = push_task(s, &n, i, a, b + 1);
+            if (st != CLVOX_OK) return st;
+        }
+    }
+    *count = n;
+    if (!s->tasks && s->task_cap) {
+        clvox_status st = CLVOX_OK;
+        s->tasks = clvox__buffer(s->ctx, CL_MEM_READ_ONLY, s->task_cap * 4 * sizeof(cl_uint), NULL, &st, "tasks");
+        if (st != CLVOX_OK) return st;
+    }
+    return CLVOX_OK;
+}
+
+static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, const clvox__slab_out *planes,
+                               clvox__slab_stats *ss)
+{
+    cl_mem out = planes->occupancy;
+    clvox_context *ctx = s->ctx;
+    const cl_uint X = s->grid.dims[0], Y = s->grid.dims[1], W = s->words_per_row;
+    double t0 = clvox__now();
+    size_t n = 0;
+    clvox_status st = bin_slab(s, z0, nz, &n);
+    if (st != CLVOX_OK) return st;
+    if (n > UINT32_MAX) return clvox__fail(ctx, CLVOX_ERR_INTERNAL, "%zu tasks in one slab", n);
+    double t_bin = clvox__now() - t0;
+
+    enum { EV_TASKS, EV_CLEAR, EV_ZERO, EV_RASTER, EV_RESOLVE, EV_COUNT };
+    cl_event ev[EV_COUNT] = {0};
+    cl_int err = CL_SUCCESS;
+    cl_uint zero = 0, filled = 0, count = (cl_uint)n;
+    size_t words = (size_t)W * Y * nz;
+    if (n) {
+        err = clEnqueueWriteBuffer(ctx->queue, s->tasks, CL_FALSE, 0, n * 4 * sizeof(cl_uint), s->tasks_host, 0,
+                                   NULL, &ev[EV_TASKS]);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "uploading tetra tasks");
+    }
+    if (st == CLVOX_OK) {
+        err = clEnqueueFillBuffer(ctx->queue, out, &zero, sizeof zero, 0, words * sizeof(cl_uint), 0, NULL,
+                                  &ev[EV_CLEAR]);
+        if (err == CL_SUCCESS)
+            err = clEnqueueFillBuffer(ctx->queue, s->filled, &zero, sizeof zero, 0, sizeof zero, 0, NULL,
+                                      &ev[EV_ZERO]);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the presence bits");
+    }
+    if (st == CLVOX_OK && n) {
+        cl_uint tie = s->tie_order;
+        cl_float ox = s->origin_g[0], oy = s->origin_g[1], oz = s->origin_g[2];
+        cl_uint i = 0;
+        err = 0;
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &s->soup);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &s->tasks);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &count);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &ox);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &oy);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &oz);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &tie);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &z0);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &X);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &Y);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &W);
+        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &out);
+        if (err != CL_SUCCESS) {
+            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_raster)");
+        } else {
+            /* Chunks of tasks, sized to take about RASTER_CHUNK_SECONDS each
+             * (the first is 1024 tasks, then sized from its time), with
+             * the driver polled between them: a slab of huge or coincident
+             * tetrahedra stays cancellable. */
+            const size_t local = 64;
+            size_t off = 0, chunk = n < 1024 ? n : 1024;
+            double raster = 0;
+            while (st == CLVOX_OK && off < n) {
+                size_t k = n - off < chunk ? n - off : chunk;
+                size_t global = (k + local - 1) / local * local, goff = off;
+                cl_event e = NULL;
+                double c0 = clvox__now();
+                err = clEnqueueNDRangeKernel(ctx->queue, s->k_raster, 1, &goff, &global, &local, 0, NULL, &e);
+                if (err != CL_SUCCESS) {
+                    st = clvox__cl_fail(ctx, err, "enqueue clvox_tetra_raster");
+                    break;
+                }
+                off += k;
+                if (off < n) { /* wait, adapt the chunk, ask whether to go on */
+                    err = clWaitForEvents(1, &e);
+                    if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running clvox_tetra_raster");
+                    double dt = clvox__now() - c0;
+                    raster += clvox__event_seconds(e);
+                    clReleaseEvent(e);
+                    double want = dt > 0 ? (double)chunk * RASTER_CHUNK_SECONDS / dt : (double)n;
+                    chunk = want < 256 ? 256 : want > (double)n ? n : (size_t)want;
+                    chunk = (chunk + local - 1) / local * local;
+                    if (st == CLVOX_OK && s->poll && !s->poll(s->poll_user, (double)off / (double)n))
+                        st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", z0);
+                } else {
+                    ev[EV_RASTER] = e; /* timed with the others below */
+                }
+            }
+            ss->classify_seconds += raster;
+        }
+    }
+    if (st == CLVOX_OK) {
+        cl_uint rows = Y * nz, i = 0;
+        err = 0;
+        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &out);
+        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &W);
+        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &X);
+        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &rows);
+        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &s->filled);
+        if (err != CL_SUCCESS) {
+            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_resolve)");
+        } else {
+            size_t local = 64, global = ((size_t)rows + local - 1) / local * local;
+            err = clEnqueueNDRangeKernel(ctx->queue, s->k_resolve, 1, NULL, &global, &local, 0, NULL,
+                                         &ev[EV_RESOLVE]);
+            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "enqueue clvox_tetra_resolve");
+        }
+    }
+    if (st == CLVOX_OK) {
+        err = clEnqueueReadBuffer(ctx->queue, s->filled, CL_TRUE, 0, sizeof filled, &filled, 0, NULL, NULL);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the tetra kernels");
+    }
+    if (st == CLVOX_OK) {
+        ss->filled += filled;
+        ss->cast_seconds += t_bin + clvox__event_seconds(ev[EV_TASKS]) + clvox__event_seconds(ev[EV_CLEAR]) +
+                            clvox__event_seconds(ev[EV_ZERO]);
+        ss->classify_seconds += clvox__event_seconds(ev[EV_RASTER]) + clvox__event_seconds(ev[EV_RESOLVE]);
+    } else {
+        clFinish(ctx->queue); /* the host task array must outlive the upload */
+    }
+    for (int i = 0; i < EV_COUNT; i++)
+        if (ev[i]) clReleaseEvent(ev[i]);
+    return st;
+}
+
+static void tetra_describe(const clvox__method_state *s, char *buf, size_t size)
+{
+    static const char *kind[] = {"centroid", "bbox_center", "point"};
+    const char *k = (unsigned)s->origin_kind < 3 ? kind[s->origin_kind] : "?";
+    clvox__axes t = clvox__axes_for(s->tie_axis);
+    snprintf(buf, size, "origin=%s(%.9g,%.9g,%.9g)%s slices_per_task=%u tie=+%c>+%c>+%c rule=centre-on-surface:+x+y+z",
+             k, s->origin[0], s->origin[1], s->origin[2],
+             s->origin_kind == CLVOX_TETRA_ORIGIN_CENTROID ? " centroid=area-weighted-surface" : "",
+             s->slices_per_task, "xyz"[t.perm[0]], "xyz"[t.perm[1]], "xyz"[t.perm[2]]);
+}
+
+const clvox__method clvox__method_tetra = {"tetra", tetra_prepare, tetra_slab, tetra_release, tetra_describe};

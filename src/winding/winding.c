@@ -1,0 +1,417 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Winding numbers, host side (docs/design.md "Winding numbers"): the caps
+ * that close the prepared surface's holes, the cap tree the consumers
+ * refine near the caps and the rims' tree for the derivative bounds
+ * (kernels/winding.h). The cast's indexed triangles over surface + caps are
+ * made in src/cast/cast.c (winding_indexed). */
+#include "winding.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define CAP_LEAF 4 /* cap triangles per leaf */
+
+typedef struct cap_key {
+    double key;
+    uint32_t index;
+} cap_key;
+
+static int cmp_cap_key(const void *pa, const void *pb)
+{
+    const cap_key *a = pa, *b = pb;
+    if (a->key != b->key) return a->key < b->key ? -1 : 1;
+    return a->index < b->index ? -1 : a->index > b->index;
+}
+
+static float round_down(double x)
+{
+    float f = (float)x;
+    return (double)f > x ? nextafterf(f, -INFINITY) : f;
+}
+
+static float round_up(double x)
+{
+    float f = (float)x;
+    return (double)f < x ? nextafterf(f, INFINITY) : f;
+}
+
+void clvox__caps_release(clvox__caps *c)
+{
+    clvox__release_mem(&c->nodes);
+    clvox__release_mem(&c->tris);
+    clvox__release_mem(&c->h);
+    c->node_count = 0;
+    c->cap_count = 0;
+}
+
+#define FOUR_PI (4.0 * 3.14159265358979323846)
+
+/* Real i of a device array of doubles (rs 8) or floats (rs 4). */
+static void put_real(void *arr, size_t rs, size_t i, double v)
+{
+    if (rs == 8) ((double *)arr)[i] = v;
+    else ((float *)arr)[i] = (float)v;
+}
+
+/* The tree over n items of 9 scaled reals each (q, consumed): triangles,
+ * or with `segments` edges q[0..2] -> q[3..5] (q[6..8] = q[3..5]), whose
+ * "area" is their length. */
+static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, clvox__caps *out);
+
+clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,
+                                const clvox_grid *grid, clvox__caps *out)
+{
+    memset(out, 0, sizeof *out);
+    clvox_status st = CLVOX_OK;
+    double h3[3] = {grid->voxel_size[0], grid->voxel_size[1], grid->voxel_size[2]};
+    /* h is needed even without caps (the kernels take it) */
+    size_t rs = ctx->real_size;
+    {
+        double hb[3];
+        for (int a = 0; a < 3; a++) put_real(hb, rs, (size_t)a, h3[a]);
+        out->h = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 3 * rs, hb, &st, "voxel size");
+    }
+    if (st != CLVOX_OK || n == 0) {
+        if (st == CLVOX_OK) { /* bind something: the kernels read no node when node_count is 0 */
+            clvox_cap_node dummy;
+            memset(&dummy, 0, sizeof dummy);
+            out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof dummy, &dummy, &st,
+                                       "cap tree");
+            if (st == CLVOX_OK) out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY, 9 * rs, NULL, &st, "caps");
+        }
+        if (st != CLVOX_OK) clvox__caps_release(out);
+        return st;
+    }
+    if (n > UINT32_MAX / 2) return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu cap triangles: too many", n);
+    /* Scaled x, y, z (grid coordinates times h): solid angles of the world. */
+    double *q = malloc(n * 9 * sizeof *q);
+    if (!q) {
+        clvox__caps_release(out);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap triangles", n);
+    }
+    for (size_t t = 0; t < n; t++)
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++) {
+                int a = axes.perm[k];
+                q[t * 9 + c * 3 + a] = (double)cap_soup[t * 9 + c * 3 + k] * h3[a];
+            }
+    return tree_upload(ctx, q, n, 0, out);
+}
+
+clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                const uint32_t *rim, size_t n, clvox__caps *out)
+{
+    memset(out, 0, sizeof *out);
+    if (n == 0) return CLVOX_OK;
+    if (n > UINT32_MAX / 2) return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu boundary edges: too many", n);
+    double *q = malloc(n * 9 * sizeof *q);
+    if (!q) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu boundary edges", n);
+    /* grid space (clvox__grid_coord, as the soup), times h */
+    for (size_t e = 0; e < n; e++)
+        for (int c = 0; c < 3; c++) {
+            const float *p = mesh->xyz + 3 * (size_t)rim[2 * e + (c ? 1 : 0)];
+            for (int a = 0; a < 3; a++) {
+                float g = clvox__grid_coord(p[a], grid->origin[a] - mesh->offset[a], grid->voxel_size[a]);
+                q[e * 9 + c * 3 + a] = (double)g * grid->voxel_size[a];
+            }
+        }
+    return tree_upload(ctx, q, n, 1, out);
+}
+
+static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, clvox__caps *out)
+{
+    clvox_status st = CLVOX_OK;
+    size_t rs = ctx->real_size;
+    cap_key *keys = malloc(n * sizeof *keys);
+    uint32_t *order = malloc(n * sizeof *order);
+    clvox_cap_node *nodes = malloc(2 * n * sizeof *nodes);
+    uint32_t *stack = malloc(2 * n * sizeof *stack);
+    void *tris = malloc(n * 9 * rs);
+    if (!keys || !order || !nodes || !stack || !tris) {
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n);
+        goto done;
+    }
+    for (size_t t = 0; t < n; t++) order[t] = (uint32_t)t;
+    /* Top-down median split on the longest axis of the centroids' box. */
+    size_t node_count = 1, sp = 0;
+    nodes[0].tri_first = 0;
+    nodes[0].tri_count = (uint32_t)n;
+    stack[sp++] = 0;
+    while (sp) {
+        clvox_cap_node *nd = &nodes[stack[--sp]];
+        uint32_t first = nd->tri_first, count = nd->tri_count;
+        double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+        double clo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, chi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+        double area = 0.0, vec[3] = {0, 0, 0};
+        for (uint32_t i = first; i < first + count; i++) {
+            const double *p = q + (size_t)order[i] * 9;
+            for (int a = 0; a < 3; a++) {
+                for (int c = 0; c < 3; c++) {
+                    if (p[c * 3 + a] < lo[a]) lo[a] = p[c * 3 + a];
+                    if (p[c * 3 + a] > hi[a]) hi[a] = p[c * 3 + a];
+                }
+                double m = (p[a] + p[3 + a] + p[6 + a]) / 3.0;
+                if (m < clo[a]) clo[a] = m;
+                if (m > chi[a]) chi[a] = m;
+            }
+            double e1[3], e2[3];
+            for (int a = 0; a < 3; a++) e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
+            if (segments) { /* the edge's length across each axis, in vec (area stays 0) */
+                for (int a = 0; a < 3; a++) {
+                    const double x1 = e1[(a + 1) % 3], x2 = e1[(a + 2) % 3];
+                    vec[a] += sqrt(x1 * x1 + x2 * x2);
+                }
+                continue;
+            }
+            double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+                   cz = e1[0] * e2[1] - e1[1] * e2[0];
+            area += 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+            vec[0] += 0.5 * cx, vec[1] += 0.5 * cy, vec[2] += 0.5 * cz;
+        }
+        for (int a = 0; a < 3; a++) {
+            nd->lo[a] = round_down(lo[a]);
+            nd->hi[a] = round_up(hi[a]);
+            nd->centre[a] = (float)(0.5 * (lo[a] + hi[a]));
+            /* rims: an upper bound (clvox_rim_box_bound) */
+            nd->normal4pi[a] = segments ? round_up(vec[a] / FOUR_PI * (1.0 + 1e-9)) : (float)(vec[a] / FOUR_PI);
+        }
+        /* the sphere, and the moments about the float centre c the kernels
+         * use (clvox_cap_node): per flat triangle (area A, vector area S,
+         * centroid g, corners v), M += S (g - c)^T exactly and the second
+         * moment is A (|g - c|^2 + sum |v - g|^2 / 12) */
+        double r2 = 0.0, M[3][3] = {{0}}, second = 0.0;
+        const double cc[3] = {nd->centre[0], nd->centre[1], nd->centre[2]};
+        for (uint32_t i = first; i < first + count; i++) {
+            const double *p = q + (size_t)order[i] * 9;
+            for (int c = 0; c < 3; c++) {
+                double dx = p[c * 3] - cc[0], dy = p[c * 3 + 1] - cc[1], dz = p[c * 3 + 2] - cc[2];
+                double d2 = dx * dx + dy * dy + dz * dz;
+                if (d2 > r2) r2 = d2;
+            }
+            if (segments) continue;
+            double g[3], e1[3], e2[3], spread = 0.0, gc2 = 0.0;
+            for (int a = 0; a < 3; a++) {
+                g[a] = (p[a] + p[3 + a] + p[6 + a]) / 3.0;
+                e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
+                gc2 += (g[a] - cc[a]) * (g[a] - cc[a]);
+                for (int c = 0; c < 3; c++) spread += (p[c * 3 + a] - g[a]) * (p[c * 3 + a] - g[a]);
+            }
+            const double S[3] = {0.5 * (e1[1] * e2[2] - e1[2] * e2[1]), 0.5 * (e1[2] * e2[0] - e1[0] * e2[2]),
+                                 0.5 * (e1[0] * e2[1] - e1[1] * e2[0])};
+            const double A = sqrt(S[0] * S[0] + S[1] * S[1] + S[2] * S[2]);
+            second += A * (gc2 + spread / 12.0);
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++) M[a][b] += S[a] * (g[b] - cc[b]);
+        }
+        nd->radius = round_up(sqrt(r2) * (1.0 + 1e-9));
+        {
+            const double k = 1.0 / FOUR_PI;
+            const double tr = M[0][0] + M[1][1] + M[2][2];
+            const int ia[6] = {0, 1, 2, 0, 0, 1}, ib[6] = {0, 1, 2, 1, 2, 2};
+            for (int e = 0; e < 6; e++)
+                nd->quad4pi[e] = (float)(k * ((ia[e] == ib[e] ? tr : 0.0) - 1.5 * (M[ia[e]][ib[e]] + M[ib[e]][ia[e]])));
+            nd->second4pi = round_up(second * k * (1.0 + 1e-9));
+        }
+        nd->area4pi = round_up(area / FOUR_PI * (1.0 + 1e-9));
+        nd->half_count = round_up(0.5 * count);
+        nd->child = 0;
+        nd->block = 0;
+        if (count <= CAP_LEAF) continue;
+        int axis = 0;
+        for (int a = 1; a < 3; a++)
+            if (chi[a] - clo[a] > chi[axis] - clo[axis]) axis = a;
+        for (uint32_t i = 0; i < count; i++) {
+            const double *p = q + (size_t)order[first + i] * 9;
+            keys[i].key = p[axis] + p[3 + axis] + p[6 + axis];
+            keys[i].index = order[first + i];
+        }
+        qsort(keys, count, sizeof *keys, cmp_cap_key);
+        for (uint32_t i = 0; i < count; i++) order[first + i] = keys[i].index;
+        /* caps: the split falls on a multiple of CAP_LEAF, so that the
+         * leaves hold CAP_LEAF caps (one per vector lane, kernels/winding.h)
+         * but for at most one per node; rim edges: halves */
+        uint32_t half = count / 2;
+        if (!segments) {
+            uint32_t blocks = (count + CAP_LEAF - 1) / CAP_LEAF;
+            half = blocks / 2 * CAP_LEAF;
+        }
+        uint32_t c = (uint32_t)node_count;
+        node_count += 2;
+        nd->child = c;
+        nodes[c].tri_first = first;
+        nodes[c].tri_count = half;
+        nodes[c + 1].tri_first = first + half;
+        nodes[c + 1].tri_count = count - half;
+        stack[sp++] = c;
+        stack[sp++] = c + 1;
+    }
+    /* caps: after them, each leaf's caps again, lane-major (36 reals a
+     * leaf, clvox_cap_node.block), for the kernels' vector loads */
+    size_t leaves = 0, reals = n * 9;
+    if (!segments) {
+        for (size_t i = 0; i < node_count; i++) leaves += nodes[i].child == 0;
+        if (n * 9 + leaves * 36 <= UINT32_MAX) reals += leaves * 36;
+        else leaves = 0; /* too many for a u32 index: the kernels read the caps one by one */
+    }
+    if (reals > n * 9) {
+        void *t = realloc(tris, reals * rs);
+        if (!t) {
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n);
+            goto done;
+        }
+        tris = t;
+    }
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 9; k++) put_real(tris, rs, i * 9 + k, q[(size_t)order[i] * 9 + k]);
+    if (leaves) {
+        size_t at = n * 9;
+        for (size_t i = 0; i < node_count; i++) {
+            clvox_cap_node *nd = &nodes[i];
+            if (nd->child != 0) continue;
+            nd->block = (uint32_t)at;
+            for (int k = 0; k < 9; k++)
+                for (uint32_t l = 0; l < 4; l++) {
+                    uint32_t t = nd->tri_first + (l < nd->tri_count ? l : 0);
+                    put_real(tris, rs, at + 4 * (size_t)k + l, q[(size_t)order[t] * 9 + k]);
+                }
+            at += 36;
+        }
+    }
+    out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, node_count * sizeof *nodes, nodes, &st,
+                               "cap tree");
+    if (st == CLVOX_OK)
+        out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, reals * rs, tris, &st,
+                                  segments ? "boundary edges" : "caps");
+    out->node_count = (cl_uint)node_count;
+    out->cap_count = n;
+done:
+    free(q);
+    free(keys);
+    free(order);
+    free(nodes);
+    free(stack);
+    free(tris);
+    if (st != CLVOX_OK) clvox__caps_release(out);
+    return st;
+}
+
+/* ---- caps ---------------------------------------------------------------- */
+
+/* Caps of one loop (edges v[i] -> v[i+1], the last back to the first). A
+ * fan from one apex over a long loop would put every cap triangle near
+ * every point of the hole, so that each of them needs all of its solid
+ * angles; instead the loop is halved until at most 8 corners are left: each
+ * pass cuts off the triangles (v[2i+2], v[2i+1], v[2i]) -- thin slivers
+ * along the rim, where only points near the rim see them -- and keeps every
+ * other corner; the last polygon is closed by a fan from an apex at its
+ * centroid, moved off its plane by 0.0731 times its size (so that a flat
+ * hole's fan does not lie in a plane of voxel centres, where the centres
+ * on its spokes would be ties). Every new edge is cut off again by the next
+ * pass, so surface + caps stays a closed chain. */
+typedef struct cap_out {
+    uint32_t *tris;
+    size_t count, cap;
+    float *apex;
+    size_t apex_count, apex_cap;
+} cap_out;
+
+static int cap_emit(cap_out *o, uint32_t a, uint32_t b, uint32_t c)
+{
+    if (o->count == o->cap) {
+        size_t cap = o->cap * 2 + 64;
+        uint32_t *t = realloc(o->tris, cap * 3 * sizeof *t);
+        if (!t) return -1;
+        o->tris = t;
+        o->cap = cap;
+    }
+    o->tris[o->count * 3] = a;
+    o->tris[o->count * 3 + 1] = b;
+    o->tris[o->count * 3 + 2] = c;
+    o->count++;
+    return 0;
+}
+
+/* The apex's offset off the plane, in units of the polygon's size: 0.0731;
+ * CLVOX_CAP_APEX=F moves it (tests: the volume must not change). */
+static double apex_offset(void)
+{
+    const char *e = getenv("CLVOX_CAP_APEX");
+    char *end = NULL;
+    double f = e ? strtod(e, &end) : 0.0;
+    return e && end != e && isfinite(f) ? f : 0.0731;
+}
+
+static int cap_loop(const clvox_mesh *mesh, uint32_t *v, size_t n, double offset, cap_out *o)
+{
+    while (n > 8) {
+        size_t k = 0, i = 0;
+        for (; i + 2 <= n; i += 2) {
+            uint32_t a = v[i], b = v[i + 1], c = v[(i + 2) % n];
+            if (cap_emit(o, c, b, a) != 0) return -1;
+            v[k++] = a;
+        }
+        if (i < n) v[k++] = v[i]; /* odd n: the last corner stays */
+        n = k;
+    }
+    if (n < 3) return 0; /* a -> b -> a: the two edges cancel */
+    double c[3] = {0, 0, 0}, nrm[3] = {0, 0, 0}, ext = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) c[a] += mesh->xyz[3 * (size_t)v[i] + a] / (double)n;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = mesh->xyz + 3 * (size_t)v[i], *q = mesh->xyz + 3 * (size_t)v[(i + 1) % n];
+        double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]}, e[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+        nrm[0] += d[1] * e[2] - d[2] * e[1];
+        nrm[1] += d[2] * e[0] - d[0] * e[2];
+        nrm[2] += d[0] * e[1] - d[1] * e[0];
+        double r = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (r > ext) ext = r;
+    }
+    double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+    if (!(len > 0)) nrm[0] = 0.267, nrm[1] = 0.534, nrm[2] = 0.802, len = 1.0;
+    if (o->apex_count == o->apex_cap) {
+        size_t cap = o->apex_cap * 2 + 16;
+        float *t = realloc(o->apex, cap * 3 * sizeof *t);
+        if (!t) return -1;
+        o->apex = t;
+        o->apex_cap = cap;
+    }
+    uint32_t apex = (uint32_t)(mesh->vertex_count + o->apex_count);
+    for (int a = 0; a < 3; a++) o->apex[o->apex_count * 3 + a] = (float)(c[a] + offset * ext * nrm[a] / len);
+    o->apex_count++;
+    for (size_t i = 0; i < n; i++)
+        if (cap_emit(o, v[(i + 1) % n], v[i], apex) != 0) return -1;
+    return 0;
+}
+
+clvox_status clvox__winding_cap_loops(clvox_context *ctx, const clvox_mesh *mesh, uint32_t *verts,
+                                      const size_t *start, size_t loops, clvox__winding_mesh *wm)
+{
+    cap_out o = {wm->caps, wm->cap_count, wm->cap_count, wm->apex, wm->apex_count, wm->apex_count};
+    int rc = 0;
+    /* the rims (the loops' edges) bound the winding number's derivatives */
+    size_t edges = start[loops];
+    uint32_t *rim = realloc(wm->rim, (wm->rim_count + edges) * 2 * sizeof *rim + 1);
+    if (!rim) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu boundary edges", edges);
+    wm->rim = rim;
+    for (size_t k = 0; k < loops; k++)
+        for (size_t i = start[k]; i < start[k + 1]; i++) {
+            rim[2 * wm->rim_count] = verts[i];
+            rim[2 * wm->rim_count + 1] = verts[i + 1 < start[k + 1] ? i + 1 : start[k]];
+            wm->rim_count++;
+        }
+    const double offset = apex_offset();
+    for (size_t k = 0; rc == 0 && k < loops; k++)
+        rc = cap_loop(mesh, verts + start[k], start[k + 1] - start[k], offset, &o);
+    wm->caps = o.tris;
+    wm->cap_count = o.count;
+    wm->apex = o.apex;
+    wm->apex_count = o.apex_count;
+    wm->report.holes += loops;
+    wm->report.cap_triangles = o.count;
+    if (rc != 0) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for the caps of %zu holes", loops);
+    if (mesh->vertex_count + wm->apex_count > UINT32_MAX)
+        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "too many vertices with the caps' apexes");
+    return CLVOX_OK;
+}

@@ -1,0 +1,52 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Winding numbers, host side (src/winding/winding.c, src/winding/winding_prep.c). */
+#ifndef CLVOX_WINDING_H
+#define CLVOX_WINDING_H
+#include "core/internal.h"
+
+/* The cap tree on the device (kernels/winding.h): nodes, the cap triangles
+ * in its leaf order as scaled x, y, z reals, and the voxel size h (3 reals,
+ * always set). node_count 0: no caps. */
+typedef struct clvox__caps {
+    cl_mem nodes, tris, h;
+    cl_uint node_count;
+    size_t cap_count;
+} clvox__caps;
+
+/* cap_soup: n cap triangles of the cast's soup (grid space, u,v,w order). */
+clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,
+                                const clvox_grid *grid, clvox__caps *out);
+void clvox__caps_release(clvox__caps *c);
+/* The rims' tree: n boundary edges (rim, 2 vertex indices each) in scaled
+ * grid space, area4pi = length / 4pi (kernels/winding.h clvox_rim_bound);
+ * tris holds the edges in leaf order, 9 reals each (end, start, start). */
+clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                const uint32_t *rim, size_t n, clvox__caps *out);
+#endif
+
+/* clvox__winding_prepare with flags. CLVOX__PREP_BORROW: out->tris is left
+ * NULL when the prepared triangles are the mesh's own, index for index (no
+ * vertex merged or welded, no triangle dropped or flipped; caps and the
+ * report as always); clvox__winding_mesh_own_tris then makes the copy. */
+#define CLVOX__PREP_BORROW 1u
+clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *mesh, double weld, unsigned flags,
+                                          clvox__winding_mesh *out);
+clvox_status clvox__winding_mesh_own_tris(clvox_context *ctx, const clvox_mesh *mesh, clvox__winding_mesh *w);
+
+/* The preparation ahead (clvox_mesh_prepare_winding): a borrowing
+ * (CLVOX__PREP_BORROW) preparation on its own host thread, held by the
+ * mesh. clvox__winding_prepare_or_take is clvox__winding_prepare_flags for
+ * the cast: it waits for the mesh's preparation ahead, if any, and takes it
+ * when it was for `weld` (its status, its message in ctx; a copy of the
+ * triangles it borrowed unless flags has CLVOX__PREP_BORROW), else drops it
+ * and prepares. clvox__prep_ahead_drop waits for it and frees it
+ * (clvox_mesh_destroy). */
+clvox_status clvox__winding_prepare_or_take(clvox_context *ctx, const clvox_mesh *mesh, double weld, unsigned flags,
+                                            clvox__winding_mesh *out);
+void clvox__prep_ahead_drop(clvox_mesh *mesh);
+/* Closes boundary loops with caps (src/winding/winding.c, "caps"): loop k is the
+ * vertices verts[start[k] .. start[k+1]) (edges v[i] -> v[i+1], the last
+ * back to the first; the array is used as scratch). Appends to wm->caps and
+ * wm->apex, adds to report.holes, sets report.cap_triangles. */
+clvox_status clvox__winding_cap_loops(clvox_context *ctx, const clvox_mesh *mesh, uint32_t *verts,
+                                      const size_t *start, size_t loops, clvox__winding_mesh *wm);

@@ -5,7 +5,7 @@
 # the cast's speculation, the EXR writer's encoders, the winding
 # preparation started ahead (clvox_mesh_prepare_winding), `clvox instances`'
 # scorer and `clvox batch` loading the next mesh ahead (src/cli/cli_batch.c) --
-# batch runs to the end, cut short by SIGINT and with --skip-existing. Every
+# batch runs to the end, cut short by SIGTERM and with --skip-existing. Every
 # process writes its reports to build/tsan/reports.*; a check passes when it
 # exits as expected and no report appeared. Not part of `make test` (about
 # 25 minutes on 2 cores).
@@ -46,11 +46,13 @@ out="$CLVOX_TEST_TMP/batch"
 rm -rf "$out" && mkdir -p "$out"
 check batch-all 0 "$CLVOX_BIN" batch --dir data/meshes -r 32 -o "$out/{n}.exr" -q --json
 rm -rf "$out" && mkdir -p "$out"
-cut_short() { # a batch cut short by SIGINT: exit 130, no temporary file left
+# SIGTERM, not SIGINT: a background job of a non-interactive shell inherits
+# SIGINT ignored, and clvox keeps an inherited SIG_IGN (so that nohup works).
+cut_short() { # a batch cut short by SIGTERM: exit 130, no temporary file left
   "$CLVOX_BIN" batch --dir data/meshes -r 96 -o "$out/{n}.exr" -q &
   local pid=$!
   sleep 4
-  kill -INT "$pid"
+  kill -TERM "$pid"
   wait "$pid"
   local rc=$?
   [ -z "$(find "$out" -type f ! -name '*.exr')" ] || return 99

@@ -8,6 +8,7 @@
  * kept below as the reference), on generated meshes and the CGAL meshes, at
  * several grids, ray axes, depths and leaf sizes. */
 #include "test.h"
+#include "core/environment.h"
 #include "meshgen.h"
 #include "core/internal.h"
 
@@ -293,7 +294,9 @@ int main(void)
     /* The memory-lean paths of the quadtree build start at 2^16 triangles
      * here (the default is 2^20), so that the generated meshes reach them;
      * every other test runs the default, and the tree is the same. */
-    if (!getenv("CLVOX_PARTITION_LEAN_BITS")) setenv("CLVOX_PARTITION_LEAN_BITS", "16", 1);
+    clvox__test_hooks hooks = *clvox__hooks();
+    if (!hooks.partition_lean_bits) hooks.partition_lean_bits = 16;
+    clvox__set_test_hooks(&hooks);
     clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
     o.host_only = 1;
     CHECK_OK(NULL, clvox_context_create(&o, &tctx));

@@ -282,8 +282,7 @@ static clvox_status build_program(clvox_context *ctx)
     /* Correctly rounded division keeps device results equal to the CPU
      * reference. CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device
      * without fp64 (a developer's check of the float path on PoCL). */
-    const char *f = getenv("CLVOX_KERNEL_FLOAT");
-    ctx->kernels_float = f && strcmp(f, "1") == 0;
+    ctx->kernels_float = clvox__hooks()->kernels_float;
     const char *opts = ctx->kernels_float ? "-cl-fp32-correctly-rounded-divide-sqrt -DCLVOX_NO_FP64"
                                           : "-cl-fp32-correctly-rounded-divide-sqrt";
     if ((ctx->program = clvox__program_cache_load(ctx, opts)) != NULL) {
@@ -357,7 +356,7 @@ clvox_status clvox_context_create(const clvox_context_options *options, clvox_co
     if (o.host_only) return CLVOX_OK;
 
     const char *sel = o.device;
-    if (!sel || !*sel) sel = getenv("CLVOX_DEVICE");
+    if (!sel || !*sel) sel = clvox__setting_value(CLVOX__ENV_DEVICE);
 
     device_entry *list;
     size_t n, pick = 0;

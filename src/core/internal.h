@@ -11,6 +11,7 @@
 #include "clvox.h"
 #include "../../kernels/clvox_types.h"
 #include "../../kernels/palette.h"
+#include "environment.h"
 
 #ifdef __cplusplus
 extern "C" {

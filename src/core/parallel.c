@@ -2,18 +2,16 @@
 /* Host threads (parallel.h): a fork/join of n parts, one pthread each. */
 #include "parallel.h"
 
+#include "environment.h"
+
 #include <pthread.h>
 #include <stdlib.h>
 #include <unistd.h>
 
 int clvox__host_threads(void)
 {
-    const char *e = getenv("CLVOX_HOST_THREADS");
-    if (e && *e) {
-        char *end;
-        long v = strtol(e, &end, 10);
-        if (!*end && v >= 1) return v > CLVOX__MAX_HOST_THREADS ? CLVOX__MAX_HOST_THREADS : (int)v;
-    }
+    int v = clvox__hooks()->host_threads;
+    if (v >= 1) return v > CLVOX__MAX_HOST_THREADS ? CLVOX__MAX_HOST_THREADS : v;
     long n = sysconf(_SC_NPROCESSORS_ONLN);
     if (n < 1) n = 1;
     return n > 8 ? 8 : (int)n;

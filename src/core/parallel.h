@@ -8,7 +8,7 @@
 /* Upper bound on host threads: past it the passes are memory bound. */
 #define CLVOX__MAX_HOST_THREADS 16
 
-/* The number of host threads to use: $CLVOX_HOST_THREADS when set (1..16;
+/* The number of host threads to use: CLVOX_HOST_THREADS when set (1..16, environment.h;
  * for benchmarks and tests), else the online cores, at most 8. */
 int clvox__host_threads(void);
 

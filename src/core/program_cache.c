@@ -81,14 +81,14 @@ static void hex(char *out, const unsigned char *b, size_t n)
 /* The cache directory (made when missing); 0 when off or not usable. */
 static int cache_dir(char *dir, size_t size)
 {
-    const char *env = getenv("CLVOX_CACHE_DIR");
+    const char *env = clvox__setting_value(CLVOX__ENV_CACHE_DIR);
     int n;
     if (env && *env) {
         if (strcmp(env, "off") == 0 || strcmp(env, "0") == 0) return 0;
         n = snprintf(dir, size, "%s", env);
-    } else if ((env = getenv("XDG_CACHE_HOME")) && env[0] == '/') {
+    } else if ((env = clvox__setting_value(CLVOX__ENV_XDG_CACHE_HOME)) && env[0] == '/') {
         n = snprintf(dir, size, "%s/clvox", env);
-    } else if ((env = getenv("HOME")) && env[0] == '/') {
+    } else if ((env = clvox__setting_value(CLVOX__ENV_HOME)) && env[0] == '/') {
         char base[3000];
         if (snprintf(base, sizeof base, "%s/.cache", env) >= (int)sizeof base) return 0;
         if (mkdir(base, 0700) != 0 && errno != EEXIST) return 0;

@@ -74,18 +74,8 @@
  * tree is the same at any value. */
 static unsigned lean_bits(void)
 {
-    static unsigned bits; /* 0: not read yet (benign race: every thread reads the same value) */
-    if (bits == 0) {
-        unsigned b = 20;
-        const char *e = getenv("CLVOX_PARTITION_LEAN_BITS");
-        if (e && *e) {
-            char *end;
-            unsigned long v = strtoul(e, &end, 10);
-            if (*end == 0 && v >= 10 && v <= 24) b = (unsigned)v;
-        }
-        bits = b;
-    }
-    return bits;
+    unsigned bits = clvox__hooks()->partition_lean_bits;
+    return bits ? bits : 20;
 }
 /* In the skeleton: a node whose subtree is task `first`. */
 #define NODE_TASK 0xFFFFFFFEu

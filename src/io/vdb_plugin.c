@@ -102,7 +102,7 @@ static int try_beside(const char *path, int is_file)
 static void load_locked(void)
 {
     g_error[0] = 0;
-    const char *env = getenv("CLVOX_VDB_PLUGIN");
+    const char *env = clvox__setting_value(CLVOX__ENV_VDB_PLUGIN);
     if (env && *env) {
         if (!try_plugin(env) && !g_error[0]) snprintf(g_error, sizeof g_error, "CLVOX_VDB_PLUGIN=%s: no such file", env);
         return;

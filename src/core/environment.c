@@ -1,0 +1,74 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The environment, read in one place (environment.h). */
+#include "environment.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *clvox__setting_value(clvox__setting s)
+{
+    static const char *const names[] = {
+        [CLVOX__ENV_DEVICE] = "CLVOX_DEVICE",
+        [CLVOX__ENV_CACHE_DIR] = "CLVOX_CACHE_DIR",
+        [CLVOX__ENV_XDG_CACHE_HOME] = "XDG_CACHE_HOME",
+        [CLVOX__ENV_HOME] = "HOME",
+        [CLVOX__ENV_VDB_PLUGIN] = "CLVOX_VDB_PLUGIN",
+    };
+    if ((unsigned)s >= sizeof names / sizeof names[0]) return NULL;
+    return getenv(names[s]);
+}
+
+static int is(const char *name, const char *value)
+{
+    const char *e = getenv(name);
+    return e && strcmp(e, value) == 0;
+}
+
+/* An integer in [lo, hi], else 0. */
+static long in_range(const char *name, long lo, long hi)
+{
+    const char *e = getenv(name);
+    if (!e || !*e) return 0;
+    char *end;
+    long v = strtol(e, &end, 10);
+    return *end == 0 && v >= lo && v <= hi ? v : 0;
+}
+
+static clvox__test_hooks from_environment(void)
+{
+    clvox__test_hooks h = {0};
+    h.kernels_float = is("CLVOX_KERNEL_FLOAT", "1");
+    h.mesh_reader_openmesh = is("CLVOX_MESH_READER", "openmesh");
+    h.palette_no_masks = is("CLVOX_BENCH_NO_MASKS", "1");
+    h.partition_lean_bits = (unsigned)in_range("CLVOX_PARTITION_LEAN_BITS", 10, 24);
+    const char *apex = getenv("CLVOX_CAP_APEX");
+    if (apex) {
+        char *end;
+        double f = strtod(apex, &end);
+        if (end != apex && isfinite(f)) h.cap_apex_set = 1, h.cap_apex = f;
+    }
+    h.host_threads = (int)in_range("CLVOX_HOST_THREADS", 1, 1 << 20);
+    return h;
+}
+
+static clvox__test_hooks g_hooks;
+static pthread_once_t g_once = PTHREAD_ONCE_INIT;
+
+static void read_once(void)
+{
+    g_hooks = from_environment();
+}
+
+const clvox__test_hooks *clvox__hooks(void)
+{
+    pthread_once(&g_once, read_once);
+    return &g_hooks;
+}
+
+void clvox__set_test_hooks(const clvox__test_hooks *hooks)
+{
+    pthread_once(&g_once, read_once);
+    g_hooks = hooks ? *hooks : from_environment();
+}

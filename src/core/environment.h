@@ -1,0 +1,43 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The one place the library reads the environment (environment.c): the
+ * user's settings, read when they are used, and the switches for tests and
+ * benchmarks, read once into one struct that tests may also set directly.
+ * No other library file calls getenv. Internal. */
+#ifndef CLVOX_ENVIRONMENT_H
+#define CLVOX_ENVIRONMENT_H
+
+/* User settings (documented in docs/cli.md): read on every use, so that a
+ * program may change them between calls. */
+typedef enum clvox__setting {
+    CLVOX__ENV_DEVICE,         /* CLVOX_DEVICE: the default device selector */
+    CLVOX__ENV_CACHE_DIR,      /* CLVOX_CACHE_DIR: the kernel cache ("off": none) */
+    CLVOX__ENV_XDG_CACHE_HOME, /* XDG_CACHE_HOME: the cache's parent when the above is unset */
+    CLVOX__ENV_HOME,           /* HOME: ~/.cache otherwise */
+    CLVOX__ENV_VDB_PLUGIN      /* CLVOX_VDB_PLUGIN: the .vdb writer module to load */
+} clvox__setting;
+
+/* The setting's value, or NULL when unset. */
+const char *clvox__setting_value(clvox__setting s);
+
+/* Switches for tests and benchmarks, not user settings. Each changes how a
+ * result is computed, never the result (the tests check that), except
+ * kernels_float, which builds the kernels as for a device without fp64. */
+typedef struct clvox__test_hooks {
+    int kernels_float;         /* CLVOX_KERNEL_FLOAT=1: kernels built with -DCLVOX_NO_FP64 */
+    int mesh_reader_openmesh;  /* CLVOX_MESH_READER=openmesh: binary PLY/STL through OpenMesh */
+    int palette_no_masks;      /* CLVOX_BENCH_NO_MASKS=1: uniform palette samples scored one by one */
+    unsigned partition_lean_bits; /* CLVOX_PARTITION_LEAN_BITS=10..24: 2^bits triangles start the
+                                   * quadtree's memory-lean paths; 0: the default (20) */
+    int cap_apex_set;          /* CLVOX_CAP_APEX=F: the winding caps' apex offset (else 0.0731) */
+    double cap_apex;
+    int host_threads;          /* CLVOX_HOST_THREADS=1..16: host threads; 0: the online cores, at most 8 */
+} clvox__test_hooks;
+
+/* The switches in force: the environment's, read once on the first call,
+ * unless a test has set them. */
+const clvox__test_hooks *clvox__hooks(void);
+
+/* Sets the switches (a test, before the runs it affects: not while another
+ * thread runs the library); NULL goes back to the environment's. */
+void clvox__set_test_hooks(const clvox__test_hooks *hooks);
+#endif

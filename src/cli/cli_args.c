@@ -671,7 +671,7 @@ void print_help(void)
 "\n"
 "clvox instances VOLUME.exr -o OUT.csv: one CSV row per non-empty voxel of a\n"
 "palette volume (position, size, element, symmetry, score, render object from\n"
-"--render-map), for scripts/blender_instances.py (clvox instances --help).\n"
+"--render-map), for scripts/tools/blender_instances.py (clvox instances --help).\n"
 "\n"
 "clvox mesh VOLUME.exr -o OUT.ply: the geometry of a palette volume as a PLY\n"
 "mesh, each voxel replaced by its element's exact shape (clvox mesh --help).\n"

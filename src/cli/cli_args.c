@@ -707,4 +707,19 @@ void print_help(void)
 "                           runs (default $XDG_CACHE_HOME/clvox or\n"
 "                           ~/.cache/clvox; off: build it in every run)\n"
 "  CLVOX_VDB_PLUGIN         the OpenVDB writer plugin to load for .vdb output\n", stdout);
+    fputs(
+"\n"
+"EXAMPLES (with no MESH, the bundled default mesh)\n"
+"  clvox -r 128 -o solid.exr                solid: inside/outside, 128 voxels\n"
+"                                           along the longest side\n"
+"  clvox -r 128 --oversample 4 -o grey.exr  grey levels: coverage from 4x4 rays\n"
+"                                           x 4 points per voxel\n"
+"  clvox -r 64 --palette paper46 -o palette.exr\n"
+"                                           palette: the best sub-voxel element\n"
+"                                           of paper46 in each voxel\n"
+"  clvox batch *.obj -r 64 -o '{stem}.exr'  batch: every mesh in one process\n"
+"  clvox -r 128 -o solid.npy                format from the extension (npy, nrrd,\n"
+"                                           binvox, vdb, exr); npy: + solid.json\n"
+"  clvox convert solid.exr solid.nrrd       an EXR volume in another format\n"
+"  clvox preview grey.exr -o grey.png       slices of a volume as a PNG\n", stdout);
 }

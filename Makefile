@@ -3,6 +3,7 @@
 #   make [CONFIG=release|debug|sanitize|tsan] [V=1]  library, clvox binary
 #                                                  (tsan: ThreadSanitizer, scripts/check_threads.sh)
 #   make test                                      build and run the test suite
+#   make bench-tools                               the benchmarks' C helpers (scripts/bench/README.md)
 #   make install PREFIX=/usr/local DESTDIR=
 CONFIG ?= release
 PREFIX ?= /usr/local
@@ -100,7 +101,7 @@ SHARED_LIB := $(BUILD)/libclvox.so
 CLI_BIN := $(BUILD)/clvox
 DEPS := $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_SUPPORT_OBJ:.o=.d) $(TEST_BINS:%=%.d) $(BUILD)/vdb/write_vdb.d
 
-.PHONY: all test check install uninstall clean bench tests fuzz fuzz-run
+.PHONY: all test check install uninstall clean bench bench-tools bench-prep-base tests fuzz fuzz-run
 all: $(STATIC_LIB) $(SHARED_LIB) $(CLI_BIN) $(VDB_PLUGIN)
 	$(Q)ln -sf $(CONFIG)/clvox build/clvox
 
@@ -222,7 +223,54 @@ fuzz-run: fuzz
 	  $$(test -d tests/fuzz/regress_$$n && echo tests/fuzz/regress_$$n) || exit 1; done
 
 bench: all
-	$(Q)sh scripts/bench.sh
+	$(Q)sh scripts/bench/bench.sh
+
+# The benchmarks' C helpers (scripts/bench/*.c), against this configuration's
+# library, into build/<config>/bench/. The scripts in scripts/bench/ run
+# `make -s bench-tools` themselves (scripts/bench/README.md).
+#   make bench-tools
+#   make bench-prep-base BENCH_BASE_TREE=DIR   bench_winding_prep(_borrow)
+#        against another tree's build/release (scripts/bench/bench_winding_closed.sh --prep)
+BENCH_BUILD := $(BUILD)/bench
+BENCH_TOOLS := subdivide volume_diff volume_raw bench_load bench_writer bench_winding_oracle \
+  bench_winding_prep bench_winding_prep_borrow
+BENCH_BINS := $(BENCH_TOOLS:%=$(BENCH_BUILD)/%)
+# -ffp-contract=off: the oracle's crossing arithmetic must be the library's, operation for operation.
+BENCH_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L $(OPT) -ffp-contract=off -Wall -Wextra -Iinclude -Isrc -Ikernels $(CFLAGS)
+bench-tools: $(BENCH_BINS)
+
+$(BENCH_BUILD)/subdivide: scripts/bench/subdivide.c
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  BENCH $@")
+	$(Q)$(CC) $(BENCH_CFLAGS) $(FINAL_LDFLAGS) -o $@ $< -lm
+
+$(BENCH_BUILD)/bench_winding_oracle: scripts/bench/bench_winding_oracle.c tests/reference.c tests/meshgen.c $(STATIC_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  BENCH $@")
+	$(Q)$(CC) $(BENCH_CFLAGS) -Itests $(FINAL_LDFLAGS) -o $@ $(filter %.c,$^) $(STATIC_LIB) $(LIBS)
+
+$(BENCH_BUILD)/bench_winding_prep_borrow: scripts/bench/bench_winding_prep.c $(STATIC_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  BENCH $@")
+	$(Q)$(CC) $(BENCH_CFLAGS) -DCLVOX_BENCH_BORROW $(FINAL_LDFLAGS) -o $@ $< $(STATIC_LIB) $(LIBS)
+
+$(BENCH_BUILD)/%: scripts/bench/%.c $(STATIC_LIB)
+	@mkdir -p $(dir $@)
+	@$(if $(filter 0,$(V)),echo "  BENCH $@")
+	$(Q)$(CC) $(BENCH_CFLAGS) $(FINAL_LDFLAGS) -o $@ $< $(STATIC_LIB) $(LIBS)
+
+# Always rebuilt: the other tree may have changed. Its link flags are the ones
+# its build wrote (build/release/libclvox.libs), else this tree's.
+BENCH_BASE_TREE ?=
+bench-prep-base:
+	$(if $(BENCH_BASE_TREE),,$(error make bench-prep-base needs BENCH_BASE_TREE=DIR))
+	@mkdir -p $(BENCH_BUILD)
+	$(Q)libs=$$(cat $(BENCH_BASE_TREE)/build/release/libclvox.libs 2>/dev/null || echo '$(LIBS)'); \
+	for v in "" _borrow; do \
+	  $(CC) $(subst -Iinclude -Isrc,-I$(BENCH_BASE_TREE)/include -I$(BENCH_BASE_TREE)/src,$(BENCH_CFLAGS)) \
+	    $$( [ "$$v" = _borrow ] && echo -DCLVOX_BENCH_BORROW) $(FINAL_LDFLAGS) -o $(BENCH_BUILD)/bench_winding_prep_base$$v \
+	    scripts/bench/bench_winding_prep.c $(BENCH_BASE_TREE)/build/release/libclvox.a $$libs -ldl || exit 1; \
+	done
 
 VERSION := $(shell sed -n 's/.*CLVOX_VERSION_STRING "\(.*\)"/\1/p' include/clvox.h)
 install: all

@@ -2,8 +2,8 @@
 # SPDX-License-Identifier: Apache-2.0
 # Installs the Debian 12 packages clvox needs to build, run and test.
 #   scripts/setup.sh           build + test dependencies (Python: the binding in python/ and its tests)
-#   scripts/setup.sh --peers   also VTK, OpenVDB and NumPy for scripts/bench.sh --peers
-#   scripts/setup.sh --with-blender   also Blender, for scripts/blender_instances.py
+#   scripts/setup.sh --peers   also VTK, OpenVDB and NumPy for scripts/bench/bench.sh --peers
+#   scripts/setup.sh --with-blender   also Blender, for scripts/tools/blender_instances.py
 #                              and tests/test_blender.c (or CLVOX_WITH_BLENDER=1)
 # Idempotent: when everything is present it only runs dpkg-query. When not
 # root it uses sudo if that works without a password, else it prints the

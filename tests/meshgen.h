@@ -117,7 +117,7 @@ tmesh tmesh_sphere_membrane(double cx, double cy, double cz, double r, unsigned 
  * exactly equal positions merged first: label[t] in 0 .. count-1. */
 size_t tmesh_components_of(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, uint32_t *label);
 
-/* The winding corpus (tests/test_winding.c, scripts/bench_winding.sh), in
+/* The winding corpus (tests/test_winding.c, scripts/bench/bench_winding.sh), in
  * (0,1)^3: one of each generator above plus inverted, soup and cavity
  * cases. mesh is what the library gets; truth the mesh orientation repair
  * should arrive at, which the oracle evaluates (a copy of mesh when that is

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* scripts/blender_instances.py, run by Blender when `blender` is on PATH
+/* scripts/tools/blender_instances.py, run by Blender when `blender` is on PATH
  * (CLVOX_WITH_BLENDER=1 scripts/setup.sh installs it; CI does). Without it
  * the test prints a SKIP line and "0 passed, 0 failed": nothing was checked.
  *
@@ -431,8 +431,8 @@ int main(void)
     }
     const char *bin = getenv("CLVOX_BIN");
     if (!bin || !*bin) bin = "build/release/clvox";
-    if (!realpath(bin, g_bin) || !realpath("scripts/blender_instances.py", g_script)) {
-        fprintf(stderr, "cannot find the clvox binary '%s' (CLVOX_BIN) or scripts/blender_instances.py (run from the "
+    if (!realpath(bin, g_bin) || !realpath("scripts/tools/blender_instances.py", g_script)) {
+        fprintf(stderr, "cannot find the clvox binary '%s' (CLVOX_BIN) or scripts/tools/blender_instances.py (run from the "
                         "repository root)\n", bin);
         test_failed++;
         return test_report();

@@ -1999,6 +1999,8 @@ static void test_precision_warning(void)
     unlink(out);
 }
 
+static void test_help_examples(void);
+
 int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
@@ -2046,5 +2048,80 @@ int main(void)
     test_nohup();
     test_cancel();
     test_kill();
+    test_help_examples();
     return test_report();
+}
+
+/* `clvox --help` ends with an EXAMPLES section: solid, grey levels, palette,
+ * batch and a format. Each example ("  clvox ARGS" up to two spaces) runs, in
+ * order, in an empty directory holding a copy of the default mesh (the batch
+ * example's *.obj), and must succeed. */
+static void test_help_examples(void)
+{
+    run_result h;
+    run_cli(&h, NULL, ARGS("--help"));
+    const char *ex = strstr(h.out, "\nEXAMPLES");
+    CHECK_MSG(h.code == 0 && ex != NULL, "--help has no EXAMPLES section");
+    if (!ex) {
+        run_free(&h);
+        return;
+    }
+    CHECK_MSG(strstr(ex + 1, "\n\n") == NULL, "--help: EXAMPLES is not the last section");
+    static const char *const kinds[] = {"--oversample", "--palette", "clvox batch", ".npy", NULL};
+    for (int i = 0; kinds[i]; i++)
+        CHECK_MSG(strstr(ex, kinds[i]) != NULL, "--help EXAMPLES has no '%s' example", kinds[i]);
+
+    char dir[PATH_MAX], mesh[PATH_MAX];
+    path_join(dir, sizeof dir, g_dir, "examples");
+    rm_tree(dir);
+    mkdir(dir, 0777);
+    char *obj = read_all("tests/data/default.obj");
+    path_join(mesh, sizeof mesh, dir, "default.obj");
+    CHECK_MSG(obj[0] && write_file(mesh, obj, strlen(obj)), "cannot copy tests/data/default.obj");
+    free(obj);
+
+    int runs = 0;
+    for (const char *line = strchr(ex + 1, '\n'); line && line[1]; line = strchr(line + 1, '\n')) {
+        if (strncmp(line + 1, "  clvox ", 8) != 0) continue;
+        char cmd[256];
+        const char *start = line + 9, *end = start;
+        while (*end && *end != '\n' && !(end[0] == ' ' && end[1] == ' ')) end++;
+        size_t len = (size_t)(end - start);
+        if (len >= sizeof cmd) len = sizeof cmd - 1;
+        memcpy(cmd, start, len);
+        cmd[len] = '\0';
+        const char *args[32];
+        char files[8][PATH_MAX];
+        int na = 0, nf = 0;
+        for (char *tok = strtok(cmd, " "); tok && na < 31; tok = strtok(NULL, " ")) {
+            size_t tl = strlen(tok);
+            if (tl >= 2 && tok[0] == '\'' && tok[tl - 1] == '\'') {
+                tok[tl - 1] = '\0';
+                tok++;
+            }
+            if (tok[0] != '*') {
+                args[na++] = tok;
+                continue;
+            }
+            DIR *d = opendir(dir); /* a glob: the directory's files with that suffix */
+            struct dirent *e;
+            while (d && (e = readdir(d)) != NULL && na < 31 && nf < 8) {
+                size_t el = strlen(e->d_name), sl = strlen(tok + 1);
+                if (el > sl && strcmp(e->d_name + el - sl, tok + 1) == 0) {
+                    path_join(files[nf], sizeof files[nf], dir, e->d_name);
+                    args[na++] = files[nf++];
+                }
+            }
+            if (d) closedir(d);
+        }
+        args[na] = NULL;
+        run_result r;
+        run_cli_ex(&r, dir, NULL, args, 0);
+        CHECK_MSG(r.code == 0, "--help example 'clvox %.*s' exit %d: %s", (int)len, start, r.code, r.err);
+        run_free(&r);
+        runs++;
+    }
+    CHECK_MSG(runs >= 5, "--help EXAMPLES: %d examples, expected at least 5", runs);
+    run_free(&h);
+    rm_tree(dir);
 }

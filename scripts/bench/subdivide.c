@@ -11,7 +11,8 @@
  * little-endian PLY: "vertex" float x,y,z; "face" list uchar int
  * vertex_indices. Each round multiplies the triangle count by 4.
  *
- * Built by scripts/bench.sh:  cc -O2 -o build/tools/subdivide scripts/subdivide.c
+ * Built by `make bench-tools` (build/release/bench/subdivide), which the
+ * scripts in scripts/bench/ run.
  */
 #include <stdint.h>
 #include <stdio.h>
@@ -210,7 +211,7 @@ static void write_ply(const char *path, const mesh *m)
     f = fopen(tmp, "wb");
     if (!f) die("cannot write", tmp);
     fprintf(f,
-            "ply\nformat binary_little_endian 1.0\ncomment made by clvox scripts/subdivide.c\n"
+            "ply\nformat binary_little_endian 1.0\ncomment made by clvox scripts/bench/subdivide.c\n"
             "element vertex %zu\nproperty float x\nproperty float y\nproperty float z\n"
             "element face %zu\nproperty list uchar int vertex_indices\nend_header\n",
             m->nv, m->nt);

@@ -8,10 +8,10 @@
 # same for both readers); "reader": the load up to build_mesh (mmap, checks,
 # parse), where MB/s = file size / seconds.
 #
-#   scripts/bench_load.sh [--repeat R]
+#   scripts/bench/bench_load.sh [--repeat R]
 #
 # Files: data/meshes/armadillo_s2.ply (832 k triangles) and armadillo_s3.ply
-# (3.3 M; made by scripts/subdivide.c as in bench_coverage.sh when absent),
+# (3.3 M; made by scripts/bench/subdivide.c as in bench_coverage.sh when absent),
 # binary STLs of both, and armadillo_s2 as ASCII OBJ, OFF, PLY and STL
 # (%.9g coordinates: the same floats), all written to build/bench/ by
 # bench_load. For OBJ and OFF "OpenMesh" is the same (native) reader; ASCII
@@ -20,7 +20,7 @@
 # Markdown to stdout and build/bench/load.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 repeat=10
 while [ $# -gt 0 ]; do
@@ -31,27 +31,25 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-make -s -j2 build/release/libclvox.a
-mkdir -p build/bench build/tools
-cc -std=c11 -O2 -Wall -Wextra -Iinclude -Isrc scripts/bench_load.c build/release/libclvox.a \
-  -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lz -lstdc++ -lm -lpthread -o build/tools/bench_load
+make -s -j2 CONFIG=release bench-tools >&2   # build/release/bench/{bench_load,subdivide}
+mkdir -p build/bench
+tools=build/release/bench
 m=data/meshes
 if [ ! -f $m/armadillo_s3.ply ] && [ -f $m/armadillo_s2.ply ]; then
-  cc -std=c11 -O2 -o build/tools/subdivide scripts/subdivide.c -lm
-  build/tools/subdivide $m/armadillo.off 3 $m/armadillo_s3.ply >&2
+  $tools/subdivide $m/armadillo.off 3 $m/armadillo_s3.ply >&2
 fi
 files=()
 for s in s2 s3; do
   [ -f $m/armadillo_$s.ply ] || continue
   files+=($m/armadillo_$s.ply)
-  [ -f build/bench/armadillo_$s.stl ] || build/tools/bench_load --stl $m/armadillo_$s.ply build/bench/armadillo_$s.stl
+  [ -f build/bench/armadillo_$s.stl ] || $tools/bench_load --stl $m/armadillo_$s.ply build/bench/armadillo_$s.stl
   files+=(build/bench/armadillo_$s.stl)
 done
 if [ -f $m/armadillo_s2.ply ]; then
   for f in obj off ply stl; do
-    [ -f build/bench/armadillo_s2_ascii.$f ] || build/tools/bench_load --ascii $f $m/armadillo_s2.ply build/bench/armadillo_s2_ascii.$f
+    [ -f build/bench/armadillo_s2_ascii.$f ] || $tools/bench_load --ascii $f $m/armadillo_s2.ply build/bench/armadillo_s2_ascii.$f
     files+=(build/bench/armadillo_s2_ascii.$f)
   done
 fi
 { echo "Load throughput, $(nproc) cores, $(date -u +%F)"; echo
-  build/tools/bench_load -r "$repeat" "${files[@]}"; } | tee build/bench/load.md
+  $tools/bench_load -r "$repeat" "${files[@]}"; } | tee build/bench/load.md

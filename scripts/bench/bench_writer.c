@@ -11,9 +11,8 @@
  * first three sets only; BENCH_SETS=035 in the environment runs sets 0, 3
  * and 5 of the six.
  *
- *   cc -std=c11 -O2 -Iinclude -Isrc -Ikernels scripts/bench_writer.c build/release/libclvox.a \
- *      -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread -o build/tools/bench_writer
- *   build/tools/bench_writer [N ...]        (default 512 1024; files go to build/bench/)
+ *   make bench-tools
+ *   build/release/bench/bench_writer [N ...]   (default 512 1024; files go to build/bench/)
  *
  * Prints: N, channels, compression, threads, writer seconds (wall, best of 2,
  * making the data excluded), the CPU seconds of that run, file MB. */

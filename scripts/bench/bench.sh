@@ -3,7 +3,7 @@
 # clvox performance benchmark (not a test): per-stage seconds, whole-process
 # time and peak RSS of build/release/clvox on real meshes at several grid sizes.
 #
-#   scripts/bench.sh [--quick | --big] [--peers] [--repeat R] [--method ray|tetra|all]
+#   scripts/bench/bench.sh [--quick | --big] [--peers] [--repeat R] [--method ray|tetra|all]
 #                    [--peer-timeout S]
 #
 #   --quick      small subset: armadillo at N = 128, 256 and cow at 256
@@ -17,7 +17,7 @@
 #   --peer-timeout S  a peer case running over S seconds is killed and
 #                reported as skipped (default: none; --big: 300)
 #   --peers      also time VTK and OpenVDB on the same cases in the same run
-#                (scripts/bench_peers.py; needs scripts/setup.sh --peers)
+#                (scripts/bench/bench_peers.py; needs scripts/setup.sh --peers)
 #   --repeat R   runs per case; the run with the best process time is shown, peak
 #                RSS is the largest of the runs (default 3; peers: 1 unless
 #                --repeat is given)
@@ -26,7 +26,7 @@
 #
 # Cases: armadillo.off (52 k triangles) at N = 128, 256, 512, 1024;
 # armadillo subdivided twice (832 k) and three times (3.3 M triangles, binary
-# PLY, made by scripts/subdivide.c) at 512; bunny00 (75 k) and cow (5.8 k) at
+# PLY, made by scripts/bench/subdivide.c) at 512; bunny00 (75 k) and cow (5.8 k) at
 # 256, 512, 1024.
 # Meshes come from scripts/fetch_meshes.sh. The PoCL kernel cache
 # (POCL_CACHE_DIR, default build/pocl-cache) is warmed by one run first.
@@ -37,7 +37,7 @@
 # Writes a markdown report to stdout and to build/bench/results.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 
 quick=0 big=0 peers=0 repeat=3 peer_repeat=1 methods=all peer_timeout=""
@@ -60,7 +60,7 @@ case "$repeat" in ''|*[!0-9]*|0) echo "bench.sh: --repeat needs a positive numbe
 
 clvox=${CLVOX_BENCH_BIN:-build/release/clvox}   # override to time another build
 outdir=build/bench
-tools=build/tools
+tools=build/release/bench   # make bench-tools
 mkdir -p "$outdir" "$tools"
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"
@@ -77,9 +77,7 @@ fi
 
 # Large meshes: armadillo subdivided 2 and 3 times.
 if [ "$quick" -eq 0 ]; then
-  if [ ! -x "$tools/subdivide" ] || [ scripts/subdivide.c -nt "$tools/subdivide" ]; then
-    cc -std=c11 -O2 -o "$tools/subdivide" scripts/subdivide.c
-  fi
+  make -s CONFIG=release bench-tools >&2
   for k in 2 3; do
     [ -f "data/meshes/armadillo_s$k.ply" ] || "$tools/subdivide" data/meshes/armadillo.off "$k" "data/meshes/armadillo_s$k.ply" >&2
   done
@@ -345,13 +343,13 @@ if [ "$peers" -eq 1 ]; then
   log "running the peers (VTK, OpenVDB)"
   {
     echo
-    echo "## Peers (same meshes and grids; scripts/bench_peers.py, best of $peer_repeat)"
+    echo "## Peers (same meshes and grids; scripts/bench/bench_peers.py, best of $peer_repeat)"
     echo
     echo "In-process seconds from the mesh file to a dense occupancy array in memory (no file"
     echo "written); peak RSS of a fresh Python process per case. VTK: vtkPolyDataToImageStencil,"
     echo "1 thread; OpenVDB: meshToVolume (level set, TBB threads on all cores) + dense copy."
     echo
-    /usr/bin/python3 scripts/bench_peers.py "${popts[@]}" $pcases
+    /usr/bin/python3 scripts/bench/bench_peers.py "${popts[@]}" $pcases
   } >>"$report"
   if [ "$big" -eq 1 ]; then
     {

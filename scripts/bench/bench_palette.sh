@@ -3,7 +3,7 @@
 # Palette voxelization benchmark, not a test (issue 8; Cavagnino & Gribaudo's
 # complexity O(I J K t p |P|) before early-outs).
 #
-#   scripts/bench_palette.sh [--quick] [--repeat R]
+#   scripts/bench/bench_palette.sh [--quick] [--repeat R]
 #
 #   --quick      cow only, N = 64 and 128
 #   --repeat R   runs per case, the best process time is shown (default 1;
@@ -21,7 +21,7 @@
 # seconds. Markdown to stdout and to build/bench/palette.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 
 quick=0 repeat=1
@@ -79,12 +79,8 @@ best_of() { # mesh n opts repeats -> best record
   echo "$best"
 }
 
-tools=build/tools
-mkdir -p "$tools"
-if [ ! -x "$tools/volume_diff" ] || [ scripts/volume_diff.c -nt "$tools/volume_diff" ] || [ build/release/libclvox.a -nt "$tools/volume_diff" ]; then
-  cc -std=c11 -O2 -Iinclude -o "$tools/volume_diff" scripts/volume_diff.c build/release/libclvox.a \
-    -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
-fi
+tools=build/release/bench   # volume_diff: make bench-tools
+make -s CONFIG=release bench-tools >&2
 results="$outdir/palette.tsv" changes="$outdir/palette_shortcut.tsv"
 : >"$results"
 : >"$changes"

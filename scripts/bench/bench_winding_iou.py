@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: Apache-2.0
 """IoU of voxel volumes against the exact winding-number oracle, for
-scripts/bench_winding.sh (not a test).
+scripts/bench/bench_winding.sh (not a test).
 
     bench_winding_iou.py ORACLE.npy [--json GRID.json] [--trimesh MESH [--samples K] [--seed S]]
                          NAME=VOL.npy ...

@@ -5,7 +5,7 @@
 # option set and cmp's the files. Base outputs are kept in CACHE and
 # reused, so that a second check only runs this build.
 #
-#   scripts/bench_winding_same.sh --base BIN [--cache DIR] [-r N] [--opts "A|B|..."] [MESH ...]
+#   scripts/bench/bench_winding_same.sh --base BIN [--cache DIR] [-r N] [--opts "A|B|..."] [MESH ...]
 #
 #   --base BIN   the reference clvox
 #   --cache DIR  where its outputs are kept (default /tmp/clvox-same-<N>)
@@ -14,7 +14,7 @@
 #                winding-abs, --oversample 2)
 # Prints one line per difference and a summary; exit 1 when any differ.
 set -eu
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 n=128 base="" cache="" opts="--axis x|--axis y|--axis z|--inside winding-abs|--oversample 2"
 while [ $# -gt 0 ]; do

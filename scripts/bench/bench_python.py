@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Python binding overhead, measured (python/README.md "Performance").
 
-    make && scripts/bench_python.py [--mesh data/meshes/armadillo.off] [--reps 5]
+    make && scripts/bench/bench_python.py [--mesh data/meshes/armadillo.off] [--reps 5]
 
 Needs the clvox package importable (pip install ./python, or PYTHONPATH=build/release/python
 after `make test`). In one run, per resolution (128^3 and 512^3 along the longest axis):
@@ -27,7 +27,7 @@ import numpy as np
 
 import clvox
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def rss_mib():

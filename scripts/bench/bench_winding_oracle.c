@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* The exact winding-number oracle for scripts/bench_winding.sh (not a test).
+/* The exact winding-number oracle for scripts/bench/bench_winding.sh (not a test).
  *
  *   bench_winding_oracle corpus DIR
  *       writes the winding corpus (tests/meshgen.c tmesh_winding_corpus) as

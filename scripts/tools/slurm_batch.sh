@@ -1,7 +1,7 @@
 #!/bin/sh
 # SPDX-License-Identifier: Apache-2.0
 # One clvox batch shard per Slurm array task (README "Batch runs").
-#   sbatch scripts/slurm_batch.sh MANIFEST OUTDIR [RESOLUTION]
+#   sbatch scripts/tools/slurm_batch.sh MANIFEST OUTDIR [RESOLUTION]
 # Re-submitting after a time-out resumes: finished outputs are skipped.
 #SBATCH --job-name=clvox
 #SBATCH --array=0-63

@@ -3,8 +3,8 @@
 # Closed-mesh cost of the winding default against parity (issue 9: winding
 # within 1.1x of parity's whole-process time), not a test:
 #
-#   scripts/bench_winding_closed.sh [-r N] [--rounds K] [--base BIN] [MESH...]
-#   scripts/bench_winding_closed.sh --prep [--base-tree DIR] [--rounds K] [MESH...]
+#   scripts/bench/bench_winding_closed.sh [-r N] [--rounds K] [--base BIN] [MESH...]
+#   scripts/bench/bench_winding_closed.sh --prep [--base-tree DIR] [--rounds K] [MESH...]
 #
 # For each mesh (default: armadillo_s3.ply, armadillo_s2.ply, bunny00.off in
 # data/meshes) and each of K rounds (default 7), runs
@@ -16,14 +16,14 @@
 # of those, of the CPU time (user + sys) and of the peak RSS, and the load
 # average before and after (the machine may be shared: judge by it).
 #
-# --prep: the preparation alone instead (scripts/bench_winding_prep.c, built
+# --prep: the preparation alone instead (scripts/bench/bench_winding_prep.c, built
 # against build/release/libclvox.a: 9 runs per mesh, median and minimum of
 # wall and thread CPU), for this tree with CLVOX__PREP_BORROW (as the cast's
 # speculation) and without, and with --base-tree DIR for DIR's
 # build/release/libclvox.a and headers (another worktree, e.g. /work/main)
 # the same two, K rounds interleaved.
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 N=512
 K=7
 BASE=""
@@ -43,25 +43,13 @@ while [ $# -gt 0 ]; do
 done
 [ ${#MESHES[@]} -gt 0 ] || MESHES=(data/meshes/armadillo_s3.ply data/meshes/armadillo_s2.ply data/meshes/bunny00.off)
 if [ "$PREP" = 1 ]; then
-    LIBS="-lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lz -lstdc++ -lm -lpthread"
-    # a library built with OpenVDB needs it at link time too
-    for lib in build/release/libclvox.a ${BASE_TREE:+$BASE_TREE/build/release/libclvox.a}; do
-        if nm "$lib" 2>/dev/null | grep -q openvdb; then LIBS="$LIBS -lopenvdb -lImath-3_1 -ltbb"; break; fi
-    done
-    make -s -j2 build/release/libclvox.a
-    mkdir -p build/tools
-    CC="cc -std=c11 -D_POSIX_C_SOURCE=200809L -O2 -Wall -Wextra"
-    $CC -DCLVOX_BENCH_BORROW -Iinclude -Isrc scripts/bench_winding_prep.c build/release/libclvox.a $LIBS \
-        -o build/tools/bench_winding_prep_borrow
-    $CC -Iinclude -Isrc scripts/bench_winding_prep.c build/release/libclvox.a $LIBS -o build/tools/bench_winding_prep
-    PB=(build/tools/bench_winding_prep_borrow build/tools/bench_winding_prep)
+    T=build/release/bench
+    make -s -j2 CONFIG=release bench-tools
+    PB=($T/bench_winding_prep_borrow $T/bench_winding_prep)
     PN=("this, borrowed" "this, copied")
     if [ -n "$BASE_TREE" ]; then
-        $CC -DCLVOX_BENCH_BORROW -I"$BASE_TREE/include" -I"$BASE_TREE/src" scripts/bench_winding_prep.c \
-            "$BASE_TREE/build/release/libclvox.a" $LIBS -o build/tools/bench_winding_prep_base_borrow
-        $CC -I"$BASE_TREE/include" -I"$BASE_TREE/src" scripts/bench_winding_prep.c \
-            "$BASE_TREE/build/release/libclvox.a" $LIBS -o build/tools/bench_winding_prep_base
-        PB+=(build/tools/bench_winding_prep_base_borrow build/tools/bench_winding_prep_base)
+        make -s CONFIG=release bench-prep-base BENCH_BASE_TREE="$BASE_TREE"
+        PB+=($T/bench_winding_prep_base_borrow $T/bench_winding_prep_base)
         PN+=("base, borrowed" "base, copied")
     fi
     echo "load before: $(cut -d' ' -f1-3 /proc/loadavg)"

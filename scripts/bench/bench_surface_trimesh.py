@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: Apache-2.0
-"""trimesh's surface voxelization next to clvox's, for scripts/bench_surface.sh.
+"""trimesh's surface voxelization next to clvox's, for scripts/bench/bench_surface.sh.
 
     bench_surface_trimesh.py MESH N CLVOX VOLUME_RAW TMPDIR [REPEAT]
 

@@ -3,9 +3,8 @@
  * benchmarks: what a faster setting changes). Holds A's channel in memory
  * (4 bytes per voxel: 67 MB at 256^3) and streams B against it.
  *
- *   cc -std=c11 -O2 -Iinclude -o build/tools/volume_diff scripts/volume_diff.c build/release/libclvox.a \
- *      -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
- *   build/tools/volume_diff A.exr B.exr element
+ *   make bench-tools
+ *   build/release/bench/volume_diff A.exr B.exr element
  *
  * Prints "<differing> of <voxels>"; exit 0, or 1 with a message on error. */
 #include "clvox.h"

@@ -17,7 +17,7 @@ on the grids of at most M^3 voxels, and both are compared with it: clvox must
 differ in 0 voxels where the mesh is consistently oriented (clvox repairs
 orientation, libigl takes the file's; the meshes below are oriented).
 
-    build/venv-igl/bin/python scripts/bench_winding_igl.py [-r 128,256] [--repeat R]
+    build/venv-igl/bin/python scripts/bench/bench_winding_igl.py [-r 128,256] [--repeat R]
         [--exact M] [MESH ...]
 
 libigl comes from PyPI (`python3 -m venv --system-site-packages build/venv-igl &&
@@ -40,7 +40,7 @@ try:
 except ImportError:
     sys.exit("bench_winding_igl.py: libigl is not installed (see --help)")
 
-HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEFAULT_MESHES = ["elephant-with-holes.off", "mech-holes-shark.off", "mushroom.off", "holes.off",
                   "cylinder.off", "nefertiti.off", "armadillo.off", "bunny00.off"]
 

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 # SPDX-License-Identifier: Apache-2.0
-"""Times two other solid voxelizers on the meshes and grids of scripts/bench.sh.
+"""Times two other solid voxelizers on the meshes and grids of scripts/bench/bench.sh.
 
-Usage: /usr/bin/python3 scripts/bench_peers.py [--quick] [--repeat R] [--timeout S] [--tsv FILE] [MESH:N ...]
+Usage: /usr/bin/python3 scripts/bench/bench_peers.py [--quick] [--repeat R] [--timeout S] [--tsv FILE] [MESH:N ...]
        (default cases: armadillo at 128..1024, armadillo_s2/_s3, bunny00, cow at 512)
 
 --timeout S: a case (one child process) running longer than S seconds is
@@ -58,7 +58,7 @@ import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
+ROOT = os.path.dirname(os.path.dirname(HERE))
 DEFAULT_CASES = [
     ("data/meshes/armadillo.off", 128), ("data/meshes/armadillo.off", 256),
     ("data/meshes/armadillo.off", 512), ("data/meshes/armadillo.off", 1024),
@@ -116,7 +116,7 @@ def load_mesh(path):
                 nv = int(t[2])
             elif t[:2] == ["element", "face"]:
                 nf = int(t[2])
-        # Layout written by scripts/subdivide.c: float x,y,z; list uchar int.
+        # Layout written by scripts/bench/subdivide.c: float x,y,z; list uchar int.
         pts = np.frombuffer(data, dtype="<f4", count=nv * 3, offset=end).reshape(nv, 3).astype(np.float64)
         rec = np.frombuffer(data, dtype=np.dtype([("n", "u1"), ("v", "<i4", (3,))]),
                             count=nf, offset=end + nv * 12)
@@ -285,7 +285,7 @@ def main(argv):
     timed_out = {}  # (peer, mesh) -> the N that timed out
     for path, n in cases:
         if not os.path.isfile(path):
-            print("| - | %s | missing (scripts/fetch_meshes.sh, scripts/bench.sh makes the _s2/_s3 PLYs) | %d ||||||" % (path, n))
+            print("| - | %s | missing (scripts/fetch_meshes.sh, scripts/bench/bench.sh makes the _s2/_s3 PLYs) | %d ||||||" % (path, n))
             continue
         for peer in PEERS:
             name = os.path.basename(path)

@@ -5,13 +5,13 @@ process's exit, for long runs of the ray and tetra methods. The test suite
 checks that a cancel stops the work (tests/test_ray.c, in CPU time, which
 load does not stretch); how fast that is in wall time is measured here.
 
-    scripts/bench_cancel.py [--bin build/release/clvox] [--reps 5] [--after 1.0]
+    scripts/bench/bench_cancel.py [--bin build/release/clvox] [--reps 5] [--after 1.0]
 
 Prints one line per case: the median and max latency over the repetitions,
 and the exit codes seen (130 expected)."""
 import argparse, os, signal, statistics, subprocess, sys, tempfile, time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 CASES = [
     ("ray, 512^3 oversample 16", ["-r", "512", "--oversample", "16"]),
     ("tetra, 2048^3", ["-r", "2048", "--method", "tetra"]),

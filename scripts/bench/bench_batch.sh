@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 # Batch throughput: COUNT small meshes voxelized by one `clvox batch` process
 # vs one `clvox` process per mesh, at each resolution in RES.
-#   scripts/bench_batch.sh [COUNT [PER_PROCESS_COUNT]]   (defaults 1000 1000)
+#   scripts/bench/bench_batch.sh [COUNT [PER_PROCESS_COUNT]]   (defaults 1000 1000)
 # The meshes are the CGAL meshes in data/meshes with 100 to 20000 triangles
 # (scripts/fetch_meshes.sh), repeated in a manifest up to COUNT lines. The
 # per-process side runs the first PER_PROCESS_COUNT of them (a smaller count
@@ -15,7 +15,7 @@
 # 5), interleaved with BIN, and print the medians and their ratio (an A/B of
 # the batch path).
 set -eu
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 BIN=${BIN:-$here/build/release/clvox}
 COUNT=${1:-1000}
 PER=${2:-$COUNT}

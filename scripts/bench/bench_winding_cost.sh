@@ -5,7 +5,7 @@
 # the steadier figure on a shared machine), best of R rounds, and how many
 # centres needed exact cap solid angles.
 #
-#   scripts/bench_winding_cost.sh [-r N] [--repeat R] [--base BIN] [MESH ...]
+#   scripts/bench/bench_winding_cost.sh [-r N] [--repeat R] [--base BIN] [MESH ...]
 #
 #   -r N        grid resolution (default 128)
 #   --repeat R  rounds (default 2)
@@ -14,7 +14,7 @@
 #               docs/benchmarks.md "Winding numbers")
 # Prints a Markdown table row per mesh.
 set -eu
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 n=128 rounds=2 base=""
 while [ $# -gt 0 ]; do

@@ -4,13 +4,13 @@
 # al.: Athena, 91 k faces, 512^3: 5.3 s binary, 30 s 2x2x2, 88 s 3x3x3, 169 s
 # 4x4x4) for clvox on this machine.
 #
-#   scripts/bench_coverage.sh [--quick] [--repeat R]
+#   scripts/bench/bench_coverage.sh [--quick] [--repeat R]
 #
 #   --quick      bunny00 only, N = 128 and 512
 #   --repeat R   runs per case, the best process time is shown (default 3)
 #
 # Cases: bunny00.off (75 k triangles) and armadillo subdivided twice (832 k,
-# binary PLY made by scripts/subdivide.c) at N = 64, 128, 256, 512 x binary,
+# binary PLY made by scripts/bench/subdivide.c) at N = 64, 128, 256, 512 x binary,
 # K = 1..4 uniform and K = 2..4 stochastic (--oversample K: K x K rays per
 # column, K points per voxel). Whole clvox process (load, OpenCL set-up with
 # a warm PoCL kernel cache, partition, cast, coverage counting, EXR write with
@@ -21,7 +21,7 @@
 # build/bench/coverage.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 
 quick=0 repeat=3
@@ -38,7 +38,7 @@ done
 case "$repeat" in ''|*[!0-9]*|0) echo "bench_coverage.sh: --repeat needs a positive number" >&2; exit 2 ;; esac
 
 clvox=${CLVOX_BENCH_BIN:-build/release/clvox}
-outdir=build/bench tools=build/tools
+outdir=build/bench tools=build/release/bench   # make bench-tools
 mkdir -p "$outdir" "$tools"
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"
@@ -51,9 +51,7 @@ sizes="64 128 256 512"
 if [ "$quick" -eq 1 ]; then
   sizes="128 512"
 else
-  if [ ! -x "$tools/subdivide" ] || [ scripts/subdivide.c -nt "$tools/subdivide" ]; then
-    cc -std=c11 -O2 -o "$tools/subdivide" scripts/subdivide.c
-  fi
+  make -s CONFIG=release bench-tools >&2
   [ -f data/meshes/armadillo_s2.ply ] || "$tools/subdivide" data/meshes/armadillo.off 2 data/meshes/armadillo_s2.ply >&2
   meshes="bunny00.off armadillo_s2.ply"
 fi

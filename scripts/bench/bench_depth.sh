@@ -5,11 +5,11 @@
 # --depth 1..12 (and 0 = auto) on the given meshes at one grid size and prints
 # a markdown table of partition / cast / total seconds (best of R runs).
 #
-#   scripts/bench_depth.sh [-r N] [--repeat R] [MESH...]
+#   scripts/bench/bench_depth.sh [-r N] [--repeat R] [MESH...]
 #   default: -r 512, R = 3, data/meshes/armadillo.off data/meshes/armadillo_s3.ply
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 n=512 repeat=3 meshes=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -29,7 +29,7 @@ out=build/bench/depth.exr
 echo "| mesh | N | depth | leaves | partition s | cast s | classify s | total s |"
 echo "|---|---|---|---|---|---|---|---|"
 for m in "${meshes[@]}"; do
-  [ -f "$m" ] || { echo "missing $m (scripts/fetch_meshes.sh; scripts/bench.sh makes the subdivided meshes)" >&2; continue; }
+  [ -f "$m" ] || { echo "missing $m (scripts/fetch_meshes.sh; scripts/bench/bench.sh makes the subdivided meshes)" >&2; continue; }
   "$bin" "$m" -r "$n" -o "$out" -q || true   # warm the kernel cache
   for d in 0 1 2 3 4 5 6 7 8 9 10 11 12; do
     best=""

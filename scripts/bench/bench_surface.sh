@@ -5,7 +5,7 @@
 # mesh and grid, and trimesh's surface voxelization (the peer users pick) in
 # the same run.
 #
-#   scripts/bench_surface.sh [--quick] [--repeat R] [--no-trimesh] [--base BIN]
+#   scripts/bench/bench_surface.sh [--quick] [--repeat R] [--no-trimesh] [--base BIN]
 #
 #   --quick       armadillo only, N = 256 and 512
 #   --repeat R    runs per case, the best process time is shown (default 3)
@@ -17,7 +17,7 @@
 #                 before and after
 #
 # Cases: armadillo.off (52 k triangles), bunny00.off (75 k) and armadillo
-# subdivided twice (832 k, binary PLY from scripts/subdivide.c) at N = 256,
+# subdivided twice (832 k, binary PLY from scripts/bench/subdivide.c) at N = 256,
 # 512, 1024 (-r N), ray method, modes solid / surface / conservative. Whole
 # clvox process (load, OpenCL set-up with a warm PoCL kernel cache, the
 # method, EXR write with the default RLE), wall seconds, best of R; "raster"
@@ -26,11 +26,11 @@
 # Trimesh.voxelized(pitch) at pitch = longest side / N (voxelize_subdivide)
 # and .fill(), best of R (at N = 256 only; Python, one thread), with a voxel
 # by voxel comparison against clvox on the same grid
-# (scripts/bench_surface_trimesh.py). Markdown to stdout and to
+# (scripts/bench/bench_surface_trimesh.py). Markdown to stdout and to
 # build/bench/surface.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 
 quick=0 repeat=3 use_trimesh=1 base=""
@@ -50,7 +50,7 @@ done
 case "$repeat" in ''|*[!0-9]*|0) echo "bench_surface.sh: --repeat needs a positive number" >&2; exit 2 ;; esac
 
 clvox=${CLVOX_BENCH_BIN:-build/release/clvox}
-outdir=build/bench tools=build/tools py=build/venv-trimesh/bin/python
+outdir=build/bench tools=build/release/bench py=build/venv-trimesh/bin/python
 mkdir -p "$outdir" "$tools"
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"
@@ -60,18 +60,12 @@ log() { echo "bench_surface: $*" >&2; }
 if [ "$use_trimesh" -eq 1 ] && ! "$py" -c 'import trimesh, scipy' 2>/dev/null; then
   log "trimesh not installed in build/venv-trimesh: skipped (see --help)"; use_trimesh=0
 fi
-if [ ! -x "$tools/volume_raw" ] || [ scripts/volume_raw.c -nt "$tools/volume_raw" ] || [ build/release/libclvox.a -nt "$tools/volume_raw" ]; then
-  cc -std=c11 -O2 -Iinclude -o "$tools/volume_raw" scripts/volume_raw.c build/release/libclvox.a \
-    -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
-fi
+make -s CONFIG=release bench-tools >&2   # volume_raw, subdivide
 
 meshes="armadillo.off bunny00.off armadillo_s2.ply" sizes="256 512 1024"
 if [ "$quick" -eq 1 ]; then
   meshes="armadillo.off" sizes="256 512"
 else
-  if [ ! -x "$tools/subdivide" ] || [ scripts/subdivide.c -nt "$tools/subdivide" ]; then
-    cc -std=c11 -O2 -o "$tools/subdivide" scripts/subdivide.c
-  fi
   [ -f data/meshes/armadillo_s2.ply ] || "$tools/subdivide" data/meshes/armadillo.off 2 data/meshes/armadillo_s2.ply >&2
 fi
 modes="solid surface conservative"
@@ -121,7 +115,7 @@ for mesh in $meshes; do
     unset best
     if [ "$use_trimesh" -eq 1 ] && [ "$n" = 256 ] && [ "$mesh" != armadillo_s2.ply ]; then
       log "trimesh $mesh N=$n"
-      "$py" scripts/bench_surface_trimesh.py "data/meshes/$mesh" "$n" "$clvox" "$tools/volume_raw" "$tmp" "$repeat" >>"$peers" ||
+      "$py" scripts/bench/bench_surface_trimesh.py "data/meshes/$mesh" "$n" "$clvox" "$tools/volume_raw" "$tmp" "$repeat" >>"$peers" ||
         log "trimesh FAILED on $mesh"
     fi
   done

@@ -11,10 +11,10 @@
 #   sampled centres),
 # plus the whole-process wall time of clvox winding vs parity (best of R).
 #
-#   scripts/bench_winding.sh [-r N] [--repeat R] [--quick] [--no-trimesh]
+#   scripts/bench/bench_winding.sh [-r N] [--repeat R] [--quick] [--no-trimesh]
 #
 #   -r N         grid resolution (default 128). The oracle is brute force over
-#                the boundary (build/tools/bench_winding_oracle: exact crossings
+#                the boundary (build/release/bench/bench_winding_oracle: exact crossings
 #                plus boundary-strip solid angles, O(columns x triangles +
 #                voxels x boundary edges)); meshes with more than 1000 boundary
 #                edges run at N/2 (their lines say so)
@@ -31,7 +31,7 @@
 # Writes a markdown table to stdout and build/bench/winding.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 
 res=128 repeat=3 quick=0 use_trimesh=1 limit=${CLVOX_BENCH_TIMEOUT:-120}
@@ -48,20 +48,14 @@ while [ $# -gt 0 ]; do
 done
 
 clvox=${CLVOX_BENCH_BIN:-build/release/clvox}
-outdir=build/bench tools=build/tools
+outdir=build/bench tools=build/release/bench   # make bench-tools
 mkdir -p "$outdir" "$tools"
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"
 log() { echo "bench_winding: $*" >&2; }
 [ -x "$clvox" ] || make -s CONFIG=release >&2
 oracle=$tools/bench_winding_oracle
-if [ ! -x "$oracle" ] || [ scripts/bench_winding_oracle.c -nt "$oracle" ] || [ tests/reference.c -nt "$oracle" ] ||
-   [ tests/meshgen.c -nt "$oracle" ] || [ build/release/libclvox.a -nt "$oracle" ]; then
-  # -ffp-contract=off: the crossing arithmetic must be the library's, operation for operation
-  cc -std=c11 -D_POSIX_C_SOURCE=200809L -O2 -ffp-contract=off -Wall -Wextra -Iinclude -Isrc -Itests \
-    scripts/bench_winding_oracle.c tests/reference.c tests/meshgen.c build/release/libclvox.a \
-    $(cat build/release/libclvox.libs) -o "$oracle"
-fi
+make -s CONFIG=release bench-tools >&2   # the oracle: -ffp-contract=off, as the library
 py=python3
 [ -x build/venv-formats/bin/python ] && py=build/venv-formats/bin/python
 "$py" -c 'import numpy' 2>/dev/null || { log "numpy is needed ($py)"; exit 1; }
@@ -146,7 +140,7 @@ for c in "${cases[@]}"; do
     fi
     while IFS=$'\t' read -r k v _ _ extra; do
       j[$k]=$v; [ -z "${extra:-}" ] || j[$k]="$v (${extra%% on*})"
-    done < <("$py" scripts/bench_winding_iou.py "$orc" "${targs[@]}" "${vols[@]}")
+    done < <("$py" scripts/bench/bench_winding_iou.py "$orc" "${targs[@]}" "${vols[@]}")
   fi
   printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$name" "$n" "$edges" "$inside" "$near" \
     "${j[winding]}" "${j[winding-abs]}" "${j[parity]}" "${j[tetra]}" "${j[trimesh-contains]}" "${j[trimesh-fill]}" \

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* The winding preparation alone (scripts/bench_winding_closed.sh --prep),
+/* The winding preparation alone (scripts/bench/bench_winding_closed.sh --prep),
  * not a test: loads a mesh, runs clvox__winding_prepare R times (with
  * -DCLVOX_BENCH_BORROW: clvox__winding_prepare_flags with CLVOX__PREP_BORROW,
  * as the cast's speculation does) and prints the median and the minimum of

@@ -3,7 +3,7 @@
 (Cavagnino & Gribaudo, section 4: "a simple Blender script that reconstructs
 the original object using geometry instancing"), saves it and renders it.
 
-    blender -b --factory-startup --python scripts/blender_instances.py -- \\
+    blender -b --factory-startup --python scripts/tools/blender_instances.py -- \\
         --csv OUT.csv [--render-map MAP] [--objects LIB.blend] \\
         [--palette NAME|FILE] [--save OUT.blend] [--render OUT.png] \\
         [--size 160x120] [--samples 8]
@@ -93,7 +93,7 @@ class Parser(argparse.ArgumentParser):
 
 
 def parse_args(argv):
-    p = Parser(prog="blender -b --factory-startup --python scripts/blender_instances.py --",
+    p = Parser(prog="blender -b --factory-startup --python scripts/tools/blender_instances.py --",
                description="Builds, saves and renders a Blender scene from `clvox instances` CSV.")
     p.add_argument("--csv", required=True, help="the CSV written by clvox instances")
     p.add_argument("--render-map", help="the render map the CSV was made with: its objects all get sources")
@@ -514,7 +514,7 @@ def render(args, path):
 def main(argv):
     args = parse_args(argv)
     if bpy is None:
-        fail("run inside Blender: blender -b --factory-startup --python scripts/blender_instances.py -- ...")
+        fail("run inside Blender: blender -b --factory-startup --python scripts/tools/blender_instances.py -- ...")
     for out in (args.save, args.render):
         if out:
             check_output(out)

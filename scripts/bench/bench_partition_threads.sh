@@ -7,13 +7,13 @@
 # count the best and median of the summary's load and partition seconds,
 # the wall and the peak RSS (GNU time, KiB).
 #
-#   scripts/bench_partition_threads.sh [-r N] [--repeat R] [--threads "1 2"] [MESH ...]
+#   scripts/bench/bench_partition_threads.sh [-r N] [--repeat R] [--threads "1 2"] [MESH ...]
 #
 #   MESH  paths (default: data/meshes/armadillo.off, armadillo_s2.ply,
-#         armadillo_s3.ply; the subdivided ones are made by scripts/subdivide.c
+#         armadillo_s3.ply; the subdivided ones are made by scripts/bench/subdivide.c
 #         when missing)
 set -eu
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
 n=512 rounds=5 threads="1 2"
 while [ $# -gt 0 ]; do
@@ -34,8 +34,8 @@ if [ $# -eq 0 ]; then
   for s in 2 3; do
     f=data/meshes/armadillo_s$s.ply
     if [ ! -f "$f" ]; then
-      cc -O2 -o "$tmp/subdivide" scripts/subdivide.c -lm
-      "$tmp/subdivide" data/meshes/armadillo.off "$s" "$f" > /dev/null
+      [ -x build/release/bench/subdivide ] || make -s CONFIG=release bench-tools >&2
+      build/release/bench/subdivide data/meshes/armadillo.off "$s" "$f" > /dev/null
     fi
   done
   set -- data/meshes/armadillo.off data/meshes/armadillo_s2.ply data/meshes/armadillo_s3.ply

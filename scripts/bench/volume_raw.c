@@ -1,11 +1,10 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* Writes the occupancy of a clvox volume as raw bytes (0/1, x fastest, then
  * y, then z) for the benchmarks' comparison with other voxelizers
- * (scripts/bench_surface_trimesh.py reads it with numpy).
+ * (scripts/bench/bench_surface_trimesh.py reads it with numpy).
  *
- *   cc -std=c11 -O2 -Iinclude -o build/tools/volume_raw scripts/volume_raw.c build/release/libclvox.a \
- *      -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lstdc++ -lm -lpthread
- *   build/tools/volume_raw IN.exr OUT.raw
+ *   make bench-tools
+ *   build/release/bench/volume_raw IN.exr OUT.raw
  *
  * Prints "X Y Z filled"; exit 0, or 1 with a message on error. */
 #include "clvox.h"

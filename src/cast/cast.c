@@ -23,7 +23,15 @@
  * a ray with more than CLVOX__MAX_CROSSINGS crossings is an error. Rays with more crossings than the buffer
  * holds are found from the counts and cast again (in coverage runs, with
  * the rest of their column) with a buffer as large as the largest count, in
- * batches of at most max_rays * capacity crossings (at least one column). */
+ * batches of at most max_rays * capacity crossings (at least one column).
+ *
+ * This file holds the cast and the method; each consumer's host side is in
+ * its own file, named after its kernel: classify.c (clvox_classify),
+ * winding_classify.c (clvox_classify_winding, and the winding preparation
+ * of the cast's triangles, caps and rims), coverage.c (clvox_coverage, and
+ * the samples and arguments both column consumers share) and
+ * palette_score.c (clvox_palette_score). cast.h is what they get of a
+ * batch. */
 #include "classify.h"
 #include "palette_score.h"
 #include "../../kernels/sampler.h"

@@ -4,8 +4,8 @@
  * consumers (kernels/coverage.cl, kernels/palette_score.cl) share, set in
  * one place so that the two lists cannot drift apart. */
 #include "coverage.h"
+#include "classify.h"
 
-#include <stdio.h>
 #include <stdlib.h>
 
 /* Smallest count whose fraction count / samples is > threshold. */
@@ -86,18 +86,7 @@ clvox_status clvox__column_enqueue(clvox_context *ctx, cl_kernel k, const char *
     cl_uint i = 0;
     for (size_t j = 0; j < sizeof order / sizeof *order; j++) err |= set_kargs(k, &i, order[j]);
     err |= clvox__winding_args(k, &i, w, m, x->winding_axis);
-    char what[64];
-    if (err != CL_SUCCESS) {
-        snprintf(what, sizeof what, "clSetKernelArg(%s)", name);
-        return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, what);
-    }
-    size_t local = 64, global = ((size_t)n_cols + local - 1) / local * local;
-    err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
-    if (err != CL_SUCCESS) {
-        snprintf(what, sizeof what, "enqueue %s", name);
-        return clvox__cl_fail(ctx, err, what);
-    }
-    return CLVOX_OK;
+    return clvox__consumer_launch(ctx, k, name, err, n_cols, 64, ev);
 }
 
 clvox_status clvox__coverage_enqueue(clvox_context *ctx, const clvox__coverage *c, const clvox__winding_classify *w,

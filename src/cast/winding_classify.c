@@ -5,6 +5,7 @@
  * arguments all consumers take, and the binary consumer kernels/winding.cl
  * (clvox_classify_winding). */
 #include "winding_classify.h"
+#include "classify.h"
 #include "core/parallel.h"
 
 #if defined(__GLIBC__)
@@ -201,26 +202,13 @@ clvox_status clvox__winding_classify_enqueue(clvox_context *ctx, cl_kernel k, co
                                              const clvox__batch_mem *m, cl_uint n, const clvox__slab_target *t,
                                              cl_event *ev)
 {
-    cl_int err = 0;
+    clvox__classify_args a = {m->rays, n, m->hits, m->counts, m->capacity, t->u_begin, t->u_count,
+                              t->out_stride, t->out->occupancy, m->filled};
     cl_uint i = 0;
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->rays);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &n);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->hits);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->signs);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->counts);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &m->capacity);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_begin);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_count);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->out_stride);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &t->out->occupancy);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
+    cl_int err = clvox__classify_args_set(k, &i, &a, &m->signs);
     err |= clvox__winding_args(k, &i, w, m, 1);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &w->rims.nodes);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &w->rims.node_count);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &w->rims.tris);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_classify_winding)");
-    size_t local = w->local, global = ((size_t)n + local - 1) / local * local;
-    err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_classify_winding");
-    return CLVOX_OK;
+    return clvox__consumer_launch(ctx, k, "clvox_classify_winding", err, n, w->local, ev);
 }

@@ -147,16 +147,9 @@ static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     if (st == CLVOX_OK) s->soup = clvox__buffer(ctx, ro, kept * 9 * sizeof(float), soup, &st, "triangles");
     free(soup);
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
-    if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
-    if (st == CLVOX_OK) {
-        cl_int err;
-        s->k_raster = clCreateKernel(ctx->program, "clvox_surface_raster", &err);
-        if (err == CL_INVALID_KERNEL_NAME)
-            st = clvox__need_fp64(ctx, "surface mode");
-        else if (err != CL_SUCCESS)
-            st = clvox__cl_fail(ctx, err, "clCreateKernel(clvox_surface_raster)");
-    }
-    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_surface_count", &s->k_count);
+    if (st == CLVOX_OK)
+        st = clvox__raster_objects(ctx, "clvox_surface_raster", "clvox_surface_count", "surface mode", &s->filled,
+                                   &s->k_raster, &s->k_count);
     if (stats) {
         uint64_t b = (uint64_t)kept * (9 * 4 + 16 + 4);
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;

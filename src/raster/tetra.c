@@ -324,16 +324,9 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     free(soup);
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
 
-    if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
-    if (st == CLVOX_OK) {
-        cl_int err;
-        s->k_raster = clCreateKernel(ctx->program, "clvox_tetra_raster", &err);
-        if (err == CL_INVALID_KERNEL_NAME)
-            st = clvox__need_fp64(ctx, "method tetra");
-        else if (err != CL_SUCCESS)
-            st = clvox__cl_fail(ctx, err, "clCreateKernel(clvox_tetra_raster)");
-    }
-    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_tetra_resolve", &s->k_resolve);
+    if (st == CLVOX_OK)
+        st = clvox__raster_objects(ctx, "clvox_tetra_raster", "clvox_tetra_resolve", "method tetra", &s->filled,
+                                   &s->k_raster, &s->k_resolve);
     if (stats) {
         uint64_t b = (uint64_t)s->tri_count * (9 * 4 + 8); /* + the slab's bits, counted by the driver */
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;

@@ -140,11 +140,23 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
         }
     }
     if (st == CLVOX_OK) {
-        size_t local = 64, global = (p->count_items + local - 1) / local * local;
-        err = clEnqueueNDRangeKernel(ctx->queue, p->count, 1, NULL, &global, &local, 0, NULL, &ev[EV_COUNT_BITS]);
+        cl_uint i = 0;
+        err = 0;
+        err |= clSetKernelArg(p->count, i++, sizeof(cl_mem), &p->out);
+        err |= clSetKernelArg(p->count, i++, sizeof(cl_uint), &p->words_per_row);
+        if (p->count_x) err |= clSetKernelArg(p->count, i++, sizeof(cl_uint), &p->count_x);
+        err |= clSetKernelArg(p->count, i++, sizeof(cl_uint), &p->rows);
+        err |= clSetKernelArg(p->count, i++, sizeof(cl_mem), &p->filled);
         if (err != CL_SUCCESS) {
-            snprintf(what, sizeof what, "enqueue %s", p->count_name);
-            st = clvox__cl_fail(ctx, err, what);
+            snprintf(what, sizeof what, "clSetKernelArg(%s)", p->count_name);
+            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, what);
+        } else {
+            size_t local = 64, global = ((size_t)p->rows + local - 1) / local * local;
+            err = clEnqueueNDRangeKernel(ctx->queue, p->count, 1, NULL, &global, &local, 0, NULL, &ev[EV_COUNT_BITS]);
+            if (err != CL_SUCCESS) {
+                snprintf(what, sizeof what, "enqueue %s", p->count_name);
+                st = clvox__cl_fail(ctx, err, what);
+            }
         }
     }
     if (st == CLVOX_OK) {

@@ -43,8 +43,10 @@ static inline clvox_status clvox__raster_task_push(clvox_context *ctx, clvox__ra
 }
 
 /* One slab's pass. The raster kernel takes (soup, tasks, task count, ...):
- * the pass sets those three, the caller the rest; the caller sets all of
- * the count kernel's, which adds the slab's bits to `filled`. */
+ * the pass sets those three, the caller the rest. The count kernel adds the
+ * slab's bits to `filled` (clvox_tetra_resolve first turns the presence
+ * markers into bits): it takes (bits, words per row, [X,] rows, filled),
+ * all set by the pass. */
 typedef struct clvox__raster_pass {
     const char *method;        /* "surface", "tetra": for messages */
     cl_kernel raster;
@@ -53,10 +55,11 @@ typedef struct clvox__raster_pass {
     size_t first_chunk;        /* tasks in the first chunk; the next ones are sized by time */
     cl_kernel count;
     const char *count_name;
-    size_t count_items;        /* work items of the count kernel */
+    cl_uint count_x;           /* the count kernel's X argument; 0: it takes none */
     int clear;                 /* 0: the raster ORs into the slab as the previous method left it */
-    cl_mem out;                /* the slab's bits */
-    size_t words;              /* ... as 32-bit words */
+    cl_mem out;                /* the slab's bits: rows of words_per_row 32-bit words */
+    cl_uint words_per_row, rows;
+    size_t words;              /* words_per_row * rows */
     cl_mem filled;             /* one cl_uint */
     uint32_t z0;               /* for messages */
     int (*poll)(void *, double); /* clvox__run.poll */

@@ -217,15 +217,9 @@ static clvox_status surface_slab(clvox__method_state *s, uint32_t z0, uint32_t n
     err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &Y);
     err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &out);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_surface_raster)");
-    i = 0;
-    err |= clSetKernelArg(s->k_count, i++, sizeof(cl_mem), &out);
-    err |= clSetKernelArg(s->k_count, i++, sizeof(cl_uint), &W);
-    err |= clSetKernelArg(s->k_count, i++, sizeof(cl_uint), &rows);
-    err |= clSetKernelArg(s->k_count, i++, sizeof(cl_mem), &s->filled);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_surface_count)");
     const clvox__raster_pass pass = {"surface", s->k_raster, "clvox_surface_raster", s->soup, 4096,
-                                     s->k_count, "clvox_surface_count", rows, !s->accumulate,
-                                     out, (size_t)W * Y * nz, s->filled, z0, s->poll, s->poll_user};
+                                     s->k_count, "clvox_surface_count", 0, !s->accumulate,
+                                     out, W, rows, (size_t)W * Y * nz, s->filled, z0, s->poll, s->poll_user};
     return clvox__raster_run(ctx, &pass, &s->tasks, n, t_bin, ss);
 }
 

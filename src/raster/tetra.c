@@ -387,17 +387,10 @@ static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz,
     err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &W);
     err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &out);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_raster)");
-    i = 0;
-    err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &out);
-    err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &W);
-    err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &X);
-    err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &rows);
-    err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &s->filled);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_resolve)");
     /* chunks of tasks: the first 1024, then sized from its time (clvox__raster_run) */
     const clvox__raster_pass pass = {"tetra", s->k_raster, "clvox_tetra_raster", s->soup, 1024,
-                                     s->k_resolve, "clvox_tetra_resolve", rows, 1,
-                                     out, (size_t)W * Y * nz, s->filled, z0, s->poll, s->poll_user};
+                                     s->k_resolve, "clvox_tetra_resolve", X, 1,
+                                     out, W, rows, (size_t)W * Y * nz, s->filled, z0, s->poll, s->poll_user};
     return clvox__raster_run(ctx, &pass, &s->tasks, n, t_bin, ss);
 }
 

@@ -23,33 +23,26 @@
  * a ray with more than CLVOX__MAX_CROSSINGS crossings is an error. Rays with more crossings than the buffer
  * holds are found from the counts and cast again (in coverage runs, with
  * the rest of their column) with a buffer as large as the largest count, in
- * batches of at most max_rays * capacity crossings (at least one column). */
-#include "core/internal.h"
+ * batches of at most max_rays * capacity crossings (at least one column).
+ *
+ * This file holds the cast and the method; each consumer's host side is in
+ * its own file, named after its kernel: classify.c (clvox_classify),
+ * winding_classify.c (clvox_classify_winding, and the winding preparation
+ * of the cast's triangles, caps and rims), coverage.c (clvox_coverage, and
+ * the samples and arguments both column consumers share) and
+ * palette_score.c (clvox_palette_score). cast.h is what they get of a
+ * batch. */
 #include "classify.h"
-#include "winding/winding.h"
-#include "core/parallel.h"
+#include "palette_score.h"
 #include "../../kernels/sampler.h"
 
-#include <math.h>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define DEFAULT_HIT_CAPACITY 32u
-#define SPECULATE_MAX (4u << 20) /* triangles: see ray_prepare */
 #define SLOW_FIRST_RAYS 2048u     /* ray_slab: the first batch where there are caps */
 #define SLOW_BATCH_SECONDS 0.25   /* ... and the wall time a batch is sized for */
-
-/* Device buffers of one batch. */
-typedef struct batch_mem {
-    cl_mem rays, cols, leaf, hits, counts, filled, sums, pstats, pvolume;
-    cl_mem signs, exact; /* winding: a sign per crossing; points evaluated exactly */
-    size_t max_rays, max_items; /* items: rays (binary) or columns (coverage) */
-    cl_uint capacity;
-} batch_mem;
 
 struct clvox__method_state {
     clvox_context *ctx;
@@ -61,20 +54,15 @@ struct clvox__method_state {
     cl_mem verts, tris, nodes, refs; /* the triangles, indexed; the quadtree (all CL_MEM_USE_HOST_PTR) */
     float *verts_host;           /* grid-space vertices (owned; the buffer uses them) */
     uint32_t *tris_owned;        /* the index array when it is not the mesh's own (winding) */
-    cl_kernel k_lookup, k_intersect, k_sort, k_classify, k_coverage, k_palette;
-    /* winding numbers (kernels/winding.h) */
+    cl_kernel k_lookup, k_intersect, k_sort, k_classify; /* k_classify: binary runs, parity or winding */
     int winding;                 /* 1: signed crossings and the winding inside test */
-    cl_uint abs_mode;            /* |w| > 1/2 */
-    clvox__caps caps, rims;
-    clvox_winding_report prep;   /* what the preparation did (for the file's parameters) */
-    cl_uint surface_count;       /* soup triangles before the caps */
+    clvox__winding_classify wind; /* its caps and rims (zero on parity runs: the column consumers take them too) */
     uint32_t leaf_size;
     uint64_t leaf_max;           /* most triangles in one quadtree leaf */
-    batch_mem mem;               /* the fast pass */
+    clvox__batch_mem mem;               /* the fast pass */
     size_t batch_items;          /* items per fast-pass batch (work-bounded) */
     int timed;                   /* caps: batches sized by their time (ray_slab) */
     size_t batch_now;            /* items in the next batch: batch_items, or fewer where timed */
-    size_t winding_local;        /* work-group size of the winding classify (winding_enqueue) */
     int (*poll)(void *, double); /* clvox__run.poll */
     void *poll_user;
     uint64_t max_alloc;          /* the device's largest buffer */
@@ -87,30 +75,13 @@ struct clvox__method_state {
     uint64_t *pvolume_host;      /* palette: per item, element volumes in 2^-32 voxels */
     /* coverage and palette (column runs) */
     int coverage;                /* 1: a column run (the coverage or the palette consumer) */
-    uint32_t N, M, R;            /* R = N*N rays per column, M points per voxel */
-    int stochastic;
-    uint32_t seed_lo, seed_hi;
-    double threshold;            /* occupancy: coverage > threshold ... */
-    uint32_t occ_min;            /* ... i.e. count >= occ_min */
-    cl_mem value_of_count;       /* ushort[R*M+1]: HALF bits, or the count itself */
+    clvox__coverage cov;         /* the samples (both consumers) */
     uint32_t channels;
-    /* palette */
     int palette;                 /* 1: the palette consumer */
-    uint32_t n_elements;
-    cl_mem p_elements, p_cells, p_planes, p_masks, p_volume;
-    cl_uint metric, early_out, sc_lo, sc_hi;
-    cl_uint use_masks;           /* uniform samples: score with the precomputed element masks */
-    char palette_name[64];
+    clvox__palette_score pal;
 };
 
-/* Where one batch's voxels go in the slab. */
-typedef struct slab_target {
-    cl_uint u_begin, u_count; /* voxels along the rays covered by the slab */
-    cl_uint out_stride;       /* bit-row words between voxels of a ray; 0: one row */
-    const clvox__slab_out *out;
-} slab_target;
-
-static void batch_mem_release(batch_mem *m)
+static void batch_mem_release(clvox__batch_mem *m)
 {
     clvox__release_mem(&m->rays);
     clvox__release_mem(&m->cols);
@@ -125,7 +96,7 @@ static void batch_mem_release(batch_mem *m)
     clvox__release_mem(&m->exact);
 }
 
-static clvox_status batch_mem_alloc(clvox_context *ctx, batch_mem *m, size_t max_rays, size_t max_items,
+static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, size_t max_rays, size_t max_items,
                                     cl_uint capacity, int coverage, int palette, int winding)
 {
     clvox_status st = CLVOX_OK;
@@ -169,21 +140,14 @@ static void ray_release(clvox__method_state *s)
     s->verts_host = NULL;
     free(s->tris_owned);
     s->tris_owned = NULL;
-    clvox__release_mem(&s->value_of_count);
-    clvox__release_mem(&s->p_elements);
-    clvox__release_mem(&s->p_cells);
-    clvox__release_mem(&s->p_planes);
-    clvox__release_mem(&s->p_masks);
-    clvox__release_mem(&s->p_volume);
+    clvox__coverage_release(&s->cov);
+    clvox__palette_score_release(&s->pal);
     batch_mem_release(&s->mem);
-    clvox__caps_release(&s->caps);
-    clvox__caps_release(&s->rims);
+    clvox__winding_classify_release(&s->wind);
     if (s->k_lookup) clReleaseKernel(s->k_lookup);
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
     if (s->k_sort) clReleaseKernel(s->k_sort);
     if (s->k_classify) clReleaseKernel(s->k_classify);
-    if (s->k_coverage) clReleaseKernel(s->k_coverage);
-    if (s->k_palette) clReleaseKernel(s->k_palette);
     clvox__quadtree_free(&s->qt);
     free(s->rays_host);
     free(s->cols_host);
@@ -193,226 +157,6 @@ static void ray_release(clvox__method_state *s)
     free(s->pstats_host);
     free(s->pvolume_host);
     free(s);
-}
-
-/* Smallest count whose fraction count / samples is > threshold. */
-static uint32_t occupancy_min_count(double threshold, uint32_t samples)
-{
-    uint32_t t = 0;
-    while (t <= samples && !((double)t / samples > threshold)) t++;
-    return t; /* samples + 1: never occupied */
-}
-
-/* The coverage consumer's settings and its count -> value table. */
-static clvox_status coverage_prepare(clvox__method_state *s, const clvox_voxelize_options *o, const clvox__run *run)
-{
-    clvox_context *ctx = s->ctx;
-    s->coverage = 1;
-    s->N = o->oversample;
-    s->M = o->oversample_points ? o->oversample_points : o->oversample;
-    s->R = s->N * s->N;
-    s->stochastic = o->stochastic != 0;
-    s->seed_lo = (uint32_t)o->seed;
-    s->seed_hi = (uint32_t)(o->seed >> 32);
-    const uint32_t S = s->R * s->M;
-    s->threshold = o->threshold_set ? o->threshold : 0.5;
-    s->occ_min = occupancy_min_count(s->threshold, S);
-    uint16_t *table = malloc(((size_t)S + 1) * sizeof *table);
-    if (!table) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-    for (uint32_t t = 0; t <= S; t++)
-        table[t] = run->coverage_counts ? (uint16_t)t : clvox__half_from_unit((double)t / S);
-    clvox_status st = CLVOX_OK;
-    s->value_of_count = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ((size_t)S + 1) * sizeof *table,
-                                      table, &st, "coverage table");
-    free(table);
-    if (st == CLVOX_OK && !o->palette) st = clvox__kernel(ctx, "clvox_coverage", &s->k_coverage);
-    return st;
-}
-
-/* Unit-voxel position of sample (ray r, point m) under uniform sampling,
- * as (x, y, z) for the run's ray axis: the kernel's clvox_unit_xyz. */
-static void uniform_sample_xyz(const clvox__method_state *s, uint32_t r, uint32_t m, float p[3])
-{
-    float fu = (float)clvox_stratum(m, s->M, 0, 0);
-    float fv = (float)clvox_stratum(r % s->N, s->N, 0, 0), fw = (float)clvox_stratum(r / s->N, s->N, 0, 0);
-    p[s->axes.perm[0]] = fu;
-    p[s->axes.perm[1]] = fv;
-    p[s->axes.perm[2]] = fw;
-}
-
-/* The palette consumer: elements on the device, each element's mask over
- * the uniform sample positions (the same in every voxel), the metric and
- * the shortcut's counts. */
-static clvox_status palette_prepare(clvox__method_state *s, const clvox_voxelize_options *o)
-{
-    clvox_context *ctx = s->ctx;
-    const clvox_element *el;
-    const clvox_cell *cells;
-    const clvox_halfspace *planes;
-    size_t ne, nc, np;
-    clvox__palette_arrays(o->palette, &el, &ne, &cells, &nc, &planes, &np);
-    s->palette = 1;
-    s->n_elements = (uint32_t)ne;
-    snprintf(s->palette_name, sizeof s->palette_name, "%s", clvox_palette_name(o->palette));
-    s->metric = (cl_uint)o->metric;
-    s->early_out = !o->palette_no_early_out;
-    const uint32_t S = s->R * s->M, words = (S + 31u) / 32u;
-    s->sc_lo = 0;
-    s->sc_hi = S;
-    if (o->nearest_shortcut && o->metric == CLVOX_METRIC_NEAREST) {
-        s->sc_lo = (cl_uint)ceil(o->shortcut_alpha * S);  /* cnt < alpha S */
-        s->sc_hi = (cl_uint)floor(o->shortcut_beta * S);  /* cnt > beta S  */
-    }
-    clvox_status st = CLVOX_OK;
-    cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    /* (an empty array gets a small unused buffer: binary has no planes) */
-    s->p_elements = clvox__buffer(ctx, ro, ne * sizeof *el, (void *)el, &st, "palette elements");
-    if (st == CLVOX_OK)
-        s->p_cells = clvox__buffer(ctx, nc ? ro : CL_MEM_READ_ONLY, nc * sizeof *cells, nc ? (void *)cells : NULL, &st,
-                                   "palette cells");
-    if (st == CLVOX_OK)
-        s->p_planes = clvox__buffer(ctx, np ? ro : CL_MEM_READ_ONLY, np * sizeof *planes, np ? (void *)planes : NULL,
-                                    &st, "palette planes");
-    /* CLVOX_BENCH_NO_MASKS=1 (benchmarks and tests only) scores uniform
-     * samples one by one as stochastic ones are: same result, the cost the
-     * masks save. */
-    const char *no_masks = getenv("CLVOX_BENCH_NO_MASKS");
-    s->use_masks = !s->stochastic && !(no_masks && strcmp(no_masks, "1") == 0);
-    uint32_t *masks = NULL;
-    if (st == CLVOX_OK && s->use_masks) {
-        masks = calloc((size_t)ne * words, sizeof *masks);
-        if (!masks) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for palette masks");
-        for (size_t e = 0; st == CLVOX_OK && e < ne; e++)
-            for (uint32_t r = 0; r < s->R; r++)
-                for (uint32_t m = 0; m < s->M; m++) {
-                    float p[3];
-                    uniform_sample_xyz(s, r, m, p);
-                    uint32_t b = r * s->M + m;
-                    if (clvox_palette_contains(o->palette, e, p[0], p[1], p[2])) masks[e * words + b / 32] |= 1u << (b % 32);
-                }
-    }
-    if (st == CLVOX_OK)
-        s->p_masks = clvox__buffer(ctx, masks ? ro : CL_MEM_READ_ONLY, masks ? ne * words * sizeof *masks : 0, masks,
-                                   &st, "palette masks");
-    free(masks);
-    /* element volumes in 2^-32 voxels, for the run's volume estimate */
-    uint64_t *vol = malloc(ne * sizeof *vol);
-    if (st == CLVOX_OK && !vol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-    for (size_t e = 0; st == CLVOX_OK && e < ne; e++) {
-        clvox_palette_element_info info;
-        st = clvox_palette_element_info_get(ctx, o->palette, e, &info);
-        if (st == CLVOX_OK) vol[e] = (uint64_t)llround(info.volume * 4294967296.0);
-    }
-    if (st == CLVOX_OK) s->p_volume = clvox__buffer(ctx, ro, ne * sizeof *vol, vol, &st, "element volumes");
-    free(vol);
-    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_palette_score", &s->k_palette);
-    return st;
-}
-
-/* The winding preparation (part 1, on a second thread) beside the parity
- * vertices and quadtree of the mesh as given (part 0, on the calling thread
- * as in a parity run, on a copy of the context for its messages). This way
- * round the partition's lists come from the allocator's main arena as in
- * parity runs: on the second thread they came from a second arena whose
- * freed memory stayed resident (armadillo_s3 at 512^3: 20 MB more than
- * parity after the partition, through the cast). The preparation's own
- * freed scratch is handed back (glibc) as soon as it is done, before the
- * partition's peak at the end of its build. */
-typedef struct speculation {
-    clvox_context *ctx;
-    const clvox_mesh *mesh;
-    const clvox_grid *grid;
-    clvox__axes axes;
-    const clvox_voxelize_options *opts;
-    uint32_t dim_v, dim_w, leaf_size;
-    clvox_context *side;
-    float *verts;
-    clvox__winding_mesh *wm;
-    clvox_status prep_st, tree_st;
-    clvox__quadtree qt;
-} speculation;
-
-static void speculate(void *arg, int i, int n)
-{
-    speculation *sp = arg;
-    (void)n;
-    if (i == 1) {
-        /* (or the one started ahead, clvox_mesh_prepare_winding) */
-        sp->prep_st = clvox__winding_prepare_or_take(sp->ctx, sp->mesh, sp->opts->weld, CLVOX__PREP_BORROW, sp->wm);
-#if defined(__GLIBC__)
-        malloc_trim(0);
-#endif
-        return;
-    }
-    sp->tree_st = clvox__grid_space_vertices(sp->side, sp->mesh, sp->grid, sp->axes, 0, &sp->verts);
-    if (sp->tree_st == CLVOX_OK)
-        sp->tree_st = clvox__quadtree_build(sp->side, sp->verts, sp->mesh->tris, sp->mesh->triangle_count, sp->dim_v,
-                                            sp->dim_w, sp->opts->quadtree_max_depth, sp->leaf_size, &sp->qt);
-}
-
-/* The cast's triangles for a winding run, indexed: the prepared triangles,
- * then the caps, over the mesh's vertices followed by the apexes (each
- * vertex through the same grid transform as parity's, so the caps share the
- * boundary's floats). Without caps the index array is wm->tris itself
- * (taken). */
-static clvox_status winding_indexed(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                    clvox__axes axes, clvox__winding_mesh *wm, float **out_verts, size_t *out_vert_count,
-                                    uint32_t **out_tris, size_t *out_count)
-{
-    *out_verts = NULL;
-    *out_tris = NULL;
-    size_t nt = wm->triangle_count + wm->cap_count;
-    if (nt > SIZE_MAX / (3 * sizeof(uint32_t)) || wm->apex_count > (SIZE_MAX / 12) - mesh->vertex_count)
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "mesh too large");
-    clvox_mesh view = *mesh;
-    float *xyz = NULL;
-    if (wm->apex_count) {
-        xyz = malloc((mesh->vertex_count + wm->apex_count) * 3 * sizeof *xyz);
-        if (!xyz) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap apexes", wm->apex_count);
-        memcpy(xyz, mesh->xyz, mesh->vertex_count * 3 * sizeof *xyz);
-        memcpy(xyz + mesh->vertex_count * 3, wm->apex, wm->apex_count * 3 * sizeof *xyz);
-        view.xyz = xyz;
-        view.vertex_count = mesh->vertex_count + wm->apex_count;
-    }
-    clvox_status st = clvox__grid_space_vertices(ctx, &view, grid, axes, 0, out_verts);
-    free(xyz);
-    if (st != CLVOX_OK) return st;
-    uint32_t *tris = NULL;
-    if (!wm->cap_count) {
-        tris = wm->tris;
-        wm->tris = NULL;
-    } else if ((tris = malloc(nt * 3 * sizeof *tris)) != NULL) {
-        if (wm->triangle_count) memcpy(tris, wm->tris, wm->triangle_count * 3 * sizeof *tris);
-        memcpy(tris + wm->triangle_count * 3, wm->caps, wm->cap_count * 3 * sizeof *tris);
-    } else {
-        free(*out_verts);
-        *out_verts = NULL;
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles and caps", nt);
-    }
-    *out_vert_count = view.vertex_count;
-    *out_tris = tris;
-    *out_count = nt;
-    return CLVOX_OK;
-}
-
-/* clvox__caps_upload from the indexed triangles: the caps follow the
- * wm->triangle_count surface triangles. */
-static clvox_status caps_upload_indexed(clvox_context *ctx, const float *verts, const uint32_t *tris,
-                                        const clvox__winding_mesh *wm, clvox__axes axes, const clvox_grid *grid,
-                                        clvox__caps *out)
-{
-    size_t n = wm->cap_count;
-    float *soup = malloc((n ? n : 1) * 9 * sizeof *soup);
-    if (!soup) {
-        memset(out, 0, sizeof *out);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu caps", n);
-    }
-    const uint32_t *cap = tris + wm->triangle_count * 3;
-    for (size_t t = 0; t < n; t++)
-        for (int c = 0; c < 3; c++) memcpy(soup + t * 9 + c * 3, verts + (size_t)cap[t * 3 + c] * 3, 3 * sizeof *soup);
-    clvox_status st = clvox__caps_upload(ctx, soup, n, axes, grid, out);
-    free(soup);
-    return st;
 }
 
 static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
@@ -442,68 +186,32 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
                                                : (size_t)d[0] * d[1];
 
     clvox_status st = CLVOX_OK;
-    if (opts->oversample) st = coverage_prepare(s, opts, run);
-    if (st == CLVOX_OK && opts->palette) st = palette_prepare(s, opts);
+    if (opts->oversample) {
+        s->coverage = 1;
+        st = clvox__coverage_prepare(ctx, &s->cov, opts, run, grid, s->axis);
+    }
+    if (st == CLVOX_OK && opts->palette) {
+        s->palette = 1;
+        st = clvox__palette_score_prepare(ctx, &s->pal, opts, &s->cov, s->axis);
+    }
     /* The triangles the cast runs over: grid-space vertices and 3 indices
      * each, the mesh's own unless the winding preparation changed them. */
-    float *verts = NULL;
-    const uint32_t *tris = mesh->tris;
-    uint32_t *tris_owned = NULL;
-    size_t tri_count = mesh->triangle_count, vert_count = mesh->vertex_count;
+    clvox__cast_tris ct = {NULL, mesh->vertex_count, mesh->tris, NULL, mesh->triangle_count, {0}, 0};
     double t0 = clvox__now();
     s->winding = opts->inside == CLVOX_INSIDE_WINDING || opts->inside == CLVOX_INSIDE_WINDING_ABS;
-    s->abs_mode = opts->inside == CLVOX_INSIDE_WINDING_ABS;
-    int have_tree = 0;
-    if (st == CLVOX_OK && s->winding) {
-        /* surface (oriented) + caps: a closed chain (src/winding/winding_prep.c).
-         * The preparation runs beside the parity vertices and quadtree of the
-         * mesh as given: when it changes nothing that the cast sees (no
-         * flip, no cap, no triangle dropped; merged vertices have the same
-         * positions) those are the prepared ones, bit for bit. Up to
-         * SPECULATE_MAX triangles: both at once cost the preparation's
-         * memory on top of the partition's (armadillo_s3, 3.3 M triangles,
-         * 512^3: 1.13 -> 1.00 s when it was added; the preparation borrows
-         * the mesh's triangles and holds about 26 MB at a time, see
-         * src/winding/winding_prep.c and docs/benchmarks.md). */
-        clvox__winding_mesh wm;
-        speculation sp = {ctx, mesh, grid, s->axes, opts, s->dim_v, s->dim_w, s->leaf_size, NULL, NULL, &wm,
-                          CLVOX_OK, CLVOX_OK, {0}};
-        sp.side = mesh->triangle_count <= SPECULATE_MAX ? malloc(sizeof *sp.side) : NULL;
-        if (mesh->triangle_count > SPECULATE_MAX) {
-            st = clvox__winding_prepare_or_take(ctx, mesh, opts->weld, 0, &wm);
-        } else if (!sp.side) {
-            memset(&wm, 0, sizeof wm);
-            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-        } else {
-            *sp.side = *ctx; /* the parity branch's own error message */
-            clvox__parallel(2, speculate, &sp);
-            st = sp.prep_st;
-            const int same = st == CLVOX_OK && sp.tree_st == CLVOX_OK && wm.cap_count == 0 &&
-                             wm.report.flipped_triangles == 0 && wm.triangle_count == mesh->triangle_count;
-            if (same) {
-                verts = sp.verts;
-                s->qt = sp.qt;
-                have_tree = 1;
-            } else {
-                free(sp.verts);
-                clvox__quadtree_free(&sp.qt);
-                if (st == CLVOX_OK) st = clvox__winding_mesh_own_tris(ctx, mesh, &wm); /* borrowed: copy */
-            }
-            free(sp.side);
-        }
-        if (st == CLVOX_OK && !have_tree) {
-            st = winding_indexed(ctx, mesh, grid, s->axes, &wm, &verts, &vert_count, &tris_owned, &tri_count);
-            tris = tris_owned;
-        }
-        if (st == CLVOX_OK) st = caps_upload_indexed(ctx, verts, tris, &wm, s->axes, grid, &s->caps);
-        if (st == CLVOX_OK) st = clvox__rims_upload(ctx, mesh, grid, wm.rim, wm.rim_count, &s->rims);
-        s->surface_count = (cl_uint)wm.triangle_count;
-        if (stats) stats->winding = wm.report;
-        s->prep = wm.report;
-        clvox__winding_mesh_free(&wm);
-    } else if (st == CLVOX_OK) {
-        st = clvox__grid_space_vertices(ctx, mesh, grid, s->axes, 0, &verts);
-    }
+    s->wind.abs_mode = opts->inside == CLVOX_INSIDE_WINDING_ABS;
+    s->wind.axis = (cl_uint)s->axes.perm[0];
+    if (st == CLVOX_OK && s->winding)
+        st = clvox__winding_cast_prepare(ctx, mesh, grid, opts, s->axes, s->dim_v, s->dim_w, s->leaf_size, &s->wind,
+                                         stats, &ct);
+    else if (st == CLVOX_OK)
+        st = clvox__grid_space_vertices(ctx, mesh, grid, s->axes, 0, &ct.verts);
+    if (ct.have_tree) s->qt = ct.qt;
+    float *verts = ct.verts;
+    const uint32_t *tris = ct.tris;
+    uint32_t *tris_owned = ct.tris_owned;
+    size_t tri_count = ct.tri_count, vert_count = ct.vert_count;
+    const int have_tree = ct.have_tree;
     /* held by s from here (ray_release frees them after the buffers) */
     s->verts_host = verts;
     s->tris_owned = tris_owned;
@@ -549,8 +257,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
      * and at least one column. */
     size_t max_rays = columns, max_items = columns;
     if (s->coverage) {
-        max_items = columns / s->R ? columns / s->R : 1;
-        max_rays = max_items * s->R;
+        max_items = columns / s->cov.R ? columns / s->cov.R : 1;
+        max_rays = max_items * s->cov.R;
     }
     cl_uint capacity = opts->hit_capacity ? opts->hit_capacity : DEFAULT_HIT_CAPACITY;
     if (capacity > CLVOX__MAX_CROSSINGS) capacity = CLVOX__MAX_CROSSINGS;
@@ -559,7 +267,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         if (s->qt.nodes[i].count != CLVOX_QT_INTERNAL && s->qt.nodes[i].count > s->leaf_max)
             s->leaf_max = s->qt.nodes[i].count;
     {
-        uint64_t per_item = (uint64_t)(s->coverage ? s->R : 1) * (s->leaf_max ? s->leaf_max : 1);
+        uint64_t per_item = (uint64_t)(s->coverage ? s->cov.R : 1) * (s->leaf_max ? s->leaf_max : 1);
         uint64_t k = CLVOX__BATCH_TESTS / per_item;
         s->batch_items = k < 1 ? 1 : k > max_items ? max_items : (size_t)k;
     }
@@ -572,10 +280,10 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
      * work-groups of 4 rays keep a short batch from ending on one group of
      * 64 costly rays (2 cores, cylinder at 256^3 in batches: 0.99 s with
      * 64, 0.82 with 4, 0.94 in one batch of 64; docs/benchmarks.md). */
-    s->timed = s->caps.node_count > 0;
-    const size_t first = SLOW_FIRST_RAYS / (s->coverage ? s->R : 1); /* items: rays or columns */
+    s->timed = s->wind.caps.node_count > 0;
+    const size_t first = SLOW_FIRST_RAYS / (s->coverage ? s->cov.R : 1); /* items: rays or columns */
     s->batch_now = s->timed && first < s->batch_items ? (first ? first : 1) : s->batch_items;
-    s->winding_local = s->timed && strcmp(ctx->device.type, "cpu") == 0 ? 4 : 64;
+    s->wind.local = s->timed && strcmp(ctx->device.type, "cpu") == 0 ? 4 : 64;
     if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage, s->palette, s->winding);
     if (st == CLVOX_OK) {
         s->rays_host = malloc(max_rays * sizeof *s->rays_host);
@@ -606,169 +314,12 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     return CLVOX_OK;
 }
 
-/* The winding arguments that close the column consumers' argument lists
- * (coverage.cl, palette_score.cl); NULL buffers on parity runs. The
- * coverage kernel takes the ray axis (0..2) here, the palette kernel has
- * its own (1..3) earlier. */
-static cl_int column_winding_args(const clvox__method_state *s, const batch_mem *m, cl_kernel k, cl_uint *i,
-                                  int with_axis)
-{
-    cl_uint axis = (cl_uint)s->axes.perm[0];
-    cl_int err = 0;
-    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &m->signs);
-    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &m->rays);
-    err |= clSetKernelArg(k, (*i)++, sizeof(cl_uint), &s->abs_mode);
-    if (with_axis) err |= clSetKernelArg(k, (*i)++, sizeof(cl_uint), &axis);
-    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &s->caps.h);
-    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &s->caps.nodes);
-    err |= clSetKernelArg(k, (*i)++, sizeof(cl_uint), &s->caps.node_count);
-    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &s->caps.tris);
-    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &m->exact);
-    return err;
-}
-
-static clvox_status coverage_enqueue(clvox__method_state *s, const batch_mem *m, cl_uint n_cols,
-                                     const slab_target *t, cl_event *ev)
-{
-    clvox_context *ctx = s->ctx;
-    const cl_uint X = s->grid.dims[0], Y = s->grid.dims[1], W = clvox__row_words(X);
-    /* voxels between consecutive voxels of a ray in the coverage plane */
-    const cl_uint vox_stride = s->axis == CLVOX_AXIS_X ? 0 : s->axis == CLVOX_AXIS_Y ? X : X * Y;
-    cl_uint R = s->R, M = s->M, st_flag = (cl_uint)s->stochastic;
-    cl_mem cov = t->out->coverage, occ = t->out->occupancy;
-    cl_int err = 0;
-    cl_uint i = 0;
-    cl_kernel k = s->k_coverage;
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->cols);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &n_cols);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &R);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &M);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->hits);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->counts);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &m->capacity);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_begin);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_count);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &st_flag);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->seed_lo);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->seed_hi);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->value_of_count);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->occ_min);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &X);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &W);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &vox_stride);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->out_stride);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), cov ? &cov : NULL);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), occ ? &occ : NULL);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->sums);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
-    err |= column_winding_args(s, m, k, &i, 1);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_coverage)");
-    size_t local = 64, global = ((size_t)n_cols + local - 1) / local * local;
-    err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_coverage");
-    return CLVOX_OK;
-}
-
-static clvox_status palette_enqueue(clvox__method_state *s, const batch_mem *m, cl_uint n_cols,
-                                    const slab_target *t, cl_event *ev)
-{
-    clvox_context *ctx = s->ctx;
-    const cl_uint X = s->grid.dims[0], Y = s->grid.dims[1], W = clvox__row_words(X);
-    const cl_uint vox_stride = s->axis == CLVOX_AXIS_X ? 0 : s->axis == CLVOX_AXIS_Y ? X : X * Y;
-    cl_uint N = s->N, M = s->M, st_flag = (cl_uint)s->stochastic, axis = (cl_uint)s->axis;
-    cl_mem el = t->out->element, sc = t->out->score, cov = t->out->coverage, occ = t->out->occupancy;
-    cl_int err = 0;
-    cl_uint i = 0;
-    cl_kernel k = s->k_palette;
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->cols);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &n_cols);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &N);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &M);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->hits);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->counts);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &m->capacity);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_begin);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_count);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &st_flag);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->seed_lo);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->seed_hi);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &axis);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_elements);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_cells);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_planes);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->n_elements);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->use_masks);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_masks);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->metric);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->early_out);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->sc_lo);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->sc_hi);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->value_of_count);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->occ_min);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &X);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &W);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &vox_stride);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->out_stride);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), el ? &el : NULL);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), sc ? &sc : NULL);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), cov ? &cov : NULL);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), occ ? &occ : NULL);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->p_volume);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->sums);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->pstats);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->pvolume);
-    err |= column_winding_args(s, m, k, &i, 0);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_palette_score)");
-    size_t local = 64, global = ((size_t)n_cols + local - 1) / local * local;
-    err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_palette_score");
-    return CLVOX_OK;
-}
-
 /* Uploads a batch (n rays; coverage: n_cols columns of R rays each), runs
  * lookup, intersect, sort and the consumer, and reads back the crossing
  * count of every ray, the filled voxels of every item and (coverage) the
  * count sum of every column. */
-/* The winding consumer of binary runs (kernels/winding.cl). */
-static clvox_status winding_enqueue(clvox__method_state *s, const batch_mem *m, cl_uint n, const slab_target *t,
-                                    cl_event *ev)
-{
-    clvox_context *ctx = s->ctx;
-    cl_uint capacity = m->capacity, axis = (cl_uint)s->axes.perm[0];
-    cl_int err = 0;
-    cl_kernel k = s->k_classify;
-    cl_uint i = 0;
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->rays);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &n);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->hits);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->signs);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->counts);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &capacity);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_begin);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->u_count);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &t->out_stride);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &t->out->occupancy);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->filled);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->abs_mode);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &axis);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->caps.h);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->caps.nodes);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->caps.node_count);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->caps.tris);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->exact);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->rims.nodes);
-    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &s->rims.node_count);
-    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &s->rims.tris);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_classify_winding)");
-    size_t local = s->winding_local, global = ((size_t)n + local - 1) / local * local;
-    err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_classify_winding");
-    return CLVOX_OK;
-}
-
-static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const clvox_ray *rays, cl_uint n,
-                               const clvox_column *cols, cl_uint n_cols, const slab_target *t, uint32_t *counts,
+static clvox_status cast_batch(clvox__method_state *s, const clvox__batch_mem *m, const clvox_ray *rays, cl_uint n,
+                               const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t, uint32_t *counts,
                                uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
                                clvox__slab_stats *ss)
 {
@@ -800,7 +351,7 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
     err |= clSetKernelArg(s->k_intersect, 8, sizeof(cl_mem), &m->hits);
     err |= clSetKernelArg(s->k_intersect, 9, sizeof(cl_mem), &m->counts);
     err |= clSetKernelArg(s->k_intersect, 10, sizeof(cl_mem), &m->signs); /* NULL unless winding */
-    err |= clSetKernelArg(s->k_intersect, 11, sizeof(cl_uint), &s->surface_count);
+    err |= clSetKernelArg(s->k_intersect, 11, sizeof(cl_uint), &s->wind.surface_count);
 
     err |= clSetKernelArg(s->k_sort, 0, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_sort, 1, sizeof(cl_uint), &capacity);
@@ -824,11 +375,11 @@ static clvox_status cast_batch(clvox__method_state *s, const batch_mem *m, const
     }
     if (st == CLVOX_OK) {
         if (s->palette) {
-            st = palette_enqueue(s, m, n_cols, t, &ev[3]);
+            st = clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, m, n_cols, t, &ev[3]);
         } else if (s->coverage) {
-            st = coverage_enqueue(s, m, n_cols, t, &ev[3]);
+            st = clvox__coverage_enqueue(ctx, &s->cov, &s->wind, m, n_cols, t, &ev[3]);
         } else if (s->winding) {
-            st = winding_enqueue(s, m, n, t, &ev[3]);
+            st = clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, m, n, t, &ev[3]);
         } else {
             clvox__classify_args a = {m->rays, n, m->hits, m->counts, capacity, t->u_begin, t->u_count,
                                       t->out_stride, t->out->occupancy, m->filled};
@@ -873,26 +424,17 @@ static int poll_ok(const clvox__method_state *s, double slab_fraction)
     return s->poll(s->poll_user, slab_fraction);
 }
 
-static void tally_palette(clvox__slab_stats *ss, const uint32_t *p, uint64_t volume)
-{
-    ss->palette_early += p[0];
-    ss->palette_shortcut += p[1];
-    ss->palette_scored += p[2];
-    ss->palette_nonempty += p[3];
-    ss->palette_volume += (double)volume * (1.0 / 4294967296.0);
-}
-
 /* Items (rays, or columns of R rays) whose crossings did not fit: cast
  * them again with a buffer as large as the largest count, in batches of at
  * most the fast pass's crossing buffer (at least one item). `rays` holds R
  * rays per item, `cols` (coverage) one column per item; `expect` the counts
  * of the first pass, which the redo must reproduce. */
 static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays, const clvox_column *cols,
-                                  const uint32_t *expect, size_t items, uint32_t need, const slab_target *t,
+                                  const uint32_t *expect, size_t items, uint32_t need, const clvox__slab_target *t,
                                   double f0, double f1, clvox__slab_stats *ss)
 {
     clvox_context *ctx = s->ctx;
-    const size_t R = s->coverage ? s->R : 1;
+    const size_t R = s->coverage ? s->cov.R : 1;
     if ((uint64_t)need * R * ctx->real_size > s->max_alloc)
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY,
                            "a voxel column's %zu rays with up to %u crossings need %llu MB, more than the device's "
@@ -903,7 +445,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     if (per < 1) per = 1;
     if (per > s->batch_items) per = s->batch_items;
     if (per > items) per = items;
-    batch_mem m;
+    clvox__batch_mem m;
     clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage, s->palette, s->winding);
     if (st != CLVOX_OK) return st;
     uint32_t *cnt = malloc(per * R * sizeof *cnt), *fil = malloc(per * sizeof *fil), *pst = malloc(per * 4 * sizeof *pst);
@@ -920,7 +462,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
         for (size_t i = 0; st == CLVOX_OK && i < k; i++) {
             ss->filled += fil[i];
             if (s->coverage) ss->coverage_count += sum[i];
-            if (s->palette) tally_palette(ss, pst + 4 * i, pvol[i]);
+            if (s->palette) clvox__palette_tally(ss, pst + 4 * i, pvol[i]);
         }
         if (st == CLVOX_OK && i0 + k < items && !poll_ok(s, f0 + (f1 - f0) * (double)(i0 + k) / (double)items))
             st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled while redoing rays with many crossings");
@@ -955,13 +497,14 @@ static void slab_column(const clvox__method_state *s, uint32_t z0, size_t i, uin
 /* The R = N*N rays of a coverage column (sampler.h). */
 static void column_rays(const clvox__method_state *s, uint32_t v, uint32_t w, uint32_t id, clvox_ray *out)
 {
-    const uint32_t N = s->N;
+    const uint32_t N = s->cov.N;
     for (uint32_t b = 0; b < N; b++)
         for (uint32_t a = 0; a < N; a++) {
             uint32_t r = a + N * b, bits[4] = {0, 0, 0, 0};
-            if (s->stochastic) clvox_philox4x32_10(id, r, CLVOX_SAMPLER_RAY_WORD, 0, s->seed_lo, s->seed_hi, bits);
-            double pv = ((double)v - 0.5) + clvox_stratum(a, N, s->stochastic, bits[0]);
-            double pw = ((double)w - 0.5) + clvox_stratum(b, N, s->stochastic, bits[1]);
+            if (s->cov.stochastic)
+                clvox_philox4x32_10(id, r, CLVOX_SAMPLER_RAY_WORD, 0, s->cov.seed_lo, s->cov.seed_hi, bits);
+            double pv = ((double)v - 0.5) + clvox_stratum(a, N, s->cov.stochastic, bits[0]);
+            double pw = ((double)w - 0.5) + clvox_stratum(b, N, s->cov.stochastic, bits[1]);
             out[r] = (clvox_ray){(float)pv, (float)pw, 0, 0};
         }
 }
@@ -972,7 +515,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
     clvox_context *ctx = s->ctx;
     const uint32_t X = s->grid.dims[0], Y = s->grid.dims[1];
     const uint32_t W = clvox__row_words(X);
-    slab_target t = {0, s->dim_u, 0, out};
+    clvox__slab_target t = {0, s->dim_u, 0, out};
     size_t columns = (size_t)Y * nz;
     if (s->axis == CLVOX_AXIS_Y) {
         t.out_stride = W;
@@ -991,7 +534,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
     }
     /* z-rays are the same for every slab: count them once. */
     const int count_rays = s->axis != CLVOX_AXIS_Z || z0 == 0;
-    const size_t R = s->coverage ? s->R : 1;
+    const size_t R = s->coverage ? s->cov.R : 1;
     /* Items (rays or columns) per batch: s->batch_now, where timed sized
      * from the last batch's wall time to take about SLOW_BATCH_SECONDS (the
      * rays are independent: the same voxels whatever the batches). */
@@ -1042,7 +585,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
             if (!overflowed) {
                 ss->filled += s->filled_host[i];
                 if (s->coverage) ss->coverage_count += s->sums_host[i];
-                if (s->palette) tally_palette(ss, s->pstats_host + 4 * i, s->pvolume_host[i]);
+                if (s->palette) clvox__palette_tally(ss, s->pstats_host + 4 * i, s->pvolume_host[i]);
                 continue;
             }
             if (over != i) {
@@ -1074,10 +617,10 @@ static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
     int n = snprintf(buf, size, "axis=%c quadtree_depth=%u quadtree_leaf_size=%u hit_capacity=%u rule=centre-on-surface:+x+y+z",
                      "?xyz"[s->axis], s->qt.depth, s->leaf_size, s->mem.capacity);
     if (n > 0 && (size_t)n < size) {
-        const clvox_winding_report *w = &s->prep;
+        const clvox_winding_report *w = &s->wind.prep;
         int m = s->winding ? snprintf(buf + n, size - (size_t)n,
                                       " inside=%s merged=%llu welded=%llu flipped=%llu cavities=%llu holes=%llu caps=%llu",
-                                      s->abs_mode ? "winding-abs" : "winding",
+                                      s->wind.abs_mode ? "winding-abs" : "winding",
                                       (unsigned long long)w->merged_vertices, (unsigned long long)w->welded_vertices,
                                       (unsigned long long)w->flipped_triangles, (unsigned long long)w->cavities,
                                       (unsigned long long)w->holes, (unsigned long long)w->cap_triangles)
@@ -1086,18 +629,18 @@ static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
     }
     if (s->coverage && n > 0 && (size_t)n < size) {
         int m = snprintf(buf + n, size - (size_t)n, " oversample=%ux%u points=%u sampling=%s seed=%llu sampler=philox4x32-10",
-                         s->N, s->N, s->M, s->stochastic ? "stratified-jitter" : "uniform",
-                         (unsigned long long)s->seed_lo | ((unsigned long long)s->seed_hi << 32));
+                         s->cov.N, s->cov.N, s->cov.M, s->cov.stochastic ? "stratified-jitter" : "uniform",
+                         (unsigned long long)s->cov.seed_lo | ((unsigned long long)s->cov.seed_hi << 32));
         n += m > 0 ? m : 0;
         if ((s->channels & CLVOX_CHANNEL_OCCUPANCY) && (size_t)n < size) {
-            m = snprintf(buf + n, size - (size_t)n, " occupancy=coverage>%.17g", s->threshold);
+            m = snprintf(buf + n, size - (size_t)n, " occupancy=coverage>%.17g", s->cov.threshold);
             n += m > 0 ? m : 0;
         }
         if (s->palette && (size_t)n < size) {
             static const char *const metric[] = {"nearest", "outer", "inner"};
             snprintf(buf + n, size - (size_t)n, " palette=%s elements=%u metric=%s early_out=%s shortcut=%u..%u%s",
-                     s->palette_name, s->n_elements, metric[s->metric % 3], s->early_out ? "on" : "off", s->sc_lo,
-                     s->sc_hi, s->stochastic || s->use_masks ? "" : " masks=off");
+                     s->pal.name, s->pal.n_elements, metric[s->pal.metric % 3], s->pal.early_out ? "on" : "off", s->pal.sc_lo,
+                     s->pal.sc_hi, s->cov.stochastic || s->pal.use_masks ? "" : " masks=off");
         }
     }
 }

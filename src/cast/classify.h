@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Stage classify, host side (src/cast/classify.c). */
+/* Stage classify, host side (src/cast/classify.c); the argument head and
+ * launch the other consumers share. */
 #ifndef CLVOX_CLASSIFY_H
 #define CLVOX_CLASSIFY_H
 #include "core/internal.h"
@@ -15,6 +16,13 @@ typedef struct clvox__classify_args {
     cl_mem filled;      /* cl_uint per ray: voxels set                 */
 } clvox__classify_args;
 
+/* From argument *i on: a's arguments in order, with signs (winding
+ * crossings' signs) after the crossings where not NULL. */
+cl_int clvox__classify_args_set(cl_kernel k, cl_uint *i, const clvox__classify_args *a, const cl_mem *signs);
+/* Fails with args_err (from setting k's arguments), else enqueues k over n
+ * items in work-groups of `local`; `name` is k's, for messages. */
+clvox_status clvox__consumer_launch(clvox_context *ctx, cl_kernel k, const char *name, cl_int args_err, cl_uint n,
+                                    size_t local, cl_event *ev);
 clvox_status clvox__classify_enqueue(clvox_context *ctx, cl_kernel k, const clvox__classify_args *a,
                                      cl_event *ev);
 #endif

@@ -48,7 +48,7 @@
  * (atomic_or), and a count kernel adds up the slab's bits. Slabs are
  * independent: the same volume in any slab depth and order. Memory: the
  * soup, the ranges, one slab's task list and the driver's slab buffer. */
-#include "core/internal.h"
+#include "raster_enqueue.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -57,8 +57,6 @@
 
 #define SLICES_PER_TASK 8
 #define ROWS_PER_TASK 32
-/* Target duration of one raster chunk between polls (seconds). */
-#define RASTER_CHUNK_SECONDS 0.15
 
 struct clvox__method_state {
     clvox_context *ctx;
@@ -67,9 +65,8 @@ struct clvox__method_state {
     size_t tri_count;    /* triangles kept (those meeting the grid) */
     int32_t *range;      /* 4 per triangle: first slice, last slice, first row, last row */
     uint32_t words_per_row;
-    cl_uint *tasks_host; /* 4 per task */
-    size_t task_cap;
-    cl_mem soup, tasks, filled;
+    clvox__raster_tasks tasks; /* the slab's (triangle, first slice, end slice, rows first | last << 16) */
+    cl_mem soup, filled;
     cl_kernel k_raster, k_count;
     int (*poll)(void *, double);
     void *poll_user;
@@ -79,12 +76,11 @@ static void surface_release(clvox__method_state *s)
 {
     if (!s) return;
     clvox__release_mem(&s->soup);
-    clvox__release_mem(&s->tasks);
+    clvox__raster_tasks_release(&s->tasks);
     clvox__release_mem(&s->filled);
     if (s->k_raster) clReleaseKernel(s->k_raster);
     if (s->k_count) clReleaseKernel(s->k_count);
     free(s->range);
-    free(s->tasks_host);
     free(s);
 }
 
@@ -151,16 +147,9 @@ static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     if (st == CLVOX_OK) s->soup = clvox__buffer(ctx, ro, kept * 9 * sizeof(float), soup, &st, "triangles");
     free(soup);
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
-    if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
-    if (st == CLVOX_OK) {
-        cl_int err;
-        s->k_raster = clCreateKernel(ctx->program, "clvox_surface_raster", &err);
-        if (err == CL_INVALID_KERNEL_NAME)
-            st = clvox__need_fp64(ctx, "surface mode");
-        else if (err != CL_SUCCESS)
-            st = clvox__cl_fail(ctx, err, "clCreateKernel(clvox_surface_raster)");
-    }
-    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_surface_count", &s->k_count);
+    if (st == CLVOX_OK)
+        st = clvox__raster_objects(ctx, "clvox_surface_raster", "clvox_surface_count", "surface mode", &s->filled,
+                                   &s->k_raster, &s->k_count);
     if (stats) {
         uint64_t b = (uint64_t)kept * (9 * 4 + 16 + 4);
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;
@@ -170,25 +159,6 @@ static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
         return st;
     }
     *out = s;
-    return CLVOX_OK;
-}
-
-static clvox_status push_task(clvox__method_state *s, size_t *n, size_t tri, int32_t k0, int32_t k1, int32_t j0,
-                              int32_t j1)
-{
-    if (*n == s->task_cap) {
-        size_t cap = s->task_cap ? 2 * s->task_cap : 4096;
-        cl_uint *p = realloc(s->tasks_host, cap * 4 * sizeof *p);
-        if (!p) return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu tasks", cap);
-        s->tasks_host = p;
-        s->task_cap = cap;
-        clvox__release_mem(&s->tasks); /* re-created at the new size */
-    }
-    cl_uint *q = s->tasks_host + 4 * (*n)++;
-    q[0] = (cl_uint)tri;
-    q[1] = (cl_uint)k0;
-    q[2] = (cl_uint)k1;
-    q[3] = (cl_uint)j0 | (cl_uint)j1 << 16;
     return CLVOX_OK;
 }
 
@@ -215,18 +185,14 @@ static clvox_status bin_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, s
             const int32_t b = a + SLICES_PER_TASK - 1 < last ? a + SLICES_PER_TASK - 1 : last;
             for (int32_t j = r[2]; j <= r[3]; j += ROWS_PER_TASK) {
                 int32_t j1 = j + ROWS_PER_TASK - 1 < r[3] ? j + ROWS_PER_TASK - 1 : r[3];
-                clvox_status st = push_task(s, &n, i, a, b + 1, j, j1);
+                clvox_status st = clvox__raster_task_push(s->ctx, &s->tasks, &n, (cl_uint)i, (cl_uint)a,
+                                                          (cl_uint)(b + 1), (cl_uint)j | (cl_uint)j1 << 16);
                 if (st != CLVOX_OK) return st;
             }
         }
     }
     *count = n;
-    if (!s->tasks && s->task_cap) {
-        clvox_status st = CLVOX_OK;
-        s->tasks = clvox__buffer(s->ctx, CL_MEM_READ_ONLY, s->task_cap * 4 * sizeof(cl_uint), NULL, &st, "tasks");
-        if (st != CLVOX_OK) return st;
-    }
-    return CLVOX_OK;
+    return clvox__raster_tasks_ready(s->ctx, &s->tasks);
 }
 
 static clvox_status surface_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, const clvox__slab_out *planes,
@@ -240,106 +206,21 @@ static clvox_status surface_slab(clvox__method_state *s, uint32_t z0, uint32_t n
     size_t n = 0;
     clvox_status st = bin_slab(s, z0, nz, &n);
     if (st != CLVOX_OK) return st;
-    if (n > UINT32_MAX) return clvox__fail(ctx, CLVOX_ERR_INTERNAL, "%zu tasks in one slab", n);
     double t_bin = clvox__now() - t0;
 
-    enum { EV_TASKS, EV_CLEAR, EV_ZERO, EV_RASTER, EV_COUNT_BITS, EV_N };
-    cl_event ev[EV_N] = {0};
-    cl_int err = CL_SUCCESS;
-    cl_uint zero = 0, filled = 0, count = (cl_uint)n;
-    size_t words = (size_t)W * Y * nz;
-    if (n) {
-        err = clEnqueueWriteBuffer(ctx->queue, s->tasks, CL_FALSE, 0, n * 4 * sizeof(cl_uint), s->tasks_host, 0, NULL,
-                                   &ev[EV_TASKS]);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "uploading surface tasks");
-    }
-    if (st == CLVOX_OK && !s->accumulate) {
-        err = clEnqueueFillBuffer(ctx->queue, out, &zero, sizeof zero, 0, words * sizeof(cl_uint), 0, NULL,
-                                  &ev[EV_CLEAR]);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the slab bits");
-    }
-    if (st == CLVOX_OK) {
-        err = clEnqueueFillBuffer(ctx->queue, s->filled, &zero, sizeof zero, 0, sizeof zero, 0, NULL, &ev[EV_ZERO]);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the filled count");
-    }
-    if (st == CLVOX_OK && n) {
-        cl_uint i = 0;
-        err = 0;
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &s->soup);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &s->tasks);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &count);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &z0);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &X);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &W);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &Y);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &out);
-        if (err != CL_SUCCESS) {
-            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_surface_raster)");
-        } else {
-            /* Chunks of tasks of about RASTER_CHUNK_SECONDS, the driver
-             * polled between them (cancel within a slab of huge triangles). */
-            const size_t local = 64;
-            size_t off = 0, chunk = n < 4096 ? n : 4096;
-            double raster = 0;
-            while (st == CLVOX_OK && off < n) {
-                size_t k = n - off < chunk ? n - off : chunk;
-                size_t global = (k + local - 1) / local * local, goff = off;
-                cl_event e = NULL;
-                double c0 = clvox__now();
-                err = clEnqueueNDRangeKernel(ctx->queue, s->k_raster, 1, &goff, &global, &local, 0, NULL, &e);
-                if (err != CL_SUCCESS) {
-                    st = clvox__cl_fail(ctx, err, "enqueue clvox_surface_raster");
-                    break;
-                }
-                off += k;
-                if (off < n) {
-                    err = clWaitForEvents(1, &e);
-                    if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running clvox_surface_raster");
-                    double dt = clvox__now() - c0;
-                    raster += clvox__event_seconds(e);
-                    clReleaseEvent(e);
-                    double want = dt > 0 ? (double)chunk * RASTER_CHUNK_SECONDS / dt : (double)n;
-                    chunk = want < 256 ? 256 : want > (double)n ? n : (size_t)want;
-                    chunk = (chunk + local - 1) / local * local;
-                    if (st == CLVOX_OK && s->poll && !s->poll(s->poll_user, (double)off / (double)n))
-                        st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", z0);
-                } else {
-                    ev[EV_RASTER] = e;
-                }
-            }
-            ss->classify_seconds += raster;
-        }
-    }
-    if (st == CLVOX_OK) {
-        cl_uint rows = Y * nz, i = 0;
-        err = 0;
-        err |= clSetKernelArg(s->k_count, i++, sizeof(cl_mem), &out);
-        err |= clSetKernelArg(s->k_count, i++, sizeof(cl_uint), &W);
-        err |= clSetKernelArg(s->k_count, i++, sizeof(cl_uint), &rows);
-        err |= clSetKernelArg(s->k_count, i++, sizeof(cl_mem), &s->filled);
-        if (err != CL_SUCCESS) {
-            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_surface_count)");
-        } else {
-            size_t local = 64, global = ((size_t)rows + local - 1) / local * local;
-            err = clEnqueueNDRangeKernel(ctx->queue, s->k_count, 1, NULL, &global, &local, 0, NULL, &ev[EV_COUNT_BITS]);
-            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "enqueue clvox_surface_count");
-        }
-    }
-    if (st == CLVOX_OK) {
-        err = clEnqueueReadBuffer(ctx->queue, s->filled, CL_TRUE, 0, sizeof filled, &filled, 0, NULL, NULL);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the surface kernels");
-    }
-    if (st == CLVOX_OK) {
-        ss->filled += filled;
-        ss->cast_seconds += t_bin + clvox__event_seconds(ev[EV_TASKS]) + clvox__event_seconds(ev[EV_CLEAR]) +
-                            clvox__event_seconds(ev[EV_ZERO]);
-        ss->classify_seconds += clvox__event_seconds(ev[EV_RASTER]) + clvox__event_seconds(ev[EV_COUNT_BITS]);
-    } else {
-        clFinish(ctx->queue); /* the host task array must outlive the upload */
-    }
-    for (int i = 0; i < EV_N; i++)
-        if (ev[i]) clReleaseEvent(ev[i]);
-    return st;
+    /* (soup, tasks, task count: clvox__raster_run) */
+    cl_uint rows = Y * nz, i = 3;
+    cl_int err = 0;
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &z0);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &X);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &W);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &Y);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &out);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_surface_raster)");
+    const clvox__raster_pass pass = {"surface", s->k_raster, "clvox_surface_raster", s->soup, 4096,
+                                     s->k_count, "clvox_surface_count", 0, !s->accumulate,
+                                     out, W, rows, (size_t)W * Y * nz, s->filled, z0, s->poll, s->poll_user};
+    return clvox__raster_run(ctx, &pass, &s->tasks, n, t_bin, ss);
 }
 
 static void surface_describe(const clvox__method_state *s, char *buf, size_t size)

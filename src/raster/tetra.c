@@ -69,7 +69,7 @@
  * every test (tests/test_tetra.c compares every voxel, no tolerance). The
  * kernels need cl_khr_fp64; without it prepare fails with
  * CLVOX_ERR_NO_DEVICE. */
-#include "core/internal.h"
+#include "raster_enqueue.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -94,28 +94,23 @@ struct clvox__method_state {
     int32_t *klo, *khi;  /* slices of each tetrahedron */
     uint32_t slices_per_task;
     uint32_t words_per_row;
-    cl_uint *tasks_host; /* 4 per task */
-    size_t task_cap;     /* tasks the host and device buffers hold */
-    cl_mem soup, tasks, filled; /* the presence bits live in the driver's slab buffer */
+    clvox__raster_tasks tasks; /* the slab's (tetrahedron, first slice, end slice, 0) */
+    cl_mem soup, filled; /* the presence bits live in the driver's slab buffer */
     cl_kernel k_raster, k_resolve;
     int (*poll)(void *, double); /* clvox__run.poll */
     void *poll_user;
 };
 
-/* Target duration of one raster chunk between polls (seconds). */
-#define RASTER_CHUNK_SECONDS 0.15
-
 static void tetra_release(clvox__method_state *s)
 {
     if (!s) return;
     clvox__release_mem(&s->soup);
-    clvox__release_mem(&s->tasks);
+    clvox__raster_tasks_release(&s->tasks);
     clvox__release_mem(&s->filled);
     if (s->k_raster) clReleaseKernel(s->k_raster);
     if (s->k_resolve) clReleaseKernel(s->k_resolve);
     free(s->klo);
     free(s->khi);
-    free(s->tasks_host);
     free(s);
 }
 
@@ -329,16 +324,9 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     free(soup);
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
 
-    if (st == CLVOX_OK) s->filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
-    if (st == CLVOX_OK) {
-        cl_int err;
-        s->k_raster = clCreateKernel(ctx->program, "clvox_tetra_raster", &err);
-        if (err == CL_INVALID_KERNEL_NAME)
-            st = clvox__need_fp64(ctx, "method tetra");
-        else if (err != CL_SUCCESS)
-            st = clvox__cl_fail(ctx, err, "clCreateKernel(clvox_tetra_raster)");
-    }
-    if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_tetra_resolve", &s->k_resolve);
+    if (st == CLVOX_OK)
+        st = clvox__raster_objects(ctx, "clvox_tetra_raster", "clvox_tetra_resolve", "method tetra", &s->filled,
+                                   &s->k_raster, &s->k_resolve);
     if (stats) {
         uint64_t b = (uint64_t)s->tri_count * (9 * 4 + 8); /* + the slab's bits, counted by the driver */
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;
@@ -351,26 +339,7 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     return CLVOX_OK;
 }
 
-/* The slab's tasks into tasks_host; grows the host and device buffers. */
-static clvox_status push_task(clvox__method_state *s, size_t *n, size_t tri, int32_t k, int32_t end)
-{
-    if (*n == s->task_cap) {
-        size_t cap = s->task_cap ? 2 * s->task_cap : 4096;
-        cl_uint *p = realloc(s->tasks_host, cap * 4 * sizeof *p);
-        if (!p) return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu tasks", cap);
-        s->tasks_host = p;
-        s->task_cap = cap;
-        clvox__release_mem(&s->tasks); /* re-created at the new size */
-    }
-    cl_uint *q = s->tasks_host + 4 * (*n)++;
-    q[0] = (cl_uint)tri;
-    q[1] = (cl_uint)k;
-    q[2] = (cl_uint)end;
-    q[3] = 0;
-    return CLVOX_OK;
-}
-
-/* The slab's tasks into tasks_host, chunk of slices by chunk of slices (so
+/* The slab's tasks into s->tasks, chunk of slices by chunk of slices (so
  * that tasks run together touch the same few slices of presence bits);
  * grows the host and device buffers. */
 static clvox_status bin_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, size_t *count)
@@ -383,17 +352,13 @@ static clvox_status bin_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, s
             int32_t a = s->klo[i] > c0 ? s->klo[i] : c0;
             int32_t b = s->khi[i] < c1 ? s->khi[i] : c1;
             if (a > b) continue;
-            clvox_status st = push_task(s, &n, i, a, b + 1);
+            clvox_status st =
+                clvox__raster_task_push(s->ctx, &s->tasks, &n, (cl_uint)i, (cl_uint)a, (cl_uint)(b + 1), 0);
             if (st != CLVOX_OK) return st;
         }
     }
     *count = n;
-    if (!s->tasks && s->task_cap) {
-        clvox_status st = CLVOX_OK;
-        s->tasks = clvox__buffer(s->ctx, CL_MEM_READ_ONLY, s->task_cap * 4 * sizeof(cl_uint), NULL, &st, "tasks");
-        if (st != CLVOX_OK) return st;
-    }
-    return CLVOX_OK;
+    return clvox__raster_tasks_ready(s->ctx, &s->tasks);
 }
 
 static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, const clvox__slab_out *planes,
@@ -406,115 +371,27 @@ static clvox_status tetra_slab(clvox__method_state *s, uint32_t z0, uint32_t nz,
     size_t n = 0;
     clvox_status st = bin_slab(s, z0, nz, &n);
     if (st != CLVOX_OK) return st;
-    if (n > UINT32_MAX) return clvox__fail(ctx, CLVOX_ERR_INTERNAL, "%zu tasks in one slab", n);
     double t_bin = clvox__now() - t0;
 
-    enum { EV_TASKS, EV_CLEAR, EV_ZERO, EV_RASTER, EV_RESOLVE, EV_COUNT };
-    cl_event ev[EV_COUNT] = {0};
-    cl_int err = CL_SUCCESS;
-    cl_uint zero = 0, filled = 0, count = (cl_uint)n;
-    size_t words = (size_t)W * Y * nz;
-    if (n) {
-        err = clEnqueueWriteBuffer(ctx->queue, s->tasks, CL_FALSE, 0, n * 4 * sizeof(cl_uint), s->tasks_host, 0,
-                                   NULL, &ev[EV_TASKS]);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "uploading tetra tasks");
-    }
-    if (st == CLVOX_OK) {
-        err = clEnqueueFillBuffer(ctx->queue, out, &zero, sizeof zero, 0, words * sizeof(cl_uint), 0, NULL,
-                                  &ev[EV_CLEAR]);
-        if (err == CL_SUCCESS)
-            err = clEnqueueFillBuffer(ctx->queue, s->filled, &zero, sizeof zero, 0, sizeof zero, 0, NULL,
-                                      &ev[EV_ZERO]);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the presence bits");
-    }
-    if (st == CLVOX_OK && n) {
-        cl_uint tie = s->tie_order;
-        cl_float ox = s->origin_g[0], oy = s->origin_g[1], oz = s->origin_g[2];
-        cl_uint i = 0;
-        err = 0;
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &s->soup);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &s->tasks);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &count);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &ox);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &oy);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &oz);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &tie);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &z0);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &X);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &Y);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &W);
-        err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &out);
-        if (err != CL_SUCCESS) {
-            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_raster)");
-        } else {
-            /* Chunks of tasks, sized to take about RASTER_CHUNK_SECONDS each
-             * (the first is 1024 tasks, then sized from its time), with
-             * the driver polled between them: a slab of huge or coincident
-             * tetrahedra stays cancellable. */
-            const size_t local = 64;
-            size_t off = 0, chunk = n < 1024 ? n : 1024;
-            double raster = 0;
-            while (st == CLVOX_OK && off < n) {
-                size_t k = n - off < chunk ? n - off : chunk;
-                size_t global = (k + local - 1) / local * local, goff = off;
-                cl_event e = NULL;
-                double c0 = clvox__now();
-                err = clEnqueueNDRangeKernel(ctx->queue, s->k_raster, 1, &goff, &global, &local, 0, NULL, &e);
-                if (err != CL_SUCCESS) {
-                    st = clvox__cl_fail(ctx, err, "enqueue clvox_tetra_raster");
-                    break;
-                }
-                off += k;
-                if (off < n) { /* wait, adapt the chunk, ask whether to go on */
-                    err = clWaitForEvents(1, &e);
-                    if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running clvox_tetra_raster");
-                    double dt = clvox__now() - c0;
-                    raster += clvox__event_seconds(e);
-                    clReleaseEvent(e);
-                    double want = dt > 0 ? (double)chunk * RASTER_CHUNK_SECONDS / dt : (double)n;
-                    chunk = want < 256 ? 256 : want > (double)n ? n : (size_t)want;
-                    chunk = (chunk + local - 1) / local * local;
-                    if (st == CLVOX_OK && s->poll && !s->poll(s->poll_user, (double)off / (double)n))
-                        st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", z0);
-                } else {
-                    ev[EV_RASTER] = e; /* timed with the others below */
-                }
-            }
-            ss->classify_seconds += raster;
-        }
-    }
-    if (st == CLVOX_OK) {
-        cl_uint rows = Y * nz, i = 0;
-        err = 0;
-        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &out);
-        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &W);
-        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &X);
-        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_uint), &rows);
-        err |= clSetKernelArg(s->k_resolve, i++, sizeof(cl_mem), &s->filled);
-        if (err != CL_SUCCESS) {
-            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_resolve)");
-        } else {
-            size_t local = 64, global = ((size_t)rows + local - 1) / local * local;
-            err = clEnqueueNDRangeKernel(ctx->queue, s->k_resolve, 1, NULL, &global, &local, 0, NULL,
-                                         &ev[EV_RESOLVE]);
-            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "enqueue clvox_tetra_resolve");
-        }
-    }
-    if (st == CLVOX_OK) {
-        err = clEnqueueReadBuffer(ctx->queue, s->filled, CL_TRUE, 0, sizeof filled, &filled, 0, NULL, NULL);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the tetra kernels");
-    }
-    if (st == CLVOX_OK) {
-        ss->filled += filled;
-        ss->cast_seconds += t_bin + clvox__event_seconds(ev[EV_TASKS]) + clvox__event_seconds(ev[EV_CLEAR]) +
-                            clvox__event_seconds(ev[EV_ZERO]);
-        ss->classify_seconds += clvox__event_seconds(ev[EV_RASTER]) + clvox__event_seconds(ev[EV_RESOLVE]);
-    } else {
-        clFinish(ctx->queue); /* the host task array must outlive the upload */
-    }
-    for (int i = 0; i < EV_COUNT; i++)
-        if (ev[i]) clReleaseEvent(ev[i]);
-    return st;
+    /* (soup, tasks, task count: clvox__raster_run) */
+    cl_uint tie = s->tie_order, rows = Y * nz, i = 3;
+    cl_float ox = s->origin_g[0], oy = s->origin_g[1], oz = s->origin_g[2];
+    cl_int err = 0;
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &ox);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &oy);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_float), &oz);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &tie);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &z0);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &X);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &Y);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_uint), &W);
+    err |= clSetKernelArg(s->k_raster, i++, sizeof(cl_mem), &out);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_tetra_raster)");
+    /* chunks of tasks: the first 1024, then sized from its time (clvox__raster_run) */
+    const clvox__raster_pass pass = {"tetra", s->k_raster, "clvox_tetra_raster", s->soup, 1024,
+                                     s->k_resolve, "clvox_tetra_resolve", X, 1,
+                                     out, W, rows, (size_t)W * Y * nz, s->filled, z0, s->poll, s->poll_user};
+    return clvox__raster_run(ctx, &pass, &s->tasks, n, t_bin, ss);
 }
 
 static void tetra_describe(const clvox__method_state *s, char *buf, size_t size)

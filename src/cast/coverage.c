@@ -1,0 +1,99 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Stage coverage (grey levels, Thon et al. 3.3.4), host side: the column
+ * runs' samples and count -> value table, and the arguments the two column
+ * consumers (kernels/coverage.cl, kernels/palette_score.cl) share, set in
+ * one place so that the two lists cannot drift apart. */
+#include "coverage.h"
+#include "classify.h"
+
+#include <stdlib.h>
+
+/* Smallest count whose fraction count / samples is > threshold. */
+static uint32_t occupancy_min_count(double threshold, uint32_t samples)
+{
+    uint32_t t = 0;
+    while (t <= samples && !((double)t / samples > threshold)) t++;
+    return t; /* samples + 1: never occupied */
+}
+
+clvox_status clvox__coverage_prepare(clvox_context *ctx, clvox__coverage *c, const clvox_voxelize_options *o,
+                                     const clvox__run *run, const clvox_grid *grid, clvox_axis axis)
+{
+    c->N = o->oversample;
+    c->M = o->oversample_points ? o->oversample_points : o->oversample;
+    c->R = c->N * c->N;
+    c->stochastic = o->stochastic != 0;
+    c->seed_lo = (uint32_t)o->seed;
+    c->seed_hi = (uint32_t)(o->seed >> 32);
+    const cl_uint X = grid->dims[0], Y = grid->dims[1];
+    c->X = X;
+    c->W = clvox__row_words(X);
+    c->vox_stride = axis == CLVOX_AXIS_X ? 0 : axis == CLVOX_AXIS_Y ? X : X * Y;
+    const uint32_t S = c->R * c->M;
+    c->threshold = o->threshold_set ? o->threshold : 0.5;
+    c->occ_min = occupancy_min_count(c->threshold, S);
+    uint16_t *table = malloc(((size_t)S + 1) * sizeof *table);
+    if (!table) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    for (uint32_t t = 0; t <= S; t++)
+        table[t] = run->coverage_counts ? (uint16_t)t : clvox__half_from_unit((double)t / S);
+    clvox_status st = CLVOX_OK;
+    c->value_of_count = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ((size_t)S + 1) * sizeof *table,
+                                      table, &st, "coverage table");
+    free(table);
+    if (st == CLVOX_OK && !o->palette) st = clvox__kernel(ctx, "clvox_coverage", &c->k);
+    return st;
+}
+
+void clvox__coverage_release(clvox__coverage *c)
+{
+    clvox__release_mem(&c->value_of_count);
+    if (c->k) clReleaseKernel(c->k);
+    c->k = NULL;
+}
+
+static cl_int set_kargs(cl_kernel k, cl_uint *i, clvox__karg_span s)
+{
+    cl_int err = 0;
+    for (size_t j = 0; j < s.count; j++) err |= clSetKernelArg(k, (*i)++, s.arg[j].size, s.arg[j].value);
+    return err;
+}
+
+clvox_status clvox__column_enqueue(clvox_context *ctx, cl_kernel k, const char *name, cl_uint per_column,
+                                   const clvox__coverage *c, const clvox__winding_classify *w,
+                                   const clvox__batch_mem *m, cl_uint n_cols, const clvox__slab_target *t,
+                                   const clvox__column_extra *x, cl_event *ev)
+{
+    cl_uint M = c->M, st_flag = (cl_uint)c->stochastic;
+    cl_mem cov = t->out->coverage, occ = t->out->occupancy;
+    const clvox__karg samples[] = {
+        {sizeof(cl_mem), &m->cols},       {sizeof(cl_uint), &n_cols},     {sizeof(cl_uint), &per_column},
+        {sizeof(cl_uint), &M},            {sizeof(cl_mem), &m->hits},     {sizeof(cl_mem), &m->counts},
+        {sizeof(cl_uint), &m->capacity},  {sizeof(cl_uint), &t->u_begin}, {sizeof(cl_uint), &t->u_count},
+        {sizeof(cl_uint), &st_flag},      {sizeof(cl_uint), &c->seed_lo}, {sizeof(cl_uint), &c->seed_hi},
+    };
+    const clvox__karg voxels[] = {
+        {sizeof(cl_mem), &c->value_of_count}, {sizeof(cl_uint), &c->occ_min},    {sizeof(cl_uint), &c->X},
+        {sizeof(cl_uint), &c->W},             {sizeof(cl_uint), &c->vox_stride}, {sizeof(cl_uint), &t->out_stride},
+    };
+    const clvox__karg planes[] = {{sizeof(cl_mem), cov ? &cov : NULL}, {sizeof(cl_mem), occ ? &occ : NULL}};
+    const clvox__karg tallies[] = {{sizeof(cl_mem), &m->sums}, {sizeof(cl_mem), &m->filled}};
+    const clvox__karg crossings[] = {{sizeof(cl_mem), &m->signs}, {sizeof(cl_mem), &m->rays}};
+    const clvox__karg_span order[] = {
+        CLVOX__KARGS(samples), x->after_seeds,  CLVOX__KARGS(voxels),  x->before_planes, CLVOX__KARGS(planes),
+        x->after_planes,       CLVOX__KARGS(tallies), x->after_tallies, CLVOX__KARGS(crossings),
+    };
+    cl_int err = 0;
+    cl_uint i = 0;
+    for (size_t j = 0; j < sizeof order / sizeof *order; j++) err |= set_kargs(k, &i, order[j]);
+    err |= clvox__winding_args(k, &i, w, m, x->winding_axis);
+    return clvox__consumer_launch(ctx, k, name, err, n_cols, 64, ev);
+}
+
+clvox_status clvox__coverage_enqueue(clvox_context *ctx, const clvox__coverage *c, const clvox__winding_classify *w,
+                                     const clvox__batch_mem *m, cl_uint n_cols, const clvox__slab_target *t,
+                                     cl_event *ev)
+{
+    /* nothing of its own; the ray axis among the winding arguments */
+    static const clvox__column_extra none = {.winding_axis = 1};
+    return clvox__column_enqueue(ctx, c->k, "clvox_coverage", c->R, c, w, m, n_cols, t, &none, ev);
+}

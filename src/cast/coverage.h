@@ -1,0 +1,60 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Stage coverage (grey levels, Thon et al. 3.3.4), host side
+ * (src/cast/coverage.c): the sampling of the column runs (N x N rays per
+ * voxel column, M points per voxel), which the palette consumer shares, and
+ * kernels/coverage.cl's argument set-up and enqueue. clvox__column_enqueue
+ * sets the arguments both column consumers take (kernels/palette_score.cl
+ * takes coverage.cl's with blocks of its own between them). */
+#ifndef CLVOX_COVERAGE_H
+#define CLVOX_COVERAGE_H
+#include "cast.h"
+#include "winding_classify.h"
+
+typedef struct clvox__coverage {
+    uint32_t N, M, R;            /* R = N*N rays per column, M points per voxel */
+    int stochastic;
+    uint32_t seed_lo, seed_hi;
+    double threshold;            /* occupancy: coverage > threshold ... */
+    uint32_t occ_min;            /* ... i.e. count >= occ_min */
+    cl_mem value_of_count;       /* ushort[R*M+1]: HALF bits, or the count itself */
+    cl_uint X, W;                /* the grid's row: voxels, bit-row words */
+    cl_uint vox_stride;          /* voxels between consecutive voxels of a ray in the coverage plane */
+    cl_kernel k;                 /* clvox_coverage; NULL on palette runs */
+} clvox__coverage;
+
+/* Also for palette runs (then without the coverage kernel). */
+clvox_status clvox__coverage_prepare(clvox_context *ctx, clvox__coverage *c, const clvox_voxelize_options *o,
+                                     const clvox__run *run, const clvox_grid *grid, clvox_axis axis);
+void clvox__coverage_release(clvox__coverage *c);
+clvox_status clvox__coverage_enqueue(clvox_context *ctx, const clvox__coverage *c, const clvox__winding_classify *w,
+                                     const clvox__batch_mem *m, cl_uint n_cols, const clvox__slab_target *t,
+                                     cl_event *ev);
+
+/* One kernel argument as clSetKernelArg takes it (value NULL: a NULL buffer). */
+typedef struct clvox__karg {
+    size_t size;
+    const void *value;
+} clvox__karg;
+typedef struct clvox__karg_span {
+    const clvox__karg *arg;
+    size_t count;
+} clvox__karg_span;
+/* The span of a whole array of clvox__karg, in an initializer. */
+#define CLVOX__KARGS(a) {(a), sizeof(a) / sizeof *(a)}
+
+/* A column consumer's own arguments, where they stand among the shared
+ * ones: after the seeds, before and after the coverage and occupancy
+ * planes, after the filled counts; and whether the winding arguments carry
+ * the ray axis. */
+typedef struct clvox__column_extra {
+    clvox__karg_span after_seeds, before_planes, after_planes, after_tallies;
+    int winding_axis;
+} clvox__column_extra;
+
+/* Sets k's arguments (per_column: the kernel's rays-per-column argument)
+ * and enqueues it over n_cols columns; `name` is the kernel's, for messages. */
+clvox_status clvox__column_enqueue(clvox_context *ctx, cl_kernel k, const char *name, cl_uint per_column,
+                                   const clvox__coverage *c, const clvox__winding_classify *w,
+                                   const clvox__batch_mem *m, cl_uint n_cols, const clvox__slab_target *t,
+                                   const clvox__column_extra *x, cl_event *ev);
+#endif

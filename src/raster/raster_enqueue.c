@@ -1,0 +1,180 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The raster methods' shared host side (tetra.c, surface.c): their task
+ * lists and the pass over one slab. Both methods' kernels OR or XOR task
+ * spans into the slab's bit rows; a chunk of tasks can take long (huge or
+ * coincident triangles), so the tasks run in chunks of about
+ * RASTER_CHUNK_SECONDS with the driver polled between them. */
+#include "raster_enqueue.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+/* Target duration of one raster chunk between polls (seconds). */
+#define RASTER_CHUNK_SECONDS 0.15
+
+clvox_status clvox__raster_objects(clvox_context *ctx, const char *raster_name, const char *count_name,
+                                   const char *what, cl_mem *filled, cl_kernel *raster, cl_kernel *count)
+{
+    clvox_status st = CLVOX_OK;
+    *filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
+    if (st != CLVOX_OK) return st;
+    cl_int err;
+    *raster = clCreateKernel(ctx->program, raster_name, &err);
+    if (err == CL_INVALID_KERNEL_NAME) return clvox__need_fp64(ctx, what);
+    if (err != CL_SUCCESS) {
+        char msg[96];
+        snprintf(msg, sizeof msg, "clCreateKernel(%s)", raster_name);
+        return clvox__cl_fail(ctx, err, msg);
+    }
+    return clvox__kernel(ctx, count_name, count);
+}
+
+clvox_status clvox__raster_tasks_grow(clvox_context *ctx, clvox__raster_tasks *t)
+{
+    size_t cap = t->cap ? 2 * t->cap : 4096;
+    cl_uint *p = realloc(t->host, cap * 4 * sizeof *p);
+    if (!p) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu tasks", cap);
+    t->host = p;
+    t->cap = cap;
+    clvox__release_mem(&t->dev); /* re-created at the new size */
+    return CLVOX_OK;
+}
+
+clvox_status clvox__raster_tasks_ready(clvox_context *ctx, clvox__raster_tasks *t)
+{
+    clvox_status st = CLVOX_OK;
+    if (!t->dev && t->cap)
+        t->dev = clvox__buffer(ctx, CL_MEM_READ_ONLY, t->cap * 4 * sizeof(cl_uint), NULL, &st, "tasks");
+    return st;
+}
+
+void clvox__raster_tasks_release(clvox__raster_tasks *t)
+{
+    clvox__release_mem(&t->dev);
+    free(t->host);
+    t->host = NULL;
+    t->cap = 0;
+}
+
+/* The raster kernel over tasks [0, n), in chunks, the driver polled
+ * between them; the last chunk's event in *last (timed with the others). */
+static clvox_status raster_chunks(clvox_context *ctx, const clvox__raster_pass *p, size_t n, cl_event *last,
+                                  clvox__slab_stats *ss)
+{
+    char what[96];
+    const size_t local = 64;
+    size_t off = 0, chunk = n < p->first_chunk ? n : p->first_chunk;
+    double raster = 0;
+    clvox_status st = CLVOX_OK;
+    while (st == CLVOX_OK && off < n) {
+        size_t k = n - off < chunk ? n - off : chunk;
+        size_t global = (k + local - 1) / local * local, goff = off;
+        cl_event e = NULL;
+        double c0 = clvox__now();
+        cl_int err = clEnqueueNDRangeKernel(ctx->queue, p->raster, 1, &goff, &global, &local, 0, NULL, &e);
+        if (err != CL_SUCCESS) {
+            snprintf(what, sizeof what, "enqueue %s", p->raster_name);
+            st = clvox__cl_fail(ctx, err, what);
+            break;
+        }
+        off += k;
+        if (off < n) { /* wait, adapt the chunk, ask whether to go on */
+            err = clWaitForEvents(1, &e);
+            if (err != CL_SUCCESS) {
+                snprintf(what, sizeof what, "running %s", p->raster_name);
+                st = clvox__cl_fail(ctx, err, what);
+            }
+            double dt = clvox__now() - c0;
+            raster += clvox__event_seconds(e);
+            clReleaseEvent(e);
+            double want = dt > 0 ? (double)chunk * RASTER_CHUNK_SECONDS / dt : (double)n;
+            chunk = want < 256 ? 256 : want > (double)n ? n : (size_t)want;
+            chunk = (chunk + local - 1) / local * local;
+            if (st == CLVOX_OK && p->poll && !p->poll(p->poll_user, (double)off / (double)n))
+                st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", p->z0);
+        } else {
+            *last = e; /* timed with the others by the caller */
+        }
+    }
+    ss->classify_seconds += raster;
+    return st;
+}
+
+clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, const clvox__raster_tasks *tasks,
+                               size_t n, double t_bin, clvox__slab_stats *ss)
+{
+    if (n > UINT32_MAX) return clvox__fail(ctx, CLVOX_ERR_INTERNAL, "%zu tasks in one slab", n);
+    enum { EV_TASKS, EV_CLEAR, EV_ZERO, EV_RASTER, EV_COUNT_BITS, EV_N };
+    cl_event ev[EV_N] = {0};
+    char what[96];
+    clvox_status st = CLVOX_OK;
+    cl_int err = CL_SUCCESS;
+    cl_uint zero = 0, filled = 0, count = (cl_uint)n;
+    if (n) {
+        err = clEnqueueWriteBuffer(ctx->queue, tasks->dev, CL_FALSE, 0, n * 4 * sizeof(cl_uint), tasks->host, 0, NULL,
+                                   &ev[EV_TASKS]);
+        if (err != CL_SUCCESS) {
+            snprintf(what, sizeof what, "uploading %s tasks", p->method);
+            st = clvox__cl_fail(ctx, err, what);
+        }
+    }
+    if (st == CLVOX_OK && p->clear) {
+        err = clEnqueueFillBuffer(ctx->queue, p->out, &zero, sizeof zero, 0, p->words * sizeof(cl_uint), 0, NULL,
+                                  &ev[EV_CLEAR]);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the slab bits");
+    }
+    if (st == CLVOX_OK) {
+        err = clEnqueueFillBuffer(ctx->queue, p->filled, &zero, sizeof zero, 0, sizeof zero, 0, NULL, &ev[EV_ZERO]);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the filled count");
+    }
+    if (st == CLVOX_OK && n) {
+        err = 0;
+        err |= clSetKernelArg(p->raster, 0, sizeof(cl_mem), &p->soup);
+        err |= clSetKernelArg(p->raster, 1, sizeof(cl_mem), &tasks->dev);
+        err |= clSetKernelArg(p->raster, 2, sizeof(cl_uint), &count);
+        if (err != CL_SUCCESS) {
+            snprintf(what, sizeof what, "clSetKernelArg(%s)", p->raster_name);
+            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, what);
+        } else {
+            st = raster_chunks(ctx, p, n, &ev[EV_RASTER], ss);
+        }
+    }
+    if (st == CLVOX_OK) {
+        cl_uint i = 0;
+        err = 0;
+        err |= clSetKernelArg(p->count, i++, sizeof(cl_mem), &p->out);
+        err |= clSetKernelArg(p->count, i++, sizeof(cl_uint), &p->words_per_row);
+        if (p->count_x) err |= clSetKernelArg(p->count, i++, sizeof(cl_uint), &p->count_x);
+        err |= clSetKernelArg(p->count, i++, sizeof(cl_uint), &p->rows);
+        err |= clSetKernelArg(p->count, i++, sizeof(cl_mem), &p->filled);
+        if (err != CL_SUCCESS) {
+            snprintf(what, sizeof what, "clSetKernelArg(%s)", p->count_name);
+            st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, what);
+        } else {
+            size_t local = 64, global = ((size_t)p->rows + local - 1) / local * local;
+            err = clEnqueueNDRangeKernel(ctx->queue, p->count, 1, NULL, &global, &local, 0, NULL, &ev[EV_COUNT_BITS]);
+            if (err != CL_SUCCESS) {
+                snprintf(what, sizeof what, "enqueue %s", p->count_name);
+                st = clvox__cl_fail(ctx, err, what);
+            }
+        }
+    }
+    if (st == CLVOX_OK) {
+        err = clEnqueueReadBuffer(ctx->queue, p->filled, CL_TRUE, 0, sizeof filled, &filled, 0, NULL, NULL);
+        if (err != CL_SUCCESS) {
+            snprintf(what, sizeof what, "running the %s kernels", p->method);
+            st = clvox__cl_fail(ctx, err, what);
+        }
+    }
+    if (st == CLVOX_OK) {
+        ss->filled += filled;
+        ss->cast_seconds += t_bin + clvox__event_seconds(ev[EV_TASKS]) + clvox__event_seconds(ev[EV_CLEAR]) +
+                            clvox__event_seconds(ev[EV_ZERO]);
+        ss->classify_seconds += clvox__event_seconds(ev[EV_RASTER]) + clvox__event_seconds(ev[EV_COUNT_BITS]);
+    } else {
+        clFinish(ctx->queue); /* the host task array must outlive the upload */
+    }
+    for (int i = 0; i < EV_N; i++)
+        if (ev[i]) clReleaseEvent(ev[i]);
+    return st;
+}

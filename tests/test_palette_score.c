@@ -9,6 +9,7 @@
 #include "meshgen.h"
 #include "reference.h"
 #include "test.h"
+#include "core/environment.h"
 
 #include <math.h>
 #include <string.h>
@@ -218,9 +219,11 @@ static void test_early_outs(void)
         o.palette = pal[metric == 0 ? 3 : 2];
         o.metric = (clvox_metric)metric;
         result a = run(ctx, m, &g, &o);
-        setenv("CLVOX_BENCH_NO_MASKS", "1", 1);
+        clvox__test_hooks hooks = *clvox__hooks();
+        hooks.palette_no_masks = 1;
+        clvox__set_test_hooks(&hooks);
         result b = run(ctx, m, &g, &o);
-        unsetenv("CLVOX_BENCH_NO_MASKS");
+        clvox__set_test_hooks(NULL);
         CHECK_MSG(same(&a, &b, nvox(&g)), "masks changed the result (metric %d)", metric);
         result_free(&a);
         result_free(&b);

@@ -54,11 +54,10 @@ clvox_status clvox__palette_score_prepare(clvox_context *ctx, clvox__palette_sco
     if (st == CLVOX_OK)
         p->planes = clvox__buffer(ctx, np ? ro : CL_MEM_READ_ONLY, np * sizeof *planes, np ? (void *)planes : NULL,
                                   &st, "palette planes");
-    /* CLVOX_BENCH_NO_MASKS=1 (benchmarks and tests only) scores uniform
-     * samples one by one as stochastic ones are: same result, the cost the
-     * masks save. */
-    const char *no_masks = getenv("CLVOX_BENCH_NO_MASKS");
-    p->use_masks = !c->stochastic && !(no_masks && strcmp(no_masks, "1") == 0);
+    /* The palette_no_masks switch (CLVOX_BENCH_NO_MASKS=1; benchmarks and
+     * tests only) scores uniform samples one by one as stochastic ones are:
+     * same result, the cost the masks save. */
+    p->use_masks = !c->stochastic && !clvox__hooks()->palette_no_masks;
     uint32_t *masks = NULL;
     if (st == CLVOX_OK && p->use_masks) {
         masks = calloc((size_t)ne * words, sizeof *masks);

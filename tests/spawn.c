@@ -7,6 +7,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -131,6 +132,27 @@ int spawn_run_to(spawn_result *r, const char *const *argv, const char *out_path,
     r->out = read_all(out_path);
     r->err = read_all(err_path);
     return r->code;
+}
+
+const char **spawn_argv(const char *prog, const char *const *args)
+{
+    size_t na = 0;
+    while (args[na]) na++;
+    const char **argv = malloc((na + 2) * sizeof *argv);
+    if (!argv) abort();
+    argv[0] = prog;
+    for (size_t i = 0; i < na; i++) argv[i + 1] = args[i];
+    argv[na + 1] = NULL;
+    return argv;
+}
+
+void spawn_log_paths(const char *logs, unsigned id, char *out_path, char *err_path)
+{
+    char name[32];
+    snprintf(name, sizeof name, "run%03u.out", id);
+    path_join(out_path, PATH_MAX, logs, name);
+    snprintf(name, sizeof name, "run%03u.err", id);
+    path_join(err_path, PATH_MAX, logs, name);
 }
 
 void spawn_free(spawn_result *r)

@@ -46,6 +46,13 @@ typedef struct spawn_opts {
 int spawn_run_to(spawn_result *r, const char *const *argv, const char *out_path, const char *err_path,
                  spawn_opts *o);
 
+/* prog followed by args (NULL-terminated): a malloc'ed argv (strings
+ * borrowed) for spawn_run_to. */
+const char **spawn_argv(const char *prog, const char *const *args);
+/* Where run number id keeps its output: logs/runNNN.out and .err (each
+ * PATH_MAX bytes). */
+void spawn_log_paths(const char *logs, unsigned id, char *out_path, char *err_path);
+
 /* Seconds on the monotonic clock. */
 double now_s(void);
 /* 1 when `name` is an executable file in a directory of PATH; its path in buf. */

@@ -64,12 +64,8 @@ static int batch_under_way(pid_t pid, void *arg)
  * g_signal once that many seconds have passed and the batch is under way. */
 static void run_prog(run_result *r, const char *cwd, const char *const *argv, double sigint_after)
 {
-    char err_path[PATH_MAX], name[32];
-    unsigned id = ++g_run_id;
-    snprintf(name, sizeof name, "run%03u.out", id);
-    path_join(r->out_path, sizeof r->out_path, g_logs, name);
-    snprintf(name, sizeof name, "run%03u.err", id);
-    path_join(err_path, sizeof err_path, g_logs, name);
+    char err_path[PATH_MAX];
+    spawn_log_paths(g_logs, ++g_run_id, r->out_path, err_path);
     spawn_opts o;
     memset(&o, 0, sizeof o);
     o.cwd = cwd;
@@ -89,13 +85,7 @@ static void run_prog(run_result *r, const char *cwd, const char *const *argv, do
 
 static void run_cli_ex(run_result *r, const char *cwd, const char *const *args, double sigint_after)
 {
-    size_t na = 0;
-    while (args[na]) na++;
-    const char **argv = malloc((na + 2) * sizeof *argv);
-    if (!argv) abort();
-    argv[0] = g_bin;
-    for (size_t i = 0; i < na; i++) argv[i + 1] = args[i];
-    argv[na + 1] = NULL;
+    const char **argv = spawn_argv(g_bin, args);
     run_prog(r, cwd, argv, sigint_after);
     free(argv);
 }
@@ -606,16 +596,6 @@ static void test_like_formats(void)
     expect_failure("--like .npy without a sidecar", 4, "no readable sidecar", ARGS(box, "--like", p, "-o", out));
 }
 
-
-static int absolute_path(const char *path, char *out, size_t size)
-{
-    char *p = realpath(path, NULL);
-    if (!p) return 0;
-    int ok = strlen(p) < size;
-    if (ok) strcpy(out, p);
-    free(p);
-    return ok;
-}
 
 /* ---- clvox batch ---- */
 
@@ -1201,26 +1181,7 @@ int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
     if (!bin || !*bin) bin = "build/release/clvox";
-    if (!absolute_path(bin, g_bin, sizeof g_bin)) {
-        fprintf(stderr, "FAIL: clvox binary '%s' not found (set CLVOX_BIN)\n", bin);
-        test_failed++;
-        return test_report();
-    }
-    char tmp[PATH_MAX];
-    if (!absolute_path(test_tmpdir(), tmp, sizeof tmp)) {
-        fprintf(stderr, "FAIL: no test directory\n");
-        test_failed++;
-        return test_report();
-    }
-    path_join(g_dir, sizeof g_dir, tmp, "batch");
-    rm_tree(g_dir);
-    mkdir(g_dir, 0777);
-    path_join(g_in, sizeof g_in, g_dir, "in");
-    path_join(g_out, sizeof g_out, g_dir, "out");
-    path_join(g_logs, sizeof g_logs, g_dir, "logs");
-    mkdir(g_in, 0777);
-    mkdir(g_out, 0777);
-    mkdir(g_logs, 0777);
+    if (!test_cli_dirs(bin, "batch", g_bin, g_dir, g_in, g_out, g_logs)) return test_report();
 
     {
         const char *argv[] = {"python3", "-c", "import json", NULL};

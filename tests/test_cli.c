@@ -12,16 +12,14 @@
 #include "spawn.h"
 #include "test.h"
 #include "testio.h"
+#include "pngread.h"
 #include "exrgen.h"
-
-#include <png.h>
 
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
 #include <math.h>
-#include <setjmp.h>
 #include <signal.h>
 #include <stdint.h>
 #include <string.h>
@@ -160,21 +158,11 @@ static int output_open(pid_t pid, void *arg)
 static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_extra, const char *const *args,
                        double sigint_after)
 {
-    size_t na = 0;
-    while (args[na]) na++;
-    const char **argv = malloc((na + 2) * sizeof *argv);
-    if (!argv) abort();
-    argv[0] = g_bin;
-    for (size_t i = 0; i < na; i++) argv[i + 1] = args[i];
-    argv[na + 1] = NULL;
+    const char **argv = spawn_argv(g_bin, args);
     const char **env = make_env(env_extra);
 
-    char out_path[PATH_MAX], err_path[PATH_MAX], name[32];
-    unsigned id = ++g_run_id;
-    snprintf(name, sizeof name, "run%03u.out", id);
-    path_join(out_path, sizeof out_path, g_logs, name);
-    snprintf(name, sizeof name, "run%03u.err", id);
-    path_join(err_path, sizeof err_path, g_logs, name);
+    char out_path[PATH_MAX], err_path[PATH_MAX];
+    spawn_log_paths(g_logs, ++g_run_id, out_path, err_path);
 
     spawn_opts o;
     memset(&o, 0, sizeof o);
@@ -1020,73 +1008,7 @@ static void test_write_failure_messages(void)
     unlink(in);
 }
 
-/* Absolute form of `path` (not normalised); 0 if it does not exist. */
-static int absolute_path(const char *path, char *out, size_t size)
-{
-    if (!file_exists(path)) return 0;
-    if (path[0] == '/') {
-        int n = snprintf(out, size, "%s", path);
-        return n > 0 && (size_t)n < size;
-    }
-    char cwd[PATH_MAX];
-    if (!getcwd(cwd, sizeof cwd)) return 0;
-    int n = snprintf(out, size, "%s/%s", cwd, path);
-    return n > 0 && (size_t)n < size;
-}
-
 /* ---- preview ---- */
-
-/* An 8-bit RGB picture decoded with libpng. */
-typedef struct picture {
-    uint32_t w, h;
-    uint8_t *rgb;
-} picture;
-
-typedef struct png_jmp {
-    jmp_buf jmp;
-} png_jmp;
-
-static void png_test_error(png_structp png, png_const_charp msg)
-{
-    fprintf(stderr, "libpng: %s\n", msg);
-    longjmp(((png_jmp *)png_get_error_ptr(png))->jmp, 1);
-}
-
-/* 1 when `path` is an 8-bit RGB, non-interlaced PNG; fills pic (free pic->rgb). */
-static int read_png(const char *path, picture *pic)
-{
-    memset(pic, 0, sizeof *pic);
-    FILE *f = fopen(path, "rb");
-    if (!f) return 0;
-    png_jmp pj;
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &pj, png_test_error, NULL);
-    png_infop info = png ? png_create_info_struct(png) : NULL;
-    uint8_t *volatile rgb = NULL;
-    if (!png || !info || setjmp(pj.jmp)) {
-        png_destroy_read_struct(&png, &info, NULL);
-        fclose(f);
-        free(rgb);
-        return 0;
-    }
-    png_init_io(png, f);
-    png_read_info(png, info);
-    png_uint_32 w = 0, h = 0;
-    int depth = 0, color = 0, interlace = 0;
-    png_get_IHDR(png, info, &w, &h, &depth, &color, &interlace, NULL, NULL);
-    int ok = depth == 8 && color == PNG_COLOR_TYPE_RGB && interlace == PNG_INTERLACE_NONE && w > 0 && h > 0;
-    if (ok) {
-        rgb = malloc((size_t)w * h * 3);
-        if (!rgb) abort();
-        for (png_uint_32 y = 0; y < h; y++) png_read_row(png, rgb + (size_t)y * w * 3, NULL);
-        png_read_end(png, NULL);
-        pic->w = w;
-        pic->h = h;
-        pic->rgb = rgb;
-    }
-    png_destroy_read_struct(&png, &info, NULL);
-    fclose(f);
-    return ok;
-}
 
 /* A volume as grey levels (what the documented mapping gives for its
  * channel), or as colours (rgb set: 3 bytes per voxel; g unused). */
@@ -1858,26 +1780,7 @@ int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
     if (!bin || !*bin) bin = "build/release/clvox";
-    if (!absolute_path(bin, g_bin, sizeof g_bin)) {
-        fprintf(stderr, "FAIL: clvox binary '%s' not found (set CLVOX_BIN)\n", bin);
-        test_failed++;
-        return test_report();
-    }
-    char tmp[PATH_MAX];
-    if (!absolute_path(test_tmpdir(), tmp, sizeof tmp)) {
-        fprintf(stderr, "FAIL: no test directory\n");
-        test_failed++;
-        return test_report();
-    }
-    path_join(g_dir, sizeof g_dir, tmp, "cli");
-    rm_tree(g_dir);
-    mkdir(g_dir, 0777);
-    path_join(g_in, sizeof g_in, g_dir, "in");
-    path_join(g_out, sizeof g_out, g_dir, "out");
-    path_join(g_logs, sizeof g_logs, g_dir, "logs");
-    mkdir(g_in, 0777);
-    mkdir(g_out, 0777);
-    mkdir(g_logs, 0777);
+    if (!test_cli_dirs(bin, "cli", g_bin, g_dir, g_in, g_out, g_logs)) return test_report();
 
     make_inputs();
     test_help_version();

@@ -1,6 +1,10 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* Files and text for the tests that run programs (testio.h). */
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700 /* realpath */
+#endif
 #include "testio.h"
+#include "test.h"
 
 #include <dirent.h>
 #include <limits.h>
@@ -124,6 +128,41 @@ int dir_is_empty(const char *dir)
         }
     closedir(d);
     return empty;
+}
+
+int absolute_path(const char *path, char *out, size_t size)
+{
+    char *p = realpath(path, NULL);
+    if (!p) return 0;
+    int ok = strlen(p) < size;
+    if (ok) strcpy(out, p);
+    free(p);
+    return ok;
+}
+
+int test_cli_dirs(const char *bin, const char *name, char *bin_abs, char *dir, char *in, char *out, char *logs)
+{
+    if (!absolute_path(bin, bin_abs, PATH_MAX)) {
+        fprintf(stderr, "FAIL: clvox binary '%s' not found (set CLVOX_BIN)\n", bin);
+        test_failed++;
+        return 0;
+    }
+    char tmp[PATH_MAX];
+    if (!absolute_path(test_tmpdir(), tmp, sizeof tmp)) {
+        fprintf(stderr, "FAIL: no test directory\n");
+        test_failed++;
+        return 0;
+    }
+    path_join(dir, PATH_MAX, tmp, name);
+    rm_tree(dir);
+    mkdir(dir, 0777);
+    path_join(in, PATH_MAX, dir, "in");
+    path_join(out, PATH_MAX, dir, "out");
+    path_join(logs, PATH_MAX, dir, "logs");
+    mkdir(in, 0777);
+    mkdir(out, 0777);
+    mkdir(logs, 0777);
+    return 1;
 }
 
 int count_lines(const char *s)

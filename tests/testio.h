@@ -29,6 +29,14 @@ int dir_count(const char *dir);
 /* 1 when dir can be opened and is empty; else 0, each entry left reported
  * on stderr. */
 int dir_is_empty(const char *dir);
+/* path resolved (realpath) into out; 0 when it does not exist or does not
+ * fit. */
+int absolute_path(const char *path, char *out, size_t size);
+/* The setup of a test that runs the clvox binary: bin_abs = bin's absolute
+ * path; dir = <test directory>/<name>, made afresh, with in/, out/ and
+ * logs/ in it (each PATH_MAX bytes). 0, a failure counted and reported,
+ * when the binary or the test directory is missing. */
+int test_cli_dirs(const char *bin, const char *name, char *bin_abs, char *dir, char *in, char *out, char *logs);
 /* Lines of s (its '\n'); 0 for NULL. */
 int count_lines(const char *s);
 /* Lines of text that start with prefix. */

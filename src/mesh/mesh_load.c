@@ -269,8 +269,9 @@ clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **
         owned = raw.face_indices;
         raw.face_indices = NULL;
     }
-    st = clvox__mesh_build(ctx, what, xyz, raw.offset, raw.vertex_count, raw.face_sizes, owned ? owned : raw.face_indices,
-                    raw.face_count, raw.index_count, raw.nonmanifold_faces, owned, out);
+    st = clvox__mesh_build(ctx, what, xyz, raw.offset, raw.vertex_count, raw.face_sizes,
+                           owned ? owned : raw.face_indices, raw.face_count, raw.index_count, raw.nonmanifold_faces,
+                           owned, out);
     clvox__raw_mesh_free(&raw);
     return st;
 }
@@ -290,8 +291,8 @@ clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t
     if (!copy) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory copying %zu vertices", vertex_count);
     if (vertex_count) memcpy(copy, xyz, vertex_count * 3 * sizeof *copy);
     static const double no_offset[3] = {0, 0, 0};
-    return clvox__mesh_build(ctx, "mesh arrays", copy, no_offset, vertex_count, NULL, triangles, triangle_count, 3 * triangle_count, 0,
-                      NULL, out);
+    return clvox__mesh_build(ctx, "mesh arrays", copy, no_offset, vertex_count, NULL, triangles, triangle_count,
+                             3 * triangle_count, 0, NULL, out);
 }
 
 void clvox_mesh_destroy(clvox_mesh *mesh)

@@ -178,8 +178,8 @@ static clvox_status parse_obj(clvox_context *ctx, const char *path, const char *
     return CLVOX_OK;
 }
 
-clvox_status clvox__mesh_check_obj(clvox_context *ctx, const char *path, const char *p, size_t n, clvox__raw_mesh *native,
-                              int *parsed)
+clvox_status clvox__mesh_check_obj(clvox_context *ctx, const char *path, const char *p, size_t n,
+                                   clvox__raw_mesh *native, int *parsed)
 {
     clvox_status st = clvox__check_text(ctx, path, p, n, "OBJ");
     if (st) return st;

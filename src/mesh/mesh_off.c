@@ -125,8 +125,8 @@ static clvox_status parse_off_ascii(clvox_context *ctx, const char *path, text *
 
 /* OFF: binary bodies are walked and read by OpenMesh; ASCII is parsed here
  * into *native. */
-clvox_status clvox__mesh_check_off(clvox_context *ctx, const char *path, const unsigned char *up, size_t n, clvox__mesh_expect *ex,
-                              clvox__raw_mesh *native, int *parsed)
+clvox_status clvox__mesh_check_off(clvox_context *ctx, const char *path, const unsigned char *up, size_t n,
+                                   clvox__mesh_expect *ex, clvox__raw_mesh *native, int *parsed)
 {
     const char *p = (const char *)up;
     text t = {p, p + n, 1}, head;

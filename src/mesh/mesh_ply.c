@@ -20,13 +20,14 @@
  *     present the last one wins, as OpenMesh overwrites its handles); counts
  *     of any integer type, indices of any integer type: signed ones are
  *     sign-extended, and the index is kept as its 32-bit pattern (a negative
- *     index becomes >= 2^31, out of range, reported by build_mesh); other
- *     face properties (texcoord lists, flags) are skipped by size.
- * Faces with other than 3 corners are kept with their size; build_mesh drops
- * the short ones and fans polygons exactly as for the other readers.
- * While every face is a triangle, no face_sizes array is made (NULL: all
- * triangles), and build_mesh turns the index array into the triangle array
- * in place: one copy of the vertices and one of the indices. */
+ *     index becomes >= 2^31, out of range, reported by clvox__mesh_build);
+ *     other face properties (texcoord lists, flags) are skipped by size.
+ * Faces with other than 3 corners are kept with their size;
+ * clvox__mesh_build drops the short ones and fans polygons exactly as for
+ * the other readers. While every face is a triangle, no face_sizes array is
+ * made (NULL: all triangles), and clvox__mesh_build turns the index array
+ * into the triangle array in place: one copy of the vertices and one of the
+ * indices. */
 #include "mesh_internal.h"
 #include "mesh_scan.h"
 
@@ -625,8 +626,8 @@ oom:
     return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
 }
 
-clvox_status clvox__mesh_check_ply(clvox_context *ctx, const char *path, const unsigned char *p, size_t n, clvox__mesh_expect *ex,
-                              clvox__raw_mesh *native, int *parsed)
+clvox_status clvox__mesh_check_ply(clvox_context *ctx, const char *path, const unsigned char *p, size_t n,
+                                   clvox__mesh_expect *ex, clvox__raw_mesh *native, int *parsed)
 {
     ply_header *h = malloc(sizeof *h); /* about 300 KB: keep it off the stack */
     if (!h) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory checking '%s'", path);

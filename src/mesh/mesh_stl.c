@@ -4,10 +4,10 @@
  * the native readers, binary and ASCII (laid out as binary in memory).
  *
  * The binary reader: OpenMesh 9.0's binary STL reader (what clvox used
- * before) merges a corner into an earlier vertex when a std::map with a tolerant comparison (CmpVec,
- * eps = FLT_MIN: |a - b| <= FLT_MIN per coordinate) finds one, adds vertices
- * in first-seen order and drops a facet whose three corners do not map to
- * three different vertices. For coordinates that are 0 or of magnitude
+ * before) merges a corner into an earlier vertex when a std::map with a
+ * tolerant comparison (CmpVec, eps = FLT_MIN: |a - b| <= FLT_MIN per
+ * coordinate) finds one, adds vertices in first-seen order and drops a
+ * facet whose three corners do not map to three different vertices. For coordinates that are 0 or of magnitude
  * >= 2^-100, that comparison is exact equality with -0 == +0 (two different
  * such floats differ by at least 2^-123 > FLT_MIN, and b - FLT_MIN rounds to
  * b), so a hash on the bit patterns (-0 folded into +0) gives the same

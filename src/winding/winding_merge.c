@@ -126,7 +126,7 @@ static uint32_t cell_lookup(const uint32_t *table, size_t mask, const int64_t *k
 /* Merges rep[] further: used distinct positions within `weld`, transitively,
  * into the lowest-numbered vertex of their group. */
 clvox_status clvox__prep_weld_vertices(clvox_context *ctx, const float *xyz, size_t nv, const uint32_t *tris, size_t nt,
-                                  double weld, uint32_t *rep, uint64_t *welded)
+                                       double weld, uint32_t *rep, uint64_t *welded)
 {
     clvox_status st = CLVOX_OK;
     uint32_t *parent = malloc((nv ? nv : 1) * sizeof *parent);

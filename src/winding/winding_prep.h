@@ -109,7 +109,7 @@ static inline int volume_sign(const prep *P, size_t c)
 void clvox__prep_merge_exact(const float *xyz, size_t nv, uint32_t *rep, uint32_t *table, size_t cap, uint64_t *merged);
 /* 2. Weld within `weld` (> 0), on top of the exact merge in rep. */
 clvox_status clvox__prep_weld_vertices(clvox_context *ctx, const float *xyz, size_t nv, const uint32_t *tris, size_t nt,
-                           double weld, uint32_t *rep, uint64_t *welded);
+                                       double weld, uint32_t *rep, uint64_t *welded);
 /* 3. The edges by block of their smaller vertex, then the orientation
  * patches (winding_orient.c). */
 clvox_status clvox__prep_build_edges(prep *P);

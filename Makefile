@@ -86,7 +86,9 @@ LIB_C := $(wildcard src/*.c) $(filter-out src/cli/%,$(wildcard src/*/*.c))
 MANIFEST_CLI_SRC := src/cli/cli_manifest.c src/cli/cli_args.c src/cli/cli_common.c
 LIB_CXX := $(filter-out src/io/write_vdb.cpp,$(wildcard src/*/*.cpp))
 # Kernel program = shared types + prelude + sampler + palette + overlap + winding + one file per stage.
-KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h kernels/winding.h $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
+# The winding parts in this order: each uses only what comes before it.
+KERNEL_WINDING := kernels/winding_angles.h kernels/winding_bounds.h kernels/winding_inside.h kernels/winding_rims.h
+KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h $(KERNEL_WINDING) $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
 KERNEL_C := $(BUILD)/gen/kernels_embedded.c
 
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/%.o) $(LIB_CXX:%.cpp=$(BUILD)/%.o) $(BUILD)/gen/kernels_embedded.o

@@ -45,7 +45,7 @@ typedef struct clvox_column {
     clvox_u32 pad;
 } clvox_column;
 
-/* Node of the cap tree (winding numbers, kernels/winding.h), in scaled
+/* Node of the cap tree (winding numbers, kernels/winding_*.h), in scaled
  * grid space (x, y, z order; grid coordinates times the voxel size, so that
  * solid angles are those of the world). Triangles tri_first ..
  * tri_first+tri_count-1 of the cap array lie in it (every subtree is a
@@ -58,7 +58,7 @@ typedef struct clvox_column {
  * dA / 4pi (rounded up), quad4pi = tr(M) I - 3 sym(M) in the order xx, yy,
  * zz, xy, xz, yz (rounded to nearest), M_ij = the integral of n_i (y -
  * c)_j dA / 4pi (n dA: the vector area element), for the first-order term
- * (kernels/winding.h clvox_cap_estimate); both 0 in the rims' tree, and
+ * (kernels/winding_bounds.h clvox_cap_estimate); both 0 in the rims' tree, and
  * so is area4pi there, where normal4pi[a] bounds the edges' length across
  * axis a / 4pi (clvox_rim_box_bound; rounded up). block:
  * on a cap leaf, where its caps are again, lane-major (the index of the

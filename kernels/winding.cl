@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Stage classify, winding numbers (kernels/winding.h): voxel centre u = i
+/* Stage classify, winding numbers (kernels/winding_*.h): voxel centre u = i
  * is inside when w > 1/2, w = K - w_caps, K = the signed crossings strictly
  * beyond it (+1 where the ray leaves through a face oriented towards +u).
  * Writes occupancy bits and per-ray filled counts exactly as classify.cl.

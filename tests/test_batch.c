@@ -11,7 +11,9 @@
 #endif
 #include "exrgen.h"
 #include "meshgen.h"
+#include "spawn.h"
 #include "test.h"
+#include "testio.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -40,182 +42,50 @@ typedef struct run_result {
     char out_path[PATH_MAX]; /* the captured stdout, for the Python checks */
 } run_result;
 
-static void path_join(char *dst, size_t size, const char *dir, const char *name)
-{
-    int n = snprintf(dst, size, "%s/%s", dir, name);
-    if (n < 0 || (size_t)n >= size) abort();
-}
-
-static int write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f) return 0;
-    size_t n = strlen(text);
-    int ok = fwrite(text, 1, n, f) == n;
-    ok &= fclose(f) == 0;
-    return ok;
-}
-
-static char *read_all(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    size_t cap = 4096, n = 0;
-    char *buf = malloc(cap);
-    if (!buf) abort();
-    if (f) {
-        size_t got;
-        while ((got = fread(buf + n, 1, cap - n - 1, f)) > 0) {
-            n += got;
-            if (cap - n - 1 == 0) {
-                char *g = realloc(buf, cap *= 2);
-                if (!g) abort();
-                buf = g;
-            }
-        }
-        fclose(f);
-    }
-    buf[n] = '\0';
-    return buf;
-}
-
-static int file_exists(const char *path)
-{
-    struct stat sb;
-    return lstat(path, &sb) == 0;
-}
-
-static long long file_size(const char *path)
-{
-    struct stat sb;
-    return stat(path, &sb) == 0 ? (long long)sb.st_size : -1;
-}
-
-static void rm_tree(const char *path)
-{
-    struct stat sb;
-    if (lstat(path, &sb) != 0) return;
-    if (S_ISDIR(sb.st_mode)) {
-        DIR *d = opendir(path);
-        if (d) {
-            struct dirent *e;
-            while ((e = readdir(d)) != NULL) {
-                if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
-                char sub[PATH_MAX];
-                path_join(sub, sizeof sub, path, e->d_name);
-                rm_tree(sub);
-            }
-            closedir(d);
-        }
-        rmdir(path);
-    } else {
-        unlink(path);
-    }
-}
-
-static int dir_count(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d) return -1;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)) != NULL)
-        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0) n++;
-    closedir(d);
-    return n;
-}
-
 static void reset_out(void)
 {
     rm_tree(g_out);
     mkdir(g_out, 0777);
 }
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* Runs argv (argv[0] is the program) in cwd (NULL: ours). sigint_after > 0:
- * SIGINT once that many seconds have passed and a file under g_out exists
- * or is open (the batch is under way). */
 /* What run_prog sends (SIGINT unless set), whether the child starts with
  * SIGHUP ignored (as under nohup), and how many signals the last run got. */
 static int g_signal = SIGINT, g_child_ignore_sighup, g_signals_sent;
 
+/* The batch is under way: a file under g_out exists. */
+static int batch_under_way(pid_t pid, void *arg)
+{
+    (void)pid;
+    (void)arg;
+    return dir_count(g_out) > 0;
+}
+
+/* Runs argv (argv[0] is the program) in cwd (NULL: ours). sigint_after > 0:
+ * g_signal once that many seconds have passed and the batch is under way. */
 static void run_prog(run_result *r, const char *cwd, const char *const *argv, double sigint_after)
 {
-    char err_path[PATH_MAX], name[32];
-    unsigned id = ++g_run_id;
-    snprintf(name, sizeof name, "run%03u.out", id);
-    path_join(r->out_path, sizeof r->out_path, g_logs, name);
-    snprintf(name, sizeof name, "run%03u.err", id);
-    path_join(err_path, sizeof err_path, g_logs, name);
-    fflush(stdout);
-    fflush(stderr);
-    r->code = -1;
-    g_signals_sent = 0;
-    pid_t pid = fork();
-    if (pid == 0) {
-        if (cwd && chdir(cwd) != 0) _exit(126);
-        int in = open("/dev/null", O_RDONLY);
-        int o = open(r->out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (in < 0 || o < 0 || e < 0 || dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
-        /* default dispositions, whatever this test inherited (a background
-         * job of a script starts with SIGINT ignored, which clvox keeps) */
-        struct sigaction ign, dfl;
-        memset(&ign, 0, sizeof ign);
-        ign.sa_handler = SIG_IGN;
-        memset(&dfl, 0, sizeof dfl);
-        dfl.sa_handler = SIG_DFL;
-        if (sigaction(SIGINT, &dfl, NULL) != 0 || sigaction(SIGTERM, &dfl, NULL) != 0 ||
-            sigaction(SIGHUP, g_child_ignore_sighup ? &ign : &dfl, NULL) != 0)
-            _exit(126);
-        execvp(argv[0], (char *const *)argv);
-        _exit(127);
-    }
-    if (pid > 0) {
-        double start = now_s();
-        int sent = 0, status = 0;
-        for (;;) {
-            pid_t w = waitpid(pid, &status, WNOHANG);
-            if (w == pid) {
-                if (WIFEXITED(status)) r->code = WEXITSTATUS(status);
-                else if (WIFSIGNALED(status)) r->code = 128 + WTERMSIG(status);
-                break;
-            }
-            if (w < 0 && errno != EINTR) break;
-            double t = now_s() - start;
-            if (sigint_after > 0 && !sent && t >= sigint_after && dir_count(g_out) > 0) {
-                kill(pid, g_signal);
-                sent = 1;
-            }
-            if (t > RUN_TIMEOUT_S) {
-                kill(pid, SIGKILL);
-                waitpid(pid, &status, 0);
-                fprintf(stderr, "TIMEOUT: %s %s\n", argv[0], argv[1] ? argv[1] : "");
-                break;
-            }
-            struct timespec ts = {0, 5 * 1000 * 1000};
-            nanosleep(&ts, NULL);
-        }
-        g_signals_sent = sent;
-    }
-    r->out = read_all(r->out_path);
-    r->err = read_all(err_path);
+    char err_path[PATH_MAX];
+    spawn_log_paths(g_logs, ++g_run_id, r->out_path, err_path);
+    spawn_opts o;
+    memset(&o, 0, sizeof o);
+    o.cwd = cwd;
+    o.ignore_sighup = g_child_ignore_sighup;
+    o.timeout_s = RUN_TIMEOUT_S;
+    o.signal_after = sigint_after;
+    o.signal = g_signal;
+    o.signal_count = 1;
+    o.signal_ready = batch_under_way;
+    spawn_result s;
+    spawn_run_to(&s, argv, r->out_path, err_path, &o);
+    g_signals_sent = o.signals_sent;
+    r->code = s.code;
+    r->out = s.out;
+    r->err = s.err;
 }
 
 static void run_cli_ex(run_result *r, const char *cwd, const char *const *args, double sigint_after)
 {
-    size_t na = 0;
-    while (args[na]) na++;
-    const char **argv = malloc((na + 2) * sizeof *argv);
-    if (!argv) abort();
-    argv[0] = g_bin;
-    for (size_t i = 0; i < na; i++) argv[i + 1] = args[i];
-    argv[na + 1] = NULL;
+    const char **argv = spawn_argv(g_bin, args);
     run_prog(r, cwd, argv, sigint_after);
     free(argv);
 }
@@ -229,29 +99,10 @@ static void run_free(run_result *r)
     r->out = r->err = NULL;
 }
 
-static int count_lines(const char *s)
-{
-    int n = 0;
-    for (; *s; s++) n += *s == '\n';
-    return n;
-}
-
 static int count_of(const char *text, const char *needle)
 {
     int n = 0;
     for (const char *t = text; (t = strstr(t, needle)) != NULL; t++) n++;
-    return n;
-}
-
-static int lines_starting(const char *text, const char *prefix)
-{
-    int n = 0;
-    size_t len = strlen(prefix);
-    for (const char *l = text; l && *l;) {
-        if (strncmp(l, prefix, len) == 0) n++;
-        l = strchr(l, '\n');
-        if (l) l++;
-    }
     return n;
 }
 
@@ -745,16 +596,6 @@ static void test_like_formats(void)
     expect_failure("--like .npy without a sidecar", 4, "no readable sidecar", ARGS(box, "--like", p, "-o", out));
 }
 
-
-static int absolute_path(const char *path, char *out, size_t size)
-{
-    char *p = realpath(path, NULL);
-    if (!p) return 0;
-    int ok = strlen(p) < size;
-    if (ok) strcpy(out, p);
-    free(p);
-    return ok;
-}
 
 /* ---- clvox batch ---- */
 
@@ -1340,26 +1181,7 @@ int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
     if (!bin || !*bin) bin = "build/release/clvox";
-    if (!absolute_path(bin, g_bin, sizeof g_bin)) {
-        fprintf(stderr, "FAIL: clvox binary '%s' not found (set CLVOX_BIN)\n", bin);
-        test_failed++;
-        return test_report();
-    }
-    char tmp[PATH_MAX];
-    if (!absolute_path(test_tmpdir(), tmp, sizeof tmp)) {
-        fprintf(stderr, "FAIL: no test directory\n");
-        test_failed++;
-        return test_report();
-    }
-    path_join(g_dir, sizeof g_dir, tmp, "batch");
-    rm_tree(g_dir);
-    mkdir(g_dir, 0777);
-    path_join(g_in, sizeof g_in, g_dir, "in");
-    path_join(g_out, sizeof g_out, g_dir, "out");
-    path_join(g_logs, sizeof g_logs, g_dir, "logs");
-    mkdir(g_in, 0777);
-    mkdir(g_out, 0777);
-    mkdir(g_logs, 0777);
+    if (!test_cli_dirs(bin, "batch", g_bin, g_dir, g_in, g_out, g_logs)) return test_report();
 
     {
         const char *argv[] = {"python3", "-c", "import json", NULL};

@@ -18,14 +18,13 @@
 #endif
 #include "exrgen.h"
 #include "spawn.h"
+#include "testio.h"
+#include "pngread.h"
 #include "test.h"
-
-#include <png.h>
 
 #include <dirent.h>
 #include <limits.h>
 #include <math.h>
-#include <setjmp.h>
 #include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -38,61 +37,6 @@
 
 static char g_blender[PATH_MAX], g_bin[PATH_MAX], g_script[PATH_MAX];
 static char g_dir[PATH_MAX], g_out[PATH_MAX];
-
-static void path_join(char *dst, size_t size, const char *dir, const char *name)
-{
-    int n = snprintf(dst, size, "%s/%s", dir, name);
-    if (n < 0 || (size_t)n >= size) abort();
-}
-
-static int write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f) return 0;
-    int ok = fwrite(text, 1, strlen(text), f) == strlen(text);
-    return (fclose(f) == 0) & ok;
-}
-
-static char *read_text(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    size_t cap = 1 << 16, n = 0, got;
-    char *b = malloc(cap);
-    while (b && (got = fread(b + n, 1, cap - n - 1, f)) > 0) {
-        n += got;
-        if (n + 1 == cap) {
-            char *g = realloc(b, cap *= 2);
-            if (!g) free(b);
-            b = g;
-        }
-    }
-    fclose(f);
-    if (b) b[n] = '\0';
-    return b;
-}
-
-static int dir_is_empty(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d) return 0;
-    int empty = 1;
-    struct dirent *e;
-    while ((e = readdir(d)) != NULL)
-        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0) {
-            fprintf(stderr, "left behind: %s/%s\n", dir, e->d_name);
-            empty = 0;
-        }
-    closedir(d);
-    return empty;
-}
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* blender -b --factory-startup [blend] --python script -- args... */
 static int run_blender(spawn_result *r, const char *blend, const char *script, const char *const *args,
@@ -152,55 +96,27 @@ static int parse_csv(const char *text, row *rows, int cap)
 
 /* ---- the PNG ----------------------------------------------------------------------------- */
 
-typedef struct png_jmp {
-    jmp_buf jmp;
-} png_jmp;
-
-static void png_test_error(png_structp png, png_const_charp msg)
-{
-    fprintf(stderr, "libpng: %s\n", msg);
-    longjmp(((png_jmp *)png_get_error_ptr(png))->jmp, 1);
-}
-
 /* 1 when path is an 8-bit RGB PNG of w x h; *distinct gets the number of
  * pixels that differ from the top-left one by more than 8 in some channel. */
 static int check_png(const char *path, uint32_t w, uint32_t h, long *distinct)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return 0;
-    png_jmp pj;
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &pj, png_test_error, NULL);
-    png_infop info = png ? png_create_info_struct(png) : NULL;
-    unsigned char *rgb = NULL;
-    volatile int ok = 0;
-    if (png && info && !setjmp(pj.jmp)) {
-        png_init_io(png, f);
-        png_read_info(png, info);
-        png_uint_32 pw = 0, ph = 0;
-        int depth = 0, color = 0, interlace = 0;
-        png_get_IHDR(png, info, &pw, &ph, &depth, &color, &interlace, NULL, NULL);
-        if (pw == w && ph == h && depth == 8 && color == PNG_COLOR_TYPE_RGB && interlace == PNG_INTERLACE_NONE) {
-            rgb = malloc((size_t)w * h * 3);
-            if (rgb) {
-                for (png_uint_32 y = 0; y < h; y++) png_read_row(png, rgb + (size_t)y * w * 3, NULL);
-                png_read_end(png, NULL);
-                long n = 0;
-                for (size_t q = 0; q < (size_t)w * h; q++)
-                    for (int c = 0; c < 3; c++)
-                        if (abs((int)rgb[3 * q + c] - (int)rgb[c]) > 8) {
-                            n++;
-                            break;
-                        }
-                *distinct = n;
-                ok = 1;
-            }
-        } else {
-            fprintf(stderr, "%s: %ux%u, depth %d, colour type %d\n", path, (unsigned)pw, (unsigned)ph, depth, color);
-        }
+    picture pic;
+    if (!read_png(path, &pic)) return 0;
+    int ok = pic.w == w && pic.h == h;
+    if (ok) {
+        const unsigned char *rgb = pic.rgb;
+        long n = 0;
+        for (size_t q = 0; q < (size_t)w * h; q++)
+            for (int c = 0; c < 3; c++)
+                if (abs((int)rgb[3 * q + c] - (int)rgb[c]) > 8) {
+                    n++;
+                    break;
+                }
+        *distinct = n;
+    } else {
+        fprintf(stderr, "%s: %ux%u, not %ux%u\n", path, (unsigned)pic.w, (unsigned)pic.h, (unsigned)w, (unsigned)h);
     }
-    png_destroy_read_struct(&png, &info, NULL);
-    free(rgb);
-    fclose(f);
+    free(pic.rgb);
     return ok;
 }
 

@@ -9,17 +9,17 @@
  * file behind. `clvox preview` pictures are decoded with libpng and compared
  * pixel by pixel with the layout its --help documents. */
 #include "meshgen.h"
+#include "spawn.h"
 #include "test.h"
+#include "testio.h"
+#include "pngread.h"
 #include "exrgen.h"
-
-#include <png.h>
 
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
 #include <math.h>
-#include <setjmp.h>
 #include <signal.h>
 #include <stdint.h>
 #include <string.h>
@@ -37,11 +37,9 @@ extern char **environ;
 #define ARGS(...) ((const char *const[]){__VA_ARGS__, NULL})
 #define ENV(...) ((const char *const[]){__VA_ARGS__, NULL})
 
-typedef struct run_result {
-    int code;  /* exit status; 128+signal if killed by one; -1 timeout or spawn failure */
-    char *out; /* captured stdout (NUL-terminated, never NULL) */
-    char *err; /* captured stderr */
-} run_result;
+/* code: exit status, 128 + signal if killed by one, -1 timeout or spawn
+ * failure; out, err: captured stdout and stderr (never NULL) */
+typedef spawn_result run_result;
 
 static char g_bin[PATH_MAX];  /* absolute path of the binary */
 static char g_dir[PATH_MAX];  /* <tmp>/cli */
@@ -53,15 +51,6 @@ static const char *g_stdout_file; /* when set, the child's stdout (e.g. /dev/ful
 
 /* ---- files ---- */
 
-static void path_join(char *dst, size_t size, const char *dir, const char *name)
-{
-    int n = snprintf(dst, size, "%s/%s", dir, name);
-    if (n < 0 || (size_t)n >= size) {
-        fprintf(stderr, "path too long: %s/%s\n", dir, name);
-        abort();
-    }
-}
-
 static int write_file(const char *path, const void *data, size_t size)
 {
     FILE *f = fopen(path, "wb");
@@ -71,68 +60,11 @@ static int write_file(const char *path, const void *data, size_t size)
     return ok;
 }
 
-static int write_text(const char *dir, const char *name, const char *text)
+static int write_text_at(const char *dir, const char *name, const char *text)
 {
     char p[PATH_MAX];
     path_join(p, sizeof p, dir, name);
     return write_file(p, text, strlen(text));
-}
-
-static char *read_all(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    size_t cap = 4096, n = 0;
-    char *buf = malloc(cap);
-    if (!buf) abort();
-    if (f) {
-        size_t got;
-        while ((got = fread(buf + n, 1, cap - n - 1, f)) > 0) {
-            n += got;
-            if (cap - n - 1 == 0) {
-                cap *= 2;
-                char *grown = realloc(buf, cap);
-                if (!grown) abort();
-                buf = grown;
-            }
-        }
-        fclose(f);
-    }
-    buf[n] = '\0';
-    return buf;
-}
-
-static int file_exists(const char *path)
-{
-    struct stat sb;
-    return lstat(path, &sb) == 0;
-}
-
-static long long file_size(const char *path)
-{
-    struct stat sb;
-    return stat(path, &sb) == 0 ? (long long)sb.st_size : -1;
-}
-
-static void rm_tree(const char *path)
-{
-    struct stat sb;
-    if (lstat(path, &sb) != 0) return;
-    if (S_ISDIR(sb.st_mode)) {
-        DIR *d = opendir(path);
-        if (d) {
-            struct dirent *e;
-            while ((e = readdir(d)) != NULL) {
-                if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
-                char sub[PATH_MAX];
-                path_join(sub, sizeof sub, path, e->d_name);
-                rm_tree(sub);
-            }
-            closedir(d);
-        }
-        rmdir(path);
-    } else {
-        unlink(path);
-    }
 }
 
 /* Names of the entries of `dir` ("" if empty), for messages. */
@@ -156,13 +88,6 @@ static void dir_entries(const char *dir, char *buf, size_t size)
 }
 
 /* ---- running the binary ---- */
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* Environment = the test's own, with `extra` entries ("NAME=VALUE" sets,
  * "NAME" unsets) applied. Returns a malloc'ed array (strings borrowed). */
@@ -222,114 +147,45 @@ static int has_output_open(pid_t pid)
     return found;
 }
 
+static int output_open(pid_t pid, void *arg)
+{
+    (void)arg;
+    return has_output_open(pid);
+}
+
 /* Runs clvox with `args` (argv[1..], NULL-terminated). cwd may be NULL.
  * If sigint_after > 0, sends SIGINT (g_signal) after that many seconds. */
 static void run_cli_ex(run_result *r, const char *cwd, const char *const *env_extra, const char *const *args,
                        double sigint_after)
 {
-    size_t na = 0;
-    while (args[na]) na++;
-    const char **argv = malloc((na + 2) * sizeof *argv);
-    if (!argv) abort();
-    argv[0] = g_bin;
-    for (size_t i = 0; i < na; i++) argv[i + 1] = args[i];
-    argv[na + 1] = NULL;
+    const char **argv = spawn_argv(g_bin, args);
     const char **env = make_env(env_extra);
 
-    char out_path[PATH_MAX], err_path[PATH_MAX], name[32];
-    unsigned id = ++g_run_id;
-    snprintf(name, sizeof name, "run%03u.out", id);
-    path_join(out_path, sizeof out_path, g_logs, name);
-    snprintf(name, sizeof name, "run%03u.err", id);
-    path_join(err_path, sizeof err_path, g_logs, name);
+    char out_path[PATH_MAX], err_path[PATH_MAX];
+    spawn_log_paths(g_logs, ++g_run_id, out_path, err_path);
 
-    fflush(stdout);
-    fflush(stderr);
-    r->code = -1;
-    g_signals_sent = 0;
-    pid_t pid = fork();
-    if (pid == 0) {
-        /* child: only async-signal-safe calls */
-        if (cwd && chdir(cwd) != 0) _exit(126);
-        int in = open("/dev/null", O_RDONLY);
-        int o = g_stdout_file ? open(g_stdout_file, O_WRONLY) : open(out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (in < 0 || o < 0 || e < 0) _exit(126);
-        if (dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(126);
-        /* default dispositions, whatever this test inherited (a background
-         * job of a script starts with SIGINT ignored, and clvox keeps a
-         * signal ignored that it inherited ignored) */
-        struct sigaction ign, dfl;
-        memset(&ign, 0, sizeof ign);
-        ign.sa_handler = SIG_IGN;
-        memset(&dfl, 0, sizeof dfl);
-        dfl.sa_handler = SIG_DFL;
-        if (sigaction(SIGINT, &dfl, NULL) != 0 || sigaction(SIGTERM, &dfl, NULL) != 0 ||
-            sigaction(SIGHUP, g_child_ignore_sighup ? &ign : &dfl, NULL) != 0)
-            _exit(126);
-        if (g_child_fsize_limit > 0) {
-            struct rlimit rl = {(rlim_t)g_child_fsize_limit, (rlim_t)g_child_fsize_limit};
-            if (sigaction(SIGXFSZ, &ign, NULL) != 0 || setrlimit(RLIMIT_FSIZE, &rl) != 0) _exit(126);
-        }
-        execve(g_bin, (char *const *)argv, (char *const *)env);
-        _exit(127);
-    }
-    if (pid > 0) {
-        double start = now_s(), sent_at = 0;
-        int sent = 0, status = 0;
-        for (;;) {
-            pid_t w = waitpid(pid, &status, WNOHANG);
-            if (w == pid) {
-                if (WIFEXITED(status)) r->code = WEXITSTATUS(status);
-                else if (WIFSIGNALED(status)) r->code = 128 + WTERMSIG(status);
-                break;
-            }
-            if (w < 0 && errno != EINTR) break;
-            double t = now_s() - start;
-            if (sigint_after > 0 && sent < g_signal_count && t >= sigint_after && t >= sent_at + 0.2 &&
-                (sent || !g_signal_when_open || has_output_open(pid))) {
-                kill(pid, g_signal);
-                sent++;
-                sent_at = t;
-            }
-            if (t > RUN_TIMEOUT_S) {
-                kill(pid, SIGKILL);
-                waitpid(pid, &status, 0);
-                fprintf(stderr, "TIMEOUT after %.0f s: %s %s ...\n", RUN_TIMEOUT_S, g_bin, na ? args[0] : "");
-                r->code = -1;
-                break;
-            }
-            struct timespec ts = {0, 5 * 1000 * 1000};
-            nanosleep(&ts, NULL);
-        }
-        g_signals_sent = sent;
-    } else {
-        fprintf(stderr, "fork failed: %s\n", strerror(errno));
-    }
+    spawn_opts o;
+    memset(&o, 0, sizeof o);
+    o.cwd = cwd;
+    o.env = env;
+    o.stdout_file = g_stdout_file;
+    o.ignore_sighup = g_child_ignore_sighup;
+    o.fsize_limit = g_child_fsize_limit;
+    o.timeout_s = RUN_TIMEOUT_S;
+    o.signal_after = sigint_after;
+    o.signal_gap = 0.2;
+    o.signal = g_signal;
+    o.signal_count = g_signal_count;
+    o.signal_ready = g_signal_when_open ? output_open : NULL;
+    spawn_run_to(r, argv, out_path, err_path, &o);
+    g_signals_sent = o.signals_sent;
     free(argv);
     free(env);
-    r->out = read_all(out_path);
-    r->err = read_all(err_path);
 }
 
 static void run_cli(run_result *r, const char *const *env_extra, const char *const *args)
 {
     run_cli_ex(r, NULL, env_extra, args, 0);
-}
-
-static void run_free(run_result *r)
-{
-    free(r->out);
-    free(r->err);
-    r->out = r->err = NULL;
-}
-
-static int count_lines(const char *s)
-{
-    int n = 0;
-    for (; *s; s++)
-        if (*s == '\n') n++;
-    return n;
 }
 
 /* Pointer to the text after "label" at the start of a line, or NULL. */
@@ -380,7 +236,7 @@ static void expect_failure_msg(const char *what, int expected, const char *const
     CHECK_MSG(left[0] == '\0', "%s: files left in the output directory: %s", what, left);
     rm_tree(g_out);
     mkdir(g_out, 0777);
-    run_free(&r);
+    spawn_free(&r);
 }
 
 static void expect_failure(const char *what, int expected, const char *const *env, const char *const *args)
@@ -439,36 +295,36 @@ static void write_truncated_stl(const char *name, uint32_t claimed, uint32_t pre
 
 static void make_inputs(void)
 {
-    CHECK(write_text(g_in, "cube.obj", CUBE_OBJ));
-    CHECK(write_text(g_in, "unitbox.obj", CUBE_OBJ));
-    CHECK(write_text(g_in, "cube.xyz", CUBE_OBJ));
-    CHECK(write_text(g_in, "empty.obj", ""));
-    CHECK(write_text(g_in, "empty.off", ""));
-    CHECK(write_text(g_in, "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"));
+    CHECK(write_text_at(g_in, "cube.obj", CUBE_OBJ));
+    CHECK(write_text_at(g_in, "unitbox.obj", CUBE_OBJ));
+    CHECK(write_text_at(g_in, "cube.xyz", CUBE_OBJ));
+    CHECK(write_text_at(g_in, "empty.obj", ""));
+    CHECK(write_text_at(g_in, "empty.off", ""));
+    CHECK(write_text_at(g_in, "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"));
     write_random("random.stl", 3000);
     write_random("random.ply", 3000);
     write_random("random.off", 3000);
     write_random("random.obj", 3000);
     write_random("random.exr", 3000);
     write_truncated_stl("truncated.stl", 12, 5);
-    CHECK(write_text(g_in, "noend.ply",
+    CHECK(write_text_at(g_in, "noend.ply",
                      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"));
-    CHECK(write_text(g_in, "nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n"));
-    CHECK(write_text(g_in, "inf.stl",
+    CHECK(write_text_at(g_in, "nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n"));
+    CHECK(write_text_at(g_in, "inf.stl",
                      "solid inf\n"
                      " facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 inf 0\n"
                      "  endloop\n endfacet\n"
                      " facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 0 1\n"
                      "  endloop\n endfacet\n"
                      "endsolid inf\n"));
-    CHECK(write_text(g_in, "badindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 99\n"));
+    CHECK(write_text_at(g_in, "badindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 99\n"));
     /* 5 bytes that aborted OpenMesh's OBJ reader (assert, SIGABRT; issue 7). */
-    CHECK(write_text(g_in, "slash.obj", "f /1\n"));
-    CHECK(write_text(g_in, "badindex.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 7\n"));
+    CHECK(write_text_at(g_in, "slash.obj", "f /1\n"));
+    CHECK(write_text_at(g_in, "badindex.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 7\n"));
     /* The cube without its top face; the cube twice, on the same or on its own vertices. */
-    CHECK(write_text(g_in, "open_cube.obj",
+    CHECK(write_text_at(g_in, "open_cube.obj",
                      "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
                      "f 1 4 3 2\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"));
     static const char faces[] = "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
@@ -476,9 +332,9 @@ static void make_inputs(void)
     static const char verts[] = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
     char text[1024];
     snprintf(text, sizeof text, "%s%s%s", verts, faces, faces);
-    CHECK(write_text(g_in, "cube_twice_shared.obj", text));
+    CHECK(write_text_at(g_in, "cube_twice_shared.obj", text));
     snprintf(text, sizeof text, "%s%s%s%s", verts, verts, faces, faces2);
-    CHECK(write_text(g_in, "cube_twice.obj", text));
+    CHECK(write_text_at(g_in, "cube_twice.obj", text));
     char p[PATH_MAX];
     path_join(p, sizeof p, g_in, "adir.obj");
     CHECK(mkdir(p, 0777) == 0 || errno == EEXIST);
@@ -500,17 +356,17 @@ static void test_help_version(void)
         "CLVOX_DEFAULT_MESH", "Exit codes", "130", "default 256", "centre", "longest axis", NULL};
     for (int i = 0; needed[i]; i++)
         CHECK_MSG(strstr(r.out, needed[i]) != NULL, "--help does not mention '%s'", needed[i]);
-    run_free(&r);
+    spawn_free(&r);
 
     run_cli(&r, NULL, ARGS("-h"));
     CHECK(r.code == 0 && strstr(r.out, "--voxel-size"));
-    run_free(&r);
+    spawn_free(&r);
 
     run_cli(&r, NULL, ARGS("--version"));
     CHECK_MSG(r.code == 0, "--version exit %d", r.code);
     CHECK_MSG(strstr(r.out, CLVOX_VERSION_STRING) != NULL, "--version printed: %s", r.out);
     CHECK(count_lines(r.out) == 1);
-    run_free(&r);
+    spawn_free(&r);
 }
 
 /* Voxelizes the cube at -r N --pad 1 with extra options; returns the filled
@@ -536,14 +392,14 @@ static long long run_cube(const char *what, const char *out_name, const char *co
     CHECK_MSG(r.code == 0, "%s: exit %d; stderr: %s", what, r.code, r.err);
     CHECK_MSG(file_exists(out), "%s: no output file %s", what, out);
     long long summary = filled_count(r.out, NULL);
-    run_free(&r);
+    spawn_free(&r);
     if (!file_exists(out)) return -1;
 
     run_cli(&r, NULL, ARGS("info", out));
     CHECK_MSG(r.code == 0, "%s: info exit %d; stderr: %s", what, r.code, r.err);
     long long info = filled_count(r.out, NULL);
     CHECK_MSG(info == summary, "%s: info reports %lld filled voxels, the run reported %lld", what, info, summary);
-    run_free(&r);
+    spawn_free(&r);
     return info;
 }
 
@@ -572,7 +428,7 @@ static void test_real_run(void)
     CHECK_MSG(strstr(r.out, " closed") != NULL, "real run: the cube is closed:\n%s", r.out);
     CHECK_MSG(r.err[0] == '\0', "real run: unexpected stderr: %s", r.err);
     CHECK_MSG(count_lines(r.out) <= 16, "real run: summary has %d lines", count_lines(r.out));
-    run_free(&r);
+    spawn_free(&r);
 
     /* info: same count and dims; works without any OpenCL device */
     static const char *const no_cl[][3] = {
@@ -587,7 +443,7 @@ static void test_real_run(void)
         CHECK_MSG(strstr(r.out, "18 x 18 x 18") != NULL, "info (%d): dims missing:\n%s", k, r.out);
         CHECK_MSG(strstr(r.out, "ray") != NULL, "info (%d): method missing:\n%s", k, r.out);
         CHECK_MSG(strstr(r.out, CLVOX_VERSION_STRING) != NULL, "info (%d): version missing:\n%s", k, r.out);
-        run_free(&r);
+        spawn_free(&r);
     }
 
     /* -q: nothing on stdout, the file is still written */
@@ -596,16 +452,16 @@ static void test_real_run(void)
     CHECK_MSG(r.code == 0 && r.out[0] == '\0' && r.err[0] == '\0', "-q: exit %d, stdout [%s], stderr [%s]", r.code,
               r.out, r.err);
     CHECK(file_exists(out));
-    run_free(&r);
+    spawn_free(&r);
 
     /* --dims and --voxel-size give the grid they say; options with '=' */
     run_cli(&r, NULL, ARGS(mesh, "--dims=4,5,6", "-o", out));
     CHECK_MSG(r.code == 0 && strstr(r.out, "4 x 5 x 6"), "--dims: exit %d; %s%s", r.code, r.out, r.err);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS(mesh, "--voxel-size", "0.25", "--box=-1,-1,-1,2,2,2", "-o", out));
     CHECK_MSG(r.code == 0 && strstr(r.out, "12 x 12 x 12") && filled_count(r.out, NULL) == 64,
               "--voxel-size/--box: exit %d; %s%s", r.code, r.out, r.err);
-    run_free(&r);
+    spawn_free(&r);
 }
 
 static void test_options(void)
@@ -648,7 +504,7 @@ static void test_default_mesh(void)
     CHECK_MSG(r.code == 0, "default mesh: exit %d; stderr: %s", r.code, r.err);
     CHECK_MSG(file_exists(out), "default mesh: %s not written", out);
     CHECK_MSG(strstr(r.out, "unitbox.obj") != NULL, "default mesh: mesh path not printed:\n%s", r.out);
-    run_free(&r);
+    spawn_free(&r);
 }
 
 static void test_list_devices(void)
@@ -658,7 +514,7 @@ static void test_list_devices(void)
     CHECK_MSG(r.code == 0 || r.code == 3, "--list-devices: exit %d", r.code);
     if (r.code == 0) CHECK_MSG(strstr(r.out, "index") && count_lines(r.out) >= 2, "--list-devices: %s", r.out);
     else CHECK(count_lines(r.err) == 1 && strncmp(r.err, "clvox: error: ", 14) == 0);
-    run_free(&r);
+    spawn_free(&r);
 }
 
 static void test_errors(void)
@@ -687,7 +543,7 @@ static void test_errors(void)
         char left[512];
         dir_entries(g_out, left, sizeof left);
         CHECK_MSG(left[0] == '\0', "nan.obj, default output: files left: %s", left);
-        run_free(&r);
+        spawn_free(&r);
     }
 
     /* usage errors: exit 2 */
@@ -758,19 +614,6 @@ static void test_errors(void)
     expect_failure("info with two files", 2, NULL, ARGS("info", cube, cube));
 }
 
-/* Number of lines of `text` that start with `prefix`. */
-static int lines_starting(const char *text, const char *prefix)
-{
-    int n = 0;
-    size_t len = strlen(prefix);
-    for (const char *line = text; line && *line;) {
-        if (strncmp(line, prefix, len) == 0) n++;
-        line = strchr(line, '\n');
-        if (line) line++;
-    }
-    return n;
-}
-
 /* Warnings come from the mesh report, with either method, one line each,
  * and the run still succeeds. */
 static void test_warnings(void)
@@ -793,7 +636,7 @@ static void test_warnings(void)
                       "%s %s: expected one duplicate warning, stderr: [%s]", twice[k], methods[m], r.err);
             CHECK_MSG(strstr(r.out, ", 12 duplicate triangles") != NULL, "%s %s: summary lacks the duplicates:\n%s",
                       twice[k], methods[m], r.out);
-            run_free(&r);
+            spawn_free(&r);
         }
         /* An open mesh: one warning from the report, for tetra too; the ray
          * method's odd-parity count (rays along z miss the missing top face)
@@ -811,12 +654,12 @@ static void test_warnings(void)
                           strstr(rays, " 64 odd parity"),
                       "open cube ray: odd parity count missing: [%s]\n%s", r.err, r.out);
         }
-        run_free(&r);
+        spawn_free(&r);
         /* -q keeps the warning */
         run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", methods[m], "--inside", "parity", "-o", out, "-q"));
         CHECK_MSG(r.code == 0 && r.out[0] == '\0' && count_lines(r.err) == 1 && strstr(r.err, "not closed"),
                   "open cube %s -q: exit %d [%s] [%s]", methods[m], r.code, r.out, r.err);
-        run_free(&r);
+        spawn_free(&r);
         if (m == 0) {
             /* the winding number (default): the doubled cubes are the cube (their union), the open cube is
              * closed by a cap; no warnings */
@@ -825,7 +668,7 @@ static void test_warnings(void)
                 run_cli(&r, NULL, ARGS(p, "-r", "8", "-o", out));
                 CHECK_MSG(r.code == 0 && filled_count(r.out, NULL) == 512 && r.err[0] == '\0',
                           "%s winding: exit %d, [%s]\n%s", twice[k], r.code, r.err, r.out);
-                run_free(&r);
+                spawn_free(&r);
             }
             path_join(p, sizeof p, g_in, "open_cube.obj");
             run_cli(&r, NULL, ARGS(p, "-r", "8", "--axis=z", "-o", out));
@@ -833,23 +676,23 @@ static void test_warnings(void)
             CHECK_MSG(r.code == 0 && filled_count(r.out, NULL) == 512 && r.err[0] == '\0' && w &&
                           strstr(w, "1 holes closed by 4 caps"),
                       "open cube winding: exit %d, [%s]\n%s", r.code, r.err, r.out);
-            run_free(&r);
+            spawn_free(&r);
             /* tetra is parity by construction */
             run_cli(&r, NULL, ARGS(p, "-r", "8", "--method", "tetra", "--inside", "winding", "-o", out));
             CHECK_MSG(r.code != 0 && count_lines(r.err) == 1 && strstr(r.err, "parity method"),
                       "tetra --inside winding: exit %d [%s]", r.code, r.err);
-            run_free(&r);
+            spawn_free(&r);
             run_cli(&r, NULL, ARGS(p, "-r", "8", "--inside", "even", "-o", out));
             CHECK_MSG(r.code == 2 && count_lines(r.err) == 1 && strstr(r.err, "--inside 'even'"),
                       "--inside even: exit %d [%s]", r.code, r.err);
-            run_free(&r);
+            spawn_free(&r);
             run_cli(&r, NULL, ARGS(p, "-r", "8", "--weld", "-1", "-o", out));
             CHECK_MSG(r.code == 2 && count_lines(r.err) == 1 && strstr(r.err, "--weld"), "--weld -1: exit %d [%s]",
                       r.code, r.err);
-            run_free(&r);
+            spawn_free(&r);
             continue;
         }
-        run_free(&r);
+        spawn_free(&r);
     }
     unlink(out);
 }
@@ -866,7 +709,7 @@ static void test_messages(void)
     run_cli(&r, NULL, ARGS(cube, "--voxel-size", "1e-300", "-o", out));
     CHECK_MSG(r.code == 6 && count_lines(r.err) == 1 && strlen(r.err) < 160 && strstr(r.err, "1e+300 voxels"),
               "--voxel-size 1e-300: exit %d, stderr [%s]", r.code, r.err);
-    run_free(&r);
+    spawn_free(&r);
     expect_failure("--voxel-size 1e-300", 6, NULL, ARGS(cube, "--voxel-size", "1e-300", "-o", out));
     expect_failure_msg("--box +-1e308", 6, NULL, ARGS(cube, "--box=-1e308,-1e308,-1e308,1e308,1e308,1e308", "-o", out),
                        "extent on axis x overflows");
@@ -880,17 +723,17 @@ static void test_messages(void)
     run_cli(&r, NULL, ARGS(cube, "--voxel-size", "1e300", "-o", big));
     CHECK_MSG(r.code == 0 && find_field(r.out, "volume") && !strstr(r.out, "nan"), "--voxel-size 1e300: exit %d\n%s%s",
               r.code, r.out, r.err);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS("info", big));
     CHECK_MSG(r.code == 0 && find_field(r.out, "volume") && !strstr(r.out, "nan"), "info 1e300: exit %d\n%s%s",
               r.code, r.out, r.err);
-    run_free(&r);
+    spawn_free(&r);
     /* (A filled voxel whose volume overflows needs a mesh larger than float
      * coordinates allow: the summary would say "too large for a double".) */
     run_cli(&r, NULL, ARGS(cube, "--voxel-size", "1e300", "--box=-1e300,-1e300,-1e300,1e300,1e300,1e300", "-o", big));
     CHECK_MSG(r.code == 0 && find_field(r.out, "volume") && !strstr(r.out, "nan"),
               "--voxel-size 1e300, 8 voxels: exit %d\n%s%s", r.code, r.out, r.err);
-    run_free(&r);
+    spawn_free(&r);
     unlink(big);
 
     /* stdout that can not be written: exit 1, one error line; the volume is there. */
@@ -907,18 +750,18 @@ static void test_messages(void)
                   strstr(r.err, "volume was written") && strstr(r.err, "No space left"),
               "> /dev/full: exit %d, stderr [%s]", r.code, r.err);
     CHECK_MSG(file_exists(vol), "> /dev/full: the volume %s is missing", vol);
-    run_free(&r);
+    spawn_free(&r);
     const char *const cmds[][3] = {{"--help", NULL, NULL}, {"--version", NULL, NULL}, {"info", vol, NULL}};
     for (int i = 0; i < 3; i++) {
         run_cli(&r, NULL, cmds[i]);
         CHECK_MSG(r.code == 1 && count_lines(r.err) == 1 && strstr(r.err, "clvox: error: cannot write to stdout"),
                   "%s > /dev/full: exit %d, stderr [%s]", cmds[i][0], r.code, r.err);
-        run_free(&r);
+        spawn_free(&r);
     }
     /* -q prints nothing: nothing to fail */
     run_cli(&r, NULL, ARGS(cube, "-r", "8", "-o", vol, "-q"));
     CHECK_MSG(r.code == 0 && r.err[0] == '\0', "-q > /dev/full: exit %d, stderr [%s]", r.code, r.err);
-    run_free(&r);
+    spawn_free(&r);
     g_stdout_file = NULL;
     unlink(vol);
 }
@@ -940,7 +783,7 @@ static void test_cancel(void)
     CHECK_MSG(left[0] == '\0', "SIGINT: files left: %s", left);
     rm_tree(g_out);
     mkdir(g_out, 0777);
-    run_free(&r);
+    spawn_free(&r);
 }
 
 /* A long run killed while its output is being written (g_signal_when_open)
@@ -969,7 +812,7 @@ static void killed_run(const char *what, int sig, int count, int expected)
     CHECK_MSG(left[0] == '\0', "%s: files left: %s", what, left);
     rm_tree(g_out);
     mkdir(g_out, 0777);
-    run_free(&r);
+    spawn_free(&r);
 }
 
 static void test_kill(void)
@@ -990,7 +833,7 @@ static void test_special_outputs(void)
     run_result r;
     run_cli(&r, NULL, ARGS(cube, "-r", "8", "-q", "-o", exr));
     CHECK_MSG(r.code == 0, "special-in.exr: exit %d: %s", r.code, r.err);
-    run_free(&r);
+    spawn_free(&r);
     struct stat sb;
 
     for (int preview = 0; preview < 2; preview++) {
@@ -1021,7 +864,7 @@ static void test_special_outputs(void)
         snprintf(name, sizeof name, "symlink.%s", ext);
         path_join(p, sizeof p, g_dir, name);
         path_join(target, sizeof target, g_dir, "symlink-target");
-        CHECK(write_text(g_dir, "symlink-target", "keep"));
+        CHECK(write_text_at(g_dir, "symlink-target", "keep"));
         unlink(p);
         CHECK(symlink(target, p) == 0);
         if (preview) expect_failure("preview -o symlink", 5, NULL, ARGS("preview", exr, "-o", p));
@@ -1042,7 +885,7 @@ static void test_special_outputs(void)
                 else run_cli(&r, NULL, ARGS(cube, "-r", "8", "-q", "-o", p));
                 CHECK_MSG(r.code == 0 && file_size(p) > 0, "%s output with a %d-byte name%s: exit %d: %s", ext,
                           len, again ? ", replacing" : "", r.code, r.err);
-                run_free(&r);
+                spawn_free(&r);
             }
             char left[1024];
             dir_entries(g_out, left, sizeof left);
@@ -1128,7 +971,7 @@ static void test_nohup(void)
               r.code);
     CHECK_MSG(r.code == 0 && file_size(out) > 0 && filled_count(r.out, NULL) > 0,
               "nohup: %d SIGHUP sent: exit %d, expected 0 and the volume; stderr: %s", g_signals_sent, r.code, r.err);
-    run_free(&r);
+    spawn_free(&r);
     unlink(out);
 }
 
@@ -1144,7 +987,7 @@ static void test_write_failure_messages(void)
     run_result r;
     run_cli(&r, NULL, ARGS(cube, "-r", "64", "--compression", "none", "-q", "-o", in));
     CHECK_MSG(r.code == 0 && file_size(in) > 65536, "convert input: exit %d: %s", r.code, r.err);
-    run_free(&r);
+    spawn_free(&r);
     snprintf(plugin, sizeof plugin, "%s", g_bin);
     char *slash = strrchr(plugin, '/');
     if (slash) snprintf(slash + 1, sizeof plugin - (size_t)(slash + 1 - plugin), "libclvox-vdb.so");
@@ -1165,73 +1008,7 @@ static void test_write_failure_messages(void)
     unlink(in);
 }
 
-/* Absolute form of `path` (not normalised); 0 if it does not exist. */
-static int absolute_path(const char *path, char *out, size_t size)
-{
-    if (!file_exists(path)) return 0;
-    if (path[0] == '/') {
-        int n = snprintf(out, size, "%s", path);
-        return n > 0 && (size_t)n < size;
-    }
-    char cwd[PATH_MAX];
-    if (!getcwd(cwd, sizeof cwd)) return 0;
-    int n = snprintf(out, size, "%s/%s", cwd, path);
-    return n > 0 && (size_t)n < size;
-}
-
 /* ---- preview ---- */
-
-/* An 8-bit RGB picture decoded with libpng. */
-typedef struct picture {
-    uint32_t w, h;
-    uint8_t *rgb;
-} picture;
-
-typedef struct png_jmp {
-    jmp_buf jmp;
-} png_jmp;
-
-static void png_test_error(png_structp png, png_const_charp msg)
-{
-    fprintf(stderr, "libpng: %s\n", msg);
-    longjmp(((png_jmp *)png_get_error_ptr(png))->jmp, 1);
-}
-
-/* 1 when `path` is an 8-bit RGB, non-interlaced PNG; fills pic (free pic->rgb). */
-static int read_png(const char *path, picture *pic)
-{
-    memset(pic, 0, sizeof *pic);
-    FILE *f = fopen(path, "rb");
-    if (!f) return 0;
-    png_jmp pj;
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &pj, png_test_error, NULL);
-    png_infop info = png ? png_create_info_struct(png) : NULL;
-    uint8_t *volatile rgb = NULL;
-    if (!png || !info || setjmp(pj.jmp)) {
-        png_destroy_read_struct(&png, &info, NULL);
-        fclose(f);
-        free(rgb);
-        return 0;
-    }
-    png_init_io(png, f);
-    png_read_info(png, info);
-    png_uint_32 w = 0, h = 0;
-    int depth = 0, color = 0, interlace = 0;
-    png_get_IHDR(png, info, &w, &h, &depth, &color, &interlace, NULL, NULL);
-    int ok = depth == 8 && color == PNG_COLOR_TYPE_RGB && interlace == PNG_INTERLACE_NONE && w > 0 && h > 0;
-    if (ok) {
-        rgb = malloc((size_t)w * h * 3);
-        if (!rgb) abort();
-        for (png_uint_32 y = 0; y < h; y++) png_read_row(png, rgb + (size_t)y * w * 3, NULL);
-        png_read_end(png, NULL);
-        pic->w = w;
-        pic->h = h;
-        pic->rgb = rgb;
-    }
-    png_destroy_read_struct(&png, &info, NULL);
-    fclose(f);
-    return ok;
-}
 
 /* A volume as grey levels (what the documented mapping gives for its
  * channel), or as colours (rgb set: 3 bytes per voxel; g unused). */
@@ -1326,7 +1103,7 @@ static void check_preview(const char *what, const grey_volume *v, const char *ex
     run_cli(&r, NULL, args);
     CHECK_MSG(r.code == 0 && r.err[0] == '\0', "%s: exit %d; stderr: %s", what, r.code, r.err);
     CHECK_MSG(count_lines(r.out) == 1 && strstr(r.out, png), "%s: stdout: %s", what, r.out);
-    run_free(&r);
+    spawn_free(&r);
     picture got, want;
     int ok = read_png(png, &got);
     CHECK_MSG(ok, "%s: %s is not an 8-bit RGB PNG", what, png);
@@ -1421,26 +1198,26 @@ static void test_palette_cli(void)
     CHECK_MSG(r.code == 0 && count_lines(r.out) == 5 && strstr(r.out, "paper78") && strstr(r.out, "planar10") &&
                   r.err[0] == '\0',
               "palette list: exit %d, out [%s] err [%s]", r.code, r.out, r.err);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS("palette", "show", "paper46"));
     CHECK_MSG(r.code == 0 && count_rows(r.out) == 46 && strstr(r.out, "corner_s7") && strstr(r.out, "(1-x,1-y,1-z)"),
               "palette show paper46: exit %d, %d rows, err [%s]", r.code, count_rows(r.out), r.err);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS("palette", "show", "palettes/blocks.txt"));
     CHECK_MSG(r.code == 0 && count_rows(r.out) == 12 && strstr(r.out, "stairs_down_south"),
               "palette show blocks.txt: exit %d, %d rows, err [%s]", r.code, count_rows(r.out), r.err);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS("palette", "--help"));
     CHECK(r.code == 0 && strstr(r.out, "palette show NAME|FILE"));
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS("--help"));
     CHECK(r.code == 0 && strstr(r.out, "clvox palette list"));
-    run_free(&r);
+    spawn_free(&r);
     expect_failure_msg("palette show unknown", 2, NULL, ARGS("palette", "show", "paper47"), "paper47");
     expect_failure_msg("palette no subcommand", 2, NULL, ARGS("palette"), "palette");
     expect_failure_msg("palette bad subcommand", 2, NULL, ARGS("palette", "draw"), "draw");
     expect_failure_msg("palette show two", 2, NULL, ARGS("palette", "show", "binary", "paper46"), "more than one");
-    write_text(g_in, "bad_palette.txt", "element a\n  cell\n  1 0 0\nend\n");
+    write_text_at(g_in, "bad_palette.txt", "element a\n  cell\n  1 0 0\nend\n");
     char bad[PATH_MAX];
     path_join(bad, sizeof bad, g_in, "bad_palette.txt");
     expect_failure_msg("palette show bad file", 4, NULL, ARGS("palette", "show", bad), "bad_palette.txt:3:");
@@ -1459,7 +1236,7 @@ static void test_palette_run(void)
                   strstr(r.out, "decided by early-out") && strstr(r.out, "coverage, element, score") != NULL &&
                   strstr(r.out, "1728 of 2744 voxels") && strstr(r.out, "volume       1 of the elements"),
               "palette run: exit %d, out [%s] err [%s]", r.code, r.out, r.err);
-    run_free(&r);
+    spawn_free(&r);
     clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
     co.host_only = 1;
     clvox_context *c = NULL;
@@ -1534,11 +1311,11 @@ static void test_preview(void)
                                           "2-pixel", "floor(p * cells / pixels)", "default 16", "default 256", NULL };
     for (int i = 0; needed[i]; i++)
         CHECK_MSG(strstr(r.out, needed[i]) != NULL, "preview --help does not mention '%s'", needed[i]);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS("--help"));
     CHECK_MSG(strstr(r.out, "clvox preview") != NULL && strstr(r.out, "coverage sum"),
               "--help does not describe preview and info's coverage");
-    run_free(&r);
+    spawn_free(&r);
 
     /* an occupancy volume made by clvox itself: the bundled mesh at -r 32 */
     if (!absolute_path("tests/data/default.obj", mesh, sizeof mesh)) {
@@ -1549,7 +1326,7 @@ static void test_preview(void)
     path_join(occ_exr, sizeof occ_exr, g_dir, "knot.exr");
     run_cli(&r, NULL, ARGS(mesh, "-r", "32", "-o", occ_exr, "-q"));
     CHECK_MSG(r.code == 0, "voxelize default.obj: exit %d; %s", r.code, r.err);
-    run_free(&r);
+    spawn_free(&r);
     clvox_volume_info info;
     memset(&info, 0, sizeof info);
     CHECK_OK(ctx, clvox_volume_read(ctx, occ_exr, &info, NULL, 0));
@@ -1569,7 +1346,7 @@ static void test_preview(void)
     run_cli(&r, NULL, ARGS("info", occ_exr));
     CHECK_MSG(r.code == 0 && find_field(r.out, "coverage") == NULL && find_field(r.out, "filled"),
               "info of an occupancy file:\n%s", r.out);
-    run_free(&r);
+    spawn_free(&r);
     free(v.g);
 
     /* coverage (+ occupancy, + a FLOAT channel) from the test writer */
@@ -1594,10 +1371,10 @@ static void test_preview(void)
                   ARGS("--channel", "score", "--slices", "3", "--size", "100"));
     /* replacing an existing regular file is fine */
     path_join(p, sizeof p, g_dir, "preview.png");
-    CHECK(write_text(g_dir, "preview.png", "old"));
+    CHECK(write_text_at(g_dir, "preview.png", "old"));
     run_cli(&r, NULL, ARGS("preview", cov_exr, "-o", p));
     CHECK_MSG(r.code == 0 && file_size(p) > 100, "replacing a file: exit %d %s", r.code, r.err);
-    run_free(&r);
+    spawn_free(&r);
     unlink(p);
 
     /* info shows the coverage sum and the estimated volume */
@@ -1619,14 +1396,14 @@ static void test_preview(void)
         for (size_t i = 0; i < n; i++) filled += k ? cf.occ[i] == 0x3C00 : exrgen_half_value(cf.cov[i]) > 0.5;
         CHECK_MSG(filled_count(r.out, NULL) == (long long)filled, "info (%d): filled %lld, expected %llu", k,
                   filled_count(r.out, NULL), (unsigned long long)filled);
-        run_free(&r);
+        spawn_free(&r);
     }
 
     /* errors: one line, the documented exit code, nothing left in g_out */
     char out[PATH_MAX];
     path_join(out, sizeof out, g_out, "x.png");
     path_join(p, sizeof p, g_out, "x.exr");
-    CHECK(write_text(g_in, "x.exr", "this is a text file, not an EXR\n"));
+    CHECK(write_text_at(g_in, "x.exr", "this is a text file, not an EXR\n"));
     path_join(p, sizeof p, g_in, "x.exr");
     expect_failure("preview of a text file", 4, NULL, ARGS("preview", p, "-o", out));
     path_join(p, sizeof p, g_in, "plain.exr");
@@ -1666,7 +1443,7 @@ static void test_preview(void)
     char target[PATH_MAX], link_path[PATH_MAX];
     path_join(target, sizeof target, g_dir, "link-target.txt");
     path_join(link_path, sizeof link_path, g_dir, "link.png");
-    CHECK(write_text(g_dir, "link-target.txt", "keep"));
+    CHECK(write_text_at(g_dir, "link-target.txt", "keep"));
     unlink(link_path);
     CHECK(symlink(target, link_path) == 0);
     expect_failure("preview output is a symlink", 5, NULL, ARGS("preview", cov_exr, "-o", link_path));
@@ -1823,7 +1600,7 @@ static void test_palette_files(void)
     run_cli(&r, NULL, ARGS("preview", "--help"));
     CHECK_MSG(strstr(r.out, "--shade") && strstr(r.out, "949 mod 1536") && strstr(r.out, "default: element"),
               "preview --help does not describe element colours:\n%s", r.out);
-    run_free(&r);
+    spawn_free(&r);
 
     /* info: the palette line and the voxels per element, named */
     run_cli(&r, NULL, ARGS("info", pal));
@@ -1843,7 +1620,7 @@ static void test_palette_files(void)
     CHECK_MSG(count_line_prefix(r.out, "             ") == 11, "info: %d element rows:\n%s",
               count_line_prefix(r.out, "             "), r.out);
     CHECK(r.err[0] == '\0');
-    run_free(&r);
+    spawn_free(&r);
     /* a palette that cannot be rebuilt: said on the palette line, rows without names */
     run_cli(&r, NULL, ARGS("info", pal_bad));
     f = find_field(r.out, "palette");
@@ -1851,14 +1628,14 @@ static void test_palette_files(void)
               "info of a tampered file:\n%s%s", r.out, r.err);
     CHECK_MSG(strstr(r.out, "    1 full") == NULL && strstr(r.out, "46 of 46 used"), "info of a tampered file:\n%s",
               r.out);
-    run_free(&r);
+    spawn_free(&r);
     /* not a palette run: no palette line, elements counted */
     path_join(p, sizeof p, g_in, "element_only.exr");
     run_cli(&r, NULL, ARGS("info", p));
     CHECK_MSG(r.code == 0 && !find_field(r.out, "palette") && find_field(r.out, "elements") &&
                   strncmp(find_field(r.out, "elements"), "46 used", 7) == 0,
               "info without palette attributes:\n%s%s", r.out, r.err);
-    run_free(&r);
+    spawn_free(&r);
 
     free(elem);
     free(score);
@@ -1899,33 +1676,33 @@ static void test_coverage_options(void)
     CHECK_MSG(r.code == 0, "oversample 4: exit %d: %s", r.code, r.err);
     CHECK(strstr(r.out, "sampling     4x4 rays x 4 points per voxel (64 samples), uniform; channels coverage") != NULL);
     CHECK(strstr(r.out, "estimated (sum of coverage)") != NULL);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS("info", a));
     CHECK_MSG(r.code == 0 && strstr(r.out, "channels coverage\n") && strstr(r.out, "coverage     "), "info: %s%s", r.out,
               r.err);
     CHECK(strstr(r.out, "oversample=4x4 points=4 sampling=uniform") != NULL);
-    run_free(&r);
+    spawn_free(&r);
 
     /* stochastic: the same seed gives the same file, another seed another one */
     run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "2,3", "--stochastic", "--seed", "5", "-o", a, "-q"));
     CHECK(r.code == 0);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "2,3", "--stochastic", "--seed=5", "--slab", "3", "-o", b, "-q"));
     CHECK(r.code == 0);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "2,3", "--stochastic", "--seed", "6", "-o", c, "-q"));
     CHECK(r.code == 0);
-    run_free(&r);
+    spawn_free(&r);
     CHECK_MSG(same_file(a, b), "seed 5 twice (slab auto and 3) gave different files");
     CHECK_MSG(!same_file(a, c), "seeds 5 and 6 gave the same file");
 
     /* both channels on request */
     run_cli(&r, NULL, ARGS(mesh, "-r", "20", "--oversample", "3", "--channels", "occupancy,coverage", "-o", a, "-q"));
     CHECK(r.code == 0);
-    run_free(&r);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS("info", a));
     CHECK_MSG(strstr(r.out, "channels coverage,occupancy") != NULL, "info: %s", r.out);
-    run_free(&r);
+    spawn_free(&r);
     unlink(a);
     unlink(b);
     unlink(c);
@@ -1973,7 +1750,7 @@ static void test_precision_warning(void)
         const char *w = where[i];
         snprintf(text, sizeof text, far_fmt, w, w, w, w, w, w, w, w);
         snprintf(name, sizeof name, "far%d.obj", i);
-        write_text(g_in, name, text);
+        write_text_at(g_in, name, text);
         path_join(mesh, sizeof mesh, g_in, name);
         path_join(out, sizeof out, g_dir, "far.exr");
         run_result r;
@@ -1981,7 +1758,7 @@ static void test_precision_warning(void)
         CHECK_MSG(r.code == 0 && !strstr(r.err, "warning"), "OBJ cube at x=%s: exit %d, stderr: %s", w, r.code, r.err);
         CHECK_MSG(strstr(r.out, "(+0.00 %)") != NULL, "OBJ cube at x=%s: %s", w, r.out);
         filled[i] = filled_count(r.out, NULL);
-        run_free(&r);
+        spawn_free(&r);
         unlink(out);
     }
     CHECK_MSG(filled[0] == filled[1] && filled[0] == 16 * 16 * 16, "filled %lld at 1e6, %lld at 0", filled[0], filled[1]);
@@ -1995,7 +1772,7 @@ static void test_precision_warning(void)
     run_cli(&r, NULL, ARGS(stl, "-r", "16", "-o", out, "-q"));
     CHECK_MSG(r.code == 0 && strstr(r.err, "clvox: warning: vertices are stored as 32-bit floats"),
               "STL cube at 1e6: exit %d, stderr: %s", r.code, r.err);
-    run_free(&r);
+    spawn_free(&r);
     unlink(out);
 }
 
@@ -2005,26 +1782,7 @@ int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
     if (!bin || !*bin) bin = "build/release/clvox";
-    if (!absolute_path(bin, g_bin, sizeof g_bin)) {
-        fprintf(stderr, "FAIL: clvox binary '%s' not found (set CLVOX_BIN)\n", bin);
-        test_failed++;
-        return test_report();
-    }
-    char tmp[PATH_MAX];
-    if (!absolute_path(test_tmpdir(), tmp, sizeof tmp)) {
-        fprintf(stderr, "FAIL: no test directory\n");
-        test_failed++;
-        return test_report();
-    }
-    path_join(g_dir, sizeof g_dir, tmp, "cli");
-    rm_tree(g_dir);
-    mkdir(g_dir, 0777);
-    path_join(g_in, sizeof g_in, g_dir, "in");
-    path_join(g_out, sizeof g_out, g_dir, "out");
-    path_join(g_logs, sizeof g_logs, g_dir, "logs");
-    mkdir(g_in, 0777);
-    mkdir(g_out, 0777);
-    mkdir(g_logs, 0777);
+    if (!test_cli_dirs(bin, "cli", g_bin, g_dir, g_in, g_out, g_logs)) return test_report();
 
     make_inputs();
     test_help_version();

@@ -21,6 +21,7 @@
 #endif
 #include "exrgen.h"
 #include "spawn.h"
+#include "testio.h"
 #include "test.h"
 
 #include <dirent.h>
@@ -39,61 +40,6 @@ static char g_dir[PATH_MAX]; /* <tmp>/instances */
 static char g_out[PATH_MAX]; /* outputs of runs that must fail: stays empty */
 
 #define ARGS(...) ((const char *const[]){g_bin, __VA_ARGS__, NULL})
-
-static void path_join(char *dst, size_t size, const char *dir, const char *name)
-{
-    int n = snprintf(dst, size, "%s/%s", dir, name);
-    if (n < 0 || (size_t)n >= size) abort();
-}
-
-static int write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f) return 0;
-    int ok = fwrite(text, 1, strlen(text), f) == strlen(text);
-    return (fclose(f) == 0) & ok;
-}
-
-static char *read_text(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    size_t cap = 1 << 16, n = 0, got;
-    char *b = malloc(cap);
-    while (b && (got = fread(b + n, 1, cap - n - 1, f)) > 0) {
-        n += got;
-        if (n + 1 == cap) {
-            char *g = realloc(b, cap *= 2);
-            if (!g) free(b);
-            b = g;
-        }
-    }
-    fclose(f);
-    if (b) b[n] = '\0';
-    return b;
-}
-
-static int dir_is_empty(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d) return 0;
-    int empty = 1;
-    struct dirent *e;
-    while ((e = readdir(d)) != NULL)
-        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0) {
-            fprintf(stderr, "left behind: %s/%s\n", dir, e->d_name);
-            empty = 0;
-        }
-    closedir(d);
-    return empty;
-}
-
-static int count_lines(const char *s)
-{
-    int n = 0;
-    for (; s && *s; s++) n += *s == '\n';
-    return n;
-}
 
 /* ---- render maps -------------------------------------------------------------------- */
 

@@ -1027,7 +1027,7 @@ static void test_real_open(void)
     }
 }
 
-/* ---- the cap tree's node estimates (kernels/winding.h clvox_cap_estimate) ---- */
+/* ---- the cap tree's node estimates (kernels/winding_bounds.h clvox_cap_estimate) ---- */
 
 static void emit_cap(float *out, size_t *n, size_t max, const double *a, const double *b, const double *c)
 {

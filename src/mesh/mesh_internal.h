@@ -1,59 +1,48 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Mesh readers shared between mesh.c (checks, dispatch, build) and the native
- * binary readers (mesh_ply.c, mesh_stl.c). Internal. */
+/* The mesh stage's parts: the loader (mesh_load.c), the per-format checks
+ * and readers, the build and the report. Internal. */
 #ifndef CLVOX_MESH_INTERNAL_H
 #define CLVOX_MESH_INTERNAL_H
 #include "core/internal.h"
 
-#define PLY_MAX_HEADER (64u * 1024u)
-#define PLY_MAX_ELEMENTS 16
-#define PLY_MAX_PROPS 64
-#define PLY_NAME 64
+/* What a format's check learnt about the file; the mesh OpenMesh returns
+ * must agree. */
+typedef struct clvox__mesh_expect {
+    int have_vertices, have_faces;
+    uint64_t vertices, faces;
+} clvox__mesh_expect;
 
-enum ply_format { PLY_ASCII, PLY_LE, PLY_BE };
+/* The per-format checks (mesh_<format>.c), on the whole file p[0..n) (a NUL
+ * after it). Each checks the file the way OpenMesh's reader will consume it,
+ * and where clvox reads the format itself (native readers) reads it into
+ * *raw and sets *parsed (else OpenMesh reads the file, and *ex, where given,
+ * says what it must find). On failure *raw is empty. */
+clvox_status clvox__mesh_check_obj(clvox_context *ctx, const char *path, const char *p, size_t n,
+                                   clvox__raw_mesh *raw, int *parsed);
+clvox_status clvox__mesh_check_off(clvox_context *ctx, const char *path, const unsigned char *p, size_t n,
+                                   clvox__mesh_expect *ex, clvox__raw_mesh *raw, int *parsed);
+clvox_status clvox__mesh_check_ply(clvox_context *ctx, const char *path, const unsigned char *p, size_t n,
+                                   clvox__mesh_expect *ex, clvox__raw_mesh *raw, int *parsed);
+clvox_status clvox__mesh_check_stl(clvox_context *ctx, const char *path, const unsigned char *p, size_t n,
+                                   clvox__raw_mesh *raw, int *parsed);
+clvox_status clvox__mesh_check_om(clvox_context *ctx, const char *path, const unsigned char *p, size_t n);
 
-typedef struct ply_type { const char *name; int size, is_float, is_signed; } ply_type;
-
-typedef struct ply_prop {
-    char name[PLY_NAME];
-    const ply_type *type;       /* value (list item) type */
-    const ply_type *count_type; /* NULL: scalar */
-} ply_prop;
-
-typedef struct ply_elem {
-    char name[PLY_NAME];
-    uint64_t count;
-    ply_prop props[PLY_MAX_PROPS];
-    int nprops;
-} ply_elem;
-
-typedef struct ply_header {
-    enum ply_format format;
-    ply_elem elems[PLY_MAX_ELEMENTS];
-    int nelems, vertex, face; /* element indices, -1 if absent */
-    size_t body;              /* offset of the first byte after the header */
-} ply_header;
+/* The validated mesh (mesh_build.c). Takes ownership of xyz (freed on
+ * failure). sizes == NULL: all faces are triangles. `what` names the source
+ * in messages. idx_owned: idx itself, handed over (malloc'ed, freed on
+ * failure), when sizes == NULL: the triangles are then compacted in place,
+ * so no second index array is made; else NULL. */
+clvox_status clvox__mesh_build(clvox_context *ctx, const char *what, float *xyz, const double offset[3], size_t nv,
+                               const uint32_t *sizes, const uint32_t *idx, size_t nf, size_t index_count,
+                               uint64_t loader_nonmanifold, uint32_t *idx_owned, clvox_mesh **out);
 
 
-/* clvox_mesh_load up to build_mesh: the file read into raw (the reader
+/* clvox_mesh_load up to clvox__mesh_build: the file read into raw (the reader
  * alone; scripts/bench_load.c times it). */
 clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *raw);
 
 /* 1 unless CLVOX_MESH_READER=openmesh (for tests: compare with OpenMesh). */
 int clvox__mesh_native_enabled(void);
-
-/* Binary PLY body (little or big endian) into raw, as OpenMesh's reader
- * would hand it over. The header is parsed and the body walked
- * (ply_check_binary) before this is called. */
-clvox_status clvox__ply_read_binary(clvox_context *ctx, const char *path, const unsigned char *p, size_t n,
-                                    const ply_header *h, clvox__raw_mesh *raw);
-
-/* Binary STL (n == 84 + 50 count, finite coordinates: checked before) into
- * raw, vertices merged as OpenMesh's reader merges them. Returns 0 on
- * success, 1 when the file holds a coordinate that OpenMesh's tolerant
- * comparison could merge with a different value (|x| < 2^-100, x != 0: the
- * caller falls back to OpenMesh), -2 when memory runs out. */
-int clvox__stl_read_binary(const unsigned char *p, size_t n, clvox__raw_mesh *raw);
 
 /* The report's analysis of validated triangles (mesh_report.c): fills
  * bbox_min/bbox_max (relative to the mesh offset), degenerate_triangles,

@@ -5,8 +5,8 @@
  * Every format goes through OpenMesh's IOManager (the reader picked by
  * extension, as in read_mesh) into RawImporter below, which records vertices
  * and faces without building a halfedge mesh. So nothing is dropped or
- * re-added behind our back: out-of-range and repeated indices reach mesh.c,
- * which reports them. (ImporterT, what read_mesh uses, silently drops faces
+ * re-added behind our back: out-of-range and repeated indices reach
+ * mesh_build.c, which reports them. (ImporterT, what read_mesh uses, silently drops faces
  * with an invalid or repeated index, re-adds non-manifold faces with
  * duplicated vertices - a closed mesh with one flipped triangle would come
  * back open - and asserts, i.e. aborts, on out-of-range halfedge ids in an
@@ -18,10 +18,10 @@
  * property kernel; it gets an empty BaseKernel, so custom properties are
  * skipped.
  *
- * mesh.c validates every file before it gets here: OpenMesh hangs, throws,
- * aborts or reads garbage on bad input (NOTES-deps). This file still catches
- * everything, silences OpenMesh's console output and serialises calls (the
- * readers are singletons with per-file state). */
+ * mesh_load.c has every file checked (mesh_<format>.c) before it gets here:
+ * OpenMesh hangs, throws, aborts or reads garbage on bad input (NOTES-deps).
+ * This file still catches everything, silences OpenMesh's console output
+ * and serialises calls (the readers are singletons with per-file state). */
 #include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/IO/importer/BaseImporter.hh>
 #include <OpenMesh/Core/Mesh/BaseKernel.hh>
@@ -90,8 +90,9 @@ template <typename T> struct Buf {
     }
 };
 
-/* Reserve hints come from file headers; mesh.c has checked them against the
- * file size, but never trust a hint beyond this. */
+/* Reserve hints come from file headers; the format checks (mesh_<format>.c)
+ * have checked them against the file size, but never trust a hint beyond
+ * this. */
 const size_t kMaxReserve = size_t(1) << 26;
 
 class RawImporter : public OpenMesh::IO::BaseImporter {

@@ -2,7 +2,7 @@
 /* Winding numbers, host side (docs/design.md "Winding numbers"): the caps
  * that close the prepared surface's holes, the cap tree the consumers
  * refine near the caps and the rims' tree for the derivative bounds
- * (kernels/winding.h). The cast's indexed triangles over surface + caps are
+ * (kernels/winding_*.h). The cast's indexed triangles over surface + caps are
  * made in src/cast/cast.c (winding_indexed). */
 #include "winding.h"
 
@@ -230,7 +230,7 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         qsort(keys, count, sizeof *keys, cmp_cap_key);
         for (uint32_t i = 0; i < count; i++) order[first + i] = keys[i].index;
         /* caps: the split falls on a multiple of CAP_LEAF, so that the
-         * leaves hold CAP_LEAF caps (one per vector lane, kernels/winding.h)
+         * leaves hold CAP_LEAF caps (one per vector lane, kernels/winding_angles.h)
          * but for at most one per node; rim edges: halves */
         uint32_t half = count / 2;
         if (!segments) {

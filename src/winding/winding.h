@@ -4,7 +4,7 @@
 #define CLVOX_WINDING_H
 #include "core/internal.h"
 
-/* The cap tree on the device (kernels/winding.h): nodes, the cap triangles
+/* The cap tree on the device (kernels/winding_*.h): nodes, the cap triangles
  * in its leaf order as scaled x, y, z reals, and the voxel size h (3 reals,
  * always set). node_count 0: no caps. */
 typedef struct clvox__caps {
@@ -18,7 +18,7 @@ clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_
                                 const clvox_grid *grid, clvox__caps *out);
 void clvox__caps_release(clvox__caps *c);
 /* The rims' tree: n boundary edges (rim, 2 vertex indices each) in scaled
- * grid space, area4pi = length / 4pi (kernels/winding.h clvox_rim_bound);
+ * grid space, area4pi = length / 4pi (kernels/winding_rims.h clvox_rim_bound);
  * tris holds the edges in leaf order, 9 reals each (end, start, start). */
 clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                                 const uint32_t *rim, size_t n, clvox__caps *out);

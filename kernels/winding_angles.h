@@ -1,0 +1,234 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Winding numbers: the inside test of the cast's consumers when the mesh is
+ * open (docs/design.md "Winding numbers").
+ *
+ * The host closes every hole of the (oriented) surface with a fan of cap
+ * triangles, and the cast runs over surface + caps, a closed chain: the
+ * signed crossings beyond a point p give an exact integer K(p), and the
+ * surface's generalized winding number is w(p) = K(p) - w_caps(p), where
+ * w_caps is the caps' solid angle / 4pi. Inside: w > 1/2 + 2^-30 (or
+ * |w| > 1/2 + 2^-30); values within 2^-30 of 1/2 count as 1/2.
+ *
+ * Most points are decided from K alone: |w_caps(p)| <= sum of area / (4pi
+ * d^2) over the caps (d = distance from p to the cap, from its box), and
+ * when that bound is below |K - 1/2| - 2^-30 the answer is that of K. Near
+ * the caps the tree of caps is refined best-first: a node's exact solid
+ * angles (van Oosterom-Strackee) replace its bound until the interval
+ * [K - S - B, K - S + B] (S: exact part, B: the bounds left) lies on one
+ * side of the threshold. All of it happens in scaled grid space, x, y, z
+ * order, so the numbers do not depend on the ray axis.
+ *
+ * In four files, concatenated in this order (Makefile KERNEL_FILES):
+ * winding_angles.h (this one: the constants, the caps' exact solid angles),
+ * winding_bounds.h (bounds on the caps' w far from them, the node
+ * estimates), winding_inside.h (the inside test: best-first refinement of
+ * the cap tree) and winding_rims.h (the rim tree's bound along a ray, grid
+ * to scaled coordinates). */
+#define CLVOX_WINDING_TIE 9.313225746154785e-10 /* 2^-30 */
+/* Crossing signs: +-1 on the surface, +-2 on a cap (kernels/intersect.cl);
+ * K counts them all as +-1. */
+#define CLVOX_UNIT(s) ((s) > 0 ? 1 : -1)
+/* The refinement's frontier: where it is full, the node it would open is
+ * evaluated exactly, whole (at 48, that was most of the exact work on
+ * meshes full of holes: elephant-with-holes; at 128 on b9_mesh, whose caps
+ * lie near every centre: 256 took its classify from 8.6 to 5.6 s at 256^3,
+ * 512 gave 6.1 s, the other open meshes the same within the noise). */
+#define CLVOX_CAP_STACK 256
+#define CLVOX_TIGHT 8u
+#define CLVOX_TIGHT_F 0.5
+
+/* atan2(y, x) in [-pi, pi], lane by lane, for the cap solid angles, where
+ * the runtime's double atan2 was most of the winding time (PoCL: 56 % of a
+ * run on a mesh with many holes). Octant reduction, then atan(r) = pi/6 +
+ * atan((r sqrt3 - 1) / (r + sqrt3)) above tan(pi/12), so |r| <= 0.268, and
+ * the odd series to r^27 (the first term left out is below 1e-18):
+ * absolute error a few 1e-16, far inside the 2^-30 the inside test leaves
+ * at w = 1/2. (0, 0) gives 0. Float devices use the builtin. */
+#if defined(CLVOX_FP64)
+typedef double4 clvox_real4;
+typedef long4 clvox_mask4; /* comparisons of clvox_real4: -1 true, 0 false */
+inline double4 clvox_atan2_4(double4 y, double4 x)
+{
+    const double4 ax = fabs(x), ay = fabs(y);
+    const double4 mx = fmax(ax, ay), mn = fmin(ax, ay);
+    const long4 ok = mx > 0.0;
+    double4 t = mn / select((double4)1.0, mx, ok);
+    const long4 shift = t > 0.2679491924311227;
+    t = select(t, (t * 1.7320508075688772 - 1.0) / (t + 1.7320508075688772), shift);
+    const double4 off = select((double4)0.0, (double4)0.5235987755982989, shift); /* pi/6 */
+    const double4 t2 = t * t;
+    double4 p = (double4)(-1.0 / 27);
+    p = p * t2 + 1.0 / 25;
+    p = p * t2 - 1.0 / 23;
+    p = p * t2 + 1.0 / 21;
+    p = p * t2 - 1.0 / 19;
+    p = p * t2 + 1.0 / 17;
+    p = p * t2 - 1.0 / 15;
+    p = p * t2 + 1.0 / 13;
+    p = p * t2 - 1.0 / 11;
+    p = p * t2 + 1.0 / 9;
+    p = p * t2 - 1.0 / 7;
+    p = p * t2 + 1.0 / 5;
+    p = p * t2 - 1.0 / 3;
+    double4 a = off + (t + t * t2 * p);
+    a = select(a, 1.5707963267948966 - a, ay > ax);
+    a = select(a, 3.141592653589793 - a, x < 0.0);
+    a = select(a, -a, y < 0.0);
+    return select((double4)0.0, a, ok);
+}
+#define clvox_convert_real4 convert_double4
+/* the rounding of S per complex factor or atan2, over 2pi (clvox_angles_mul) */
+#define CLVOX_FACTOR_ERR 2e-16
+#else
+typedef float4 clvox_real4;
+typedef int4 clvox_mask4;
+#define clvox_atan2_4 atan2
+#define clvox_convert_real4 convert_float4
+#define CLVOX_FACTOR_ERR 1.5e-7f /* sqrt5 u, u = 2^-24, plus the builtin atan2's few ulp */
+#endif
+
+/* The solid angles of several cap triangles at once, four lanes (the CPU
+ * devices' SIMD). Triangle t's is 2 arg(den + i det) (van Oosterom-
+ * Strackee), so a sum of them is 2 arg of the product of the factors den +
+ * i det, plus 2pi for each time the partial product's argument wraps past
+ * pi: each lane multiplies its triangles' factors, and one atan2 per lane
+ * ends a node or a reused cut, not one per triangle. Wraps are counted
+ * from the signs of the imaginary parts: with arg z, arg f in (-pi, pi],
+ * the true sum arg z + arg f is above pi exactly when both lie in (0, pi]
+ * and the product does not, below -pi exactly when both are negative and
+ * the product's lies in (0, pi]. Where the rounded product's sign is
+ * ambiguous (sum near +-pi) the wrap and the final atan2 see the same
+ * rounded number and agree; near 0 and +-2pi the imaginary part is a sum
+ * of two products of one sign, so its sign is exact. Error: each product
+ * is z f (1 + eta), |eta| <= sqrt5 u (Brent, Percival, Zimmermann 2007; no
+ * contraction), which moves its argument by at most 1.0001 |eta| < 2.5e-16
+ * per factor in double; rescaling by powers of two is exact (it keeps the
+ * products away from under- and overflow). A point exactly in a cap's
+ * plane and inside it (det == 0, den < 0) is taken on the side of p +
+ * e1*u + e2*v + e3*w (e1 >> e2 >> e3 > 0), as the cast's tie rules take
+ * it -- det(p + e) = det(p) - e . N -- and adds +-1/2 to `halves`, not a
+ * factor. */
+typedef struct clvox_angles {
+    clvox_real4 re, im; /* the lanes' products */
+    clvox_mask4 k;      /* the lanes' wraps: the sum is arg(re + i im) + 2pi k */
+    clvox_real halves;  /* the in-plane halves */
+    uint n;             /* factors (for the error bound) */
+} clvox_angles;
+
+inline void clvox_angles_init(clvox_angles *a)
+{
+    a->re = (clvox_real4)1;
+    a->im = (clvox_real4)0;
+    a->k = (clvox_mask4)0;
+    a->halves = 0;
+    a->n = 0;
+}
+
+/* a *= den + i det lane by lane, counting the wraps (den = 1, det = 0:
+ * unchanged, exactly). */
+inline void clvox_angles_mul(clvox_angles *a, clvox_real4 den, clvox_real4 det)
+{
+    const clvox_real4 zr = a->re, zi = a->im;
+    clvox_real4 re = zr * den - zi * det, im = zr * det + zi * den;
+    const clvox_real4 zero = (clvox_real4)0;
+    const clvox_mask4 up = (zi > zero) | ((zi == zero) & (zr < zero));
+    const clvox_mask4 up2 = (im > zero) | ((im == zero) & (re < zero));
+    a->k -= (det > zero) & up & ~up2; /* true is -1 */
+    a->k += (det < zero) & (zi < zero) & up2;
+    const clvox_real4 m = fmax(fabs(re), fabs(im));
+#if defined(CLVOX_FP64)
+    const clvox_real big = 0x1p200, small = 0x1p-200;
+#else
+    const clvox_real big = 0x1p40f, small = 0x1p-40f;
+#endif
+    if (any((m > big) | (m < small))) { /* exact: powers of two */
+        const int4 e = select(ilogb(m), (int4)0, convert_int4(m == zero)); /* 0: no factor makes it */
+        re = ldexp(re, -e);
+        im = ldexp(im, -e);
+    }
+    a->re = re;
+    a->im = im;
+}
+
+/* The tie rule of cap triangle t seen from p when det == 0: +-1/2 when p
+ * is inside it (den < 0), the side of p + e (above). The same arithmetic
+ * as clvox_cap_angles4. */
+inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz,
+                                clvox_real den, uint axis)
+{
+    if (!(den < 0)) return 0;
+    const clvox_real ax = t[0] - px, ay = t[1] - py, az = t[2] - pz;
+    const clvox_real bx = t[3] - px, by = t[4] - py, bz = t[5] - pz;
+    const clvox_real cx = t[6] - px, cy = t[7] - py, cz = t[8] - pz;
+    /* N = (b - a) x (c - a), in u, v, w order */
+    const clvox_real ux = bx - ax, uy = by - ay, uz = bz - az, vx = cx - ax, vy = cy - ay, vz = cz - az;
+    const clvox_real n[3] = {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
+    const clvox_real nu = n[axis], nv = n[(axis + 1u) % 3u], nw = n[(axis + 2u) % 3u];
+    const clvox_real d = nu != 0 ? -nu : nv != 0 ? -nv : -nw;
+    return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
+}
+
+/* Multiplies in the cap triangles with corners a, b, c (lane by lane, in
+ * p's frame: corner - p) seen from p, one per lane: positive when p is
+ * behind a triangle (on the side its orientation faces away from). Lanes
+ * past `count` multiply by 1; t: the triangles as 9 reals each (scaled x,
+ * y, z), for the tie rule. */
+inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_real4 az, clvox_real4 bx, clvox_real4 by,
+                                clvox_real4 bz, clvox_real4 cx, clvox_real4 cy, clvox_real4 cz,
+                                global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
+                                uint axis, clvox_angles *a)
+{
+    const clvox_real4 la = sqrt(ax * ax + ay * ay + az * az);
+    const clvox_real4 lb = sqrt(bx * bx + by * by + bz * bz);
+    const clvox_real4 lc = sqrt(cx * cx + cy * cy + cz * cz);
+    clvox_real4 det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx);
+    clvox_real4 den = la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la +
+                      (cx * ax + cy * ay + cz * az) * lb;
+    const clvox_real4 zero = (clvox_real4)0;
+    const clvox_mask4 lane = (clvox_mask4)(0, 1, 2, 3) < (clvox_mask4)count;
+    const clvox_mask4 flat = lane & (det == zero);
+    if (any(flat)) { /* rare: the tie rule, lane by lane */
+        clvox_real dv[4];
+        vstore4(den, 0, dv);
+        for (uint i = 0; i < count; i++)
+            if (flat[i]) a->halves += clvox_cap_tie(t + i * 9u, px, py, pz, dv[i], axis);
+    }
+    const clvox_mask4 skip = ~lane | (det == zero) | isnan(det) | isnan(den); /* NaN: as atan2's 0 */
+    den = select(den, (clvox_real4)1, skip);
+    det = select(det, zero, skip);
+    clvox_angles_mul(a, den, det);
+    a->n += count;
+}
+
+/* Multiplies in cap triangles t .. t + count - 1 (count 1 .. 4; 9 reals
+ * each, scaled x, y, z) seen from p, one per lane. Lanes past `count`
+ * repeat triangle 0 and multiply by 1. */
+inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
+                              uint axis, clvox_angles *a)
+{
+    const uint i1 = count > 1u ? 9u : 0u, i2 = count > 2u ? 18u : 0u, i3 = count > 3u ? 27u : 0u;
+#define CLVOX_G4(k, p) ((clvox_real4)(t[k], t[i1 + (k)], t[i2 + (k)], t[i3 + (k)]) - (p))
+    clvox_cap_angles4_v(CLVOX_G4(0, px), CLVOX_G4(1, py), CLVOX_G4(2, pz), CLVOX_G4(3, px), CLVOX_G4(4, py),
+                        CLVOX_G4(5, pz), CLVOX_G4(6, px), CLVOX_G4(7, py), CLVOX_G4(8, pz), t, count, px, py, pz,
+                        axis, a);
+#undef CLVOX_G4
+}
+
+/* The same for a leaf's lane-major copy (clvox_cap_node.block): real k of
+ * lane l at blk[4k + l], the same numbers, one vector load each. */
+inline void clvox_cap_block4(global const clvox_real *blk, global const clvox_real *t, uint count, clvox_real px,
+                             clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+{
+    clvox_cap_angles4_v(vload4(0, blk) - px, vload4(1, blk) - py, vload4(2, blk) - pz, vload4(3, blk) - px,
+                        vload4(4, blk) - py, vload4(5, blk) - pz, vload4(6, blk) - px, vload4(7, blk) - py,
+                        vload4(8, blk) - pz, t, count, px, py, pz, axis, a);
+}
+
+/* The solid angle / 4pi of everything multiplied in: the lanes' (arg + 2pi
+ * k) / 2pi, summed. */
+inline clvox_real clvox_angles_value(const clvox_angles *a)
+{
+    const clvox_real4 v =
+        clvox_atan2_4(a->im, a->re) * (clvox_real)0.15915494309189535 + clvox_convert_real4(a->k);
+    return (v.s0 + v.s1) + (v.s2 + v.s3) + a->halves;
+}

@@ -1,0 +1,185 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Winding numbers (winding_angles.h): the inside test of a point, the cap
+ * tree refined best-first (bounds of winding_bounds.h, exact solid angles of
+ * winding_angles.h) until the answer is certain. */
+
+/* A cut of the cap tree kept from one point to the next along a ray
+ * (clvox_winding_inside_m): node ids, CLVOX_CUT_EXACT on those evaluated
+ * exactly. Any cut (frontier + exact nodes covering every leaf once) is a
+ * valid start; a neighbour's saves most of the descent. */
+#define CLVOX_CUT_MAX 384 /* above the frontier's CLVOX_CAP_STACK: a cut holds it and the exact nodes */
+#define CLVOX_CUT_EXACT 0x80000000u
+
+/* Multiplies the node's caps into a. */
+inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
+                                  clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+{
+    const uint first = nd->tri_first, count = nd->tri_count;
+    if (nd->block) { /* a leaf (at most 4 caps) */
+        clvox_cap_block4(caps + nd->block, caps + (size_t)first * 9u, count, px, py, pz, axis, a);
+        return;
+    }
+    for (uint t = 0; t < count; t += 4u)
+        clvox_cap_angles4(caps + (size_t)(first + t) * 9u, min(count - t, 4u), px, py, pz, axis, a);
+}
+
+/* The node's caps' solid angles / 4pi at p, exactly. */
+inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
+                                       clvox_real py, clvox_real pz, uint axis, uint *factors)
+{
+    clvox_angles a;
+    clvox_angles_init(&a);
+    clvox_cap_node_angles(nd, caps, px, py, pz, axis, &a);
+    *factors += a.n + 4u;
+    return clvox_angles_value(&a);
+}
+
+/* The inside test at p (scaled grid space, x, y, z) given K there:
+ * best-first refinement of the cap tree, each frontier node an estimate
+ * and an error bound, until [K - S - sum est -+ sum err] lies on one side
+ * of the threshold (S: the caps evaluated exactly). Adds 1 to *exact when
+ * cap solid angles had to be evaluated; [*wlo, *whi] holds w. With `tight`
+ * the refinement goes on past the decision (at most `tight` steps) until
+ * the error bound is at most CLVOX_TIGHT_F of w's distance from the
+ * threshold, so that the caller can reuse the interval nearby. cut (may be
+ * 0): in, a cut to start from (*cut_n entries; 0: the root); out, this
+ * point's (*cut_n = 0 when it does not fit). */
+inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                  global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                  uint axis, uint tight, uint *exact, clvox_real *wlo, clvox_real *whi, uint *cut,
+                                  uint *cut_n)
+{
+    const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
+    *wlo = *whi = (clvox_real)K;
+    if (node_count == 0) return abs_mode ? K != 0 : K >= 1;
+    uint stack[CLVOX_CAP_STACK];
+    clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
+    uint ex[CLVOX_CUT_MAX];
+    uint sp = 0, nex = 0;
+    clvox_real S = 0;
+    uint factors = 0; /* factors and atan2s behind S (its error bound) */
+    int evaluated = 0, answer = -1, lost = 0; /* lost: the exact nodes do not fit ex */
+    if (cut && *cut_n) {
+        clvox_angles all; /* the cut's exact nodes: one product, one atan2 */
+        clvox_angles_init(&all);
+        for (uint i = 0; i < *cut_n; i++) {
+            const uint nd = cut[i] & ~CLVOX_CUT_EXACT;
+            if (cut[i] & CLVOX_CUT_EXACT) {
+                clvox_cap_node_angles(nodes + nd, caps, px, py, pz, axis, &all);
+                ex[nex++] = nd;
+                evaluated = 1;
+            } else {
+                stack[sp++] = nd;
+            }
+        }
+        uint i = 0; /* the frontier's estimates, four or two at a time */
+        for (; i + 3u < sp; i += 4u)
+            clvox_cap_estimate4(nodes + stack[i], nodes + stack[i + 1u], nodes + stack[i + 2u], nodes + stack[i + 3u],
+                                px, py, pz, se + i, sb + i);
+        for (; i + 1u < sp; i += 2u)
+            clvox_cap_estimate2(nodes + stack[i], nodes + stack[i + 1u], px, py, pz, se + i, sb + i);
+        if (i < sp) clvox_cap_estimate(nodes + stack[i], px, py, pz, &se[i], &sb[i]);
+        S = clvox_angles_value(&all);
+        factors = all.n + 4u;
+    } else {
+        stack[sp] = 0;
+        clvox_cap_estimate(nodes, px, py, pz, &se[sp], &sb[sp]);
+        sp++;
+    }
+    uint extra = 0;
+    /* Running sums of the frontier's bounds and estimates pick the steps
+     * at which to look: only where they decide (or once decided, in the
+     * tight phase) are the sums taken afresh, in frontier order, and it is
+     * those that decide and bound w. The running ones drift by their
+     * subtractions, which can only cost a step or a fresh sum, never the
+     * rigour of the answer. */
+    clvox_real Br = 0, Er = 0;
+    for (uint i = 0; i < sp; i++) {
+        Br += sb[i];
+        Er += se[i];
+    }
+    for (;;) {
+        uint best = 0;
+        clvox_real bv = sb[0]; /* the first largest bound (sp == 0: unused) */
+        for (uint i = 1; i < sp; i++) {
+            const int gt = sb[i] > bv;
+            best = gt ? i : best;
+            bv = gt ? sb[i] : bv;
+        }
+        /* the sums' own rounding, and S's: CLVOX_FACTOR_ERR per factor
+         * (clvox_angles_mul) and per atan2 */
+        const clvox_real slack = (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)CLVOX_FACTOR_ERR;
+        const clvox_real wr = (clvox_real)K - S - Er, Bq = Br * (clvox_real)1.000001 + slack;
+        /* decided: the tight phase ends after `tight` steps, or where the
+         * bound is within CLVOX_TIGHT_F of w's distance from the threshold */
+        int last = 0, look;
+        if (answer >= 0) {
+            last = extra++ >= tight;
+            const clvox_real dr = abs_mode ? fmin(fabs(wr - thr), fabs(wr + thr)) : fabs(wr - thr);
+            look = sp == 0 || last || Bq <= (clvox_real)CLVOX_TIGHT_F * dr;
+        } else {
+            look = sp == 0 || clvox_interval_inside(wr - Bq, wr + Bq, abs_mode) >= 0;
+        }
+        if (look) {
+            clvox_real B = 0, E = 0;
+            for (uint i = 0; i < sp; i++) {
+                B += sb[i];
+                E += se[i];
+            }
+            Br = B;
+            Er = E;
+            B = B * (clvox_real)1.000001 + slack;
+            const clvox_real w = (clvox_real)K - S - E;
+            if (answer < 0) {
+                answer = clvox_interval_inside(w - B, w + B, abs_mode);
+                if (answer >= 0) last = extra++ >= tight;
+            }
+            const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
+            if (sp == 0 || (answer >= 0 && (last || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
+                if (evaluated) (*exact)++;
+                *wlo = w - B;
+                *whi = w + B; /* w lies in [w - B, w + B] */
+                if (cut) {
+                    if (lost || sp + nex > CLVOX_CUT_MAX) {
+                        *cut_n = 0;
+                    } else {
+                        for (uint i = 0; i < sp; i++) cut[i] = stack[i];
+                        for (uint i = 0; i < nex; i++) cut[sp + i] = ex[i] | CLVOX_CUT_EXACT;
+                        *cut_n = sp + nex;
+                    }
+                }
+                if (answer >= 0) return answer;
+                return abs_mode ? (w > thr || w < -thr) : w > thr;
+            }
+        }
+        Br -= sb[best];
+        Er -= se[best];
+        const uint nd = stack[best];
+        stack[best] = stack[sp - 1u];
+        sb[best] = sb[sp - 1u];
+        se[best] = se[sp - 1u];
+        sp--;
+        const uint child = nodes[nd].child;
+        if (child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
+            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis, &factors);
+            evaluated = 1;
+            if (nex < CLVOX_CUT_MAX) ex[nex++] = nd;
+            else lost = 1;
+        } else {
+            stack[sp] = child;
+            stack[sp + 1u] = child + 1u;
+            clvox_cap_estimate2(nodes + child, nodes + child + 1u, px, py, pz, se + sp, sb + sp);
+            Br += sb[sp] + sb[sp + 1u];
+            Er += se[sp] + se[sp + 1u];
+            sp += 2u;
+        }
+    }
+}
+
+inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                uint axis, uint *exact)
+{
+    clvox_real lo, hi;
+    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, 0u, exact, &lo, &hi, 0, 0);
+}

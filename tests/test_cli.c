@@ -1464,7 +1464,7 @@ static void test_palette_run(void)
     co.host_only = 1;
     clvox_context *c = NULL;
     CHECK_OK(c, clvox_context_create(&co, &c));
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(c, clvox_volume_read(c, out, &info, NULL, 0));
     CHECK_MSG(strcmp(info.channels, "coverage,element,score") == 0 && strcmp(info.palette, "paper46") == 0 &&
                   info.palette_count == 46 && strcmp(info.metric, "outer") == 0,
@@ -1550,8 +1550,7 @@ static void test_preview(void)
     run_cli(&r, NULL, ARGS(mesh, "-r", "32", "-o", occ_exr, "-q"));
     CHECK_MSG(r.code == 0, "voxelize default.obj: exit %d; %s", r.code, r.err);
     run_free(&r);
-    clvox_volume_info info;
-    memset(&info, 0, sizeof info);
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, occ_exr, &info, NULL, 0));
     grey_volume v = { info.dims[0], info.dims[1], info.dims[2], NULL, NULL };
     size_t nv = (size_t)v.X * v.Y * v.Z;

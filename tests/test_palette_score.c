@@ -78,6 +78,7 @@ static result run(clvox_context *c, const clvox_mesh *m, const clvox_grid *g, co
     if (!p.channels)
         p.channels = CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE | CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY;
     collect col = {g, &r, 1, 0};
+    r.stats.size = sizeof r.stats;
     r.status = clvox_voxelize_slabs(c, m, g, &p, on_slab, &col, &r.stats);
     CHECK_MSG(r.status == CLVOX_OK, "%s", clvox_context_error(c));
     CHECK(col.order_ok && col.next_z == g->dims[2]);

@@ -90,6 +90,7 @@ static int cmd_list_devices(void)
             return fail(EXIT_RUNTIME, "out of memory");
         }
         devs = grown;
+        devs[0].size = sizeof *devs; /* and so the distance between entries */
         st = clvox_list_devices(devs, cap, &count);
         if (st != CLVOX_OK || count <= cap) break;
         cap = count;

@@ -150,6 +150,7 @@ static int on_score(void *user, uint32_t z, const float *values)
 static void *score_main(void *arg)
 {
     score_feed *f = arg;
+    f->info.size = sizeof f->info;
     clvox_status st = clvox_volume_read_slices(f->ctx, f->path, "score", &f->info, on_score, f);
     pthread_mutex_lock(&f->mu);
     f->done = 1;
@@ -369,6 +370,7 @@ static int stream_rows(clvox_context *ctx, job *j)
     pthread_t thread;
     int err = pthread_create(&thread, NULL, score_main, f);
     if (err) return fail(EXIT_RUNTIME, "cannot start the score reader: %s", strerror(err));
+    j->info.size = sizeof j->info;
     clvox_status st = clvox_volume_read_slices(ctx, j->path, "element", &j->info, on_element, j);
     pthread_mutex_lock(&f->mu);
     f->cancel = 1;

@@ -605,6 +605,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     vo.palette = s->palette;
     vo.progress = on_progress;
     vo.progress_user = &prog;
+    res->stats.size = sizeof res->stats;
     if (format == CLVOX_FORMAT_EXR && !a->out.flags) {
         st = clvox_voxelize_to_exr(s->dev, mesh, &res->grid, &vo, job->output, &res->stats);
     } else {

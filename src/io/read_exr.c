@@ -975,6 +975,26 @@ clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volum
     return st;
 }
 
+/* The caller's header before its first slice (clvox preview and instances
+ * size their buffers from it in the first call). */
+typedef struct header_first {
+    clvox_volume_info *caller;
+    const clvox_volume_info *full;
+    clvox_volume_slice_fn fn;
+    void *user;
+    int copied;
+} header_first;
+
+static int header_then_slice(void *user, uint32_t z, const float *values)
+{
+    header_first *h = user;
+    if (!h->copied) {
+        clvox__out_end(h->caller, h->full);
+        h->copied = 1;
+    }
+    return h->fn(h->user, z, values);
+}
+
 clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
                                       clvox_volume_info *info, clvox_volume_slice_fn fn, void *user)
 {
@@ -982,7 +1002,8 @@ clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, cons
     if (st != CLVOX_OK) return st;
     clvox_volume_info full;
     memset(&full, 0, sizeof full);
-    st = volume_read_slices(ctx, path, channel, &full, fn, user);
+    header_first h = { info, &full, fn, user, 0 };
+    st = volume_read_slices(ctx, path, channel, &full, fn ? header_then_slice : NULL, &h);
     clvox__out_end(info, &full);
     return st;
 }

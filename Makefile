@@ -134,9 +134,11 @@ $(BUILD)/gen/kernels_embedded.o: $(KERNEL_C)
 	$(Q)$(CC) -std=c11 -fPIC -fvisibility=hidden $(OPT) -c $< -o $@
 
 # The plugin: no undefined symbol (it calls the library only through the
-# table it is handed). Default visibility: compiled with -fvisibility=hidden,
-# OpenVDB's own templates bound to the plugin's copies and
-# openvdb::initialize() crashed.
+# table it is handed, src/io/vdb_plugin.c, so it needs none of the library's
+# now hidden clvox__ symbols), loaded RTLD_LOCAL by the library alone; nothing
+# links against it. Default visibility, unlike the library's objects:
+# compiled with -fvisibility=hidden, OpenVDB's own templates bound to the
+# plugin's copies and openvdb::initialize() crashed.
 $(BUILD)/vdb/write_vdb.o: src/io/write_vdb.cpp $(OPENVDB_STAMP)
 	@mkdir -p $(dir $@)
 	@$(if $(filter 0,$(V)),echo "  CXX   $< (plugin)")

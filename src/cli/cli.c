@@ -12,8 +12,8 @@
  *   clvox convert IN.exr OUT.EXT  another volume format (cli_convert.c)
  *   clvox --list-devices | --help | --version
  *
- * This file is the entry point: main's dispatch to the subcommands, the end
- * of every command (stdout flushed, a failed write is exit 1), --version,
+ * This file is the entry point: main's dispatch to the subcommands (each
+ * ending in cli_finish_stdout, cli_common.c: a failed write is exit 1), --version,
  * --list-devices, and `clvox MESH` itself (cmd_voxelize: the default mesh
  * and output name, then one run of cli_run.c, its summary or --json record).
  * The options and --help are in cli_args.c; each stage has its own file so

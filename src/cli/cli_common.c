@@ -2,13 +2,13 @@
 /*
  * Helpers shared by the command-line files: the one-line error contract,
  * exit codes for library statuses, strict number and option parsing, the
- * early output check, and the sizes, volumes and lines the summaries print.
+ * early output check, stdout's end (cli_finish_stdout, for every command,
+ * clvox batch included), and the sizes, volumes and lines the summaries print.
+ * Output files and regular-file reads are the library's (clvox_output_file_*,
+ * clvox_open_regular_read): the CLI keeps no copy of them.
  * Moved here from cli.c unchanged when `clvox preview` got its own file
  * (cli_preview.c), the summary helpers when cli.c was split by stage.
  */
-#if defined(__linux__) && !defined(_GNU_SOURCE)
-#define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
-#endif
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L
 #endif
@@ -17,7 +17,6 @@
 #include "cli_vox.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>

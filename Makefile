@@ -15,7 +15,10 @@ CXX ?= c++
 BUILD := build/$(CONFIG)
 
 WARN := -Wall -Wextra -Wpedantic -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wvla
-BASE_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -ffp-contract=off $(WARN) -Iinclude -Isrc
+# -Isrc (the library's internal headers) only for the library, the tests
+# and the fuzz targets: the CLI (src/cli) is compiled with -Iinclude alone,
+# so it can use nothing but the public clvox.h.
+BASE_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -ffp-contract=off $(WARN) -Iinclude
 BASE_CXXFLAGS := -std=c++17 -fPIC -Wall -Wextra -Iinclude -Isrc
 ifeq ($(CONFIG),release)
   OPT := -O2 -g
@@ -93,6 +96,14 @@ KERNEL_C := $(BUILD)/gen/kernels_embedded.c
 
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/%.o) $(LIB_CXX:%.cpp=$(BUILD)/%.o) $(BUILD)/gen/kernels_embedded.o
 CLI_OBJ := $(CLI_SRC:%.c=$(BUILD)/%.o)
+# The library's objects see its internal headers and export only what
+# clvox.h marks CLVOX_API: libclvox.so's dynamic symbols are the public API.
+# Programs linking libclvox.a (the CLI, the tests, the Python extension)
+# still reach the clvox__* internals: hidden is not static.
+LIB_VISIBILITY := -fvisibility=hidden -DCLVOX_BUILD_LIBRARY
+$(LIB_OBJ): FINAL_CFLAGS += -Isrc $(LIB_VISIBILITY)
+$(LIB_OBJ): FINAL_CXXFLAGS += $(LIB_VISIBILITY)
+$(TEST_SUPPORT_OBJ): FINAL_CFLAGS += -Isrc
 TEST_SUPPORT := $(filter-out tests/test_%.c,$(wildcard tests/*.c))
 TEST_SUPPORT_OBJ := $(TEST_SUPPORT:%.c=$(BUILD)/%.o)
 TEST_SRCS := $(wildcard tests/test_*.c)
@@ -123,12 +134,14 @@ $(KERNEL_C): $(KERNEL_FILES) scripts/embed_kernels.sh
 	$(Q)sh scripts/embed_kernels.sh $@ $(KERNEL_FILES)
 
 $(BUILD)/gen/kernels_embedded.o: $(KERNEL_C)
-	$(Q)$(CC) -std=c11 -fPIC $(OPT) -c $< -o $@
+	$(Q)$(CC) -std=c11 -fPIC -fvisibility=hidden $(OPT) -c $< -o $@
 
 # The plugin: no undefined symbol (it calls the library only through the
-# table it is handed). Default visibility: compiled with -fvisibility=hidden,
-# OpenVDB's own templates bound to the plugin's copies and
-# openvdb::initialize() crashed.
+# table it is handed, src/io/vdb_plugin.c, so it needs none of the library's
+# now hidden clvox__ symbols), loaded RTLD_LOCAL by the library alone; nothing
+# links against it. Default visibility, unlike the library's objects:
+# compiled with -fvisibility=hidden, OpenVDB's own templates bound to the
+# plugin's copies and openvdb::initialize() crashed.
 $(BUILD)/vdb/write_vdb.o: src/io/write_vdb.cpp $(OPENVDB_STAMP)
 	@mkdir -p $(dir $@)
 	@$(if $(filter 0,$(V)),echo "  CXX   $< (plugin)")
@@ -158,7 +171,7 @@ $(BUILD)/tests/test_fuzz_smoke: $(TEST_CLI_test_fuzz_smoke)
 $(BUILD)/tests/%: tests/%.c $(TEST_SUPPORT_OBJ) $(STATIC_LIB)
 	@mkdir -p $(dir $@)
 	@$(if $(filter 0,$(V)),echo "  TEST  $<")
-	$(Q)$(CC) $(FINAL_CFLAGS) -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(TEST_CLI_$*) $(STATIC_LIB) $(LIBS) $(PNG_LIBS) $(TEST_LIBS)
+	$(Q)$(CC) $(FINAL_CFLAGS) -Isrc -Itests -MMD -MP $(FINAL_LDFLAGS) -o $@ $< $(TEST_SUPPORT_OBJ) $(TEST_CLI_$*) $(STATIC_LIB) $(LIBS) $(PNG_LIBS) $(TEST_LIBS)
 
 # The Python package's tests (python/tests) run as one more test program.
 $(BUILD)/tests/test_python: tests/test_python.sh
@@ -198,7 +211,7 @@ FUZZ_LIB_OBJ := $(LIB_C:%.c=$(FUZZ_DIR)/%.o) $(LIB_CXX:%.cpp=$(FUZZ_DIR)/%.o) $(
 
 $(FUZZ_DIR)/%.o: %.c
 	@mkdir -p $(dir $@)
-	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(FUZZ_FLAGS) -MMD -MP -c $< -o $@
+	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(if $(filter src/cli/%,$<),,-Isrc) $(FUZZ_FLAGS) -MMD -MP -c $< -o $@
 
 $(FUZZ_DIR)/%.o: %.cpp
 	@mkdir -p $(dir $@)
@@ -213,7 +226,7 @@ FUZZ_CLI_manifest := $(MANIFEST_CLI_SRC:%.c=$(FUZZ_DIR)/%.o)
 $(FUZZ_DIR)/fuzz_manifest: $(FUZZ_CLI_manifest)
 
 $(FUZZ_DIR)/fuzz_%: tests/fuzz/fuzz_%.c $(wildcard tests/fuzz/*.h) $(FUZZ_LIB_OBJ)
-	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@.o
+	$(Q)$(FUZZ_CC) $(BASE_CFLAGS) -Isrc $(FUZZ_FLAGS) -c $< -o $@.o
 	$(Q)$(FUZZ_CXX) -fsanitize=fuzzer,address,undefined -o $@ $@.o $(FUZZ_CLI_$*) $(FUZZ_LIB_OBJ) $(LIBS)
 
 fuzz: $(FUZZ_BINS)

@@ -10,6 +10,17 @@
  *    of the last failure is clvox_context_error(ctx). Nothing is printed.
  *  - Option structs: zero means "default". Initialise them with the
  *    CLVOX_*_INIT macros (they set .size for binary stability).
+ *  - Output structs that may grow (clvox_stats, clvox_volume_info,
+ *    clvox_device_info, clvox_palette_element_info, clvox_ply_totals) also
+ *    begin with `size_t size`: the caller sets it to sizeof the struct it
+ *    was compiled with (the CLVOX_*_INIT macros do) before the call, and the
+ *    library writes only that many bytes, so a program built against this
+ *    header keeps working with a later library whose struct has grown at the
+ *    end. A size smaller than the struct of the first version with .size
+ *    (this one) or larger than the library's is CLVOX_ERR_INVALID_ARGUMENT,
+ *    nothing written. The library sets .size in what it returns by pointer.
+ *    New members are only ever appended.
+ *  - Only the functions marked CLVOX_API are exported by the shared library.
  *  - Arrays passed in are borrowed for the duration of the call, never kept.
  *  - Voxel (i,j,k) covers [origin + (i,j,k)*h, origin + (i+1,j+1,k+1)*h) and is
  *    sampled at its centre origin + (i+0.5, j+0.5, k+0.5)*h.
@@ -28,6 +39,16 @@ extern "C" {
 #define CLVOX_VERSION_MINOR 1
 #define CLVOX_VERSION_PATCH 0
 #define CLVOX_VERSION_STRING "0.1.0"
+
+/* Marks the exported functions. The library is compiled with
+ * -fvisibility=hidden and CLVOX_BUILD_LIBRARY, so libclvox.so exports these
+ * and nothing else (its internals, clvox__*, stay inside); for a program
+ * using the library the macro is empty. */
+#if defined(CLVOX_BUILD_LIBRARY) && (defined(__GNUC__) || defined(__clang__))
+#define CLVOX_API __attribute__((visibility("default")))
+#else
+#define CLVOX_API
+#endif
 
 /* ---- status ------------------------------------------------------------ */
 
@@ -51,8 +72,8 @@ typedef enum clvox_status {
 } clvox_status;
 
 /* Static, never NULL. */
-const char *clvox_status_string(clvox_status status);
-const char *clvox_version(void);
+CLVOX_API const char *clvox_status_string(clvox_status status);
+CLVOX_API const char *clvox_version(void);
 
 /* ---- context and devices ------------------------------------------------ */
 
@@ -73,6 +94,7 @@ typedef struct clvox_context_options {
 #define CLVOX_CONTEXT_OPTIONS_INIT { sizeof(clvox_context_options), NULL, 0 }
 
 typedef struct clvox_device_info {
+    size_t size;           /* sizeof(clvox_device_info): set by the caller (see Conventions) */
     uint32_t index;        /* global index, usable as the device selector */
     char name[128];
     char platform[128];
@@ -82,19 +104,22 @@ typedef struct clvox_device_info {
     uint64_t global_mem_bytes;
     uint64_t max_alloc_bytes;
 } clvox_device_info;
+#define CLVOX_DEVICE_INFO_INIT { .size = sizeof(clvox_device_info) }
 
 /* Fills up to `capacity` entries; *count receives the number of devices
- * present (may exceed capacity). Returns CLVOX_ERR_NO_DEVICE when none. */
-clvox_status clvox_list_devices(clvox_device_info *out, size_t capacity, size_t *count);
+ * present (may exceed capacity). Returns CLVOX_ERR_NO_DEVICE when none.
+ * With capacity > 0, out[0].size is the size of the caller's struct, and so
+ * the distance between entries: every entry written gets that size. */
+CLVOX_API clvox_status clvox_list_devices(clvox_device_info *out, size_t capacity, size_t *count);
 
 /* Creates a context on the selected device and builds the kernels.
  * On failure *out is still set to a context that holds the error message
  * (so clvox_context_error works) and must be destroyed; it can not be
  * used for anything else. */
-clvox_status clvox_context_create(const clvox_context_options *options, clvox_context **out);
-void clvox_context_destroy(clvox_context *ctx);            /* NULL-safe */
-const char *clvox_context_error(const clvox_context *ctx);  /* "" if none */
-const clvox_device_info *clvox_context_device(const clvox_context *ctx);
+CLVOX_API clvox_status clvox_context_create(const clvox_context_options *options, clvox_context **out);
+CLVOX_API void clvox_context_destroy(clvox_context *ctx);            /* NULL-safe */
+CLVOX_API const char *clvox_context_error(const clvox_context *ctx);  /* "" if none */
+CLVOX_API const clvox_device_info *clvox_context_device(const clvox_context *ctx);
 
 /* ---- mesh ---------------------------------------------------------------- */
 
@@ -123,24 +148,24 @@ typedef struct clvox_mesh_report {
 /* Loads OBJ, OFF, PLY (ascii/binary), STL (ascii/binary), OM by extension.
  * Validates: non-finite coordinates and out-of-range indices are errors,
  * empty meshes are errors; polygons are fan-triangulated. */
-clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out);
+CLVOX_API clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out);
 
 /* Copies the caller's arrays (borrowed): xyz has 3*vertex_count floats,
  * triangles has 3*triangle_count indices. Same validation as loading. */
-clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t vertex_count,
-                                    const uint32_t *triangles, size_t triangle_count,
-                                    clvox_mesh **out);
-void clvox_mesh_destroy(clvox_mesh *mesh); /* NULL-safe */
-const clvox_mesh_report *clvox_mesh_get_report(const clvox_mesh *mesh);
+CLVOX_API clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t vertex_count,
+                                              const uint32_t *triangles, size_t triangle_count,
+                                              clvox_mesh **out);
+CLVOX_API void clvox_mesh_destroy(clvox_mesh *mesh); /* NULL-safe */
+CLVOX_API const clvox_mesh_report *clvox_mesh_get_report(const clvox_mesh *mesh);
 /* Borrowed views of the validated triangle soup (valid while the mesh lives).
  * The vertices are relative to clvox_mesh_vertex_offset: OFF and OBJ files
  * are read in double and stored relative to their first vertex, so a mesh far
  * from the origin keeps the precision of its file (a float at 1e6 is only
  * 0.0625 precise); other formats (float32 in the file) and meshes from arrays
  * have offset 0. The report's bounding box is absolute. */
-const float *clvox_mesh_vertices(const clvox_mesh *mesh, size_t *vertex_count);
-void clvox_mesh_vertex_offset(const clvox_mesh *mesh, double offset[3]);
-const uint32_t *clvox_mesh_triangles(const clvox_mesh *mesh, size_t *triangle_count);
+CLVOX_API const float *clvox_mesh_vertices(const clvox_mesh *mesh, size_t *vertex_count);
+CLVOX_API void clvox_mesh_vertex_offset(const clvox_mesh *mesh, double offset[3]);
+CLVOX_API const uint32_t *clvox_mesh_triangles(const clvox_mesh *mesh, size_t *triangle_count);
 
 /* ---- grid ---------------------------------------------------------------- */
 
@@ -168,9 +193,27 @@ typedef struct clvox_grid {
 #define CLVOX_MAX_AXIS 65536u
 #define CLVOX_MAX_VOXELS (1ull << 40)
 
-clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *options,
-                                const double bbox_min[3], const double bbox_max[3],
-                                clvox_grid *out);
+CLVOX_API clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *options,
+                                          const double bbox_min[3], const double bbox_max[3],
+                                          clvox_grid *out);
+
+/* The grid of an existing volume, to make another on the same voxels
+ * (clvox --like; grid_like.c). The caller reads the file; `name` names it
+ * in messages. Errors: CLVOX_ERR_GRID with one line "NAME: why".
+ * From a NRRD header (.nrrd or .nhdr, clvox's or another tool's): `data`
+ * holds the file's first `len` bytes (not NUL-terminated; the header ends at
+ * the first blank line, or at the end of `data` when it names a "data
+ * file"). Only 3-D scalar, axis-aligned grids with positive steps; the clvox
+ * origin is "space origin" minus h/2 (or clvox_origin_corner:= when it
+ * agrees). *note (may be NULL) gets "" or one line on what was assumed (a
+ * space other than LPS). */
+CLVOX_API clvox_status clvox_grid_from_nrrd_header(clvox_context *ctx, const char *name, const char *data,
+                                                   size_t len, clvox_grid *out, char *note, size_t note_size);
+/* From the JSON sidecar clvox writes next to a .npy (the whole file in
+ * `data`: "format": "npy", dims, origin, voxel_size; shape checked when
+ * present). Whether the .npy files agree with it is clvox_npy_set_complete. */
+CLVOX_API clvox_status clvox_grid_from_npy_sidecar(clvox_context *ctx, const char *name, const char *data,
+                                                   size_t len, clvox_grid *out);
 
 /* ---- voxelization ---------------------------------------------------------- */
 
@@ -214,7 +257,7 @@ typedef enum clvox_stage {
     CLVOX_STAGE_COUNT
 } clvox_stage;
 
-const char *clvox_stage_name(clvox_stage stage);
+CLVOX_API const char *clvox_stage_name(clvox_stage stage);
 
 /* Called after each slab, and at most 10 times a second between the
  * batches of a slow slab (so a cancel is seen within about 0.3 s on a 2-core
@@ -240,7 +283,7 @@ typedef enum clvox_mode {
     CLVOX_MODE_COUNT
 } clvox_mode;
 /* "solid", "surface", "conservative"; NULL for a bad value. */
-const char *clvox_mode_name(clvox_mode mode);
+CLVOX_API const char *clvox_mode_name(clvox_mode mode);
 
 /* The inside test of solid voxels and samples (clvox_voxelize_options.inside;
  * docs/design.md "Winding numbers"). */
@@ -254,7 +297,7 @@ typedef enum clvox_inside {
     CLVOX_INSIDE_COUNT
 } clvox_inside;
 /* "winding", "winding-abs", "parity" ("default" for DEFAULT); NULL for a bad value. */
-const char *clvox_inside_name(clvox_inside inside);
+CLVOX_API const char *clvox_inside_name(clvox_inside inside);
 
 typedef struct clvox_voxelize_options {
     size_t size;
@@ -328,7 +371,7 @@ typedef struct clvox_voxelize_options {
  * result is the same either way. Returns CLVOX_OK (also when one for this
  * weld is on its way), or an error for a bad weld or when no thread could
  * be started (nothing changed). */
-clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, const clvox_voxelize_options *options);
+CLVOX_API clvox_status clvox_mesh_prepare_winding(clvox_context *ctx, clvox_mesh *mesh, const clvox_voxelize_options *options);
 
 /* Per-voxel channels a run can produce (clvox_voxelize_options.channels). */
 #define CLVOX_CHANNEL_OCCUPANCY 0x1u /* 0/1: inside (binary), or coverage > threshold */
@@ -365,6 +408,7 @@ typedef struct clvox_winding_report {
 } clvox_winding_report;
 
 typedef struct clvox_stats {
+    size_t size;                   /* sizeof(clvox_stats): set by the caller (see Conventions) */
     double seconds[CLVOX_STAGE_COUNT];
     uint64_t filled_voxels;        /* inside (binary); coverage > threshold (0.5 unless set) when oversampled */
     uint64_t total_voxels;
@@ -392,6 +436,8 @@ typedef struct clvox_stats {
     clvox_inside inside;              /* the inside test used (never DEFAULT) */
     clvox_winding_report winding;     /* mesh preparation and exact evaluations (winding runs) */
 } clvox_stats;
+/* Every function taking a clvox_stats * (may be NULL) needs its .size set. */
+#define CLVOX_STATS_INIT { .size = sizeof(clvox_stats) }
 
 /* Receives consecutive slabs in increasing z: slices z0 .. z0+nz-1, each an
  * X*Y image, x fastest: occupancy[(z-z0)*X*Y + y*X + x] is 0 or 1. The
@@ -400,22 +446,22 @@ typedef int (*clvox_slab_fn)(void *user, uint32_t z0, uint32_t nz, const uint8_t
 
 /* Voxelizes and streams the volume to an EXR file (written to a temporary
  * name in the same directory and renamed on success). stats may be NULL. */
-clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh,
-                                   const clvox_grid *grid,
-                                   const clvox_voxelize_options *options,
-                                   const char *path, clvox_stats *stats);
+CLVOX_API clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh,
+                                             const clvox_grid *grid,
+                                             const clvox_voxelize_options *options,
+                                             const char *path, clvox_stats *stats);
 
 /* Voxelizes and hands each slab to `fn` (nothing written to disk). */
-clvox_status clvox_voxelize_stream(clvox_context *ctx, const clvox_mesh *mesh,
-                                   const clvox_grid *grid,
-                                   const clvox_voxelize_options *options,
-                                   clvox_slab_fn fn, void *user, clvox_stats *stats);
+CLVOX_API clvox_status clvox_voxelize_stream(clvox_context *ctx, const clvox_mesh *mesh,
+                                             const clvox_grid *grid,
+                                             const clvox_voxelize_options *options,
+                                             clvox_slab_fn fn, void *user, clvox_stats *stats);
 
 /* Dense result for small grids: `out` holds X*Y*Z bytes (x fastest, then y, then z). */
-clvox_status clvox_voxelize_to_memory(clvox_context *ctx, const clvox_mesh *mesh,
-                                      const clvox_grid *grid,
-                                      const clvox_voxelize_options *options,
-                                      uint8_t *out, size_t out_size, clvox_stats *stats);
+CLVOX_API clvox_status clvox_voxelize_to_memory(clvox_context *ctx, const clvox_mesh *mesh,
+                                                const clvox_grid *grid,
+                                                const clvox_voxelize_options *options,
+                                                uint8_t *out, size_t out_size, clvox_stats *stats);
 
 /* All channels of one slab, for clvox_voxelize_slabs: slices z0 .. z0+nz-1,
  * each X*Y values, x fastest; a pointer is NULL when the run does not produce
@@ -431,24 +477,24 @@ typedef struct clvox_slab {
 typedef int (*clvox_slab_channels_fn)(void *user, const clvox_slab *slab);
 
 /* Like clvox_voxelize_stream, with every channel the options ask for. */
-clvox_status clvox_voxelize_slabs(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                  const clvox_voxelize_options *options, clvox_slab_channels_fn fn,
-                                  void *user, clvox_stats *stats);
+CLVOX_API clvox_status clvox_voxelize_slabs(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                            const clvox_voxelize_options *options, clvox_slab_channels_fn fn,
+                                            void *user, clvox_stats *stats);
 
 /* Dense results for small grids: each non-NULL array holds X*Y*Z values (x
  * fastest, then y, then z; sizes in elements). A NULL array is not wanted;
  * a wanted channel the options do not produce is an error. */
-clvox_status clvox_voxelize_to_buffers(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                       const clvox_voxelize_options *options, uint8_t *occupancy,
-                                       size_t occupancy_count, float *coverage, size_t coverage_count,
-                                       clvox_stats *stats);
+CLVOX_API clvox_status clvox_voxelize_to_buffers(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                                 const clvox_voxelize_options *options, uint8_t *occupancy,
+                                                 size_t occupancy_count, float *coverage, size_t coverage_count,
+                                                 clvox_stats *stats);
 
 /* Dense palette results for small grids: element and/or score (X*Y*Z
  * values each, x fastest; NULL = not wanted). options->palette must be set. */
-clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                               const clvox_voxelize_options *options, uint16_t *element,
-                                               size_t element_count, float *score, size_t score_count,
-                                               clvox_stats *stats);
+CLVOX_API clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                                         const clvox_voxelize_options *options, uint16_t *element,
+                                                         size_t element_count, float *score, size_t score_count,
+                                                         clvox_stats *stats);
 
 /* ---- other output formats (output.c, write_npy.c, write_nrrd.c, write_binvox.c, write_vdb.cpp) ---- */
 /* Besides EXR (the default, clvox_voxelize_to_exr): NumPy .npy, NRRD and
@@ -466,11 +512,11 @@ typedef enum clvox_format {
     CLVOX_FORMAT_COUNT
 } clvox_format;
 /* "exr", "npy", "nrrd", "binvox", "vdb"; NULL for AUTO or a bad value. */
-const char *clvox_format_name(clvox_format format);
+CLVOX_API const char *clvox_format_name(clvox_format format);
 /* The format named `name` ("npy", ...) or, with from_path, the format of the
  * path's extension; CLVOX_FORMAT_AUTO when it is none of them. */
-clvox_format clvox_format_from_name(const char *name);
-clvox_format clvox_format_from_path(const char *path);
+CLVOX_API clvox_format clvox_format_from_name(const char *name);
+CLVOX_API clvox_format clvox_format_from_path(const char *path);
 
 /* clvox_output_options.flags */
 #define CLVOX_OUTPUT_PACK_BITS 0x1u /* npy occupancy: 8 voxels per byte along x, bit x%8 of byte x/8
@@ -497,9 +543,9 @@ typedef struct clvox_output_options {
  * A format that cannot hold the channels the options produce is refused
  * before any work (CLVOX_ERR_INVALID_ARGUMENT); a failed or cancelled run
  * leaves no file. EXR is clvox_voxelize_to_exr. */
-clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                    const clvox_voxelize_options *options, const clvox_output_options *output,
-                                    const char *path, clvox_stats *stats);
+CLVOX_API clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                              const clvox_voxelize_options *options, const clvox_output_options *output,
+                                              const char *path, clvox_stats *stats);
 
 /* Writes a volume from float slices (clvox convert): open with the grid and
  * the CLVOX_CHANNEL_* mask, give every slice of every channel, finish. Each
@@ -509,17 +555,59 @@ clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, 
  * element is rounded to 0..65535, coverage and score are in [0, 1] (EXR and
  * npy float16 hold them as HALF). Nothing is left at `path` unless finish succeeds. */
 typedef struct clvox_volume_writer clvox_volume_writer;
-clvox_status clvox_volume_writer_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
-                                      uint32_t channels, const clvox_output_options *output,
-                                      clvox_volume_writer **out);
-clvox_status clvox_volume_writer_slice(clvox_volume_writer *w, uint32_t channel, uint32_t z, const float *values);
+CLVOX_API clvox_status clvox_volume_writer_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
+                                                uint32_t channels, const clvox_output_options *output,
+                                                clvox_volume_writer **out);
+CLVOX_API clvox_status clvox_volume_writer_slice(clvox_volume_writer *w, uint32_t channel, uint32_t z, const float *values);
 /* *bytes (may be NULL) = size of the main file. Frees w, also on failure. */
-clvox_status clvox_volume_writer_finish(clvox_volume_writer *w, uint64_t *bytes);
-void clvox_volume_writer_abort(clvox_volume_writer *w); /* NULL-safe; removes everything */
+CLVOX_API clvox_status clvox_volume_writer_finish(clvox_volume_writer *w, uint64_t *bytes);
+CLVOX_API void clvox_volume_writer_abort(clvox_volume_writer *w); /* NULL-safe; removes everything */
+
+/* ---- output files (outfile.c) ------------------------------------------------ */
+
+/* 1 when the output clvox names `path` can be trusted as the whole result of
+ * one run: a regular file, and where it belongs to a set (npy: OUT.json and
+ * the channels' files; NRRD with several channels: OUT.nrrd and
+ * OUT.<channel>.nrrd), every member agrees with the size and CRC-32 its
+ * marker records. 0 otherwise, with one line in `why` (may be NULL): no such
+ * file; not a regular file; a member that does not match, as a failed or
+ * killed run leaves; a marker without identities, as earlier clvox versions wrote.
+ * (clvox batch --skip-existing.) */
+CLVOX_API int clvox_output_complete(const char *path, char *why, size_t why_size);
+/* The same for the npy set whose marker (OUT.json) is `json`: every member
+ * it lists agrees, and `member` (NULL: any), when given, is one of them. */
+CLVOX_API int clvox_npy_set_complete(const char *json, const char *member, char *why, size_t why_size);
+
+/* A file of the caller's written the way clvox writes its volumes: without
+ * a name in the directory of `path` until it is complete (on Linux an
+ * O_TMPFILE, elsewhere a hidden ".clvox-<pid>-<n>.tmp"), then synced and
+ * named `path` at once, so that a failure, a crash or a kill never leaves a
+ * partial file there. Only a regular file at `path` is ever replaced
+ * (anything else is refused at create and again at commit, CLVOX_ERR_IO),
+ * and a symbolic link is not written through. */
+typedef struct clvox_output_file clvox_output_file;
+CLVOX_API clvox_status clvox_output_file_create(clvox_context *ctx, const char *path, clvox_output_file **out);
+/* The descriptor to write to (O_WRONLY, O_CLOEXEC; pwrite, fallocate and a
+ * dup for a stdio stream are fine). It stays the file's: do not close it. */
+CLVOX_API int clvox_output_file_fd(const clvox_output_file *file);
+/* Syncs the file and names it `path`; *bytes (may be NULL) = its size. An
+ * empty file is refused. Frees `file`, on failure too (then nothing is left). */
+CLVOX_API clvox_status clvox_output_file_commit(clvox_output_file *file, uint64_t *bytes);
+/* Closes and removes the unnamed file and frees it. NULL-safe. */
+CLVOX_API void clvox_output_file_discard(clvox_output_file *file);
+
+/* Opens `path` for reading only if it is a regular file, never blocking on
+ * the way (a FIFO is opened O_NONBLOCK and refused, never read), as the
+ * library opens every file it reads: the descriptor (O_CLOEXEC, blocking
+ * reads), or -1 with *why (static) the reason for a message: strerror of
+ * the failing call, "Is a directory" or "not a regular file (a FIFO,
+ * socket or device)". */
+CLVOX_API int clvox_open_regular_read(const char *path, const char **why);
 
 /* ---- reading volumes back ---------------------------------------------------- */
 
 typedef struct clvox_volume_info {
+    size_t size;              /* sizeof(clvox_volume_info): set by the caller (see Conventions) */
     uint32_t dims[3];
     double origin[3];
     double voxel_size[3];
@@ -537,21 +625,22 @@ typedef struct clvox_volume_info {
     uint64_t palette_hash;    /* clvox_palette_hash of it, else 0                   */
     char metric[16];          /* "nearest" | "outer" | "inner", else ""             */
 } clvox_volume_info;
+#define CLVOX_VOLUME_INFO_INIT { .size = sizeof(clvox_volume_info) }
 
 /* Reads the header and counts filled voxels slice by slice (bounded memory).
  * If occupancy is not NULL it must hold X*Y*Z bytes and receives 0/1 values
  * (filled as in info->filled_voxels). The file must have an "occupancy",
  * "coverage" or "element" channel. */
-clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
-                               uint8_t *occupancy, size_t occupancy_size);
+CLVOX_API clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
+                                         uint8_t *occupancy, size_t occupancy_size);
 
 /* Streams one channel ("occupancy", "coverage", ...) as floats, one whole
  * slice (X*Y values, x fastest) per call in increasing z; memory is one slice
  * plus one chunk. info (may be NULL) gets the header. Return non-zero from fn
  * to stop (CLVOX_ERR_CANCELLED). */
 typedef int (*clvox_volume_slice_fn)(void *user, uint32_t z, const float *values);
-clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
-                                      clvox_volume_info *info, clvox_volume_slice_fn fn, void *user);
+CLVOX_API clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
+                                                clvox_volume_info *info, clvox_volume_slice_fn fn, void *user);
 
 /* ---- palettes (palette.c) ----------------------------------------------- */
 /* A palette is an ordered set of sub-voxel elements for palette
@@ -563,6 +652,7 @@ clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, cons
 #define CLVOX_PALETTE_NONE 0xFFFFFFFFu
 
 typedef struct clvox_palette_element_info {
+    size_t size;            /* sizeof(clvox_palette_element_info): set by the caller (see Conventions) */
     char name[64];
     double volume;          /* fraction of the unit voxel                              */
     int volume_exact;       /* 1: exact (built-ins); 0: estimated from 64^3 offset points */
@@ -576,43 +666,92 @@ typedef struct clvox_palette_element_info {
     uint32_t plane_count;   /* half-spaces in all its cells                           */
     int complement;         /* 1: the element is the complement of the union          */
 } clvox_palette_element_info;
+#define CLVOX_PALETTE_ELEMENT_INFO_INIT { .size = sizeof(clvox_palette_element_info) }
 
 /* Names of the built-in palettes, i = 0, 1, ...; NULL past the last
  * ("binary", "planar10", "paper46", "paper78"). */
-const char *clvox_palette_builtin_name(size_t i);
+CLVOX_API const char *clvox_palette_builtin_name(size_t i);
 /* A built-in palette by name; CLVOX_ERR_INVALID_ARGUMENT for an unknown name. */
-clvox_status clvox_palette_builtin(clvox_context *ctx, const char *name, clvox_palette **out);
+CLVOX_API clvox_status clvox_palette_builtin(clvox_context *ctx, const char *name, clvox_palette **out);
 /* A user palette from a text file (docs/design.md "Palette files"): empty and
  * full first, then the file's elements in order (symmetry images after their
  * element), duplicates dropped. CLVOX_ERR_IO when unreadable,
  * CLVOX_ERR_PALETTE_FORMAT with "PATH:LINE: why" for a malformed line. */
-clvox_status clvox_palette_load(clvox_context *ctx, const char *path, clvox_palette **out);
+CLVOX_API clvox_status clvox_palette_load(clvox_context *ctx, const char *path, clvox_palette **out);
 /* Same from text in memory; `source` names it in messages. */
-clvox_status clvox_palette_parse(clvox_context *ctx, const char *source, const char *text, size_t size,
-                                 clvox_palette **out);
-void clvox_palette_destroy(clvox_palette *palette); /* NULL-safe */
+CLVOX_API clvox_status clvox_palette_parse(clvox_context *ctx, const char *source, const char *text, size_t size,
+                                           clvox_palette **out);
+CLVOX_API void clvox_palette_destroy(clvox_palette *palette); /* NULL-safe */
 
-const char *clvox_palette_name(const clvox_palette *palette);
-size_t clvox_palette_count(const clvox_palette *palette);
+CLVOX_API const char *clvox_palette_name(const clvox_palette *palette);
+CLVOX_API size_t clvox_palette_count(const clvox_palette *palette);
 /* CLVOX_ERR_INVALID_ARGUMENT for an index past the count. */
-clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_palette *palette, size_t index,
-                                            clvox_palette_element_info *info);
+CLVOX_API clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_palette *palette, size_t index,
+                                                      clvox_palette_element_info *info);
 /* 1 when the point (x, y, z) of the unit voxel lies in element `index`
  * (kernels/palette.h clvox_element_contains), 0 when not or the index is bad. */
-int clvox_palette_contains(const clvox_palette *palette, size_t index, float x, float y, float z);
+CLVOX_API int clvox_palette_contains(const clvox_palette *palette, size_t index, float x, float y, float z);
 /* 64-bit FNV-1a hash of the palette's geometry (its flat element, cell and
  * half-space arrays, kernels/palette.h layout): equal hashes, same elements. */
-uint64_t clvox_palette_hash(const clvox_palette *palette);
+CLVOX_API uint64_t clvox_palette_hash(const clvox_palette *palette);
 /* The text a palette was parsed from (NUL-terminated, borrowed), or NULL for
  * a built-in palette. */
-const char *clvox_palette_source(const clvox_palette *palette);
+CLVOX_API const char *clvox_palette_source(const clvox_palette *palette);
 /* The palette a volume was scored with, rebuilt from the file's header (a
  * built-in by name, or the palette file text the header carries) and
  * checked against the hash recorded there. CLVOX_ERR_EXR when the file has
  * no palette or the rebuilt one does not match. */
-clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_palette **out);
+CLVOX_API clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_palette **out);
 /* "nearest", "outer", "inner"; NULL for a bad value. */
-const char *clvox_metric_name(clvox_metric metric);
+CLVOX_API const char *clvox_metric_name(clvox_metric metric);
+
+/* ---- a palette volume as a mesh (element_ply.c) ---------------------------- */
+/* The geometry of a palette volume as a PLY triangle mesh (clvox mesh):
+ * every voxel whose element is not 0 becomes its element's exact shape
+ * (disjoint convex pieces, each a closed outward shell) on the voxel's box,
+ * in world coordinates. Two passes over the element channel, slice by slice
+ * (clvox_volume_read_slices): the first counts, which fixes the header and
+ * the exact file size; the second writes every voxel's vertices and faces
+ * at their known offsets. Design: docs/design.md "Element geometry and mesh
+ * export". */
+typedef struct clvox_ply_export clvox_ply_export;
+
+typedef struct clvox_ply_totals {
+    size_t size;             /* sizeof(clvox_ply_totals): set by the caller (see Conventions) */
+    uint64_t voxels;         /* non-empty voxels (element != 0) */
+    uint64_t vertices;
+    uint64_t triangles;
+    uint64_t bytes;          /* exact size of the file */
+    uint64_t header_bytes;
+} clvox_ply_totals;
+#define CLVOX_PLY_TOTALS_INIT { .size = sizeof(clvox_ply_totals) }
+
+/* Writes `size` bytes at byte `offset` of the output; returns 0, or an errno
+ * value (non-zero) on failure. */
+typedef int (*clvox_write_at_fn)(void *user, uint64_t offset, const void *data, size_t size);
+
+/* An export of a volume of dims voxels (voxel (i,j,k) is the box origin +
+ * (i,j,k) * voxel_size .. + voxel_size) scored with `palette` (borrowed for
+ * the export's life). Builds every element's mesh once (CLVOX_ERR_INVALID_ARGUMENT
+ * for an element too complex for a mesh, or a bad grid). ascii: 0 binary
+ * little-endian (float32 x, y, z; faces "list uchar int"), 1 ASCII
+ * (fixed-width records). */
+CLVOX_API clvox_status clvox_ply_export_create(clvox_context *ctx, const clvox_palette *palette,
+                                               const uint32_t dims[3], const double origin[3],
+                                               const double voxel_size[3], int ascii, clvox_ply_export **out);
+CLVOX_API void clvox_ply_export_destroy(clvox_ply_export *x); /* NULL-safe */
+/* Pass 1: slice z (X*Y element indices as floats, x fastest; slices in any
+ * order, each once). CLVOX_ERR_EXR for a value that is not an index of the
+ * palette. */
+CLVOX_API clvox_status clvox_ply_export_count(clvox_ply_export *x, uint32_t z, const float *element);
+/* After pass 1: the totals; CLVOX_ERR_INVALID_ARGUMENT when the mesh is too
+ * large for PLY's int vertex indices. */
+CLVOX_API clvox_status clvox_ply_export_totals(clvox_ply_export *x, clvox_ply_totals *totals);
+/* Pass 2: the header, then each slice in increasing z (the same slices as
+ * pass 1; one that differs is CLVOX_ERR_IO: the volume changed), then finish. */
+CLVOX_API clvox_status clvox_ply_export_begin(clvox_ply_export *x, clvox_write_at_fn write_at, void *user);
+CLVOX_API clvox_status clvox_ply_export_slice(clvox_ply_export *x, uint32_t z, const float *element);
+CLVOX_API clvox_status clvox_ply_export_finish(clvox_ply_export *x);
 
 /* ---- render maps (render_map.c) ------------------------------------------ */
 /* A render map gives each element E_v of a palette an ordered list of render
@@ -636,30 +775,30 @@ typedef enum clvox_render_frame {
 /* Reads a render map file for `palette` (borrowed for the call).
  * CLVOX_ERR_IO when unreadable, CLVOX_ERR_PALETTE_FORMAT with
  * "PATH:LINE: why" for a malformed line or a name the palette lacks. */
-clvox_status clvox_render_map_load(clvox_context *ctx, const char *path, const clvox_palette *palette,
-                                   clvox_render_map **out);
+CLVOX_API clvox_status clvox_render_map_load(clvox_context *ctx, const char *path, const clvox_palette *palette,
+                                             clvox_render_map **out);
 /* Same from text in memory; `source` names it in messages. */
-clvox_status clvox_render_map_parse(clvox_context *ctx, const char *source, const char *text, size_t size,
-                                    const clvox_palette *palette, clvox_render_map **out);
+CLVOX_API clvox_status clvox_render_map_parse(clvox_context *ctx, const char *source, const char *text, size_t size,
+                                              const clvox_palette *palette, clvox_render_map **out);
 /* The map used without a file: every element is drawn with one object named
  * after its basic element (frame BASIC), whatever its score. */
-clvox_status clvox_render_map_default(clvox_context *ctx, const clvox_palette *palette, clvox_render_map **out);
-void clvox_render_map_destroy(clvox_render_map *map); /* NULL-safe */
+CLVOX_API clvox_status clvox_render_map_default(clvox_context *ctx, const clvox_palette *palette, clvox_render_map **out);
+CLVOX_API void clvox_render_map_destroy(clvox_render_map *map); /* NULL-safe */
 
 /* Distinct object names, in order of first use (the file's objects, then the
  * default ones the map falls back on); names are 1-63 of A-Z a-z 0-9 _ - . */
-size_t clvox_render_map_object_count(const clvox_render_map *map);
+CLVOX_API size_t clvox_render_map_object_count(const clvox_render_map *map);
 /* NULL past the count. */
-const char *clvox_render_map_object_name(const clvox_render_map *map, size_t object);
+CLVOX_API const char *clvox_render_map_object_name(const clvox_render_map *map, size_t object);
 /* The object for a voxel of element `element` with score `score`: the first
  * R_j with score >= D_j. A score above 1 counts as 1; below 0 or NaN as 0
  * (the last object). CLVOX_PALETTE_NONE for element 0 (empty: nothing is
  * drawn) or an index past the palette. frame (may be NULL) gets the frame of
  * the rule used. */
-uint32_t clvox_render_map_choose(const clvox_render_map *map, uint32_t element, double score,
-                                 clvox_render_frame *frame);
+CLVOX_API uint32_t clvox_render_map_choose(const clvox_render_map *map, uint32_t element, double score,
+                                           clvox_render_frame *frame);
 /* The line of the rule used for `element` (0: the built-in default). */
-unsigned clvox_render_map_rule_line(const clvox_render_map *map, uint32_t element);
+CLVOX_API unsigned clvox_render_map_rule_line(const clvox_render_map *map, uint32_t element);
 
 #ifdef __cplusplus
 }

@@ -38,7 +38,7 @@ const char *clvox_version(void);
 typedef struct clvox_context clvox_context;
 typedef struct clvox_context_options { size_t size; const char *device; int host_only; ...; } clvox_context_options;
 typedef struct clvox_device_info {
-    uint32_t index; char name[128]; char platform[128]; char type[16]; char version[64];
+    size_t size; uint32_t index; char name[128]; char platform[128]; char type[16]; char version[64];
     uint32_t compute_units; uint64_t global_mem_bytes; uint64_t max_alloc_bytes; ...;
 } clvox_device_info;
 clvox_status clvox_list_devices(clvox_device_info *out, size_t capacity, size_t *count);
@@ -114,7 +114,7 @@ typedef struct clvox_winding_report {
 } clvox_winding_report;
 
 typedef struct clvox_stats {
-    double seconds[6]; uint64_t filled_voxels; uint64_t total_voxels; uint64_t rays; uint64_t odd_parity_rays;
+    size_t size; double seconds[6]; uint64_t filled_voxels; uint64_t total_voxels; uint64_t rays; uint64_t odd_parity_rays;
     uint64_t overflow_rays; uint32_t max_crossings; uint32_t quadtree_depth; uint64_t quadtree_leaves;
     uint64_t quadtree_refs; uint32_t slab_depth; uint64_t peak_slab_bytes; uint64_t output_bytes;
     uint32_t channels; uint32_t samples_per_voxel; double coverage_sum;
@@ -149,7 +149,7 @@ clvox_status clvox_voxelize_slabs(clvox_context *ctx, const clvox_mesh *mesh, co
                                   void *user, clvox_stats *stats);
 
 typedef struct clvox_volume_info {
-    uint32_t dims[3]; double origin[3]; double voxel_size[3]; char method[32]; char parameters[256];
+    size_t size; uint32_t dims[3]; double origin[3]; double voxel_size[3]; char method[32]; char parameters[256];
     char version[32]; char compression[16]; char channels[64]; uint64_t filled_voxels; double coverage_sum;
     char palette[64]; uint32_t palette_count; uint64_t palette_hash; char metric[16]; ...;
 } clvox_volume_info;

@@ -66,7 +66,7 @@ static clvox_status check_palette(clvox_context *ctx, clvox_voxelize_options *o)
             double pmin = 0.5, pmax = 0.5;
             if (n > 2) pmin = 1.0, pmax = 0.0;
             for (size_t i = 2; i < n; i++) {
-                clvox_palette_element_info info;
+                clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
                 clvox_status st = clvox_palette_element_info_get(ctx, o->palette, i, &info);
                 if (st != CLVOX_OK) return st;
                 if (info.volume < pmin) pmin = info.volume;
@@ -251,7 +251,10 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     clvox_voxelize_options o;
     clvox_stats stats;
     memset(&stats, 0, sizeof stats);
-    clvox_status st = check_inputs(ctx, mesh, grid, in, &o);
+    /* filled whole here, then as much of it as the caller's struct holds */
+    clvox_status st = clvox__out_begin(ctx, stats_out, sizeof stats, CLVOX__STATS_SIZE_0, "clvox_stats");
+    if (st != CLVOX_OK) return st;
+    st = check_inputs(ctx, mesh, grid, in, &o);
     if (st != CLVOX_OK) return st;
 
     const clvox__method *m = o.method == CLVOX_METHOD_TETRA ? &clvox__method_tetra : &clvox__method_ray;
@@ -391,7 +394,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     /* coverage in voxel units: samples inside / samples per voxel */
     stats.coverage_sum = want_cov || o.palette ? stats.coverage_sum / stats.samples_per_voxel : (double)stats.filled_voxels;
     stats.seconds[CLVOX_STAGE_TOTAL] = clvox__now() - t_start;
-    if (stats_out) *stats_out = stats;
+    clvox__out_end(stats_out, &stats);
     return st;
 }
 
@@ -433,7 +436,7 @@ clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, c
         s.palette = options->palette;
         s.metric = options->metric;
     }
-    clvox_stats local;
+    clvox_stats local = CLVOX_STATS_INIT;
     clvox_stats *st_out = stats ? stats : &local;
     sink_needs needs = {0, 0, &s.channels, NULL}; /* HALF bits straight into the file */
     clvox_status st = run(ctx, mesh, grid, options, &needs, exr_open, exr_slab, &s, st_out);

@@ -1241,7 +1241,7 @@ static void test_palette_run(void)
     co.host_only = 1;
     clvox_context *c = NULL;
     CHECK_OK(c, clvox_context_create(&co, &c));
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(c, clvox_volume_read(c, out, &info, NULL, 0));
     CHECK_MSG(strcmp(info.channels, "coverage,element,score") == 0 && strcmp(info.palette, "paper46") == 0 &&
                   info.palette_count == 46 && strcmp(info.metric, "outer") == 0,
@@ -1327,8 +1327,7 @@ static void test_preview(void)
     run_cli(&r, NULL, ARGS(mesh, "-r", "32", "-o", occ_exr, "-q"));
     CHECK_MSG(r.code == 0, "voxelize default.obj: exit %d; %s", r.code, r.err);
     spawn_free(&r);
-    clvox_volume_info info;
-    memset(&info, 0, sizeof info);
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, occ_exr, &info, NULL, 0));
     grey_volume v = { info.dims[0], info.dims[1], info.dims[2], NULL, NULL };
     size_t nv = (size_t)v.X * v.Y * v.Z;
@@ -1821,7 +1820,7 @@ static void test_help_examples(void)
     const char *ex = strstr(h.out, "\nEXAMPLES");
     CHECK_MSG(h.code == 0 && ex != NULL, "--help has no EXAMPLES section");
     if (!ex) {
-        run_free(&h);
+        spawn_free(&h);
         return;
     }
     CHECK_MSG(strstr(ex + 1, "\n\n") == NULL, "--help: EXAMPLES is not the last section");
@@ -1876,10 +1875,10 @@ static void test_help_examples(void)
         run_result r;
         run_cli_ex(&r, dir, NULL, args, 0);
         CHECK_MSG(r.code == 0, "--help example 'clvox %.*s' exit %d: %s", (int)len, start, r.code, r.err);
-        run_free(&r);
+        spawn_free(&r);
         runs++;
     }
     CHECK_MSG(runs >= 5, "--help EXAMPLES: %d examples, expected at least 5", runs);
-    run_free(&h);
+    spawn_free(&h);
     rm_tree(dir);
 }

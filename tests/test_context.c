@@ -51,7 +51,7 @@ static clvox_status create(const char *sel, clvox_context **ctx)
 
 static void test_devices(void)
 {
-    clvox_device_info info[16];
+    clvox_device_info info[16] = { CLVOX_DEVICE_INFO_INIT };
     size_t n = 0;
     CHECK_OK(NULL, clvox_list_devices(info, 16, &n));
     CHECK(n >= 1);
@@ -163,7 +163,7 @@ static void streaming_bound(clvox_context *ctx, const clvox_mesh *m, const clvox
                             const char *what)
 {
     char path[512];
-    clvox_stats s;
+    clvox_stats s = CLVOX_STATS_INIT;
     clvox_voxelize_options o = *base_opts;
     o.slab_depth = 16;
     const uint32_t short_z = 512, tall_z = 65536;
@@ -199,7 +199,7 @@ static void streaming_bound(clvox_context *ctx, const clvox_mesh *m, const clvox
 #endif
     printf("streaming (%s): run peak +%ld KiB at %u slices, +%ld KiB at %u slices (difference bound %ld KiB)\n",
            what, grow_short, short_z, grow_tall, tall_z, bound);
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
     CHECK(info.dims[2] == tall_z && info.filled_voxels == s.filled_voxels);
     if (s.channels & CLVOX_CHANNEL_COVERAGE)
@@ -223,7 +223,7 @@ static void test_progress_cancel_and_memory(clvox_context *ctx)
     o.progress = progress;
     o.progress_user = &last;
     cancel_after = 1000;
-    clvox_stats s;
+    clvox_stats s = CLVOX_STATS_INIT;
     CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &g, &o, path, &s));
     CHECK(progress_calls == 16 && last == 1.0);
     CHECK(access(path, F_OK) == 0);

@@ -49,7 +49,7 @@ static float *coverage_run(clvox_context *c, const clvox_mesh *m, const clvox_gr
 {
     float *cov = calloc(nvox(g), sizeof *cov);
     if (occ) *occ = calloc(nvox(g), 1);
-    clvox_stats local;
+    clvox_stats local = CLVOX_STATS_INIT;
     CHECK_OK(c, clvox_voxelize_to_buffers(c, m, g, o, occ ? *occ : NULL, nvox(g), cov, nvox(g), stats ? stats : &local));
     return cov;
 }
@@ -110,7 +110,7 @@ static void test_exact_fractions(void)
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.oversample = 10;
         o.ray_axis = (clvox_axis)axis;
-        clvox_stats s;
+        clvox_stats s = CLVOX_STATS_INIT;
         float *cov = coverage_run(ctx, m, &g, &o, NULL, &s);
         int bad = 0;
         double sum = 0;
@@ -138,7 +138,7 @@ static void test_exact_fractions(void)
     clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
     o.oversample = 10;
     CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, m, &g, &o, path, NULL));
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     uint8_t occ[64];
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, occ, sizeof occ));
     CHECK(strcmp(info.channels, "coverage") == 0);
@@ -235,7 +235,7 @@ static void test_k1_is_binary(void)
         clvox_voxelize_options b = CLVOX_VOXELIZE_OPTIONS_INIT;
         b.ray_axis = (clvox_axis)axis;
         uint8_t *bin = calloc(nvox(&g), 1);
-        clvox_stats sb;
+        clvox_stats sb = CLVOX_STATS_INIT;
         CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, &g, &b, bin, nvox(&g), &sb));
         clvox_voxelize_options o = b;
         o.oversample = 1;
@@ -243,7 +243,7 @@ static void test_k1_is_binary(void)
         o.channels = CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE;
         o.threshold = 0.5;
         uint8_t *occ = NULL;
-        clvox_stats sc;
+        clvox_stats sc = CLVOX_STATS_INIT;
         float *cov = coverage_run(ctx, m, &g, &o, &occ, &sc);
         int bad_cov = 0, bad_occ = 0;
         for (size_t i = 0; i < nvox(&g); i++) {
@@ -306,7 +306,7 @@ static void test_determinism(void)
     o.channels = CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE;
     o.threshold = 0.25;
     uint8_t *occ0 = NULL;
-    clvox_stats s0;
+    clvox_stats s0 = CLVOX_STATS_INIT;
     float *a = coverage_run(ctx, m, &g, &o, &occ0, &s0);
     const uint32_t slabs[] = {1, 4, 7, 30};
     const uint32_t caps[] = {1, 2, 0};
@@ -316,7 +316,7 @@ static void test_determinism(void)
             p.slab_depth = slabs[i];
             p.hit_capacity = caps[j];
             uint8_t *occ = NULL;
-            clvox_stats s;
+            clvox_stats s = CLVOX_STATS_INIT;
             float *b = coverage_run(ctx, m, &g, &p, &occ, &s);
             CHECK_MSG(memcmp(a, b, nvox(&g) * sizeof *a) == 0 && memcmp(occ0, occ, nvox(&g)) == 0,
                       "slab %u capacity %u differs", slabs[i], caps[j]);
@@ -348,7 +348,7 @@ static void test_determinism(void)
     free(c);
 
     /* every device (POCL_DEVICES="pthread pthread" gives two PoCL devices) */
-    clvox_device_info devs[8];
+    clvox_device_info devs[8] = { CLVOX_DEVICE_INFO_INIT };
     size_t ndev = 0;
     if (clvox_list_devices(devs, 8, &ndev) == CLVOX_OK) {
         CHECK(ndev >= 2);
@@ -393,7 +393,7 @@ static void test_convergence(void)
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.oversample = ks[i];
         o.oversample_points = ks[i] == 16 ? 16 : 0;
-        clvox_stats s;
+        clvox_stats s = CLVOX_STATS_INIT;
         float *c = coverage_run(ctx, m, &g, &o, NULL, &s);
         err[i] = fabs(s.coverage_sum * vv - exact) / exact;
         fprintf(stderr, "uniform K=%u: relative volume error %.3e\n", ks[i], err[i]);
@@ -412,7 +412,7 @@ static void test_convergence(void)
             o.oversample = sk[i];
             o.stochastic = 1;
             o.seed = (uint64_t)(1000 + sd);
-            clvox_stats s;
+            clvox_stats s = CLVOX_STATS_INIT;
             float *c = coverage_run(ctx, m, &g, &o, NULL, &s);
             double e = (s.coverage_sum * vv - exact) / exact;
             acc += e * e;

@@ -125,7 +125,7 @@ typedef struct geo_stats {
 
 static void check_element(const clvox_palette *p, size_t e, geo_stats *gs)
 {
-    clvox_palette_element_info info;
+    clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
     CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, e, &info));
     clvox__element_mesh m;
     clvox_status st = clvox__element_mesh_build(ctx, p, e, &m);
@@ -241,7 +241,7 @@ static void check_counts(void)
     };
     for (size_t w = 0; w < sizeof want / sizeof want[0]; w++) {
         size_t e = 0;
-        clvox_palette_element_info info;
+        clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         for (; e < clvox_palette_count(p); e++)
             if (clvox_palette_element_info_get(ctx, p, e, &info) == CLVOX_OK && strcmp(info.name, want[w].name) == 0) break;
         CHECK_MSG(e < clvox_palette_count(p), "paper78 has no %s", want[w].name);
@@ -670,7 +670,7 @@ static void check_revoxelized(clvox_context *dev, const clvox_palette *p, const 
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.ray_axis = axes[ax];
         if (ax == 3) o.method = CLVOX_METHOD_TETRA;
-        clvox_stats stats;
+        clvox_stats stats = CLVOX_STATS_INIT;
         memset(occ, 0, nfine);
         CHECK_OK(dev, clvox_voxelize_to_memory(dev, mesh, &g, &o, occ, nfine, &stats));
         CHECK(ax == 3 || stats.odd_parity_rays == 0);
@@ -881,7 +881,7 @@ static void e2e_palette(clvox_context *dev, const char *dir, const char *palette
 
     element_volume ev;
     memset(&ev, 0, sizeof ev);
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     clvox_palette *p = NULL;
     CHECK_OK(ctx, clvox_volume_palette(ctx, vol, &p));
     CHECK_OK(ctx, clvox_volume_read(ctx, vol, &info, NULL, 0));

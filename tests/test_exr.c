@@ -237,7 +237,7 @@ static void round_trip(uint32_t X, uint32_t Y, uint32_t Z, int structured, clvox
               (unsigned long long)bytes, file_size(path));
     CHECK(temp_files(path) == 0);
 
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     memset(back, 0xAB, n + 1);
     st = clvox_volume_read(ctx, path, &info, back, n);
     CHECK_MSG(st == CLVOX_OK, "%s: %s: %s", path, clvox_status_string(st), clvox_context_error(ctx));
@@ -255,7 +255,7 @@ static void round_trip(uint32_t X, uint32_t Y, uint32_t Z, int structured, clvox
     CHECK(strcmp(info.channels, "occupancy") == 0);
 
     /* count only, no buffer */
-    clvox_volume_info info2;
+    clvox_volume_info info2 = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info2, NULL, 0));
     CHECK(info2.filled_voxels == info.filled_voxels);
     unlink(path);
@@ -672,7 +672,7 @@ static void palette_round_trip(uint32_t X, uint32_t Y, uint32_t Z, uint32_t chan
         filled[i] = with_occ ? vol[i] : with_cov ? exrgen_half_value(cov[i]) > 0.5 : elem[i] != 0;
         want_filled += filled[i];
     }
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     memset(filled_back, 0xAB, n + 1);
     st = clvox_volume_read(ctx, path, &info, filled_back, n);
     if (!with_occ && !with_cov && !with_elem) {
@@ -872,7 +872,7 @@ static void check_same_palette(const char *what, const clvox_palette *want, cons
     CHECK_MSG(a ? b && strcmp(a, b) == 0 : b == NULL, "%s: the palette text differs", what);
     size_t bad = 0;
     for (size_t i = 0; i < clvox_palette_count(want) && i < clvox_palette_count(got); i++) {
-        clvox_palette_element_info x, y;
+        clvox_palette_element_info x = CLVOX_PALETTE_ELEMENT_INFO_INIT, y = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         if (clvox_palette_element_info_get(ctx, want, i, &x) != CLVOX_OK ||
             clvox_palette_element_info_get(ctx, got, i, &y) != CLVOX_OK || strcmp(x.name, y.name) != 0 ||
             x.volume != y.volume)
@@ -909,7 +909,7 @@ static void test_palette_header(void)
         for (int c = 0; c < CLVOX_COMPRESSION_COUNT; c++) {
             const clvox__exr_meta *meta = metas[m];
             CHECK_OK(ctx, write_palette_file(path, meta, (clvox_compression)c));
-            clvox_volume_info info;
+            clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
             CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
             CHECK(strcmp(info.palette, clvox_palette_name(meta->palette)) == 0);
             CHECK(info.palette_count == clvox_palette_count(meta->palette));
@@ -1002,7 +1002,7 @@ static void test_palette_header(void)
         snprintf(other, sizeof other, "%s", hash);
         other[7] = other[7] == '0' ? '1' : '0';
         CHECK(tamper(path, hash, other));
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0)); /* still a volume */
         CHECK(info.palette_hash != clvox_palette_hash(metas[m]->palette));
         clvox_palette *p = (clvox_palette *)&p;
@@ -1027,7 +1027,7 @@ static void test_palette_header(void)
 
     /* not a palette run; bad arguments */
     CHECK_OK(ctx, write_palette_file(path, &test_meta, CLVOX_COMPRESSION_RLE));
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
     CHECK(info.palette[0] == '\0' && info.palette_count == 0 && info.palette_hash == 0 && info.metric[0] == '\0');
     p = (clvox_palette *)&p;
@@ -1388,7 +1388,7 @@ static void test_abort_and_incomplete(void)
     CHECK_OK(ctx, clvox__exr_finish(w, &bytes));
     CHECK((long long)bytes == file_size(path) && bytes > 3);
     CHECK(temp_files(path) == 0);
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
     CHECK(info.filled_voxels == 80); /* 2 of every 3 of 120 */
     unlink(path);
@@ -1441,7 +1441,7 @@ static void test_output_files(void)
         /* replacing an existing file: the same, and nothing else left */
         CHECK_MSG(write_small(path, sub, mode ? 2 : 1, m) == CLVOX_OK, "%s: %s", m, clvox_context_error(ctx));
         CHECK(dir_count(sub, NULL) == 1);
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
         CHECK(info.filled_voxels == 80);
         unlink(path);
@@ -1586,7 +1586,7 @@ static void test_cxx_decoder(void)
             snprintf(cmd, sizeof cmd, "exrmaketiled -o -t 64 64 -z none '%s' '%s' >/dev/null 2>&1", in, out);
             int rc = system(cmd);
             CHECK_MSG(rc == 0, "exrmaketiled failed (%d) on %s compression", rc, comp_names[c]);
-            clvox_volume_info info;
+            clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
             memset(back, 7, n);
             CHECK_OK(ctx, clvox_volume_read(ctx, out, &info, back, n));
             CHECK_MSG(memcmp(back, vol, n) == 0 && info.filled_voxels == count(vol, n),
@@ -1738,7 +1738,7 @@ static void test_reader_layouts(void)
         filled += expect[k];
     }
     char path[2048];
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     static const struct { int tw, th; exr_compression_t c; } layouts[] = {
         { 0, 0, EXR_COMPRESSION_NONE }, { 0, 0, EXR_COMPRESSION_ZIP }, { 0, 0, EXR_COMPRESSION_PIZ },
         { 4, 4, EXR_COMPRESSION_RLE },  { 13, 7, EXR_COMPRESSION_ZIPS }, { 5, 35, EXR_COMPRESSION_NONE },
@@ -1779,7 +1779,7 @@ static void test_reader_layouts(void)
 static void test_reader_rejects(void)
 {
     char path[2048];
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
 
     snprintf(path, sizeof path, "%s/missing.exr", dir);
     unlink(path);
@@ -1873,7 +1873,7 @@ static void test_peak_memory(void)
     if (pid == 0) {
         long r[4] = { -1, -1, -1, -1 };
         uint32_t *slab = malloc((size_t)256 / 32 * 256 * 16 * sizeof *slab);
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         if (slab && stream_sphere(path, 64, slab) == CLVOX_OK && stream_sphere(path, 64, slab) == CLVOX_OK &&
             clvox_volume_read(ctx, path, &info, NULL, 0) == CLVOX_OK) {
             r[0] = vm_hwm_kb();

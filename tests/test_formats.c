@@ -529,7 +529,7 @@ int main(void)
             spawn_free(&r);
         }
         uint8_t *back = malloc(n);
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, tmp("conv.exr"), &info, back, n));
         CHECK(memcmp(back, occ, n) == 0);
         free(back);

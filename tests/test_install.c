@@ -57,7 +57,7 @@ static const char program[] =
     "  clvox_grid g = {{4, 4, 4}, {0, 0, 0}, {0.25, 0.25, 0.25}};\n"
     "  uint8_t vox[64];\n"
     "  clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;\n"
-    "  clvox_stats s;\n"
+    "  clvox_stats s = CLVOX_STATS_INIT;\n"
     "  if (clvox_voxelize_to_memory(ctx, m, &g, &o, vox, sizeof vox, &s) != CLVOX_OK) return 4;\n"
     "  printf(\"filled %llu\\n\", (unsigned long long)s.filled_voxels);\n"
     "  clvox_mesh_destroy(m); clvox_context_destroy(ctx);\n"

@@ -54,7 +54,7 @@ static clvox_palette *builtin(const char *name)
 static uint32_t index_of(const clvox_palette *p, const char *name)
 {
     for (size_t e = 0; e < clvox_palette_count(p); e++) {
-        clvox_palette_element_info info;
+        clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         if (clvox_palette_element_info_get(g_ctx, p, e, &info) == CLVOX_OK && strcmp(info.name, name) == 0)
             return (uint32_t)e;
     }
@@ -180,7 +180,7 @@ static void test_precedence(void)
             CHECK_MSG(n && strcmp(n, basics[i]) == 0, "object %zu: %s", i, n ? n : "NULL");
         }
         for (uint32_t e = 1; e < 46; e++) {
-            clvox_palette_element_info info, basic;
+            clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT, basic = CLVOX_PALETTE_ELEMENT_INFO_INIT;
             CHECK_OK(g_ctx, clvox_palette_element_info_get(g_ctx, p, e, &info));
             CHECK_OK(g_ctx, clvox_palette_element_info_get(g_ctx, p, info.basic, &basic));
             clvox_render_frame f = CLVOX_RENDER_FRAME_ELEMENT;
@@ -429,7 +429,7 @@ static void check_rows(const char *what, const csv_row *rows, int n, const expec
                     continue;
                 }
                 const csv_row *row = &rows[r++];
-                clvox_palette_element_info info, basic;
+                clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT, basic = CLVOX_PALETTE_ELEMENT_INFO_INIT;
                 clvox_palette_element_info_get(g_ctx, e->palette, el, &info);
                 clvox_palette_element_info_get(g_ctx, e->palette, info.basic, &basic);
                 float score = e->score_f ? e->score_f[at] : (float)exrgen_half_value(e->score[at]);
@@ -752,8 +752,7 @@ static void end_to_end(const char *what, const char *palette_arg, const char *ma
     spawn_free(&r);
     if (r.code != 0) return;
     /* what the volume holds, read back by the library */
-    clvox_volume_info info;
-    memset(&info, 0, sizeof info);
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     dense d = {0, 0, NULL, NULL, 0};
     clvox_palette *p = NULL;
     CHECK_OK(g_ctx, clvox_volume_palette(g_ctx, vol, &p));
@@ -776,7 +775,7 @@ static void end_to_end(const char *what, const char *palette_arg, const char *ma
     for (size_t q = 0; q < n; q++)
         if (d.element[q]) {
             nonempty++;
-            clvox_palette_element_info ei;
+            clvox_palette_element_info ei = CLVOX_PALETTE_ELEMENT_INFO_INIT;
             if (clvox_palette_element_info_get(g_ctx, p, d.element[q], &ei) == CLVOX_OK) images += ei.symmetry != 0;
         }
     CHECK_MSG(nonempty > 0 && nonempty == (int)info.filled_voxels && (size_t)nonempty < n,

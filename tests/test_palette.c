@@ -90,7 +90,7 @@ static void test_counts_and_trivial(void)
         mask_of(p, 1, m);
         for (size_t b = 0; b < NPTS; b++) full += m[b];
         CHECK_MSG(empty == 0 && full == NPTS, "%s: element 0 has %zu points, 1 has %zu", names[i], empty, full);
-        clvox_palette_element_info e0, e1;
+        clvox_palette_element_info e0 = CLVOX_PALETTE_ELEMENT_INFO_INIT, e1 = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, 0, &e0));
         CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, 1, &e1));
         CHECK(strcmp(e0.name, "empty") == 0 && e0.volume == 0.0 && e0.volume_exact);
@@ -117,7 +117,7 @@ static void check_distinct(const clvox_palette *p, const char *what)
     CHECK_MSG(same == 0, "%s: %d equal pairs", what, same);
     int names_clash = 0;
     for (size_t a = 0; a < n; a++) {
-        clvox_palette_element_info ia, ib;
+        clvox_palette_element_info ia = CLVOX_PALETTE_ELEMENT_INFO_INIT, ib = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         clvox_palette_element_info_get(ctx, p, a, &ia);
         size_t in = 0;
         for (size_t b = 0; b < NPTS; b++) in += m[a * NPTS + b];
@@ -155,7 +155,7 @@ static void test_complements(void)
     }
     size_t complements = 0;
     for (size_t e = 46; e < 78; e++) {
-        clvox_palette_element_info ie, io;
+        clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT, io = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p78, e, &ie));
         CHECK_MSG(ie.complement_of >= 2 && ie.complement_of < 46, "element %zu: complement_of %u", e,
                   ie.complement_of);
@@ -207,7 +207,7 @@ static void test_symmetry_closure(void)
             missing += !found;
         }
         /* the recorded basic element and symmetry give back this element */
-        clvox_palette_element_info ie;
+        clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, e, &ie));
         image_mask(p, ie.basic, (const int32_t(*)[3])ie.matrix, img);
         wrong_record += memcmp(img, m + e * NPTS, NPTS) != 0;
@@ -221,7 +221,7 @@ static void test_symmetry_closure(void)
         unsigned char *a = malloc(NPTS);
         int bad = 0;
         for (size_t e = 0; e < 78; e++) {
-            clvox_palette_element_info ie;
+            clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT;
             clvox_palette_element_info_get(ctx, p78, e, &ie);
             image_mask(p78, ie.basic, (const int32_t(*)[3])ie.matrix, img);
             mask_of(p78, e, a);
@@ -244,13 +244,13 @@ static void test_volumes_and_groups(void)
         {"wedge", 2, 12, 0.5}, {"roof", 14, 12, 0.5}, {"column", 26, 12, 0.25}, {"corner", 38, 8, 1.0 / 6.0}};
     for (int g = 0; g < 4; g++) {
         for (size_t e = groups[g].first; e < groups[g].first + groups[g].count; e++) {
-            clvox_palette_element_info ie;
+            clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT;
             CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, e, &ie));
             CHECK_MSG(ie.volume == groups[g].volume && ie.volume_exact, "%s: volume %.17g", ie.name, ie.volume);
             CHECK_MSG(ie.basic == groups[g].first && strncmp(ie.name, groups[g].name, strlen(groups[g].name)) == 0,
                       "%zu %s: basic %u", e, ie.name, ie.basic);
         }
-        clvox_palette_element_info b;
+        clvox_palette_element_info b = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         clvox_palette_element_info_get(ctx, p, groups[g].first, &b);
         CHECK(strcmp(b.name, groups[g].name) == 0 && b.symmetry == 0);
     }
@@ -263,7 +263,7 @@ static void test_volumes_and_groups(void)
     CHECK(clvox_palette_contains(p, 2, 0.5f, 0.5f, 0.5f));
     clvox_palette *p78 = builtin("paper78");
     if (p78) {
-        clvox_palette_element_info ie;
+        clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         clvox_palette_element_info_get(ctx, p78, 46, &ie);
         CHECK(strcmp(ie.name, "not_roof") == 0 && ie.complement);
         CHECK(clvox_palette_contains(p78, 14, 0.25f, 0.5f, 0.5f) && !clvox_palette_contains(p78, 46, 0.25f, 0.5f, 0.5f));
@@ -280,7 +280,7 @@ static void test_planar10(void)
                                           "half_y_hi", "diag_00", "diag_10",   "diag_01",   "diag_11"};
     int bad = 0;
     for (size_t e = 0; e < 10; e++) {
-        clvox_palette_element_info ie;
+        clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, e, &ie));
         CHECK_MSG(strcmp(ie.name, names[e]) == 0, "planar10 %zu: %s", e, ie.name);
         CHECK(ie.volume == (e == 0 ? 0.0 : e == 1 ? 1.0 : 0.5));
@@ -304,7 +304,7 @@ static void test_example_file(void)
     CHECK(clvox_palette_count(p) == 12);
     CHECK(strcmp(clvox_palette_name(p), "blocks") == 0);
     check_distinct(p, "blocks");
-    clvox_palette_element_info ie;
+    clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT;
     CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, 2, &ie));
     CHECK(strcmp(ie.name, "slab_bottom") == 0 && ie.volume == 0.5 && !ie.volume_exact);
     CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, 4, &ie));
@@ -327,7 +327,7 @@ static void test_file_features(void)
                         "element notc\n complement\n cell\n 1 0 0 .5\n 0 1 0 0.5\nend\n", &p));
     if (p) {
         CHECK_MSG(clvox_palette_count(p) == 15, "%zu elements", clvox_palette_count(p));
-        clvox_palette_element_info ie;
+        clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, 3, &ie));
         CHECK(strncmp(ie.name, "w_s", 3) == 0 && ie.basic == 2 && ie.symmetry > 0);
         CHECK_OK(ctx, clvox_palette_element_info_get(ctx, p, 14, &ie));
@@ -433,7 +433,7 @@ static void test_arguments(void)
     clvox_palette_destroy(NULL);
     CHECK(clvox_palette_count(NULL) == 0);
     p = builtin("binary");
-    clvox_palette_element_info ie;
+    clvox_palette_element_info ie = CLVOX_PALETTE_ELEMENT_INFO_INIT;
     CHECK_STATUS(ctx, clvox_palette_element_info_get(ctx, p, 2, &ie), CLVOX_ERR_INVALID_ARGUMENT);
     CHECK(clvox_palette_contains(p, 2, 0.5f, 0.5f, 0.5f) == 0);
     CHECK(strcmp(clvox_status_string(CLVOX_ERR_PALETTE_FORMAT), "malformed palette file") == 0);

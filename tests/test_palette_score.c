@@ -79,6 +79,7 @@ static result run(clvox_context *c, const clvox_mesh *m, const clvox_grid *g, co
     if (!p.channels)
         p.channels = CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE | CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_OCCUPANCY;
     collect col = {g, &r, 1, 0};
+    r.stats.size = sizeof r.stats;
     r.status = clvox_voxelize_slabs(c, m, g, &p, on_slab, &col, &r.stats);
     CHECK_MSG(r.status == CLVOX_OK, "%s", clvox_context_error(c));
     CHECK(col.order_ok && col.next_z == g->dims[2]);
@@ -131,7 +132,7 @@ static void compare_reference(const tmesh *t, const clvox_grid *g, clvox_axis ax
     uint64_t nonempty = 0;
     double volume = 0;
     for (size_t i = 0; i < n; i++) {
-        clvox_palette_element_info info;
+        clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         if (clvox_palette_element_info_get(ctx, p, r.element[i], &info) != CLVOX_OK) info.volume = NAN;
         nonempty += r.element[i] != 0;
         volume += info.volume;
@@ -294,7 +295,7 @@ static void test_determinism(void)
     free(el);
     free(sc);
 
-    clvox_device_info devs[8];
+    clvox_device_info devs[8] = { CLVOX_DEVICE_INFO_INIT };
     size_t ndev = 0;
     if (clvox_list_devices(devs, 8, &ndev) == CLVOX_OK) {
         CHECK(ndev >= 2);
@@ -530,7 +531,7 @@ static void test_bad_options(void)
     CHECK_STATUS(ctx, clvox_voxelize_palette_to_buffers(ctx, m, &g, &o, el, 999, NULL, 0, NULL),
                  CLVOX_ERR_INVALID_ARGUMENT);
     /* defaults: t = p = 16 */
-    clvox_stats s;
+    clvox_stats s = CLVOX_STATS_INIT;
     CHECK_OK(ctx, clvox_voxelize_palette_to_buffers(ctx, m, &g, &o, el, 1000, NULL, 0, &s));
     CHECK(s.samples_per_voxel == 256 && (s.channels & CLVOX_CHANNEL_ELEMENT));
     clvox_mesh_destroy(m);

@@ -35,7 +35,7 @@ static uint64_t count(const uint8_t *v, size_t n)
 static uint8_t *run_opts(const clvox_mesh *m, const clvox_grid *g, const clvox_voxelize_options *o, clvox_stats *s)
 {
     uint8_t *v = calloc(nvox(g), 1);
-    clvox_stats local;
+    clvox_stats local = CLVOX_STATS_INIT;
     CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, g, o, v, nvox(g), s ? s : &local));
     return v;
 }
@@ -86,7 +86,7 @@ static void test_grid_aligned_boxes(void)
         clvox_mesh *m = to_mesh(&t);
         uint64_t want = expected_box_voxels(&g, cases[c].lo, cases[c].hi);
         for (clvox_axis a = CLVOX_AXIS_X; a <= CLVOX_AXIS_Z; a++) {
-            clvox_stats s;
+            clvox_stats s = CLVOX_STATS_INIT;
             clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
             o.ray_axis = a;
             uint8_t *v = run_opts(m, &g, &o, &s);
@@ -206,7 +206,7 @@ static void test_overflow_and_slabs(void)
     double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
     clvox_grid g = test_grid(lo, hi, 48, 40, 36);
     clvox_mesh *m = to_mesh(&t);
-    clvox_stats s0, s1;
+    clvox_stats s0 = CLVOX_STATS_INIT, s1 = CLVOX_STATS_INIT;
     clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
     uint8_t *base = run_opts(m, &g, &o, &s0);
     CHECK(s0.overflow_rays == 0);
@@ -250,7 +250,7 @@ static void test_open_mesh(void)
     /* Only rays along the missing face's normal cross the hole; the others run parallel to it. */
     int seen = 0;
     for (clvox_axis a = CLVOX_AXIS_X; a <= CLVOX_AXIS_Z; a++) {
-        clvox_stats s;
+        clvox_stats s = CLVOX_STATS_INIT;
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.ray_axis = a;
         o.inside = CLVOX_INSIDE_PARITY; /* winding closes the hole with a cap */
@@ -332,7 +332,7 @@ static void test_long_crossing_lists(void)
     for (int i = 0; i < 2; i++) {
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.hit_capacity = caps[i];
-        clvox_stats s;
+        clvox_stats s = CLVOX_STATS_INIT;
         uint8_t *v = run_opts(m, &g, &o, &s);
         CHECK_MSG(memcmp(v, ref, nvox(&g)) == 0, "nested boxes, capacity %u: differs from the reference", caps[i]);
         CHECK_MSG(s.max_crossings == 180 && (caps[i] ? s.overflow_rays == 0 : s.overflow_rays > 0),
@@ -394,7 +394,7 @@ static void test_coincident_surfaces(void)
     /* 30000 copies: allowed; the copies cancel (parity): empty, in bounded time and memory */
     tmesh ok = repeated_box(30000);
     m = to_mesh(&ok);
-    clvox_stats s;
+    clvox_stats s = CLVOX_STATS_INIT;
     t0 = test_cpu_seconds();
     clvox_voxelize_options par = CLVOX_VOXELIZE_OPTIONS_INIT;
     par.inside = CLVOX_INSIDE_PARITY;

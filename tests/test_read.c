@@ -74,7 +74,7 @@ static int check_stream(const char *what, const char *path, const char *channel,
     collect c = { X, Y, Z, malloc(n * sizeof(float)), 0, 0, 0, UINT32_MAX };
     if (!c.vol) abort();
     for (size_t i = 0; i < n; i++) c.vol[i] = -12345.0f;
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     clvox_status st = clvox_volume_read_slices(ctx, path, channel, &info, on_slice, &c);
     CHECK_MSG(st == CLVOX_OK, "%s: %s: %s", what, clvox_status_string(st), clvox_context_error(ctx));
     CHECK_MSG(c.calls == Z && !c.out_of_order, "%s: %u calls for %u slices%s", what, c.calls, Z,
@@ -148,7 +148,7 @@ static void test_layouts(void)
         check_stream(what, path, "element", X, Y, Z, want_elem);
 
         /* occupancy present: filled from occupancy, coverage summed (second pass) */
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         memset(back, 7, n);
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, n));
         CHECK_MSG(info.filled_voxels == filled_occ, "%s: filled %llu, expected %llu", what,
@@ -168,7 +168,7 @@ static void test_layouts(void)
     for (size_t i = 0; i < n; i++) filled_cov += (want_filled_cov[i] = want_cov[i] > 0.5);
     for (size_t l = 0; l < sizeof layouts / sizeof layouts[0]; l++) {
         CHECK(exrgen_write(path, X, Y, Z, &all[1], 1, layouts[l].tw, layouts[l].th, layouts[l].comp, 1));
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         memset(back, 7, n);
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, n));
         CHECK_MSG(info.filled_voxels == filled_cov, "coverage-only layout %zu: filled %llu, expected %llu", l,
@@ -182,7 +182,7 @@ static void test_layouts(void)
     }
     /* occupancy only: coverage_sum stays 0 */
     CHECK(exrgen_write(path, X, Y, Z, &all[0], 1, 0, 0, EXR_COMPRESSION_RLE, 1));
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
     CHECK(info.filled_voxels == filled_occ && info.coverage_sum == 0.0);
     unlink(path);
@@ -211,7 +211,7 @@ static void test_special_values(void)
     snprintf(path, sizeof path, "%s/special.exr", dir);
     exrgen_channel ch = { "coverage", EXR_PIXEL_HALF, sub };
     CHECK(exrgen_write(path, X, Y, Z, &ch, 1, 0, 0, EXR_COMPRESSION_NONE, 1));
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
     int64_t exact = 0;
     uint64_t filled = 0;
@@ -261,7 +261,7 @@ static void test_exact_sum(void)
     snprintf(path, sizeof path, "%s/sum.exr", dir);
     exrgen_channel ch = { "coverage", EXR_PIXEL_HALF, cov };
     CHECK(exrgen_write(path, X, Y, Z, &ch, 1, 1024, 64, EXR_COMPRESSION_RLE, 1));
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
     CHECK_MSG(info.coverage_sum == ldexp((double)exact, -24), "coverage_sum %.17g, expected %.17g",
               info.coverage_sum, ldexp((double)exact, -24));
@@ -289,7 +289,7 @@ static void test_errors_and_cancel(void)
 
     float vol[5 * 4 * 9];
     collect c = { X, Y, Z, vol, 0, 0, 0, UINT32_MAX };
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     /* missing channel: the message lists what the file has */
     CHECK_STATUS(ctx, clvox_volume_read_slices(ctx, path, "occupancy", &info, on_slice, &c), CLVOX_ERR_EXR);
     CHECK(strstr(clvox_context_error(ctx), "occupancy") != NULL);
@@ -380,7 +380,7 @@ static int peak_reset(long *rss)
  * `needle` (NULL: any message), and the peak RSS grows by less than 32 MiB. */
 static void expect_corrupt(const char *what, const char *path, const char *needle)
 {
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     long base = 0;
     int reset = peak_reset(&base);
     clvox_status st = clvox_volume_read(ctx, path, &info, NULL, 0);
@@ -456,7 +456,7 @@ static void test_crafted(void)
         exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
         a.origin[0] = -7.5;
         CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, 0, 0, EXR_COMPRESSION_NONE, &a));
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
         CHECK(info.origin[0] == -7.5);
     }
@@ -466,7 +466,7 @@ static void test_crafted(void)
         exrgen_attrs a = exrgen_default_attrs(X, Y, Z);
         a.layout = "tile-per-slice: pixel (x, y + z*Y), tile X x Y = slice z";
         CHECK(exrgen_write_ex(path, X, Y, Z, &ch, 1, (int)X, (int)Y, EXR_COMPRESSION_RLE, &a));
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0)); /* the right dims */
         CHECK(info.dims[1] == Y && info.dims[2] == Z);
         a.dims[1] = (int32_t)Z;
@@ -491,7 +491,7 @@ static void test_crafted(void)
     /* a FIFO: refused at once (alarm: a blocking open would hang the test) */
     CHECK(mkfifo(path, 0666) == 0);
     alarm(20);
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     CHECK_STATUS(ctx, clvox_volume_read(ctx, path, &info, NULL, 0), CLVOX_ERR_IO);
     CHECK(strstr(clvox_context_error(ctx), "not a regular file") != NULL);
     float vol[1];
@@ -543,7 +543,7 @@ static void test_palette_attrs(void)
         a.extra = k ? good_blocks : good46;
         a.extra_count = k ? 5 : 4;
         CHECK(exrgen_write_ex(path, X, Y, Z, ch, 2, k ? 6 : 0, 5, EXR_COMPRESSION_RLE, &a));
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
         CHECK(strcmp(info.palette, k ? "blocks" : "paper46") == 0 && info.palette_count == (k ? 12u : 46u));
         CHECK(info.palette_hash == clvox_palette_hash(k ? blocks : p46));
@@ -639,7 +639,7 @@ static void test_palette_attrs(void)
         /* (tiles of 3 x 2 would make chunks OpenEXRCore 3.1.5 compresses to exactly their raw size, which it
          * then mis-reads: see write_exr.c store_raw_if_not_smaller) */
         CHECK(exrgen_write_ex(path, X, Y, Z, ch, 2, 3, 2, EXR_COMPRESSION_NONE, &a));
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
         CHECK_MSG(info.filled_voxels == nonzero, "palette case %zu: filled %llu, expected %llu", i,
                   (unsigned long long)info.filled_voxels, (unsigned long long)nonzero);

@@ -40,7 +40,7 @@ static void check_mesh(const char *name, uint32_t n, int closed_expected)
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.ray_axis = axis;
         o.inside = CLVOX_INSIDE_PARITY; /* the reference is parity (self-intersecting meshes differ) */
-        clvox_stats s;
+        clvox_stats s = CLVOX_STATS_INIT;
         CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, m, &g, &o, dev[a], nvox(&g), &s));
         uint64_t odd = ref_voxelize(xyz, nv, tri, nt, &gref, axis, ref);
         size_t diff = 0;
@@ -96,7 +96,7 @@ static void check_coverage(const char *name, uint32_t n)
     for (int k = 0; k < 4; k++) {
         clvox_voxelize_options u = CLVOX_VOXELIZE_OPTIONS_INIT;
         u.oversample = 1u << k;
-        clvox_stats s;
+        clvox_stats s = CLVOX_STATS_INIT;
         CHECK_OK(ctx, clvox_voxelize_to_buffers(ctx, m, &g, &u, NULL, 0, cov, nvox(&g), &s));
         err[k] = fabs(s.coverage_sum * vv - r->enclosed_volume) / r->enclosed_volume;
         printf("%s at %u, K=%u: relative volume error %.2e\n", name, n, 1u << k, err[k]);

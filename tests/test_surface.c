@@ -288,8 +288,7 @@ static uint8_t *run_mode(const clvox_mesh *mesh, const clvox_grid *g, clvox_mode
     o.method = method;
     o.slab_depth = slab;
     o.ray_axis = axis;
-    clvox_stats st;
-    memset(&st, 0, sizeof st);
+    clvox_stats st = CLVOX_STATS_INIT;
     clvox_status s = clvox_voxelize_to_memory(ctx, mesh, g, &o, v, n, &st);
     CHECK_OK(ctx, s);
     if (s != CLVOX_OK) memset(v, 0, n);
@@ -789,9 +788,9 @@ static void test_api(void)
         snprintf(path, sizeof path, "%s/surface_%d.exr", test_tmpdir(), mode);
         clvox_voxelize_options e = CLVOX_VOXELIZE_OPTIONS_INIT;
         e.mode = (clvox_mode)mode;
-        clvox_stats st;
+        clvox_stats st = CLVOX_STATS_INIT;
         CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, mesh, &g, &e, path, &st));
-        clvox_volume_info info;
+        clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));
         CHECK_MSG(strcmp(info.method, methods[mode]) == 0 && info.filled_voxels == st.filled_voxels,
                   "mode %d: method '%s', %llu vs %llu filled", mode, info.method,

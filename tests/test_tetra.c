@@ -47,8 +47,7 @@ static uint8_t *run(const clvox_mesh *mesh, const clvox_grid *g, const clvox_vox
 {
     size_t n = voxels(g);
     uint8_t *v = malloc(n);
-    clvox_stats st;
-    memset(&st, 0, sizeof st);
+    clvox_stats st = CLVOX_STATS_INIT;
     clvox_status s = clvox_voxelize_to_memory(ctx, mesh, g, o, v, n, &st);
     CHECK_OK(ctx, s);
     if (s != CLVOX_OK) {
@@ -506,11 +505,10 @@ static void test_exr(void)
     snprintf(path, sizeof path, "%s/tetra.exr", test_tmpdir());
     clvox_voxelize_options o = opts(CLVOX_METHOD_TETRA);
     o.tetra_origin = CLVOX_TETRA_ORIGIN_BBOX_CENTER;
-    clvox_stats st;
+    clvox_stats st = CLVOX_STATS_INIT;
     uint8_t *mem = mesh ? run(mesh, &g, &o, NULL) : NULL;
     uint8_t *back = malloc(voxels(&g));
-    clvox_volume_info info;
-    memset(&info, 0, sizeof info);
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     if (mem) {
         CHECK_OK(ctx, clvox_voxelize_to_exr(ctx, mesh, &g, &o, path, &st));
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, back, voxels(&g)));

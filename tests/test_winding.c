@@ -306,7 +306,7 @@ static uint8_t *run_in(clvox_context *c, const clvox_mesh *m, const clvox_grid *
                        clvox_stats *s, clvox_status *st)
 {
     uint8_t *v = calloc(nvox(g), 1);
-    clvox_stats local;
+    clvox_stats local = CLVOX_STATS_INIT;
     clvox_status r = clvox_voxelize_to_memory(c, m, g, o, v, nvox(g), s ? s : &local);
     if (st) *st = r;
     return v;
@@ -383,7 +383,7 @@ static void test_corpus_against_oracle(void)
             if (gi == 2 && c % 3) continue; /* 48^3 on every third mesh: the oracle is brute force */
             for (int abs_rule = 0; abs_rule <= 1; abs_rule++) {
                 if (abs_rule && gi) continue;
-                clvox_stats s;
+                clvox_stats s = CLVOX_STATS_INIT;
                 uint8_t *dev = run_inside(m, &grids[gi], abs_rule ? CLVOX_INSIDE_WINDING_ABS : CLVOX_INSIDE_DEFAULT, &s);
                 CHECK_MSG(s.inside == (abs_rule ? CLVOX_INSIDE_WINDING_ABS : CLVOX_INSIDE_WINDING),
                           "%s: stats.inside %d", wc->name, (int)s.inside);
@@ -409,7 +409,7 @@ static void test_apex(void)
         clvox_mesh *m = to_mesh(&wc->mesh);
         if (!m) { CHECK(m != NULL); continue; }
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
-        clvox_stats s;
+        clvox_stats s = CLVOX_STATS_INIT;
         uint8_t *base = run(m, &g, &o, &s);
         if (s.winding.cap_triangles) {
             for (size_t k = 0; k < sizeof offsets / sizeof offsets[0]; k++) {
@@ -435,7 +435,7 @@ static void test_invariance(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
     clvox_grid g = test_grid(lo, hi, 36, 30, 26);
-    clvox_device_info devs[8];
+    clvox_device_info devs[8] = { CLVOX_DEVICE_INFO_INIT };
     size_t ndev = 0;
     if (clvox_list_devices(devs, 8, &ndev) != CLVOX_OK) ndev = 0;
     for (size_t c = 0; c < ncases; c++) {
@@ -520,7 +520,7 @@ static void check_same_as_parity(const char *what, const clvox_mesh *m, const cl
     if (overlap) printf("%s: %zu voxels covered twice or more (parity's XOR, winding's union)\n", what, overlap);
     for (clvox_axis a = CLVOX_AXIS_X; a <= CLVOX_AXIS_Z; a += 2) {
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
-        clvox_stats sw, sp;
+        clvox_stats sw = CLVOX_STATS_INIT, sp = CLVOX_STATS_INIT;
         o.ray_axis = a;
         uint8_t *w = run(m, g, &o, &sw);
         o.inside = CLVOX_INSIDE_PARITY;
@@ -717,7 +717,7 @@ static void test_cavities(void)
     for (unsigned flags = 0; flags < 4; flags++) {
         tmesh t = tmesh_nested_boxes(0.5, 0.5, 0.5, s, flags);
         clvox_mesh *m = to_mesh(&t);
-        clvox_stats st;
+        clvox_stats st = CLVOX_STATS_INIT;
         uint8_t *w = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &st), *p = run_inside(m, &g, CLVOX_INSIDE_PARITY, NULL);
         CHECK_MSG(ndiff(w, p, n) == 0 && ndiff(w, ref, n) == 0, "nested boxes flags %u: winding/parity %zu, "
                   "winding/expected %zu voxels differ", flags, ndiff(w, p, n), ndiff(w, ref, n));
@@ -764,7 +764,7 @@ static void test_coverage_samples(void)
             o.stochastic = stochastic;
             o.seed = 7;
             o.ray_axis = a;
-            clvox_stats s;
+            clvox_stats s = CLVOX_STATS_INIT;
             CHECK_OK(ctx, clvox_voxelize_to_buffers(ctx, m, &g, &o, NULL, 0, cov, n, &s));
             uint64_t ties = ref_winding_coverage(t.xyz, t.nv, t.tri, t.nt, &g, a, 2, 2, stochastic, 7, 0, NEAR_HALF, ref);
             size_t diff = 0;
@@ -802,7 +802,7 @@ static void test_options(void)
     uint8_t *want = run_inside(mb, &g, CLVOX_INSIDE_PARITY, NULL);
     clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
     o.weld = 1e-4;
-    clvox_stats s;
+    clvox_stats s = CLVOX_STATS_INIT;
     uint8_t *v = run(mc, &g, &o, &s);
     CHECK_MSG(ndiff(v, want, n) == 0, "cracked box welded at 1e-4: %zu voxels differ from the closed box",
               ndiff(v, want, n));
@@ -869,7 +869,7 @@ static void test_winding_report(void)
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
     clvox_grid g = test_grid(lo, hi, 24, 24, 24);
     double blo[3] = {0.13, 0.17, 0.11}, bhi[3] = {0.86, 0.79, 0.91};
-    clvox_stats s;
+    clvox_stats s = CLVOX_STATS_INIT;
 #define STATS_OF(tm)                                                                 \
     do {                                                                             \
         clvox_mesh *m_ = to_mesh(&(tm));                                             \
@@ -970,7 +970,7 @@ static void test_real_open(void)
         tmesh_edge_stats(&view, &bnd, &nm, &conf);
         clvox_grid g = test_padded_grid(ctx, clvox_mesh_get_report(m), real[i].n), gref = test_reference_grid(m, &g);
         const size_t n = nvox(&g);
-        clvox_stats s;
+        clvox_stats s = CLVOX_STATS_INIT;
         uint8_t *v = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s);
         uint32_t *label = malloc(nt * sizeof *label), *sub = malloc(3 * nt * sizeof *sub);
         size_t ncomp = tmesh_components_of(xyz, nv, tri, nt, label), flipped = 0, flipped_tris = 0;
@@ -1249,7 +1249,7 @@ static void test_prepare_ahead(void)
         if (!m) continue;
         clvox_grid g = test_padded_grid(ctx, clvox_mesh_get_report(m), 24);
         const size_t n = nvox(&g);
-        clvox_stats s0, s1;
+        clvox_stats s0 = CLVOX_STATS_INIT, s1 = CLVOX_STATS_INIT;
         uint8_t *plain = run_inside(m, &g, CLVOX_INSIDE_DEFAULT, &s0);
         CHECK_OK(ctx, start_ahead(m, 0.0));
         CHECK_OK(ctx, start_ahead(m, 0.0)); /* on its way: kept */
@@ -1502,7 +1502,7 @@ static void test_batches(void)
     o.slab_depth = 96;
     o.progress = batch_progress;
     batch_calls = batch_partial = batch_cancel = 0;
-    clvox_stats s1, s2;
+    clvox_stats s1 = CLVOX_STATS_INIT, s2 = CLVOX_STATS_INIT;
     uint8_t *one = run(m, &g, &o, &s1);
     CHECK_MSG(s1.winding.cap_triangles > 0 && batch_partial, "one slab: %d progress calls, none inside it (%llu caps)", batch_calls, (unsigned long long)s1.winding.cap_triangles);
     o.slab_depth = 5;

@@ -37,6 +37,14 @@ _COMPRESSIONS = {None: lib.CLVOX_COMPRESSION_DEFAULT, "none": lib.CLVOX_COMPRESS
                  "zip": lib.CLVOX_COMPRESSION_ZIP, "piz": lib.CLVOX_COMPRESSION_PIZ}
 
 
+def _out(ctype):
+    """A new output struct (clvox_stats, clvox_volume_info, ...) with its
+    .size set, as the library requires (clvox.h "Conventions")."""
+    p = ffi.new(ctype + " *")
+    p.size = ffi.sizeof(ctype)
+    return p
+
+
 def _fn(name):
     """A C function pointer to one of the binding's helpers (API mode needs addressof)."""
     return ffi.addressof(lib, name)
@@ -119,6 +127,7 @@ def devices():
     if st == lib.CLVOX_ERR_NO_DEVICE or count[0] == 0:
         return []
     arr = ffi.new("clvox_device_info[]", count[0])
+    arr[0].size = ffi.sizeof("clvox_device_info")  # and so the distance between entries
     st = lib.clvox_list_devices(arr, count[0], count)
     if st != lib.CLVOX_OK:
         raise Error(st, "clvox_list_devices failed")
@@ -635,7 +644,7 @@ class Context:
             m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options)
             X, Y, Z = grid.dims
             run.c.X, run.c.Y, run.c.Z = X, Y, Z
-            stats = ffi.new("clvox_stats *")
+            stats = _out("clvox_stats")
             try:
                 self._call(run, lib.clvox_voxelize_slabs, self._ptr, m._ptr, grid, opts,
                            _fn('pyclvox_slab_to_dense'), run.c, stats)
@@ -683,7 +692,7 @@ class Context:
                     (lib.CLVOX_OUTPUT_UINT32 if uint32 else 0))
         with self._busy():
             m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options)
-            stats = ffi.new("clvox_stats *")
+            stats = _out("clvox_stats")
             self._call(run, lib.clvox_voxelize_to_file, self._ptr, m._ptr, grid, opts, oo, p, stats)
             del pal
             d = _stats_dict(stats)
@@ -736,7 +745,7 @@ class _SlabRun:
             raise
 
     def _work(self):
-        stats = ffi.new("clvox_stats *")
+        stats = _out("clvox_stats")
         try:
             st = lib.clvox_voxelize_slabs(self.ctx._ptr, self.m._ptr, self.grid_c, self.opts,
                                           _fn('pyclvox_py_slab'), self.handle, stats)
@@ -919,7 +928,7 @@ def _info_dict(info):
 
 
 def _read_header(ctx_ptr, p):
-    info = ffi.new("clvox_volume_info *")
+    info = _out("clvox_volume_info")
     # A missing-channel read fills the header and stops (read_exr.c documents this).
     st = lib.clvox_volume_read_slices(ctx_ptr, p, b"\x01", info, _fn('pyclvox_slice_probe'), ffi.NULL)
     if st != lib.CLVOX_ERR_EXR or info.dims[0] == 0:

@@ -79,7 +79,7 @@ clvox_status clvox__palette_score_prepare(clvox_context *ctx, clvox__palette_sco
     uint64_t *vol = malloc(ne * sizeof *vol);
     if (st == CLVOX_OK && !vol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     for (size_t e = 0; st == CLVOX_OK && e < ne; e++) {
-        clvox_palette_element_info info;
+        clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         st = clvox_palette_element_info_get(ctx, o->palette, e, &info);
         if (st == CLVOX_OK) vol[e] = (uint64_t)llround(info.volume * 4294967296.0);
     }

@@ -12,8 +12,8 @@
  *   clvox convert IN.exr OUT.EXT  another volume format (cli_convert.c)
  *   clvox --list-devices | --help | --version
  *
- * This file is the entry point: main's dispatch to the subcommands, the end
- * of every command (stdout flushed, a failed write is exit 1), --version,
+ * This file is the entry point: main's dispatch to the subcommands (each
+ * ending in cli_finish_stdout, cli_common.c: a failed write is exit 1), --version,
  * --list-devices, and `clvox MESH` itself (cmd_voxelize: the default mesh
  * and output name, then one run of cli_run.c, its summary or --json record).
  * The options and --help are in cli_args.c; each stage has its own file so
@@ -62,29 +62,6 @@
 
 /* ---- small helpers ------------------------------------------------------ */
 
-/* fflush(stdout), keeping the first failure's errno (a later flush of an
- * emptied buffer succeeds and would lose it). */
-static int g_stdout_errno;
-static void flush_stdout(void)
-{
-    if (fflush(stdout) != 0 && !g_stdout_errno) g_stdout_errno = errno ? errno : EIO;
-}
-
-/* Every command ends here: output that could not be written to stdout (a
- * full disk, a closed pipe, > /dev/full) is an error, exit 1, unless the
- * command already failed. `written` names the file a voxelization wrote. */
-static int finish_stdout(int rc, const char *written)
-{
-    flush_stdout();
-    if (!g_stdout_errno && !ferror(stdout)) return rc;
-    if (rc != EXIT_OK) return rc;
-    const char *why = g_stdout_errno ? strerror(g_stdout_errno) : "write error";
-    if (written)
-        return fail(EXIT_RUNTIME, "the volume was written to '%s', but the summary could not be written to stdout: %s",
-                    written, why);
-    return fail(EXIT_RUNTIME, "cannot write to stdout: %s", why);
-}
-
 static char *dup_string(const char *s)
 {
     size_t n = strlen(s) + 1;
@@ -113,6 +90,7 @@ static int cmd_list_devices(void)
             return fail(EXIT_RUNTIME, "out of memory");
         }
         devs = grown;
+        devs[0].size = sizeof *devs; /* and so the distance between entries */
         st = clvox_list_devices(devs, cap, &count);
         if (st != CLVOX_OK || count <= cap) break;
         cap = count;
@@ -221,11 +199,6 @@ static char *default_output(const char *mesh, const char *ext)
     return out;
 }
 
-/* ---- stdout for clvox batch (cli_vox.h) ---------------------------------------------- */
-
-void cli_flush_stdout(void) { flush_stdout(); }
-int cli_finish_stdout(int rc, const char *written) { return finish_stdout(rc, written); }
-
 /* Prints one record as a line on stdout; 0 or -1 (out of memory, write error). */
 static int emit_json(const vox_session *s, const vox_job *job, const vox_result *res)
 {
@@ -234,7 +207,7 @@ static int emit_json(const vox_session *s, const vox_job *job, const vox_result 
     vox_result_json(s, job, res, &b);
     int ok = jb_write_line(&b);
     jb_free(&b);
-    flush_stdout();
+    cli_flush_stdout();
     return ok;
 }
 
@@ -256,7 +229,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
         if (!mesh_path) goto done;
         if (!a->quiet) { /* with --json stdout holds only records */
             fprintf(a->json ? stderr : stdout, "clvox: no MESH given, using the default mesh %s\n", mesh_path);
-            flush_stdout();
+            cli_flush_stdout();
         }
     }
     clvox_format format = a->out.format;
@@ -275,16 +248,16 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     rc = vox_run(&s, &job, res);
     if (a->json) {
         res->wall_seconds = cli_now() - wall_start;
-        if (emit_json(&s, &job, res) != 0 && rc == EXIT_OK && !g_stdout_errno) rc = fail(EXIT_RUNTIME, "out of memory");
+        if (emit_json(&s, &job, res) != 0 && rc == EXIT_OK && !cli_stdout_failed()) rc = fail(EXIT_RUNTIME, "out of memory");
     }
     if (rc != EXIT_OK) goto done;
     if (!a->quiet && !a->json) {
         print_summary(mesh_path, &res->report, &res->grid, clvox_context_device(s.dev), a, s.palette, &res->stats,
                       output, res->setup_seconds, cli_now() - wall_start);
-        flush_stdout(); /* the summary before the warnings */
+        cli_flush_stdout(); /* the summary before the warnings */
     }
     vox_print_warnings(&s, &job, res);
-    rc = finish_stdout(rc, output);
+    rc = cli_finish_stdout(rc, output);
 
 done:
     vox_session_close(&s);
@@ -296,12 +269,12 @@ done:
 
 int main(int argc, char **argv)
 {
-    if (argc >= 2 && strcmp(argv[1], "info") == 0) return finish_stdout(cmd_info(argc - 2, argv + 2), NULL);
-    if (argc >= 2 && strcmp(argv[1], "preview") == 0) return finish_stdout(cmd_preview(argc - 2, argv + 2), NULL);
-    if (argc >= 2 && strcmp(argv[1], "palette") == 0) return finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
-    if (argc >= 2 && strcmp(argv[1], "instances") == 0) return finish_stdout(cmd_instances(argc - 2, argv + 2), NULL);
-    if (argc >= 2 && strcmp(argv[1], "mesh") == 0) return finish_stdout(cmd_mesh(argc - 2, argv + 2), NULL);
-    if (argc >= 2 && strcmp(argv[1], "convert") == 0) return finish_stdout(cmd_convert(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "info") == 0) return cli_finish_stdout(cmd_info(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "preview") == 0) return cli_finish_stdout(cmd_preview(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "palette") == 0) return cli_finish_stdout(cmd_palette(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "instances") == 0) return cli_finish_stdout(cmd_instances(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "mesh") == 0) return cli_finish_stdout(cmd_mesh(argc - 2, argv + 2), NULL);
+    if (argc >= 2 && strcmp(argv[1], "convert") == 0) return cli_finish_stdout(cmd_convert(argc - 2, argv + 2), NULL);
 
     if (argc >= 2 && strcmp(argv[1], "batch") == 0) return cmd_batch(argc - 2, argv + 2); /* checks stdout itself */
 
@@ -310,12 +283,12 @@ int main(int argc, char **argv)
     if (rc != EXIT_OK) return rc;
     if (a.help) {
         print_help();
-        return finish_stdout(EXIT_OK, NULL);
+        return cli_finish_stdout(EXIT_OK, NULL);
     }
     if (a.version) {
         print_version();
-        return finish_stdout(EXIT_OK, NULL);
+        return cli_finish_stdout(EXIT_OK, NULL);
     }
-    if (a.list_devices) return finish_stdout(cmd_list_devices(), NULL);
+    if (a.list_devices) return cli_finish_stdout(cmd_list_devices(), NULL);
     return cmd_voxelize(&a, argc > 0 ? argv[0] : NULL); /* checks stdout itself */
 }

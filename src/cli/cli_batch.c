@@ -24,7 +24,6 @@
 #include "cli_json.h"
 #include "cli_manifest.h"
 #include "cli_vox.h"
-#include "io/output_set.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -293,7 +292,7 @@ static int manifest_add(void *user, const manifest_entry *e)
 static int add_manifest(batch_list *l, const char *path, const cli_args *a)
 {
     const char *open_why = NULL;
-    int fd = cli_open_regular_read(path, &open_why);
+    int fd = clvox_open_regular_read(path, &open_why);
     if (fd < 0) return fail(EXIT_INPUT, "batch: --manifest '%s': %s", path, open_why);
     FILE *f = fdopen(fd, "rb");
     if (!f) {
@@ -691,10 +690,10 @@ static void prefetch_join(prefetch *p)
 }
 
 /* --skip-existing: the output is there and whole (a set of files only when
- * its marker agrees with every member, output_set.c); else it is redone. */
+ * its marker agrees with every member, clvox_output_complete); else it is redone. */
 static int would_skip(const batch_opts *o, const batch_item *it)
 {
-    return o->skip_existing && clvox__output_complete(it->output, NULL, 0);
+    return o->skip_existing && clvox_output_complete(it->output, NULL, 0);
 }
 
 /* Starts loading the first item after k that will run (not skipped), if it
@@ -815,7 +814,7 @@ int cmd_batch(int argc, char **argv)
         }
         struct stat sb;
         char incomplete[1024] = "";
-        int whole = o.skip_existing && clvox__output_complete(it->output, incomplete, sizeof incomplete);
+        int whole = o.skip_existing && clvox_output_complete(it->output, incomplete, sizeof incomplete);
         if (o.skip_existing && !whole && !a.quiet && lstat(it->output, &sb) == 0)
             fprintf(stderr, "clvox: warning: %s; voxelizing it again\n", incomplete); /* a set left mixed */
         if (whole && lstat(it->output, &sb) == 0) {

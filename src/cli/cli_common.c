@@ -2,13 +2,13 @@
 /*
  * Helpers shared by the command-line files: the one-line error contract,
  * exit codes for library statuses, strict number and option parsing, the
- * early output check, and the sizes, volumes and lines the summaries print.
+ * early output check, stdout's end (cli_finish_stdout, for every command,
+ * clvox batch included), and the sizes, volumes and lines the summaries print.
+ * Output files and regular-file reads are the library's (clvox_output_file_*,
+ * clvox_open_regular_read): the CLI keeps no copy of them.
  * Moved here from cli.c unchanged when `clvox preview` got its own file
  * (cli_preview.c), the summary helpers when cli.c was split by stage.
  */
-#if defined(__linux__) && !defined(_GNU_SOURCE)
-#define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
-#endif
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L
 #endif
@@ -17,7 +17,6 @@
 #include "cli_vox.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -236,115 +235,28 @@ int has_channel(const char *list, const char *name)
     return 0;
 }
 
-/* ---- output files (the scheme of the library's EXR writer, write_exr.c) ---- */
+/* ---- stdout (every command ends with cli_finish_stdout) ---- */
 
-static int out_temp_name(char *buf, size_t size, const char *dir)
+/* fflush(stdout), keeping the first failure's errno (a later flush of an
+ * emptied buffer succeeds and would lose it). */
+static int g_stdout_errno;
+void cli_flush_stdout(void)
 {
-    static unsigned counter;
-    int n = snprintf(buf, size, "%s/.clvox-%ld-%u.tmp", dir, (long)getpid(), counter++);
-    return n > 0 && (size_t)n < size;
+    if (fflush(stdout) != 0 && !g_stdout_errno) g_stdout_errno = errno ? errno : EIO;
 }
 
-int out_file_create(out_file *of, const char *path, char *why, size_t why_size)
-{
-    memset(of, 0, sizeof *of);
-    of->fd = -1;
-    const char *slash = strrchr(path, '/');
-    size_t dn = !slash ? 1 : slash == path ? 1 : (size_t)(slash - path);
-    if (dn >= sizeof of->dir) {
-        snprintf(why, why_size, "%s", strerror(ENAMETOOLONG));
-        return -1;
-    }
-    memcpy(of->dir, !slash ? "." : path, dn);
-    of->dir[dn] = '\0';
-#ifdef O_TMPFILE
-    int fd = open(of->dir, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
-    if (fd >= 0) {
-        char proc[64];
-        snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
-        if (access(proc, F_OK) == 0) {
-            of->fd = fd;
-            of->unnamed = 1;
-            return 0;
-        }
-        close(fd);
-    } else if (errno != EOPNOTSUPP && errno != EISDIR && errno != EINVAL) {
-        snprintf(why, why_size, "%s", strerror(errno));
-        return -1;
-    }
-#endif
-    for (int attempt = 0; attempt < 100; attempt++) {
-        if (!out_temp_name(of->tmp, sizeof of->tmp, of->dir)) break;
-        of->fd = open(of->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (of->fd >= 0) return 0;
-        if (errno != EEXIST) {
-            snprintf(why, why_size, "%s", strerror(errno));
-            of->tmp[0] = '\0';
-            return -1;
-        }
-    }
-    of->tmp[0] = '\0';
-    snprintf(why, why_size, "no free temporary name in '%s'", of->dir);
-    return -1;
-}
+int cli_stdout_failed(void) { return g_stdout_errno != 0; }
 
-#ifdef O_TMPFILE
-static int out_link(int fd, const char *name)
+int cli_finish_stdout(int rc, const char *written)
 {
-    char proc[64];
-    snprintf(proc, sizeof proc, "/proc/self/fd/%d", fd);
-    if (linkat(AT_FDCWD, proc, AT_FDCWD, name, AT_SYMLINK_FOLLOW) == 0) return 0;
-    if (errno != ENOENT) return -1;
-    return linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH);
-}
-#endif
-
-int out_file_commit(out_file *of, const char *path, char *why, size_t why_size)
-{
-    struct stat sb;
-    if (lstat(path, &sb) == 0 && !S_ISREG(sb.st_mode)) {
-        snprintf(why, why_size, "it is not a regular file");
-        out_file_discard(of);
-        return -1;
-    }
-#ifdef O_TMPFILE
-    if (of->unnamed) {
-        int linked = out_link(of->fd, path) == 0;
-        if (!linked && errno == EEXIST) { /* replace it: a unique name, renamed over it at once */
-            for (int attempt = 0; attempt < 100; attempt++) {
-                if (!out_temp_name(of->tmp, sizeof of->tmp, of->dir)) break;
-                if (out_link(of->fd, of->tmp) == 0) break;
-                of->tmp[0] = '\0';
-                if (errno != EEXIST) break;
-            }
-            if (!of->tmp[0]) {
-                snprintf(why, why_size, "%s", strerror(errno));
-                out_file_discard(of);
-                return -1;
-            }
-        } else if (!linked) {
-            snprintf(why, why_size, "%s", strerror(errno));
-            out_file_discard(of);
-            return -1;
-        }
-    }
-#endif
-    if (of->tmp[0] && rename(of->tmp, path) != 0) {
-        snprintf(why, why_size, "cannot rename '%s': %s", of->tmp, strerror(errno));
-        out_file_discard(of);
-        return -1;
-    }
-    of->tmp[0] = '\0';
-    out_file_discard(of); /* closes the descriptor; nothing left to unlink */
-    return 0;
-}
-
-void out_file_discard(out_file *of)
-{
-    if (of->fd >= 0) close(of->fd);
-    of->fd = -1;
-    if (of->tmp[0]) unlink(of->tmp);
-    of->tmp[0] = '\0';
+    cli_flush_stdout();
+    if (!g_stdout_errno && !ferror(stdout)) return rc;
+    if (rc != EXIT_OK) return rc;
+    const char *why = g_stdout_errno ? strerror(g_stdout_errno) : "write error";
+    if (written)
+        return fail(EXIT_RUNTIME, "the volume was written to '%s', but the summary could not be written to stdout: %s",
+                    written, why);
+    return fail(EXIT_RUNTIME, "cannot write to stdout: %s", why);
 }
 
 /* ---- what the summaries print (clvox MESH, info, --list-devices) ---- */
@@ -389,31 +301,6 @@ int is_readable_file(const char *path)
 {
     struct stat sb;
     return stat(path, &sb) == 0 && S_ISREG(sb.st_mode) && access(path, R_OK) == 0;
-}
-
-int cli_open_regular_read(const char *path, const char **why)
-{
-    int fd;
-    do fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY); /* a FIFO would block here */
-    while (fd < 0 && errno == EINTR && !cli_interrupted());
-    if (fd < 0) {
-        *why = strerror(errno);
-        return -1;
-    }
-    struct stat sb;
-    int flags;
-    if (fstat(fd, &sb) != 0 || (S_ISREG(sb.st_mode) && ((flags = fcntl(fd, F_GETFL)) < 0 ||
-                                                        fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0))) {
-        *why = strerror(errno);
-        close(fd);
-        return -1;
-    }
-    if (!S_ISREG(sb.st_mode)) {
-        *why = S_ISDIR(sb.st_mode) ? strerror(EISDIR) : "not a regular file (a FIFO, socket or device)";
-        close(fd);
-        return -1;
-    }
-    return fd;
 }
 
 void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3])

@@ -70,25 +70,6 @@ int match_value(int argc, char **argv, int *i, const char *short_name, const cha
  * unwritable directory. Returns EXIT_OK or the reported EXIT_OUTPUT. */
 int check_output(const char *path);
 
-/* An output file written without a name and named only when complete, as
- * the library's EXR writer does (write_exr.c): on Linux an O_TMPFILE in the
- * directory of the path, linked to it (or to a short unique name renamed
- * over an existing file) by out_file_commit; where the file system lacks
- * O_TMPFILE, a named ".clvox-<pid>-<n>.tmp" in that directory. */
-typedef struct out_file {
-    int fd;           /* write here */
-    int unnamed;      /* O_TMPFILE */
-    char dir[4096];   /* directory of the path */
-    char tmp[4160];   /* the named temporary, "" if none */
-} out_file;
-/* 0, or -1 with the reason in why. */
-int out_file_create(out_file *of, const char *path, char *why, size_t why_size);
-/* After the data is synced: refuses a `path` that is not a regular file,
- * names the file `path`, closes it. 0, or -1 (why; the file is discarded). */
-int out_file_commit(out_file *of, const char *path, char *why, size_t why_size);
-/* Closes and removes the file (no-op after a commit). */
-void out_file_discard(out_file *of);
-
 /* 1 when `name` is one of the comma-separated names in `list`
  * (clvox_volume_info.channels). */
 int has_channel(const char *list, const char *name);
@@ -103,18 +84,22 @@ void format_volume(double v, int digits, char *buf, size_t size);
 const char *path_basename(const char *path);
 /* 1 when `path` is a regular file this process can read. */
 int is_readable_file(const char *path);
-/* Opens `path` for reading only if it is a regular file, without ever
- * blocking (a FIFO is opened O_NONBLOCK and refused, never read): the
- * descriptor (O_CLOEXEC, blocking), or -1 with *why the reason for the
- * message (strerror, "Is a directory", "not a regular file (...)"). Every
- * file the CLI reads itself is opened through this. */
-int cli_open_regular_read(const char *path, const char **why);
 
 /* The label column of the summaries: printf(LABEL "...", "grid", ...). */
 #define LABEL "%-13s"
 /* The "grid" and "filled" lines of `clvox MESH` and `clvox info`. */
 void print_grid_line(const uint32_t dims[3], const double origin[3], const double h[3]);
 void print_filled_line(uint64_t filled, uint64_t total);
+
+/* fflush(stdout), keeping the first error (a later flush of an emptied
+ * buffer succeeds and would lose it). */
+void cli_flush_stdout(void);
+/* 1 once a flush of stdout failed. */
+int cli_stdout_failed(void);
+/* Every command ends here: output that could not be written to stdout (a
+ * full disk, a closed pipe, > /dev/full) is an error, exit 1, unless the
+ * command already failed. `written` names the file a voxelization wrote. */
+int cli_finish_stdout(int rc, const char *written);
 
 /* clvox --help (cli_args.c): every subcommand and option. */
 void print_help(void);
@@ -131,5 +116,7 @@ int cmd_instances(int argc, char **argv);
 int cmd_mesh(int argc, char **argv);
 /* clvox convert (cli_convert.c); argv after "convert". */
 int cmd_convert(int argc, char **argv);
+/* clvox batch (cli_batch.c); argv after "batch". */
+int cmd_batch(int argc, char **argv);
 
 #endif

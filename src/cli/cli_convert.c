@@ -110,8 +110,7 @@ int cmd_convert(int argc, char **argv)
         clvox_context_destroy(ctx);
         return rc;
     }
-    clvox_volume_info info;
-    memset(&info, 0, sizeof info);
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     /* the header only: info is filled before the first slice, which stops the read */
     st = clvox_volume_read_slices(ctx, in, "occupancy", &info, stop_at_once, NULL);
     if (st == CLVOX_ERR_EXR && info.dims[0] && !has_channel(info.channels, "occupancy")) st = CLVOX_ERR_CANCELLED;

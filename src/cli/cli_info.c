@@ -115,7 +115,7 @@ static int print_elements(clvox_context *ctx, const char *file, const clvox_volu
         clvox_palette_destroy(pal);
         return fail(EXIT_RUNTIME, "out of memory");
     }
-    clvox_volume_info again;
+    clvox_volume_info again = CLVOX_VOLUME_INFO_INIT;
     h->info = &again;
     clvox_status st = clvox_volume_read_slices(ctx, file, "element", &again, count_elements, h);
     if (st != CLVOX_OK) {
@@ -143,7 +143,7 @@ static int print_elements(clvox_context *ctx, const char *file, const clvox_volu
     uint64_t shown = 0;
     for (size_t k = 0; k < ntop; k++) {
         uint32_t e = top[k];
-        clvox_palette_element_info ei;
+        clvox_palette_element_info ei = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         const char *name = "";
         if (pal && clvox_palette_element_info_get(ctx, pal, e, &ei) == CLVOX_OK) name = ei.name;
         else if (pal) name = "(not in the palette)";
@@ -193,8 +193,7 @@ int cmd_info(int argc, char **argv)
         clvox_context_destroy(ctx);
         return rc;
     }
-    clvox_volume_info info;
-    memset(&info, 0, sizeof info);
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     st = clvox_volume_read(ctx, file, &info, NULL, 0);
     if (st != CLVOX_OK) {
         int rc = fail_status(ctx, st, ROLE_INPUT);

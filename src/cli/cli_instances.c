@@ -30,7 +30,7 @@
  * host-only context) run in two threads, the score reader one slice ahead at
  * most, so memory is O(slice) whatever Z is.
  *
- * The CSV is written like every clvox output (out_file_*, cli_common.c): a
+ * The CSV is written like every clvox output (clvox_output_file_*): a
  * file without a name in the directory of OUT, synced, then named OUT; a
  * failure leaves nothing, and nothing but a regular file at OUT is replaced.
  */
@@ -150,6 +150,7 @@ static int on_score(void *user, uint32_t z, const float *values)
 static void *score_main(void *arg)
 {
     score_feed *f = arg;
+    f->info.size = sizeof f->info;
     clvox_status st = clvox_volume_read_slices(f->ctx, f->path, "score", &f->info, on_score, f);
     pthread_mutex_lock(&f->mu);
     f->done = 1;
@@ -345,7 +346,7 @@ static int load_elements(clvox_context *ctx, const clvox_palette *p, element_row
         return fail(EXIT_RUNTIME, "out of memory");
     }
     for (size_t e = 0; e < n; e++) { /* once per element: a file palette's volume is sampled each call */
-        clvox_palette_element_info info;
+        clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         clvox_status st = clvox_palette_element_info_get(ctx, p, e, &info);
         if (st != CLVOX_OK) {
             free(basic);
@@ -369,6 +370,7 @@ static int stream_rows(clvox_context *ctx, job *j)
     pthread_t thread;
     int err = pthread_create(&thread, NULL, score_main, f);
     if (err) return fail(EXIT_RUNTIME, "cannot start the score reader: %s", strerror(err));
+    j->info.size = sizeof j->info;
     clvox_status st = clvox_volume_read_slices(ctx, j->path, "element", &j->info, on_element, j);
     pthread_mutex_lock(&f->mu);
     f->cancel = 1;
@@ -393,16 +395,15 @@ static int stream_rows(clvox_context *ctx, job *j)
 /* Writes the CSV to a file without a name and names it `output` once complete. */
 static int write_csv(clvox_context *ctx, job *j)
 {
-    out_file of;
-    char why[320] = "";
-    if (out_file_create(&of, j->output, why, sizeof why) != 0)
-        return fail(EXIT_OUTPUT, "cannot create output file '%s': %s", j->output, why);
-    int fd2 = dup(of.fd); /* the stream's own descriptor: of.fd stays open for the commit */
+    clvox_output_file *of = NULL;
+    clvox_status st = clvox_output_file_create(ctx, j->output, &of);
+    if (st != CLVOX_OK) return fail_status(ctx, st, ROLE_OUTPUT);
+    int fd2 = dup(clvox_output_file_fd(of)); /* the stream's own descriptor: the file's stays open for the commit */
     FILE *f = fd2 >= 0 ? fdopen(fd2, "wb") : NULL;
     if (!f) {
         int e = errno;
         if (fd2 >= 0) close(fd2);
-        out_file_discard(&of);
+        clvox_output_file_discard(of);
         return fail(EXIT_RUNTIME, "cannot write '%s': %s", j->output, strerror(e));
     }
     setvbuf(f, NULL, _IOFBF, 1 << 18);
@@ -414,12 +415,11 @@ static int write_csv(clvox_context *ctx, job *j)
     if (fclose(f) != 0 && rc == EXIT_OK) rc = fail(EXIT_OUTPUT, "writing '%s' failed: %s", j->output, strerror(errno));
     j->out = NULL;
     if (rc != EXIT_OK) {
-        out_file_discard(&of);
+        clvox_output_file_discard(of);
         return rc;
     }
-    if (out_file_commit(&of, j->output, why, sizeof why) != 0)
-        return fail(EXIT_OUTPUT, "writing '%s' failed: %s", j->output, why);
-    return EXIT_OK;
+    st = clvox_output_file_commit(of, NULL);
+    return st == CLVOX_OK ? EXIT_OK : fail_status(ctx, st, ROLE_OUTPUT);
 }
 
 static void print_summary(const job *j, const char *map_path)

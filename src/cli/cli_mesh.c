@@ -15,21 +15,17 @@
  * (clvox_volume_read_slices): pass 1 counts the voxels of each element,
  * which gives the header's counts and the exact file size; pass 2 writes
  * each voxel's vertices and faces at their known offsets in the file
- * (element_ply.c). The file is written without a name in the directory of
- * OUT (out_file_*, cli_common.c), reserved to its full size first
- * (posix_fallocate, so a full disk fails early), synced, and only then named
- * OUT; a failed run leaves no file, and nothing that is not a regular file
- * at OUT is replaced.
- *
- * This file includes one internal header, element_mesh.h (itself built on
- * the public header only): the element geometry has no public API yet.
+ * (clvox_ply_export_*, element_ply.c). The file is written without a name
+ * in the directory of OUT (clvox_output_file_*), reserved to its full size
+ * first (posix_fallocate, so a full disk fails early), synced, and only then
+ * named OUT; a failed run leaves no file, and nothing that is not a regular
+ * file at OUT is replaced.
  */
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L
 #endif
 
 #include "cli_common.h"
-#include "palette/element_mesh.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -74,7 +70,7 @@ static void print_mesh_help(void)
 
 typedef struct pass {
     clvox_context *ctx;
-    clvox__ply_export *x;
+    clvox_ply_export *x;
     int writing;       /* 0: counting (pass 1), 1: writing (pass 2) */
     clvox_status st;   /* the exporter's failure, if any */
     char why[1024];    /* its message (the reader overwrites the context's) */
@@ -83,7 +79,7 @@ typedef struct pass {
 static int on_slice(void *user, uint32_t z, const float *values)
 {
     pass *p = user;
-    p->st = p->writing ? clvox__ply_export_slice(p->x, z, values) : clvox__ply_export_count(p->x, z, values);
+    p->st = p->writing ? clvox_ply_export_slice(p->x, z, values) : clvox_ply_export_count(p->x, z, values);
     if (p->st == CLVOX_OK) return 0;
     snprintf(p->why, sizeof p->why, "%s", clvox_context_error(p->ctx));
     return 1;
@@ -133,8 +129,7 @@ static int read_pass(clvox_context *ctx, const char *file, pass *p, role exporte
 static int export_mesh(clvox_context *ctx, const char *file, const char *output, int ascii)
 {
     /* the header, and whether there is an element channel at all */
-    clvox_volume_info info;
-    memset(&info, 0, sizeof info);
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     clvox_status st = clvox_volume_read_slices(ctx, file, "element", &info, stop_at_first, NULL);
     if (st != CLVOX_OK && st != CLVOX_ERR_CANCELLED) {
         if (st == CLVOX_ERR_EXR && info.dims[0] && !has_channel(info.channels, "element"))
@@ -148,11 +143,11 @@ static int export_mesh(clvox_context *ctx, const char *file, const char *output,
     st = clvox_volume_palette(ctx, file, &palette);
     if (st != CLVOX_OK) return fail_status(ctx, st, ROLE_INPUT);
 
-    clvox__ply_export *x = NULL;
+    clvox_ply_export *x = NULL;
     pass p = {ctx, NULL, 0, CLVOX_OK, ""};
-    out_file of;
-    int have_file = 0, rc = EXIT_OK;
-    st = clvox__ply_export_create(ctx, palette, info.dims, info.origin, info.voxel_size, ascii, &x);
+    clvox_output_file *of = NULL;
+    int rc = EXIT_OK;
+    st = clvox_ply_export_create(ctx, palette, info.dims, info.origin, info.voxel_size, ascii, &x);
     if (st != CLVOX_OK) {
         rc = st == CLVOX_ERR_INVALID_ARGUMENT ? fail(EXIT_INPUT, "'%s': %s", file, clvox_context_error(ctx))
                                               : fail_status(ctx, st, ROLE_OTHER);
@@ -160,47 +155,44 @@ static int export_mesh(clvox_context *ctx, const char *file, const char *output,
     }
     p.x = x;
     if ((rc = read_pass(ctx, file, &p, ROLE_INPUT)) != EXIT_OK) goto done;
-    clvox__ply_totals t;
-    st = clvox__ply_export_totals(x, &t);
+    clvox_ply_totals t = CLVOX_PLY_TOTALS_INIT;
+    st = clvox_ply_export_totals(x, &t);
     if (st != CLVOX_OK) {
         rc = fail(st == CLVOX_ERR_INVALID_ARGUMENT ? EXIT_INPUT : exit_code_for(st, ROLE_OTHER), "'%s': %s", file,
                   clvox_context_error(ctx));
         goto done;
     }
 
-    char why[512];
-    if (out_file_create(&of, output, why, sizeof why) != 0) {
-        rc = fail(EXIT_OUTPUT, "cannot write '%s': %s", output, why);
+    st = clvox_output_file_create(ctx, output, &of);
+    if (st != CLVOX_OK) {
+        rc = fail_status(ctx, st, ROLE_OUTPUT);
         goto done;
     }
-    have_file = 1;
+    int fd = clvox_output_file_fd(of);
     if (t.bytes > 0) {
-        int err = posix_fallocate(of.fd, 0, (off_t)t.bytes); /* a full disk fails here, before any work */
+        int err = posix_fallocate(fd, 0, (off_t)t.bytes); /* a full disk fails here, before any work */
         if (err != 0 && err != EINVAL && err != EOPNOTSUPP) {
             rc = fail(EXIT_OUTPUT, "cannot write '%s' (%llu bytes): %s", output, (unsigned long long)t.bytes,
                       strerror(err));
             goto done;
         }
     }
-    st = clvox__ply_export_begin(x, fd_write_at, &of.fd);
+    st = clvox_ply_export_begin(x, fd_write_at, &fd);
     if (st != CLVOX_OK) {
         rc = fail(exit_code_for(st, ROLE_OUTPUT), "writing '%s' failed: %s", output, clvox_context_error(ctx));
         goto done;
     }
     p.writing = 1;
     if ((rc = read_pass(ctx, file, &p, ROLE_OUTPUT)) != EXIT_OK) goto done;
-    st = clvox__ply_export_finish(x);
+    st = clvox_ply_export_finish(x);
     if (st != CLVOX_OK) {
         rc = fail(exit_code_for(st, ROLE_OUTPUT), "writing '%s' failed: %s", output, clvox_context_error(ctx));
         goto done;
     }
-    if (fsync(of.fd) != 0) { /* on disk before it gets its name */
-        rc = fail(EXIT_OUTPUT, "writing '%s' failed: %s", output, strerror(errno));
-        goto done;
-    }
-    have_file = 0;
-    if (out_file_commit(&of, output, why, sizeof why) != 0) {
-        rc = fail(EXIT_OUTPUT, "writing '%s' failed: %s", output, why);
+    st = clvox_output_file_commit(of, NULL); /* synced, then named */
+    of = NULL;
+    if (st != CLVOX_OK) {
+        rc = fail_status(ctx, st, ROLE_OUTPUT);
         goto done;
     }
     printf("wrote %s: %llu voxels of %u x %u x %u (palette %s, %zu elements), %llu vertices, %llu triangles, %llu "
@@ -209,8 +201,8 @@ static int export_mesh(clvox_context *ctx, const char *file, const char *output,
            clvox_palette_count(palette), (unsigned long long)t.vertices, (unsigned long long)t.triangles,
            (unsigned long long)t.bytes, ascii ? "ascii" : "binary little-endian");
 done:
-    if (have_file) out_file_discard(&of);
-    clvox__ply_export_destroy(x);
+    clvox_output_file_discard(of);
+    clvox_ply_export_destroy(x);
     clvox_palette_destroy(palette);
     return rc;
 }

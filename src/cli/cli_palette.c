@@ -107,7 +107,7 @@ static int cmd_show(const char *what)
     printf("%5s  %-20s %9s %-7s %5s %6s %-5s  %-20s %s\n", "index", "name", "volume", "", "cells", "planes", "compl",
            "basic", "symmetry");
     for (size_t i = 0; i < n && st == CLVOX_OK; i++) {
-        clvox_palette_element_info e, b;
+        clvox_palette_element_info e = CLVOX_PALETTE_ELEMENT_INFO_INIT, b = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         st = clvox_palette_element_info_get(ctx, p, i, &e);
         if (st == CLVOX_OK) st = clvox_palette_element_info_get(ctx, p, e.basic, &b);
         if (st != CLVOX_OK) break;

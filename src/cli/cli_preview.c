@@ -29,7 +29,7 @@
  *
  * The PNG is written to a file without a name in the directory of OUT
  * (O_TMPFILE; where the file system lacks it, ".clvox-<pid>-<n>.tmp"),
- * flushed to disk and only then named OUT (out_file_*, cli_common.c); any
+ * flushed to disk and only then named OUT (clvox_output_file_*); any
  * failure removes it. Nothing that is not a regular file at OUT is ever
  * replaced.
  */
@@ -332,23 +332,24 @@ static int write_png(FILE *f, const preview *pv, uint8_t *row, char *fail_msg, s
 }
 
 /* Writes the picture to a file without a name in the directory of `path`
- * and names it `path` once it is complete and synced (out_file_*). */
-static int save_png(const char *path, const preview *pv)
+ * and names it `path` once it is complete and synced (clvox_output_file_*). */
+static int save_png(clvox_context *ctx, const char *path, const preview *pv)
 {
     uint8_t *row = malloc((size_t)pv->width * 3);
     if (!row) return fail(EXIT_RUNTIME, "out of memory");
-    out_file of;
+    clvox_output_file *of = NULL;
     char why[320] = "";
-    if (out_file_create(&of, path, why, sizeof why) != 0) {
+    clvox_status st = clvox_output_file_create(ctx, path, &of);
+    if (st != CLVOX_OK) {
         free(row);
-        return fail(EXIT_OUTPUT, "cannot create output file '%s': %s", path, why);
+        return fail_status(ctx, st, ROLE_OUTPUT);
     }
-    int fd2 = dup(of.fd); /* the stream's own descriptor: of.fd stays open for the commit */
+    int fd2 = dup(clvox_output_file_fd(of)); /* the stream's own descriptor: the file's stays open for the commit */
     FILE *f = fd2 >= 0 ? fdopen(fd2, "wb") : NULL;
     if (!f) {
         int e = errno;
         if (fd2 >= 0) close(fd2);
-        out_file_discard(&of);
+        clvox_output_file_discard(of);
         free(row);
         return fail(EXIT_RUNTIME, "cannot write '%s': %s", path, strerror(e));
     }
@@ -367,12 +368,11 @@ static int save_png(const char *path, const preview *pv)
         snprintf(why, sizeof why, "%s", strerror(errno));
     }
     if (bad) {
-        out_file_discard(&of);
+        clvox_output_file_discard(of);
         return fail(EXIT_OUTPUT, "writing '%s' failed: %s", path, why);
     }
-    if (out_file_commit(&of, path, why, sizeof why) != 0)
-        return fail(EXIT_OUTPUT, "writing '%s' failed: %s", path, why);
-    return EXIT_OK;
+    st = clvox_output_file_commit(of, NULL);
+    return st == CLVOX_OK ? EXIT_OK : fail_status(ctx, st, ROLE_OUTPUT);
 }
 
 /* ---- command ------------------------------------------------------------------- */
@@ -525,8 +525,7 @@ int cmd_preview(int argc, char **argv)
         return rc;
     }
 
-    clvox_volume_info info;
-    memset(&info, 0, sizeof info);
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     preview pv;
     memset(&pv, 0, sizeof pv);
     pv.info = &info;
@@ -573,7 +572,7 @@ int cmd_preview(int argc, char **argv)
         rc = fail_status(ctx, st, ROLE_INPUT);
         goto done;
     }
-    rc = save_png(output, &pv);
+    rc = save_png(ctx, output, &pv);
     if (rc == EXIT_OK)
         printf("wrote %s: %u x %u pixels, channel %s%s, %u z slices and the 3 central slices of %u x %u x %u\n",
                output, pv.width, pv.height, ch, shade ? " shaded by score" : "", pv.n, pv.X, pv.Y, pv.Z);

@@ -20,8 +20,6 @@
 #include "cli_common.h"
 #include "cli_json.h"
 #include "cli_vox.h"
-#include "grid/grid_like.h"
-#include "io/output_set.h"
 
 #include <errno.h>
 #include <math.h>
@@ -343,7 +341,7 @@ static int stop_at_first_slice(void *user, uint32_t z, const float *values)
 static char *like_read_head(const char *path, size_t max, size_t *len, int *whole)
 {
     const char *why = NULL;
-    int fd = cli_open_regular_read(path, &why);
+    int fd = clvox_open_regular_read(path, &why);
     if (fd < 0) {
         fail(EXIT_INPUT, "--like '%s': cannot open: %s", path, why);
         return NULL;
@@ -379,10 +377,10 @@ static char *like_read_head(const char *path, size_t max, size_t *len, int *whol
 /* --like FILE: dims, origin and voxel size of an existing volume, one branch
  * per extension, each filling `out` or failing with one line (exit 4):
  *   .exr          a clvox EXR (its header and the first slice of one channel)
- *   .nrrd, .nhdr  a NRRD header, clvox's or another tool's (src/grid/grid_like.c)
+ *   .nrrd, .nhdr  a NRRD header, clvox's or another tool's (clvox_grid_from_nrrd_header)
  *   .json         the sidecar clvox writes next to a .npy
  *   .npy          its sidecar: OUT.json (for OUT.<channel>.npy also OUT.json),
- *                 once OUT.json agrees with every file of the set (output_set.c) */
+ *                 once OUT.json agrees with every file of the set (clvox_npy_set_complete) */
 static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out)
 {
     const char *base = path_basename(path);
@@ -415,7 +413,7 @@ static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out
         }
         if (file) { /* the grid of OUT.json is that of the .npy only when the set is whole */
             char why[1024];
-            if (!clvox__npy_set_complete(file, path, why, sizeof why)) {
+            if (!clvox_npy_set_complete(file, path, why, sizeof why)) {
                 int rc = fail(EXIT_INPUT, "--like '%s': %s (--like '%s' takes its grid anyway)", path, why, file);
                 free(file);
                 return rc;
@@ -434,8 +432,8 @@ static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out
         if (!nrrd && !whole)
             st = CLVOX_ERR_GRID, fail(EXIT_INPUT, "--like '%s': longer than %u bytes: not a clvox .npy sidecar",
                                       name, LIKE_HEAD_MAX);
-        else if (nrrd) st = clvox__grid_from_nrrd(host, name, head, len, out, note, sizeof note);
-        else st = clvox__grid_from_npy_json(host, name, head, len, out);
+        else if (nrrd) st = clvox_grid_from_nrrd_header(host, name, head, len, out, note, sizeof note);
+        else st = clvox_grid_from_npy_sidecar(host, name, head, len, out);
         free(head);
         free(file);
         if (st != CLVOX_OK) {
@@ -451,10 +449,11 @@ static int like_read_grid(clvox_context *host, const char *path, clvox_grid *out
     if (strcmp(ext, "exr") != 0)
         return fail(EXIT_INPUT, "--like '%s': expected a clvox volume (.exr, .nrrd, .nhdr, .npy or its .json sidecar)", path);
     static const char *const channels[] = {"occupancy", "coverage", "element"};
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     clvox_status st = CLVOX_ERR_EXR;
     for (size_t c = 0; c < 3; c++) {
         memset(&info, 0, sizeof info);
+        info.size = sizeof info;
         st = clvox_volume_read_slices(host, path, channels[c], &info, stop_at_first_slice, NULL);
         if (st == CLVOX_OK || st == CLVOX_ERR_CANCELLED) break;
     }
@@ -606,6 +605,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     vo.palette = s->palette;
     vo.progress = on_progress;
     vo.progress_user = &prog;
+    res->stats.size = sizeof res->stats;
     if (format == CLVOX_FORMAT_EXR && !a->out.flags) {
         st = clvox_voxelize_to_exr(s->dev, mesh, &res->grid, &vo, job->output, &res->stats);
     } else {

@@ -120,12 +120,6 @@ void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvo
 
 /* 1 once SIGINT/SIGTERM/SIGHUP arrived. */
 int cli_interrupted(void);
-/* fflush(stdout) keeping the first error; finish_stdout for the end. */
-void cli_flush_stdout(void);
-int cli_finish_stdout(int rc, const char *written);
 double cli_now(void);
-
-/* clvox batch (cli_batch.c); argv after "batch". */
-int cmd_batch(int argc, char **argv);
 
 #endif

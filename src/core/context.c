@@ -184,6 +184,7 @@ static clvox_status enumerate(device_entry **out, size_t *count, char *why, size
             memset(e, 0, sizeof *e);
             e->platform = plats[p];
             e->device = devs[d];
+            e->info.size = sizeof e->info; /* clvox_context_device hands this one out */
             e->info.index = (uint32_t)n;
             snprintf(e->info.platform, sizeof e->info.platform, "%s", pname);
             if (clGetDeviceInfo(devs[d], CL_DEVICE_NAME, sizeof buf, buf, NULL) == CL_SUCCESS)
@@ -228,9 +229,19 @@ clvox_status clvox_list_devices(clvox_device_info *out, size_t capacity, size_t 
     char why[256];
     if (!count) return CLVOX_ERR_INVALID_ARGUMENT;
     *count = 0;
-    clvox_status st = enumerate(&list, &n, why, sizeof why);
+    if (!out) capacity = 0;
+    /* the caller's struct may be an earlier, smaller one: out[0].size apart */
+    clvox_status st = capacity ? clvox__out_begin(NULL, out, sizeof *out, CLVOX__DEVICE_INFO_SIZE_0, "clvox_device_info")
+                               : CLVOX_OK;
     if (st != CLVOX_OK) return st;
-    for (size_t i = 0; i < n && i < capacity && out; i++) out[i] = list[i].info;
+    size_t stride = capacity ? out[0].size : 0;
+    st = enumerate(&list, &n, why, sizeof why);
+    if (st != CLVOX_OK) return st;
+    for (size_t i = 0; i < n && i < capacity; i++) {
+        clvox_device_info *e = (clvox_device_info *)(void *)((char *)out + i * stride);
+        e->size = stride;
+        clvox__out_end(e, &list[i].info);
+    }
     *count = n;
     free(list);
     return CLVOX_OK;
@@ -434,6 +445,37 @@ void clvox__release_mem(cl_mem *m)
 {
     if (*m) clReleaseMemObject(*m);
     *m = NULL;
+}
+
+clvox_status clvox__out_begin(clvox_context *ctx, const void *out, size_t full_size, size_t min_size,
+                              const char *what)
+{
+    if (!out) return CLVOX_OK;
+    size_t size;
+    memcpy(&size, out, sizeof size); /* every such struct begins with size_t size */
+    if (size < min_size || size > full_size)
+        return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "%s.size is %zu, not %zu..%zu (set it to sizeof(%s))",
+                           what, size, min_size, full_size, what);
+    return CLVOX_OK;
+}
+
+void clvox__out_end(void *out, const void *full)
+{
+    if (!out) return;
+    size_t size;
+    memcpy(&size, out, sizeof size);
+    memcpy((char *)out + sizeof size, (const char *)full + sizeof size, size - sizeof size);
+}
+
+int clvox_open_regular_read(const char *path, const char **why)
+{
+    const char *local;
+    if (!why) why = &local;
+    if (!path) {
+        *why = strerror(EINVAL);
+        return -1;
+    }
+    return clvox__open_regular_read(path, NULL, why);
 }
 
 int clvox__open_regular_read(const char *path, struct stat *sb, const char **why)

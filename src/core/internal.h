@@ -6,6 +6,7 @@
 #define CL_TARGET_OPENCL_VERSION 120
 #include <CL/cl.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "clvox.h"
@@ -43,6 +44,25 @@ struct clvox_context {
  * an error is one expression: return clvox__fail(ctx, CLVOX_ERR_IO, "…", …); */
 clvox_status clvox__fail(clvox_context *ctx, clvox_status status, const char *fmt, ...)
     CLVOX__PRINTF(3, 4);
+/* ---- output structs that may grow (clvox.h "Conventions"; context.c) ---- */
+
+/* The least .size a caller may pass: the struct as clvox 0.1, the first
+ * version with .size, had it. Frozen: members are appended after these,
+ * and code that writes a member appended later must check the caller's
+ * size first (the begin/end pair below does: it writes a prefix). */
+#define CLVOX__STATS_SIZE_0 (offsetof(clvox_stats, winding) + sizeof(clvox_winding_report))
+#define CLVOX__VOLUME_INFO_SIZE_0 (offsetof(clvox_volume_info, metric) + 16)
+#define CLVOX__DEVICE_INFO_SIZE_0 (offsetof(clvox_device_info, max_alloc_bytes) + sizeof(uint64_t))
+#define CLVOX__ELEMENT_INFO_SIZE_0 (offsetof(clvox_palette_element_info, complement) + sizeof(int))
+#define CLVOX__PLY_TOTALS_SIZE_0 (offsetof(clvox_ply_totals, header_bytes) + sizeof(uint64_t))
+/* Checks the .size of the caller's struct `out` (NULL is fine: nothing to
+ * check) against [min_size, full_size]: CLVOX_ERR_INVALID_ARGUMENT naming
+ * `what`, else CLVOX_OK. The library then fills a whole struct of its own
+ * and clvox__out_end copies the caller's size of it, .size kept. */
+clvox_status clvox__out_begin(clvox_context *ctx, const void *out, size_t full_size, size_t min_size,
+                              const char *what);
+void clvox__out_end(void *out, const void *full); /* NULL-safe */
+
 /* Same for an OpenCL error: "<what>: CL_OUT_OF_RESOURCES (-5)". */
 clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what);
 /* CLVOX_ERR_NO_DEVICE for `what` (a stage whose kernels exist only with

@@ -19,6 +19,7 @@
 #define _GNU_SOURCE /* O_TMPFILE, AT_EMPTY_PATH */
 #endif
 #include "internal.h"
+#include "io/output_set.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -377,4 +378,64 @@ clvox_status clvox__outfile_finish_set(clvox__outfile *const *files, size_t n)
     free(e);
     for (size_t i = 0; i < n; i++) clvox__outfile_discard(files[i]); /* closes; unlinks hidden names not placed */
     return st;
+}
+
+/* ---- the public names (clvox.h): a caller's own files, and --skip-existing ---- */
+
+struct clvox_output_file {
+    clvox__outfile f;
+};
+
+clvox_status clvox_output_file_create(clvox_context *ctx, const char *path, clvox_output_file **out)
+{
+    if (!out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_output_file_create: out is NULL");
+    *out = NULL;
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT; /* the file's messages go to it */
+    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_output_file_create: no path");
+    clvox_output_file *x = calloc(1, sizeof *x);
+    if (!x) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    clvox_status st = clvox__outfile_create(&x->f, ctx, path);
+    if (st != CLVOX_OK) {
+        clvox__outfile_discard(&x->f);
+        free(x);
+        return st;
+    }
+    *out = x;
+    return CLVOX_OK;
+}
+
+int clvox_output_file_fd(const clvox_output_file *file) { return file ? file->f.fd : -1; }
+
+clvox_status clvox_output_file_commit(clvox_output_file *file, uint64_t *bytes)
+{
+    if (bytes) *bytes = 0;
+    if (!file) return CLVOX_ERR_INVALID_ARGUMENT;
+    clvox_status st = clvox__outfile_finish(&file->f, bytes); /* discards it on failure */
+    free(file);
+    return st;
+}
+
+void clvox_output_file_discard(clvox_output_file *file)
+{
+    if (!file) return;
+    clvox__outfile_discard(&file->f);
+    free(file);
+}
+
+int clvox_output_complete(const char *path, char *why, size_t why_size)
+{
+    if (!path || !*path) {
+        if (why && why_size) snprintf(why, why_size, "no path");
+        return 0;
+    }
+    return clvox__output_complete(path, why, why_size);
+}
+
+int clvox_npy_set_complete(const char *json, const char *member, char *why, size_t why_size)
+{
+    if (!json || !*json) {
+        if (why && why_size) snprintf(why, why_size, "no path");
+        return 0;
+    }
+    return clvox__npy_set_complete(json, member, why, why_size);
 }

@@ -514,3 +514,19 @@ bad:
     return clvox__fail(ctx, CLVOX_ERR_GRID, "%s: malformed or truncated JSON (byte %zu): not a clvox .npy sidecar",
                        name, (size_t)(r.p - data));
 }
+
+/* ---- the public names (clvox.h), for clvox --like and other callers ---- */
+
+clvox_status clvox_grid_from_nrrd_header(clvox_context *ctx, const char *name, const char *data, size_t len,
+                                         clvox_grid *out, char *note, size_t note_size)
+{
+    if (!data || !out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_grid_from_nrrd_header: NULL");
+    return clvox__grid_from_nrrd(ctx, name, data, len, out, note, note_size);
+}
+
+clvox_status clvox_grid_from_npy_sidecar(clvox_context *ctx, const char *name, const char *data, size_t len,
+                                         clvox_grid *out)
+{
+    if (!data || !out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_grid_from_npy_sidecar: NULL");
+    return clvox__grid_from_npy_json(ctx, name, data, len, out);
+}

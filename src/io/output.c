@@ -307,7 +307,7 @@ clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, 
     s.info.grid = grid;
     s.info.flags = o.flags;
     s.info.compression = o.compression;
-    clvox_stats local;
+    clvox_stats local = CLVOX_STATS_INIT;
     clvox_stats *so = stats ? stats : &local;
     st = clvox__voxelize_counts(ctx, mesh, grid, options, sink_open, sink_slab, &s, &s.channels, &s.samples, so);
     if (st == CLVOX_OK && s.state) {

@@ -872,8 +872,8 @@ static clvox_status reader_open(reader *r, clvox_context *ctx, const char *path,
     return read_header(r, info);
 }
 
-clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
-                               uint8_t *occupancy, size_t occupancy_size)
+static clvox_status volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
+                                uint8_t *occupancy, size_t occupancy_size)
 {
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_read: no path");
@@ -923,8 +923,8 @@ clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volum
     return st;
 }
 
-clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
-                                      clvox_volume_info *info, clvox_volume_slice_fn fn, void *user)
+static clvox_status volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
+                                       clvox_volume_info *info, clvox_volume_slice_fn fn, void *user)
 {
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
     if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_read_slices: no path");
@@ -957,6 +957,54 @@ clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, cons
     }
     free(slice);
     reader_close(&r);
+    return st;
+}
+
+/* The public entry points: the header is read into a whole struct, then as
+ * much of it as the caller's holds is copied (clvox.h "Conventions"), also
+ * after a failure (clvox preview reads info->channels then). */
+clvox_status clvox_volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
+                               uint8_t *occupancy, size_t occupancy_size)
+{
+    clvox_status st = clvox__out_begin(ctx, info, sizeof *info, CLVOX__VOLUME_INFO_SIZE_0, "clvox_volume_info");
+    if (st != CLVOX_OK) return st;
+    clvox_volume_info full;
+    memset(&full, 0, sizeof full);
+    st = volume_read(ctx, path, &full, occupancy, occupancy_size);
+    clvox__out_end(info, &full);
+    return st;
+}
+
+/* The caller's header before its first slice (clvox preview and instances
+ * size their buffers from it in the first call). */
+typedef struct header_first {
+    clvox_volume_info *caller;
+    const clvox_volume_info *full;
+    clvox_volume_slice_fn fn;
+    void *user;
+    int copied;
+} header_first;
+
+static int header_then_slice(void *user, uint32_t z, const float *values)
+{
+    header_first *h = user;
+    if (!h->copied) {
+        clvox__out_end(h->caller, h->full);
+        h->copied = 1;
+    }
+    return h->fn(h->user, z, values);
+}
+
+clvox_status clvox_volume_read_slices(clvox_context *ctx, const char *path, const char *channel,
+                                      clvox_volume_info *info, clvox_volume_slice_fn fn, void *user)
+{
+    clvox_status st = clvox__out_begin(ctx, info, sizeof *info, CLVOX__VOLUME_INFO_SIZE_0, "clvox_volume_info");
+    if (st != CLVOX_OK) return st;
+    clvox_volume_info full;
+    memset(&full, 0, sizeof full);
+    header_first h = { info, &full, fn, user, 0 };
+    st = volume_read_slices(ctx, path, channel, &full, fn ? header_then_slice : NULL, &h);
+    clvox__out_end(info, &full);
     return st;
 }
 

@@ -566,7 +566,7 @@ clvox_status clvox__element_mesh_build(clvox_context *ctx, const clvox_palette *
     if (!out) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__element_mesh_build: out is NULL");
     memset(out, 0, sizeof *out);
     if (!palette) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox__element_mesh_build: palette is NULL");
-    clvox_palette_element_info info;
+    clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
     clvox_status st = clvox_palette_element_info_get(ctx, palette, index, &info);
     if (st != CLVOX_OK) return st;
     const clvox_element *els;

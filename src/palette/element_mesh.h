@@ -2,8 +2,8 @@
 /* Palette elements as triangle meshes (element_mesh.c) and the PLY export
  * of a palette volume built on them (element_ply.c). Not installed.
  *
- * Needs only the public header (no OpenCL), so `clvox mesh` (cli_mesh.c)
- * can use it; it is the one internal header the command line includes.
+ * The export is public as clvox_ply_export_* (clvox.h, element_ply.c):
+ * these are the same objects under the library's internal names.
  * Design: docs/design.md "Element geometry and mesh export". */
 #ifndef CLVOX_ELEMENT_MESH_H
 #define CLVOX_ELEMENT_MESH_H
@@ -50,9 +50,9 @@ void clvox__element_mesh_free(clvox__element_mesh *m); /* NULL-safe; leaves *m z
 
 /* Writes `size` bytes at byte `offset` of the output; returns 0, or an errno
  * value (non-zero) on failure. */
-typedef int (*clvox__write_at_fn)(void *user, uint64_t offset, const void *data, size_t size);
+typedef clvox_write_at_fn clvox__write_at_fn;
 
-typedef struct clvox__ply_export clvox__ply_export;
+typedef struct clvox_ply_export clvox__ply_export;
 
 typedef struct clvox__ply_totals {
     uint64_t voxels;         /* non-empty voxels (element != 0) */

@@ -47,7 +47,7 @@ typedef struct stream {
     uint64_t offset; /* file offset of buf[0] */
 } stream;
 
-struct clvox__ply_export {
+struct clvox_ply_export { /* clvox__ply_export (element_mesh.h) */
     clvox_context *ctx;
     const clvox_palette *palette;
     size_t count;
@@ -341,3 +341,50 @@ clvox_status clvox__ply_export_finish(clvox__ply_export *x)
     if (st == CLVOX_OK) st = flush(x, &x->fs);
     return st;
 }
+
+/* ---- the public names (clvox.h), for the command line and other callers ---- */
+
+clvox_status clvox_ply_export_create(clvox_context *ctx, const clvox_palette *palette, const uint32_t dims[3],
+                                     const double origin[3], const double voxel_size[3], int ascii,
+                                     clvox_ply_export **out)
+{
+    return clvox__ply_export_create(ctx, palette, dims, origin, voxel_size, ascii, out);
+}
+
+void clvox_ply_export_destroy(clvox_ply_export *x) { clvox__ply_export_destroy(x); }
+
+clvox_status clvox_ply_export_count(clvox_ply_export *x, uint32_t z, const float *element)
+{
+    return clvox__ply_export_count(x, z, element);
+}
+
+clvox_status clvox_ply_export_totals(clvox_ply_export *x, clvox_ply_totals *totals)
+{
+    if (!x) return CLVOX_ERR_INVALID_ARGUMENT;
+    clvox_ply_totals full = CLVOX_PLY_TOTALS_INIT;
+    clvox_status st = clvox__out_begin(x->ctx, totals, sizeof full, CLVOX__PLY_TOTALS_SIZE_0, "clvox_ply_totals");
+    if (st != CLVOX_OK) return st;
+    clvox__ply_totals t;
+    st = clvox__ply_export_totals(x, &t);
+    if (st == CLVOX_OK) {
+        full.voxels = t.voxels;
+        full.vertices = t.vertices;
+        full.triangles = t.triangles;
+        full.bytes = t.bytes;
+        full.header_bytes = t.header_bytes;
+        clvox__out_end(totals, &full);
+    }
+    return st;
+}
+
+clvox_status clvox_ply_export_begin(clvox_ply_export *x, clvox_write_at_fn write_at, void *user)
+{
+    return clvox__ply_export_begin(x, write_at, user);
+}
+
+clvox_status clvox_ply_export_slice(clvox_ply_export *x, uint32_t z, const float *element)
+{
+    return clvox__ply_export_slice(x, z, element);
+}
+
+clvox_status clvox_ply_export_finish(clvox_ply_export *x) { return clvox__ply_export_finish(x); }

@@ -673,10 +673,9 @@ int clvox_palette_contains(const clvox_palette *palette, size_t index, float x, 
     return clvox_element_contains(palette->elements, palette->cells, palette->planes, (clvox_u32)index, x, y, z);
 }
 
-clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_palette *palette, size_t index,
-                                            clvox_palette_element_info *info)
+static clvox_status element_info_get(clvox_context *ctx, const clvox_palette *palette, size_t index,
+                                     clvox_palette_element_info *info)
 {
-    if (!palette || !info) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_palette_element_info_get: NULL");
     if (index >= palette->count)
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "palette '%s' has %zu elements, no index %zu",
                            palette->name, palette->count, index);
@@ -704,6 +703,19 @@ clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_pale
     for (uint32_t c = 0; c < e->cell_count; c++) info->plane_count += palette->cells[e->first_cell + c].plane_count;
     info->complement = (int)e->complement;
     return CLVOX_OK;
+}
+
+clvox_status clvox_palette_element_info_get(clvox_context *ctx, const clvox_palette *palette, size_t index,
+                                            clvox_palette_element_info *info)
+{
+    if (!palette || !info) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_palette_element_info_get: NULL");
+    /* filled whole here, then as much of it as the caller's struct holds */
+    clvox_status st = clvox__out_begin(ctx, info, sizeof *info, CLVOX__ELEMENT_INFO_SIZE_0, "clvox_palette_element_info");
+    if (st != CLVOX_OK) return st;
+    clvox_palette_element_info full;
+    st = element_info_get(ctx, palette, index, &full);
+    if (st == CLVOX_OK) clvox__out_end(info, &full);
+    return st;
 }
 
 uint64_t clvox_palette_hash(const clvox_palette *p)

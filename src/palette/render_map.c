@@ -209,7 +209,7 @@ static clvox_status names_get(clvox_context *ctx, const clvox_palette *palette, 
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "render map: out of memory");
     }
     for (size_t e = 0; e < n->count; e++) {
-        clvox_palette_element_info info;
+        clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         clvox_status st = clvox_palette_element_info_get(ctx, palette, e, &info);
         if (st != CLVOX_OK) {
             names_free(n);

@@ -39,7 +39,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (clvox_palette_contains(p, 0, x, y, z) || !clvox_palette_contains(p, 1, x, y, z)) abort();
     }
     for (size_t e = 0; e < n; e++) {
-        clvox_palette_element_info info;
+        clvox_palette_element_info info = CLVOX_PALETTE_ELEMENT_INFO_INIT;
         /* volumes are sampled on 64^3 points: only for the first few */
         if (e < 4) {
             if (clvox_palette_element_info_get(palette_ctx, p, e, &info) != CLVOX_OK) abort();

@@ -39,7 +39,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (size && fwrite(data, 1, size, f) != size) abort();
     if (fclose(f) != 0) abort();
 
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     clvox_status st = clvox_volume_read(ctx, path, &info, NULL, 0);
     if (st != CLVOX_OK && !clvox_context_error(ctx)[0]) abort(); /* every failure says why */
     if (st == CLVOX_OK) {

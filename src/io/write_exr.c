@@ -1229,3 +1229,31 @@ void clvox__exr_abort(clvox__exr_writer *w)
 {
     writer_free(w);
 }
+
+/* ---- the entry of output.c's format table ---- */
+
+static clvox_status fmt_open(clvox_context *ctx, const clvox__fmt_info *info, void **state)
+{
+    clvox__exr_meta meta = {info->method, info->parameters, info->palette, info->metric};
+    clvox__exr_writer *w = NULL;
+    clvox_status st = clvox__exr_open(ctx, info->path, info->grid, &meta, info->channels, info->compression,
+                                      info->threads, &w);
+    *state = w;
+    return st;
+}
+
+static clvox_status fmt_write(void *state, const clvox__fmt_slab *s)
+{
+    clvox__slab_planes p = {s->occupancy_bits, s->coverage_half, s->element, s->score_half};
+    return clvox__exr_write_slab(state, s->z0, s->nz, &p);
+}
+
+static clvox_status fmt_finish(void *state, uint64_t *bytes) { return clvox__exr_finish(state, bytes); }
+static void fmt_abort(void *state) { clvox__exr_abort(state); }
+
+/* Every channel in one file, but the slice writer (clvox convert) gives one
+ * at a time (one_channel 0); coverage and score go in as the device's HALF
+ * bits (half_bits 1). */
+const clvox__fmt_ops clvox__fmt_exr = {
+    "EXR", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE, 0, 1,
+    fmt_open, fmt_write, fmt_finish, fmt_abort};

@@ -864,8 +864,9 @@ static clvox_status reader_open(reader *r, clvox_context *ctx, const char *path,
     exr_result_t rv = exr_start_read(&r->exr, path, &init);
     if (rv != EXR_ERR_SUCCESS) {
         clvox_status st = (rv == EXR_ERR_FILE_ACCESS) ? CLVOX_ERR_IO : CLVOX_ERR_EXR;
-        if (st == CLVOX_ERR_EXR && clvox__is_mesh_path(path)) /* `clvox info bunny.off`: say so, not the magic number */
-            return clvox__fail(ctx, st, "'%s' is a mesh, not a volume: this reads the OpenEXR files clvox writes", path);
+        /* a mesh given where a volume belongs: name the mix-up, not the magic number */
+        if (st == CLVOX_ERR_EXR && clvox__is_mesh_path(path))
+            return clvox__fail(ctx, st, "'%s' is a mesh, not a volume (an OpenEXR file written by clvox)", path);
         return clvox__fail(ctx, st, "'%s' is not a readable OpenEXR file: %s", path,
                            r->msg[0] ? r->msg : exr_get_default_error_message(rv));
     }

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* Driver: runs a method slab by slab and hands each slab's planes
  * (occupancy bit rows and/or coverage values, see internal.h), in
- * increasing z, to a sink (EXR writer, caller callback or dense memory).
+ * increasing z, to a sink (a file format of io/output.c's table, caller
+ * callback or dense memory).
  * Memory is one slab of each plane whatever the number of slices. */
 #include "core/internal.h"
 
@@ -398,61 +399,6 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     return st;
 }
 
-/* ---- EXR sink ---- */
-
-typedef struct exr_sink {
-    clvox_context *ctx;
-    const char *path;
-    const clvox_grid *grid;
-    clvox_compression compression;
-    uint32_t threads;
-    uint32_t channels; /* set by run() before open */
-    const clvox_palette *palette;
-    clvox_metric metric;
-    clvox__exr_writer *w;
-} exr_sink;
-
-static clvox_status exr_open(void *user, const char *method, const char *params)
-{
-    exr_sink *s = user;
-    clvox__exr_meta meta = {method, params, s->palette, s->palette ? clvox_metric_name(s->metric) : NULL};
-    return clvox__exr_open(s->ctx, s->path, s->grid, &meta, s->channels, s->compression, s->threads, &s->w);
-}
-
-static clvox_status exr_slab(void *user, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes)
-{
-    exr_sink *s = user;
-    return clvox__exr_write_slab(s->w, z0, nz, planes);
-}
-
-clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                   const clvox_voxelize_options *options, const char *path, clvox_stats *stats)
-{
-    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
-    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "no output path");
-    exr_sink s = {ctx, path, grid, options ? options->compression : CLVOX_COMPRESSION_DEFAULT,
-                  options ? options->threads : 0, 0, NULL, CLVOX_METRIC_NEAREST, NULL};
-    if (options && options->size >= offsetof(clvox_voxelize_options, metric) + sizeof options->metric) {
-        s.palette = options->palette;
-        s.metric = options->metric;
-    }
-    clvox_stats local = CLVOX_STATS_INIT;
-    clvox_stats *st_out = stats ? stats : &local;
-    sink_needs needs = {0, 0, &s.channels, NULL}; /* HALF bits straight into the file */
-    clvox_status st = run(ctx, mesh, grid, options, &needs, exr_open, exr_slab, &s, st_out);
-    if (st == CLVOX_OK && s.w) {
-        double t0 = clvox__now();
-        uint64_t bytes = 0;
-        st = clvox__exr_finish(s.w, &bytes); /* frees the writer, also on failure */
-        st_out->seconds[CLVOX_STAGE_WRITE] += clvox__now() - t0;
-        st_out->seconds[CLVOX_STAGE_TOTAL] += clvox__now() - t0;
-        st_out->output_bytes = bytes;
-    } else {
-        clvox__exr_abort(s.w);
-    }
-    return st;
-}
-
 /* ---- callback and memory sinks ---- */
 
 typedef struct user_sink {
@@ -665,12 +611,12 @@ clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, const clvox_m
     return run_user(ctx, mesh, grid, &o, forced, &s, stats);
 }
 
-clvox_status clvox__voxelize_counts(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                    const clvox_voxelize_options *options, clvox__open_fn open_sink,
-                                    clvox__sink_fn sink, void *user, uint32_t *channels, uint32_t *samples,
-                                    clvox_stats *stats)
+clvox_status clvox__voxelize_to_sink(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                     const clvox_voxelize_options *options, int counts, clvox__open_fn open_sink,
+                                     clvox__sink_fn sink, void *user, uint32_t *channels, uint32_t *samples,
+                                     clvox_stats *stats)
 {
-    sink_needs needs = {0, 1, channels, samples};
+    sink_needs needs = {0, counts, channels, samples};
     return run(ctx, mesh, grid, options, &needs, open_sink, sink, user, stats);
 }
 

@@ -637,7 +637,7 @@ static void test_palette_attrs(void)
         a.extra = fails[i].x;
         a.extra_count = fails[i].count;
         /* (tiles of 3 x 2 would make chunks OpenEXRCore 3.1.5 compresses to exactly their raw size, which it
-         * then mis-reads: see write_exr.c store_raw_if_not_smaller) */
+         * then mis-reads: see exr_write_encode.c store_raw_if_not_smaller) */
         CHECK(exrgen_write_ex(path, X, Y, Z, ch, 2, 3, 2, EXR_COMPRESSION_NONE, &a));
         clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
         CHECK_OK(ctx, clvox_volume_read(ctx, path, &info, NULL, 0));

@@ -468,18 +468,26 @@ typedef struct clvox__fmt_info {
     uint32_t flags;       /* CLVOX_OUTPUT_* */
     clvox_compression compression;
     const char *method, *parameters;
+    const clvox_palette *palette; /* palette runs: recorded where the format can (EXR), else NULL */
+    const char *metric;           /* palette runs: clvox_metric_name */
+    uint32_t threads;             /* encoder threads (EXR; 0 = online CPUs) */
 } clvox__fmt_info;
 
 typedef struct clvox__fmt_ops {
     const char *name;
     uint32_t channels;    /* the channels the format can hold */
     int one_channel;      /* 1: one channel per file */
+    /* 1: coverage and score as the device's HALF bits, straight into the
+     * file (no counts, no float copies: EXR); 0: as counts, which the file
+     * sink turns into both HALF bits and floats (output.c). */
+    int half_bits;
     clvox_status (*open)(clvox_context *ctx, const clvox__fmt_info *info, void **state);
     clvox_status (*write)(void *state, const clvox__fmt_slab *slab);
     clvox_status (*finish)(void *state, uint64_t *bytes);
     void (*abort)(void *state);
 } clvox__fmt_ops;
-extern const clvox__fmt_ops clvox__fmt_npy, clvox__fmt_nrrd, clvox__fmt_binvox;
+/* EXR (write_exr.c, over clvox__exr_open and the rest above) and the raster formats. */
+extern const clvox__fmt_ops clvox__fmt_exr, clvox__fmt_npy, clvox__fmt_nrrd, clvox__fmt_binvox;
 /* OpenVDB (.vdb), optional at build time (CLVOX_HAVE_OPENVDB). The writer
  * (write_vdb.cpp) is a plugin, libclvox-vdb.so, that vdb_plugin.c loads on
  * the first .vdb: linked in, libopenvdb cost every run 27 MB of resident
@@ -524,14 +532,15 @@ char *clvox__channel_path(const char *path, uint32_t channel, uint32_t channels)
 /* `path` with its extension replaced by `ext` ("out.npy" -> "out.json"). */
 char *clvox__replace_ext(const char *path, const char *ext);
 
-/* The pipeline for output.c: coverage and score as sample counts (samples
- * per voxel in *samples), the sink opened once the method is prepared. */
+/* The pipeline for output.c's file formats: coverage and score as sample
+ * counts (counts = 1; samples per voxel in *samples) or as HALF bits
+ * (counts = 0), the sink opened once the method is prepared. */
 typedef clvox_status (*clvox__open_fn)(void *user, const char *method, const char *params);
 typedef clvox_status (*clvox__sink_fn)(void *user, uint32_t z0, uint32_t nz, const clvox__slab_planes *planes);
-clvox_status clvox__voxelize_counts(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                    const clvox_voxelize_options *options, clvox__open_fn open_sink,
-                                    clvox__sink_fn sink, void *user, uint32_t *channels, uint32_t *samples,
-                                    clvox_stats *stats);
+clvox_status clvox__voxelize_to_sink(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                     const clvox_voxelize_options *options, int counts, clvox__open_fn open_sink,
+                                     clvox__sink_fn sink, void *user, uint32_t *channels, uint32_t *samples,
+                                     clvox_stats *stats);
 
 #ifdef __cplusplus
 }

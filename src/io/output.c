@@ -1,12 +1,13 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Output formats other than EXR: the format table, file names per channel,
- * the slab conversions shared by the writers, clvox_voxelize_to_file and the
- * slice writer of clvox convert (clvox_volume_writer). The writers
- * themselves: write_npy.c, write_nrrd.c, write_binvox.c, write_vdb.cpp (EXR:
- * write_exr.c). */
+/* The output formats: the format table, file names per channel, the slab
+ * conversions shared by the writers, the file sink every format is written
+ * through (clvox_voxelize_to_file, clvox_voxelize_to_exr) and the slice
+ * writer of clvox convert (clvox_volume_writer). The writers themselves:
+ * write_exr.c, write_npy.c, write_nrrd.c, write_binvox.c, write_vdb.cpp. */
 #include "core/internal.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,6 +39,7 @@ clvox_format clvox_format_from_path(const char *path)
 static const clvox__fmt_ops *format_ops(clvox_format f)
 {
     switch (f) {
+    case CLVOX_FORMAT_EXR: return &clvox__fmt_exr;
     case CLVOX_FORMAT_NPY: return &clvox__fmt_npy;
     case CLVOX_FORMAT_NRRD: return &clvox__fmt_nrrd;
     case CLVOX_FORMAT_BINVOX: return &clvox__fmt_binvox;
@@ -157,7 +159,7 @@ int clvox__encode_rows(const clvox__fmt_slab *s, uint32_t channel, clvox__dtype 
     return 1;
 }
 
-/* ---- clvox_voxelize_to_file ---- */
+/* ---- the file sink: clvox_voxelize_to_file, clvox_voxelize_to_exr ---- */
 
 typedef struct file_sink {
     clvox_context *ctx;
@@ -183,7 +185,7 @@ static clvox_status sink_open(void *user, const char *method, const char *params
         return clvox__fail(s->ctx, CLVOX_ERR_INVALID_ARGUMENT, "cannot write '%s': %s holds no %s channel",
                            s->info.path, s->ops->name, clvox__channel_name(bad & (~bad + 1u)));
     }
-    if (s->channels & (CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_SCORE)) {
+    if (!s->ops->half_bits && (s->channels & (CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_SCORE))) {
         uint32_t n = s->samples ? s->samples : 1;
         s->half_of = malloc(((size_t)n + 1) * sizeof *s->half_of);
         s->value_of = malloc(((size_t)n + 1) * sizeof *s->value_of);
@@ -218,6 +220,11 @@ static clvox_status sink_slab(void *user, uint32_t z0, uint32_t nz, const clvox_
     file_sink *s = user;
     size_t n = (size_t)s->info.grid->dims[0] * s->info.grid->dims[1] * nz;
     clvox__fmt_slab fs = {z0, nz, p->occupancy_bits, NULL, NULL, p->element, NULL, NULL};
+    if (s->ops->half_bits) { /* the device's HALF bits, as they are */
+        fs.coverage_half = p->coverage_half;
+        fs.score_half = p->score_half;
+        return s->ops->write(s->state, &fs);
+    }
     if (p->coverage_half) {
         if (!counts_to(s, p->coverage_half, n, &s->cov_half, &s->cov))
             return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a slab");
@@ -275,45 +282,35 @@ static clvox_status resolve_format(clvox_context *ctx, const char *path, const c
     return CLVOX_OK;
 }
 
-clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                    const clvox_voxelize_options *options, const clvox_output_options *output,
-                                    const char *path, clvox_stats *stats)
+/* Runs the voxelization into the file of format ops; o holds the resolved
+ * compression and flags. */
+static clvox_status write_file(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                               const clvox_voxelize_options *options, const clvox__fmt_ops *ops,
+                               const clvox_output_options *o, const char *path, clvox_stats *stats)
 {
-    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
-    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "no output path");
-    if (!grid) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL grid");
-    clvox_output_options o;
-    clvox_status st = resolve_format(ctx, path, output, &o);
-    if (st != CLVOX_OK) return st;
-    if (o.format == CLVOX_FORMAT_EXR) {
-        if (!output || o.compression == CLVOX_COMPRESSION_DEFAULT) return clvox_voxelize_to_exr(ctx, mesh, grid, options, path, stats);
-        clvox_voxelize_options vo = CLVOX_VOXELIZE_OPTIONS_INIT;
-        if (options && options->size >= sizeof(size_t) && options->size <= sizeof vo) memcpy(&vo, options, options->size);
-        vo.size = sizeof vo;
-        vo.compression = o.compression;
-        return clvox_voxelize_to_exr(ctx, mesh, grid, &vo, path, stats);
-    }
-    if (o.compression == CLVOX_COMPRESSION_DEFAULT && options) o.compression = options->compression;
-    clvox_output_options chk = o; /* the voxelize options' compression must suit the format too */
-    st = resolve_format(ctx, path, &chk, &o);
-    if (st != CLVOX_OK) return st;
-    st = clvox__outfile_check_target(ctx, path); /* before any work */
-    if (st != CLVOX_OK) return st;
     file_sink s;
     memset(&s, 0, sizeof s);
     s.ctx = ctx;
-    s.ops = format_ops(o.format);
+    s.ops = ops;
     s.info.path = path;
     s.info.grid = grid;
-    s.info.flags = o.flags;
-    s.info.compression = o.compression;
+    s.info.flags = o->flags;
+    s.info.compression = o->compression;
+    if (options && options->size >= offsetof(clvox_voxelize_options, threads) + sizeof options->threads)
+        s.info.threads = options->threads;
+    if (options && options->size >= offsetof(clvox_voxelize_options, metric) + sizeof options->metric &&
+        options->palette) {
+        s.info.palette = options->palette;
+        s.info.metric = clvox_metric_name(options->metric);
+    }
     clvox_stats local = CLVOX_STATS_INIT;
     clvox_stats *so = stats ? stats : &local;
-    st = clvox__voxelize_counts(ctx, mesh, grid, options, sink_open, sink_slab, &s, &s.channels, &s.samples, so);
+    clvox_status st = clvox__voxelize_to_sink(ctx, mesh, grid, options, !ops->half_bits, sink_open, sink_slab, &s,
+                                              &s.channels, &s.samples, so);
     if (st == CLVOX_OK && s.state) {
         double t0 = clvox__now();
         uint64_t bytes = 0;
-        st = s.ops->finish(s.state, &bytes);
+        st = s.ops->finish(s.state, &bytes); /* frees the state, also on failure */
         so->seconds[CLVOX_STAGE_WRITE] += clvox__now() - t0;
         so->seconds[CLVOX_STAGE_TOTAL] += clvox__now() - t0;
         so->output_bytes = bytes;
@@ -329,15 +326,45 @@ clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, 
     return st;
 }
 
+clvox_status clvox_voxelize_to_file(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    const clvox_voxelize_options *options, const clvox_output_options *output,
+                                    const char *path, clvox_stats *stats)
+{
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "no output path");
+    if (!grid) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "NULL grid");
+    clvox_output_options o;
+    clvox_status st = resolve_format(ctx, path, output, &o);
+    if (st != CLVOX_OK) return st;
+    if (o.compression == CLVOX_COMPRESSION_DEFAULT && options) o.compression = options->compression;
+    clvox_output_options chk = o; /* the voxelize options' compression must suit the format too */
+    st = resolve_format(ctx, path, &chk, &o);
+    if (st != CLVOX_OK) return st;
+    st = clvox__outfile_check_target(ctx, path); /* before any work */
+    if (st != CLVOX_OK) return st;
+    return write_file(ctx, mesh, grid, options, format_ops(o.format), &o, path, stats);
+}
+
+/* EXR whatever the path's extension, the compression of the options. */
+clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                   const clvox_voxelize_options *options, const char *path, clvox_stats *stats)
+{
+    if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
+    if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "no output path");
+    clvox_output_options o = CLVOX_OUTPUT_OPTIONS_INIT;
+    o.format = CLVOX_FORMAT_EXR;
+    o.compression = options ? options->compression : CLVOX_COMPRESSION_DEFAULT;
+    return write_file(ctx, mesh, grid, options, &clvox__fmt_exr, &o, path, stats);
+}
+
 /* ---- clvox_volume_writer ---- */
 
 struct clvox_volume_writer {
     clvox_context *ctx;
     clvox_grid grid;
     uint32_t channels;
-    const clvox__fmt_ops *ops; /* NULL: EXR */
+    const clvox__fmt_ops *ops;
     void *state;
-    clvox__exr_writer *exr;
     uint32_t *bits;
     uint16_t *u16;
     float *f32;
@@ -362,11 +389,11 @@ clvox_status clvox_volume_writer_open(clvox_context *ctx, const char *path, cons
             !isfinite(grid->origin[a]))
             return clvox__fail(ctx, CLVOX_ERR_GRID, "invalid grid");
     const clvox__fmt_ops *ops = format_ops(o.format);
-    if ((!ops || !ops->one_channel) && (channels & (channels - 1)))
+    if (!ops->one_channel && (channels & (channels - 1)))
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
                            "cannot write '%s': one channel at a time into %s (choose one with --channel)", path,
                            clvox_format_name(o.format));
-    if (ops && (channels & ~ops->channels)) {
+    if (channels & ~ops->channels) {
         uint32_t bad = channels & ~ops->channels;
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "cannot write '%s': %s holds no %s channel", path,
                            ops->name, clvox__channel_name(bad & (~bad + 1u)));
@@ -386,13 +413,9 @@ clvox_status clvox_volume_writer_open(clvox_context *ctx, const char *path, cons
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a %u x %u slice", grid->dims[0],
                            grid->dims[1]);
     }
-    if (ops) {
-        clvox__fmt_info info = {path, &w->grid, channels, o.flags, o.compression, o.method, o.parameters};
-        st = ops->open(ctx, &info, &w->state);
-    } else {
-        clvox__exr_meta meta = {o.method ? o.method : "", o.parameters ? o.parameters : "", NULL, NULL};
-        st = clvox__exr_open(ctx, path, &w->grid, &meta, channels, o.compression, o.threads, &w->exr);
-    }
+    clvox__fmt_info info = {path, &w->grid, channels, o.flags, o.compression, o.method, o.parameters,
+                            NULL, NULL, o.threads};
+    st = ops->open(ctx, &info, &w->state);
     if (st != CLVOX_OK) {
         clvox_volume_writer_abort(w);
         return st;
@@ -433,23 +456,15 @@ clvox_status clvox_volume_writer_slice(clvox_volume_writer *w, uint32_t channel,
         if (channel == CLVOX_CHANNEL_COVERAGE) fs.coverage_half = w->u16, fs.coverage = w->f32;
         else fs.score_half = w->u16, fs.score = w->f32;
     }
-    if (w->ops) return w->ops->write(w->state, &fs);
-    clvox__slab_planes p = {fs.occupancy_bits, fs.coverage_half, fs.element, fs.score_half};
-    return clvox__exr_write_slab(w->exr, z, 1, &p);
+    return w->ops->write(w->state, &fs);
 }
 
 clvox_status clvox_volume_writer_finish(clvox_volume_writer *w, uint64_t *bytes)
 {
     if (bytes) *bytes = 0;
     if (!w) return CLVOX_ERR_INVALID_ARGUMENT;
-    clvox_status st;
-    if (w->ops) {
-        st = w->ops->finish(w->state, bytes);
-        w->state = NULL;
-    } else {
-        st = clvox__exr_finish(w->exr, bytes);
-        w->exr = NULL;
-    }
+    clvox_status st = w->ops->finish(w->state, bytes);
+    w->state = NULL;
     clvox_volume_writer_abort(w);
     return st;
 }
@@ -457,8 +472,7 @@ clvox_status clvox_volume_writer_finish(clvox_volume_writer *w, uint64_t *bytes)
 void clvox_volume_writer_abort(clvox_volume_writer *w)
 {
     if (!w) return;
-    if (w->ops && w->state) w->ops->abort(w->state);
-    clvox__exr_abort(w->exr);
+    if (w->state) w->ops->abort(w->state);
     free(w->bits);
     free(w->u16);
     free(w->f32);

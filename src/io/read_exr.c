@@ -28,352 +28,21 @@
  * (exact while the sum is below 2^29; otherwise one rounding). Infinite or
  * NaN samples (never written by clvox) are added as floats, so they show in
  * the result. FLOAT and UINT coverage samples are summed in double.
+ * Files: this one (the API, the sample conversions and sums, the band
+ * consumers), exr_read_header.c (opening the file, the header, the
+ * attributes and the size checks), exr_read_decode.c (read_channel: the
+ * chunk decoding, with its fast path for NONE and RLE); exr_reader.h holds
+ * the state they share.
  */
-#include "core/internal.h"
+#include "io/exr_reader.h"
 
-#include <OpenEXR/openexr.h>
-
-#include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
-
-typedef struct reader {
-    clvox_context *ctx;
-    const char *path;
-    int fd;             /* the file, opened once (read_fn reads through it) */
-    uint64_t file_size;
-    exr_context_t exr;
-    char msg[512]; /* last OpenEXRCore message */
-    const exr_attr_chlist_t *chl;
-    int all_full;  /* no channel is subsampled */
-    /* the channel being read (select_channel) */
-    const char *ch_name;
-    int ch_type;            /* EXR_PIXEL_* */
-    uint32_t ch_bytes;      /* 2 or 4 */
-    /* fast path (NONE, RLE): raw chunk layout, see fast_chunk */
-    int fast;
-    exr_compression_t compression;
-    uint32_t pixel_bytes, ch_offset; /* per pixel: all channels, channels before the selected one */
-    uint8_t *packed, *tmp, *raw;
-    size_t packed_size, tmp_size, raw_size;
-    int has_palette_hash, has_palette_count; /* the header has clvoxPaletteHash, clvoxPaletteCount */
-} reader;
-
-static void reader_error_handler(exr_const_context_t ectx, exr_result_t code, const char *msg)
-{
-    void *ud = NULL;
-    if (!ectx || exr_get_user_data(ectx, &ud) != EXR_ERR_SUCCESS || !ud) return;
-    reader *r = ud;
-    snprintf(r->msg, sizeof r->msg, "%s", msg ? msg : exr_get_default_error_message(code));
-}
-
-static int64_t reader_read_fn(exr_const_context_t ectx, void *ud, void *buffer, uint64_t size, uint64_t offset,
-                              exr_stream_error_func_ptr_t error_cb)
-{
-    reader *r = ud;
-    uint8_t *p = buffer;
-    uint64_t done = 0;
-    while (done < size) {
-        size_t n = size - done > (1u << 30) ? (1u << 30) : (size_t)(size - done);
-        ssize_t got = pread(r->fd, p + done, n, (off_t)(offset + done));
-        if (got < 0 && errno == EINTR) continue;
-        if (got < 0) {
-            if (error_cb) error_cb(ectx, EXR_ERR_READ_IO, "read from '%s' failed: %s", r->path, strerror(errno));
-            return -1;
-        }
-        if (got == 0) break; /* end of file: a short read, as pread gives */
-        done += (uint64_t)got;
-    }
-    return (int64_t)done;
-}
-
-static int64_t reader_size_fn(exr_const_context_t ectx, void *ud)
-{
-    (void)ectx;
-    return (int64_t)((reader *)ud)->file_size;
-}
-
-/* At most this many bytes of samples per byte of file for compression c: a
- * larger claim cannot be true, and would only make us allocate for it. RLE:
- * a 2-byte token gives at most 128 bytes; zlib (ZIP, ZIPS, PXR24) at most
- * about 1032 per byte, PIZ's Huffman runs about 410, B44 11; DWA (lossy,
- * zlib over DCT runs) is given room. */
-static uint64_t max_expansion(exr_compression_t c)
-{
-    switch (c) {
-    case EXR_COMPRESSION_NONE: return 1;
-    case EXR_COMPRESSION_RLE: return 64;
-    case EXR_COMPRESSION_DWAA:
-    case EXR_COMPRESSION_DWAB: return 1u << 17;
-    default: return 2048;
-    }
-}
-
-static clvox_status exr_fail(reader *r, exr_result_t rv, const char *what)
-{
-    return clvox__fail(r->ctx, CLVOX_ERR_EXR, "OpenEXR: %s '%s': %s", what, r->path,
-                       r->msg[0] ? r->msg : exr_get_default_error_message(rv));
-}
-
-static void copy_str(char *dst, size_t size, const char *src, int32_t len)
-{
-    size_t n = len < 0 ? 0 : (size_t)len;
-    if (n >= size) n = size - 1;
-    if (n) memcpy(dst, src, n);
-    dst[n] = '\0';
-}
-
-static const char *compression_name(exr_compression_t c)
-{
-    static const char *const names[] = { "none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab" };
-    return (unsigned)c < sizeof names / sizeof names[0] ? names[c] : "unknown";
-}
-
-static clvox_status get_string(reader *r, const char *name, char *dst, size_t size)
-{
-    int32_t len = 0;
-    const char *s = NULL;
-    exr_result_t rv = exr_attr_get_string(r->exr, 0, name, &len, &s);
-    if (rv != EXR_ERR_SUCCESS || !s)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is not a clvox volume: string attribute %s is missing",
-                           r->path, name);
-    copy_str(dst, size, s, len);
-    return CLVOX_OK;
-}
-
-/* 1 when the n bytes hold a control character (NUL, newline, DEL, ...). */
-static int has_control(const char *s, size_t n)
-{
-    for (size_t i = 0; i < n; i++)
-        if ((unsigned char)s[i] < 0x20 || s[i] == 0x7F) return 1;
-    return 0;
-}
-
-/* An optional string attribute: *present = 0 when the header lacks it;
- * else it must be a string of fewer than `size` bytes without control
- * characters (so that messages quoting it stay one line). */
-static clvox_status optional_string(reader *r, const char *name, char *dst, size_t size, int *present)
-{
-    const exr_attribute_t *a = NULL;
-    *present = 0;
-    dst[0] = '\0';
-    exr_result_t rv = exr_get_attribute_by_name(r->exr, 0, name, &a);
-    if (rv == EXR_ERR_NO_ATTR_BY_NAME) return CLVOX_OK;
-    if (rv != EXR_ERR_SUCCESS || !a) return exr_fail(r, rv, "reading the header of");
-    if (a->type != EXR_ATTR_STRING || !a->string || a->string->length < 0 || !a->string->str)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is corrupt: attribute %s is not a string", r->path, name);
-    size_t n = (size_t)a->string->length;
-    if (n >= size || has_control(a->string->str, n))
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR,
-                           "'%s' is corrupt: attribute %s is %s (at most %zu bytes, no control characters)", r->path,
-                           name, n >= size ? "too long" : "not text", size - 1);
-    copy_str(dst, size, a->string->str, a->string->length);
-    *present = 1;
-    return CLVOX_OK;
-}
-
-/* The palette attributes of a palette run (write_exr.c), each optional:
- * clvoxPalette, clvoxPaletteCount (int, 1..65536), clvoxPaletteHash (16
- * lower-case hex digits), clvoxMetric. Present but malformed: corrupt. */
-static clvox_status read_palette_attrs(reader *r, clvox_volume_info *info)
-{
-    int present = 0;
-    clvox_status st = optional_string(r, "clvoxPalette", info->palette, sizeof info->palette, &present);
-    if (st == CLVOX_OK) st = optional_string(r, "clvoxMetric", info->metric, sizeof info->metric, &present);
-    if (st != CLVOX_OK) return st;
-    char hash[17];
-    st = optional_string(r, "clvoxPaletteHash", hash, sizeof hash, &present);
-    if (st != CLVOX_OK) return st;
-    if (present) {
-        uint64_t h = 0;
-        size_t i = 0;
-        for (; hash[i]; i++) {
-            char c = hash[i];
-            if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) break;
-            h = h << 4 | (uint64_t)(c <= '9' ? c - '0' : c - 'a' + 10);
-        }
-        if (i != 16 || hash[i])
-            return clvox__fail(r->ctx, CLVOX_ERR_EXR,
-                               "'%s' is corrupt: attribute clvoxPaletteHash \"%s\" is not 16 lower-case hex digits",
-                               r->path, hash);
-        info->palette_hash = h;
-        r->has_palette_hash = 1;
-    }
-    const exr_attribute_t *a = NULL;
-    exr_result_t rv = exr_get_attribute_by_name(r->exr, 0, "clvoxPaletteCount", &a);
-    if (rv == EXR_ERR_SUCCESS && a) {
-        if (a->type != EXR_ATTR_INT || a->i < 1 || a->i > 65536)
-            return clvox__fail(r->ctx, CLVOX_ERR_EXR,
-                               "'%s' is corrupt: attribute clvoxPaletteCount is not an int in 1..65536", r->path);
-        info->palette_count = (uint32_t)a->i;
-        r->has_palette_count = 1;
-    } else if (rv != EXR_ERR_NO_ATTR_BY_NAME) {
-        return exr_fail(r, rv, "reading the header of");
-    }
-    return CLVOX_OK;
-}
-
-/* What the file can hold: the samples the header declares (all channels)
- * at most max_expansion times the file size, the chunk offset table (8 bytes
- * per chunk) inside the file; with clvox's own layouts (clvoxLayout and
- * tiles X wide, as clvox writes them), tiles Y tall for "tile-per-slice" (so
- * the tiles confirm clvoxDims' Y), fewer rows than Y for "row-chunks". Every buffer
- * the reader allocates is bounded by the samples, so by the file size. */
-static clvox_status check_size(reader *r, const clvox_volume_info *info, uint64_t H)
-{
-    uint64_t pixel = 0;
-    for (int c = 0; c < r->chl->num_channels; c++)
-        pixel += r->chl->entries[c].pixel_type == EXR_PIXEL_HALF ? 2u : 4u;
-    const uint64_t X = info->dims[0], limit = max_expansion(r->compression) * r->file_size;
-    if (pixel == 0) pixel = 1;
-    if (X * H > limit / pixel) /* X*H < 2^62 */
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR,
-                           "'%s' is corrupt: its header declares %llu x %llu pixels of %llu bytes, more than a "
-                           "%llu-byte file with %s compression can hold",
-                           r->path, (unsigned long long)X, (unsigned long long)H, (unsigned long long)pixel,
-                           (unsigned long long)r->file_size, info->compression);
-    int32_t chunks = 0;
-    exr_result_t rv = exr_get_chunk_count(r->exr, 0, &chunks);
-    if (rv != EXR_ERR_SUCCESS || chunks <= 0) return exr_fail(r, rv, "counting the chunks of");
-    if ((uint64_t)chunks * 8 > r->file_size)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is corrupt: %d chunks do not fit in %llu bytes", r->path,
-                           (int)chunks, (unsigned long long)r->file_size);
-
-    int32_t len = 0;
-    const char *layout = NULL;
-    if (exr_attr_get_string(r->exr, 0, "clvoxLayout", &len, &layout) != EXR_ERR_SUCCESS || !layout) return CLVOX_OK;
-    const int per_slice = len >= 14 && strncmp(layout, "tile-per-slice", 14) == 0;
-    const int row_chunks = len >= 10 && strncmp(layout, "row-chunks", 10) == 0;
-    if (!per_slice && !row_chunks) return CLVOX_OK; /* a layout of some later version */
-    /* Only tiles X wide are clvox's: a file re-saved by another tool keeps
-     * the attribute with tiles (or scanlines) of its own, and is read as any
-     * other layout. */
-    int32_t tw = 0, th = 0;
-    exr_storage_t storage;
-    if (exr_get_storage(r->exr, 0, &storage) != EXR_ERR_SUCCESS || storage != EXR_STORAGE_TILED ||
-        exr_get_tile_sizes(r->exr, 0, 0, 0, &tw, &th) != EXR_ERR_SUCCESS || (uint64_t)tw != X)
-        return CLVOX_OK;
-    if ((per_slice && (uint32_t)th != info->dims[1]) || (row_chunks && (th <= 0 || (uint32_t)th >= info->dims[1])))
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR,
-                           "'%s' is corrupt: %d x %d tiles do not fit clvoxDims %u x %u x %u in its layout \"%.*s\"",
-                           r->path, (int)tw, (int)th, info->dims[0], info->dims[1], info->dims[2],
-                           len > 40 ? 40 : (int)len, layout);
-    return CLVOX_OK;
-}
-
-/* Reads the header into info (every field but the counts) and checks the
- * image geometry. Channels are looked up afterwards (find_channel). */
-static clvox_status read_header(reader *r, clvox_volume_info *info)
-{
-    exr_result_t rv;
-    int parts = 0;
-    rv = exr_get_count(r->exr, &parts);
-    if (rv != EXR_ERR_SUCCESS || parts < 1) return exr_fail(r, rv, "counting the parts of");
-
-    exr_attr_v3i_t dims;
-    exr_attr_v3d_t origin, h;
-    if (exr_attr_get_v3i(r->exr, 0, "clvoxDims", &dims) != EXR_ERR_SUCCESS)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is not a clvox volume: no v3i attribute clvoxDims",
-                           r->path);
-    if (exr_attr_get_v3d(r->exr, 0, "clvoxOrigin", &origin) != EXR_ERR_SUCCESS)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is not a clvox volume: no v3d attribute clvoxOrigin",
-                           r->path);
-    if (exr_attr_get_v3d(r->exr, 0, "clvoxVoxelSize", &h) != EXR_ERR_SUCCESS)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' is not a clvox volume: no v3d attribute clvoxVoxelSize",
-                           r->path);
-    clvox_status st;
-    if ((st = get_string(r, "clvoxMethod", info->method, sizeof info->method)) != CLVOX_OK) return st;
-    if ((st = get_string(r, "clvoxParameters", info->parameters, sizeof info->parameters)) != CLVOX_OK)
-        return st;
-    if ((st = get_string(r, "clvoxVersion", info->version, sizeof info->version)) != CLVOX_OK) return st;
-    if ((st = read_palette_attrs(r, info)) != CLVOX_OK) return st;
-    for (int i = 0; i < 3; i++) {
-        if (dims.arr[i] <= 0)
-            return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': clvoxDims %d x %d x %d is not a valid grid", r->path,
-                               dims.x, dims.y, dims.z);
-        if (!isfinite(origin.arr[i]))
-            return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': clvoxOrigin (%g, %g, %g) is not finite", r->path,
-                               origin.x, origin.y, origin.z);
-        if (!isfinite(h.arr[i]) || !(h.arr[i] > 0))
-            return clvox__fail(r->ctx, CLVOX_ERR_EXR,
-                               "'%s': clvoxVoxelSize (%g, %g, %g) is not finite and positive", r->path, h.x, h.y,
-                               h.z);
-        info->dims[i] = (uint32_t)dims.arr[i];
-        info->origin[i] = origin.arr[i];
-        info->voxel_size[i] = h.arr[i];
-    }
-
-    exr_compression_t comp;
-    rv = exr_get_compression(r->exr, 0, &comp);
-    if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "reading the compression of");
-    snprintf(info->compression, sizeof info->compression, "%s", compression_name(comp));
-
-    const exr_attr_chlist_t *chl = NULL;
-    rv = exr_get_channels(r->exr, 0, &chl);
-    if (rv != EXR_ERR_SUCCESS || !chl) return exr_fail(r, rv, "reading the channels of");
-    r->chl = chl;
-    info->channels[0] = '\0';
-    r->all_full = 1;
-    for (int c = 0; c < chl->num_channels; c++) {
-        const exr_attr_chlist_entry_t *e = &chl->entries[c];
-        size_t used = strlen(info->channels);
-        char name[64];
-        copy_str(name, sizeof name, e->name.str, e->name.length);
-        snprintf(info->channels + used, sizeof info->channels - used, "%s%s", used ? "," : "", name);
-        if (e->x_sampling != 1 || e->y_sampling != 1) r->all_full = 0; /* rows of differing sizes: library */
-    }
-    r->compression = comp;
-
-    exr_attr_box2i_t dw;
-    rv = exr_get_data_window(r->exr, 0, &dw);
-    if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "reading the data window of");
-    int64_t w = (int64_t)dw.max.x - dw.min.x + 1, hgt = (int64_t)dw.max.y - dw.min.y + 1;
-    if (w != (int64_t)info->dims[0] || hgt != (int64_t)info->dims[1] * info->dims[2])
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR,
-                           "'%s': data window %lld x %lld does not match clvoxDims %u x %u x %u (expected %u x %llu)",
-                           r->path, (long long)w, (long long)hgt, info->dims[0], info->dims[1], info->dims[2],
-                           info->dims[0], (unsigned long long)info->dims[1] * info->dims[2]);
-    return check_size(r, info, (uint64_t)hgt);
-}
-
-static const exr_attr_chlist_entry_t *find_channel(const reader *r, const char *name)
-{
-    size_t n = strlen(name);
-    for (int c = 0; c < r->chl->num_channels; c++) {
-        const exr_attr_chlist_entry_t *e = &r->chl->entries[c];
-        if (e->name.length >= 0 && (size_t)e->name.length == n && memcmp(e->name.str, name, n) == 0) return e;
-    }
-    return NULL;
-}
-
-/* Makes `e` the channel read_channel decodes. */
-static clvox_status select_channel(reader *r, const exr_attr_chlist_entry_t *e)
-{
-    if (e->x_sampling != 1 || e->y_sampling != 1)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': channel %s is subsampled", r->path, e->name.str);
-    if (e->pixel_type != EXR_PIXEL_HALF && e->pixel_type != EXR_PIXEL_FLOAT && e->pixel_type != EXR_PIXEL_UINT)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': channel %s has an unknown pixel type %d", r->path,
-                           e->name.str, (int)e->pixel_type);
-    r->ch_name = e->name.str;
-    r->ch_type = (int)e->pixel_type;
-    r->ch_bytes = e->pixel_type == EXR_PIXEL_HALF ? 2u : 4u;
-    r->fast = r->all_full && (r->compression == EXR_COMPRESSION_NONE || r->compression == EXR_COMPRESSION_RLE);
-    r->pixel_bytes = r->ch_offset = 0;
-    for (int c = 0; c < r->chl->num_channels; c++) {
-        const exr_attr_chlist_entry_t *o = &r->chl->entries[c];
-        if (o == e) r->ch_offset = r->pixel_bytes;
-        r->pixel_bytes += o->pixel_type == EXR_PIXEL_HALF ? 2u : 4u;
-    }
-    return CLVOX_OK;
-}
 
 /* ---- sample conversion and sums ------------------------------------------ */
 
@@ -529,10 +198,9 @@ static uint64_t count_filled(const uint8_t *band, int type, uint64_t X, uint64_t
     return filled;
 }
 
+
 /* ---- band consumers ---------------------------------------------------------- */
 
-/* Receives rows [row0, row0+rows) of the image, X samples each of `type`. */
-typedef clvox_status (*band_fn)(void *user, const uint8_t *band, int type, uint64_t row0, uint64_t rows);
 
 typedef struct count_state {
     uint64_t X;
@@ -579,298 +247,6 @@ static clvox_status slice_band(void *user, const uint8_t *band, int type, uint64
     return CLVOX_OK;
 }
 
-/* ---- decoding ------------------------------------------------------------------ */
-
-static int grow(uint8_t **buf, size_t *size, size_t need)
-{
-    if (*size >= need) return 1;
-    uint8_t *p = realloc(*buf, need ? need : 1);
-    if (!p) return 0;
-    *buf = p;
-    *size = need;
-    return 1;
-}
-
-/* ---- fast path for the two layouts clvox writes quickly: NONE and RLE ----
- * (OpenEXRCore 3.1.5's RLE decoder takes most of the reading time otherwise.)
- * RLE format: see write_exr.c. */
-
-/* Expands RLE tokens; 0 when they fill exactly out[0..n). */
-static int rle_expand(uint8_t *restrict out, size_t n, const uint8_t *restrict in, size_t len)
-{
-    size_t i = 0, o = 0;
-    while (i < len) {
-        int c = (int8_t)in[i++];
-        if (c < 0) {
-            size_t k = (size_t)-c;
-            if (k > len - i || k > n - o) return -1;
-            memcpy(out + o, in + i, k);
-            i += k;
-            o += k;
-        } else {
-            size_t k = (size_t)c + 1;
-            if (i >= len || k > n - o) return -1;
-            memset(out + o, in[i++], k);
-            o += k;
-        }
-    }
-    return o == n ? 0 : -1;
-}
-
-/* Undoes the delta (in place in t) and the even/odd split (into out). */
-static void rle_reconstruct(uint8_t *restrict out, uint8_t *restrict t, size_t n)
-{
-    if (n == 0) return;
-    size_t i = 0;
-    uint8_t prev = 0;
-    t[0] = (uint8_t)(t[0] + 128); /* the first byte is not a delta: make the loop below leave it */
-#ifdef __SSE2__
-    const __m128i bias = _mm_set1_epi8((char)0x80);
-    __m128i carry = _mm_setzero_si128();
-    for (; i + 16 <= n; i += 16) {
-        __m128i d = _mm_sub_epi8(_mm_loadu_si128((const __m128i *)(const void *)(t + i)), bias);
-        d = _mm_add_epi8(d, _mm_slli_si128(d, 1)); /* prefix sum in 4 steps */
-        d = _mm_add_epi8(d, _mm_slli_si128(d, 2));
-        d = _mm_add_epi8(d, _mm_slli_si128(d, 4));
-        d = _mm_add_epi8(d, _mm_slli_si128(d, 8));
-        /* byte 15 of the local sums in every lane: off the carry chain, since
-         * broadcast(local + carry) = broadcast(local) + carry */
-        __m128i last = _mm_shufflehi_epi16(d, 0xFF);                   /* word 7 in words 4-7 */
-        last = _mm_srli_epi16(_mm_unpackhi_epi64(last, last), 8);        /* byte 15 in every word */
-        last = _mm_or_si128(last, _mm_slli_epi16(last, 8));              /* ... and every byte */
-        _mm_storeu_si128((__m128i *)(void *)(t + i), _mm_add_epi8(d, carry));
-        carry = _mm_add_epi8(carry, last);
-    }
-    prev = (uint8_t)(_mm_cvtsi128_si32(carry) & 0xFF);
-#endif
-    for (; i < n; i++) {
-        prev = (uint8_t)(prev + t[i] - 128);
-        t[i] = prev;
-    }
-    const size_t h = (n + 1) / 2, pairs = n / 2;
-    size_t k = 0;
-#ifdef __SSE2__
-    for (; k + 16 <= pairs; k += 16) {
-        __m128i e = _mm_loadu_si128((const __m128i *)(const void *)(t + k));
-        __m128i o = _mm_loadu_si128((const __m128i *)(const void *)(t + h + k));
-        _mm_storeu_si128((__m128i *)(void *)(out + 2 * k), _mm_unpacklo_epi8(e, o));
-        _mm_storeu_si128((__m128i *)(void *)(out + 2 * k + 16), _mm_unpackhi_epi8(e, o));
-    }
-#endif
-    for (; k < pairs; k++) {
-        out[2 * k] = t[k];
-        out[2 * k + 1] = t[h + k];
-    }
-    if (n & 1) out[n - 1] = t[h - 1];
-}
-
-/* Reads a chunk and copies the selected channel's samples (little-endian in
- * the file) into dst (row stride X samples). */
-static clvox_status fast_chunk(reader *r, const exr_chunk_info_t *ci, uint8_t *dst, uint64_t X)
-{
-    const uint32_t bytes = r->ch_bytes;
-    const uint64_t w = (uint64_t)ci->width, h = (uint64_t)ci->height;
-    const uint64_t n = w * h * r->pixel_bytes;
-    if (ci->unpacked_size != n || ci->packed_size == 0 || ci->packed_size > n || n > (uint64_t)SIZE_MAX / 2)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': chunk %d has inconsistent sizes (%llu packed, %llu unpacked)",
-                           r->path, ci->idx, (unsigned long long)ci->packed_size,
-                           (unsigned long long)ci->unpacked_size);
-    if (!grow(&r->packed, &r->packed_size, (size_t)ci->packed_size))
-        return clvox__fail(r->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", r->path);
-    exr_result_t rv = exr_read_chunk(r->exr, 0, ci, r->packed);
-    if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "reading a chunk of");
-    const uint8_t *raw = r->packed;
-    if (ci->packed_size < n) { /* compressed; equal sizes mean stored raw */
-        if (r->compression != EXR_COMPRESSION_RLE) return CLVOX_ERR_INTERNAL;
-        if (!grow(&r->tmp, &r->tmp_size, (size_t)n) || !grow(&r->raw, &r->raw_size, (size_t)n))
-            return clvox__fail(r->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", r->path);
-        if (rle_expand(r->tmp, (size_t)n, r->packed, (size_t)ci->packed_size) != 0)
-            return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': chunk %d is corrupt (bad RLE data)", r->path, ci->idx);
-        rle_reconstruct(r->raw, r->tmp, (size_t)n);
-        raw = r->raw;
-    }
-    /* raw: per row, every channel in file order, ci->width samples each */
-    const size_t row_bytes = (size_t)(w * r->pixel_bytes), off = (size_t)(w * r->ch_offset);
-    const size_t len = (size_t)(w * bytes);
-    const uint16_t one = 1;
-    uint8_t little;
-    memcpy(&little, &one, 1);
-    for (uint64_t y = 0; y < h; y++) {
-        const uint8_t *src = raw + (size_t)y * row_bytes + off;
-        uint8_t *d = dst + (size_t)(y * X * bytes);
-        if (little) {
-            memcpy(d, src, len);
-        } else {
-            for (size_t i = 0; i < len; i += bytes)
-                for (size_t j = 0; j < bytes; j++) d[i + j] = src[i + bytes - 1 - j];
-        }
-    }
-    return CLVOX_OK;
-}
-
-/* Decodes one chunk's samples of the selected channel into the band (row stride X). */
-static clvox_status decode_chunk(reader *r, exr_decode_pipeline_t *dec, int *initialized,
-                                 const exr_chunk_info_t *ci, uint8_t *dst, uint64_t X)
-{
-    exr_result_t rv;
-    if (r->fast) return fast_chunk(r, ci, dst, X);
-    const uint32_t bytes = r->ch_bytes;
-    if (!*initialized) {
-        rv = exr_decoding_initialize(r->exr, 0, ci, dec);
-        if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "starting to decode");
-        *initialized = 1;
-    } else {
-        rv = exr_decoding_update(r->exr, 0, ci, dec);
-        if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "decoding");
-    }
-    for (int16_t c = 0; c < dec->channel_count; c++) {
-        exr_coding_channel_info_t *ch = &dec->channels[c];
-        if (strcmp(ch->channel_name, r->ch_name) == 0) {
-            ch->decode_to_ptr = dst;
-            ch->user_pixel_stride = (int32_t)bytes;
-            ch->user_line_stride = (int32_t)(X * bytes);
-            ch->user_bytes_per_element = (int16_t)bytes;
-            ch->user_data_type = (uint16_t)r->ch_type;
-        } else {
-            ch->decode_to_ptr = NULL;
-        }
-    }
-    rv = exr_decoding_choose_default_routines(r->exr, 0, dec);
-    if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "choosing a decoder for");
-    rv = exr_decoding_run(r->exr, 0, dec);
-    if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "decoding");
-    return CLVOX_OK;
-}
-
-/* Decodes channel `e` one row of chunks at a time, in increasing y, and hands
- * each band to `consume`. */
-static clvox_status read_channel(reader *r, const clvox_volume_info *info, const exr_attr_chlist_entry_t *e,
-                                 band_fn consume, void *user)
-{
-    clvox_status st = select_channel(r, e);
-    if (st != CLVOX_OK) return st;
-    exr_result_t rv;
-    exr_storage_t storage;
-    rv = exr_get_storage(r->exr, 0, &storage);
-    if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "reading the storage type of");
-    if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': deep images are not clvox volumes", r->path);
-
-    const uint64_t X = info->dims[0];
-    const uint64_t H = (uint64_t)info->dims[1] * info->dims[2];
-    const uint32_t bytes = r->ch_bytes;
-    exr_attr_box2i_t dw;
-    rv = exr_get_data_window(r->exr, 0, &dw);
-    if (rv != EXR_ERR_SUCCESS) return exr_fail(r, rv, "reading the data window of");
-
-    uint64_t band_rows;
-    int32_t tile_w = 0, tile_h = 0;
-    if (storage == EXR_STORAGE_TILED) {
-        rv = exr_get_tile_sizes(r->exr, 0, 0, 0, &tile_w, &tile_h);
-        if (rv != EXR_ERR_SUCCESS || tile_w <= 0 || tile_h <= 0) return exr_fail(r, rv, "reading the tiles of");
-        band_rows = (uint64_t)tile_h;
-    } else {
-        int32_t lpc = 0;
-        rv = exr_get_scanlines_per_chunk(r->exr, 0, &lpc);
-        if (rv != EXR_ERR_SUCCESS || lpc <= 0) return exr_fail(r, rv, "reading the chunk size of");
-        band_rows = (uint64_t)lpc;
-    }
-    if (band_rows > H) band_rows = H;
-    uint64_t band_bytes = X * band_rows * bytes;
-    if (band_bytes > (uint64_t)SIZE_MAX / 2)
-        return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': chunks of %llu bytes are too large", r->path,
-                           (unsigned long long)band_bytes);
-    uint8_t *band = malloc((size_t)band_bytes);
-    if (!band) return clvox__fail(r->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a %llu-byte chunk buffer",
-                                  (unsigned long long)band_bytes);
-
-    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
-    int initialized = 0;
-    for (uint64_t row0 = 0; row0 < H && st == CLVOX_OK; row0 += band_rows) {
-        uint64_t rows = H - row0 < band_rows ? H - row0 : band_rows;
-        exr_chunk_info_t ci;
-        if (storage == EXR_STORAGE_TILED) {
-            int ty = (int)(row0 / band_rows);
-            for (uint64_t x0 = 0; x0 < X && st == CLVOX_OK; x0 += (uint64_t)tile_w) {
-                int tx = (int)(x0 / (uint64_t)tile_w);
-                rv = exr_read_tile_chunk_info(r->exr, 0, tx, ty, 0, 0, &ci);
-                if (rv != EXR_ERR_SUCCESS) {
-                    st = exr_fail(r, rv, "locating a tile of");
-                    break;
-                }
-                if ((uint64_t)ci.height != rows || (uint64_t)ci.width > X - x0 || ci.packed_size > r->file_size) {
-                    st = clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': tile (%d,%d) has an unexpected size %dx%d",
-                                     r->path, tx, ty, ci.width, ci.height);
-                    break;
-                }
-                st = decode_chunk(r, &dec, &initialized, &ci, band + x0 * bytes, X);
-            }
-        } else {
-            rv = exr_read_scanline_chunk_info(r->exr, 0, dw.min.y + (int)row0, &ci);
-            if (rv != EXR_ERR_SUCCESS) {
-                st = exr_fail(r, rv, "locating a chunk of");
-                break;
-            }
-            if ((uint64_t)ci.height != rows || (uint64_t)ci.width != X || ci.packed_size > r->file_size) {
-                st = clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s': chunk at row %llu has an unexpected size %dx%d",
-                                 r->path, (unsigned long long)row0, ci.width, ci.height);
-                break;
-            }
-            st = decode_chunk(r, &dec, &initialized, &ci, band, X);
-        }
-        if (st == CLVOX_OK) st = consume(user, band, r->ch_type, row0, rows);
-    }
-    if (initialized) exr_decoding_destroy(r->exr, &dec);
-    free(band);
-    return st;
-}
-
-/* ---- opening ------------------------------------------------------------------- */
-
-static void reader_close(reader *r)
-{
-    if (r->exr) exr_finish(&r->exr);
-    if (r->fd >= 0) close(r->fd);
-    r->fd = -1;
-    free(r->packed);
-    free(r->tmp);
-    free(r->raw);
-}
-
-/* Opens `path` and reads its header into info (zeroed first). reader_close
- * afterwards in every case. */
-static clvox_status reader_open(reader *r, clvox_context *ctx, const char *path, clvox_volume_info *info)
-{
-    memset(r, 0, sizeof *r);
-    r->ctx = ctx;
-    r->path = path;
-    r->fd = -1;
-    memset(info, 0, sizeof *info);
-
-    /* Opened once, without blocking (a FIFO would block in open), and only a
-     * regular file is read: the library reads through this descriptor. */
-    struct stat sb;
-    const char *why = NULL;
-    r->fd = clvox__open_regular_read(path, &sb, &why);
-    if (r->fd < 0) return clvox__fail(ctx, CLVOX_ERR_IO, "cannot read '%s': %s", path, why);
-    r->file_size = (uint64_t)sb.st_size;
-
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = reader_error_handler;
-    init.user_data = r;
-    init.read_fn = reader_read_fn;
-    init.size_fn = reader_size_fn;
-    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
-    exr_result_t rv = exr_start_read(&r->exr, path, &init);
-    if (rv != EXR_ERR_SUCCESS) {
-        clvox_status st = (rv == EXR_ERR_FILE_ACCESS) ? CLVOX_ERR_IO : CLVOX_ERR_EXR;
-        if (st == CLVOX_ERR_EXR && clvox__is_mesh_path(path)) /* `clvox info bunny.off`: say so, not the magic number */
-            return clvox__fail(ctx, st, "'%s' is a mesh, not a volume: this reads the OpenEXR files clvox writes", path);
-        return clvox__fail(ctx, st, "'%s' is not a readable OpenEXR file: %s", path,
-                           r->msg[0] ? r->msg : exr_get_default_error_message(rv));
-    }
-    return read_header(r, info);
-}
 
 static clvox_status volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
                                 uint8_t *occupancy, size_t occupancy_size)
@@ -881,12 +257,12 @@ static clvox_status volume_read(clvox_context *ctx, const char *path, clvox_volu
     if (!info) info = &local;
 
     reader r;
-    clvox_status st = reader_open(&r, ctx, path, info);
+    clvox_status st = clvox__exrr_open(&r, ctx, path, info);
     const exr_attr_chlist_entry_t *occ = NULL, *cov = NULL, *elem = NULL;
     if (st == CLVOX_OK) {
-        occ = find_channel(&r, "occupancy");
-        cov = find_channel(&r, "coverage");
-        elem = find_channel(&r, "element");
+        occ = clvox__exrr_find_channel(&r, "occupancy");
+        cov = clvox__exrr_find_channel(&r, "coverage");
+        elem = clvox__exrr_find_channel(&r, "element");
         if (!occ && !cov && !elem)
             st = clvox__fail(ctx, CLVOX_ERR_EXR,
                              "'%s' is not a clvox volume: no channel \"occupancy\", \"coverage\" or \"element\" "
@@ -906,20 +282,20 @@ static clvox_status volume_read(clvox_context *ctx, const char *path, clvox_volu
         /* Filled voxels from occupancy, else from coverage (summed in the
          * same pass), else from element (UINT > 0: element != 0). */
         if (!occ && cov) cs.sum = &sum;
-        st = read_channel(&r, info, occ ? occ : cov ? cov : elem, count_band, &cs);
+        st = clvox__exrr_read_channel(&r, info, occ ? occ : cov ? cov : elem, count_band, &cs);
     }
     if (st == CLVOX_OK && occ && cov) {
         /* Both channels: a second pass over the file for the coverage sum. It
          * decodes every chunk again; one pass decoding two channels would be
          * faster but needs a band per channel and a two-channel consumer. */
         cs.sum = &sum;
-        st = read_channel(&r, info, cov, sum_band, &cs);
+        st = clvox__exrr_read_channel(&r, info, cov, sum_band, &cs);
     }
     if (st == CLVOX_OK) {
         info->filled_voxels = cs.filled;
         info->coverage_sum = cov ? sum_value(&sum) : 0.0;
     }
-    reader_close(&r);
+    clvox__exrr_close(&r);
     return st;
 }
 
@@ -940,9 +316,9 @@ static clvox_status volume_read_slices(clvox_context *ctx, const char *path, con
      * of fn, which can size its buffers from info->dims (clvox preview relies
      * on both; the public header does not promise it yet). */
     reader r;
-    clvox_status st = reader_open(&r, ctx, path, info);
+    clvox_status st = clvox__exrr_open(&r, ctx, path, info);
     const exr_attr_chlist_entry_t *e = NULL;
-    if (st == CLVOX_OK && !(e = find_channel(&r, channel)))
+    if (st == CLVOX_OK && !(e = clvox__exrr_find_channel(&r, channel)))
         st = clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' has no channel \"%s\" (has: %s)", path, channel, info->channels);
     float *slice = NULL;
     if (st == CLVOX_OK) {
@@ -953,10 +329,10 @@ static clvox_status volume_read_slices(clvox_context *ctx, const char *path, con
     }
     if (st == CLVOX_OK) {
         slice_state s = { &r, info->dims[0], info->dims[1], slice, fn, user };
-        st = read_channel(&r, info, e, slice_band, &s);
+        st = clvox__exrr_read_channel(&r, info, e, slice_band, &s);
     }
     free(slice);
-    reader_close(&r);
+    clvox__exrr_close(&r);
     return st;
 }
 
@@ -1018,13 +394,13 @@ clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_pa
     if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_palette: no path");
     clvox_volume_info info;
     reader r;
-    clvox_status st = reader_open(&r, ctx, path, &info);
+    clvox_status st = clvox__exrr_open(&r, ctx, path, &info);
     if (st != CLVOX_OK) {
-        reader_close(&r);
+        clvox__exrr_close(&r);
         return st;
     }
     if (!info.palette[0] || !r.has_palette_hash) {
-        reader_close(&r);
+        clvox__exrr_close(&r);
         return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' has no palette: attribute %s is missing (not a palette run)",
                            path, info.palette[0] ? "clvoxPaletteHash" : "clvoxPalette");
     }
@@ -1040,7 +416,7 @@ clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_pa
                              "clvoxPaletteSource to rebuild it from",
                              path, info.palette);
     } else if (rv != EXR_ERR_SUCCESS || !a) {
-        st = exr_fail(&r, rv, "reading the header of");
+        st = clvox__exrr_fail(&r, rv, "reading the header of");
     } else if (a->type != EXR_ATTR_STRING || !a->string || a->string->length < 0 ||
                (a->string->length > 0 && !a->string->str)) {
         st = clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' is corrupt: attribute clvoxPaletteSource is not a string", path);
@@ -1056,7 +432,7 @@ clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_pa
                              path, why);
         }
     }
-    reader_close(&r);
+    clvox__exrr_close(&r);
     if (st != CLVOX_OK) {
         clvox_palette_destroy(p);
         return st;
@@ -1075,3 +451,4 @@ clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_pa
     *out = p;
     return CLVOX_OK;
 }
+

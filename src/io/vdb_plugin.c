@@ -188,4 +188,4 @@ static void vdb_abort(void *state) { (void)state; }
 #endif
 
 const clvox__fmt_ops clvox__fmt_vdb = {
-    "vdb", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE, 1, vdb_open, vdb_write, vdb_finish, vdb_abort};
+    "vdb", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE, 1, 0, vdb_open, vdb_write, vdb_finish, vdb_abort};

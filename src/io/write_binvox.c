@@ -157,4 +157,4 @@ static clvox_status bv_finish(void *state, uint64_t *bytes)
     return st;
 }
 
-const clvox__fmt_ops clvox__fmt_binvox = {"binvox", CLVOX_CHANNEL_OCCUPANCY, 0, bv_open, bv_write, bv_finish, bv_abort};
+const clvox__fmt_ops clvox__fmt_binvox = {"binvox", CLVOX_CHANNEL_OCCUPANCY, 0, 0, bv_open, bv_write, bv_finish, bv_abort};

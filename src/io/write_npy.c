@@ -128,5 +128,5 @@ static clvox_status npy_finish(void *state, uint64_t *bytes) { return clvox__ras
 static void npy_abort(void *state) { clvox__raster_abort(state); }
 
 const clvox__fmt_ops clvox__fmt_npy = {
-    "npy", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE, 1,
+    "npy", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE, 1, 0,
     npy_open, npy_write, npy_finish, npy_abort};

@@ -84,5 +84,5 @@ static clvox_status nrrd_finish(void *state, uint64_t *bytes) { return clvox__ra
 static void nrrd_abort(void *state) { clvox__raster_abort(state); }
 
 const clvox__fmt_ops clvox__fmt_nrrd = {
-    "NRRD", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE, 1,
+    "NRRD", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE | CLVOX_CHANNEL_ELEMENT | CLVOX_CHANNEL_SCORE, 1, 0,
     nrrd_open, nrrd_write, nrrd_finish, nrrd_abort};

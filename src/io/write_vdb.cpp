@@ -299,7 +299,7 @@ extern "C" __attribute__((visibility("default"))) const clvox__fmt_ops *
 clvox__vdb_plugin(const clvox__vdb_host *host, uint32_t abi, const char *version)
 {
     static const clvox__fmt_ops ops = {
-        "vdb", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE, 1, vdb_open, vdb_write, vdb_finish, vdb_abort};
+        "vdb", CLVOX_CHANNEL_OCCUPANCY | CLVOX_CHANNEL_COVERAGE, 1, 0, vdb_open, vdb_write, vdb_finish, vdb_abort};
     if (!host || abi != CLVOX__VDB_ABI || !version || std::strcmp(version, CLVOX_VERSION_STRING) != 0) return nullptr;
     g_host = host;
     return &ops;

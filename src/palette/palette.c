@@ -42,6 +42,7 @@
  * followed by its new images.
  */
 #include "core/internal.h"
+#include "palette/line_parser.h"
 #include "../../kernels/palette.h"
 
 #include <errno.h>
@@ -445,10 +446,8 @@ clvox_status clvox_palette_builtin(clvox_context *ctx, const char *name, clvox_p
 /* ---- palette files ---- */
 
 typedef struct parser {
-    clvox_context *ctx;
-    const char *source;
+    clvox__line_parser lp; /* context, source and line, for messages */
     clvox_palette *p;
-    unsigned line;
     int open;            /* inside element ... end */
     unsigned open_line;
     char name[64];
@@ -456,30 +455,7 @@ typedef struct parser {
     shape s;
 } parser;
 
-#define PFAIL(ps, ...) parse_fail(ps, __VA_ARGS__)
-static clvox_status parse_fail(parser *ps, const char *fmt, ...) CLVOX__PRINTF(2, 3);
-static clvox_status parse_fail(parser *ps, const char *fmt, ...)
-{
-    char why[512];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(why, sizeof why, fmt, ap);
-    va_end(ap);
-    return clvox__fail(ps->ctx, CLVOX_ERR_PALETTE_FORMAT, "%.3000s:%u: %s", ps->source, ps->line, why);
-}
-
-static int valid_name(const char *s)
-{
-    size_t n = strlen(s);
-    if (n == 0 || n > MAX_NAME) return 0;
-    for (size_t i = 0; i < n; i++) {
-        char c = s[i];
-        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-              c == '.'))
-            return 0;
-    }
-    return 1;
-}
+#define PFAIL(ps, ...) clvox__line_fail(&(ps)->lp, __VA_ARGS__)
 
 static int name_taken(const clvox_palette *p, const char *name)
 {
@@ -496,13 +472,13 @@ static clvox_status finish_element(parser *ps)
         meta m = make_meta(ps->name, 0.0, 0);
         uint32_t idx;
         int added;
-        clvox_status st = push(ps->ctx, p, &ps->s, &m, &idx, &added);
-        if (st == CLVOX_ERR_PALETTE_FORMAT) return PFAIL(ps, "%s", clvox_context_error(ps->ctx));
+        clvox_status st = push(ps->lp.ctx, p, &ps->s, &m, &idx, &added);
+        if (st == CLVOX_ERR_PALETTE_FORMAT) return PFAIL(ps, "%s", clvox_context_error(ps->lp.ctx));
         return st;
     }
     size_t before = p->count;
-    clvox_status st = push_images(ps->ctx, p, &ps->s, ps->name, 0.0, 0, NULL, NULL, 0, NULL);
-    if (st == CLVOX_ERR_PALETTE_FORMAT) return PFAIL(ps, "%s", clvox_context_error(ps->ctx));
+    clvox_status st = push_images(ps->lp.ctx, p, &ps->s, ps->name, 0.0, 0, NULL, NULL, 0, NULL);
+    if (st == CLVOX_ERR_PALETTE_FORMAT) return PFAIL(ps, "%s", clvox_context_error(ps->lp.ctx));
     if (st != CLVOX_OK) return st;
     /* generated names must not clash with earlier ones */
     for (size_t i = before; i < p->count; i++)
@@ -522,16 +498,10 @@ static int parse_number(const char *tok, float *out)
     return 1;
 }
 
-/* One line, comments and the newline removed. */
-static clvox_status parse_line(parser *ps, char *text)
+/* One line's fields (clvox__parse_lines: comments removed, at most 6). */
+static clvox_status parse_line(void *user, char **tok, int n)
 {
-    char *tok[6];
-    int n = 0;
-    for (char *t = strtok(text, " \t\r\v\f"); t; t = strtok(NULL, " \t\r\v\f")) {
-        if (n == 6) return PFAIL(ps, "too many fields");
-        tok[n++] = t;
-    }
-    if (n == 0) return CLVOX_OK;
+    parser *ps = user;
     const char *kw = tok[0];
     char c0 = kw[0];
     int numeric = (c0 >= '0' && c0 <= '9') || c0 == '-' || c0 == '+' || c0 == '.';
@@ -552,11 +522,11 @@ static clvox_status parse_line(parser *ps, char *text)
     if (strcmp(kw, "element") == 0) {
         if (ps->open) return PFAIL(ps, "'element' inside element '%s' (line %u has no 'end')", ps->name, ps->open_line);
         if (n != 2) return PFAIL(ps, "'element' takes one name");
-        if (!valid_name(tok[1]))
+        if (!clvox__line_valid_name(tok[1], MAX_NAME))
             return PFAIL(ps, "bad element name '%.64s' (1-%u characters of A-Z a-z 0-9 _ - .)", tok[1], MAX_NAME);
         if (name_taken(ps->p, tok[1])) return PFAIL(ps, "element name '%s' is already taken", tok[1]);
         ps->open = 1;
-        ps->open_line = ps->line;
+        ps->open_line = ps->lp.line;
         snprintf(ps->name, sizeof ps->name, "%s", tok[1]);
         ps->symmetry = 0;
         memset(&ps->s, 0, sizeof ps->s);
@@ -601,36 +571,19 @@ clvox_status clvox_palette_parse(clvox_context *ctx, const char *source, const c
 
     parser *ps = calloc(1, sizeof *ps);
     clvox_palette *p = palette_new(pname);
-    char *buf = malloc(size + 1);
     clvox_status st = CLVOX_OK;
-    if (!ps || !p || !buf) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "palette: out of memory");
+    if (!ps || !p) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "palette: out of memory");
     if (st == CLVOX_OK) {
-        ps->ctx = ctx;
-        ps->source = source;
+        ps->lp.ctx = ctx;
+        ps->lp.source = source;
         ps->p = p;
         st = push_trivial(ctx, p);
     }
-    size_t pos = 0;
-    while (st == CLVOX_OK && pos < size) {
-        size_t end = pos;
-        while (end < size && text[end] != '\n') end++;
-        ps->line++;
-        size_t len = end - pos;
-        memcpy(buf, text + pos, len);
-        buf[len] = '\0';
-        if (memchr(buf, '\0', len)) st = PFAIL(ps, "NUL byte (not a text file)");
-        if (st == CLVOX_OK) {
-            char *hash = strchr(buf, '#');
-            if (hash) *hash = '\0';
-            st = parse_line(ps, buf);
-        }
-        pos = end + 1;
-    }
+    if (st == CLVOX_OK) st = clvox__parse_lines(&ps->lp, "palette", text, size, 6, parse_line, ps);
     if (st == CLVOX_OK && ps->open) {
-        ps->line = ps->open_line;
+        ps->lp.line = ps->open_line;
         st = PFAIL(ps, "element '%s' has no 'end'", ps->name);
     }
-    free(buf);
     free(ps);
     if (st == CLVOX_OK) { /* kept verbatim: volumes record it in their header */
         p->source = malloc(size + 1);

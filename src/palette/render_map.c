@@ -35,11 +35,11 @@
 #endif
 
 #include "core/internal.h"
+#include "palette/line_parser.h"
 
 #include <errno.h>
 #include <locale.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -265,12 +265,10 @@ static clvox_status fill_defaults(clvox_context *ctx, clvox_render_map *m, const
 typedef enum rule_kind { KIND_ELEMENT, KIND_BASIC, KIND_DEFAULT } rule_kind;
 
 typedef struct parser {
-    clvox_context *ctx;
-    const char *source;
+    clvox__line_parser lp; /* context, source and line, for messages */
     const char *palette_name;
     clvox_render_map *m;
     const element_names *n;
-    unsigned line;
     /* the open rule */
     int open;
     uint32_t rule;
@@ -284,31 +282,11 @@ typedef struct parser {
     uint32_t default_rule;
 } parser;
 
-static clvox_status parse_fail(parser *ps, const char *fmt, ...) CLVOX__PRINTF(2, 3);
-static clvox_status parse_fail(parser *ps, const char *fmt, ...)
-{
-    char why[512];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(why, sizeof why, fmt, ap);
-    va_end(ap);
-    return clvox__fail(ps->ctx, CLVOX_ERR_PALETTE_FORMAT, "%.3000s:%u: %s", ps->source, ps->line, why);
-}
+#define PFAIL(ps, ...) clvox__line_fail(&(ps)->lp, __VA_ARGS__)
 
-static clvox_status oom(parser *ps) { return clvox__fail(ps->ctx, CLVOX_ERR_OUT_OF_MEMORY, "render map: out of memory"); }
+static clvox_status oom(parser *ps) { return clvox__fail(ps->lp.ctx, CLVOX_ERR_OUT_OF_MEMORY, "render map: out of memory"); }
 
-static int valid_name(const char *s)
-{
-    size_t len = strlen(s);
-    if (len == 0 || len > RM_MAX_NAME) return 0;
-    for (size_t i = 0; i < len; i++) {
-        char c = s[i];
-        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-              c == '.'))
-            return 0;
-    }
-    return 1;
-}
+static int valid_name(const char *s) { return clvox__line_valid_name(s, RM_MAX_NAME); }
 
 /* A decimal number: digits with an optional fraction (at least one digit in
  * all) and an optional exponent; nothing else (no sign, hex, inf, nan). */
@@ -353,18 +331,18 @@ static clvox_status close_rule(parser *ps)
     if (!ps->open) return CLVOX_OK;
     ps->open = 0;
     const rm_rule *r = &ps->m->rules[ps->rule];
-    unsigned line = ps->line;
+    unsigned line = ps->lp.line;
     clvox_status st = CLVOX_OK;
     if (r->count == 0) {
-        ps->line = r->line;
-        st = parse_fail(ps, "%s has no 'object' line", ps->what);
+        ps->lp.line = r->line;
+        st = PFAIL(ps, "%s has no 'object' line", ps->what);
     } else if (ps->m->steps[r->first + r->count - 1].threshold != 0.0) {
-        ps->line = ps->last_object_line;
+        ps->lp.line = ps->last_object_line;
         char b[32];
-        st = parse_fail(ps, "the last object of %s has threshold %s: the last threshold must be 0", ps->what,
+        st = PFAIL(ps, "the last object of %s has threshold %s: the last threshold must be 0", ps->what,
                         num(b, sizeof b, ps->m->steps[r->first + r->count - 1].threshold));
     }
-    ps->line = line;
+    ps->lp.line = line;
     return st;
 }
 
@@ -373,20 +351,20 @@ static clvox_status open_rule(parser *ps, rule_kind kind, uint32_t element)
     clvox_status st = close_rule(ps);
     if (st != CLVOX_OK) return st;
     uint32_t r = 0;
-    if (!new_rule(ps->m, ps->line, kind == KIND_ELEMENT ? CLVOX_RENDER_FRAME_ELEMENT : CLVOX_RENDER_FRAME_BASIC, &r))
+    if (!new_rule(ps->m, ps->lp.line, kind == KIND_ELEMENT ? CLVOX_RENDER_FRAME_ELEMENT : CLVOX_RENDER_FRAME_BASIC, &r))
         return oom(ps);
     ps->open = 1;
     ps->rule = r;
     if (kind == KIND_ELEMENT) {
-        ps->element_line[element] = ps->line;
+        ps->element_line[element] = ps->lp.line;
         ps->m->rule_of[element] = r;
         snprintf(ps->what, sizeof ps->what, "element '%s'", ps->n->name[element]);
     } else if (kind == KIND_BASIC) {
-        ps->basic_line[element] = ps->line;
+        ps->basic_line[element] = ps->lp.line;
         ps->basic_rule[element] = r;
         snprintf(ps->what, sizeof ps->what, "basic '%s'", ps->n->name[element]);
     } else {
-        ps->default_line = ps->line;
+        ps->default_line = ps->lp.line;
         ps->default_rule = r;
         snprintf(ps->what, sizeof ps->what, "default");
     }
@@ -395,103 +373,75 @@ static clvox_status open_rule(parser *ps, rule_kind kind, uint32_t element)
 
 static clvox_status rule_line(parser *ps, rule_kind kind, const char *name)
 {
-    if (!valid_name(name)) return parse_fail(ps, "bad element name '%.64s'", name);
+    if (!valid_name(name)) return PFAIL(ps, "bad element name '%.64s'", name);
     uint32_t e = find_element(ps->n, name);
     if (e == RM_NONE)
-        return parse_fail(ps, "no element '%s' in palette '%.64s' (see clvox palette show)", name, ps->palette_name);
-    if (e == 0) return parse_fail(ps, "'%s' is the empty element: empty voxels are not drawn", name);
+        return PFAIL(ps, "no element '%s' in palette '%.64s' (see clvox palette show)", name, ps->palette_name);
+    if (e == 0) return PFAIL(ps, "'%s' is the empty element: empty voxels are not drawn", name);
     if (kind == KIND_ELEMENT) {
-        if (ps->element_line[e]) return parse_fail(ps, "element '%s' already has a rule (line %u)", name, ps->element_line[e]);
+        if (ps->element_line[e]) return PFAIL(ps, "element '%s' already has a rule (line %u)", name, ps->element_line[e]);
     } else {
         uint32_t b = ps->n->basic[e];
         if (b != e)
-            return parse_fail(ps, "'%s' is not a basic element: it is an image of '%s' (use 'element %s' or 'basic %s')",
+            return PFAIL(ps, "'%s' is not a basic element: it is an image of '%s' (use 'element %s' or 'basic %s')",
                               name, ps->n->name[b], name, ps->n->name[b]);
-        if (ps->basic_line[e]) return parse_fail(ps, "basic '%s' already has a rule (line %u)", name, ps->basic_line[e]);
+        if (ps->basic_line[e]) return PFAIL(ps, "basic '%s' already has a rule (line %u)", name, ps->basic_line[e]);
     }
     return open_rule(ps, kind, e);
 }
 
 static clvox_status object_line(parser *ps, const char *name, const char *value)
 {
-    if (!ps->open) return parse_fail(ps, "'object' before any 'element', 'basic' or 'default' line");
+    if (!ps->open) return PFAIL(ps, "'object' before any 'element', 'basic' or 'default' line");
     if (!valid_name(name))
-        return parse_fail(ps, "bad object name '%.64s' (1-%u characters of A-Z a-z 0-9 _ - .)", name, RM_MAX_NAME);
+        return PFAIL(ps, "bad object name '%.64s' (1-%u characters of A-Z a-z 0-9 _ - .)", name, RM_MAX_NAME);
     double d = 0;
-    if (!parse_threshold(value, &d)) return parse_fail(ps, "threshold '%.64s' is not a decimal number", value);
+    if (!parse_threshold(value, &d)) return PFAIL(ps, "threshold '%.64s' is not a decimal number", value);
     char b1[32], b2[32];
-    if (!(d < 1.0)) return parse_fail(ps, "threshold %s is not below 1 (D_0 = 1)", num(b1, sizeof b1, d));
+    if (!(d < 1.0)) return PFAIL(ps, "threshold %s is not below 1 (D_0 = 1)", num(b1, sizeof b1, d));
     const rm_rule *r = &ps->m->rules[ps->rule];
     if (r->count) {
         double prev = ps->m->steps[r->first + r->count - 1].threshold;
         if (prev == 0.0)
-            return parse_fail(ps, "%s already ended with threshold 0 (line %u): nothing can follow it", ps->what,
+            return PFAIL(ps, "%s already ended with threshold 0 (line %u): nothing can follow it", ps->what,
                               ps->last_object_line);
         if (!(d < prev))
-            return parse_fail(ps, "threshold %s is not below the previous one, %s (thresholds decrease "
+            return PFAIL(ps, "threshold %s is not below the previous one, %s (thresholds decrease "
                               "strictly to 0)", num(b1, sizeof b1, d), num(b2, sizeof b2, prev));
     }
-    if (r->count >= RM_MAX_RULE_OBJECTS) return parse_fail(ps, "more than %u objects in %s", RM_MAX_RULE_OBJECTS, ps->what);
+    if (r->count >= RM_MAX_RULE_OBJECTS) return PFAIL(ps, "more than %u objects in %s", RM_MAX_RULE_OBJECTS, ps->what);
     uint32_t obj = 0;
     int got = object_index(ps->m, name, &obj);
-    if (got == -2) return parse_fail(ps, "more than %u distinct objects", RM_MAX_OBJECTS);
+    if (got == -2) return PFAIL(ps, "more than %u distinct objects", RM_MAX_OBJECTS);
     if (got != 0 || !add_step(ps->m, obj, d)) return oom(ps);
-    ps->last_object_line = ps->line;
+    ps->last_object_line = ps->lp.line;
     return CLVOX_OK;
 }
 
-/* One line, the comment removed: up to 4 whitespace-separated fields. */
-static clvox_status parse_line(parser *ps, char *text)
+/* One line's fields (clvox__parse_lines: the comment removed, at most 4). */
+static clvox_status parse_line(void *user, char **tok, int n)
 {
-    char *tok[4];
-    int n = 0;
-    for (char *p = text;;) {
-        while (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\v' || *p == '\f') p++;
-        if (!*p) break;
-        if (n == 4) return parse_fail(ps, "too many fields");
-        tok[n++] = p;
-        while (*p && !(*p == ' ' || *p == '\t' || *p == '\r' || *p == '\v' || *p == '\f')) p++;
-        if (*p) *p++ = '\0';
-    }
-    if (n == 0) return CLVOX_OK;
+    parser *ps = user;
     const char *kw = tok[0];
     if (strcmp(kw, "element") == 0 || strcmp(kw, "basic") == 0) {
-        if (n != 2) return parse_fail(ps, "'%s' takes one element name", kw);
+        if (n != 2) return PFAIL(ps, "'%s' takes one element name", kw);
         return rule_line(ps, kw[0] == 'e' ? KIND_ELEMENT : KIND_BASIC, tok[1]);
     }
     if (strcmp(kw, "default") == 0) {
-        if (n != 1) return parse_fail(ps, "'default' takes no arguments");
-        if (ps->default_line) return parse_fail(ps, "'default' given twice (line %u)", ps->default_line);
+        if (n != 1) return PFAIL(ps, "'default' takes no arguments");
+        if (ps->default_line) return PFAIL(ps, "'default' given twice (line %u)", ps->default_line);
         return open_rule(ps, KIND_DEFAULT, 0);
     }
     if (strcmp(kw, "object") == 0) {
-        if (n != 3) return parse_fail(ps, "'object' takes a name and a threshold ('object NAME D'), got %d fields", n - 1);
+        if (n != 3) return PFAIL(ps, "'object' takes a name and a threshold ('object NAME D'), got %d fields", n - 1);
         return object_line(ps, tok[1], tok[2]);
     }
-    return parse_fail(ps, "unknown directive '%.64s' (element, basic, default, object)", kw);
+    return PFAIL(ps, "unknown directive '%.64s' (element, basic, default, object)", kw);
 }
 
 static clvox_status parse_text(parser *ps, const char *text, size_t size)
 {
-    char *buf = malloc(size + 1);
-    if (!buf) return oom(ps);
-    clvox_status st = CLVOX_OK;
-    for (size_t pos = 0; st == CLVOX_OK && pos < size;) {
-        size_t end = pos;
-        while (end < size && text[end] != '\n') end++;
-        ps->line++;
-        size_t len = end - pos;
-        memcpy(buf, text + pos, len);
-        buf[len] = '\0';
-        if (memchr(buf, '\0', len)) st = parse_fail(ps, "NUL byte (not a text file)");
-        if (st == CLVOX_OK) {
-            char *hash = strchr(buf, '#');
-            if (hash) *hash = '\0';
-            st = parse_line(ps, buf);
-        }
-        pos = end + 1;
-    }
-    free(buf);
+    clvox_status st = clvox__parse_lines(&ps->lp, "render map", text, size, 4, parse_line, ps);
     if (st == CLVOX_OK) st = close_rule(ps);
     return st;
 }
@@ -509,8 +459,8 @@ clvox_status clvox_render_map_parse(clvox_context *ctx, const char *source, cons
     if (st != CLVOX_OK) return st;
     parser ps;
     memset(&ps, 0, sizeof ps);
-    ps.ctx = ctx;
-    ps.source = source;
+    ps.lp.ctx = ctx;
+    ps.lp.source = source;
     ps.palette_name = clvox_palette_name(palette);
     ps.n = &n;
     ps.default_rule = RM_NONE;

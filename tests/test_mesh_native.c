@@ -12,6 +12,8 @@
  * STL. Also the same failure (status and message) on broken files. */
 #include "test.h"
 #include "meshgen.h"
+#include "core/environment.h"
+#include "mesh/mesh_internal.h" /* clvox__mesh_native_enabled */
 
 #include <dirent.h>
 #include <math.h>
@@ -259,8 +261,10 @@ static bytes stl_text(const float *xyz, const uint32_t *t, size_t nt)
 
 static int set_reader(const char *v)
 {
-    if (v) return setenv("CLVOX_MESH_READER", v, 1);
-    return unsetenv("CLVOX_MESH_READER");
+    clvox__test_hooks hooks = *clvox__hooks();
+    hooks.mesh_reader_openmesh = v && strcmp(v, "openmesh") == 0;
+    clvox__set_test_hooks(&hooks);
+    return 0;
 }
 
 /* Loads path with both readers and compares everything. */
@@ -502,6 +506,16 @@ static void test_cgal(void)
     printf("CGAL meshes compared in every encoding: %d\n", done);
 }
 
+/* The switch reaches the readers: without it this file would compare the
+ * native readers with themselves. */
+static void test_reader_switch(void)
+{
+    set_reader("openmesh");
+    CHECK_MSG(!clvox__mesh_native_enabled(), "mesh_reader_openmesh set, but the native readers are on");
+    set_reader(NULL);
+    CHECK_MSG(clvox__mesh_native_enabled(), "mesh_reader_openmesh cleared, but the native readers are off");
+}
+
 int main(void)
 {
     clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
@@ -512,6 +526,7 @@ int main(void)
     }
     snprintf(dir, sizeof dir, "%s/mesh_native", test_tmpdir());
     mkdir(dir, 0777);
+    test_reader_switch();
     test_generated();
     test_broken();
     test_cgal();

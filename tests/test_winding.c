@@ -403,7 +403,7 @@ static void test_apex(void)
 {
     double lo[3] = {-0.017, -0.023, -0.011}, hi[3] = {1.019, 1.013, 1.027};
     clvox_grid g = test_grid(lo, hi, 36, 30, 26);
-    static const char *const offsets[] = {"0.31", "-0.2", "0.004", "1.5"};
+    static const double offsets[] = {0.31, -0.2, 0.004, 1.5};
     for (size_t c = 0; c < ncases; c++) {
         tmesh_case *wc = &cases[c];
         clvox_mesh *m = to_mesh(&wc->mesh);
@@ -413,17 +413,20 @@ static void test_apex(void)
         uint8_t *base = run(m, &g, &o, &s);
         if (s.winding.cap_triangles) {
             for (size_t k = 0; k < sizeof offsets / sizeof offsets[0]; k++) {
-                setenv("CLVOX_CAP_APEX", offsets[k], 1);
+                clvox__test_hooks hooks = *clvox__hooks();
+                hooks.cap_apex_set = 1;
+                hooks.cap_apex = offsets[k];
+                clvox__set_test_hooks(&hooks);
                 for (clvox_axis a = CLVOX_AXIS_X; a <= CLVOX_AXIS_Z; a += 2) {
                     clvox_voxelize_options oa = CLVOX_VOXELIZE_OPTIONS_INIT;
                     oa.ray_axis = a;
                     uint8_t *v = run(m, &g, &oa, NULL);
                     size_t dd = ndiff(base, v, nvox(&g));
-                    CHECK_MSG(dd == 0, "%s: apex offset %s, axis %c: %zu voxels differ", wc->name, offsets[k],
+                    CHECK_MSG(dd == 0, "%s: apex offset %g, axis %c: %zu voxels differ", wc->name, offsets[k],
                               "?xyz"[a], dd);
                     free(v);
                 }
-                unsetenv("CLVOX_CAP_APEX");
+                clvox__set_test_hooks(NULL);
             }
         }
         free(base);

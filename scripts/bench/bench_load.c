@@ -12,6 +12,7 @@
  *   bench_load --ascii obj|off|ply|stl IN OUT   writes them as text (%.9g: exact) */
 #define _POSIX_C_SOURCE 200809L
 #include "clvox.h"
+#include "core/environment.h" /* the mesh_reader_openmesh switch */
 #include "mesh/mesh_internal.h" /* clvox__mesh_read_raw: the reader alone (needs -Isrc) */
 
 #include <stdint.h>
@@ -143,13 +144,16 @@ int main(int argc, char **argv)
         if (stat(argv[i], &sb) != 0) continue;
         double mb = (double)sb.st_size / 1e6;
         size_t nt = 0;
-        unsetenv("CLVOX_MESH_READER");
+        clvox__test_hooks native = *clvox__hooks(), openmesh = native;
+        native.mesh_reader_openmesh = 0;
+        openmesh.mesh_reader_openmesh = 1;
+        clvox__set_test_hooks(&native);
         double tn = best_load(ctx, argv[i], reps, &nt);
         double rn = best_raw(ctx, argv[i], reps);
-        setenv("CLVOX_MESH_READER", "openmesh", 1);
+        clvox__set_test_hooks(&openmesh);
         double to = best_load(ctx, argv[i], reps < 3 ? reps : 3, &nt);
         double ro = best_raw(ctx, argv[i], reps < 3 ? reps : 3);
-        unsetenv("CLVOX_MESH_READER");
+        clvox__set_test_hooks(NULL);
         const char *name = strrchr(argv[i], '/');
         printf("| %s | %.1f | %zu | %.3f | %.3f | %.4f | %.0f | %.3f | %.0f | %.1fx |\n", name ? name + 1 : argv[i], mb,
                nt, tn, to, rn, mb / rn, ro, mb / ro, ro / rn);

@@ -86,8 +86,7 @@ void clvox__raw_mesh_free(clvox__raw_mesh *raw)
  * which compare the two bit for bit; not a user setting. */
 int clvox__mesh_native_enabled(void)
 {
-    const char *e = getenv("CLVOX_MESH_READER");
-    return !(e && !strcmp(e, "openmesh"));
+    return !clvox__hooks()->mesh_reader_openmesh;
 }
 
 /* The same file, unchanged: inode, size, modification and change times

@@ -334,13 +334,11 @@ static int cap_emit(cap_out *o, uint32_t a, uint32_t b, uint32_t c)
 }
 
 /* The apex's offset off the plane, in units of the polygon's size: 0.0731;
- * CLVOX_CAP_APEX=F moves it (tests: the volume must not change). */
+ * the cap_apex test hook (CLVOX_CAP_APEX=F) moves it (tests: the volume must not change). */
 static double apex_offset(void)
 {
-    const char *e = getenv("CLVOX_CAP_APEX");
-    char *end = NULL;
-    double f = e ? strtod(e, &end) : 0.0;
-    return e && end != e && isfinite(f) ? f : 0.0731;
+    const clvox__test_hooks *h = clvox__hooks();
+    return h->cap_apex_set ? h->cap_apex : 0.0731;
 }
 
 static int cap_loop(const clvox_mesh *mesh, uint32_t *v, size_t n, double offset, cap_out *o)

@@ -484,10 +484,35 @@ static void test_grid_like(clvox_context *ctx)
     CHECK_STATUS(ctx, clvox_grid_from_npy_sidecar(ctx, "bad.json", "{}", 2, &g), CLVOX_ERR_GRID);
 }
 
+/* The library reads the environment only in src/core/environment.c (the
+ * test hooks and the user's settings); the CLI may read it anywhere. */
+static void test_getenv_in_one_place(void)
+{
+    FILE *f = popen("grep -rln --include='*.c' --include='*.cpp' --include='*.h' 'getenv *(' src", "r");
+    CHECK_MSG(f != NULL, "cannot run grep: %s", strerror(errno));
+    if (!f) return;
+    char line[PATH_MAX];
+    unsigned seen = 0, bad = 0;
+    while (fgets(line, sizeof line, f)) {
+        line[strcspn(line, "\n")] = 0;
+        if (strcmp(line, "src/core/environment.c") == 0) {
+            seen++;
+            continue;
+        }
+        if (strncmp(line, "src/cli/", 8) == 0) continue;
+        bad++;
+        CHECK_MSG(0, "%s reads the environment (only src/core/environment.c may)", line);
+    }
+    pclose(f);
+    CHECK_MSG(seen == 1, "src/core/environment.c not found by the scan (run from the repository root)");
+    CHECK(bad == 0);
+}
+
 int main(void)
 {
     test_exports();
     test_cli_includes();
+    test_getenv_in_one_place();
     clvox_context *ctx = NULL;
     clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
     co.host_only = 1;

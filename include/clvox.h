@@ -303,7 +303,7 @@ typedef struct clvox_voxelize_options {
     size_t size;
     clvox_method method;
     clvox_axis ray_axis;
-    uint32_t quadtree_max_depth;   /* 0 = auto (see README "Partition")          */
+    uint32_t quadtree_max_depth;   /* 0 = auto (docs/design.md)                   */
     uint32_t quadtree_leaf_size;   /* split while a leaf holds more; 0 = auto    */
     uint32_t slab_depth;           /* slices per slab; 0 = auto (memory-bounded) */
     uint32_t hit_capacity;         /* crossings kept per ray in the fast pass; 0 = auto (32);
@@ -501,7 +501,7 @@ CLVOX_API clvox_status clvox_voxelize_palette_to_buffers(clvox_context *ctx, con
  * binvox, streamed slab by slab except binvox (a bit per voxel held until the
  * end: its voxel order runs x slowest) and OpenVDB (a sparse FLOAT grid
  * "density", built slab by slab, written at the end). What each holds, file names, headers
- * and the voxel-centre conventions: README "Output formats". */
+ * and the voxel-centre conventions: docs/formats.md. */
 typedef enum clvox_format {
     CLVOX_FORMAT_AUTO = 0, /* from the path's extension: .exr .npy .nrrd .binvox .vdb (any case) */
     CLVOX_FORMAT_EXR,
@@ -759,7 +759,7 @@ CLVOX_API clvox_status clvox_ply_export_finish(clvox_ply_export *x);
  * (Cavagnino & Gribaudo, section 4): a voxel of element v and score B_v is
  * drawn with R_v,j when D_v,j <= B_v < D_v,j-1, the top interval closed (B_v
  * = 1 gets R_v,1). Objects are names; how they look is up to the renderer
- * (scripts/blender_instances.py). File format, precedence of the rules and
+ * (scripts/tools/blender_instances.py). File format, precedence of the rules and
  * the default object: docs/design.md "Render maps, instances and Blender".
  * A map is bound to the palette it was read for (element names resolved to
  * indices), immutable, and keeps neither the palette nor the context. */

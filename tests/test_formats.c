@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Output formats (npy, NRRD, binvox, OpenVDB; README "Output formats"): each file
+/* Output formats (npy, NRRD, binvox, OpenVDB; docs/formats.md): each file
  * read back by an independent reader (NumPy, pynrrd, trimesh's binvox loader, pyopenvdb;
  * tests/formats_check.py, run with build/venv-formats/bin/python from
  * scripts/setup.sh) and compared voxel by voxel with

@@ -787,7 +787,7 @@ static void test_bad_files(void)
                CLVOX_ERR_MESH_EMPTY, "ply with no vertices", NULL);
 }
 
-/* OBJ is read natively (mesh.c). The first entries aborted the process in
+/* OBJ is read natively (src/mesh/mesh_obj.c). The first entries aborted the process in
  * OpenMesh's reader (assert !vhandles.empty(), issue 7); none may crash. */
 static void test_obj(void)
 {

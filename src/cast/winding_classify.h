@@ -44,7 +44,7 @@ clvox_status clvox__winding_cast_prepare(clvox_context *ctx, const clvox_mesh *m
 void clvox__winding_classify_release(clvox__winding_classify *w);
 
 /* From argument *i on: abs_mode, the ray axis (with_axis), the cap tree and
- * the exact-point counter, as kernels/winding.h's consumers take them. */
+ * the exact-point counter, as the winding kernels' consumers (kernels/winding_*.h) take them. */
 cl_int clvox__winding_args(cl_kernel k, cl_uint *i, const clvox__winding_classify *w, const clvox__batch_mem *m,
                            int with_axis);
 

@@ -4,7 +4,7 @@
  *
  * One CSV row per non-empty voxel (element != 0) of a palette volume: the
  * instances a renderer places to draw it (Cavagnino & Gribaudo, section 4;
- * scripts/blender_instances.py builds a Blender scene from them). Columns:
+ * scripts/tools/blender_instances.py builds a Blender scene from them). Columns:
  *
  *   i,j,k        the voxel
  *   x,y,z        world position of its centre, origin + (i + 0.5) * h per axis
@@ -74,7 +74,7 @@ static void print_instances_help(void)
 "              instance matrix is translate(x,y,z) scale(hx,hy,hz) S;\n"
 "              element: modelled as this element, no S\n"
 "Reads the element and score channels slice by slice (memory: a few slices).\n"
-"Needs no OpenCL device. scripts/blender_instances.py renders the CSV.\n"
+"Needs no OpenCL device. scripts/tools/blender_instances.py renders the CSV.\n"
 "\n"
 "Options:\n"
 "  -o, --output OUT.csv     the table (required); written without a name in\n"

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* JSON output for the command line (--json, clvox info --json): a record is
  * built in memory and written as one line, so records from parallel runs do
- * not interleave. Field names: README "Machine-readable results". */
+ * not interleave. Field names: docs/cli.md "Machine-readable results". */
 #ifndef CLVOX_CLI_JSON_H
 #define CLVOX_CLI_JSON_H
 

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* The `clvox batch --manifest` parser (cli_manifest.c), on a buffer: no
  * file, no batch, so that the fuzz target (tests/fuzz/fuzz_manifest.c) and
- * cli_batch.c share it. Syntax: README "Batch runs", clvox batch --help. */
+ * cli_batch.c share it. Syntax: docs/cli.md "Batch runs", clvox batch --help. */
 #ifndef CLVOX_CLI_MANIFEST_H
 #define CLVOX_CLI_MANIFEST_H
 

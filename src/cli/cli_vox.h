@@ -110,7 +110,7 @@ typedef struct vox_result {
 int vox_run(vox_session *s, const vox_job *job, vox_result *res);
 /* Prints the recorded warnings, one "clvox: warning:" line each. */
 void vox_print_warnings(const vox_session *s, const vox_job *job, const vox_result *res);
-/* The JSON object of one mesh (README "Machine-readable results"). */
+/* The JSON object of one mesh (docs/cli.md "Machine-readable results"). */
 void vox_result_json(const vox_session *s, const vox_job *job, const vox_result *res, jbuf *b);
 
 /* The text summary of one run that succeeded (`clvox MESH`, cli.c). */

@@ -164,7 +164,7 @@ extern const char *const clvox__kernel_sources[];
 extern const char *const clvox__kernel_names[];
 extern const unsigned clvox__kernel_source_count;
 
-/* ---- mesh (mesh.c, mesh_openmesh.cpp) ---- */
+/* ---- mesh (src/mesh/: mesh_load.c, mesh_build.c, mesh_openmesh.cpp) ---- */
 
 /* The report's signed volume, for the winding preparation's sign of a mesh
  * that is one closed patch (it would sum the same terms again): vol6 =
@@ -400,7 +400,7 @@ typedef struct clvox__exr_meta {
  * CLVOX_CHANNEL_* mask (0 = occupancy), any combination of "occupancy" HALF
  * 0.0/1.0, "coverage" HALF, "element" UINT and "score" HALF. meta->palette
  * adds the palette attributes (a palette whose text does not fit an EXR
- * string is refused here). Layout: see README "Output format (EXR)". */
+ * string is refused here). Layout: see docs/formats.md "Output format (EXR)". */
 clvox_status clvox__exr_open(clvox_context *ctx, const char *path, const clvox_grid *grid,
                              const clvox__exr_meta *meta, uint32_t channels, clvox_compression compression,
                              uint32_t threads, clvox__exr_writer **out);

@@ -5,7 +5,7 @@
  * Only the grid is read (dims, origin = corner of voxel 0, voxel size),
  * never the samples. Both parsers work on a bounded buffer that need not be
  * NUL-terminated, and every malformed, truncated or unsupported input gives
- * CLVOX_ERR_GRID with one line "NAME: why" (README "Grid alignment"). */
+ * CLVOX_ERR_GRID with one line "NAME: why" (docs/cli.md "Grid alignment"). */
 #include "grid_like.h"
 #include "core/internal.h"
 

@@ -88,7 +88,7 @@
  *    whole tile, so they are the same.
  *  - Any chunk that does not shrink is stored raw (see
  *    store_raw_if_not_smaller for the OpenEXRCore 3.1.5 bug this avoids).
- * Measured with scripts/bench_writer.c (a sphere, the writer alone, wall
+ * Measured with scripts/bench/bench_writer.c (a sphere, the writer alone, wall
  * seconds including the fdatasync, 1 thread / 2 threads; 2-core VM shared
  * with other jobs, so the figures vary by 20 % or more):
  *   512^3:  NONE 0.52 / 0.64 s 268 MB (mostly the fdatasync of 268 MB);

@@ -8,7 +8,7 @@
  * <u2, or <u4 with CLVOX_OUTPUT_UINT32. Files: OUT.npy holds the main
  * channel (occupancy, else element, else coverage), the others
  * OUT.<channel>.npy; OUT.json describes the grid and is the set's marker,
- * named last, with each file's size and CRC-32 (README "Output formats"). */
+ * named last, with each file's size and CRC-32 (docs/formats.md). */
 #include "write_raster.h"
 
 #include <stdio.h>

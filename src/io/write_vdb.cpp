@@ -13,7 +13,7 @@
  * a solid interior becomes tiles instead of dense leaves. Transform: OpenVDB
  * puts voxel (i,j,k)'s centre at index point (i,j,k), so index -> world is
  * scale(h) then translate(origin + h/2): voxel (i,j,k) is centred at clvox's
- * origin + (i + 0.5) h (README "Output formats").
+ * origin + (i + 0.5) h (docs/formats.md).
  *
  * The file is written through clvox__outfile (unnamed until complete, every
  * byte checked, named on success, non-regular targets refused) by an

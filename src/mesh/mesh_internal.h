@@ -38,7 +38,7 @@ clvox_status clvox__mesh_build(clvox_context *ctx, const char *what, float *xyz,
 
 
 /* clvox_mesh_load up to clvox__mesh_build: the file read into raw (the reader
- * alone; scripts/bench_load.c times it). */
+ * alone; scripts/bench/bench_load.c times it). */
 clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *raw);
 
 /* 1 unless CLVOX_MESH_READER=openmesh (for tests: compare with OpenMesh). */

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: the whole public API in one header, as users include it; sections follow the pipeline. */
+/* Past 800 lines on purpose: the whole public API in one header, as users
+ * include it; sections follow the pipeline. */
 /*
  * clvox — OpenCL voxelization of triangle meshes, streamed to OpenEXR.
  *

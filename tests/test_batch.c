@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one test program for the batch command; its cases share the spawned-binary fixtures. */
+/* Past 800 lines on purpose: one test program for the batch command; its cases
+ * share the spawned-binary fixtures. */
 /* End-to-end tests of --json, clvox info --json, --like and clvox batch: runs
  * the binary ($CLVOX_BIN, default build/release/clvox) with fork/execve,
  * stdout and stderr captured into files, and parses the JSON records with

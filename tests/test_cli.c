@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one end-to-end program for the tool's commands; cases share the spawn fixtures (tests/spawn.c) and one temporary tree. */
+/* Past 800 lines on purpose: one end-to-end program for the tool's commands;
+ * cases share the spawn fixtures (tests/spawn.c) and one temporary tree. */
 #ifndef _XOPEN_SOURCE
 #define _XOPEN_SOURCE 700 /* mknod */
 #endif

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one test program for element geometry and its PLY export, sharing the palette fixtures. */
+/* Past 800 lines on purpose: one test program for element geometry and its PLY
+ * export, sharing the palette fixtures. */
 /* Element geometry (src/palette/element_mesh.c) and the PLY export of palette
  * volumes (src/palette/element_ply.c).
  *

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one test program for the EXR writer and reader, whose round trips share the generated volumes. */
+/* Past 800 lines on purpose: one test program for the EXR writer and reader,
+ * whose round trips share the generated volumes. */
 #ifndef _XOPEN_SOURCE
 #define _XOPEN_SOURCE 700 /* mknod, S_IFCHR */
 #endif

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one test program per command; its cases share the render-map and volume fixtures. */
+/* Past 800 lines on purpose: one test program per command; its cases share the
+ * render-map and volume fixtures. */
 /* Render maps and `clvox instances`:
  *  - the thresholds rule of Cavagnino & Gribaudo (section 4) at the ends of
  *    its intervals (B = 1, B exactly a threshold, just below one, B = 0, and

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one test program per stage: the bad inputs of every format share the writer helpers. */
+/* Past 800 lines on purpose: one test program per stage: the bad inputs of
+ * every format share the writer helpers. */
 /* The mesh stage: every format, the report, and every bad input we know
  * OpenMesh mishandles (hangs, throws, silent garbage), written at test time. */
 #include "test.h"

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one test program per mode, its oracles (GMP predicates, brute force) shared by every case. */
+/* Past 800 lines on purpose: one test program per mode, its oracles (GMP
+ * predicates, brute force) shared by every case. */
 /* Surface and conservative voxelization (docs/design.md "Surface
  * voxelization"). Oracles nobody tuned:
  *  - the exact predicates of kernels/overlap.h against GMP rationals, on

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one test program per consumer: the CPU oracle and every device case share the generated meshes. */
+/* Past 800 lines on purpose: one test program per consumer: the CPU oracle and
+ * every device case share the generated meshes. */
 /* The winding-number inside test (issue 9, docs/design.md "Winding
  * numbers"): the CPU oracle against itself and closed forms, then the
  * device through the public API against the oracle, voxel for voxel, on a

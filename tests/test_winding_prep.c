@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one test program per stage: each preparation step's cases share the generated meshes. */
+/* Past 800 lines on purpose: one test program per stage: each preparation
+ * step's cases share the generated meshes. */
 /* Mesh preparation for the winding inside test (src/winding/winding_prep.c):
  * merging, welding, orientation repair, patch signs with nesting (cavities),
  * boundary loops and caps. Host only; also times the 3.3 M-triangle

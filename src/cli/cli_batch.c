@@ -1,5 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: the batch loop and its look-ahead loader share one queue and its lock; sources, templates and the manifest parser already live apart (cli_manifest.c). */
+/* Past 800 lines on purpose: the batch loop and its look-ahead loader share
+ * one queue and its lock; sources, templates and the manifest parser already
+ * live apart (cli_manifest.c). */
 /*
  * clvox batch: many meshes in one process, with one host context, one
  * OpenCL context and one kernel build (vox_session, cli_run.c), each mesh run by

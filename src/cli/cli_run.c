@@ -1,5 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Past 800 lines on purpose: one mesh's run from parsed options to the summary, read top to bottom as one story; its parts (session, --like, run, summary) are sections and share the vox_run state. */
+/* Past 800 lines on purpose: one mesh's run from parsed options to the
+ * summary, read top to bottom as one story; its parts (session, --like, run,
+ * summary) are sections and share the vox_run state. */
 /*
  * One mesh's voxelization, shared by `clvox MESH` (cli.c) and `clvox batch`
  * (cli_batch.c): the session (host context, palette, --like grid, signal

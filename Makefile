@@ -156,9 +156,9 @@ $(STATIC_LIB): $(LIB_OBJ)
 	$(Q)rm -f $@ && ar rcs $@ $^
 	$(Q)echo '$(LIBS)' > $(BUILD)/libclvox.libs
 
-$(SHARED_LIB): $(LIB_OBJ)
+$(SHARED_LIB): $(LIB_OBJ) src/libclvox.map
 	@$(if $(filter 0,$(V)),echo "  LD    $@")
-	$(Q)$(CC) -shared -Wl,-soname,libclvox.so.$(word 1,$(subst ., ,$(shell sed -n 's/.*CLVOX_VERSION_STRING "\(.*\)"/\1/p' include/clvox.h))) $(FINAL_LDFLAGS) -o $@ $^ $(LIBS)
+	$(Q)$(CC) -shared -Wl,-soname,libclvox.so.$(word 1,$(subst ., ,$(shell sed -n 's/.*CLVOX_VERSION_STRING "\(.*\)"/\1/p' include/clvox.h))) -Wl,--version-script=src/libclvox.map $(FINAL_LDFLAGS) -o $@ $(LIB_OBJ) $(LIBS)
 
 $(CLI_BIN): $(CLI_OBJ) $(STATIC_LIB)
 	@$(if $(filter 0,$(V)),echo "  LD    $@")

@@ -1779,6 +1779,29 @@ static void test_precision_warning(void)
 
 static void test_help_examples(void);
 
+/* `--format npy -o x.json`: the data file and its sidecar would be one
+ * file (the sidecar was written over the data and the run said ok). Refused
+ * before any work; an existing x.json is left as it was. */
+static void test_npy_sidecar_name(void)
+{
+    char cube[PATH_MAX];
+    path_join(cube, sizeof cube, g_in, "cube.obj");
+    CHECK(write_text_at(g_dir, "clash.json", "keep"));
+    char p[PATH_MAX];
+    path_join(p, sizeof p, g_dir, "clash.json");
+    expect_failure_msg("--format npy -o x.json", 2, NULL, ARGS(cube, "-r", "8", "--format", "npy", "-o", p),
+                       "is also the name of its sidecar");
+    char *t = read_text(p);
+    CHECK_MSG(t && strcmp(t, "keep") == 0, "--format npy -o x.json: the old x.json changed: %s", t ? t : "(gone)");
+    free(t);
+    path_join(p, sizeof p, g_dir, "clash2.json");
+    unlink(p);
+    expect_failure_msg("--format npy --oversample 2 -o y.json", 2, NULL,
+                       ARGS(cube, "-r", "8", "--oversample", "2", "--format", "npy", "-o", p), "sidecar");
+    struct stat sb;
+    CHECK_MSG(lstat(p, &sb) != 0, "--format npy -o y.json: y.json was left");
+}
+
 int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
@@ -1802,6 +1825,7 @@ int main(void)
     test_palette_run();
     test_palette_run_errors();
     test_special_outputs();
+    test_npy_sidecar_name();
     test_special_inputs();
     test_write_failure_messages();
     test_nohup();

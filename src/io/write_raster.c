@@ -202,6 +202,14 @@ clvox_status clvox__raster_open(clvox_context *ctx, const clvox__fmt_info *info,
         if (!r->sidecar_path) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
         else st = clvox__outfile_check_target(ctx, r->sidecar_path); /* before any work */
     }
+    /* `-o x.json --format npy`: the sidecar would be written over the data */
+    for (size_t i = 0; st == CLVOX_OK && r->sidecar_path && i < r->nf; i++)
+        if (strcmp(r->f[i].path, r->sidecar_path) == 0)
+            st = clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                             "output '%s' is also the name of its sidecar (%s): name the data file otherwise "
+                             "(for example .npy)",
+                             r->f[i].path, spec->sidecar_ext);
+
     if (st == CLVOX_OK && spec->gzip && !(r->zbuf = malloc(ZCHUNK)))
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     if (st != CLVOX_OK) {

@@ -54,13 +54,8 @@ typedef clvox_write_at_fn clvox__write_at_fn;
 
 typedef struct clvox_ply_export clvox__ply_export;
 
-typedef struct clvox__ply_totals {
-    uint64_t voxels;         /* non-empty voxels (element != 0) */
-    uint64_t vertices;
-    uint64_t triangles;
-    uint64_t bytes;          /* exact size of the file */
-    uint64_t header_bytes;
-} clvox__ply_totals;
+/* The public struct (clvox.h); internally its .size is not used. */
+typedef clvox_ply_totals clvox__ply_totals;
 
 /* An export of a volume of dims voxels (voxel (i,j,k) is the box origin +
  * (i,j,k) * voxel_size .. + voxel_size) scored with `palette` (borrowed for

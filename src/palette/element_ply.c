@@ -364,14 +364,9 @@ clvox_status clvox_ply_export_totals(clvox_ply_export *x, clvox_ply_totals *tota
     clvox_ply_totals full = CLVOX_PLY_TOTALS_INIT;
     clvox_status st = clvox__out_begin(x->ctx, totals, sizeof full, CLVOX__PLY_TOTALS_SIZE_0, "clvox_ply_totals");
     if (st != CLVOX_OK) return st;
-    clvox__ply_totals t;
-    st = clvox__ply_export_totals(x, &t);
+    st = clvox__ply_export_totals(x, &full);
     if (st == CLVOX_OK) {
-        full.voxels = t.voxels;
-        full.vertices = t.vertices;
-        full.triangles = t.triangles;
-        full.bytes = t.bytes;
-        full.header_bytes = t.header_bytes;
+        full.size = sizeof full;
         clvox__out_end(totals, &full);
     }
     return st;

@@ -36,6 +36,20 @@ static void pgrid_free(pgrid *g)
     g->start = g->refs = NULL;
 }
 
+/* The (x, y) box of triangle t. */
+static void tri_xy_box(const float *xyz, const uint32_t *t, float *x0, float *x1, float *y0, float *y1)
+{
+    *x0 = *x1 = xyz[3 * (size_t)t[0]];
+    *y0 = *y1 = xyz[3 * (size_t)t[0] + 1];
+    for (int c = 1; c < 3; c++) {
+        float x = xyz[3 * (size_t)t[c]], y = xyz[3 * (size_t)t[c] + 1];
+        if (x < *x0) *x0 = x;
+        if (x > *x1) *x1 = x;
+        if (y < *y0) *y0 = y;
+        if (y > *y1) *y1 = y;
+    }
+}
+
 /* Buckets the patch's triangles (tri_ids[0..nt)) by their xy boxes; the
  * grid has about nt cells, coarsened while triangles would span too many. */
 static int pgrid_build(pgrid *g, const float *xyz, const uint32_t *tris, const uint32_t *tri_ids, size_t nt,
@@ -61,15 +75,8 @@ static int pgrid_build(pgrid *g, const float *xyz, const uint32_t *tris, const u
         double sx = wx > 0 ? nx / wx : 0, sy = wy > 0 ? ny / wy : 0;
         uint64_t total = 0;
         for (size_t i = 0; i < nt; i++) {
-            const uint32_t *t = tris + 3 * (size_t)tri_ids[i];
-            float tx0 = xyz[3 * t[0]], tx1 = tx0, ty0 = xyz[3 * t[0] + 1], ty1 = ty0;
-            for (int c = 1; c < 3; c++) {
-                float x = xyz[3 * (size_t)t[c]], y = xyz[3 * (size_t)t[c] + 1];
-                if (x < tx0) tx0 = x;
-                if (x > tx1) tx1 = x;
-                if (y < ty0) ty0 = y;
-                if (y > ty1) ty1 = y;
-            }
+            float tx0, tx1, ty0, ty1;
+            tri_xy_box(xyz, tris + 3 * (size_t)tri_ids[i], &tx0, &tx1, &ty0, &ty1);
             uint64_t cx = grid_cell(tx1, lo[0], sx, nx) - grid_cell(tx0, lo[0], sx, nx) + 1;
             uint64_t cy = grid_cell(ty1, lo[1], sy, ny) - grid_cell(ty0, lo[1], sy, ny) + 1;
             total += cx * cy;
@@ -96,15 +103,8 @@ static int pgrid_build(pgrid *g, const float *xyz, const uint32_t *tris, const u
     }
     for (int pass = 0; pass < 2; pass++) {
         for (size_t i = 0; i < nt; i++) {
-            const uint32_t *t = tris + 3 * (size_t)tri_ids[i];
-            float tx0 = xyz[3 * t[0]], tx1 = tx0, ty0 = xyz[3 * t[0] + 1], ty1 = ty0;
-            for (int c = 1; c < 3; c++) {
-                float x = xyz[3 * (size_t)t[c]], y = xyz[3 * (size_t)t[c] + 1];
-                if (x < tx0) tx0 = x;
-                if (x > tx1) tx1 = x;
-                if (y < ty0) ty0 = y;
-                if (y > ty1) ty1 = y;
-            }
+            float tx0, tx1, ty0, ty1;
+            tri_xy_box(xyz, tris + 3 * (size_t)tri_ids[i], &tx0, &tx1, &ty0, &ty1);
             uint32_t i0 = grid_cell(tx0, g->x0, g->sx, nx), i1 = grid_cell(tx1, g->x0, g->sx, nx);
             uint32_t j0 = grid_cell(ty0, g->y0, g->sy, ny), j1 = grid_cell(ty1, g->y0, g->sy, ny);
             for (uint32_t j = j0; j <= j1; j++)

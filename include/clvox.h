@@ -105,6 +105,10 @@ typedef struct clvox_device_info {
     uint32_t compute_units;
     uint64_t global_mem_bytes;
     uint64_t max_alloc_bytes;
+    /* appended in 0.2: 1 when the device has double precision
+     * (CL_DEVICE_DOUBLE_FP_CONFIG): devices combine in one run only when
+     * they agree on it (the kernels' exact paths use it). */
+    int fp64;
 } clvox_device_info;
 #define CLVOX_DEVICE_INFO_INIT { .size = sizeof(clvox_device_info) }
 
@@ -122,6 +126,24 @@ CLVOX_API clvox_status clvox_context_create(const clvox_context_options *options
 CLVOX_API void clvox_context_destroy(clvox_context *ctx);            /* NULL-safe */
 CLVOX_API const char *clvox_context_error(const clvox_context *ctx);  /* "" if none */
 CLVOX_API const clvox_device_info *clvox_context_device(const clvox_context *ctx);
+
+/* Device sets. clvox_context_options.device may also be a comma-separated
+ * list of the selectors above ("0,1", "cpu,gpu") or "all" (every device of
+ * every platform): the context then holds each of those devices (one
+ * OpenCL context and queue each, kernels built per device), and every
+ * voxelization spreads its slabs over them (docs/design.md "Several
+ * devices"); the volume is the same, bit for bit, whatever the set. A
+ * device of a set that cannot be used is left out with a warning: its
+ * kernels fail to build, or its kernels would compute differently from the
+ * first device's (today: one has cl_khr_fp64 and the other not). At most
+ * CLVOX_MAX_DEVICES devices. clvox_context_device is the first of them. */
+#define CLVOX_MAX_DEVICES 16u
+CLVOX_API size_t clvox_context_device_count(const clvox_context *ctx); /* 0 for host_only */
+CLVOX_API const clvox_device_info *clvox_context_device_at(const clvox_context *ctx, size_t i); /* NULL past the end */
+/* What the context's creation and its latest voxelization warn of, one
+ * line each ("device 1 'X' left out: ..."), or "". Not errors: the run
+ * succeeded without the device named. */
+CLVOX_API const char *clvox_context_warnings(const clvox_context *ctx);
 
 /* ---- mesh ---------------------------------------------------------------- */
 
@@ -409,6 +431,17 @@ typedef struct clvox_winding_report {
     double seconds;              /* host time of the preparation */
 } clvox_winding_report;
 
+/* One device's part of a run (clvox_stats.devices). */
+typedef struct clvox_device_share {
+    uint32_t device;          /* its position in the context's devices (clvox_context_device_at) */
+    uint32_t slabs;           /* slabs it computed that were written */
+    uint64_t slices;          /* their slices */
+    double busy_seconds;      /* wall time spent computing and reading back slabs, discarded ones included */
+    uint32_t discarded_slabs; /* slabs it also computed (a straggler re-issued) whose other copy came first */
+    int failed;               /* 1: it failed during the run; its slabs were redone on the other devices */
+    int left_out;             /* 1: measured too slow to pay (docs/design.md "Several devices"), it took no more */
+} clvox_device_share;
+
 typedef struct clvox_stats {
     size_t size;                   /* sizeof(clvox_stats): set by the caller (see Conventions) */
     double seconds[CLVOX_STAGE_COUNT];
@@ -437,6 +470,23 @@ typedef struct clvox_stats {
                                          the voxel volume: the volume of the element approximation) */
     clvox_inside inside;              /* the inside test used (never DEFAULT) */
     clvox_winding_report winding;     /* mesh preparation and exact evaluations (winding runs) */
+    /* Devices (appended in 0.2): each device's part of the run, in the
+     * context's device order (clvox_context_device_at). */
+    uint32_t device_count;
+    clvox_device_share devices[CLVOX_MAX_DEVICES];
+    /* Achieved speed-up over the fastest device alone divided by the ideal
+     * one from the devices' measured throughputs (EngineCL's efficiency):
+     * slices / (sum of the devices' slices per busy second x wall time of
+     * the computing). 1 = no device ever waited; with one device, the
+     * fraction of the time it computed. */
+    double scheduling_efficiency;
+    /* The writer takes slabs in increasing z from a reorder buffer of at
+     * most reorder_slabs slabs (reorder_bytes of host memory), whatever the
+     * number of slices or how unequal the devices are; reorder_peak is the
+     * most it held at once. */
+    uint32_t reorder_slabs;
+    uint64_t reorder_bytes;
+    uint32_t reorder_peak;
 } clvox_stats;
 /* Every function taking a clvox_stats * (may be NULL) needs its .size set. */
 #define CLVOX_STATS_INIT { .size = sizeof(clvox_stats) }

@@ -5,6 +5,7 @@
  * callback or dense memory).
  * Memory is one slab of each plane whatever the number of slices. */
 #include "core/internal.h"
+#include "schedule.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -227,23 +228,6 @@ typedef struct sink_needs {
     uint32_t *samples_out;  /* receives the samples per voxel (may be NULL) */
 } sink_needs;
 
-/* Progress between the batches of a slab: the caller's callback with the
- * fraction of the whole run, at most 10 times a second. */
-typedef struct poll_state {
-    const clvox_voxelize_options *o;
-    uint32_t done, slabs;
-    double last;
-} poll_state;
-
-static int poll_progress(void *user, double slab_fraction)
-{
-    poll_state *p = user;
-    double now = clvox__now();
-    if (!p->o->progress || now - p->last < 0.1) return 1;
-    p->last = now;
-    return p->o->progress(p->o->progress_user, ((double)p->done + slab_fraction) / p->slabs);
-}
-
 static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
                         const clvox_voxelize_options *in, const sink_needs *needs, open_fn open_sink, sink_fn sink,
                         void *user, clvox_stats *stats_out)
@@ -264,8 +248,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     const clvox__method *m2 = o.mode == CLVOX_MODE_CONSERVATIVE ? &clvox__method_surface : NULL;
     if (o.mode == CLVOX_MODE_SURFACE) m = &clvox__method_surface;
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
-    poll_state poll = {&o, 0, 0, 0.0};
-    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts, poll_progress, &poll, 0};
+    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts, clvox__sched_poll, NULL, 0};
     o.channels = req.channels;
     if (needs->channels_out) *needs->channels_out = req.channels;
     /* The slab's device planes: occupancy bit rows; coverage, element and
@@ -287,7 +270,15 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     if (slice_bytes > max_alloc)
         return clvox__fail(ctx, CLVOX_ERR_GRID, "one %ux%u slice needs %llu MB, more than the device's largest buffer (%llu MB)",
                            X, Y, (unsigned long long)(slice_bytes >> 20), (unsigned long long)(max_alloc >> 20));
+    /* Several devices share the slices: slabs of at most Z / (8 devices),
+     * so that each takes several and the last ones are short. The volume is
+     * the same at any depth. */
+    const uint32_t ndev = ctx->member_count ? ctx->member_count : 1;
     uint32_t depth = o.slab_depth ? (o.slab_depth < Z ? o.slab_depth : Z) : auto_slab_depth(grid);
+    if (!o.slab_depth && ndev > 1) {
+        uint32_t share = (Z + 8 * ndev - 1) / (8 * ndev);
+        if (share < depth) depth = share;
+    }
     if ((uint64_t)depth * slice_bytes > max_alloc) depth = (uint32_t)(max_alloc / slice_bytes);
     stats.slab_depth = depth;
     stats.total_voxels = (uint64_t)X * Y * Z;
@@ -297,101 +288,88 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     stats.samples_per_voxel = o.oversample ? o.oversample * o.oversample * (o.oversample_points ? o.oversample_points : o.oversample) : 1;
     if (needs->samples_out) *needs->samples_out = stats.samples_per_voxel;
 
-    clvox__method_state *ms = NULL, *ms2 = NULL;
-    cl_mem plane[4] = {NULL, NULL, NULL, NULL};
-    st = m->prepare(ctx, mesh, grid, &o, &req, depth, &stats, &ms);
-    if (st == CLVOX_OK && m2) {
-        clvox__run req2 = req;
-        req2.accumulate = 1;
-        st = m2->prepare(ctx, mesh, grid, &o, &req2, depth, &stats, &ms2);
+    /* Each device prepares its methods (the first one's statistics are the
+     * run's); a device whose preparation fails is left out with a warning,
+     * unless it is the only one or the failure is the input's. */
+    ctx->warnings[ctx->warnings_kept] = 0;
+    clvox__sched_device dev[CLVOX_MAX_DEVICES];
+    memset(dev, 0, sizeof dev);
+    clvox_stats first = stats;
+    int have_first = 0;
+    st = CLVOX_OK;
+    for (uint32_t d = 0; d < ndev; d++) {
+        clvox_context *dc = ctx->member_count ? ctx->member[d] : ctx;
+        dev[d].ctx = dc;
+        clvox_stats mine = stats;
+        clvox__run rd = req;
+        rd.poll_user = &dev[d];
+        clvox_status sd = m->prepare(dc, mesh, grid, &o, &rd, depth, &mine, &dev[d].ms);
+        if (sd == CLVOX_OK && m2) {
+            clvox__run r2 = rd;
+            r2.accumulate = 1;
+            sd = m2->prepare(dc, mesh, grid, &o, &r2, depth, &mine, &dev[d].ms2);
+        }
+        for (int i = 0; i < 4 && sd == CLVOX_OK; i++) {
+            if (!plane_slice[i]) continue;
+            cl_int err = CL_SUCCESS;
+            dev[d].plane[i] = clCreateBuffer(dc->cl, CL_MEM_READ_WRITE, (size_t)(depth * plane_slice[i]), NULL, &err);
+            if (err != CL_SUCCESS) {
+                char what[64];
+                snprintf(what, sizeof what, "clCreateBuffer(slab %s)", plane_name[i]);
+                sd = clvox__cl_fail(dc, err, what);
+            }
+        }
+        if (sd == CLVOX_OK) {
+            if (!have_first) first = mine, have_first = 1;
+            continue;
+        }
+        if (dev[d].ms) m->release(dev[d].ms);
+        if (dev[d].ms2) m2->release(dev[d].ms2);
+        dev[d].ms = dev[d].ms2 = NULL;
+        for (int i = 0; i < 4; i++) clvox__release_mem(&dev[d].plane[i]);
+        /* the input's fault (or the only device): the run's error */
+        if (ndev == 1 || (sd != CLVOX_ERR_OPENCL && sd != CLVOX_ERR_OUT_OF_MEMORY && sd != CLVOX_ERR_KERNEL_BUILD)) {
+            if (dc != ctx) clvox__fail(ctx, sd, "%s", dc->error);
+            st = sd;
+            break;
+        }
+        clvox__warn(ctx, "device %u '%s' left out: %s", dc->position, dc->device.name, dc->error);
+        if (d == ndev - 1 && !have_first) {
+            clvox__fail(ctx, sd, "no device could prepare the run; device %u: %s", dc->position, dc->error);
+            st = sd;
+        }
     }
-    if (st == CLVOX_OK && open_sink) {
+    if (have_first) stats = first;
+    clvox__sched_device *lead = NULL;
+    for (uint32_t d = 0; d < ndev && !lead; d++)
+        if (dev[d].ms) lead = &dev[d];
+    if (st == CLVOX_OK && open_sink && lead) {
         char params[512], name[32];
-        m->describe(ms, params, sizeof params);
+        m->describe(lead->ms, params, sizeof params);
         snprintf(name, sizeof name, "%s", m->name);
         if (m2) {
             size_t used = strlen(params);
             snprintf(params + used, sizeof params - used, " mode=conservative surface: ");
             used = strlen(params);
-            m2->describe(ms2, params + used, sizeof params - used);
+            m2->describe(lead->ms2, params + used, sizeof params - used);
             snprintf(name, sizeof name, "%s+%s", m->name, m2->name);
         }
         st = open_sink(user, name, params);
     }
-    cl_int err = CL_SUCCESS;
-    for (int i = 0; i < 4 && st == CLVOX_OK; i++) {
-        if (!plane_slice[i]) continue;
-        plane[i] = clCreateBuffer(ctx->cl, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, (size_t)(depth * plane_slice[i]),
-                                  NULL, &err);
-        if (err != CL_SUCCESS) {
-            char what[64];
-            snprintf(what, sizeof what, "clCreateBuffer(slab %s)", plane_name[i]);
-            st = clvox__cl_fail(ctx, err, what);
-        }
+    uint32_t window = clvox__sched_window(ndev, depth * all_slices);
+    /* method working set + each device's slab planes + the reorder buffer */
+    stats.peak_slab_bytes += (uint64_t)(ndev + window) * depth * all_slices;
+    if (st == CLVOX_OK) {
+        clvox__sched_job job = {ctx, m, m2, dev, ndev, {0}, Z, depth, window, sink, user, o.progress, o.progress_user};
+        memcpy(job.plane_slice, plane_slice, sizeof plane_slice);
+        st = clvox__sched_run(&job, &stats);
     }
-    const clvox__slab_out planes = {plane[0], plane[1], plane[2], plane[3]};
-    stats.peak_slab_bytes += depth * all_slices; /* method working set + slab planes */
-    uint32_t slabs = (Z + depth - 1) / depth, done = 0;
-    poll.slabs = slabs;
-    poll.last = -1e300; /* the first poll inside a slab is passed on, then at most 10 a second */
-    for (uint32_t z0 = 0; st == CLVOX_OK && z0 < Z; z0 += depth) {
-        uint32_t nz = Z - z0 < depth ? Z - z0 : depth;
-        clvox__slab_stats ss;
-        memset(&ss, 0, sizeof ss);
-        st = m->slab(ms, z0, nz, &planes, &ss);
-        if (st == CLVOX_OK && m2) {
-            ss.filled = 0; /* the surface pass counts the union */
-            st = m2->slab(ms2, z0, nz, &planes, &ss);
-        }
-        if (st != CLVOX_OK) break;
-        stats.seconds[CLVOX_STAGE_CAST] += ss.cast_seconds;
-        stats.seconds[CLVOX_STAGE_CLASSIFY] += ss.classify_seconds;
-        stats.filled_voxels += ss.filled;
-        stats.rays += ss.rays;
-        stats.odd_parity_rays += ss.odd_parity_rays;
-        stats.overflow_rays += ss.overflow_rays;
-        stats.coverage_sum += (double)ss.coverage_count;
-        stats.palette_early_voxels += ss.palette_early;
-        stats.palette_shortcut_voxels += ss.palette_shortcut;
-        stats.palette_scored_voxels += ss.palette_scored;
-        stats.palette_nonempty_voxels += ss.palette_nonempty;
-        stats.palette_volume += ss.palette_volume;
-        stats.winding.exact_points += ss.exact_points;
-        if (ss.max_crossings > stats.max_crossings) stats.max_crossings = ss.max_crossings;
-
-        void *host[4] = {NULL, NULL, NULL, NULL};
-        for (int i = 0; i < 4 && st == CLVOX_OK; i++) {
-            if (!plane[i]) continue;
-            host[i] = clEnqueueMapBuffer(ctx->queue, plane[i], CL_TRUE, CL_MAP_READ, 0, (size_t)(nz * plane_slice[i]), 0,
-                                         NULL, NULL, &err);
-            if (err != CL_SUCCESS) {
-                char what[64];
-                snprintf(what, sizeof what, "mapping the slab's %s", plane_name[i]);
-                st = clvox__cl_fail(ctx, err, what);
-            }
-        }
-        if (st == CLVOX_OK) {
-            double t0 = clvox__now();
-            clvox__slab_planes hp = {host[0], host[1], host[2], host[3]};
-            st = sink(user, z0, nz, &hp);
-            stats.seconds[CLVOX_STAGE_WRITE] += clvox__now() - t0;
-        }
-        for (int i = 0; i < 4; i++) {
-            if (!host[i]) continue;
-            err = clEnqueueUnmapMemObject(ctx->queue, plane[i], host[i], 0, NULL, NULL);
-            if (err != CL_SUCCESS && st == CLVOX_OK) st = clvox__cl_fail(ctx, err, "unmapping the slab");
-        }
-        if (st != CLVOX_OK) break;
-        done++;
-        poll.done = done;
-        if (st == CLVOX_OK && o.progress && !o.progress(o.progress_user, (double)done / slabs))
-            st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled after %u of %u slabs", done, slabs);
+    for (uint32_t d = 0; d < ndev; d++) {
+        for (int i = 0; i < 4; i++) clvox__release_mem(&dev[d].plane[i]);
+        if (dev[d].ms) m->release(dev[d].ms);
+        if (dev[d].ms2) m2->release(dev[d].ms2);
     }
     const int want_cov = (req.channels & CLVOX_CHANNEL_COVERAGE) != 0;
-    if (plane[0] || plane[1] || plane[2] || plane[3]) clFinish(ctx->queue);
-    for (int i = 0; i < 4; i++) clvox__release_mem(&plane[i]);
-    if (ms) m->release(ms);
-    if (ms2) m2->release(ms2);
     /* coverage in voxel units: samples inside / samples per voxel */
     stats.coverage_sum = want_cov || o.palette ? stats.coverage_sum / stats.samples_per_voxel : (double)stats.filled_voxels;
     stats.seconds[CLVOX_STAGE_TOTAL] = clvox__now() - t_start;

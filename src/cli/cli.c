@@ -111,14 +111,19 @@ static int cmd_list_devices(void)
         if (v > wv) wv = v;
         if (t > wt) wt = t;
     }
-    printf("%-5s  %-*s  %-*s  %-*s  %-*s  %s\n", "index", wt, "type", wn, "name", wp, "platform", wv, "version",
-           "memory");
+    printf("%-5s  %-*s  %-*s  %-*s  %-*s  %-4s  %s\n", "index", wt, "type", wn, "name", wp, "platform", wv,
+           "version", "fp64", "memory");
+    int kinds = 0; /* 1: some device has fp64, 2: some has not */
     for (size_t i = 0; i < count; i++) {
         char mem[32];
         format_bytes(devs[i].global_mem_bytes, mem, sizeof mem);
-        printf("%-5u  %-*s  %-*s  %-*s  %-*s  %s\n", (unsigned)devs[i].index, wt, devs[i].type, wn, devs[i].name,
-               wp, devs[i].platform, wv, devs[i].version, mem);
+        printf("%-5u  %-*s  %-*s  %-*s  %-*s  %-4s  %s\n", (unsigned)devs[i].index, wt, devs[i].type, wn,
+               devs[i].name, wp, devs[i].platform, wv, devs[i].version, devs[i].fp64 ? "yes" : "no", mem);
+        kinds |= devs[i].fp64 ? 1 : 2;
     }
+    if (count > 1)
+        printf("\nOne run can use several devices: --device 0,1 (indices, types or names) or --device all.\n%s",
+               kinds == 3 ? "Only devices that agree on fp64 combine: a run leaves out those without it.\n" : "");
     free(devs);
     return EXIT_OK;
 }
@@ -252,7 +257,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     }
     if (rc != EXIT_OK) goto done;
     if (!a->quiet && !a->json) {
-        print_summary(mesh_path, &res->report, &res->grid, clvox_context_device(s.dev), a, s.palette, &res->stats,
+        print_summary(mesh_path, &res->report, &res->grid, s.dev, a, s.palette, &res->stats,
                       output, res->setup_seconds, cli_now() - wall_start);
         cli_flush_stdout(); /* the summary before the warnings */
     }

@@ -187,9 +187,10 @@ static const char *channel_list(uint32_t mask)
 }
 
 void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
-                   const clvox_device_info *dev, const cli_args *a, const clvox_palette *pal,
+                   const clvox_context *devices, const cli_args *a, const clvox_palette *pal,
                    const clvox_stats *s, const char *output, double setup_seconds, double wall_seconds)
 {
+    const clvox_device_info *dev = clvox_context_device(devices);
     char extra[256] = "";
     size_t used = 0;
     if (r->polygons_triangulated)
@@ -212,6 +213,25 @@ void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvo
     print_grid_line(grid->dims, grid->origin, grid->voxel_size);
     printf(LABEL "%s (%s, %s)\n", "device", dev ? dev->name : "?", dev ? dev->type : "?",
            dev ? dev->platform : "?");
+    if (s->device_count > 1) { /* a device set: what each did, and how well they shared */
+        uint64_t slices = 0;
+        for (uint32_t i = 0; i < s->device_count; i++) slices += s->devices[i].slices;
+        for (uint32_t i = 0; i < s->device_count; i++) {
+            const clvox_device_share *d = &s->devices[i];
+            const clvox_device_info *di = clvox_context_device_at(devices, d->device);
+            char note[64] = "";
+            if (d->failed) snprintf(note, sizeof note, ", failed");
+            else if (d->left_out) snprintf(note, sizeof note, ", left out");
+            if (d->discarded_slabs)
+                snprintf(note + strlen(note), sizeof note - strlen(note), ", %u re-issued slabs lost",
+                         (unsigned)d->discarded_slabs);
+            printf(LABEL "%u %s: %u slabs, %.1f %% of the slices, busy %.3f s%s\n", i ? "" : "devices",
+                   (unsigned)d->device, di ? di->name : "?", (unsigned)d->slabs,
+                   slices ? 100.0 * (double)d->slices / (double)slices : 0.0, d->busy_seconds, note);
+        }
+        printf(LABEL "scheduling efficiency %.2f (speed-up over the fastest device / the ideal one)\n", "",
+               s->scheduling_efficiency);
+    }
 
     char slab[32];
     snprintf(slab, sizeof slab, "%u", (unsigned)s->slab_depth);
@@ -617,7 +637,18 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
         st = clvox_voxelize_to_file(s->dev, mesh, &res->grid, &vo, &oo, job->output, &res->stats);
     }
     progress_erase();
+    { /* the library's warnings: devices left out or failed */
+        const char *w = clvox_context_warnings(s->dev);
+        while (w && *w) {
+            const char *nl = strchr(w, '\n');
+            int len = nl ? (int)(nl - w) : (int)strlen(w);
+            record_warning(res, "%.*s", len, w);
+            w += len + (nl != NULL);
+        }
+    }
     if (st != CLVOX_OK) {
+        vox_print_warnings(s, job, res); /* before the error: they may explain it */
+        res->warning_count = 0;
         rc = fail_status(s->dev, st, ROLE_OUTPUT);
         goto done;
     }
@@ -798,6 +829,25 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
         jb_str(b, "type", dev->type);
         jb_str(b, "platform", dev->platform);
         jb_obj_end(b);
+        /* every device of the run, with its part */
+        jb_arr_begin(b, "devices");
+        for (uint32_t i = 0; i < st->device_count; i++) {
+            const clvox_device_share *d = &st->devices[i];
+            const clvox_device_info *di = clvox_context_device_at(s->dev, d->device);
+            jb_obj_begin(b, NULL);
+            jb_u64(b, "index", d->device);
+            jb_str(b, "name", di ? di->name : "");
+            jb_str(b, "type", di ? di->type : "");
+            jb_u64(b, "slabs", d->slabs);
+            jb_u64(b, "slices", d->slices);
+            jb_num(b, "busy_s", d->busy_seconds);
+            jb_u64(b, "discarded_slabs", d->discarded_slabs);
+            jb_bool(b, "failed", d->failed);
+            jb_bool(b, "left_out", d->left_out);
+            jb_obj_end(b);
+        }
+        jb_arr_end(b);
+        jb_num(b, "scheduling_efficiency", st->scheduling_efficiency);
     } else {
         jb_null(b, "device");
     }

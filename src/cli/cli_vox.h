@@ -115,7 +115,7 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
 
 /* The text summary of one run that succeeded (`clvox MESH`, cli.c). */
 void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
-                   const clvox_device_info *dev, const cli_args *a, const clvox_palette *pal,
+                   const clvox_context *devices, const cli_args *a, const clvox_palette *pal,
                    const clvox_stats *s, const char *output, double setup_seconds, double wall_seconds);
 
 /* 1 once SIGINT/SIGTERM/SIGHUP arrived. */

@@ -205,6 +205,9 @@ static clvox_status enumerate(device_entry **out, size_t *count, char *why, size
             e->info.compute_units = cu;
             e->info.global_mem_bytes = mem;
             e->info.max_alloc_bytes = alloc;
+            cl_device_fp_config fp64 = 0;
+            if (clGetDeviceInfo(devs[d], CL_DEVICE_DOUBLE_FP_CONFIG, sizeof fp64, &fp64, NULL) != CL_SUCCESS) fp64 = 0;
+            e->info.fp64 = fp64 != 0;
             n++;
         }
         free(devs);
@@ -351,6 +354,161 @@ static clvox_status query_real_size(clvox_context *ctx)
     return CLVOX_OK;
 }
 
+/* Opens the device of `e` in ctx: context, queue, kernels. */
+static clvox_status open_device(clvox_context *ctx, const device_entry *e)
+{
+    ctx->platform = e->platform;
+    ctx->device_id = e->device;
+    ctx->device = e->info;
+    const clvox__test_hooks *h = clvox__hooks();
+    if (h->fail_device_k == (int)ctx->position && h->fail_device_n == 0)
+        return clvox__fail(ctx, CLVOX_ERR_KERNEL_BUILD, "clBuildProgram: CLVOX_TEST_FAIL_DEVICE=%u:0 failed it",
+                           ctx->position);
+    cl_int err;
+    cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)ctx->platform, 0};
+    ctx->cl = clCreateContext(props, 1, &ctx->device_id, NULL, NULL, &err);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateContext");
+    ctx->queue = clCreateCommandQueue(ctx->cl, ctx->device_id, CL_QUEUE_PROFILING_ENABLE, &err);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateCommandQueue");
+    clvox_status st = build_program(ctx);
+    if (st != CLVOX_OK) return st;
+    return query_real_size(ctx);
+}
+
+static void close_device(clvox_context *ctx)
+{
+    if (ctx->program) clReleaseProgram(ctx->program);
+    if (ctx->queue) clReleaseCommandQueue(ctx->queue);
+    if (ctx->cl) clReleaseContext(ctx->cl);
+    ctx->program = NULL;
+    ctx->queue = NULL;
+    ctx->cl = NULL;
+}
+
+void clvox__warn(clvox_context *ctx, const char *fmt, ...)
+{
+    size_t used = strlen(ctx->warnings);
+    if (used + 2 >= sizeof ctx->warnings) return;
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(ctx->warnings + used, sizeof ctx->warnings - used - 1, fmt, ap);
+    va_end(ap);
+    if (n < 0) {
+        ctx->warnings[used] = 0;
+        return;
+    }
+    used = strlen(ctx->warnings);
+    ctx->warnings[used] = '\n';
+    ctx->warnings[used + 1] = 0;
+}
+
+/* The devices a selector list names, in its order: "all", or selectors
+ * (select_device's) separated by commas. */
+static clvox_status select_devices(clvox_context *ctx, const char *sel, device_entry *list, size_t n,
+                                   size_t *picks, uint32_t *count)
+{
+    *count = 0;
+    if (sel && !strcmp(sel, "all")) {
+        if (n > CLVOX_MAX_DEVICES)
+            return clvox__fail(ctx, CLVOX_ERR_NO_DEVICE, "%zu devices: a run takes at most %u (name them)", n,
+                               CLVOX_MAX_DEVICES);
+        for (size_t i = 0; i < n; i++) picks[(*count)++] = i;
+        return CLVOX_OK;
+    }
+    if (!sel || !strchr(sel, ',')) return select_device(ctx, sel, list, n, &picks[(*count)++]);
+    const char *p = sel;
+    for (;;) {
+        const char *comma = strchr(p, ',');
+        size_t len = comma ? (size_t)(comma - p) : strlen(p);
+        char one[256];
+        if (len == 0 || len >= sizeof one)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "device list '%s': %s selector", sel,
+                               len ? "too long a" : "an empty");
+        memcpy(one, p, len);
+        one[len] = 0;
+        if (*count == CLVOX_MAX_DEVICES)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "device list '%s': more than %u devices", sel,
+                               CLVOX_MAX_DEVICES);
+        size_t pick;
+        clvox_status st = select_device(ctx, one, list, n, &pick);
+        if (st != CLVOX_OK) return st;
+        for (uint32_t i = 0; i < *count; i++)
+            if (picks[i] == pick)
+                return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                                   "device list '%s': '%s' names device %zu (%s) again", sel, one, pick,
+                                   list[pick].info.name);
+        picks[(*count)++] = pick;
+        if (!comma) return CLVOX_OK;
+        p = comma + 1;
+    }
+}
+
+/* Opens every device of a set (count > 1) as members of ctx; a device that
+ * cannot be opened, or computes differently from the others, is left out
+ * with a warning. */
+static clvox_status open_set(clvox_context *ctx, const device_entry *list, const size_t *picks, uint32_t count)
+{
+    clvox_context *open[CLVOX_MAX_DEVICES];
+    uint32_t n = 0;
+    char first_error[512] = "";
+    clvox_status first_st = CLVOX_OK;
+    for (uint32_t i = 0; i < count; i++) {
+        clvox_context *c = calloc(1, sizeof *c);
+        if (!c) {
+            for (uint32_t j = 0; j < n; j++) close_device(open[j]), free(open[j]);
+            return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+        }
+        c->position = i;
+        clvox_status st = open_device(c, &list[picks[i]]);
+        if (st == CLVOX_OK) {
+            open[n++] = c;
+            continue;
+        }
+        clvox__warn(ctx, "device %u '%s' left out: %s", i, list[picks[i]].info.name, c->error);
+        if (first_st == CLVOX_OK) first_st = st, snprintf(first_error, sizeof first_error, "%.500s", c->error);
+        close_device(c);
+        free(c);
+    }
+    if (n == 0)
+        return clvox__fail(ctx, first_st, "none of the %u devices could be used; device 0: %s", count, first_error);
+    /* Kernels with and without fp64 decide some open-mesh voxels
+     * differently (docs/design.md "Exactness"): one rule per volume, the
+     * double one when any device has it. */
+    int any_fp64 = 0;
+    for (uint32_t i = 0; i < n; i++) any_fp64 |= open[i]->real_size == 8;
+    uint32_t kept = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        if (any_fp64 && open[i]->real_size != 8) {
+            clvox__warn(ctx,
+                        "device %u '%s' left out: its kernels are built without double precision (%s) and would "
+                        "decide some voxels differently from the other devices'",
+                        open[i]->position, open[i]->device.name,
+                        open[i]->kernels_float ? "CLVOX_KERNEL_FLOAT=1" : "no cl_khr_fp64");
+            close_device(open[i]);
+            free(open[i]);
+            continue;
+        }
+        open[kept++] = open[i];
+    }
+    /* member 0 becomes ctx itself */
+    clvox_context *first = open[0];
+    ctx->platform = first->platform;
+    ctx->device_id = first->device_id;
+    ctx->device = first->device;
+    ctx->cl = first->cl;
+    ctx->queue = first->queue;
+    ctx->program = first->program;
+    ctx->program_cached = first->program_cached;
+    ctx->real_size = first->real_size;
+    ctx->kernels_float = first->kernels_float;
+    ctx->position = first->position;
+    free(first);
+    ctx->member[0] = ctx;
+    for (uint32_t i = 1; i < kept; i++) ctx->member[i] = open[i];
+    ctx->member_count = kept;
+    return CLVOX_OK;
+}
+
 clvox_status clvox_context_create(const clvox_context_options *options, clvox_context **out)
 {
     if (!out) return CLVOX_ERR_INVALID_ARGUMENT;
@@ -370,39 +528,47 @@ clvox_status clvox_context_create(const clvox_context_options *options, clvox_co
     if (!sel || !*sel) sel = clvox__setting_value(CLVOX__ENV_DEVICE);
 
     device_entry *list;
-    size_t n, pick = 0;
+    size_t n, picks[CLVOX_MAX_DEVICES];
+    uint32_t count = 0;
     char why[256];
     clvox_status st = enumerate(&list, &n, why, sizeof why);
     if (st == CLVOX_ERR_OUT_OF_MEMORY) return clvox__fail(ctx, st, "out of memory listing OpenCL devices");
     if (st != CLVOX_OK) return clvox__fail(ctx, st, "%s", why);
-    st = select_device(ctx, sel, list, n, &pick);
-    if (st == CLVOX_OK) {
-        ctx->platform = list[pick].platform;
-        ctx->device_id = list[pick].device;
-        ctx->device = list[pick].info;
+    st = select_devices(ctx, sel, list, n, picks, &count);
+    if (st == CLVOX_OK && count == 1) {
+        ctx->member[0] = ctx;
+        ctx->member_count = 1;
+        st = open_device(ctx, &list[picks[0]]);
+    } else if (st == CLVOX_OK) {
+        st = open_set(ctx, list, picks, count);
     }
     free(list);
-    if (st != CLVOX_OK) return st;
-
-    cl_int err;
-    cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)ctx->platform, 0};
-    ctx->cl = clCreateContext(props, 1, &ctx->device_id, NULL, NULL, &err);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateContext");
-    ctx->queue = clCreateCommandQueue(ctx->cl, ctx->device_id, CL_QUEUE_PROFILING_ENABLE, &err);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateCommandQueue");
-    clvox_status st2 = build_program(ctx);
-    if (st2 != CLVOX_OK) return st2;
-    return query_real_size(ctx);
+    ctx->warnings_kept = strlen(ctx->warnings);
+    return st;
 }
 
 void clvox_context_destroy(clvox_context *ctx)
 {
     if (!ctx) return;
-    if (ctx->program) clReleaseProgram(ctx->program);
-    if (ctx->queue) clReleaseCommandQueue(ctx->queue);
-    if (ctx->cl) clReleaseContext(ctx->cl);
+    for (uint32_t i = 1; i < ctx->member_count; i++) {
+        close_device(ctx->member[i]);
+        free(ctx->member[i]);
+    }
+    close_device(ctx);
     free(ctx);
 }
+
+size_t clvox_context_device_count(const clvox_context *ctx)
+{
+    return ctx && !ctx->host_only && ctx->program ? ctx->member_count : 0;
+}
+
+const clvox_device_info *clvox_context_device_at(const clvox_context *ctx, size_t i)
+{
+    return i < clvox_context_device_count(ctx) ? &ctx->member[i]->device : NULL;
+}
+
+const char *clvox_context_warnings(const clvox_context *ctx) { return ctx ? ctx->warnings : ""; }
 
 const char *clvox_context_error(const clvox_context *ctx) { return ctx ? ctx->error : ""; }
 

@@ -50,6 +50,16 @@ static clvox__test_hooks from_environment(void)
         if (end != apex && isfinite(f)) h.cap_apex_set = 1, h.cap_apex = f;
     }
     h.host_threads = (int)in_range("CLVOX_HOST_THREADS", 1, 1 << 20);
+    h.fail_device_k = -1;
+    const char *fail = getenv("CLVOX_TEST_FAIL_DEVICE");
+    if (fail && *fail) {
+        char *colon, *end;
+        long k = strtol(fail, &colon, 10);
+        if (*colon == ':' && k >= 0 && k < 64) {
+            unsigned long n = strtoul(colon + 1, &end, 10);
+            if (end != colon + 1 && *end == 0 && n < (1ul << 30)) h.fail_device_k = (int)k, h.fail_device_n = (unsigned)n;
+        }
+    }
     return h;
 }
 

@@ -31,6 +31,11 @@ typedef struct clvox__test_hooks {
     int cap_apex_set;          /* CLVOX_CAP_APEX=F: the winding caps' apex offset (else 0.0731) */
     double cap_apex;
     int host_threads;          /* CLVOX_HOST_THREADS=1..16: host threads; 0: the online cores, at most 8 */
+    /* CLVOX_TEST_FAIL_DEVICE=K:N: device K of a run's device list (from 0)
+     * fails at its N-th slab (from 1) with an OpenCL error; N = 0 fails its
+     * kernel build at context creation. fail_device_k < 0: off. */
+    int fail_device_k;
+    unsigned fail_device_n;
 } clvox__test_hooks;
 
 /* The switches in force: the environment's, read once on the first call,

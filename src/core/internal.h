@@ -38,7 +38,21 @@ struct clvox_context {
     int program_cached;     /* 1: program made from the cached binary (program_cache.c) */
     size_t real_size;       /* sizeof(clvox_real) in the kernels: 8 with fp64, else 4 */
     int kernels_float;      /* 1: CLVOX_KERNEL_FLOAT=1 built them without fp64 (build_program) */
+    /* The run's devices (clvox_context_options.device "a,b" or "all"):
+     * member[0] is this context; member[1..] are contexts of their own, one
+     * per device (devices of different platforms cannot share a
+     * cl_context), owned by member[0]. One device: member_count 1. */
+    struct clvox_context *member[CLVOX_MAX_DEVICES];
+    uint32_t member_count;
+    uint32_t position;      /* where the selector list named this device (CLVOX_TEST_FAIL_DEVICE's K) */
+    /* Warnings, one per line: the context's creation's (the first
+     * warnings_kept bytes, kept) and then the latest run's. */
+    char warnings[4096];
+    size_t warnings_kept;
 };
+
+/* Appends one line to ctx->warnings (dropped when full). */
+void clvox__warn(clvox_context *ctx, const char *fmt, ...) CLVOX__PRINTF(2, 3);
 
 /* Records the message and returns `status`, so that reporting and returning
  * an error is one expression: return clvox__fail(ctx, CLVOX_ERR_IO, "…", …); */

@@ -39,13 +39,16 @@ typedef struct clvox_context clvox_context;
 typedef struct clvox_context_options { size_t size; const char *device; int host_only; ...; } clvox_context_options;
 typedef struct clvox_device_info {
     size_t size; uint32_t index; char name[128]; char platform[128]; char type[16]; char version[64];
-    uint32_t compute_units; uint64_t global_mem_bytes; uint64_t max_alloc_bytes; ...;
+    uint32_t compute_units; uint64_t global_mem_bytes; uint64_t max_alloc_bytes; int fp64; ...;
 } clvox_device_info;
 clvox_status clvox_list_devices(clvox_device_info *out, size_t capacity, size_t *count);
 clvox_status clvox_context_create(const clvox_context_options *options, clvox_context **out);
 void clvox_context_destroy(clvox_context *ctx);
 const char *clvox_context_error(const clvox_context *ctx);
 const clvox_device_info *clvox_context_device(const clvox_context *ctx);
+size_t clvox_context_device_count(const clvox_context *ctx);
+const clvox_device_info *clvox_context_device_at(const clvox_context *ctx, size_t i);
+const char *clvox_context_warnings(const clvox_context *ctx);
 
 typedef struct clvox_mesh clvox_mesh;
 typedef struct clvox_mesh_report {
@@ -113,6 +116,11 @@ typedef struct clvox_winding_report {
     uint64_t exact_points; double seconds; ...;
 } clvox_winding_report;
 
+typedef struct clvox_device_share {
+    uint32_t device; uint32_t slabs; uint64_t slices; double busy_seconds; uint32_t discarded_slabs;
+    int failed; int left_out; ...;
+} clvox_device_share;
+
 typedef struct clvox_stats {
     size_t size; double seconds[6]; uint64_t filled_voxels; uint64_t total_voxels; uint64_t rays; uint64_t odd_parity_rays;
     uint64_t overflow_rays; uint32_t max_crossings; uint32_t quadtree_depth; uint64_t quadtree_leaves;
@@ -120,7 +128,8 @@ typedef struct clvox_stats {
     uint32_t channels; uint32_t samples_per_voxel; double coverage_sum;
     uint64_t palette_early_voxels; uint64_t palette_shortcut_voxels; uint64_t palette_scored_voxels;
     uint64_t palette_nonempty_voxels; double palette_volume; clvox_inside inside;
-    clvox_winding_report winding; ...;
+    clvox_winding_report winding; uint32_t device_count; clvox_device_share devices[16];
+    double scheduling_efficiency; uint32_t reorder_slabs; uint64_t reorder_bytes; uint32_t reorder_peak; ...;
 } clvox_stats;
 
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,

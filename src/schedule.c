@@ -57,6 +57,12 @@ typedef struct clvox__sched {
     clvox_status status;      /* of the first failure that ends the run */
     char first_error[1024];   /* the first device failure's message */
     clvox_status first_device_st;
+    /* The caller's progress callback runs on the writer's thread only: a
+     * device polling between its batches asks the writer (poll_pending)
+     * and waits for the answer, unless the writer is busy writing, so that
+     * a cancel is seen at the same batch boundary as with one thread. */
+    int writing, poll_pending;
+    double last_progress;
     void **slot[4];           /* reorder buffer: window slots per plane */
     uint32_t held, peak;      /* slabs in the buffer (copying or done, not written) */
 } clvox__sched;
@@ -89,6 +95,12 @@ int clvox__sched_poll(void *user, double slab_fraction)
     pthread_mutex_lock(&s->mu);
     d->fraction = slab_fraction;
     int go = !s->stop && d->current != NONE && s->slab[d->current].state <= SLAB_RUNNING;
+    if (go && s->job->progress && !s->writing && !s->poll_pending && clvox__now() - s->last_progress >= 0.1) {
+        s->poll_pending = 1;
+        pthread_cond_broadcast(&s->cv);
+        while (s->poll_pending && !s->stop) pthread_cond_wait(&s->cv, &s->mu);
+        go = !s->stop && s->slab[d->current].state <= SLAB_RUNNING;
+    }
     pthread_mutex_unlock(&s->mu);
     return go;
 }
@@ -446,10 +458,25 @@ clvox_status clvox__sched_run(const clvox__sched_job *job, clvox_stats *stats)
         }
     }
     /* The writer: this thread. */
-    double last_progress = clvox__now();
+    s.last_progress = -1e300; /* the first poll inside a slab is passed on */
     while (st == CLVOX_OK && !s.stop && s.written < s.nslabs) {
         uint32_t i = s.written;
+        if (s.poll_pending) { /* a device asks between its batches */
+            double f = progress_of(&s);
+            pthread_mutex_unlock(&s.mu);
+            int go = job->progress(job->progress_user, f);
+            pthread_mutex_lock(&s.mu);
+            s.last_progress = clvox__now();
+            s.poll_pending = 0;
+            if (!go) {
+                st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled after %u of %u slabs", s.written, s.nslabs);
+                s.stop = 1;
+            }
+            pthread_cond_broadcast(&s.cv);
+            continue;
+        }
         if (s.slab[i].state == SLAB_DONE) {
+            s.writing = 1;
             pthread_mutex_unlock(&s.mu);
             uint32_t slot = i % job->window;
             clvox__slab_planes hp = {s.slot[0] ? s.slot[0][slot] : NULL, s.slot[1] ? s.slot[1][slot] : NULL,
@@ -459,34 +486,21 @@ clvox_status clvox__sched_run(const clvox__sched_job *job, clvox_stats *stats)
             stats->seconds[CLVOX_STAGE_WRITE] += clvox__now() - t0;
             add_slab_stats(stats, &s.slab[i].ss); /* DONE: no device writes it any more */
             int go = 1;
-            if (sst == CLVOX_OK && job->progress) {
-                go = job->progress(job->progress_user, (double)(i + 1) / s.nslabs);
-                last_progress = clvox__now();
-            }
+            if (sst == CLVOX_OK && job->progress) go = job->progress(job->progress_user, (double)(i + 1) / s.nslabs);
             pthread_mutex_lock(&s.mu);
+            s.writing = 0;
+            if (job->progress) s.last_progress = clvox__now();
             s.slab[i].state = SLAB_WRITTEN;
             s.held--;
             s.written++;
             if (sst != CLVOX_OK) st = sst;
             else if (!go)
                 st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled after %u of %u slabs", s.written, s.nslabs);
+            if (st != CLVOX_OK) s.stop = 1;
             pthread_cond_broadcast(&s.cv);
             continue;
         }
-        struct timespec ts;
-        clock_gettime(CLOCK_REALTIME, &ts);
-        ts.tv_nsec += 100 * 1000 * 1000;
-        if (ts.tv_nsec >= 1000000000L) ts.tv_sec++, ts.tv_nsec -= 1000000000L;
-        pthread_cond_timedwait(&s.cv, &s.mu, &ts);
-        if (job->progress && !s.stop && clvox__now() - last_progress >= 0.1) {
-            double f = progress_of(&s);
-            pthread_mutex_unlock(&s.mu);
-            int go = job->progress(job->progress_user, f);
-            last_progress = clvox__now();
-            pthread_mutex_lock(&s.mu);
-            if (!go)
-                st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled after %u of %u slabs", s.written, s.nslabs);
-        }
+        pthread_cond_wait(&s.cv, &s.mu);
     }
     if (st == CLVOX_OK && s.stop && s.written < s.nslabs) st = s.status != CLVOX_OK ? s.status : CLVOX_ERR_INTERNAL;
     s.stop = 1;

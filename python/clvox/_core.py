@@ -117,7 +117,7 @@ def _device(d):
     return {"index": int(d.index), "name": ffi.string(d.name).decode(), "platform": ffi.string(d.platform).decode(),
             "type": ffi.string(d.type).decode(), "version": ffi.string(d.version).decode(),
             "compute_units": int(d.compute_units), "global_mem_bytes": int(d.global_mem_bytes),
-            "max_alloc_bytes": int(d.max_alloc_bytes)}
+            "max_alloc_bytes": int(d.max_alloc_bytes), "fp64": bool(d.fp64)}
 
 
 def devices():
@@ -172,6 +172,11 @@ def _stats_dict(s):
     d["inside"] = ffi.string(lib.clvox_inside_name(s.inside)).decode()
     d["winding"] = ({f: getattr(s.winding, f) for f in _WINDING_FIELDS}
                     if s.inside in (lib.CLVOX_INSIDE_WINDING, lib.CLVOX_INSIDE_WINDING_ABS) else None)
+    d["devices"] = [{"index": int(e.device), "slabs": int(e.slabs), "slices": int(e.slices),
+                     "busy_s": float(e.busy_seconds), "discarded_slabs": int(e.discarded_slabs),
+                     "failed": bool(e.failed), "left_out": bool(e.left_out)}
+                    for e in (s.devices[i] for i in range(s.device_count))]
+    d["scheduling_efficiency"] = float(s.scheduling_efficiency)
     return d
 
 
@@ -397,7 +402,9 @@ class Context:
     """An OpenCL device with clvox's kernels built, kept for many calls.
 
     device: None (CLVOX_DEVICE, else "auto": first GPU, else first CPU device), "gpu", "cpu",
-    an index from clvox.devices(), or a substring of the device or platform name.
+    an index from clvox.devices(), or a substring of the device or platform name; or several
+    devices at once: "all", "0,1", or a list such as [0, "gpu"] (every call then spreads its
+    slabs over them, same voxels; .devices lists them, .warnings says who was left out).
     host_only=True opens no device (reading volumes, loading meshes).
 
     Thread safety: a Context runs one call at a time; a second call made while one is running
@@ -411,6 +418,11 @@ class Context:
             raise Error(lib.CLVOX_ERR_KERNEL_BUILD, _pocl.POCL_ERROR)
         opts = ffi.new("clvox_context_options *")
         opts.size = ffi.sizeof("clvox_context_options")
+        if isinstance(device, (list, tuple)):
+            if not device or any(isinstance(e, (bool, np.bool_)) or not isinstance(e, (str, numbers.Integral, np.integer))
+                                 for e in device):
+                raise TypeError(f"device list must hold names or indices, got {device!r}")
+            device = ",".join(str(_int_arg("device", e, 0)) if not isinstance(e, str) else e for e in device)
         if isinstance(device, (bool, np.bool_)) or not (device is None or isinstance(device, (str, numbers.Integral,
                                                                                            np.integer))):
             raise TypeError(f"device must be None, a name or an index from clvox.devices(), got {device!r}")
@@ -431,6 +443,17 @@ class Context:
         self.host_only = bool(host_only)
         d = lib.clvox_context_device(self._ptr)
         self.device = _device(d) if d != ffi.NULL and not host_only else None
+        self.devices = [_device(lib.clvox_context_device_at(self._ptr, i))
+                        for i in range(lib.clvox_context_device_count(self._ptr))]
+
+    @property
+    def warnings(self):
+        """The library's warnings of the context's creation and its latest call, one string each
+        (a device of a set left out or failed); [] when none."""
+        if self._ptr is None:
+            return []
+        text = ffi.string(lib.clvox_context_warnings(self._ptr)).decode("utf-8", "replace")
+        return [line for line in text.split("\n") if line]
 
     def close(self):
         """Releases the device now (otherwise when the Context is garbage collected)."""

@@ -141,3 +141,33 @@ def test_context_busy_in_other_thread(ctx):
         ctx.voxelize(DEFAULT, resolution=8)
     th.join()
     assert got and got[0].occupancy.any()
+
+
+def test_device_set_same_voxels():
+    """Context(device="all") over two PoCL devices (another process: PoCL reads
+    POCL_DEVICES once): two devices, the same voxels as one, per-device stats."""
+    import subprocess
+    import sys
+    code = r'''
+import sys, numpy as np, clvox
+mesh = sys.argv[1]
+one = clvox.Context(device="0")
+both = clvox.Context(device="all")
+pair = clvox.Context(device=[0, 1])
+assert len(one.devices) == 1 and len(both.devices) == 2 and len(pair.devices) == 2, (one.devices, both.devices)
+assert both.warnings == [], both.warnings
+a = one.voxelize(mesh, resolution=48, slab_depth=1)
+b = both.voxelize(mesh, resolution=48, slab_depth=1)
+c = pair.voxelize(mesh, resolution=48, oversample=2)
+d = one.voxelize(mesh, resolution=48, oversample=2)
+assert np.array_equal(a.occupancy, b.occupancy) and a.occupancy.any()
+assert np.array_equal(c.coverage, d.coverage)
+devs = b.stats["devices"]
+assert len(devs) == 2 and sum(e["slices"] for e in devs) == a.occupancy.shape[0], devs
+assert 0 < b.stats["scheduling_efficiency"] <= 1
+print("OK")
+'''
+    env = dict(os.environ, POCL_DEVICES="basic basic", PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    env.pop("CLVOX_DEVICE", None)
+    p = subprocess.run([sys.executable, "-c", code, DEFAULT], capture_output=True, text=True, env=env, timeout=300)
+    assert p.returncode == 0 and p.stdout.strip().endswith("OK"), p.stdout + p.stderr

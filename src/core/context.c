@@ -290,6 +290,26 @@ static clvox_status select_device(clvox_context *ctx, const char *sel, device_en
     return clvox__fail(ctx, CLVOX_ERR_NO_DEVICE, "no OpenCL device matches '%s' (see clvox --list-devices)", sel);
 }
 
+/* PoCL's CPU drivers (3.1) share one cache of loaded work-group functions
+ * between every device of the process, found at launch by the kernel's
+ * build hash, local size and grid width but released by hash and local
+ * size alone: two devices with the same build launching one kernel over
+ * different grids at once release each other's entry, and PoCL aborts
+ * (assertion `found->ref_count > 0' in pocl_release_dlhandle_cache).
+ * Device k > 0 of a set on PoCL builds with an unused -DCLVOX_DEVICE_SLOT=k,
+ * so that its build hash, and its cache entries, are its own. The kernels
+ * are the same code: the same voxels. */
+static const char *pocl_slot_define(const clvox_context *ctx)
+{
+    static const char *const slot[CLVOX_MAX_DEVICES] = {
+        "", " -DCLVOX_DEVICE_SLOT=1", " -DCLVOX_DEVICE_SLOT=2", " -DCLVOX_DEVICE_SLOT=3", " -DCLVOX_DEVICE_SLOT=4",
+        " -DCLVOX_DEVICE_SLOT=5", " -DCLVOX_DEVICE_SLOT=6", " -DCLVOX_DEVICE_SLOT=7", " -DCLVOX_DEVICE_SLOT=8",
+        " -DCLVOX_DEVICE_SLOT=9", " -DCLVOX_DEVICE_SLOT=10", " -DCLVOX_DEVICE_SLOT=11", " -DCLVOX_DEVICE_SLOT=12",
+        " -DCLVOX_DEVICE_SLOT=13", " -DCLVOX_DEVICE_SLOT=14", " -DCLVOX_DEVICE_SLOT=15"};
+    if (!strstr(ctx->device.platform, "Portable Computing Language") || ctx->position >= CLVOX_MAX_DEVICES) return "";
+    return slot[ctx->position];
+}
+
 static clvox_status build_program(clvox_context *ctx)
 {
     cl_int err;
@@ -297,8 +317,10 @@ static clvox_status build_program(clvox_context *ctx)
      * reference. CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device
      * without fp64 (a developer's check of the float path on PoCL). */
     ctx->kernels_float = clvox__hooks()->kernels_float;
-    const char *opts = ctx->kernels_float ? "-cl-fp32-correctly-rounded-divide-sqrt -DCLVOX_NO_FP64"
-                                          : "-cl-fp32-correctly-rounded-divide-sqrt";
+    char opts[160];
+    snprintf(opts, sizeof opts, "%s%s", ctx->kernels_float ? "-cl-fp32-correctly-rounded-divide-sqrt -DCLVOX_NO_FP64"
+                                                            : "-cl-fp32-correctly-rounded-divide-sqrt",
+             pocl_slot_define(ctx));
     if ((ctx->program = clvox__program_cache_load(ctx, opts)) != NULL) {
         ctx->program_cached = 1;
         return CLVOX_OK;

@@ -2,6 +2,7 @@
 /* The environment, read in one place (environment.h). */
 #include "environment.h"
 
+#include <limits.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
@@ -50,6 +51,8 @@ static clvox__test_hooks from_environment(void)
         if (end != apex && isfinite(f)) h.cap_apex_set = 1, h.cap_apex = f;
     }
     h.host_threads = (int)in_range("CLVOX_HOST_THREADS", 1, 1 << 20);
+    h.device_max_alloc = (unsigned long long)in_range("CLVOX_DEVICE_MAX_ALLOC", 1, LONG_MAX);
+    h.device_global_mem = (unsigned long long)in_range("CLVOX_DEVICE_GLOBAL_MEM", 1, LONG_MAX);
     return h;
 }
 

@@ -31,6 +31,10 @@ typedef struct clvox__test_hooks {
     int cap_apex_set;          /* CLVOX_CAP_APEX=F: the winding caps' apex offset (else 0.0731) */
     double cap_apex;
     int host_threads;          /* CLVOX_HOST_THREADS=1..16: host threads; 0: the online cores, at most 8 */
+    /* CLVOX_DEVICE_MAX_ALLOC=bytes, CLVOX_DEVICE_GLOBAL_MEM=bytes: the device's largest buffer and
+     * global memory believed lower than reported (0: as reported); batches shrink to fit, or the run
+     * fails with CLVOX_ERR_OUT_OF_MEMORY where one voxel column does not fit */
+    unsigned long long device_max_alloc, device_global_mem;
 } clvox__test_hooks;
 
 /* The switches in force: the environment's, read once on the first call,

@@ -51,8 +51,8 @@ struct clvox__method_state {
     clvox__axes axes;
     uint32_t dim_u, dim_v, dim_w;
     clvox__quadtree qt;
-    cl_mem verts, tris, nodes, refs; /* the triangles, indexed; the quadtree (all CL_MEM_USE_HOST_PTR) */
-    float *verts_host;           /* grid-space vertices (owned; the buffer uses them) */
+    cl_mem verts, tris, nodes, refs; /* the triangles, indexed; the quadtree (read-only device copies) */
+    float *verts_host;           /* grid-space vertices (owned) */
     uint32_t *tris_owned;        /* the index array when it is not the mesh's own (winding) */
     cl_kernel k_lookup, k_intersect, k_sort, k_classify; /* k_classify: binary runs, parity or winding */
     int winding;                 /* 1: signed crossings and the winding inside test */
@@ -66,6 +66,8 @@ struct clvox__method_state {
     int (*poll)(void *, double); /* clvox__run.poll */
     void *poll_user;
     uint64_t max_alloc;          /* the device's largest buffer */
+    uint64_t redo_room;          /* device bytes left for redo_overflow's batches (fit_batches) */
+    uint64_t held_bytes;         /* device bytes held besides them: the mesh, the slab planes, the fast pass */
     clvox_ray *rays_host;        /* max_rays */
     clvox_column *cols_host;     /* coverage: max_items */
     uint32_t *counts_host;       /* max_rays */
@@ -73,6 +75,7 @@ struct clvox__method_state {
     uint64_t *sums_host;         /* column runs: max_items */
     uint32_t *pstats_host;       /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
     uint64_t *pvolume_host;      /* palette: per item, element volumes in 2^-32 voxels */
+    cl_uint exact_host;          /* winding: the batch's exact points (read back; not on the stack) */
     /* coverage and palette (column runs) */
     int coverage;                /* 1: a column run (the coverage or the palette consumer) */
     clvox__coverage cov;         /* the samples (both consumers) */
@@ -129,6 +132,94 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, siz
     return st;
 }
 
+/* Device bytes of one batch item (a ray, or a column of R rays) whose rays
+ * hold `capacity` crossings each: what batch_mem_alloc allocates per item. */
+static uint64_t item_bytes(const clvox_context *ctx, size_t R, cl_uint capacity, int coverage, int palette,
+                           int winding)
+{
+    const uint64_t ray = sizeof(clvox_ray) + 2 * sizeof(cl_uint) + (uint64_t)capacity * (ctx->real_size + !!winding);
+    const uint64_t item = sizeof(cl_uint) + (coverage ? sizeof(clvox_column) + sizeof(cl_ulong) : 0) +
+                          (palette ? 4 * sizeof(cl_uint) + sizeof(cl_ulong) : 0);
+    return R * ray + item;
+}
+
+/* The slab planes voxelize.c allocates once the method is prepared: the
+ * occupancy bit rows, a uint16 per voxel for each other channel. */
+static uint64_t slab_plane_bytes(const clvox_grid *g, uint32_t channels, uint32_t depth)
+{
+    const uint64_t X = g->dims[0], Y = g->dims[1];
+    uint64_t slice = (channels & CLVOX_CHANNEL_OCCUPANCY) ? (uint64_t)clvox__row_words(g->dims[0]) * Y * 4 : 0;
+    const uint32_t voxel_planes[] = {CLVOX_CHANNEL_COVERAGE, CLVOX_CHANNEL_ELEMENT, CLVOX_CHANNEL_SCORE};
+    for (int i = 0; i < 3; i++)
+        if (channels & voxel_planes[i]) slice += X * Y * 2;
+    return slice * depth;
+}
+
+/* Caps *max_items (items of R rays per fast-pass batch) so that the
+ * device holds the batches (device_memory.c): each batch buffer within the
+ * device's largest buffer (the crossings, R x capacity reals an item, are
+ * the largest), and the fast pass beside the buffers already made (mesh,
+ * quadtree, caps, palette) and the slab planes within the run's budget,
+ * with as much again left for redo_overflow. Batches only group rays, so
+ * smaller ones give the same voxels. CLVOX_ERR_OUT_OF_MEMORY where one item
+ * does not fit. */
+static clvox_status fit_batches(clvox__method_state *s, const clvox__run *run, uint32_t depth, cl_uint capacity,
+                                size_t *max_items)
+{
+    clvox_context *ctx = s->ctx;
+    const size_t R = s->coverage ? s->cov.R : 1;
+    char what[160];
+    /* every per-ray buffer's element is at most the larger of a ray and its crossings */
+    const uint64_t ray_elem = (uint64_t)capacity * ctx->real_size > sizeof(clvox_ray)
+                                  ? (uint64_t)capacity * ctx->real_size
+                                  : sizeof(clvox_ray);
+    const uint64_t item_elem = s->coverage || s->palette ? 16 : 4; /* columns, tallies; filled */
+    uint64_t k = s->max_alloc / (R * ray_elem);
+    if (s->max_alloc / item_elem < k) k = s->max_alloc / item_elem;
+    if (k < 1) {
+        snprintf(what, sizeof what, "one voxel column (%zu ray%s of %u crossings)", R, R == 1 ? "" : "s", capacity);
+        return clvox__device_alloc_oom(ctx, R * ray_elem, what);
+    }
+    const cl_mem held[] = {s->verts,          s->tris,           s->nodes,          s->refs,
+                           s->wind.caps.h,    s->wind.caps.nodes, s->wind.caps.tris, s->wind.rims.h,
+                           s->wind.rims.nodes, s->wind.rims.tris, s->cov.value_of_count, s->pal.elements,
+                           s->pal.cells,      s->pal.planes,     s->pal.masks,      s->pal.volume};
+    uint64_t fixed = slab_plane_bytes(&s->grid, run->channels, depth);
+    for (size_t i = 0; i < sizeof held / sizeof *held; i++) fixed += clvox__mem_bytes(held[i]);
+    const uint64_t one = item_bytes(ctx, R, capacity, s->coverage, s->palette, s->winding);
+    const uint64_t budget = clvox__device_budget(ctx), avail = budget > fixed ? budget - fixed : 0;
+    if (avail / 2 / one < 1) {
+        snprintf(what, sizeof what, "the mesh's buffers and the slab planes, %zu ray%s of %u crossings and as much again "
+                 "for rays with more", R, R == 1 ? "" : "s", capacity);
+        return clvox__device_oom(ctx, fixed + 2 * one, budget, what);
+    }
+    if (avail / 2 / one < k) k = avail / 2 / one;
+    if (k < *max_items) *max_items = (size_t)k;
+    s->held_bytes = fixed + *max_items * one;
+    s->redo_room = budget > s->held_bytes ? budget - s->held_bytes : 0;
+    return CLVOX_OK;
+}
+
+/* A read-only device buffer holding `bytes` of `host` (the mesh's
+ * triangles, the quadtree). A device copy written once, blocking, so that
+ * the host array may go at once: on a discrete GPU a CL_MEM_USE_HOST_PTR
+ * buffer can cost a PCIe transfer on every access; on PoCL the copy costs
+ * no measurable time (docs/benchmarks.md). */
+static cl_mem upload(clvox_context *ctx, size_t bytes, const void *host, clvox_status *st, const char *what)
+{
+    cl_mem m = clvox__buffer(ctx, CL_MEM_READ_ONLY, bytes, NULL, st, what);
+    if (!m) return NULL;
+    cl_int err = bytes ? clEnqueueWriteBuffer(ctx->queue, m, CL_TRUE, 0, bytes, host, 0, NULL, NULL) : CL_SUCCESS;
+    if (err != CL_SUCCESS) {
+        char msg[96];
+        snprintf(msg, sizeof msg, "uploading the %s", what);
+        clFinish(ctx->queue); /* the host array must outlive the write */
+        clvox__release_mem(&m);
+        *st = clvox__cl_fail(ctx, err, msg);
+    }
+    return m;
+}
+
 static void ray_release(clvox__method_state *s)
 {
     if (!s) return;
@@ -136,7 +227,7 @@ static void ray_release(clvox__method_state *s)
     clvox__release_mem(&s->tris);
     clvox__release_mem(&s->nodes);
     clvox__release_mem(&s->refs);
-    free(s->verts_host); /* after the buffers that use them */
+    free(s->verts_host);
     s->verts_host = NULL;
     free(s->tris_owned);
     s->tris_owned = NULL;
@@ -177,7 +268,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     s->channels = run->channels;
     s->poll = run->poll;
     s->poll_user = run->poll_user;
-    s->max_alloc = ctx->device.max_alloc_bytes ? ctx->device.max_alloc_bytes : (1ull << 31);
+    s->max_alloc = clvox__device_max_alloc(ctx);
 
     /* Columns of one slab: x-rays cover Y*nz columns, y-rays X*nz, z-rays all X*Y. */
     const uint32_t *d = grid->dims;
@@ -227,20 +318,14 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         ray_release(s);
         return st;
     }
-    /* The buffers use the host arrays in place (a CPU device: no second
-     * copy): the vertices (12 bytes a vertex), the triangles' indices (the
-     * mesh's own, 12 bytes a triangle; read only), the quadtree's nodes and
-     * references (4 bytes each). All live until ray_release. */
-    const cl_mem_flags in_place = CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR;
-    s->verts = clvox__buffer(ctx, in_place, vert_count * 3 * sizeof(float), verts, &st, "vertices");
+    /* Device copies (upload): the vertices (12 bytes a vertex), the
+     * triangles' indices (the mesh's own, 12 bytes a triangle), the
+     * quadtree's nodes and references (4 bytes each). */
+    s->verts = upload(ctx, vert_count * 3 * sizeof(float), verts, &st, "vertices");
+    if (st == CLVOX_OK) s->tris = upload(ctx, (tri_count ? tri_count : 1) * 3 * sizeof(uint32_t), tris, &st, "triangles");
+    if (st == CLVOX_OK) s->nodes = upload(ctx, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
     if (st == CLVOX_OK)
-        s->tris = clvox__buffer(ctx, in_place, (tri_count ? tri_count : 1) * 3 * sizeof(uint32_t), (void *)tris, &st,
-                                "triangles");
-    if (st == CLVOX_OK)
-        s->nodes = clvox__buffer(ctx, in_place, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
-    if (st == CLVOX_OK)
-        s->refs = clvox__buffer(ctx, in_place, (s->qt.ref_count ? s->qt.ref_count : 1) * sizeof(uint32_t), s->qt.refs,
-                                &st, "quadtree refs");
+        s->refs = upload(ctx, s->qt.ref_count * sizeof(uint32_t), s->qt.refs, &st, "quadtree refs");
     if (stats) {
         stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
         stats->quadtree_depth = s->qt.depth;
@@ -262,10 +347,18 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     }
     cl_uint capacity = opts->hit_capacity ? opts->hit_capacity : DEFAULT_HIT_CAPACITY;
     if (capacity > CLVOX__MAX_CROSSINGS) capacity = CLVOX__MAX_CROSSINGS;
+    if (st == CLVOX_OK) st = fit_batches(s, run, slab_depth, capacity, &max_items);
+    max_rays = max_items * (s->coverage ? s->cov.R : 1);
     /* Batches of bounded work: items x rays per item x the largest leaf. */
     for (size_t i = 0; i < s->qt.node_count; i++)
         if (s->qt.nodes[i].count != CLVOX_QT_INTERNAL && s->qt.nodes[i].count > s->leaf_max)
             s->leaf_max = s->qt.nodes[i].count;
+    /* The device has its copies: the host arrays go (the tree's counts stay, for describe). */
+    free(s->verts_host);
+    free(s->tris_owned);
+    free(s->qt.nodes);
+    free(s->qt.refs);
+    s->verts_host = NULL, s->tris_owned = NULL, s->qt.nodes = NULL, s->qt.refs = NULL;
     {
         uint64_t per_item = (uint64_t)(s->coverage ? s->cov.R : 1) * (s->leaf_max ? s->leaf_max : 1);
         uint64_t k = CLVOX__BATCH_TESTS / per_item;
@@ -317,8 +410,9 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
 /* Uploads a batch (n rays; coverage: n_cols columns of R rays each), runs
  * lookup, intersect, sort and the consumer, and reads back the crossing
  * count of every ray, the filled voxels of every item and (coverage) the
- * count sum of every column. */
-static clvox_status cast_batch(clvox__method_state *s, const clvox__batch_mem *m, const clvox_ray *rays, cl_uint n,
+ * count sum of every column. The uploads and read-backs are not blocking:
+ * cast_batch waits for them on every path. */
+static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_mem *m, const clvox_ray *rays, cl_uint n,
                                const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t, uint32_t *counts,
                                uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
                                clvox__slab_stats *ss)
@@ -400,12 +494,13 @@ static clvox_status cast_batch(clvox__method_state *s, const clvox__batch_mem *m
         if (err == CL_SUCCESS && s->palette)
             err = clEnqueueReadBuffer(ctx->queue, m->pvolume, CL_FALSE, 0, items * sizeof *pvolume, pvolume, 0, NULL,
                                       NULL);
-        cl_uint exact = 0;
+        s->exact_host = 0;
         if (err == CL_SUCCESS && s->winding)
-            err = clEnqueueReadBuffer(ctx->queue, m->exact, CL_FALSE, 0, sizeof exact, &exact, 0, NULL, NULL);
+            err = clEnqueueReadBuffer(ctx->queue, m->exact, CL_FALSE, 0, sizeof s->exact_host, &s->exact_host, 0, NULL,
+                                      NULL);
         if (err == CL_SUCCESS) err = clFinish(ctx->queue);
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the cast kernels");
-        ss->exact_points += exact;
+        if (st == CLVOX_OK) ss->exact_points += s->exact_host;
     }
     if (st == CLVOX_OK) {
         ss->cast_seconds += clvox__event_seconds(ev[0]) + clvox__event_seconds(ev[1]) + clvox__event_seconds(ev[2]);
@@ -413,6 +508,19 @@ static clvox_status cast_batch(clvox__method_state *s, const clvox__batch_mem *m
     }
     for (int i = 0; i < 4; i++)
         if (ev[i]) clReleaseEvent(ev[i]);
+    return st;
+}
+
+/* cast_batch_run, and on an error a wait for what it left queued: the
+ * upload of `rays` and `cols` and the read-backs into the arrays, which the
+ * callers free or refill next (the result of the wait is not the error). */
+static clvox_status cast_batch(clvox__method_state *s, const clvox__batch_mem *m, const clvox_ray *rays, cl_uint n,
+                               const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t, uint32_t *counts,
+                               uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
+                               clvox__slab_stats *ss)
+{
+    clvox_status st = cast_batch_run(s, m, rays, n, cols, n_cols, t, counts, filled, sums, pstats, pvolume, ss);
+    if (st != CLVOX_OK) clFinish(s->ctx->queue);
     return st;
 }
 
@@ -443,6 +551,15 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
                            (unsigned long long)(s->max_alloc >> 20));
     size_t per = (s->mem.max_rays * s->mem.capacity) / ((size_t)need * R);
     if (per < 1) per = 1;
+    /* beside the fast pass's buffers, within the run's budget (fit_batches) */
+    const uint64_t one = item_bytes(ctx, R, need, s->coverage, s->palette, s->winding);
+    if (s->redo_room / one < 1) {
+        char what[160];
+        snprintf(what, sizeof what, "the fast pass's buffers and %zu ray%s of %u crossings", R, R == 1 ? "" : "s",
+                 need);
+        return clvox__device_oom(ctx, s->held_bytes + one, clvox__device_budget(ctx), what);
+    }
+    if (s->redo_room / one < per) per = (size_t)(s->redo_room / one);
     if (per > s->batch_items) per = s->batch_items;
     if (per > items) per = items;
     clvox__batch_mem m;

@@ -91,6 +91,8 @@ clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what)
 {
     clvox_status st = CLVOX_ERR_OPENCL;
     if (err == CL_OUT_OF_HOST_MEMORY || err == CL_MEM_OBJECT_ALLOCATION_FAILURE) st = CLVOX_ERR_OUT_OF_MEMORY;
+    if ((err == CL_OUT_OF_RESOURCES || err == CL_MEM_OBJECT_ALLOCATION_FAILURE) && ctx && !ctx->host_only)
+        return clvox__device_cl_oom(ctx, err, what); /* device_memory.c */
     return clvox__fail(ctx, st, "%s: %s (%d)", what, clvox__cl_error_name(err), (int)err);
 }
 
@@ -382,6 +384,7 @@ static clvox_status open_device(clvox_context *ctx, const device_entry *e)
     ctx->platform = e->platform;
     ctx->device_id = e->device;
     ctx->device = e->info;
+    clvox__device_memory_hooks(&ctx->device); /* device_memory.c */
     const clvox__test_hooks *h = clvox__hooks();
     if (h->fail_device_k == (int)ctx->position && h->fail_device_n == 0)
         return clvox__fail(ctx, CLVOX_ERR_KERNEL_BUILD, "clBuildProgram: CLVOX_TEST_FAIL_DEVICE=%u:0 failed it",
@@ -619,6 +622,10 @@ cl_mem clvox__buffer(clvox_context *ctx, cl_mem_flags flags, size_t bytes, void 
 {
     cl_int err;
     if (bytes == 0) bytes = 16;
+    if (bytes > clvox__device_max_alloc(ctx)) { /* device_memory.c */
+        *st = clvox__device_alloc_oom(ctx, bytes, what);
+        return NULL;
+    }
     cl_mem m = clCreateBuffer(ctx->cl, flags, bytes, host, &err);
     if (err != CL_SUCCESS) {
         char msg[160];

@@ -2,6 +2,7 @@
 /* The environment, read in one place (environment.h). */
 #include "environment.h"
 
+#include <limits.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
@@ -60,6 +61,8 @@ static clvox__test_hooks from_environment(void)
             if (end != colon + 1 && *end == 0 && n < (1ul << 30)) h.fail_device_k = (int)k, h.fail_device_n = (unsigned)n;
         }
     }
+    h.device_max_alloc = (unsigned long long)in_range("CLVOX_DEVICE_MAX_ALLOC", 1, LONG_MAX);
+    h.device_global_mem = (unsigned long long)in_range("CLVOX_DEVICE_GLOBAL_MEM", 1, LONG_MAX);
     return h;
 }
 

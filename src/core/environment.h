@@ -36,6 +36,10 @@ typedef struct clvox__test_hooks {
      * kernel build at context creation. fail_device_k < 0: off. */
     int fail_device_k;
     unsigned fail_device_n;
+    /* CLVOX_DEVICE_MAX_ALLOC=bytes, CLVOX_DEVICE_GLOBAL_MEM=bytes: the device's largest buffer and
+     * global memory believed lower than reported (0: as reported); batches shrink to fit, or the run
+     * fails with CLVOX_ERR_OUT_OF_MEMORY where one voxel column does not fit */
+    unsigned long long device_max_alloc, device_global_mem;
 } clvox__test_hooks;
 
 /* The switches in force: the environment's, read once on the first call,

@@ -100,6 +100,31 @@ clvox_status clvox__kernel(clvox_context *ctx, const char *name, cl_kernel *out)
  * returned); zero bytes allocate a small buffer so it can still be bound. */
 cl_mem clvox__buffer(clvox_context *ctx, cl_mem_flags flags, size_t bytes, void *host, clvox_status *st,
                      const char *what);
+/* ---- device memory (device_memory.c) ---- */
+
+/* What a run may hold on a device at once: NUM/DEN of its global memory. */
+#define CLVOX_DEVICE_BUDGET_NUM 3
+#define CLVOX_DEVICE_BUDGET_DEN 4
+/* Lowers info's limits to the test hooks' (CLVOX_DEVICE_MAX_ALLOC,
+ * CLVOX_DEVICE_GLOBAL_MEM), at context creation: the limits the library
+ * then believes, everywhere. */
+void clvox__device_memory_hooks(clvox_device_info *info);
+/* The device's largest buffer (CL_DEVICE_MAX_MEM_ALLOC_SIZE; 2 GiB when unknown). */
+uint64_t clvox__device_max_alloc(const clvox_context *ctx);
+/* The run's budget: NUM/DEN of CL_DEVICE_GLOBAL_MEM_SIZE (UINT64_MAX when unknown). */
+uint64_t clvox__device_budget(const clvox_context *ctx);
+/* Bytes of a buffer (CL_MEM_SIZE); 0 for NULL. */
+uint64_t clvox__mem_bytes(cl_mem m);
+/* CLVOX_ERR_OUT_OF_MEMORY: "device 'D': the run needs NEED of device memory
+ * (WHAT), it has HAVE (...)". */
+clvox_status clvox__device_oom(clvox_context *ctx, uint64_t need, uint64_t have, const char *what);
+/* CLVOX_ERR_OUT_OF_MEMORY: "device 'D': WHAT needs a buffer of NEED, more
+ * than the largest the device allows (MAX)". */
+clvox_status clvox__device_alloc_oom(clvox_context *ctx, uint64_t need, const char *what);
+/* CL_OUT_OF_RESOURCES / CL_MEM_OBJECT_ALLOCATION_FAILURE from an enqueue,
+ * a finish or a create: CLVOX_ERR_OUT_OF_MEMORY naming the device's memory
+ * (clvox__cl_fail calls it). */
+clvox_status clvox__device_cl_oom(clvox_context *ctx, cl_int err, const char *what);
 /* Releases *m if set and clears it. */
 void clvox__release_mem(cl_mem *m);
 /* Seconds of device time an event took (0 if profiling info is missing). */

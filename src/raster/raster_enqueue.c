@@ -43,8 +43,12 @@ clvox_status clvox__raster_tasks_grow(clvox_context *ctx, clvox__raster_tasks *t
 clvox_status clvox__raster_tasks_ready(clvox_context *ctx, clvox__raster_tasks *t)
 {
     clvox_status st = CLVOX_OK;
-    if (!t->dev && t->cap)
-        t->dev = clvox__buffer(ctx, CL_MEM_READ_ONLY, t->cap * 4 * sizeof(cl_uint), NULL, &st, "tasks");
+    if (!t->dev && t->cap) {
+        const uint64_t fit = clvox__device_max_alloc(ctx) / (4 * sizeof(cl_uint));
+        t->dev_cap = t->cap < fit ? t->cap : (size_t)fit;
+        if (t->dev_cap < 1) return clvox__device_alloc_oom(ctx, 4 * sizeof(cl_uint), "a raster task");
+        t->dev = clvox__buffer(ctx, CL_MEM_READ_ONLY, t->dev_cap * 4 * sizeof(cl_uint), NULL, &st, "tasks");
+    }
     return st;
 }
 
@@ -54,12 +58,14 @@ void clvox__raster_tasks_release(clvox__raster_tasks *t)
     free(t->host);
     t->host = NULL;
     t->cap = 0;
+    t->dev_cap = 0;
 }
 
-/* The raster kernel over tasks [0, n), in chunks, the driver polled
- * between them; the last chunk's event in *last (timed with the others). */
-static clvox_status raster_chunks(clvox_context *ctx, const clvox__raster_pass *p, size_t n, cl_event *last,
-                                  clvox__slab_stats *ss)
+/* The raster kernel over tasks [0, n) of the device buffer, in chunks, the
+ * driver polled between them (with the fraction (done + off) / total of the
+ * slab's tasks); the last chunk's event in *last (timed with the others). */
+static clvox_status raster_chunks(clvox_context *ctx, const clvox__raster_pass *p, size_t n, size_t done,
+                                  size_t total, cl_event *last, clvox__slab_stats *ss)
 {
     char what[96];
     const size_t local = 64;
@@ -90,7 +96,7 @@ static clvox_status raster_chunks(clvox_context *ctx, const clvox__raster_pass *
             double want = dt > 0 ? (double)chunk * RASTER_CHUNK_SECONDS / dt : (double)n;
             chunk = want < 256 ? 256 : want > (double)n ? n : (size_t)want;
             chunk = (chunk + local - 1) / local * local;
-            if (st == CLVOX_OK && p->poll && !p->poll(p->poll_user, (double)off / (double)n))
+            if (st == CLVOX_OK && p->poll && !p->poll(p->poll_user, (double)(done + off) / (double)total))
                 st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", p->z0);
         } else {
             *last = e; /* timed with the others by the caller */
@@ -109,15 +115,7 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
     char what[96];
     clvox_status st = CLVOX_OK;
     cl_int err = CL_SUCCESS;
-    cl_uint zero = 0, filled = 0, count = (cl_uint)n;
-    if (n) {
-        err = clEnqueueWriteBuffer(ctx->queue, tasks->dev, CL_FALSE, 0, n * 4 * sizeof(cl_uint), tasks->host, 0, NULL,
-                                   &ev[EV_TASKS]);
-        if (err != CL_SUCCESS) {
-            snprintf(what, sizeof what, "uploading %s tasks", p->method);
-            st = clvox__cl_fail(ctx, err, what);
-        }
-    }
+    cl_uint zero = 0, filled = 0;
     if (st == CLVOX_OK && p->clear) {
         err = clEnqueueFillBuffer(ctx->queue, p->out, &zero, sizeof zero, 0, p->words * sizeof(cl_uint), 0, NULL,
                                   &ev[EV_CLEAR]);
@@ -127,7 +125,33 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
         err = clEnqueueFillBuffer(ctx->queue, p->filled, &zero, sizeof zero, 0, sizeof zero, 0, NULL, &ev[EV_ZERO]);
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the filled count");
     }
-    if (st == CLVOX_OK && n) {
+    /* The tasks in windows of the device buffer (one window unless the
+     * device's largest buffer is smaller than the list); the in-order
+     * queue runs a window's raster before the next upload. */
+    double upload_seconds = 0, raster_seconds = 0; /* of the windows before the last */
+    for (size_t w0 = 0; st == CLVOX_OK && w0 < n; w0 += tasks->dev_cap) {
+        const size_t k = n - w0 < tasks->dev_cap ? n - w0 : tasks->dev_cap;
+        const cl_uint count = (cl_uint)k;
+        if (w0) { /* the previous window's events: timed, then released */
+            err = clWaitForEvents(1, &ev[EV_RASTER]);
+            if (err != CL_SUCCESS) {
+                snprintf(what, sizeof what, "running %s", p->raster_name);
+                st = clvox__cl_fail(ctx, err, what);
+                break;
+            }
+            upload_seconds += clvox__event_seconds(ev[EV_TASKS]);
+            raster_seconds += clvox__event_seconds(ev[EV_RASTER]);
+            clReleaseEvent(ev[EV_TASKS]);
+            clReleaseEvent(ev[EV_RASTER]);
+            ev[EV_TASKS] = ev[EV_RASTER] = NULL;
+        }
+        err = clEnqueueWriteBuffer(ctx->queue, tasks->dev, CL_FALSE, 0, k * 4 * sizeof(cl_uint), tasks->host + 4 * w0, 0,
+                                   NULL, &ev[EV_TASKS]);
+        if (err != CL_SUCCESS) {
+            snprintf(what, sizeof what, "uploading %s tasks", p->method);
+            st = clvox__cl_fail(ctx, err, what);
+            break;
+        }
         err = 0;
         err |= clSetKernelArg(p->raster, 0, sizeof(cl_mem), &p->soup);
         err |= clSetKernelArg(p->raster, 1, sizeof(cl_mem), &tasks->dev);
@@ -136,7 +160,7 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
             snprintf(what, sizeof what, "clSetKernelArg(%s)", p->raster_name);
             st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, what);
         } else {
-            st = raster_chunks(ctx, p, n, &ev[EV_RASTER], ss);
+            st = raster_chunks(ctx, p, k, w0, n, &ev[EV_RASTER], ss);
         }
     }
     if (st == CLVOX_OK) {
@@ -168,9 +192,9 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
     }
     if (st == CLVOX_OK) {
         ss->filled += filled;
-        ss->cast_seconds += t_bin + clvox__event_seconds(ev[EV_TASKS]) + clvox__event_seconds(ev[EV_CLEAR]) +
-                            clvox__event_seconds(ev[EV_ZERO]);
-        ss->classify_seconds += clvox__event_seconds(ev[EV_RASTER]) + clvox__event_seconds(ev[EV_COUNT_BITS]);
+        ss->cast_seconds += t_bin + upload_seconds + clvox__event_seconds(ev[EV_TASKS]) +
+                            clvox__event_seconds(ev[EV_CLEAR]) + clvox__event_seconds(ev[EV_ZERO]);
+        ss->classify_seconds += raster_seconds + clvox__event_seconds(ev[EV_RASTER]) + clvox__event_seconds(ev[EV_COUNT_BITS]);
     } else {
         clFinish(ctx->queue); /* the host task array must outlive the upload */
     }

@@ -16,13 +16,16 @@ clvox_status clvox__raster_objects(clvox_context *ctx, const char *raster_name, 
 /* Tasks of 4 cl_uint each (their meaning is the method's). */
 typedef struct clvox__raster_tasks {
     cl_uint *host;
-    size_t cap;  /* tasks the host array holds, and the device buffer once made */
+    size_t cap;  /* tasks the host array holds */
     cl_mem dev;  /* NULL until clvox__raster_tasks_ready after each growth */
+    size_t dev_cap; /* tasks the device buffer holds: cap, or fewer where the device's largest
+                       buffer is smaller (clvox__raster_run then uploads them in windows) */
 } clvox__raster_tasks;
 
 /* Doubles the host array (from 4096 tasks); drops the device buffer. */
 clvox_status clvox__raster_tasks_grow(clvox_context *ctx, clvox__raster_tasks *t);
-/* Makes the device buffer at cap, where there is none (after binning). */
+/* Makes the device buffer at cap (at most the device's largest buffer),
+ * where there is none (after binning). */
 clvox_status clvox__raster_tasks_ready(clvox_context *ctx, clvox__raster_tasks *t);
 void clvox__raster_tasks_release(clvox__raster_tasks *t);
 

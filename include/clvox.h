@@ -455,7 +455,7 @@ typedef struct clvox_stats {
     uint64_t quadtree_leaves;
     uint64_t quadtree_refs;        /* triangle references stored in leaves      */
     uint32_t slab_depth;           /* slices per slab used                      */
-    uint64_t peak_slab_bytes;      /* largest host+device working set of a slab */
+    uint64_t peak_slab_bytes;      /* largest working set of a slab on one device (+ reorder_bytes on the host) */
     uint64_t output_bytes;         /* size of the EXR file written              */
     uint32_t channels;             /* CLVOX_CHANNEL_* produced                  */
     uint32_t samples_per_voxel;    /* N^2 * M (1 when binary)                   */

@@ -317,7 +317,6 @@ static void *device_main(void *arg)
     clvox__sched_device *d = arg;
     clvox__sched *s = d->sched;
     const clvox__sched_job *job = s->job;
-    const clvox__test_hooks *hooks = clvox__hooks();
     const clvox__slab_out out = {d->plane[0], d->plane[1], d->plane[2], d->plane[3]};
     pthread_mutex_lock(&s->mu);
     for (;;) {
@@ -326,7 +325,7 @@ static void *device_main(void *arg)
         d->current = i;
         d->fraction = 0;
         d->slabs_started++;
-        int fail_now = hooks->fail_device_k == (int)d->ctx->position && hooks->fail_device_n == d->slabs_started;
+        int fail_now = clvox__hook_fails_device(d->ctx->position, d->slabs_started);
         pthread_mutex_unlock(&s->mu);
 
         double t0 = clvox__now();

@@ -357,8 +357,9 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         st = open_sink(user, name, params);
     }
     uint32_t window = clvox__sched_window(ndev, depth * all_slices);
-    /* method working set + each device's slab planes + the reorder buffer */
-    stats.peak_slab_bytes += (uint64_t)(ndev + window) * depth * all_slices;
+    /* one device's: method working set + slab planes (the host's reorder
+     * buffer is stats.reorder_bytes) */
+    stats.peak_slab_bytes += (uint64_t)depth * all_slices;
     if (st == CLVOX_OK) {
         clvox__sched_job job = {ctx, m, m2, dev, ndev, {0}, Z, depth, window, sink, user, o.progress, o.progress_user};
         memcpy(job.plane_slice, plane_slice, sizeof plane_slice);

@@ -385,8 +385,7 @@ static clvox_status open_device(clvox_context *ctx, const device_entry *e)
     ctx->device_id = e->device;
     ctx->device = e->info;
     clvox__device_memory_hooks(&ctx->device); /* device_memory.c */
-    const clvox__test_hooks *h = clvox__hooks();
-    if (h->fail_device_k == (int)ctx->position && h->fail_device_n == 0)
+    if (clvox__hook_fails_device(ctx->position, CLVOX__FAIL_BUILD))
         return clvox__fail(ctx, CLVOX_ERR_KERNEL_BUILD, "clBuildProgram: CLVOX_TEST_FAIL_DEVICE=%u:0 failed it",
                            ctx->position);
     cl_int err;

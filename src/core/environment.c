@@ -54,11 +54,12 @@ static clvox__test_hooks from_environment(void)
     h.fail_device_k = -1;
     const char *fail = getenv("CLVOX_TEST_FAIL_DEVICE");
     if (fail && *fail) {
-        char *colon, *end;
-        long k = strtol(fail, &colon, 10);
-        if (*colon == ':' && k >= 0 && k < 64) {
+        char *colon = (char *)fail + 1, *end;
+        long k = fail[0] == '*' ? CLVOX__FAIL_EVERY_DEVICE : strtol(fail, &colon, 10);
+        if (*colon == ':' && (k == CLVOX__FAIL_EVERY_DEVICE || (k >= 0 && k < 64))) {
             unsigned long n = strtoul(colon + 1, &end, 10);
-            if (end != colon + 1 && *end == 0 && n < (1ul << 30)) h.fail_device_k = (int)k, h.fail_device_n = (unsigned)n;
+            if (end != colon + 1 && *end == 0 && n < (1ul << 30))
+                h.fail_device_k = (int)k, h.fail_device_n = n ? (unsigned)n : CLVOX__FAIL_BUILD;
         }
     }
     h.device_max_alloc = (unsigned long long)in_range("CLVOX_DEVICE_MAX_ALLOC", 1, LONG_MAX);
@@ -84,4 +85,11 @@ void clvox__set_test_hooks(const clvox__test_hooks *hooks)
 {
     pthread_once(&g_once, read_once);
     g_hooks = hooks ? *hooks : from_environment();
+}
+
+int clvox__hook_fails_device(unsigned position, unsigned n)
+{
+    const clvox__test_hooks *h = clvox__hooks();
+    return n && h->fail_device_n == n &&
+           (h->fail_device_k == (int)position || h->fail_device_k == CLVOX__FAIL_EVERY_DEVICE);
 }

@@ -33,7 +33,9 @@ typedef struct clvox__test_hooks {
     int host_threads;          /* CLVOX_HOST_THREADS=1..16: host threads; 0: the online cores, at most 8 */
     /* CLVOX_TEST_FAIL_DEVICE=K:N: device K of a run's device list (from 0)
      * fails at its N-th slab (from 1) with an OpenCL error; N = 0 fails its
-     * kernel build at context creation. fail_device_k < 0: off. */
+     * kernel build at context creation (fail_device_n = CLVOX__FAIL_BUILD).
+     * K = '*' (CLVOX__FAIL_EVERY_DEVICE):
+     * every device does. fail_device_k = -1: off. */
     int fail_device_k;
     unsigned fail_device_n;
     /* CLVOX_DEVICE_MAX_ALLOC=bytes, CLVOX_DEVICE_GLOBAL_MEM=bytes: the device's largest buffer and
@@ -41,6 +43,14 @@ typedef struct clvox__test_hooks {
      * fails with CLVOX_ERR_OUT_OF_MEMORY where one voxel column does not fit */
     unsigned long long device_max_alloc, device_global_mem;
 } clvox__test_hooks;
+#define CLVOX__FAIL_EVERY_DEVICE (-2)
+/* fail_device_n of "K:0" (the build): a zero-initialised struct fails nothing
+ * (no device has a slab 0). */
+#define CLVOX__FAIL_BUILD 0xFFFFFFFFu
+
+/* Whether CLVOX_TEST_FAIL_DEVICE says device `position` fails at its n-th
+ * slab (from 1; n = CLVOX__FAIL_BUILD: its kernel build). */
+int clvox__hook_fails_device(unsigned position, unsigned n);
 
 /* The switches in force: the environment's, read once on the first call,
  * unless a test has set them. */

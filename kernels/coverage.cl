@@ -114,16 +114,16 @@ inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, g
     return clvox_winding_inside(K, abs_mode, nodes, node_count, caps, x, y, z, axis, exact);
 }
 
-kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint R, uint M,
-                           global const clvox_real *hits, global const uint *counts, uint capacity,
-                           uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi,
-                           global const ushort *value_of_count, uint occ_min,
-                           uint X, uint W, uint vox_stride, uint out_stride,
-                           global ushort *coverage, global uint *occupancy,
-                           global ulong *col_sum, global uint *col_filled,
-                           global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
-                           global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                           global const clvox_real *caps, global uint *exact_points)
+static void clvox_coverage_body(global const clvox_column *cols, uint col_count, uint R, uint M,
+                                global const clvox_real *hits, global const uint *counts, uint capacity,
+                                uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi,
+                                global const ushort *value_of_count, uint occ_min,
+                                uint X, uint W, uint vox_stride, uint out_stride,
+                                global ushort *coverage, global uint *occupancy,
+                                global ulong *col_sum, global uint *col_filled,
+                                global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
+                                global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                                global const clvox_real *caps, global uint *exact_points)
 {
     uint gid = get_global_id(0);
     if (gid >= col_count || R > CLVOX_COVERAGE_MAX_RAYS) return;
@@ -208,4 +208,24 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
     col_sum[gid] = sum;
     col_filled[gid] = filled;
     if (exact) atomic_add(exact_points, exact);
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint R, uint M,
+                           global const clvox_real *hits, global const uint *counts, uint capacity,
+                           uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi,
+                           global const ushort *value_of_count, uint occ_min,
+                           uint X, uint W, uint vox_stride, uint out_stride,
+                           global ushort *coverage, global uint *occupancy,
+                           global ulong *col_sum, global uint *col_filled,
+                           global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
+                           global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                           global const clvox_real *caps, global uint *exact_points,
+                           global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_coverage_body(cols, col_count, R, M, hits, counts, capacity, u_begin, u_count, stochastic, seed_lo, seed_hi,
+        value_of_count, occ_min, X, W, vox_stride, out_stride, coverage, occupancy, col_sum, col_filled, signs, rays,
+        abs_mode, axis, h, nodes, node_count, caps, exact_points);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

@@ -65,3 +65,14 @@ inline int clvox_ray_crosses(global const float *a, global const float *b, globa
 
 /* Lets the host learn which precision the compiler picked. */
 kernel void clvox_real_size(global uint *out) { out[0] = (uint)sizeof(clvox_real); }
+
+/* Completion count of a launch (src/core/launch.c): each kernel ends by
+ * calling this in every work-item, and the last work-item of each
+ * work-group adds one to done[slot] once it has run. The host compares the
+ * count with the launch's number of work-groups, so that a kernel that the
+ * runtime stopped (Oclgrind does, with no error to the host) fails the run
+ * instead of leaving voxels unset. One atomic per work-group. */
+static void clvox_done_mark(global uint *done, uint slot)
+{
+    if (get_local_id(0) == get_local_size(0) - 1) atomic_inc(done + slot);
+}

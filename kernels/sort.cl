@@ -50,8 +50,8 @@ inline void clvox_sort_signed(global clvox_real *h, global char *sg, uint n)
     }
 }
 
-kernel void clvox_sort(uint ray_count, uint capacity, global clvox_real *hits, global const uint *counts,
-                       global char *signs)
+static void clvox_sort_body(uint ray_count, uint capacity, global clvox_real *hits, global const uint *counts,
+                            global char *signs)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -84,4 +84,14 @@ kernel void clvox_sort(uint ray_count, uint capacity, global clvox_real *hits, g
             clvox_sift_down(h, sg, 0, end);
         }
     }
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_sort(uint ray_count, uint capacity, global clvox_real *hits, global const uint *counts,
+                       global char *signs,
+                       global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_sort_body(ray_count, capacity, hits, counts, signs);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

@@ -198,8 +198,8 @@ inline void clvox_row_or(global uint *row, int L, int U)
 /* tasks: 4 uints each (triangle, first slice, end slice, first row | last
  * row << 16), in grid coordinates. bits: the slab's bit rows, row
  * (k - z0) * Y + j of words_per_row words. */
-kernel void clvox_surface_raster(global const float *soup, global const uint *tasks, uint task_count, uint z0,
-                                 uint X, uint words_per_row, uint Y, global uint *bits)
+static void clvox_surface_raster_body(global const float *soup, global const uint *tasks, uint task_count, uint z0,
+                                      uint X, uint words_per_row, uint Y, global uint *bits)
 {
     uint gid = get_global_id(0);
     if (gid >= task_count) return;
@@ -397,8 +397,18 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
     }
 }
 
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_surface_raster(global const float *soup, global const uint *tasks, uint task_count, uint z0,
+                                 uint X, uint words_per_row, uint Y, global uint *bits,
+                                 global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_surface_raster_body(soup, tasks, task_count, z0, X, words_per_row, Y, bits);
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}
+
 /* Filled voxels of the slab's bit rows (rows = Y * nz; bits past X are 0). */
-kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uint rows, global uint *filled)
+static void clvox_surface_count_body(global const uint *bits, uint words_per_row, uint rows, global uint *filled)
 {
     uint r = get_global_id(0);
     if (r >= rows) return;
@@ -406,6 +416,15 @@ kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uin
     uint count = 0;
     for (uint i = 0; i < words_per_row; i++) count += popcount(w[i]);
     if (count) atomic_add(filled, count);
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uint rows, global uint *filled,
+                                global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_surface_count_body(bits, words_per_row, rows, filled);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
 #endif /* CLVOX_FP64 */

@@ -213,9 +213,9 @@ inline void clvox_section4(const double *vy, const double *vz, double4 h, const 
 
 /* tasks: 4 uints each (triangle, first slice, end slice, unused), slices in
  * grid z. bits: words_per_row words per row, row (k - z0) * Y + y. */
-kernel void clvox_tetra_raster(global const float *soup, global const uint *tasks, uint task_count, float ox,
-                               float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
-                               global uint *bits)
+static void clvox_tetra_raster_body(global const float *soup, global const uint *tasks, uint task_count, float ox,
+                                    float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
+                                    global uint *bits)
 {
     uint gid = get_global_id(0);
     if (gid >= task_count) return;
@@ -402,10 +402,21 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
     }
 }
 
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_tetra_raster(global const float *soup, global const uint *tasks, uint task_count, float ox,
+                               float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
+                               global uint *bits,
+                               global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_tetra_raster_body(soup, tasks, task_count, ox, oy, oz, tie_order, z0, X, Y, words_per_row, bits);
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}
+
 /* Prefix XOR along each row, in place: difference markers -> occupancy bits
  * (the slab format of src/core/internal.h, bits past X cleared), and the count
  * of filled voxels. rows = Y * nz. */
-kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, uint rows, global uint *filled)
+static void clvox_tetra_resolve_body(global uint *bits, uint words_per_row, uint X, uint rows, global uint *filled)
 {
     uint r = get_global_id(0);
     if (r >= rows) return;
@@ -426,6 +437,15 @@ kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, u
         w[i] = v;
     }
     if (count) atomic_add(filled, count);
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, uint rows, global uint *filled,
+                                global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_tetra_resolve_body(bits, words_per_row, X, rows, filled);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
 #endif /* CLVOX_FP64 */

@@ -71,14 +71,14 @@ inline void clvox_emit(global uint *o, uint out_stride, uint bit, uint j, int in
         atomic_or(o + (size_t)j * out_stride, bit);
     }
 }
-kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
-                                   global const char *signs, global const uint *counts, uint capacity,
-                                   uint u_begin, uint u_count, uint out_stride, global uint *out,
-                                   global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
-                                   global const clvox_cap_node *nodes, uint node_count,
-                                   global const clvox_real *caps, global uint *exact_points,
-                                   global const clvox_cap_node *rims, uint rim_count,
-                                   global const clvox_real *rim_edges)
+static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
+                                        global const char *signs, global const uint *counts, uint capacity,
+                                        uint u_begin, uint u_count, uint out_stride, global uint *out,
+                                        global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
+                                        global const clvox_cap_node *nodes, uint node_count,
+                                        global const clvox_real *caps, global uint *exact_points,
+                                        global const clvox_cap_node *rims, uint rim_count,
+                                        global const clvox_real *rim_edges)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -241,6 +241,23 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
     }
     if (out_stride == 0 && (j & 31u)) o[j >> 5] = word; /* the last, partial word */
     filled[gid] = cnt;
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
+                                   global const char *signs, global const uint *counts, uint capacity,
+                                   uint u_begin, uint u_count, uint out_stride, global uint *out,
+                                   global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
+                                   global const clvox_cap_node *nodes, uint node_count,
+                                   global const clvox_real *caps, global uint *exact_points,
+                                   global const clvox_cap_node *rims, uint rim_count,
+                                   global const clvox_real *rim_edges,
+                                   global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_classify_winding_body(rays, ray_count, hits, signs, counts, capacity, u_begin, u_count, out_stride, out,
+        filled, abs_mode, axis, h, nodes, node_count, caps, exact_points, rims, rim_count, rim_edges);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
 /* For tests/test_winding.c only: pair i's node nodes[node_of[i]] seen from

@@ -2,6 +2,7 @@
 /* Context: status strings, error messages, OpenCL device selection and the
  * kernel program (built once per context from the embedded sources). */
 #include "internal.h"
+#include "launch.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -398,6 +399,7 @@ clvox_status clvox_context_create(const clvox_context_options *options, clvox_co
 void clvox_context_destroy(clvox_context *ctx)
 {
     if (!ctx) return;
+    clvox__launch_release(ctx);
     if (ctx->program) clReleaseProgram(ctx->program);
     if (ctx->queue) clReleaseCommandQueue(ctx->queue);
     if (ctx->cl) clReleaseContext(ctx->cl);

@@ -50,6 +50,7 @@ static clvox__test_hooks from_environment(void)
         if (end != apex && isfinite(f)) h.cap_apex_set = 1, h.cap_apex = f;
     }
     h.host_threads = (int)in_range("CLVOX_HOST_THREADS", 1, 1 << 20);
+    h.local_size = (unsigned)in_range("CLVOX_LOCAL_SIZE", 1, 1024);
     return h;
 }
 

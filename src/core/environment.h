@@ -31,6 +31,8 @@ typedef struct clvox__test_hooks {
     int cap_apex_set;          /* CLVOX_CAP_APEX=F: the winding caps' apex offset (else 0.0731) */
     double cap_apex;
     int host_threads;          /* CLVOX_HOST_THREADS=1..16: host threads; 0: the online cores, at most 8 */
+    unsigned local_size;       /* CLVOX_LOCAL_SIZE=1..1024: the kernels' work-groups at most this large
+                                * (launch.c); 0: the device's and kernels' limits only */
 } clvox__test_hooks;
 
 /* The switches in force: the environment's, read once on the first call,

@@ -26,7 +26,7 @@
 
 /* Appends bits [j, end) = `set` to a row written whole, word by word
  * (see classify.cl). */
-inline void clvox_row_bits(global uint *o, uint *word, uint j, uint end, int set)
+static inline void clvox_row_bits(global uint *o, uint *word, uint j, uint end, int set)
 {
     const uint fill = set ? 0xFFFFFFFFu : 0u;
     if (j & 31u) {
@@ -45,9 +45,9 @@ inline void clvox_row_bits(global uint *o, uint *word, uint j, uint end, int set
  * voxel (>= j) that holds a crossing of any ray, and returns how many rays
  * are inside over [j, *next): odd crossings beyond (parity), or
  * clvox_k_inside (winding, away from the caps). */
-inline uint clvox_column_step(global const clvox_real *hits, global const char *signs, global const uint *counts,
-                              size_t r0, uint R, uint capacity, uint *k, int *ks, uint abs_mode, uint u_begin,
-                              uint u_count, uint j, clvox_real lo, uint *next)
+static inline uint clvox_column_step(global const clvox_real *hits, global const char *signs, global const uint *counts,
+                                     size_t r0, uint R, uint capacity, uint *k, int *ks, uint abs_mode, uint u_begin,
+                                     uint u_count, uint j, clvox_real lo, uint *next)
 {
     uint nx = u_count, inside = 0;
     for (uint r = 0; r < R; r++) {
@@ -77,11 +77,10 @@ inline uint clvox_column_step(global const clvox_real *hits, global const char *
  * ks[r] (all of them: beyond the column's start), and whether the column
  * comes near a cap (then every sample is tested on its own,
  * clvox_winding_inside; else clvox_k_inside as for whole runs). */
-inline int clvox_column_winding_setup(global const char *signs, global const uint *counts,
-                                      global const clvox_ray *rays, size_t r0, uint R,
-                                      uint capacity, int *ks, uint axis, uint u_begin, uint u_count,
-                                      global const clvox_real *h, global const clvox_cap_node *nodes,
-                                      uint node_count)
+static inline int clvox_column_winding_setup(global const char *signs, global const uint *counts,
+                                             global const clvox_ray *rays, size_t r0, uint R, uint capacity, int *ks,
+                                             uint axis, uint u_begin, uint u_count, global const clvox_real *h,
+                                             global const clvox_cap_node *nodes, uint node_count)
 {
     clvox_real g0[3] = {(clvox_real)u_begin - (clvox_real)0.5, 0, 0};
     clvox_real g1[3] = {(clvox_real)(u_begin + u_count) - (clvox_real)0.5, 0, 0};
@@ -105,9 +104,9 @@ inline int clvox_column_winding_setup(global const char *signs, global const uin
 /* The sample at u on ray r of a column near a cap: K at u (signed
  * crossings beyond it, from ks and the crossings kk.. passed), then the
  * caps. */
-inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
-                                global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, uint *exact)
+static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
+                                       global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                                       global const clvox_real *caps, uint *exact)
 {
     clvox_real x, y, z;
     clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);

@@ -48,7 +48,7 @@
 /* Unit-voxel position of a sample along the ray (u) and across it (v, w),
  * as (x, y, z): the ray axis permutes them (x-rays: u,v,w = x,y,z; y-rays:
  * y,z,x; z-rays: z,x,y). */
-inline void clvox_unit_xyz(uint axis, float fu, float fv, float fw, float *x, float *y, float *z)
+static inline void clvox_unit_xyz(uint axis, float fu, float fv, float fw, float *x, float *y, float *z)
 {
     if (axis == 1) {
         *x = fu, *y = fv, *z = fw;

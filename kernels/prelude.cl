@@ -25,7 +25,7 @@ typedef float clvox_real;
  * triangles is judged the same way from both. E == 0 (p on the edge's line)
  * is broken by a symbolic perturbation p + eps*(1, eps'): the sign of the
  * derivative of E in that direction. 0 only for a degenerate edge. */
-inline int clvox_edge_sign(clvox_real Av, clvox_real Aw, clvox_real Bv, clvox_real Bw, clvox_real *e_out)
+static inline int clvox_edge_sign(clvox_real Av, clvox_real Aw, clvox_real Bv, clvox_real Bw, clvox_real *e_out)
 {
     clvox_real e = Av * Bw - Aw * Bv;
     *e_out = e;
@@ -42,8 +42,8 @@ inline int clvox_edge_sign(clvox_real Av, clvox_real Aw, clvox_real Bv, clvox_re
  * result is the crossing's orientation: +1 when the corners run
  * counter-clockwise in the (v,w) plane (the face's normal points to +u),
  * -1 clockwise; 0: no crossing. Both windings count. */
-inline int clvox_ray_crosses(global const float *a, global const float *b, global const float *c, float fpv,
-                             float fpw, clvox_real *u_hit)
+static inline int clvox_ray_crosses(global const float *a, global const float *b, global const float *c, float fpv,
+                                    float fpw, clvox_real *u_hit)
 {
     clvox_real pv = fpv, pw = fpw;
     clvox_real Av = (clvox_real)a[1] - pv, Aw = (clvox_real)a[2] - pw;

@@ -10,7 +10,7 @@
 #endif
 
 /* Sift h[i] down the max-heap h[0 .. n) (and its sign, if sg). */
-inline void clvox_sift_down(global clvox_real *h, global char *sg, uint i, uint n)
+static inline void clvox_sift_down(global clvox_real *h, global char *sg, uint i, uint n)
 {
     clvox_real x = h[i];
     char xs = sg ? sg[i] : 0;
@@ -28,7 +28,7 @@ inline void clvox_sift_down(global clvox_real *h, global char *sg, uint i, uint 
 }
 
 /* Insertion sort of (crossing, sign) pairs in private memory. */
-inline void clvox_sort_signed(global clvox_real *h, global char *sg, uint n)
+static inline void clvox_sort_signed(global clvox_real *h, global char *sg, uint n)
 {
     clvox_real a[CLVOX_SORT_PRIVATE];
     char as[CLVOX_SORT_PRIVATE];

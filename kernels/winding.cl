@@ -18,8 +18,8 @@
 
 /* Moves K (the signed crossings beyond) and Jc (the surface steps so far)
  * along the ray to voxel centre u: crossings at or before u are passed. */
-inline void clvox_winding_advance(global const clvox_real *hh, global const char *sg, uint n, clvox_real u, uint *k,
-                                  int *K, clvox_real *Jc)
+static inline void clvox_winding_advance(global const clvox_real *hh, global const char *sg, uint n, clvox_real u,
+                                         uint *k, int *K, clvox_real *Jc)
 {
     while (*k < n && hh[*k] <= u) {
         const int un = CLVOX_UNIT(sg[*k]);
@@ -33,10 +33,10 @@ inline void clvox_winding_advance(global const clvox_real *hh, global const char
  * the last evaluation's tree cut (any cut is a valid start; a neighbour's
  * saves most of the descent), which is dropped once it has grown much past
  * a fresh start's (a cut only refines). */
-inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                            global const clvox_real *caps, uint axis, global const clvox_real *h, clvox_real u,
-                            clvox_real rv, clvox_real rw, uint tight, uint *exact, clvox_real *lo, clvox_real *hi,
-                            uint *cut, uint *cut_n, uint *fresh_exact)
+static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                   global const clvox_real *caps, uint axis, global const clvox_real *h, clvox_real u,
+                                   clvox_real rv, clvox_real rw, uint tight, uint *exact, clvox_real *lo,
+                                   clvox_real *hi, uint *cut, uint *cut_n, uint *fresh_exact)
 {
     clvox_real px, py, pz;
     clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
@@ -52,13 +52,13 @@ inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *n
 
 /* How far an evaluation's interval [lo, hi] lies from the threshold thr
  * on its answer's side (for |w| > 1/2, from both -thr and thr). */
-inline clvox_real clvox_margin(int inside, clvox_real lo, clvox_real hi, clvox_real thr, uint abs_mode)
+static inline clvox_real clvox_margin(int inside, clvox_real lo, clvox_real hi, clvox_real thr, uint abs_mode)
 {
     return inside ? (lo > thr ? lo - thr : -thr - hi) : (abs_mode ? fmin(thr - hi, lo + thr) : thr - hi);
 }
 
 /* Voxel j's answer into the ray's bits and count. */
-inline void clvox_emit(global uint *o, uint out_stride, uint bit, uint j, int inside, uint *word, uint *cnt)
+static inline void clvox_emit(global uint *o, uint out_stride, uint bit, uint j, int inside, uint *word, uint *cnt)
 {
     *cnt += (uint)inside;
     if (out_stride == 0) {

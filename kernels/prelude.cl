@@ -75,4 +75,11 @@ kernel void clvox_real_size(global uint *out) { out[0] = (uint)sizeof(clvox_real
 static void clvox_done_mark(global uint *done, uint slot)
 {
     if (get_local_id(0) == get_local_size(0) - 1) atomic_inc(done + slot);
+#if defined(CLVOX_TEST_BROKEN_KERNEL)
+    /* Never in clvox's builds: tests/test_oclgrind.sh passes it through
+     * oclgrind --build-options to check that a broken kernel fails the test
+     * (1: a write one past the buffer, 2: a data race). */
+    if (CLVOX_TEST_BROKEN_KERNEL == 1 && get_global_id(0) == get_global_offset(0)) done[CLVOX_LAUNCH_SLOTS] = slot;
+    if (CLVOX_TEST_BROKEN_KERNEL == 2) done[CLVOX_LAUNCH_SLOTS - 1] = get_global_id(0);
+#endif
 }

@@ -7,9 +7,10 @@
 
 #include "internal.h"
 
-/* Launches between two checks at most (a batch has 4 or 5; the raster
- * chunks are checked when this many are pending). */
-#define CLVOX__LAUNCH_SLOTS 64
+/* Launches between two checks at most: CLVOX_LAUNCH_SLOTS
+ * (kernels/clvox_types.h; a batch has 4 or 5, the raster chunks are
+ * checked when this many are pending). */
+#define CLVOX__LAUNCH_SLOTS CLVOX_LAUNCH_SLOTS
 
 /* The local size for kernel k: the largest power of two <= want that the
  * kernel (CL_KERNEL_WORK_GROUP_SIZE) and the device

@@ -178,7 +178,12 @@ $(BUILD)/tests/test_python: tests/test_python.sh
 	@mkdir -p $(dir $@)
 	$(Q)cp $< $@ && chmod +x $@
 
-tests: all $(TEST_BINS) $(BUILD)/tests/test_python
+# Every kernel path under Oclgrind (tests/test_oclgrind.sh), one more test program.
+$(BUILD)/tests/test_oclgrind: tests/test_oclgrind.sh
+	@mkdir -p $(dir $@)
+	$(Q)cp $< $@ && chmod +x $@
+
+tests: all $(TEST_BINS) $(BUILD)/tests/test_python $(BUILD)/tests/test_oclgrind
 
 # Keep the support objects (make would delete them as intermediates).
 .SECONDARY: $(TEST_SUPPORT_OBJ)

@@ -9,10 +9,10 @@
  *    atomic_or (neighbouring rays share words), in a buffer the host has
  *    cleared. */
 
-kernel void clvox_classify(global const clvox_ray *rays, uint ray_count,
-                           global const clvox_real *hits, global const uint *counts, uint capacity,
-                           uint u_begin, uint u_count, uint out_stride,
-                           global uint *out, global uint *filled)
+static void clvox_classify_body(global const clvox_ray *rays, uint ray_count,
+                                global const clvox_real *hits, global const uint *counts, uint capacity,
+                                uint u_begin, uint u_count, uint out_stride,
+                                global uint *out, global uint *filled)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -54,4 +54,16 @@ kernel void clvox_classify(global const clvox_ray *rays, uint ray_count,
     }
     if (out_stride == 0 && (j & 31u)) o[j >> 5] = word; /* the last, partial word */
     filled[gid] = cnt;
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_classify(global const clvox_ray *rays, uint ray_count,
+                           global const clvox_real *hits, global const uint *counts, uint capacity,
+                           uint u_begin, uint u_count, uint out_stride,
+                           global uint *out, global uint *filled,
+                           global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_classify_body(rays, ray_count, hits, counts, capacity, u_begin, u_count, out_stride, out, filled);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

@@ -20,6 +20,10 @@ typedef float clvox_f32;
  * (child q holds points with (v >= split_v) + 2*(w >= split_w) == q).
  * Leaf: refs[first .. first+count) are the triangles it holds. */
 #define CLVOX_QT_INTERNAL 0xFFFFFFFFu
+
+/* Completion counts of kernel launches (src/core/launch.c, prelude.cl
+ * clvox_done_mark): the buffer's slots, launches between two checks. */
+#define CLVOX_LAUNCH_SLOTS 64u
 typedef struct clvox_qt_node {
     clvox_f32 split_v, split_w;
     clvox_u32 first, count;

@@ -26,7 +26,7 @@
 
 /* Appends bits [j, end) = `set` to a row written whole, word by word
  * (see classify.cl). */
-inline void clvox_row_bits(global uint *o, uint *word, uint j, uint end, int set)
+static inline void clvox_row_bits(global uint *o, uint *word, uint j, uint end, int set)
 {
     const uint fill = set ? 0xFFFFFFFFu : 0u;
     if (j & 31u) {
@@ -45,9 +45,9 @@ inline void clvox_row_bits(global uint *o, uint *word, uint j, uint end, int set
  * voxel (>= j) that holds a crossing of any ray, and returns how many rays
  * are inside over [j, *next): odd crossings beyond (parity), or
  * clvox_k_inside (winding, away from the caps). */
-inline uint clvox_column_step(global const clvox_real *hits, global const char *signs, global const uint *counts,
-                              size_t r0, uint R, uint capacity, uint *k, int *ks, uint abs_mode, uint u_begin,
-                              uint u_count, uint j, clvox_real lo, uint *next)
+static inline uint clvox_column_step(global const clvox_real *hits, global const char *signs, global const uint *counts,
+                                     size_t r0, uint R, uint capacity, uint *k, int *ks, uint abs_mode, uint u_begin,
+                                     uint u_count, uint j, clvox_real lo, uint *next)
 {
     uint nx = u_count, inside = 0;
     for (uint r = 0; r < R; r++) {
@@ -77,11 +77,10 @@ inline uint clvox_column_step(global const clvox_real *hits, global const char *
  * ks[r] (all of them: beyond the column's start), and whether the column
  * comes near a cap (then every sample is tested on its own,
  * clvox_winding_inside; else clvox_k_inside as for whole runs). */
-inline int clvox_column_winding_setup(global const char *signs, global const uint *counts,
-                                      global const clvox_ray *rays, size_t r0, uint R,
-                                      uint capacity, int *ks, uint axis, uint u_begin, uint u_count,
-                                      global const clvox_real *h, global const clvox_cap_node *nodes,
-                                      uint node_count)
+static inline int clvox_column_winding_setup(global const char *signs, global const uint *counts,
+                                             global const clvox_ray *rays, size_t r0, uint R, uint capacity, int *ks,
+                                             uint axis, uint u_begin, uint u_count, global const clvox_real *h,
+                                             global const clvox_cap_node *nodes, uint node_count)
 {
     clvox_real g0[3] = {(clvox_real)u_begin - (clvox_real)0.5, 0, 0};
     clvox_real g1[3] = {(clvox_real)(u_begin + u_count) - (clvox_real)0.5, 0, 0};
@@ -105,25 +104,25 @@ inline int clvox_column_winding_setup(global const char *signs, global const uin
 /* The sample at u on ray r of a column near a cap: K at u (signed
  * crossings beyond it, from ks and the crossings kk.. passed), then the
  * caps. */
-inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
-                                global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, uint *exact)
+static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
+                                       global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                                       global const clvox_real *caps, uint *exact)
 {
     clvox_real x, y, z;
     clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);
     return clvox_winding_inside(K, abs_mode, nodes, node_count, caps, x, y, z, axis, exact);
 }
 
-kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint R, uint M,
-                           global const clvox_real *hits, global const uint *counts, uint capacity,
-                           uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi,
-                           global const ushort *value_of_count, uint occ_min,
-                           uint X, uint W, uint vox_stride, uint out_stride,
-                           global ushort *coverage, global uint *occupancy,
-                           global ulong *col_sum, global uint *col_filled,
-                           global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
-                           global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                           global const clvox_real *caps, global uint *exact_points)
+static void clvox_coverage_body(global const clvox_column *cols, uint col_count, uint R, uint M,
+                                global const clvox_real *hits, global const uint *counts, uint capacity,
+                                uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi,
+                                global const ushort *value_of_count, uint occ_min,
+                                uint X, uint W, uint vox_stride, uint out_stride,
+                                global ushort *coverage, global uint *occupancy,
+                                global ulong *col_sum, global uint *col_filled,
+                                global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
+                                global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                                global const clvox_real *caps, global uint *exact_points)
 {
     uint gid = get_global_id(0);
     if (gid >= col_count || R > CLVOX_COVERAGE_MAX_RAYS) return;
@@ -208,4 +207,24 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
     col_sum[gid] = sum;
     col_filled[gid] = filled;
     if (exact) atomic_add(exact_points, exact);
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint R, uint M,
+                           global const clvox_real *hits, global const uint *counts, uint capacity,
+                           uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi,
+                           global const ushort *value_of_count, uint occ_min,
+                           uint X, uint W, uint vox_stride, uint out_stride,
+                           global ushort *coverage, global uint *occupancy,
+                           global ulong *col_sum, global uint *col_filled,
+                           global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
+                           global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                           global const clvox_real *caps, global uint *exact_points,
+                           global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_coverage_body(cols, col_count, R, M, hits, counts, capacity, u_begin, u_count, stochastic, seed_lo, seed_hi,
+        value_of_count, occ_min, X, W, vox_stride, out_stride, coverage, occupancy, col_sum, col_filled, signs, rays,
+        abs_mode, axis, h, nodes, node_count, caps, exact_points);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

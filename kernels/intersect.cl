@@ -10,11 +10,11 @@
  * verts (grid space, u,v,w per vertex), the floats a soup would repeat at
  * every corner (src/grid/grid.c), so the crossings are the soup's bit for bit. */
 
-kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
-                            global const uint *leaf_of_ray, global const clvox_qt_node *nodes,
-                            global const uint *refs, global const float *verts, global const uint *tris,
-                            uint capacity, global clvox_real *hits, global uint *counts, global char *signs,
-                            uint surface_count)
+static void clvox_intersect_body(global const clvox_ray *rays, uint ray_count,
+                                 global const uint *leaf_of_ray, global const clvox_qt_node *nodes,
+                                 global const uint *refs, global const float *verts, global const uint *tris,
+                                 uint capacity, global clvox_real *hits, global uint *counts, global char *signs,
+                                 uint surface_count)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -37,4 +37,18 @@ kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
         }
     }
     counts[gid] = n;
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
+                            global const uint *leaf_of_ray, global const clvox_qt_node *nodes,
+                            global const uint *refs, global const float *verts, global const uint *tris,
+                            uint capacity, global clvox_real *hits, global uint *counts, global char *signs,
+                            uint surface_count,
+                            global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_intersect_body(rays, ray_count, leaf_of_ray, nodes, refs, verts, tris, capacity, hits, counts, signs,
+        surface_count);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

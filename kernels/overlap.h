@@ -37,9 +37,10 @@
 #ifdef __OPENCL_VERSION__
 /* The exact expansions are rarely reached: kept out of line so that the
  * filters' loops in kernels/surface.cl stay small (about 1.4x faster on
- * PoCL). */
-#define CLVOX_OV_FN inline
-#define CLVOX_OV_COLD __attribute__((noinline))
+ * PoCL). Static, as every helper: a plain C99 `inline` function need not
+ * get a body, and then the program fails to link on some drivers. */
+#define CLVOX_OV_FN static inline
+#define CLVOX_OV_COLD static __attribute__((noinline))
 #else
 #include <math.h>
 #define CLVOX_OV_FN static inline

@@ -37,7 +37,7 @@
 #ifndef CLVOX_PALETTE_MEM
 #define CLVOX_PALETTE_MEM __global /* a kernel may define __constant before this file */
 #endif
-#define CLVOX_PALETTE_FN inline
+#define CLVOX_PALETTE_FN static inline /* static: see CLVOX_OV_FN (overlap.h) */
 #else
 #include "clvox_types.h"
 #define CLVOX_PALETTE_MEM

@@ -48,7 +48,7 @@
 /* Unit-voxel position of a sample along the ray (u) and across it (v, w),
  * as (x, y, z): the ray axis permutes them (x-rays: u,v,w = x,y,z; y-rays:
  * y,z,x; z-rays: z,x,y). */
-inline void clvox_unit_xyz(uint axis, float fu, float fv, float fw, float *x, float *y, float *z)
+static inline void clvox_unit_xyz(uint axis, float fu, float fv, float fw, float *x, float *y, float *z)
 {
     if (axis == 1) {
         *x = fu, *y = fv, *z = fw;
@@ -59,21 +59,21 @@ inline void clvox_unit_xyz(uint axis, float fu, float fv, float fw, float *x, fl
     }
 }
 
-kernel void clvox_palette_score(global const clvox_column *cols, uint col_count, uint N, uint M,
-                                global const clvox_real *hits, global const uint *counts, uint capacity,
-                                uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi, uint axis,
-                                global const clvox_element *elements, global const clvox_cell *cells,
-                                global const clvox_halfspace *planes, uint n_elements, uint use_masks,
-                                global const uint *masks,
-                                uint metric, uint early_out, uint sc_lo, uint sc_hi,
-                                global const ushort *value_of_count, uint occ_min, uint X, uint W,
-                                uint vox_stride, uint out_stride, global ushort *element_out,
-                                global ushort *score_out, global ushort *coverage, global uint *occupancy,
-                                global const ulong *volume_fixed, global ulong *col_sum, global uint *col_filled,
-                                global uint *pstats, global ulong *col_volume,
-                                global const char *signs, global const clvox_ray *rays, uint abs_mode,
-                                global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, global uint *exact_points)
+static void clvox_palette_score_body(global const clvox_column *cols, uint col_count, uint N, uint M,
+                                     global const clvox_real *hits, global const uint *counts, uint capacity,
+                                     uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi, uint axis,
+                                     global const clvox_element *elements, global const clvox_cell *cells,
+                                     global const clvox_halfspace *planes, uint n_elements, uint use_masks,
+                                     global const uint *masks,
+                                     uint metric, uint early_out, uint sc_lo, uint sc_hi,
+                                     global const ushort *value_of_count, uint occ_min, uint X, uint W,
+                                     uint vox_stride, uint out_stride, global ushort *element_out,
+                                     global ushort *score_out, global ushort *coverage, global uint *occupancy,
+                                     global const ulong *volume_fixed, global ulong *col_sum, global uint *col_filled,
+                                     global uint *pstats, global ulong *col_volume,
+                                     global const char *signs, global const clvox_ray *rays, uint abs_mode,
+                                     global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                                     global const clvox_real *caps, global uint *exact_points)
 {
     const uint gid = get_global_id(0);
     const uint R = N * N, S = R * M, words = (S + 31u) / 32u;
@@ -246,4 +246,31 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
     pstats[4 * gid + 3] = nonempty;
     col_volume[gid] = volume;
     if (exact) atomic_add(exact_points, exact);
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_palette_score(global const clvox_column *cols, uint col_count, uint N, uint M,
+                                global const clvox_real *hits, global const uint *counts, uint capacity,
+                                uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi, uint axis,
+                                global const clvox_element *elements, global const clvox_cell *cells,
+                                global const clvox_halfspace *planes, uint n_elements, uint use_masks,
+                                global const uint *masks,
+                                uint metric, uint early_out, uint sc_lo, uint sc_hi,
+                                global const ushort *value_of_count, uint occ_min, uint X, uint W,
+                                uint vox_stride, uint out_stride, global ushort *element_out,
+                                global ushort *score_out, global ushort *coverage, global uint *occupancy,
+                                global const ulong *volume_fixed, global ulong *col_sum, global uint *col_filled,
+                                global uint *pstats, global ulong *col_volume,
+                                global const char *signs, global const clvox_ray *rays, uint abs_mode,
+                                global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+                                global const clvox_real *caps, global uint *exact_points,
+                                global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_palette_score_body(cols, col_count, N, M, hits, counts, capacity, u_begin, u_count, stochastic, seed_lo,
+        seed_hi, axis, elements, cells, planes, n_elements, use_masks, masks, metric, early_out, sc_lo, sc_hi,
+        value_of_count, occ_min, X, W, vox_stride, out_stride, element_out, score_out, coverage, occupancy,
+        volume_fixed, col_sum, col_filled, pstats, col_volume, signs, rays, abs_mode, h, nodes, node_count, caps,
+        exact_points);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

@@ -25,7 +25,7 @@ typedef float clvox_real;
  * triangles is judged the same way from both. E == 0 (p on the edge's line)
  * is broken by a symbolic perturbation p + eps*(1, eps'): the sign of the
  * derivative of E in that direction. 0 only for a degenerate edge. */
-inline int clvox_edge_sign(clvox_real Av, clvox_real Aw, clvox_real Bv, clvox_real Bw, clvox_real *e_out)
+static inline int clvox_edge_sign(clvox_real Av, clvox_real Aw, clvox_real Bv, clvox_real Bw, clvox_real *e_out)
 {
     clvox_real e = Av * Bw - Aw * Bv;
     *e_out = e;
@@ -42,8 +42,8 @@ inline int clvox_edge_sign(clvox_real Av, clvox_real Aw, clvox_real Bv, clvox_re
  * result is the crossing's orientation: +1 when the corners run
  * counter-clockwise in the (v,w) plane (the face's normal points to +u),
  * -1 clockwise; 0: no crossing. Both windings count. */
-inline int clvox_ray_crosses(global const float *a, global const float *b, global const float *c, float fpv,
-                             float fpw, clvox_real *u_hit)
+static inline int clvox_ray_crosses(global const float *a, global const float *b, global const float *c, float fpv,
+                                    float fpw, clvox_real *u_hit)
 {
     clvox_real pv = fpv, pw = fpw;
     clvox_real Av = (clvox_real)a[1] - pv, Aw = (clvox_real)a[2] - pw;
@@ -65,3 +65,21 @@ inline int clvox_ray_crosses(global const float *a, global const float *b, globa
 
 /* Lets the host learn which precision the compiler picked. */
 kernel void clvox_real_size(global uint *out) { out[0] = (uint)sizeof(clvox_real); }
+
+/* Completion count of a launch (src/core/launch.c): each kernel ends by
+ * calling this in every work-item, and the last work-item of each
+ * work-group adds one to done[slot] once it has run. The host compares the
+ * count with the launch's number of work-groups, so that a kernel that the
+ * runtime stopped (Oclgrind does, with no error to the host) fails the run
+ * instead of leaving voxels unset. One atomic per work-group. */
+static void clvox_done_mark(global uint *done, uint slot)
+{
+    if (get_local_id(0) == get_local_size(0) - 1) atomic_inc(done + slot);
+#if defined(CLVOX_TEST_BROKEN_KERNEL)
+    /* Never in clvox's builds: tests/test_oclgrind.sh passes it through
+     * oclgrind --build-options to check that a broken kernel fails the test
+     * (1: a write one past the buffer, 2: a data race). */
+    if (CLVOX_TEST_BROKEN_KERNEL == 1 && get_global_id(0) == get_global_offset(0)) done[CLVOX_LAUNCH_SLOTS] = slot;
+    if (CLVOX_TEST_BROKEN_KERNEL == 2) done[CLVOX_LAUNCH_SLOTS - 1] = get_global_id(0);
+#endif
+}

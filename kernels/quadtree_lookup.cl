@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* Stage partition (device side): find the quadtree leaf under each ray. */
 
-kernel void clvox_quadtree_lookup(global const clvox_ray *rays, uint ray_count,
-                                  global const clvox_qt_node *nodes, global uint *leaf_of_ray)
+static void clvox_quadtree_lookup_body(global const clvox_ray *rays, uint ray_count,
+                                       global const clvox_qt_node *nodes, global uint *leaf_of_ray)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -13,4 +13,14 @@ kernel void clvox_quadtree_lookup(global const clvox_ray *rays, uint ray_count,
         i = nodes[i].first + q;
     }
     leaf_of_ray[gid] = i;
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_quadtree_lookup(global const clvox_ray *rays, uint ray_count,
+                                  global const clvox_qt_node *nodes, global uint *leaf_of_ray,
+                                  global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_quadtree_lookup_body(rays, ray_count, nodes, leaf_of_ray);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

@@ -35,7 +35,7 @@
 
 #ifdef __OPENCL_VERSION__
 typedef ulong clvox_u64;
-#define CLVOX_SAMPLER_FN inline
+#define CLVOX_SAMPLER_FN static inline /* static: see CLVOX_OV_FN (overlap.h) */
 #else
 #include <stdint.h>
 typedef uint64_t clvox_u64;

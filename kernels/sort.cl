@@ -10,7 +10,7 @@
 #endif
 
 /* Sift h[i] down the max-heap h[0 .. n) (and its sign, if sg). */
-inline void clvox_sift_down(global clvox_real *h, global char *sg, uint i, uint n)
+static inline void clvox_sift_down(global clvox_real *h, global char *sg, uint i, uint n)
 {
     clvox_real x = h[i];
     char xs = sg ? sg[i] : 0;
@@ -28,7 +28,7 @@ inline void clvox_sift_down(global clvox_real *h, global char *sg, uint i, uint 
 }
 
 /* Insertion sort of (crossing, sign) pairs in private memory. */
-inline void clvox_sort_signed(global clvox_real *h, global char *sg, uint n)
+static inline void clvox_sort_signed(global clvox_real *h, global char *sg, uint n)
 {
     clvox_real a[CLVOX_SORT_PRIVATE];
     char as[CLVOX_SORT_PRIVATE];
@@ -50,8 +50,8 @@ inline void clvox_sort_signed(global clvox_real *h, global char *sg, uint n)
     }
 }
 
-kernel void clvox_sort(uint ray_count, uint capacity, global clvox_real *hits, global const uint *counts,
-                       global char *signs)
+static void clvox_sort_body(uint ray_count, uint capacity, global clvox_real *hits, global const uint *counts,
+                            global char *signs)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -84,4 +84,14 @@ kernel void clvox_sort(uint ray_count, uint capacity, global clvox_real *hits, g
             clvox_sift_down(h, sg, 0, end);
         }
     }
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_sort(uint ray_count, uint capacity, global clvox_real *hits, global const uint *counts,
+                       global char *signs,
+                       global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_sort_body(ray_count, capacity, hits, counts, signs);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

@@ -42,9 +42,10 @@ typedef struct clvox_spred {
     uchar pad;
 } clvox_spred;
 
-inline double clvox_coord(uint axis, double x, double y, double z) { return axis == 0 ? x : axis == 1 ? y : z; }
+static inline double clvox_coord(uint axis, double x, double y, double z) { return axis == 0 ? x : axis == 1 ? y : z; }
 
-inline int clvox_spred_holds(const clvox_spred *p, const double *v, const double *om, double x, double y, double z)
+static inline int clvox_spred_holds(const clvox_spred *p, const double *v, const double *om, double x, double y,
+                                    double z)
 {
     int sg;
     if (p->kind == 0) {
@@ -66,15 +67,15 @@ inline int clvox_spred_holds(const clvox_spred *p, const double *v, const double
 
 /* clvox_spred_holds out of line: the rows' fallback when a filter cannot
  * decide (rare), kept out of their loops. */
-__attribute__((noinline)) int clvox_spred_holds_cold(const clvox_spred *p, const double *v, const double *om, double x,
-                                                     double y, double z)
+static __attribute__((noinline)) int clvox_spred_holds_cold(const clvox_spred *p, const double *v,
+                                                            const double *om, double x, double y, double z)
 {
     return clvox_spred_holds(p, v, om, x, y, z);
 }
 
 /* All predicates of one group hold at cell x of the row (idx[first] tried first). */
-inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v,
-                             const double *om, int x, double y, double z)
+static inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v,
+                                    const double *om, int x, double y, double z)
 {
     const double xd = (double)x;
     if (n && !clvox_spred_holds(&p[idx[first]], v, om, xd, y, z)) return 0;
@@ -103,8 +104,8 @@ typedef struct clvox_rpred {
     uchar pad[7];
 } clvox_rpred;
 
-inline void clvox_rpred_setup(clvox_rpred *r, const clvox_spred *p, uchar idx, const double *v, const double *om,
-                              double y, double z)
+static inline void clvox_rpred_setup(clvox_rpred *r, const clvox_spred *p, uchar idx, const double *v, const double *om,
+                                     double y, double z)
 {
     r->idx = idx;
     double flip;
@@ -137,8 +138,8 @@ inline void clvox_rpred_setup(clvox_rpred *r, const clvox_spred *p, uchar idx, c
     r->dir = p->want > 0 ? flip : -flip; /* holds iff dir * det >= 0 */
 }
 
-inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const double *v, const double *om, int x,
-                             double y, double z)
+static inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const double *v, const double *om,
+                                    int x, double y, double z)
 {
     const double xd = (double)x;
     const double w = (xd + r->off) - r->base;
@@ -151,8 +152,8 @@ inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const d
 }
 
 /* All row predicates hold at x (rp[first] tried first). */
-inline int clvox_rgroup_holds(const clvox_rpred *rp, int n, int first, const clvox_spred *p, const double *v,
-                              const double *om, int x, double y, double z)
+static inline int clvox_rgroup_holds(const clvox_rpred *rp, int n, int first, const clvox_spred *p, const double *v,
+                                     const double *om, int x, double y, double z)
 {
     if (n && !clvox_rpred_holds(&rp[first], p, v, om, x, y, z)) return 0;
     for (int i = 0; i < n; i++)
@@ -162,7 +163,7 @@ inline int clvox_rgroup_holds(const clvox_rpred *rp, int n, int first, const clv
 
 /* Smallest i of [lo, hi] with i + 1/2 >= m, or hi + 1; largest with
  * i - 1/2 <= m, or lo - 1 (exact comparisons; m a float). */
-inline int clvox_first_cell(double m, int lo, int hi)
+static inline int clvox_first_cell(double m, int lo, int hi)
 {
     if (m <= (double)lo - 0.5) return lo;
     if (!(m <= (double)hi + 0.5)) return hi + 1;
@@ -171,7 +172,7 @@ inline int clvox_first_cell(double m, int lo, int hi)
     while (i <= hi && (double)i + 0.5 < m) i++;
     return i;
 }
-inline int clvox_last_cell(double m, int lo, int hi)
+static inline int clvox_last_cell(double m, int lo, int hi)
 {
     if (m >= (double)hi + 0.5) return hi;
     if (!(m >= (double)lo - 0.5)) return lo - 1;
@@ -182,7 +183,7 @@ inline int clvox_last_cell(double m, int lo, int hi)
 }
 
 /* Sets bits L..U (inclusive) of a row. */
-inline void clvox_row_or(global uint *row, int L, int U)
+static inline void clvox_row_or(global uint *row, int L, int U)
 {
     int wl = L >> 5, wu = U >> 5;
     uint ml = ~0u << (L & 31), mu = ~0u >> (31 - (U & 31));
@@ -198,8 +199,8 @@ inline void clvox_row_or(global uint *row, int L, int U)
 /* tasks: 4 uints each (triangle, first slice, end slice, first row | last
  * row << 16), in grid coordinates. bits: the slab's bit rows, row
  * (k - z0) * Y + j of words_per_row words. */
-kernel void clvox_surface_raster(global const float *soup, global const uint *tasks, uint task_count, uint z0,
-                                 uint X, uint words_per_row, uint Y, global uint *bits)
+static void clvox_surface_raster_body(global const float *soup, global const uint *tasks, uint task_count, uint z0,
+                                      uint X, uint words_per_row, uint Y, global uint *bits)
 {
     uint gid = get_global_id(0);
     if (gid >= task_count) return;
@@ -397,8 +398,18 @@ kernel void clvox_surface_raster(global const float *soup, global const uint *ta
     }
 }
 
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_surface_raster(global const float *soup, global const uint *tasks, uint task_count, uint z0,
+                                 uint X, uint words_per_row, uint Y, global uint *bits,
+                                 global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_surface_raster_body(soup, tasks, task_count, z0, X, words_per_row, Y, bits);
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}
+
 /* Filled voxels of the slab's bit rows (rows = Y * nz; bits past X are 0). */
-kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uint rows, global uint *filled)
+static void clvox_surface_count_body(global const uint *bits, uint words_per_row, uint rows, global uint *filled)
 {
     uint r = get_global_id(0);
     if (r >= rows) return;
@@ -406,6 +417,15 @@ kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uin
     uint count = 0;
     for (uint i = 0; i < words_per_row; i++) count += popcount(w[i]);
     if (count) atomic_add(filled, count);
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uint rows, global uint *filled,
+                                global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_surface_count_body(bits, words_per_row, rows, filled);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
 #endif /* CLVOX_FP64 */

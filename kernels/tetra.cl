@@ -33,13 +33,13 @@
 
 /* p < q in lexicographic (x, y, z) order; bit-identical shared vertices
  * compare the same way from every triangle. */
-inline int clvox_lex_less(float px, float py, float pz, float qx, float qy, float qz)
+static inline int clvox_lex_less(float px, float py, float pz, float qx, float qy, float qz)
 {
     return px < qx || (px == qx && (py < qy || (py == qy && pz < qz)));
 }
 
 /* Swaps two points; returns -1 (the parity change). */
-inline int clvox_swap3(float *p, float *q)
+static inline int clvox_swap3(float *p, float *q)
 {
     for (int i = 0; i < 3; i++) {
         float t = p[i];
@@ -61,7 +61,7 @@ typedef struct clvox_tface {
 
 /* Sign of F(P') when F(P) == 0: the first non-zero of n.t0, n.t1, n.t2,
  * where order holds the axes t0, t1, t2 in 2 bits each. */
-inline int clvox_tie_sign(double nx, double ny, double nz, uint order)
+static inline int clvox_tie_sign(double nx, double ny, double nz, uint order)
 {
     double n[3] = {nx, ny, nz};
     for (int i = 0; i < 3; i++) {
@@ -72,8 +72,8 @@ inline int clvox_tie_sign(double nx, double ny, double nz, uint order)
 }
 
 /* Face through A = (ax,ay,az), P1, P2: n = (P1 - A) x (P2 - A). */
-inline void clvox_face_set(clvox_tface *f, double ax, double ay, double az, double p1x, double p1y, double p1z,
-                           double p2x, double p2y, double p2z, uint order)
+static inline void clvox_face_set(clvox_tface *f, double ax, double ay, double az, double p1x, double p1y, double p1z,
+                                  double p2x, double p2y, double p2z, uint order)
 {
     double ux = p1x - ax, uy = p1y - ay, uz = p1z - az;
     double vx = p2x - ax, vy = p2y - ay, vz = p2z - az;
@@ -90,8 +90,8 @@ inline void clvox_face_set(clvox_tface *f, double ax, double ay, double az, doub
 
 /* Internal face (O, p, q): canonical order p < q. Returns the sign relating
  * F_Opq to the canonical function. */
-inline int clvox_face_internal(clvox_tface *f, float ox, float oy, float oz, float px, float py, float pz,
-                               float qx, float qy, float qz, uint order)
+static inline int clvox_face_internal(clvox_tface *f, float ox, float oy, float oz, float px, float py, float pz,
+                                      float qx, float qy, float qz, uint order)
 {
     if (clvox_lex_less(qx, qy, qz, px, py, pz)) {
         clvox_face_set(f, ox, oy, oz, qx, qy, qz, px, py, pz, order);
@@ -103,7 +103,7 @@ inline int clvox_face_internal(clvox_tface *f, float ox, float oy, float oz, flo
 
 /* Sign of F at (x, y, k), given C = ny*(y - ay) + nz*(k - az) of the row:
  * exactly the per-point F, ties broken by the perturbation. */
-inline int clvox_face_sign_at(const clvox_tface *f, double C, int x)
+static inline int clvox_face_sign_at(const clvox_tface *f, double C, int x)
 {
     double F = f->nx * ((double)x - f->ax) + C;
     return F > 0.0 ? 1 : (F < 0.0 ? -1 : f->tie);
@@ -112,7 +112,7 @@ inline int clvox_face_sign_at(const clvox_tface *f, double C, int x)
 /* First x in [0, X] where sign(nx) * sign(F(x)) > 0 (X when none), by
  * evaluating F at the integers around the approximate root xs: F is
  * monotone along x, so this is where the face's sign flips. */
-inline int clvox_face_threshold(const clvox_tface *f, double yd, double kd, double xs, int X)
+static inline int clvox_face_threshold(const clvox_tface *f, double yd, double kd, double xs, int X)
 {
     double C = f->ny * (yd - f->ay) + f->nz * (kd - f->az);
     int sx = f->nx > 0.0 ? 1 : -1;
@@ -124,7 +124,7 @@ inline int clvox_face_threshold(const clvox_tface *f, double yd, double kd, doub
 
 /* The bound of a row from a group of faces, evaluated exactly: L = the
  * largest threshold of the lower faces, U = the smallest of the upper ones. */
-inline int clvox_group_bound(const clvox_tface *f, const int *idx, int n, double yd, double kd, int X, int upper)
+static inline int clvox_group_bound(const clvox_tface *f, const int *idx, int n, double yd, double kd, int X, int upper)
 {
     int b = upper ? X : 0;
     for (int a = 0; a < n; a++) {
@@ -139,10 +139,10 @@ inline int clvox_group_bound(const clvox_tface *f, const int *idx, int n, double
 /* floor(x) for |x| < 2^31 (here x is within [-1.5, X + 0.5]): truncate,
  * then step down where that rounded up. Cheaper than floor(), which must
  * handle every double. */
-inline int4 clvox_floor_small4(double4 x)
+static inline int4 clvox_floor_small4(double4 x)
 {
     int4 t = convert_int4(x); /* towards zero */
-    return t + convert_int4(convert_double4(t) > x);
+    return select(t, t - 1, convert_int4(convert_double4(t) > x)); /* a mask, not "+ (true = -1)" */
 }
 
 /* The same bound from the extreme root xe of the group (the largest root
@@ -153,7 +153,7 @@ inline int4 clvox_floor_small4(double4 x)
  * error of xe is below 1e-3 tol), and that is monotone in the root, so the
  * bound is the first integer beyond xe. Gives -1 when xe is within tol of
  * an integer: then each threshold must be evaluated. Four rows at once. */
-inline int4 clvox_bound_fast4(double4 xe, double tol, double Xd)
+static inline int4 clvox_bound_fast4(double4 xe, double tol, double Xd)
 {
     /* Roots below -0.5 give 0, above X - 0.5 give X (all centres on one side). */
     double4 c = min(max(xe, -0.5), Xd - 0.5);
@@ -162,7 +162,7 @@ inline int4 clvox_bound_fast4(double4 xe, double tol, double Xd)
 }
 
 /* Flips the centres [L, U) of one row of presence differences. */
-inline void clvox_span_xor(global uint *row, int L, int U, int X)
+static inline void clvox_span_xor(global uint *row, int L, int U, int X)
 {
     atomic_xor(row + (L >> 5), 1u << (L & 31));
     if (U < X) atomic_xor(row + (U >> 5), 1u << (U & 31));
@@ -177,7 +177,7 @@ inline void clvox_span_xor(global uint *row, int L, int U, int X)
  * {C,D}: it is AC). Each point is interpolated from the edge's lower end,
  * so at a vertex's height it is that vertex, and a flat edge gives its
  * lower-indexed end (the other is on another edge). */
-inline void clvox_section(const double *vy, const double *vz, double h, const double *e, double *lo, double *hi)
+static inline void clvox_section(const double *vy, const double *vz, double h, const double *e, double *lo, double *hi)
 {
     double p0 = vy[3] + (h - vz[3]) * e[2], p1, p2, p3;
     if (h >= vz[1]) {
@@ -198,24 +198,24 @@ inline void clvox_section(const double *vy, const double *vz, double h, const do
 }
 
 /* clvox_section at four heights at once (each within [D.z, A.z]). */
-inline void clvox_section4(const double *vy, const double *vz, double4 h, const double *e, double4 *lo,
-                           double4 *hi)
+static inline void clvox_section4(const double *vy, const double *vz, double4 h, const double *e, double4 *lo,
+                                  double4 *hi)
 {
     long4 top = h >= vz[1], mid = h >= vz[2];
     double4 bd = h - vz[3], cd = h - vz[2];
     double4 p0 = vy[3] + bd * e[2];
     double4 p1 = select(vy[3] + bd * e[4], vy[1] + (h - vz[1]) * e[0], top);
     double4 p2 = select(vy[3] + bd * e[5], vy[2] + cd * e[1], top | mid);
-    double4 p3 = select(p2, vy[2] + cd * e[3], mid & ~top);
+    double4 p3 = select(p2, vy[2] + cd * e[3], select(mid, (long4)0, top)); /* mid & !top; no ~ (winding_angles.h) */
     *lo = fmin(fmin(p0, p1), fmin(p2, p3));
     *hi = fmax(fmax(p0, p1), fmax(p2, p3));
 }
 
 /* tasks: 4 uints each (triangle, first slice, end slice, unused), slices in
  * grid z. bits: words_per_row words per row, row (k - z0) * Y + y. */
-kernel void clvox_tetra_raster(global const float *soup, global const uint *tasks, uint task_count, float ox,
-                               float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
-                               global uint *bits)
+static void clvox_tetra_raster_body(global const float *soup, global const uint *tasks, uint task_count, float ox,
+                                    float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
+                                    global uint *bits)
 {
     uint gid = get_global_id(0);
     if (gid >= task_count) return;
@@ -359,7 +359,7 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
             int4 L4 = clvox_bound_fast4(xl, tol_lo, Xd), U4 = clvox_bound_fast4(xu, tol_up, Xd);
             /* Lanes with a row and a span that may be non-empty (or unknown). */
             int4 live = ((int4)(r) < nr) & ((L4 < U4) | (L4 < 0) | (U4 < 0) | (int4)(ncst ? -1 : 0));
-            uint mask = (uint)(live.s0 & 1) | (uint)(live.s1 & 2) | (uint)(live.s2 & 4) | (uint)(live.s3 & 8);
+            uint mask = (live.s0 ? 1u : 0u) | (live.s1 ? 2u : 0u) | (live.s2 ? 4u : 0u) | (live.s3 ? 8u : 0u);
             if (!mask) continue;
             if (!ncst && !any(L4 < 0) && !any(U4 < 0)) {
                 /* The common case: every span known exactly, live lanes
@@ -402,10 +402,21 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
     }
 }
 
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_tetra_raster(global const float *soup, global const uint *tasks, uint task_count, float ox,
+                               float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
+                               global uint *bits,
+                               global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_tetra_raster_body(soup, tasks, task_count, ox, oy, oz, tie_order, z0, X, Y, words_per_row, bits);
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}
+
 /* Prefix XOR along each row, in place: difference markers -> occupancy bits
  * (the slab format of src/core/internal.h, bits past X cleared), and the count
  * of filled voxels. rows = Y * nz. */
-kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, uint rows, global uint *filled)
+static void clvox_tetra_resolve_body(global uint *bits, uint words_per_row, uint X, uint rows, global uint *filled)
 {
     uint r = get_global_id(0);
     if (r >= rows) return;
@@ -426,6 +437,15 @@ kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, u
         w[i] = v;
     }
     if (count) atomic_add(filled, count);
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, uint rows, global uint *filled,
+                                global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_tetra_resolve_body(bits, words_per_row, X, rows, filled);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
 #endif /* CLVOX_FP64 */

@@ -18,8 +18,8 @@
 
 /* Moves K (the signed crossings beyond) and Jc (the surface steps so far)
  * along the ray to voxel centre u: crossings at or before u are passed. */
-inline void clvox_winding_advance(global const clvox_real *hh, global const char *sg, uint n, clvox_real u, uint *k,
-                                  int *K, clvox_real *Jc)
+static inline void clvox_winding_advance(global const clvox_real *hh, global const char *sg, uint n, clvox_real u,
+                                         uint *k, int *K, clvox_real *Jc)
 {
     while (*k < n && hh[*k] <= u) {
         const int un = CLVOX_UNIT(sg[*k]);
@@ -33,10 +33,10 @@ inline void clvox_winding_advance(global const clvox_real *hh, global const char
  * the last evaluation's tree cut (any cut is a valid start; a neighbour's
  * saves most of the descent), which is dropped once it has grown much past
  * a fresh start's (a cut only refines). */
-inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                            global const clvox_real *caps, uint axis, global const clvox_real *h, clvox_real u,
-                            clvox_real rv, clvox_real rw, uint tight, uint *exact, clvox_real *lo, clvox_real *hi,
-                            uint *cut, uint *cut_n, uint *fresh_exact)
+static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                   global const clvox_real *caps, uint axis, global const clvox_real *h, clvox_real u,
+                                   clvox_real rv, clvox_real rw, uint tight, uint *exact, clvox_real *lo,
+                                   clvox_real *hi, uint *cut, uint *cut_n, uint *fresh_exact)
 {
     clvox_real px, py, pz;
     clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
@@ -52,13 +52,13 @@ inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *n
 
 /* How far an evaluation's interval [lo, hi] lies from the threshold thr
  * on its answer's side (for |w| > 1/2, from both -thr and thr). */
-inline clvox_real clvox_margin(int inside, clvox_real lo, clvox_real hi, clvox_real thr, uint abs_mode)
+static inline clvox_real clvox_margin(int inside, clvox_real lo, clvox_real hi, clvox_real thr, uint abs_mode)
 {
     return inside ? (lo > thr ? lo - thr : -thr - hi) : (abs_mode ? fmin(thr - hi, lo + thr) : thr - hi);
 }
 
 /* Voxel j's answer into the ray's bits and count. */
-inline void clvox_emit(global uint *o, uint out_stride, uint bit, uint j, int inside, uint *word, uint *cnt)
+static inline void clvox_emit(global uint *o, uint out_stride, uint bit, uint j, int inside, uint *word, uint *cnt)
 {
     *cnt += (uint)inside;
     if (out_stride == 0) {
@@ -71,14 +71,14 @@ inline void clvox_emit(global uint *o, uint out_stride, uint bit, uint j, int in
         atomic_or(o + (size_t)j * out_stride, bit);
     }
 }
-kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
-                                   global const char *signs, global const uint *counts, uint capacity,
-                                   uint u_begin, uint u_count, uint out_stride, global uint *out,
-                                   global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
-                                   global const clvox_cap_node *nodes, uint node_count,
-                                   global const clvox_real *caps, global uint *exact_points,
-                                   global const clvox_cap_node *rims, uint rim_count,
-                                   global const clvox_real *rim_edges)
+static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
+                                        global const char *signs, global const uint *counts, uint capacity,
+                                        uint u_begin, uint u_count, uint out_stride, global uint *out,
+                                        global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
+                                        global const clvox_cap_node *nodes, uint node_count,
+                                        global const clvox_real *caps, global uint *exact_points,
+                                        global const clvox_cap_node *rims, uint rim_count,
+                                        global const clvox_real *rim_edges)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -241,6 +241,23 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
     }
     if (out_stride == 0 && (j & 31u)) o[j >> 5] = word; /* the last, partial word */
     filled[gid] = cnt;
+}
+
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
+kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
+                                   global const char *signs, global const uint *counts, uint capacity,
+                                   uint u_begin, uint u_count, uint out_stride, global uint *out,
+                                   global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
+                                   global const clvox_cap_node *nodes, uint node_count,
+                                   global const clvox_real *caps, global uint *exact_points,
+                                   global const clvox_cap_node *rims, uint rim_count,
+                                   global const clvox_real *rim_edges,
+                                   global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_classify_winding_body(rays, ray_count, hits, signs, counts, capacity, u_begin, u_count, out_stride, out,
+        filled, abs_mode, axis, h, nodes, node_count, caps, exact_points, rims, rim_count, rim_edges);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
 /* For tests/test_winding.c only: pair i's node nodes[node_of[i]] seen from

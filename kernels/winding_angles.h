@@ -47,7 +47,7 @@
 #if defined(CLVOX_FP64)
 typedef double4 clvox_real4;
 typedef long4 clvox_mask4; /* comparisons of clvox_real4: -1 true, 0 false */
-inline double4 clvox_atan2_4(double4 y, double4 x)
+static inline double4 clvox_atan2_4(double4 y, double4 x)
 {
     const double4 ax = fabs(x), ay = fabs(y);
     const double4 mx = fmax(ax, ay), mn = fmin(ax, ay);
@@ -115,7 +115,7 @@ typedef struct clvox_angles {
     uint n;             /* factors (for the error bound) */
 } clvox_angles;
 
-inline void clvox_angles_init(clvox_angles *a)
+static inline void clvox_angles_init(clvox_angles *a)
 {
     a->re = (clvox_real4)1;
     a->im = (clvox_real4)0;
@@ -126,15 +126,22 @@ inline void clvox_angles_init(clvox_angles *a)
 
 /* a *= den + i det lane by lane, counting the wraps (den = 1, det = 0:
  * unchanged, exactly). */
-inline void clvox_angles_mul(clvox_angles *a, clvox_real4 den, clvox_real4 det)
+static inline void clvox_angles_mul(clvox_angles *a, clvox_real4 den, clvox_real4 det)
 {
     const clvox_real4 zr = a->re, zi = a->im;
     clvox_real4 re = zr * den - zi * det, im = zr * det + zi * den;
     const clvox_real4 zero = (clvox_real4)0;
     const clvox_mask4 up = (zi > zero) | ((zi == zero) & (zr < zero));
     const clvox_mask4 up2 = (im > zero) | ((im == zero) & (re < zero));
-    a->k -= (det > zero) & up & ~up2; /* true is -1 */
-    a->k += (det < zero) & (zi < zero) & up2;
+    /* Vector comparisons only as select's masks, combined with & and |:
+     * never as numbers ("k -= mask", true being -1) nor negated with ~
+     * (select with the operands swapped instead). Both become operations
+     * on vectors of i1 that Oclgrind 21.10 gets wrong (~mask was all true:
+     * every cap factor skipped, an open cube at 16^3 lost 36 voxels), the
+     * kind of idiom vendor compilers get wrong too. */
+    const clvox_mask4 none = (clvox_mask4)0, one = (clvox_mask4)1;
+    a->k += select(none, select(one, none, up2), (det > zero) & up); /* up, not up2 */
+    a->k -= select(none, one, (det < zero) & (zi < zero) & up2);
     const clvox_real4 m = fmax(fabs(re), fabs(im));
 #if defined(CLVOX_FP64)
     const clvox_real big = 0x1p200, small = 0x1p-200;
@@ -153,8 +160,8 @@ inline void clvox_angles_mul(clvox_angles *a, clvox_real4 den, clvox_real4 det)
 /* The tie rule of cap triangle t seen from p when det == 0: +-1/2 when p
  * is inside it (den < 0), the side of p + e (above). The same arithmetic
  * as clvox_cap_angles4. */
-inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz,
-                                clvox_real den, uint axis)
+static inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz,
+                                       clvox_real den, uint axis)
 {
     if (!(den < 0)) return 0;
     const clvox_real ax = t[0] - px, ay = t[1] - py, az = t[2] - pz;
@@ -173,10 +180,10 @@ inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px, clvox
  * behind a triangle (on the side its orientation faces away from). Lanes
  * past `count` multiply by 1; t: the triangles as 9 reals each (scaled x,
  * y, z), for the tie rule. */
-inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_real4 az, clvox_real4 bx, clvox_real4 by,
-                                clvox_real4 bz, clvox_real4 cx, clvox_real4 cy, clvox_real4 cz,
-                                global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
-                                uint axis, clvox_angles *a)
+static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_real4 az, clvox_real4 bx, clvox_real4 by,
+                                       clvox_real4 bz, clvox_real4 cx, clvox_real4 cy, clvox_real4 cz,
+                                       global const clvox_real *t, uint count, clvox_real px, clvox_real py,
+                                       clvox_real pz, uint axis, clvox_angles *a)
 {
     const clvox_real4 la = sqrt(ax * ax + ay * ay + az * az);
     const clvox_real4 lb = sqrt(bx * bx + by * by + bz * bz);
@@ -186,14 +193,16 @@ inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_real4 az, 
                       (cx * ax + cy * ay + cz * az) * lb;
     const clvox_real4 zero = (clvox_real4)0;
     const clvox_mask4 lane = (clvox_mask4)(0, 1, 2, 3) < (clvox_mask4)count;
+    const clvox_mask4 past = (clvox_mask4)(0, 1, 2, 3) >= (clvox_mask4)count; /* not ~lane: clvox_angles_mul */
     const clvox_mask4 flat = lane & (det == zero);
-    if (any(flat)) { /* rare: the tie rule, lane by lane */
-        clvox_real dv[4];
+    if (any(flat)) { /* rare: the tie rule, lane by lane (arrays: no run-time vector subscript) */
+        clvox_real dv[4], tv[4];
         vstore4(den, 0, dv);
+        vstore4(det, 0, tv);
         for (uint i = 0; i < count; i++)
-            if (flat[i]) a->halves += clvox_cap_tie(t + i * 9u, px, py, pz, dv[i], axis);
+            if (tv[i] == 0) a->halves += clvox_cap_tie(t + i * 9u, px, py, pz, dv[i], axis);
     }
-    const clvox_mask4 skip = ~lane | (det == zero) | isnan(det) | isnan(den); /* NaN: as atan2's 0 */
+    const clvox_mask4 skip = past | (det == zero) | isnan(det) | isnan(den); /* NaN: as atan2's 0 */
     den = select(den, (clvox_real4)1, skip);
     det = select(det, zero, skip);
     clvox_angles_mul(a, den, det);
@@ -203,8 +212,8 @@ inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_real4 az, 
 /* Multiplies in cap triangles t .. t + count - 1 (count 1 .. 4; 9 reals
  * each, scaled x, y, z) seen from p, one per lane. Lanes past `count`
  * repeat triangle 0 and multiply by 1. */
-inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz,
-                              uint axis, clvox_angles *a)
+static inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py,
+                                     clvox_real pz, uint axis, clvox_angles *a)
 {
     const uint i1 = count > 1u ? 9u : 0u, i2 = count > 2u ? 18u : 0u, i3 = count > 3u ? 27u : 0u;
 #define CLVOX_G4(k, p) ((clvox_real4)(t[k], t[i1 + (k)], t[i2 + (k)], t[i3 + (k)]) - (p))
@@ -216,8 +225,8 @@ inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real
 
 /* The same for a leaf's lane-major copy (clvox_cap_node.block): real k of
  * lane l at blk[4k + l], the same numbers, one vector load each. */
-inline void clvox_cap_block4(global const clvox_real *blk, global const clvox_real *t, uint count, clvox_real px,
-                             clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+static inline void clvox_cap_block4(global const clvox_real *blk, global const clvox_real *t, uint count, clvox_real px,
+                                    clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
 {
     clvox_cap_angles4_v(vload4(0, blk) - px, vload4(1, blk) - py, vload4(2, blk) - pz, vload4(3, blk) - px,
                         vload4(4, blk) - py, vload4(5, blk) - pz, vload4(6, blk) - px, vload4(7, blk) - py,
@@ -226,7 +235,7 @@ inline void clvox_cap_block4(global const clvox_real *blk, global const clvox_re
 
 /* The solid angle / 4pi of everything multiplied in: the lanes' (arg + 2pi
  * k) / 2pi, summed. */
-inline clvox_real clvox_angles_value(const clvox_angles *a)
+static inline clvox_real clvox_angles_value(const clvox_angles *a)
 {
     const clvox_real4 v =
         clvox_atan2_4(a->im, a->re) * (clvox_real)0.15915494309189535 + clvox_convert_real4(a->k);

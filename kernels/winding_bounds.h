@@ -5,7 +5,7 @@
 
 /* Squared distance between the node's box and the box [q0, q1] (0 when
  * they meet); the cap tree's and the rim tree's bounds both start from it. */
-inline clvox_real clvox_node_box_d2(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
+static inline clvox_real clvox_node_box_d2(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
 {
     clvox_real d2 = 0;
     for (uint a = 0; a < 3u; a++) {
@@ -18,7 +18,7 @@ inline clvox_real clvox_node_box_d2(global const clvox_cap_node *n, const clvox_
 
 /* Upper bound on |w| of the node's caps seen from any point of the box
  * [q0, q1] (a point when q0 == q1). */
-inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
+static inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
 {
     const clvox_real d2 = clvox_node_box_d2(n, q0, q1);
     const clvox_real cap = (clvox_real)n->half_count;
@@ -28,13 +28,13 @@ inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvo
 }
 
 /* Inside from K alone (no caps near): w = K exactly, K >= 1 (abs: K != 0). */
-inline int clvox_k_inside(int K, uint abs_mode) { return abs_mode ? K != 0 : K >= 1; }
+static inline int clvox_k_inside(int K, uint abs_mode) { return abs_mode ? K != 0 : K >= 1; }
 
 /* Is the box [q0, q1] decided by K alone? 1 when the caps' bound over
  * it is below 1/2 - 2^-29, so that every point of it is inside exactly
  * when clvox_k_inside. Refines at most `budget` nodes. */
-inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, const clvox_real *q0,
-                          const clvox_real *q1, uint budget)
+static inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, const clvox_real *q0,
+                                 const clvox_real *q1, uint budget)
 {
     if (node_count == 0) return 1;
     const clvox_real limit = (clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2;
@@ -117,9 +117,9 @@ inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, c
 /* The estimates and bounds above for four nodes at once, lane by lane (the
  * zeroth-order one is clvox_cap_bound_box's at a point: the box distance
  * per axis is max(lo - p, p - hi, 0), exactly its branches' value). */
-inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clvox_cap_node *l,
-                                global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
-                                clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
+static inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clvox_cap_node *l,
+                                       global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
+                                       clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
 {
 #define CLVOX_N4(f) ((clvox_real4)(k->f, l->f, m->f, n->f))
     const clvox_real4 zero = (clvox_real4)0;
@@ -156,8 +156,8 @@ inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clv
 
 /* The same for one node (the root; a frontier's odd one out): every lane
  * the node, one body for all. */
-inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
-                               clvox_real *est, clvox_real *err)
+static inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
+                                      clvox_real *est, clvox_real *err)
 {
     clvox_real e[4], b[4];
     clvox_cap_estimate4(n, n, n, n, px, py, pz, e, b);
@@ -167,8 +167,8 @@ inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, cl
 
 /* The same for two nodes (a node's children): lanes 2 and 3 repeat them
  * (on the CPU devices a vector of four doubles costs what one of two does). */
-inline void clvox_cap_estimate2(global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
-                                clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
+static inline void clvox_cap_estimate2(global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
+                                       clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
 {
     clvox_real e[4], b[4];
     clvox_cap_estimate4(m, n, m, n, px, py, pz, e, b);
@@ -179,7 +179,7 @@ inline void clvox_cap_estimate2(global const clvox_cap_node *m, global const clv
 }
 
 /* Inside (1), outside (0) or undecided (-1) for every w in [lo, hi]. */
-inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
+static inline int clvox_interval_inside(clvox_real lo, clvox_real hi, uint abs_mode)
 {
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
     if (lo > thr) return 1;

@@ -11,8 +11,8 @@
 #define CLVOX_CUT_EXACT 0x80000000u
 
 /* Multiplies the node's caps into a. */
-inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
-                                  clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+static inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
+                                         clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
 {
     const uint first = nd->tri_first, count = nd->tri_count;
     if (nd->block) { /* a leaf (at most 4 caps) */
@@ -24,8 +24,8 @@ inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const 
 }
 
 /* The node's caps' solid angles / 4pi at p, exactly. */
-inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
-                                       clvox_real py, clvox_real pz, uint axis, uint *factors)
+static inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global const clvox_real *caps,
+                                              clvox_real px, clvox_real py, clvox_real pz, uint axis, uint *factors)
 {
     clvox_angles a;
     clvox_angles_init(&a);
@@ -44,10 +44,10 @@ inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global c
  * threshold, so that the caller can reuse the interval nearby. cut (may be
  * 0): in, a cut to start from (*cut_n entries; 0: the root); out, this
  * point's (*cut_n = 0 when it does not fit). */
-inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                  global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                  uint axis, uint tight, uint *exact, clvox_real *wlo, clvox_real *whi, uint *cut,
-                                  uint *cut_n)
+static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                         global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                         uint axis, uint tight, uint *exact, clvox_real *wlo, clvox_real *whi,
+                                         uint *cut, uint *cut_n)
 {
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
     *wlo = *whi = (clvox_real)K;
@@ -176,9 +176,9 @@ inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_n
     }
 }
 
-inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                uint axis, uint *exact)
+static inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                       global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                       uint axis, uint *exact)
 {
     clvox_real lo, hi;
     return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, 0u, exact, &lo, &hi, 0, 0);

@@ -6,8 +6,8 @@
 /* Lower bound on the distance between the segments [p0, p1] and [a, b]
  * (closest points as in Ericson, Real-Time Collision Detection 5.1.9, then
  * shrunk by more than their rounding); 0 when they may touch. */
-inline clvox_real clvox_segment_distance(const clvox_real *p0, const clvox_real *p1, global const clvox_real *a,
-                                         global const clvox_real *b)
+static inline clvox_real clvox_segment_distance(const clvox_real *p0, const clvox_real *p1, global const clvox_real *a,
+                                                global const clvox_real *b)
 {
     clvox_real d1[3], d2[3], r[3], mag = 0;
     for (uint i = 0; i < 3u; i++) {
@@ -58,8 +58,8 @@ inline clvox_real clvox_segment_distance(const clvox_real *p0, const clvox_real 
 /* A rim leaf's bound along axis `axis`: the sum over its edges of 1.5
  * |e x u| / (4pi d^3), |e x u| the edge's length across the axis, d its
  * own distance to the segment [q0, q1] (clvox_rim_bound). */
-inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global const clvox_real *edges,
-                                       const clvox_real *q0, const clvox_real *q1, uint axis)
+static inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global const clvox_real *edges,
+                                              const clvox_real *q0, const clvox_real *q1, uint axis)
 {
     const uint a1 = (axis + 1u) % 3u, a2 = (axis + 2u) % 3u;
     clvox_real G = 0;
@@ -75,8 +75,8 @@ inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global c
 
 /* A rim node's bound from its box: 1.5 (its edges' length across the axis,
  * over 4pi) / d^3, d the boxes' distance. */
-inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clvox_real *q0, const clvox_real *q1,
-                                      uint axis)
+static inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clvox_real *q0,
+                                             const clvox_real *q1, uint axis)
 {
     const clvox_real d2 = clvox_node_box_d2(nd, q0, q1);
     return d2 > 0 ? (clvox_real)1.5 * (clvox_real)nd->normal4pi[axis] / (d2 * sqrt(d2)) : (clvox_real)INFINITY;
@@ -101,8 +101,9 @@ inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, const clv
  * is finite. */
 #define CLVOX_RIM_FINAL 0x80000000u /* an entry bounded edge by edge */
 #define CLVOX_RIM_LEAF 0x40000000u  /* a leaf bounded by its box */
-inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
-                                  const clvox_real *q0, const clvox_real *q1, uint axis, uint budget)
+static inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_count,
+                                         global const clvox_real *edges, const clvox_real *q0, const clvox_real *q1,
+                                         uint axis, uint budget)
 {
     if (rim_count == 0) return 0;
     uint stack[CLVOX_CAP_STACK];
@@ -146,8 +147,8 @@ inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint rim_co
 
 /* Grid-space (u, v, w) of the ray method to scaled x, y, z: u is axis
  * `axis` (x-rays: u,v,w = x,y,z; y-rays y,z,x; z-rays z,x,y). */
-inline void clvox_scaled_xyz(uint axis, clvox_real gu, clvox_real gv, clvox_real gw, global const clvox_real *h,
-                             clvox_real *x, clvox_real *y, clvox_real *z)
+static inline void clvox_scaled_xyz(uint axis, clvox_real gu, clvox_real gv, clvox_real gw, global const clvox_real *h,
+                                    clvox_real *x, clvox_real *y, clvox_real *z)
 {
     clvox_real g[3];
     g[axis] = gu;
@@ -159,8 +160,8 @@ inline void clvox_scaled_xyz(uint axis, clvox_real gu, clvox_real gv, clvox_real
 }
 
 /* Scaled box of the grid-space (u, v, w) box [g0, g1]. */
-inline void clvox_scaled_box(uint axis, const clvox_real *g0, const clvox_real *g1, global const clvox_real *h,
-                             clvox_real *q0, clvox_real *q1)
+static inline void clvox_scaled_box(uint axis, const clvox_real *g0, const clvox_real *g1, global const clvox_real *h,
+                                    clvox_real *q0, clvox_real *q1)
 {
     clvox_scaled_xyz(axis, g0[0], g0[1], g0[2], h, &q0[0], &q0[1], &q0[2]);
     clvox_scaled_xyz(axis, g1[0], g1[1], g1[2], h, &q1[0], &q1[1], &q1[2]);

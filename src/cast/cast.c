@@ -33,6 +33,7 @@
  * palette_score.c (clvox_palette_score). cast.h is what they get of a
  * batch. */
 #include "classify.h"
+#include "core/launch.h"
 #include "palette_score.h"
 #include "../../kernels/sampler.h"
 
@@ -418,7 +419,6 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
                                clvox__slab_stats *ss)
 {
     clvox_context *ctx = s->ctx;
-    size_t local = 64, global = ((size_t)n + local - 1) / local * local;
     cl_event ev[4] = {0};
     cl_int err = 0;
     clvox_status st = CLVOX_OK;
@@ -459,14 +459,11 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
         err = clEnqueueFillBuffer(ctx->queue, m->exact, &zero, sizeof zero, 0, sizeof zero, 0, NULL, NULL);
         if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the exact-point counter");
     }
-    err = clEnqueueNDRangeKernel(ctx->queue, s->k_lookup, 1, NULL, &global, &local, 0, NULL, &ev[0]);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "enqueue clvox_quadtree_lookup");
-    err = clEnqueueNDRangeKernel(ctx->queue, s->k_intersect, 1, NULL, &global, &local, 0, NULL, &ev[1]);
-    if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "enqueue clvox_intersect");
-    if (st == CLVOX_OK) {
-        err = clEnqueueNDRangeKernel(ctx->queue, s->k_sort, 1, NULL, &global, &local, 0, NULL, &ev[2]);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "enqueue clvox_sort");
-    }
+    clvox__launch_begin(ctx);
+    st = clvox__launch(ctx, s->k_lookup, "clvox_quadtree_lookup", 0, n, 64, &ev[0]);
+    if (st != CLVOX_OK) return st;
+    st = clvox__launch(ctx, s->k_intersect, "clvox_intersect", 0, n, 64, &ev[1]);
+    if (st == CLVOX_OK) st = clvox__launch(ctx, s->k_sort, "clvox_sort", 0, n, 64, &ev[2]);
     if (st == CLVOX_OK) {
         if (s->palette) {
             st = clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, m, n_cols, t, &ev[3]);
@@ -500,6 +497,7 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
                                       NULL);
         if (err == CL_SUCCESS) err = clFinish(ctx->queue);
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the cast kernels");
+        if (st == CLVOX_OK) st = clvox__launch_check(ctx);
         if (st == CLVOX_OK) ss->exact_points += s->exact_host;
     }
     if (st == CLVOX_OK) {

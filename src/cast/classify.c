@@ -5,6 +5,7 @@
  * shares with it. */
 #include "core/internal.h"
 #include "classify.h"
+#include "core/launch.h"
 
 #include <stdio.h>
 
@@ -33,13 +34,7 @@ clvox_status clvox__consumer_launch(clvox_context *ctx, cl_kernel k, const char 
         snprintf(what, sizeof what, "clSetKernelArg(%s)", name);
         return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, what);
     }
-    size_t global = ((size_t)n + local - 1) / local * local;
-    cl_int err = clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, &local, 0, NULL, ev);
-    if (err != CL_SUCCESS) {
-        snprintf(what, sizeof what, "enqueue %s", name);
-        return clvox__cl_fail(ctx, err, what);
-    }
-    return CLVOX_OK;
+    return clvox__launch(ctx, k, name, 0, n, local, ev);
 }
 
 clvox_status clvox__classify_enqueue(clvox_context *ctx, cl_kernel k, const clvox__classify_args *a,

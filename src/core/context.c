@@ -2,6 +2,7 @@
 /* Context: status strings, error messages, OpenCL device selection and the
  * kernel program (built once per context from the embedded sources). */
 #include "internal.h"
+#include "launch.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -401,6 +402,7 @@ static clvox_status open_device(clvox_context *ctx, const device_entry *e)
 
 static void close_device(clvox_context *ctx)
 {
+    clvox__launch_release(ctx);
     if (ctx->program) clReleaseProgram(ctx->program);
     if (ctx->queue) clReleaseCommandQueue(ctx->queue);
     if (ctx->cl) clReleaseContext(ctx->cl);
@@ -526,6 +528,7 @@ static clvox_status open_set(clvox_context *ctx, const device_entry *list, const
     ctx->real_size = first->real_size;
     ctx->kernels_float = first->kernels_float;
     ctx->position = first->position;
+    ctx->launch = first->launch;
     free(first);
     ctx->member[0] = ctx;
     for (uint32_t i = 1; i < kept; i++) ctx->member[i] = open[i];

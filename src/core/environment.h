@@ -42,6 +42,8 @@ typedef struct clvox__test_hooks {
      * global memory believed lower than reported (0: as reported); batches shrink to fit, or the run
      * fails with CLVOX_ERR_OUT_OF_MEMORY where one voxel column does not fit */
     unsigned long long device_max_alloc, device_global_mem;
+    unsigned local_size;       /* CLVOX_LOCAL_SIZE=1..1024: the kernels' work-groups at most this large
+                                * (launch.c); 0: the device's and kernels' limits only */
 } clvox__test_hooks;
 #define CLVOX__FAIL_EVERY_DEVICE (-2)
 /* fail_device_n of "K:0" (the build): a zero-initialised struct fails nothing

@@ -34,6 +34,7 @@ struct clvox_context {
     cl_device_id device_id;
     cl_context cl;
     cl_command_queue queue; /* in-order, profiling enabled */
+    struct clvox__launch_state *launch; /* launch.c: work-group limits, completion counts */
     cl_program program;     /* all kernels, built once per context */
     int program_cached;     /* 1: program made from the cached binary (program_cache.c) */
     size_t real_size;       /* sizeof(clvox_real) in the kernels: 8 with fp64, else 4 */

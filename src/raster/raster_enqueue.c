@@ -5,6 +5,7 @@
  * coincident triangles), so the tasks run in chunks of about
  * RASTER_CHUNK_SECONDS with the driver polled between them. */
 #include "raster_enqueue.h"
+#include "core/launch.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -68,24 +69,22 @@ static clvox_status raster_chunks(clvox_context *ctx, const clvox__raster_pass *
                                   size_t total, cl_event *last, clvox__slab_stats *ss)
 {
     char what[96];
-    const size_t local = 64;
+    size_t local;
+    clvox_status st = clvox__local_size(ctx, p->raster, 64, &local);
     size_t off = 0, chunk = n < p->first_chunk ? n : p->first_chunk;
     double raster = 0;
-    clvox_status st = CLVOX_OK;
     while (st == CLVOX_OK && off < n) {
-        size_t k = n - off < chunk ? n - off : chunk;
-        size_t global = (k + local - 1) / local * local, goff = off;
+        /* Whole work-groups but in the last chunk: the work-items past a
+         * chunk's end run too, and must not be the next chunk's (tetra XORs). */
+        size_t k = (chunk + local - 1) / local * local;
+        if (k > n - off) k = n - off;
         cl_event e = NULL;
         double c0 = clvox__now();
-        cl_int err = clEnqueueNDRangeKernel(ctx->queue, p->raster, 1, &goff, &global, &local, 0, NULL, &e);
-        if (err != CL_SUCCESS) {
-            snprintf(what, sizeof what, "enqueue %s", p->raster_name);
-            st = clvox__cl_fail(ctx, err, what);
-            break;
-        }
+        st = clvox__launch(ctx, p->raster, p->raster_name, off, k, local, &e);
+        if (st != CLVOX_OK) break;
         off += k;
         if (off < n) { /* wait, adapt the chunk, ask whether to go on */
-            err = clWaitForEvents(1, &e);
+            cl_int err = clWaitForEvents(1, &e);
             if (err != CL_SUCCESS) {
                 snprintf(what, sizeof what, "running %s", p->raster_name);
                 st = clvox__cl_fail(ctx, err, what);
@@ -95,7 +94,6 @@ static clvox_status raster_chunks(clvox_context *ctx, const clvox__raster_pass *
             clReleaseEvent(e);
             double want = dt > 0 ? (double)chunk * RASTER_CHUNK_SECONDS / dt : (double)n;
             chunk = want < 256 ? 256 : want > (double)n ? n : (size_t)want;
-            chunk = (chunk + local - 1) / local * local;
             if (st == CLVOX_OK && p->poll && !p->poll(p->poll_user, (double)(done + off) / (double)total))
                 st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", p->z0);
         } else {
@@ -116,6 +114,7 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
     clvox_status st = CLVOX_OK;
     cl_int err = CL_SUCCESS;
     cl_uint zero = 0, filled = 0;
+    clvox__launch_begin(ctx);
     if (st == CLVOX_OK && p->clear) {
         err = clEnqueueFillBuffer(ctx->queue, p->out, &zero, sizeof zero, 0, p->words * sizeof(cl_uint), 0, NULL,
                                   &ev[EV_CLEAR]);
@@ -175,12 +174,7 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
             snprintf(what, sizeof what, "clSetKernelArg(%s)", p->count_name);
             st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, what);
         } else {
-            size_t local = 64, global = ((size_t)p->rows + local - 1) / local * local;
-            err = clEnqueueNDRangeKernel(ctx->queue, p->count, 1, NULL, &global, &local, 0, NULL, &ev[EV_COUNT_BITS]);
-            if (err != CL_SUCCESS) {
-                snprintf(what, sizeof what, "enqueue %s", p->count_name);
-                st = clvox__cl_fail(ctx, err, what);
-            }
+            st = clvox__launch(ctx, p->count, p->count_name, 0, p->rows, 64, &ev[EV_COUNT_BITS]);
         }
     }
     if (st == CLVOX_OK) {
@@ -189,6 +183,7 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
             snprintf(what, sizeof what, "running the %s kernels", p->method);
             st = clvox__cl_fail(ctx, err, what);
         }
+        if (st == CLVOX_OK) st = clvox__launch_check(ctx);
     }
     if (st == CLVOX_OK) {
         ss->filled += filled;

@@ -62,7 +62,7 @@ typedef struct clvox__sched {
      * and waits for the answer, unless the writer is busy writing, so that
      * a cancel is seen at the same batch boundary as with one thread. */
     int writing, poll_pending;
-    double last_progress;
+    double last_progress, reported;
     void **slot[4];           /* reorder buffer: window slots per plane */
     uint32_t held, peak;      /* slabs in the buffer (copying or done, not written) */
 } clvox__sched;
@@ -399,20 +399,18 @@ static void add_slab_stats(clvox_stats *stats, const clvox__slab_stats *ss)
     if (ss->max_crossings > stats->max_crossings) stats->max_crossings = ss->max_crossings;
 }
 
-/* Progress: slabs written, done and the running ones' polled fractions. */
+/* Progress as one device would report it: the slabs written and the
+ * polled fraction of the one the writer waits for (furthest copy). Never
+ * more than the next slab's end, so the calls after each slab written keep
+ * it increasing. */
 static double progress_of(const clvox__sched *s)
 {
-    double done = 0;
-    for (uint32_t k = s->written; k < s->nslabs; k++)
-        if (s->slab[k].state >= SLAB_COPYING) done += 1;
     double running = 0;
     for (uint32_t e = 0; e < s->job->ndev; e++) {
         const clvox__sched_device *d = &s->job->dev[e];
-        if (d->current != NONE && s->slab[d->current].state <= SLAB_RUNNING && d->fraction > running)
-            running = d->fraction; /* the same slab may run twice: count the furthest once */
+        if (d->current == s->written && d->fraction > running && d->fraction < 1.0) running = d->fraction;
     }
-    double f = ((double)s->written + done + running) / s->nslabs;
-    return f < 1.0 ? f : 1.0;
+    return ((double)s->written + running) / s->nslabs;
 }
 
 clvox_status clvox__sched_run(const clvox__sched_job *job, clvox_stats *stats)
@@ -462,9 +460,13 @@ clvox_status clvox__sched_run(const clvox__sched_job *job, clvox_stats *stats)
         uint32_t i = s.written;
         if (s.poll_pending) { /* a device asks between its batches */
             double f = progress_of(&s);
-            pthread_mutex_unlock(&s.mu);
-            int go = job->progress(job->progress_user, f);
-            pthread_mutex_lock(&s.mu);
+            int go = 1;
+            if (f > s.reported) { /* the caller sees the fraction increase */
+                pthread_mutex_unlock(&s.mu);
+                go = job->progress(job->progress_user, f);
+                pthread_mutex_lock(&s.mu);
+                s.reported = f;
+            }
             s.last_progress = clvox__now();
             s.poll_pending = 0;
             if (!go) {
@@ -486,6 +488,7 @@ clvox_status clvox__sched_run(const clvox__sched_job *job, clvox_stats *stats)
             add_slab_stats(stats, &s.slab[i].ss); /* DONE: no device writes it any more */
             int go = 1;
             if (sst == CLVOX_OK && job->progress) go = job->progress(job->progress_user, (double)(i + 1) / s.nslabs);
+            s.reported = (double)(i + 1) / s.nslabs; /* only this thread writes it */
             pthread_mutex_lock(&s.mu);
             s.writing = 0;
             if (job->progress) s.last_progress = clvox__now();

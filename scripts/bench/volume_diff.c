@@ -43,7 +43,7 @@ int main(int argc, char **argv)
     clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
     co.host_only = 1;
     clvox_context *ctx = NULL;
-    clvox_volume_info ia, ib;
+    clvox_volume_info ia = CLVOX_VOLUME_INFO_INIT, ib = CLVOX_VOLUME_INFO_INIT;
     dense d = {NULL, 0, 0};
     clvox_status st = clvox_context_create(&co, &ctx);
     if (st == CLVOX_OK) st = clvox_volume_read(ctx, argv[1], &ia, NULL, 0);

@@ -22,7 +22,7 @@ int main(int argc, char **argv)
     clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
     co.host_only = 1;
     clvox_status st = clvox_context_create(&co, &ctx);
-    clvox_volume_info info;
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
     uint8_t *v = NULL;
     size_t n = 0;
     if (st == CLVOX_OK) st = clvox_volume_read(ctx, argv[1], &info, NULL, 0);

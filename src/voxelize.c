@@ -248,7 +248,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     const clvox__method *m2 = o.mode == CLVOX_MODE_CONSERVATIVE ? &clvox__method_surface : NULL;
     if (o.mode == CLVOX_MODE_SURFACE) m = &clvox__method_surface;
     const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
-    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts, clvox__sched_poll, NULL, 0};
+    clvox__run req = {auto_channels(&o) | needs->forced, needs->counts, clvox__sched_poll, NULL, 0, NULL};
     o.channels = req.channels;
     if (needs->channels_out) *needs->channels_out = req.channels;
     /* The slab's device planes: occupancy bit rows; coverage, element and
@@ -303,9 +303,11 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         clvox_stats mine = stats;
         clvox__run rd = req;
         rd.poll_user = &dev[d];
+        for (uint32_t e = 0; e < d && !rd.lead; e++) rd.lead = dev[e].ms; /* the mesh prepared once */
         clvox_status sd = m->prepare(dc, mesh, grid, &o, &rd, depth, &mine, &dev[d].ms);
         if (sd == CLVOX_OK && m2) {
             clvox__run r2 = rd;
+            r2.lead = NULL;
             r2.accumulate = 1;
             sd = m2->prepare(dc, mesh, grid, &o, &r2, depth, &mine, &dev[d].ms2);
         }

@@ -221,6 +221,42 @@ static cl_mem upload(clvox_context *ctx, size_t bytes, const void *host, clvox_s
     return m;
 }
 
+/* A device copy on ctx of buffer `src` of another device's context (the
+ * lead's, set up on this same thread): read back, then uploaded. NULL
+ * stays NULL. */
+static cl_mem copy_from(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st, const char *what)
+{
+    if (!src || *st != CLVOX_OK) return NULL;
+    size_t bytes = 0;
+    cl_int err = clGetMemObjectInfo(src, CL_MEM_SIZE, sizeof bytes, &bytes, NULL);
+    void *host = err == CL_SUCCESS ? malloc(bytes ? bytes : 1) : NULL;
+    if (err == CL_SUCCESS && !host) {
+        *st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory copying the %s", what);
+        return NULL;
+    }
+    if (err == CL_SUCCESS && bytes) err = clEnqueueReadBuffer(from->queue, src, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char msg[96];
+        snprintf(msg, sizeof msg, "reading the %s back from device '%.40s'", what, from->device.name);
+        free(host);
+        *st = clvox__cl_fail(ctx, err, msg);
+        return NULL;
+    }
+    cl_mem m = upload(ctx, bytes, host, st, what);
+    free(host);
+    return m;
+}
+
+static void copy_caps(clvox_context *ctx, clvox_context *from, const clvox__caps *src, clvox__caps *dst,
+                      clvox_status *st)
+{
+    dst->nodes = copy_from(ctx, from, src->nodes, st, "cap tree");
+    dst->tris = copy_from(ctx, from, src->tris, st, "cap triangles");
+    dst->h = copy_from(ctx, from, src->h, st, "cap scale");
+    dst->node_count = src->node_count;
+    dst->cap_count = src->cap_count;
+}
+
 static void ray_release(clvox__method_state *s)
 {
     if (!s) return;
@@ -293,7 +329,26 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     s->winding = opts->inside == CLVOX_INSIDE_WINDING || opts->inside == CLVOX_INSIDE_WINDING_ABS;
     s->wind.abs_mode = opts->inside == CLVOX_INSIDE_WINDING_ABS;
     s->wind.axis = (cl_uint)s->axes.perm[0];
-    if (st == CLVOX_OK && s->winding)
+    const clvox__method_state *lead = run->lead;
+    if (st == CLVOX_OK && lead) {
+        /* Another device of the run has prepared the mesh: copies of its
+         * buffers, the host work is not done again. */
+        clvox_context *from = lead->ctx;
+        s->verts = copy_from(ctx, from, lead->verts, &st, "vertices");
+        s->tris = copy_from(ctx, from, lead->tris, &st, "triangles");
+        s->nodes = copy_from(ctx, from, lead->nodes, &st, "quadtree");
+        s->refs = copy_from(ctx, from, lead->refs, &st, "quadtree refs");
+        copy_caps(ctx, from, &lead->wind.caps, &s->wind.caps, &st);
+        copy_caps(ctx, from, &lead->wind.rims, &s->wind.rims, &st);
+        s->wind.prep = lead->wind.prep;
+        s->wind.surface_count = lead->wind.surface_count;
+        s->qt.node_count = lead->qt.node_count;
+        s->qt.ref_count = lead->qt.ref_count;
+        s->qt.depth = lead->qt.depth;
+        s->qt.leaf_count = lead->qt.leaf_count;
+        s->leaf_max = lead->leaf_max;
+        if (stats) stats->winding = lead->wind.prep;
+    } else if (st == CLVOX_OK && s->winding)
         st = clvox__winding_cast_prepare(ctx, mesh, grid, opts, s->axes, s->dim_v, s->dim_w, s->leaf_size, &s->wind,
                                          stats, &ct);
     else if (st == CLVOX_OK)
@@ -307,10 +362,10 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     /* held by s from here (ray_release frees them after the buffers) */
     s->verts_host = verts;
     s->tris_owned = tris_owned;
-    if (st == CLVOX_OK && !have_tree)
+    if (st == CLVOX_OK && !have_tree && !lead)
         st = clvox__quadtree_build(ctx, verts, tris, tri_count, s->dim_v, s->dim_w, opts->quadtree_max_depth,
                                    s->leaf_size, &s->qt);
-    if (st == CLVOX_OK && (!tri_count || !tris)) { /* nothing to index: bind a valid triangle */
+    if (st == CLVOX_OK && !lead && (!tri_count || !tris)) { /* nothing to index: bind a valid triangle */
         free(s->tris_owned);
         tris = s->tris_owned = calloc(3, sizeof *tris_owned);
         if (!tris) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
@@ -322,11 +377,15 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     /* Device copies (upload): the vertices (12 bytes a vertex), the
      * triangles' indices (the mesh's own, 12 bytes a triangle), the
      * quadtree's nodes and references (4 bytes each). */
-    s->verts = upload(ctx, vert_count * 3 * sizeof(float), verts, &st, "vertices");
-    if (st == CLVOX_OK) s->tris = upload(ctx, (tri_count ? tri_count : 1) * 3 * sizeof(uint32_t), tris, &st, "triangles");
-    if (st == CLVOX_OK) s->nodes = upload(ctx, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
-    if (st == CLVOX_OK)
-        s->refs = upload(ctx, s->qt.ref_count * sizeof(uint32_t), s->qt.refs, &st, "quadtree refs");
+    if (!lead) {
+        s->verts = upload(ctx, vert_count * 3 * sizeof(float), verts, &st, "vertices");
+        if (st == CLVOX_OK)
+            s->tris = upload(ctx, (tri_count ? tri_count : 1) * 3 * sizeof(uint32_t), tris, &st, "triangles");
+        if (st == CLVOX_OK)
+            s->nodes = upload(ctx, s->qt.node_count * sizeof(clvox_qt_node), s->qt.nodes, &st, "quadtree");
+        if (st == CLVOX_OK)
+            s->refs = upload(ctx, s->qt.ref_count * sizeof(uint32_t), s->qt.refs, &st, "quadtree refs");
+    }
     if (stats) {
         stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
         stats->quadtree_depth = s->qt.depth;
@@ -351,7 +410,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     if (st == CLVOX_OK) st = fit_batches(s, run, slab_depth, capacity, &max_items);
     max_rays = max_items * (s->coverage ? s->cov.R : 1);
     /* Batches of bounded work: items x rays per item x the largest leaf. */
-    for (size_t i = 0; i < s->qt.node_count; i++)
+    for (size_t i = 0; s->qt.nodes && i < s->qt.node_count; i++)
         if (s->qt.nodes[i].count != CLVOX_QT_INTERNAL && s->qt.nodes[i].count > s->leaf_max)
             s->leaf_max = s->qt.nodes[i].count;
     /* The device has its copies: the host arrays go (the tree's counts stay, for describe). */

@@ -382,6 +382,10 @@ typedef struct clvox__run {
      * (conservative mode: the solid); OR into them, do not clear, and count
      * the union. Only the surface method takes it. */
     int accumulate;
+    /* The same method prepared for the same run on another device (device
+     * sets), or NULL: a method that can copies the lead's device buffers
+     * instead of preparing the mesh again on the host (the ray method). */
+    const struct clvox__method_state *lead;
 } clvox__run;
 
 /* Most crossings one ray may have (the ray method fails with

@@ -63,6 +63,19 @@ static inline int clvox_ray_crosses(global const float *a, global const float *b
     return sab;
 }
 
+/* The contraction self-test (src/core/device_checks.c): a*b - c*d for
+ * (a, b, c, d) = in[4i .. 4i+3], as the predicates compute it (through
+ * clvox_edge_sign, under this file's FP_CONTRACT OFF), and in float. */
+kernel void clvox_contraction_probe(global const clvox_real *in, global clvox_real *out, global const float *fin,
+                                    global float *fout)
+{
+    const size_t i = get_global_id(0);
+    clvox_real e;
+    (void)clvox_edge_sign(in[4 * i], in[4 * i + 2], in[4 * i + 3], in[4 * i + 1], &e); /* Av Bw - Aw Bv */
+    out[i] = e;
+    fout[i] = fin[4 * i] * fin[4 * i + 1] - fin[4 * i + 2] * fin[4 * i + 3];
+}
+
 /* Lets the host learn which precision the compiler picked. */
 kernel void clvox_real_size(global uint *out) { out[0] = (uint)sizeof(clvox_real); }
 

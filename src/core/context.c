@@ -316,14 +316,15 @@ static const char *pocl_slot_define(const clvox_context *ctx)
 static clvox_status build_program(clvox_context *ctx)
 {
     cl_int err;
-    /* Correctly rounded division keeps device results equal to the CPU
-     * reference. CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device
-     * without fp64 (a developer's check of the float path on PoCL). */
+    /* Correctly rounded division where the device has it (device_checks.c).
+     * CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device without fp64
+     * (a developer's check of the float path on PoCL). */
     ctx->kernels_float = clvox__hooks()->kernels_float;
+    const char *base;
+    clvox_status st = clvox__program_options(ctx, &base); /* device_checks.c */
+    if (st != CLVOX_OK) return st;
     char opts[160];
-    snprintf(opts, sizeof opts, "%s%s", ctx->kernels_float ? "-cl-fp32-correctly-rounded-divide-sqrt -DCLVOX_NO_FP64"
-                                                            : "-cl-fp32-correctly-rounded-divide-sqrt",
-             pocl_slot_define(ctx));
+    snprintf(opts, sizeof opts, "%s%s", base, pocl_slot_define(ctx));
     if ((ctx->program = clvox__program_cache_load(ctx, opts)) != NULL) {
         ctx->program_cached = 1;
         return CLVOX_OK;
@@ -396,8 +397,8 @@ static clvox_status open_device(clvox_context *ctx, const device_entry *e)
     ctx->queue = clCreateCommandQueue(ctx->cl, ctx->device_id, CL_QUEUE_PROFILING_ENABLE, &err);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateCommandQueue");
     clvox_status st = build_program(ctx);
-    if (st != CLVOX_OK) return st;
-    return query_real_size(ctx);
+    if (st == CLVOX_OK) st = query_real_size(ctx);
+    return st == CLVOX_OK ? clvox__device_checks(ctx) : st; /* device_checks.c: the contraction self-test */
 }
 
 static void close_device(clvox_context *ctx)

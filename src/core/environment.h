@@ -44,6 +44,8 @@ typedef struct clvox__test_hooks {
     unsigned long long device_max_alloc, device_global_mem;
     unsigned local_size;       /* CLVOX_LOCAL_SIZE=1..1024: the kernels' work-groups at most this large
                                 * (launch.c); 0: the device's and kernels' limits only */
+    int fp32_unrounded;        /* CLVOX_TEST_FP32_UNROUNDED=1: built as for a device without correctly
+                                * rounded float divide/sqrt (no -cl-fp32-correctly-rounded-divide-sqrt) */
 } clvox__test_hooks;
 #define CLVOX__FAIL_EVERY_DEVICE (-2)
 /* fail_device_n of "K:0" (the build): a zero-initialised struct fails nothing

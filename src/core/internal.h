@@ -50,6 +50,7 @@ struct clvox_context {
      * warnings_kept bytes, kept) and then the latest run's. */
     char warnings[4096];
     size_t warnings_kept;
+    int fp32_rounded;       /* 1: built with -cl-fp32-correctly-rounded-divide-sqrt (device_checks.c) */
 };
 
 /* Appends one line to ctx->warnings (dropped when full). */
@@ -95,6 +96,26 @@ void clvox__program_cache_store(clvox_context *ctx, cl_program program, const ch
  * binary at file + *bin_off, *bin_len bytes; else 0 (fuzzed: fuzz_program_cache). */
 int clvox__program_cache_parse(const unsigned char *file, size_t n, const char *identity, size_t *bin_off,
                                size_t *bin_len);
+/* ---- device requirements (device_checks.c) ---- */
+
+/* The kernel program's build options: float kernels (-DCLVOX_NO_FP64)
+ * or not, correctly rounded float division and sqrt or not. */
+const char *clvox__build_options(int kernels_float, int fp32_rounded);
+/* The device's build options (*opts, static): refuses a device below
+ * OpenCL C 1.2; sets ctx->fp32_rounded from CL_DEVICE_SINGLE_FP_CONFIG. */
+clvox_status clvox__program_options(clvox_context *ctx, const char **opts);
+/* After the build: the contraction self-test on ctx->program.
+ * CLVOX_ERR_NO_DEVICE when the device fuses a*b - c*d. */
+clvox_status clvox__device_checks(clvox_context *ctx);
+/* The same test on any build of the program for ctx's device (a test
+ * builds one without the pragma). */
+clvox_status clvox__contraction_check(clvox_context *ctx, cl_program program);
+/* Which rules the device's kernels compute by: devices of a run must give
+ * equal values. 8: double kernels (the same voxels whatever the float
+ * rounding); 4: float kernels, correctly rounded division and sqrt; 3:
+ * float kernels without (divisions may round differently). */
+int clvox__kernel_rules(const clvox_context *ctx);
+
 /* Creates kernel `name` from the context's program. */
 clvox_status clvox__kernel(clvox_context *ctx, const char *name, cl_kernel *out);
 /* clCreateBuffer with the error recorded in ctx (status in *st, NULL

@@ -498,38 +498,36 @@ static clvox_status open_set(clvox_context *ctx, const device_entry *list, const
     }
     if (n == 0)
         return clvox__fail(ctx, first_st, "none of the %u devices could be used; device 0: %s", count, first_error);
-    /* Kernels with and without fp64 decide some open-mesh voxels
-     * differently (docs/design.md "Exactness"): one rule per volume, the
-     * double one when any device has it. */
-    int any_fp64 = 0;
-    for (uint32_t i = 0; i < n; i++) any_fp64 |= open[i]->real_size == 8;
+    /* Kernels with and without fp64, or float kernels with and without
+     * correctly rounded division, decide some open-mesh voxels differently
+     * (docs/design.md "Device requirements"): one rule per volume, the
+     * best one present (double, else rounded float). */
+    int best = 0;
+    for (uint32_t i = 0; i < n; i++)
+        if (clvox__kernel_rules(open[i]) > best) best = clvox__kernel_rules(open[i]);
     uint32_t kept = 0;
     for (uint32_t i = 0; i < n; i++) {
-        if (any_fp64 && open[i]->real_size != 8) {
+        if (clvox__kernel_rules(open[i]) != best) {
+            const char *why = open[i]->real_size != 8 ? (open[i]->kernels_float ? "built without double precision "
+                                                                                   "(CLVOX_KERNEL_FLOAT=1)"
+                                                                                 : "built without double precision "
+                                                                                   "(no cl_khr_fp64)")
+                                                      : "";
+            if (best == 4) why = "in float without correctly rounded division";
             clvox__warn(ctx,
-                        "device %u '%s' left out: its kernels are built without double precision (%s) and would "
-                        "decide some voxels differently from the other devices'",
-                        open[i]->position, open[i]->device.name,
-                        open[i]->kernels_float ? "CLVOX_KERNEL_FLOAT=1" : "no cl_khr_fp64");
+                        "device %u '%s' left out: its kernels are %s and would decide some voxels differently from "
+                        "the other devices'",
+                        open[i]->position, open[i]->device.name, why);
             close_device(open[i]);
             free(open[i]);
             continue;
         }
         open[kept++] = open[i];
     }
-    /* member 0 becomes ctx itself */
+    /* member 0 becomes ctx itself: all of it but the warnings so far */
     clvox_context *first = open[0];
-    ctx->platform = first->platform;
-    ctx->device_id = first->device_id;
-    ctx->device = first->device;
-    ctx->cl = first->cl;
-    ctx->queue = first->queue;
-    ctx->program = first->program;
-    ctx->program_cached = first->program_cached;
-    ctx->real_size = first->real_size;
-    ctx->kernels_float = first->kernels_float;
-    ctx->position = first->position;
-    ctx->launch = first->launch;
+    memcpy(first->warnings, ctx->warnings, sizeof ctx->warnings);
+    *ctx = *first;
     free(first);
     ctx->member[0] = ctx;
     for (uint32_t i = 1; i < kept; i++) ctx->member[i] = open[i];

@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: Apache-2.0
 # ThreadSanitizer over the code that runs host threads of its own: the
 # partition, the mesh report and the soup's grid passes (src/core/parallel.c),
-# the cast's speculation, the EXR writer's encoders, the winding
+# the cast's speculation, the EXR writer's encoders, the devices of a set
+# (src/schedule.c), the winding
 # preparation started ahead (clvox_mesh_prepare_winding), `clvox instances`'
 # scorer and `clvox batch` loading the next mesh ahead (src/cli/cli_batch.c) --
 # batch runs to the end, cut short by SIGTERM and with --skip-existing. Every
@@ -42,6 +43,10 @@ for t in test_winding_prep test_partition test_mesh test_mesh_report test_mesh_n
   test_batch; do
   check "$t" 0 "build/tsan/tests/$t"
 done
+# The scheduler's device threads and the writer (src/schedule.c): two PoCL
+# devices in one run, a device failing, a cancelled run.
+check test_devices 0 env POCL_DEVICES="basic basic" build/tsan/tests/test_devices --child "basic basic"
+
 out="$CLVOX_TEST_TMP/batch"
 rm -rf "$out" && mkdir -p "$out"
 check batch-all 0 "$CLVOX_BIN" batch --dir data/meshes -r 32 -o "$out/{n}.exr" -q --json

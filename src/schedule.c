@@ -217,6 +217,15 @@ static uint32_t pick(clvox__sched *s, clvox__sched_device *d)
             d->left_out = 0;
             s->alive++;
         }
+        if (i != NONE && i >= s->written + s->job->window && s->redo && !d->left_out) {
+            /* its packet waits for room, while a slab to redo (a failed
+             * device's, maybe the one the writer waits for) cannot: the
+             * packet goes back and the lowest slab to redo comes first */
+            for (uint32_t k = d->pk_next; k < d->pk_end; k++)
+                if (s->slab[k].state == SLAB_ASSIGNED && s->slab[k].owner == d->index) s->slab[k].state = SLAB_TODO;
+            d->pk_next = d->pk_end = 0;
+            i = NONE;
+        }
         if (i == NONE && !d->left_out && s->redo) {
             s->redo = 0;
             for (uint32_t k = s->written; k < s->next_fresh; k++)

@@ -56,7 +56,8 @@ if [ "$quick" -eq 0 ]; then
   cases="$cases armadillo.off:2048: armadillo_s2.ply:1024:"
 fi
 # label|POCL_DEVICES|--device
-sets="basic|basic|0 2basic|basic basic|all pthread|pthread|0 pthread+basic|pthread basic|all"
+sets=("basic|basic|0" "2basic|basic basic|all" "pthread|pthread|0" "pthread+basic|pthread basic|all")
+[ -n "$base" ] && sets+=(base)
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 
@@ -80,7 +81,7 @@ declare -A best eff share
 for c in $cases; do
   IFS=: read -r mesh n opts <<<"$c"
   for r in $(seq "$repeat"); do
-    for s in $sets ${base:+base}; do
+    for s in "${sets[@]}"; do
       if [ "$s" = base ]; then label=base; pd=pthread; dv=0; bin=$base
       else IFS='|' read -r label pd dv <<<"$s"; bin=$clvox; fi
       res=$(run "$label" "$pd" "$dv" "$bin" "$mesh" "$n" "$opts")
@@ -107,9 +108,8 @@ import math, sys
 b1, b2, p, pb = (float(x) for x in sys.argv[1:5])
 f = lambda x: '%.3f s' % x
 r = lambda a, b: '%.2fx' % (a / b) if b > 0 else '-'
-print('| %s | %s | %s | %s | %s | %s | %s | %s |' % (f(b1), f(b2), r(b1, b2), f(p), r(p, b2), f(pb), r(p, pb), ''))
+print('| %s | %s | %s | %s | %s | %s | %s |' % (f(b1), f(b2), r(b1, b2), f(p), r(p, b2), f(pb), r(p, pb)))
 " "$b1" "$b2" "$p" "$pb")
-    row=${row%| |}
     extra=""
     if [ -n "$base" ]; then
       bb=${best[$k base]:-nan}

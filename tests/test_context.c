@@ -81,6 +81,34 @@ static void test_devices(void)
     CHECK_STATUS(ctx, create("99", &ctx), CLVOX_ERR_NO_DEVICE);
     clvox_context_destroy(ctx);
 
+    /* Device lists: a bad list is one clear error, never a partial set. */
+    static const struct {
+        const char *list, *says;
+        clvox_status st;
+    } bad_lists[] = {
+        {"0,", "an empty selector", CLVOX_ERR_INVALID_ARGUMENT},
+        {",0", "an empty selector", CLVOX_ERR_INVALID_ARGUMENT},
+        {"0,,0", "an empty selector", CLVOX_ERR_INVALID_ARGUMENT},
+        {"0,0", "again", CLVOX_ERR_INVALID_ARGUMENT},
+        {"0,no-such-device", "no-such-device", CLVOX_ERR_NO_DEVICE},
+        {"0,99", "index 99", CLVOX_ERR_NO_DEVICE},
+    };
+    for (size_t i = 0; i < sizeof bad_lists / sizeof bad_lists[0]; i++) {
+        ctx = NULL;
+        CHECK_STATUS(ctx, create(bad_lists[i].list, &ctx), bad_lists[i].st);
+        CHECK_MSG(ctx && strstr(clvox_context_error(ctx), bad_lists[i].says), "device list '%s': '%s'",
+                  bad_lists[i].list, ctx ? clvox_context_error(ctx) : "");
+        CHECK(clvox_context_device_count(ctx) == 0);
+        clvox_context_destroy(ctx);
+    }
+    /* "all" opens every device (those that agree on their kernels' rules). */
+    ctx = NULL;
+    CHECK_OK(ctx, create("all", &ctx));
+    CHECK(clvox_context_device_count(ctx) >= 1 && clvox_context_device_count(ctx) <= n &&
+          clvox_context_device_at(ctx, 0) == clvox_context_device(ctx) &&
+          clvox_context_device_at(ctx, clvox_context_device_count(ctx)) == NULL);
+    clvox_context_destroy(ctx);
+
     /* The environment variable selects when the option is empty. */
     setenv("CLVOX_DEVICE", "no-such-device", 1);
     ctx = NULL;

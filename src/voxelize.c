@@ -273,7 +273,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     /* Several devices share the slices: slabs of at most Z / (8 devices),
      * so that each takes several and the last ones are short. The volume is
      * the same at any depth. */
-    const uint32_t ndev = ctx->member_count ? ctx->member_count : 1;
+    const uint32_t ndev = ctx->member_count; /* >= 1: check_inputs refused a context without a device */
     uint32_t depth = o.slab_depth ? (o.slab_depth < Z ? o.slab_depth : Z) : auto_slab_depth(grid);
     if (!o.slab_depth && ndev > 1) {
         uint32_t share = (Z + 8 * ndev - 1) / (8 * ndev);
@@ -298,7 +298,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     int have_first = 0;
     st = CLVOX_OK;
     for (uint32_t d = 0; d < ndev; d++) {
-        clvox_context *dc = ctx->member_count ? ctx->member[d] : ctx;
+        clvox_context *dc = ctx->member[d];
         dev[d].ctx = dc;
         clvox_stats mine = stats;
         clvox__run rd = req;

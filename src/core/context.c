@@ -302,15 +302,9 @@ static clvox_status select_device(clvox_context *ctx, const char *sel, device_en
  * Device k > 0 of a set on PoCL builds with an unused -DCLVOX_DEVICE_SLOT=k,
  * so that its build hash, and its cache entries, are its own. The kernels
  * are the same code: the same voxels. */
-static const char *pocl_slot_define(const clvox_context *ctx)
+static int pocl_slot(const clvox_context *ctx)
 {
-    static const char *const slot[CLVOX_MAX_DEVICES] = {
-        "", " -DCLVOX_DEVICE_SLOT=1", " -DCLVOX_DEVICE_SLOT=2", " -DCLVOX_DEVICE_SLOT=3", " -DCLVOX_DEVICE_SLOT=4",
-        " -DCLVOX_DEVICE_SLOT=5", " -DCLVOX_DEVICE_SLOT=6", " -DCLVOX_DEVICE_SLOT=7", " -DCLVOX_DEVICE_SLOT=8",
-        " -DCLVOX_DEVICE_SLOT=9", " -DCLVOX_DEVICE_SLOT=10", " -DCLVOX_DEVICE_SLOT=11", " -DCLVOX_DEVICE_SLOT=12",
-        " -DCLVOX_DEVICE_SLOT=13", " -DCLVOX_DEVICE_SLOT=14", " -DCLVOX_DEVICE_SLOT=15"};
-    if (!strstr(ctx->device.platform, "Portable Computing Language") || ctx->position >= CLVOX_MAX_DEVICES) return "";
-    return slot[ctx->position];
+    return strstr(ctx->device.platform, "Portable Computing Language") ? (int)ctx->position : 0;
 }
 
 static clvox_status build_program(clvox_context *ctx)
@@ -324,7 +318,8 @@ static clvox_status build_program(clvox_context *ctx)
     clvox_status st = clvox__program_options(ctx, &base); /* device_checks.c */
     if (st != CLVOX_OK) return st;
     char opts[160];
-    snprintf(opts, sizeof opts, "%s%s", base, pocl_slot_define(ctx));
+    if (pocl_slot(ctx)) snprintf(opts, sizeof opts, "%s -DCLVOX_DEVICE_SLOT=%d", base, pocl_slot(ctx));
+    else snprintf(opts, sizeof opts, "%s", base);
     if ((ctx->program = clvox__program_cache_load(ctx, opts)) != NULL) {
         ctx->program_cached = 1;
         return CLVOX_OK;

@@ -24,6 +24,9 @@
  * holds are found from the counts and cast again (in coverage runs, with
  * the rest of their column) with a buffer as large as the largest count, in
  * batches of at most max_rays * capacity crossings (at least one column).
+ * Rays along z are the same X*Y columns in every slab: when one batch holds
+ * them all, they are cast once per device and later slabs run only the
+ * consumer on the crossings left in the batch buffers.
  *
  * This file holds the cast and the method; each consumer's host side is in
  * its own file, named after its kernel: classify.c (clvox_classify),
@@ -77,6 +80,12 @@ struct clvox__method_state {
     uint32_t *pstats_host;       /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
     uint64_t *pvolume_host;      /* palette: per item, element volumes in 2^-32 voxels */
     cl_uint exact_host;          /* winding: the batch's exact points (read back; not on the stack) */
+    /* z rays: every slab's rays are the same X*Y columns, only the slices
+     * they classify differ. When one batch holds them all, the first slab
+     * cast leaves their sorted crossings in `mem` and the next slabs run
+     * only the consumer (at 1024^3, 64 slabs cast once instead of 64 times). */
+    int z_cast;                  /* 1: mem holds the crossings of every z column */
+    uint32_t *z_counts;          /* their crossing counts (the first pass's), X*Y*R */
     /* coverage and palette (column runs) */
     int coverage;                /* 1: a column run (the coverage or the palette consumer) */
     clvox__coverage cov;         /* the samples (both consumers) */
@@ -284,6 +293,7 @@ static void ray_release(clvox__method_state *s)
     free(s->sums_host);
     free(s->pstats_host);
     free(s->pvolume_host);
+    free(s->z_counts);
     free(s);
 }
 
@@ -467,32 +477,15 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     return CLVOX_OK;
 }
 
-/* Uploads a batch (n rays; coverage: n_cols columns of R rays each), runs
- * lookup, intersect, sort and the consumer, and reads back the crossing
- * count of every ray, the filled voxels of every item and (coverage) the
- * count sum of every column. The uploads and read-backs are not blocking:
- * cast_batch waits for them on every path. */
-static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_mem *m, const clvox_ray *rays, cl_uint n,
-                               const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t, uint32_t *counts,
-                               uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
-                               clvox__slab_stats *ss)
+/* The lookup, intersect and sort kernels' arguments for a batch of n rays in m. */
+static cl_int set_cast_args(clvox__method_state *s, const clvox__batch_mem *m, cl_uint n)
 {
-    clvox_context *ctx = s->ctx;
-    cl_event ev[4] = {0};
-    cl_int err = 0;
-    clvox_status st = CLVOX_OK;
     cl_uint capacity = m->capacity;
-
-    err = clEnqueueWriteBuffer(ctx->queue, m->rays, CL_FALSE, 0, n * sizeof *rays, rays, 0, NULL, NULL);
-    if (err == CL_SUCCESS && s->coverage)
-        err = clEnqueueWriteBuffer(ctx->queue, m->cols, CL_FALSE, 0, n_cols * sizeof *cols, cols, 0, NULL, NULL);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "uploading rays");
-
+    cl_int err = CL_SUCCESS;
     err |= clSetKernelArg(s->k_lookup, 0, sizeof(cl_mem), &m->rays);
     err |= clSetKernelArg(s->k_lookup, 1, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_lookup, 2, sizeof(cl_mem), &s->nodes);
     err |= clSetKernelArg(s->k_lookup, 3, sizeof(cl_mem), &m->leaf);
-
     err |= clSetKernelArg(s->k_intersect, 0, sizeof(cl_mem), &m->rays);
     err |= clSetKernelArg(s->k_intersect, 1, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_intersect, 2, sizeof(cl_mem), &m->leaf);
@@ -505,24 +498,52 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
     err |= clSetKernelArg(s->k_intersect, 9, sizeof(cl_mem), &m->counts);
     err |= clSetKernelArg(s->k_intersect, 10, sizeof(cl_mem), &m->signs); /* NULL unless winding */
     err |= clSetKernelArg(s->k_intersect, 11, sizeof(cl_uint), &s->wind.surface_count);
-
     err |= clSetKernelArg(s->k_sort, 0, sizeof(cl_uint), &n);
     err |= clSetKernelArg(s->k_sort, 1, sizeof(cl_uint), &capacity);
     err |= clSetKernelArg(s->k_sort, 2, sizeof(cl_mem), &m->hits);
     err |= clSetKernelArg(s->k_sort, 3, sizeof(cl_mem), &m->counts);
     err |= clSetKernelArg(s->k_sort, 4, sizeof(cl_mem), &m->signs);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(cast kernels)");
+    return err;
+}
 
+/* Uploads a batch (n rays; coverage: n_cols columns of R rays each), runs
+ * lookup, intersect, sort and the consumer, and reads back the crossing
+ * count of every ray, the filled voxels of every item and (coverage) the
+ * count sum of every column. cast = 0: the batch's rays, columns, sorted
+ * crossings and counts are already in m (z rays, ray_slab): only the
+ * consumer runs, and counts are not read. The uploads and read-backs are
+ * not blocking: cast_batch waits for them on every path. */
+static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_mem *m, int cast, const clvox_ray *rays,
+                                   cl_uint n, const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t,
+                                   uint32_t *counts, uint32_t *filled, uint64_t *sums, uint32_t *pstats,
+                                   uint64_t *pvolume, clvox__slab_stats *ss)
+{
+    clvox_context *ctx = s->ctx;
+    cl_event ev[4] = {0};
+    cl_int err = 0;
+    clvox_status st = CLVOX_OK;
+    cl_uint capacity = m->capacity;
+
+    if (cast) {
+        err = clEnqueueWriteBuffer(ctx->queue, m->rays, CL_FALSE, 0, n * sizeof *rays, rays, 0, NULL, NULL);
+        if (err == CL_SUCCESS && s->coverage)
+            err = clEnqueueWriteBuffer(ctx->queue, m->cols, CL_FALSE, 0, n_cols * sizeof *cols, cols, 0, NULL, NULL);
+        if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "uploading rays");
+        if (set_cast_args(s, m, n) != CL_SUCCESS)
+            return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(cast kernels)");
+    }
     if (s->winding) {
         cl_uint zero = 0;
         err = clEnqueueFillBuffer(ctx->queue, m->exact, &zero, sizeof zero, 0, sizeof zero, 0, NULL, NULL);
         if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the exact-point counter");
     }
     clvox__launch_begin(ctx);
-    st = clvox__launch(ctx, s->k_lookup, "clvox_quadtree_lookup", 0, n, 64, &ev[0]);
-    if (st != CLVOX_OK) return st;
-    st = clvox__launch(ctx, s->k_intersect, "clvox_intersect", 0, n, 64, &ev[1]);
-    if (st == CLVOX_OK) st = clvox__launch(ctx, s->k_sort, "clvox_sort", 0, n, 64, &ev[2]);
+    if (cast) {
+        st = clvox__launch(ctx, s->k_lookup, "clvox_quadtree_lookup", 0, n, 64, &ev[0]);
+        if (st != CLVOX_OK) return st;
+        st = clvox__launch(ctx, s->k_intersect, "clvox_intersect", 0, n, 64, &ev[1]);
+        if (st == CLVOX_OK) st = clvox__launch(ctx, s->k_sort, "clvox_sort", 0, n, 64, &ev[2]);
+    }
     if (st == CLVOX_OK) {
         if (s->palette) {
             st = clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, m, n_cols, t, &ev[3]);
@@ -538,7 +559,8 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
     }
     cl_uint items = s->coverage ? n_cols : n;
     if (st == CLVOX_OK) {
-        err = clEnqueueReadBuffer(ctx->queue, m->counts, CL_FALSE, 0, n * sizeof *counts, counts, 0, NULL, NULL);
+        err = cast ? clEnqueueReadBuffer(ctx->queue, m->counts, CL_FALSE, 0, n * sizeof *counts, counts, 0, NULL, NULL)
+                   : CL_SUCCESS;
         if (err == CL_SUCCESS)
             err = clEnqueueReadBuffer(ctx->queue, m->filled, CL_FALSE, 0, items * sizeof *filled, filled, 0, NULL,
                                       NULL);
@@ -571,12 +593,12 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
 /* cast_batch_run, and on an error a wait for what it left queued: the
  * upload of `rays` and `cols` and the read-backs into the arrays, which the
  * callers free or refill next (the result of the wait is not the error). */
-static clvox_status cast_batch(clvox__method_state *s, const clvox__batch_mem *m, const clvox_ray *rays, cl_uint n,
-                               const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t, uint32_t *counts,
-                               uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
+static clvox_status cast_batch(clvox__method_state *s, const clvox__batch_mem *m, int cast, const clvox_ray *rays,
+                               cl_uint n, const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t,
+                               uint32_t *counts, uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
                                clvox__slab_stats *ss)
 {
-    clvox_status st = cast_batch_run(s, m, rays, n, cols, n_cols, t, counts, filled, sums, pstats, pvolume, ss);
+    clvox_status st = cast_batch_run(s, m, cast, rays, n, cols, n_cols, t, counts, filled, sums, pstats, pvolume, ss);
     if (st != CLVOX_OK) clFinish(s->ctx->queue);
     return st;
 }
@@ -627,7 +649,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     if (!cnt || !fil || !sum || !pst || !pvol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", items);
     for (size_t i0 = 0; st == CLVOX_OK && i0 < items; i0 += per) {
         size_t k = items - i0 < per ? items - i0 : per;
-        st = cast_batch(s, &m, rays + i0 * R, (cl_uint)(k * R), cols ? cols + i0 : NULL, (cl_uint)k, t, cnt, fil, sum,
+        st = cast_batch(s, &m, 1, rays + i0 * R, (cl_uint)(k * R), cols ? cols + i0 : NULL, (cl_uint)k, t, cnt, fil, sum,
                         pst, pvol, ss);
         for (size_t i = 0; st == CLVOX_OK && i < k * R; i++)
             if (cnt[i] != expect[i0 * R + i])
@@ -683,6 +705,23 @@ static void column_rays(const clvox__method_state *s, uint32_t v, uint32_t w, ui
         }
 }
 
+/* Item c of the slab that starts at z0 into batch position i: its ray
+ * (binary runs), or its column and R rays (column runs). */
+static void slab_item(clvox__method_state *s, uint32_t z0, size_t c, size_t i)
+{
+    const size_t R = s->coverage ? s->cov.R : 1;
+    uint32_t v, w;
+    clvox_u32 base, bit;
+    slab_column(s, z0, c, &v, &w, &base, &bit);
+    if (!s->coverage) {
+        s->rays_host[i] = (clvox_ray){(float)v, (float)w, base, bit};
+    } else {
+        uint32_t id = w * s->dim_v + v;
+        s->cols_host[i] = (clvox_column){id, base, bit, 0};
+        column_rays(s, v, w, id, s->rays_host + i * R);
+    }
+}
+
 static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, const clvox__slab_out *out,
                              clvox__slab_stats *ss)
 {
@@ -711,27 +750,32 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
     const size_t R = s->coverage ? s->cov.R : 1;
     /* Items (rays or columns) per batch: s->batch_now, where timed sized
      * from the last batch's wall time to take about SLOW_BATCH_SECONDS (the
-     * rays are independent: the same voxels whatever the batches). */
+     * rays are independent: the same voxels whatever the batches). z rays
+     * whose crossings an earlier slab left in mem (s->z_cast) are not cast
+     * again: one batch runs the consumer on them. */
+    const int reuse = s->axis == CLVOX_AXIS_Z && s->z_cast;
     clvox_status st = CLVOX_OK;
     for (size_t c0 = 0, k = 0; st == CLVOX_OK && c0 < columns; c0 += k) {
-        const size_t per = s->batch_now;
+        const size_t per = reuse ? columns : s->batch_now;
         k = columns - c0 < per ? columns - c0 : per;
         const double t_batch = s->timed ? clvox__now() : 0.0;
-        for (size_t i = 0; i < k; i++) {
-            uint32_t v, w;
-            clvox_u32 base, bit;
-            slab_column(s, z0, c0 + i, &v, &w, &base, &bit);
-            if (!s->coverage) {
-                s->rays_host[i] = (clvox_ray){(float)v, (float)w, base, bit};
-            } else {
-                uint32_t id = w * s->dim_v + v;
-                s->cols_host[i] = (clvox_column){id, base, bit, 0};
-                column_rays(s, v, w, id, s->rays_host + i * R);
+        if (reuse)
+            memcpy(s->counts_host, s->z_counts, k * R * sizeof *s->counts_host);
+        else
+            for (size_t i = 0; i < k; i++) slab_item(s, z0, c0 + i, i);
+        st = cast_batch(s, &s->mem, !reuse, s->rays_host, (cl_uint)(k * R), s->cols_host, (cl_uint)k, &t,
+                        s->counts_host, s->filled_host, s->sums_host, s->pstats_host, s->pvolume_host, ss);
+        if (st != CLVOX_OK) break;
+        if (s->axis == CLVOX_AXIS_Z && !reuse && !s->timed && k == columns) {
+            /* mem now holds every z column's crossings: keep their counts
+             * (before the tally below compacts them); without the memory
+             * the next slabs cast again, to the same voxels */
+            if (!s->z_counts) s->z_counts = malloc(columns * R * sizeof *s->z_counts);
+            if (s->z_counts) {
+                memcpy(s->z_counts, s->counts_host, columns * R * sizeof *s->z_counts);
+                s->z_cast = 1;
             }
         }
-        st = cast_batch(s, &s->mem, s->rays_host, (cl_uint)(k * R), s->cols_host, (cl_uint)k, &t, s->counts_host,
-                        s->filled_host, s->sums_host, s->pstats_host, s->pvolume_host, ss);
-        if (st != CLVOX_OK) break;
         if (s->timed) {
             const double dt = clvox__now() - t_batch;
             double next = dt > 0 ? (double)k * SLOW_BATCH_SECONDS / dt : (double)s->batch_items;
@@ -762,7 +806,10 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
                 if (s->palette) clvox__palette_tally(ss, s->pstats_host + 4 * i, s->pvolume_host[i]);
                 continue;
             }
-            if (over != i) {
+            if (reuse) {
+                slab_item(s, z0, c0 + i, over); /* its rays were not made for this slab */
+                if (over != i) memmove(s->counts_host + over * R, s->counts_host + i * R, R * sizeof *s->counts_host);
+            } else if (over != i) {
                 memmove(s->rays_host + over * R, s->rays_host + i * R, R * sizeof *s->rays_host);
                 memmove(s->counts_host + over * R, s->counts_host + i * R, R * sizeof *s->counts_host);
                 if (s->coverage) s->cols_host[over] = s->cols_host[i];

@@ -183,7 +183,12 @@ $(BUILD)/tests/test_oclgrind: tests/test_oclgrind.sh
 	@mkdir -p $(dir $@)
 	$(Q)cp $< $@ && chmod +x $@
 
-tests: all $(TEST_BINS) $(BUILD)/tests/test_python $(BUILD)/tests/test_oclgrind
+# scripts/tools/slurm_batch.sh under a private single-node Slurm (tests/test_slurm.sh).
+$(BUILD)/tests/test_slurm: tests/test_slurm.sh
+	@mkdir -p $(dir $@)
+	$(Q)cp $< $@ && chmod +x $@
+
+tests: all $(TEST_BINS) $(BUILD)/tests/test_python $(BUILD)/tests/test_oclgrind $(BUILD)/tests/test_slurm
 
 # Keep the support objects (make would delete them as intermediates).
 .SECONDARY: $(TEST_SUPPORT_OBJ)

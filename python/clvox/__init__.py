@@ -10,7 +10,7 @@ Arrays are (Z, Y, X) in C order: vol.occupancy[k, j, i] is voxel (i, j, k), whos
 origin + (i + 0.5, j + 0.5, k + 0.5) * voxel_size (x fastest, as the library and the file).
 """
 from ._core import (STATUS, CancelledError, Context, Error, InvalidError, Mesh, Slab, Volume,  # noqa: F401
-                    devices, palettes, read, read_info, version)
+                    batch, devices, palettes, read, read_info, version)
 from ._pocl import use_pocl_binary_distribution  # noqa: F401
 
 __version__ = "0.1.0"

@@ -398,6 +398,34 @@ def _choice(table, value, what):
                          f"got {value!r}") from None
 
 
+def _batch_output(template, mesh, n):
+    """The output path of mesh number n for a batch template ({stem} {name} {dir} {n} {{ }})."""
+    name = os.path.basename(mesh)
+    dot = name.rfind(".")
+    stem = name[:dot] if dot > 0 else name
+    fields = {"stem": stem, "name": name, "dir": os.path.dirname(mesh) or ".", "n": str(n)}
+    out, j = [], 0
+    while j < len(template):
+        c = template[j]
+        if template.startswith("{{", j) or template.startswith("}}", j):
+            out.append(c)
+            j += 2
+        elif c == "{":
+            end = template.find("}", j)
+            key = template[j + 1:end] if end > j else None
+            if key not in fields:
+                raise ValueError(f"output template {template!r}: unknown field at {template[j:]!r} "
+                                 "(fields: {stem} {name} {dir} {n}; {{ and }} for braces)")
+            out.append(fields[key])
+            j = end + 1
+        elif c == "}":
+            raise ValueError(f"output template {template!r}: a lone '}}' (write }}}} for a brace)")
+        else:
+            out.append(c)
+            j += 1
+    return "".join(out)
+
+
 class Context:
     """An OpenCL device with clvox's kernels built, kept for many calls.
 
@@ -733,6 +761,54 @@ class Context:
         return _SlabIterator(self, mesh, dict(resolution=resolution, dims=dims, voxel_size=voxel_size, box=box,
                                               pad=pad), progress, prefetch, options)
 
+    def batch(self, meshes, output="{stem}.exr", *, shard=None, skip_existing=False, **options):
+        """Voxelizes a list of meshes into files, as `clvox batch` does: `output` is a template
+        with {stem} (file name without extension), {name}, {dir} (the mesh's directory, "." if
+        none), {n} (the mesh's position in the whole list) and {{ }}; its folders are created.
+        shard=(i, n) runs only the meshes whose position k has k % n == i, like --shard I/N, so
+        that n processes or cluster tasks share a list with no coordination and the file names
+        do not depend on n. skip_existing=True skips a mesh whose output exists (a failed or
+        cancelled run leaves none, so a rerun resumes). Other keywords go to voxelize_to_file.
+        Returns one dict per mesh of the shard: n, input, output, status ("ok", "skipped",
+        "failed"), error (the message, or None) and stats (ok runs). A mesh that fails does not
+        stop the others; CancelledError and KeyboardInterrupt do."""
+        meshes = [os.fspath(m) for m in meshes]
+        if shard is None:
+            shard = (0, 1)
+        try:
+            i, n = (int(v) for v in shard)
+        except (TypeError, ValueError):
+            raise ValueError(f"shard must be (i, n) with 0 <= i < n, got {shard!r}") from None
+        if not 0 <= i < n:
+            raise ValueError(f"shard must be (i, n) with 0 <= i < n, got {shard!r}")
+        outs = [_batch_output(output, m, k) for k, m in enumerate(meshes)]
+        seen = {}
+        for k, o in enumerate(outs):  # every shard's: shards run at once
+            key = os.path.normpath(os.path.abspath(o))
+            if key in seen:
+                raise ValueError(f"meshes {seen[key]} and {k} would both write {o!r}: add {{n}} or {{dir}} "
+                                 "to the output template")
+            seen[key] = k
+        results = []
+        for k, m in enumerate(meshes):
+            if k % n != i:
+                continue
+            r = {"n": k, "input": m, "output": outs[k], "status": "ok", "error": None, "stats": None}
+            if skip_existing and os.path.exists(outs[k]):
+                r["status"] = "skipped"
+            else:
+                folder = os.path.dirname(outs[k])
+                try:
+                    if folder:
+                        os.makedirs(folder, exist_ok=True)
+                    r["stats"] = self.voxelize_to_file(m, outs[k], **options)
+                except CancelledError:
+                    raise
+                except (Error, OSError) as e:
+                    r["status"], r["error"] = "failed", str(e)
+            results.append(r)
+        return results
+
     def read(self, path, channels=None):
         """Reads a clvox volume (EXR) into a Volume; see clvox.read."""
         with self._busy():
@@ -996,6 +1072,13 @@ def _host_ctx():
     if ctx is None:
         ctx = _host.ctx = Context(host_only=True)
     return ctx
+
+
+def batch(meshes, output="{stem}.exr", *, shard=None, skip_existing=False, device=None, **options):
+    """Context(device).batch(...): voxelizes a list of meshes into files, with shard=(i, n)
+    and skip_existing as `clvox batch --shard I/N --skip-existing`; see Context.batch."""
+    with Context(device=device) as ctx:
+        return ctx.batch(meshes, output, shard=shard, skip_existing=skip_existing, **options)
 
 
 def read(path, channels=None):

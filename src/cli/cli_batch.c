@@ -805,7 +805,7 @@ int cmd_batch(int argc, char **argv)
         batch_item *it = sel[k];
         if (cli_interrupted()) { cancelled = 1; break; }
         vox_job job = {it->mesh, it->output, it->grid_by, it->grid, (int64_t)(it - list.items), it->source, it->line,
-                       0, NULL, CLVOX_OK, NULL, 0};
+                       0, NULL, CLVOX_OK, NULL, 0, 1};
         if (pf.ctx && (pf.running || pf.mesh) && pf.k == k) { /* this mesh was loaded ahead */
             prefetch_join(&pf);
             job.preloaded = 1;

@@ -188,7 +188,13 @@ $(BUILD)/tests/test_slurm: tests/test_slurm.sh
 	@mkdir -p $(dir $@)
 	$(Q)cp $< $@ && chmod +x $@
 
-tests: all $(TEST_BINS) $(BUILD)/tests/test_python $(BUILD)/tests/test_oclgrind $(BUILD)/tests/test_slurm
+# README.md's commands and clvox --help's examples (tests/test_readme.sh), one more test program.
+$(BUILD)/tests/test_readme: tests/test_readme.sh
+	@mkdir -p $(dir $@)
+	$(Q)cp $< $@ && chmod +x $@
+
+tests: all $(TEST_BINS) $(BUILD)/tests/test_python $(BUILD)/tests/test_oclgrind $(BUILD)/tests/test_slurm \
+       $(BUILD)/tests/test_readme
 
 # Keep the support objects (make would delete them as intermediates).
 .SECONDARY: $(TEST_SUPPORT_OBJ)

@@ -203,8 +203,15 @@ typedef struct clvox_grid_options {
     int use_box;           /* 1: box_min/box_max replace the mesh bounding box  */
     double box_min[3], box_max[3];
     uint32_t padding;      /* empty voxels added on every side                  */
+    /* 1: the box (the mesh's, or box_min/box_max) is first made a cube around
+     * its centre, as binvox does: every axis gets the longest edge L, from
+     * centre - L/2 to centre + L/2 (the longest axis keeps its own bounds).
+     * -r N then gives N x N x N voxels of size L/N, a voxel size S gives
+     * ceil(L/S) per axis; dims must be N,N,N and voxel_size one value
+     * (CLVOX_ERR_GRID otherwise). Padding is added after, on every side. */
+    int cube;
 } clvox_grid_options;
-#define CLVOX_GRID_OPTIONS_INIT { sizeof(clvox_grid_options), 0, {0,0,0}, {0,0,0}, 0, {0,0,0}, {0,0,0}, 0 }
+#define CLVOX_GRID_OPTIONS_INIT { sizeof(clvox_grid_options), 0, {0,0,0}, {0,0,0}, 0, {0,0,0}, {0,0,0}, 0, 0 }
 
 typedef struct clvox_grid {
     uint32_t dims[3];      /* voxels along x, y, z                           */

@@ -65,7 +65,7 @@ const clvox_mesh_report *clvox_mesh_get_report(const clvox_mesh *mesh);
 
 typedef struct clvox_grid_options {
     size_t size; uint32_t resolution; uint32_t dims[3]; double voxel_size[3];
-    int use_box; double box_min[3]; double box_max[3]; uint32_t padding; ...;
+    int use_box; double box_min[3]; double box_max[3]; uint32_t padding; int cube; ...;
 } clvox_grid_options;
 typedef struct clvox_grid { uint32_t dims[3]; double origin[3]; double voxel_size[3]; } clvox_grid;
 clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *options,

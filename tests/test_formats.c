@@ -479,7 +479,7 @@ int main(void)
         spawn_result r;
         CHECK(spawn_run(&r, a1, 60) == 2 && strstr(r.err, "cannot tell the output format") && !strchr(strchr(r.err, '\n') + 1, '\n'));
         spawn_free(&r);
-        const char *a2[] = {bin, tmp("torus.off"), "-r", "16", "-o", tmp("out.binvox"), "-q", NULL};
+        const char *a2[] = {bin, tmp("torus.off"), "--dims", "16,16,8", "-o", tmp("out.binvox"), "-q", NULL};
         CHECK(spawn_run(&r, a2, 60) != 0 && strstr(r.err, "binvox needs a cubic grid"));
         spawn_free(&r);
         const char *a3[] = {bin, tmp("torus.off"), "-r", "16", "--format", "npy", "-o", tmp("out.dat"), "-q", NULL};

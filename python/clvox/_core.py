@@ -88,9 +88,10 @@ _CLI_WORDS = (("give --box, --dims or --voxel-size", "give box=, dims= or voxel_
               ("take --compression none or the default", "take compression='none' or None, the default"),
               ("(no --compression)", "(no compression=)"),
               ("(choose one with --channel)", "(choose one with channels=)"),
-              ("(use -r N with a cube --box, or --dims N,N,N on a cubic box)",
-               "(use resolution=N with a cube box=, or dims=(N, N, N) on a cubic box)"),
-              ("(use -r N with a cube --box)", "(use resolution=N with a cube box=)"),
+              ("(--cube makes the box a cube around its centre; or give a cubic --box and -r N or --dims N,N,N)",
+               "(cube=True makes the box a cube around its centre; or give a cubic box= and resolution=N or "
+               "dims=(N, N, N))"),
+              ("(use -r N, or --cube)", "(use resolution=N, or cube=True)"),
               ("(see clvox --list-devices)", "(see clvox.devices())"))
 
 
@@ -331,6 +332,17 @@ def _float_arg(name, value, lo=None, positive=False):
     return v
 
 
+def _cubic_or_none(v):
+    """None, a number, or a sequence of three equal values (voxel_size/dims that allow a cube)."""
+    if v is None or isinstance(v, (numbers.Real, np.number)):
+        return True
+    try:
+        t = list(np.asarray(v).reshape(-1))
+    except (ValueError, TypeError):
+        return True  # _grid_options says what is wrong with it
+    return len(t) == 3 and t[0] == t[1] == t[2]
+
+
 def _seq_arg(name, value, n, what):
     """The items of a sequence of n values (a tuple, list or 1-D array), for name's checks."""
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or not hasattr(value, "__iter__"):
@@ -545,7 +557,7 @@ class Context:
         return Mesh(out[0], "arrays")
 
     @staticmethod
-    def _grid_options(resolution, dims, voxel_size, box, pad):
+    def _grid_options(resolution, dims, voxel_size, box, pad, cube=False):
         g = ffi.new("clvox_grid_options *")
         g.size = ffi.sizeof("clvox_grid_options")
         given = [n for n, v in (("resolution", resolution), ("dims", dims), ("voxel_size", voxel_size))
@@ -577,6 +589,9 @@ class Context:
             g.box_min = tuple(b[:3])
             g.box_max = tuple(b[3:])
         g.padding = _int_arg("pad", pad, 0)
+        if not isinstance(cube, (bool, np.bool_)):
+            raise TypeError(f"cube must be True or False, got {cube!r}")
+        g.cube = 1 if cube else 0
         return g
 
     def _options(self, run, *, mode="solid", method="ray", axis=None, oversample=None, stochastic=False, seed=0,
@@ -652,12 +667,12 @@ class Context:
             raise MemoryError("clvox: out of memory for the result arrays")
         self._check(st)
 
-    def _prepare(self, mesh, resolution, dims, voxel_size, box, pad, progress, kw):
+    def _prepare(self, mesh, resolution, dims, voxel_size, box, pad, progress, kw, cube=False):
         if self.host_only:
             raise RuntimeError("a host_only Context can not voxelize")
         if progress is not None and not callable(progress):
             raise TypeError(f"progress must be None or a function f(fraction), got {progress!r}")
-        g = self._grid_options(resolution, dims, voxel_size, box, pad)  # arguments first, then the mesh
+        g = self._grid_options(resolution, dims, voxel_size, box, pad, cube)  # arguments first, then the mesh
         run = _Run(progress)
         opts, pal = self._options(run, **kw)
         m = self._mesh(mesh)
@@ -673,8 +688,8 @@ class Context:
         with self._busy():
             return self._mesh(mesh)
 
-    def voxelize(self, mesh, *, resolution=None, dims=None, voxel_size=None, box=None, pad=0, progress=None,
-                 **options):
+    def voxelize(self, mesh, *, resolution=None, dims=None, voxel_size=None, box=None, pad=0, cube=False,
+                 progress=None, **options):
         """Voxelizes `mesh` into a Volume in memory (arrays of shape (Z, Y, X)).
 
         mesh: a path, (vertices (V,3) float, faces (F,3) int), an object with .vertices/.faces
@@ -682,7 +697,9 @@ class Context:
         takes them); OFF/OBJ paths are read in double by the library.
         Grid (at most one of resolution / dims / voxel_size; none: resolution 256):
           resolution=N, dims=(X, Y, Z), voxel_size=s or (sx, sy, sz),
-          box=(x0, y0, z0, x1, y1, z1) replaces the mesh's bounding box, pad=N empty voxels.
+          box=(x0, y0, z0, x1, y1, z1) replaces the mesh's bounding box, pad=N empty voxels,
+          cube=True makes the box a cube around its centre first (binvox's grid; the CLI's --cube):
+          every edge as long as the longest, so resolution=N gives N x N x N voxels.
         Options (as the CLI's): mode="solid"|"surface"|"conservative", method="ray"|"tetra",
           axis=None|"x"|"y"|"z", oversample=K or (N, M), stochastic=False, seed=0,
           threshold=None|T, channels=None|"occupancy,coverage"|[...], palette=None|name|path,
@@ -692,7 +709,8 @@ class Context:
         progress: None or f(fraction) -> False to cancel (CancelledError); called from this
           thread at most ~10 times a second. Ctrl-C raises KeyboardInterrupt (main thread)."""
         with self._busy():
-            m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options)
+            m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options,
+                                                    cube)
             X, Y, Z = grid.dims
             run.c.X, run.c.Y, run.c.Z = X, Y, Z
             stats = _out("clvox_stats")
@@ -720,7 +738,8 @@ class Context:
                           report=dict(m.report), **arrays)
 
     def voxelize_to_file(self, mesh, path, *, format=None, npy_bits=False, float32=False, uint32=False,
-                         resolution=None, dims=None, voxel_size=None, box=None, pad=0, progress=None, **options):
+                         resolution=None, dims=None, voxel_size=None, box=None, pad=0, cube=None, progress=None,
+                         **options):
         """Streams the volume to `path` through clvox_voxelize_to_file, the CLI's writer: the
         same file as `clvox MESH -o path` with the same options. format=None takes it from the
         extension (.exr .npy .nrrd .binvox .vdb, any case), else "exr"|"npy"|"nrrd"|"binvox"|"vdb"; an
@@ -730,7 +749,8 @@ class Context:
         uint32 (--npy-uint32). npy and NRRD write one file per channel (OUT.npy, OUT.coverage.npy,
         ...; npy also OUT.json). compression=None|"none"|"rle"|"zips"|"zip"|"piz" (EXR; NRRD:
         "none" raw, default gzip). Memory: a slab (binvox: the volume as bits). Returns the
-        stats dict. A failure, cancel or Ctrl-C leaves no file."""
+        stats dict. A failure, cancel or Ctrl-C leaves no file. cube=None: cube=True for binvox
+        unless box=, dims or voxel sizes that differ per axis ask for another grid (as the CLI)."""
         p = os.fsencode(path)
         oo = ffi.new("clvox_output_options *")
         oo.size = ffi.sizeof("clvox_output_options")
@@ -739,10 +759,15 @@ class Context:
             if f == lib.CLVOX_FORMAT_AUTO:
                 raise ValueError(f"format must be one of exr, npy, nrrd, binvox, vdb, got {format!r}")
             oo.format = f
+        if cube is None:
+            fmt = oo.format if oo.format != lib.CLVOX_FORMAT_AUTO else lib.clvox_format_from_path(p)
+            cube = fmt == lib.CLVOX_FORMAT_BINVOX and box is None and _cubic_or_none(dims) and \
+                _cubic_or_none(voxel_size)
         oo.flags = ((lib.CLVOX_OUTPUT_PACK_BITS if npy_bits else 0) | (lib.CLVOX_OUTPUT_FLOAT32 if float32 else 0) |
                     (lib.CLVOX_OUTPUT_UINT32 if uint32 else 0))
         with self._busy():
-            m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options)
+            m, grid, run, opts, pal = self._prepare(mesh, resolution, dims, voxel_size, box, pad, progress, options,
+                                                    cube)
             stats = _out("clvox_stats")
             self._call(run, lib.clvox_voxelize_to_file, self._ptr, m._ptr, grid, opts, oo, p, stats)
             del pal
@@ -750,8 +775,8 @@ class Context:
             d["report"] = dict(m.report)
             return d
 
-    def iter_slabs(self, mesh, *, resolution=None, dims=None, voxel_size=None, box=None, pad=0, progress=None,
-                   prefetch=1, **options):
+    def iter_slabs(self, mesh, *, resolution=None, dims=None, voxel_size=None, box=None, pad=0, cube=False,
+                   progress=None, prefetch=1, **options):
         """Yields Slab objects (z0 and (nz, Y, X) arrays) in increasing z while the library runs
         in a worker thread, for volumes larger than memory: at most `prefetch` slabs wait
         in the queue. Leaving the loop early (break, an exception, close(), or dropping the
@@ -759,7 +784,7 @@ class Context:
         The Context is busy until the iterator is exhausted, closed or dropped. The grid is the
         iterator's .grid attribute ((X, Y, Z), origin, voxel_size) once created."""
         return _SlabIterator(self, mesh, dict(resolution=resolution, dims=dims, voxel_size=voxel_size, box=box,
-                                              pad=pad), progress, prefetch, options)
+                                              pad=pad, cube=cube), progress, prefetch, options)
 
     def batch(self, meshes, output="{stem}.exr", *, shard=None, skip_existing=False, **options):
         """Voxelizes a list of meshes into files, as `clvox batch` does: `output` is a template
@@ -933,7 +958,7 @@ class _SlabIterator:
                 raise ValueError("the clvox.Context is closed")
             m, grid, run, opts, pal = ctx._prepare(mesh, grid_kw["resolution"], grid_kw["dims"],
                                                    grid_kw["voxel_size"], grid_kw["box"], grid_kw["pad"],
-                                                   progress, options)
+                                                   progress, options, grid_kw["cube"])
             run.c.call_python = 0  # the worker thread gets no signals; the consumer sees them
             w = _SlabRun(ctx, m, grid, run, opts, pal, prefetch)
             w.start()

@@ -100,7 +100,7 @@ def test_library_messages_name_python_arguments(ctx, tmp):
         (lambda: ctx.voxelize(DEFAULT, box=(1, 1, 1, 1, 1, 1)), "give box=, dims= or voxel_size="),
         (lambda: ctx.voxelize(DEFAULT, method="tetra", inside="winding"), "inside='parity'"),
         (lambda: ctx.voxelize_to_file(DEFAULT, tmp / "v.npy", resolution=8, compression="rle"), "compression="),
-        (lambda: ctx.voxelize_to_file(DEFAULT, tmp / "v.binvox", resolution=8), "resolution=N"),
+        (lambda: ctx.voxelize_to_file(DEFAULT, tmp / "v.binvox", dims=(8, 8, 6)), "cube=True"),
         (lambda: clvox.Context(device="no-such-device-xyz"), "clvox.devices()"),
     ]
     for call, words in cases:

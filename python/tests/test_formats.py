@@ -29,6 +29,11 @@ CASES = [
     ("v.nrrd", dict(resolution=24, oversample=2, compression="none"),
      ["-r", 24, "--oversample", 2, "--compression", "none"]),
     ("v.binvox", dict(resolution=32, box=CUBE), ["-r", 32, "--box", ",".join(map(str, CUBE))]),
+    ("v.binvox", dict(resolution=24), ["-r", 24]),  # binvox's cube, by default in both
+    ("v.binvox", dict(voxel_size=0.2, pad=1), ["--voxel-size", 0.2, "--pad", 1]),
+    ("v.npy", dict(resolution=24, cube=True), ["-r", 24, "--cube"]),
+    ("v.exr", dict(resolution=16, cube=True), ["-r", 16, "--cube"]),
+    ("v.dat", dict(resolution=16, format="binvox"), ["-r", 16, "--format", "binvox"]),
     ("v.dat", dict(resolution=20, format="npy"), ["-r", 20, "--format", "npy"]),
     ("v.dat", dict(resolution=20, format="binvox", box=CUBE),
      ["-r", 20, "--format", "binvox", "--box", ",".join(map(str, CUBE))]),
@@ -58,8 +63,12 @@ def test_file_equals_cli(ctx, cli, tmp, name, kw, args):
             assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y), n
         assert mine[n] == ref[n], n  # and byte for byte: headers, sidecars, compression
     # the file holds what voxelize computes (one check per format; EXR also in test_cli_equal)
-    vol = ctx.voxelize(DEFAULT, **{k: v for k, v in kw.items() if k not in ("format", "npy_bits", "float32",
-                                                                            "uint32", "compression")})
+    vkw = {k: v for k, v in kw.items() if k not in ("format", "npy_bits", "float32", "uint32", "compression")}
+    if fmt == "binvox" and "box" not in kw:
+        vkw["cube"] = True  # what voxelize_to_file chose for binvox
+    vol = ctx.voxelize(DEFAULT, **vkw)
+    if kw.get("cube") or fmt == "binvox":
+        assert vol.dims[0] == vol.dims[1] == vol.dims[2]
     main = name
     if fmt == "npy" and vol.occupancy is not None:
         arr = np.load(b / main)
@@ -70,6 +79,27 @@ def test_file_equals_cli(ctx, cli, tmp, name, kw, args):
         assert np.array_equal(np.load(b / main), vol.element)
     if fmt == "binvox":
         assert stats["filled_voxels"] == int(vol.occupancy.sum()) > 0
+
+
+def test_cube(ctx, tmp):
+    # a box 4 x 2 x 1 from the origin: the cube has edge 4 around its centre (2, 1, 0.5)
+    v = np.array([[x, y, z] for z in (0, 1) for y in (0, 2) for x in (0, 4)], dtype=np.float32)
+    f = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
+                  [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]])
+    vol = ctx.voxelize((v, f), resolution=8, cube=True, pad=1)
+    assert vol.dims == (10, 10, 10) and vol.voxel_size == (0.5, 0.5, 0.5)
+    assert vol.origin == (-0.5, -1.5, -2.0)
+    assert vol.occupancy.sum() == 8 * 4 * 2 and vol.occupancy[4:6, 3:7, 1:9].all()  # (Z, Y, X)
+    assert ctx.voxelize((v, f), resolution=8).dims == (8, 4, 2)
+    with clvox.Context() as c2:
+        it = c2.iter_slabs(DEFAULT, resolution=20, cube=True)
+        assert it.dims == (20, 20, 20)
+        it.close()
+    with pytest.raises(TypeError, match="cube must be True or False"):
+        ctx.voxelize(DEFAULT, resolution=8, cube="yes")
+    with pytest.raises(ValueError, match="a cubic grid needs equal dims"):
+        ctx.voxelize(DEFAULT, dims=(8, 8, 6), cube=True)
+    assert os.listdir(tmp) == []
 
 
 def test_bad_extension_and_options_raise_value_error(ctx, tmp):

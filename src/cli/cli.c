@@ -242,7 +242,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
                        : default_output(mesh_path, format ? clvox_format_name(format) : "exr");
     if (!output) { rc = fail(EXIT_RUNTIME, "out of memory"); goto done; }
 
-    vox_job job = {mesh_path, output, 0, CLVOX_GRID_OPTIONS_INIT, -1, NULL, 0, 0, NULL, CLVOX_OK, NULL, 0};
+    vox_job job = {mesh_path, output, 0, CLVOX_GRID_OPTIONS_INIT, -1, NULL, 0, 0, NULL, CLVOX_OK, NULL, 0, 0};
     if ((rc = vox_session_open(&s, a)) != EXIT_OK) {
         res->rc = rc;
         res->status = rc == EXIT_CANCELLED ? "cancelled" : "failed";

@@ -166,6 +166,7 @@ int parse_args(int argc, char **argv, int first, int multi, cli_extra_opt_fn ext
         if (strcmp(arg, "--npy-float32") == 0) { a->out.flags |= CLVOX_OUTPUT_FLOAT32; continue; }
         if (strcmp(arg, "--npy-uint32") == 0) { a->out.flags |= CLVOX_OUTPUT_UINT32; continue; }
         if (strcmp(arg, "--json") == 0) { a->json = 1; continue; }
+        if (strcmp(arg, "--cube") == 0) { a->grid.cube = 1; continue; }
 
 #define VALUE_OPT(sn, ln) match_value(argc, argv, &i, (sn), (ln), &v, &missing)
 #define NEED_VALUE(name) \
@@ -387,6 +388,7 @@ int parse_args(int argc, char **argv, int first, int multi, cli_extra_opt_fn ext
                             : a->grid_opt[2] ? a->grid_opt[2]
                             : a->grid.use_box ? "--box"
                             : a->pad_given   ? "--pad"
+                            : a->grid.cube   ? "--cube"
                                              : NULL;
         if (other)
             return usage_error("--like and %s can not be combined: --like takes the dims, origin and voxel size "
@@ -394,6 +396,14 @@ int parse_args(int argc, char **argv, int first, int multi, cli_extra_opt_fn ext
                                other, a->like);
     }
     /* combinations the library would also refuse, said in CLI terms */
+    if (a->grid.cube && (a->grid_by & GRID_BY_DIMS) &&
+        (a->grid.dims[0] != a->grid.dims[1] || a->grid.dims[0] != a->grid.dims[2]))
+        return usage_error("--cube needs one size on every axis: --dims N,N,N (got %u,%u,%u)", a->grid.dims[0],
+                           a->grid.dims[1], a->grid.dims[2]);
+    if (a->grid.cube && (a->grid_by & GRID_BY_VOXEL_SIZE) &&
+        (a->grid.voxel_size[0] != a->grid.voxel_size[1] || a->grid.voxel_size[0] != a->grid.voxel_size[2]))
+        return usage_error("--cube needs cubic voxels: --voxel-size S (got %g,%g,%g)", a->grid.voxel_size[0],
+                           a->grid.voxel_size[1], a->grid.voxel_size[2]);
     if (!a->palette) {
         if (a->metric_given) return usage_error("--metric needs --palette");
         if (a->samples_opt && strcmp(a->samples_opt, "--samples") == 0) return usage_error("--samples needs --palette");
@@ -506,11 +516,19 @@ void print_help(void)
 "                           voxels per axis\n"
 "  --box x0,y0,z0,x1,y1,z1  box to voxelize (default: the mesh bounding box)\n"
 "  --pad N                  empty voxels added on every side (default 0)\n"
+"  --cube                   a cubic grid, as binvox makes: the box (the mesh's,\n"
+"                           or --box) becomes a cube around its centre, every\n"
+"                           edge as long as its longest one, L; then -r N gives\n"
+"                           N x N x N voxels of size L/N (--dims N,N,N and\n"
+"                           --voxel-size S apply to the cube too), --pad after.\n"
+"                           Automatic for .binvox outputs unless --box, --like,\n"
+"                           non-cubic --dims or --voxel-size SX,SY,SZ set the grid\n"
 "  --like FILE              the grid (dims, origin, voxel size) of an existing\n"
 "                           volume: a clvox .exr, a NRRD (.nrrd/.nhdr, clvox's\n"
 "                           or e.g. 3D Slicer's; axis-aligned, coordinates as\n"
 "                           given) or a clvox .npy (its OUT.json sidecar);\n"
-"                           not with -r, --dims, --voxel-size, --box or --pad\n"
+"                           not with -r, --dims, --voxel-size, --box, --pad or\n"
+"                           --cube\n"
 "  Voxel (i,j,k) covers [origin + (i,j,k)*h, origin + (i+1,j+1,k+1)*h) and is\n"
 "  inside when its centre origin + (i+0.5,j+0.5,k+0.5)*h is inside the mesh.\n"
 "  Limits: at most %u voxels per axis and %llu voxels in all.\n"

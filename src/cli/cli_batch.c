@@ -96,7 +96,14 @@ static void print_batch_help(void)
 "                           paths are compared as files (out/./x.exr,\n"
 "                           a/../out/x.exr and a link to out/ are out/x.exr),\n"
 "                           with the files an output writes beside it (OUT.json,\n"
-"                           OUT.<channel>.npy)\n"
+"                           OUT.<channel>.npy).\n", stdout);
+    fputs(
+"                           Missing folders in an output's path are created\n"
+"                           (as mkdir -p) before its mesh runs; a component that\n"
+"                           exists and is not a folder fails that mesh (exit 5);\n"
+"                           nothing is removed or replaced. A .binvox output gets\n"
+"                           binvox's cube (--cube, clvox --help) unless --box,\n"
+"                           --like or non-cubic --dims/--voxel-size say otherwise\n"
 "  --skip-existing          do not voxelize a mesh whose output exists (outputs\n"
 "                           are only ever named when complete, so an interrupted\n"
 "                           batch resumes where it stopped); a set of files\n"
@@ -805,7 +812,7 @@ int cmd_batch(int argc, char **argv)
         batch_item *it = sel[k];
         if (cli_interrupted()) { cancelled = 1; break; }
         vox_job job = {it->mesh, it->output, it->grid_by, it->grid, (int64_t)(it - list.items), it->source, it->line,
-                       0, NULL, CLVOX_OK, NULL, 0};
+                       0, NULL, CLVOX_OK, NULL, 0, 1};
         if (pf.ctx && (pf.running || pf.mesh) && pf.k == k) { /* this mesh was loaded ahead */
             prefetch_join(&pf);
             job.preloaded = 1;

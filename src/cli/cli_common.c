@@ -223,6 +223,38 @@ int check_output(const char *path)
     return EXIT_OK;
 }
 
+int make_parent_dirs(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash || slash == path) return EXIT_OK; /* the current directory, or / */
+    size_t n = (size_t)(slash - path);
+    char *dir = malloc(n + 1);
+    if (!dir) return fail(EXIT_RUNTIME, "out of memory");
+    memcpy(dir, path, n);
+    dir[n] = '\0';
+    int rc = EXIT_OK;
+    for (size_t i = 1; i <= n && rc == EXIT_OK; i++) {
+        if ((i < n && dir[i] != '/') || dir[i - 1] == '/') continue; /* inside a name, or "//" */
+        char c = dir[i];
+        dir[i] = '\0';
+        struct stat sb;
+        if (stat(dir, &sb) != 0) {
+            if (errno != ENOENT)
+                rc = fail(EXIT_OUTPUT, "cannot write '%s': directory '%s': %s", path, dir, strerror(errno));
+            else if (mkdir(dir, 0777) != 0 && errno != EEXIST) /* EEXIST: made meanwhile (another shard) */
+                rc = fail(EXIT_OUTPUT, "cannot write '%s': cannot create directory '%s': %s", path, dir,
+                          strerror(errno));
+            else if (stat(dir, &sb) != 0) /* a dangling symbolic link, say */
+                rc = fail(EXIT_OUTPUT, "cannot write '%s': '%s' exists and is not a directory", path, dir);
+        }
+        if (rc == EXIT_OK && !S_ISDIR(sb.st_mode))
+            rc = fail(EXIT_OUTPUT, "cannot write '%s': '%s' exists and is not a directory", path, dir);
+        dir[i] = c;
+    }
+    free(dir);
+    return rc;
+}
+
 int has_channel(const char *list, const char *name)
 {
     size_t n = strlen(name);

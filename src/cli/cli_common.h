@@ -69,6 +69,12 @@ int match_value(int argc, char **argv, int *i, const char *short_name, const cha
  * link, device node, FIFO, socket), a name ending in '/', a missing or
  * unwritable directory. Returns EXIT_OK or the reported EXIT_OUTPUT. */
 int check_output(const char *path);
+/* mkdir -p of the directories `path` names before its file name (clvox
+ * batch): each missing one is created (mode 0777 less the umask), one that
+ * exists is kept, nothing is ever removed or replaced; a component that
+ * exists and is not a directory (or a link to one) is an error. Returns
+ * EXIT_OK or the reported EXIT_OUTPUT. */
+int make_parent_dirs(const char *path);
 
 /* 1 when `name` is one of the comma-separated names in `list`
  * (clvox_volume_info.channels). */

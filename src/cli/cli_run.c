@@ -539,6 +539,18 @@ static void record_warning(vox_result *res, const char *fmt, ...)
     va_end(ap);
 }
 
+/* A .binvox output gets the cube (--cube) unless its grid options ask for
+ * something else: --box, or dims or voxel sizes that differ per axis. */
+static int grid_allows_cube(const clvox_grid_options *g)
+{
+    const uint32_t *d = g->dims;
+    const double *v = g->voxel_size;
+    if (g->use_box) return 0;
+    if ((d[0] || d[1] || d[2]) && (d[0] != d[1] || d[0] != d[2])) return 0;
+    if ((v[0] != 0 || v[1] != 0 || v[2] != 0) && (v[0] != v[1] || v[0] != v[2])) return 0;
+    return 1;
+}
+
 int vox_run(vox_session *s, const vox_job *job, vox_result *res)
 {
     const cli_args *a = s->a;
@@ -551,6 +563,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     const char *saved_prefix = g_fail_prefix;
     if (s->batch) g_fail_prefix = job->source ? job->source : job->mesh;
 
+    if (job->make_dirs && (rc = make_parent_dirs(job->output)) != EXIT_OK) goto done;
     if ((rc = check_output(job->output)) != EXIT_OK) goto done;
     clvox_format format = a->out.format ? a->out.format : clvox_format_from_path(job->output);
     if (!format) {
@@ -590,6 +603,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     } else {
         clvox_grid_options go = job->grid_by ? job->grid : a->grid;
         if (!(job->grid_by ? job->grid_by : a->grid_by)) go.resolution = DEFAULT_RESOLUTION;
+        if (format == CLVOX_FORMAT_BINVOX && grid_allows_cube(&go)) go.cube = 1; /* binvox's own grid */
         if ((st = clvox_grid_compute(s->host, &go, report->bbox_min, report->bbox_max, &res->grid)) != CLVOX_OK) {
             rc = fail_status(s->host, st, ROLE_OTHER);
             goto done;

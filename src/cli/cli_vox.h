@@ -87,6 +87,7 @@ typedef struct vox_job {
     clvox_status mesh_status;
     clvox_context *mesh_ctx;
     double mesh_seconds;
+    int make_dirs;              /* batch: create the output's missing directories */
 } vox_job;
 
 typedef struct vox_result {

@@ -47,6 +47,28 @@ clvox_status clvox_grid_compute(clvox_context *ctx, const clvox_grid_options *op
                                "the box extent on axis %c overflows a double (%.6g to %.6g): use a smaller box",
                                "xyz"[a], lo[a], hi[a]);
     double longest = fmax(ext[0], fmax(ext[1], ext[2]));
+    if (o.cube) {
+        if (has_dims && (o.dims[0] != o.dims[1] || o.dims[0] != o.dims[2]))
+            return clvox__fail(ctx, CLVOX_ERR_GRID, "a cubic grid needs equal dims (got %u,%u,%u)", o.dims[0],
+                               o.dims[1], o.dims[2]);
+        double s1 = o.voxel_size[1] != 0 ? o.voxel_size[1] : o.voxel_size[0];
+        double s2 = o.voxel_size[2] != 0 ? o.voxel_size[2] : o.voxel_size[0];
+        if (has_size && (o.voxel_size[0] != s1 || o.voxel_size[0] != s2))
+            return clvox__fail(ctx, CLVOX_ERR_GRID, "a cubic grid needs one voxel size (got %.6g,%.6g,%.6g)",
+                               o.voxel_size[0], o.voxel_size[1], o.voxel_size[2]);
+        /* binvox's cube: the longest edge on every axis, around the box's
+         * centre; an axis already that long keeps its bounds exactly */
+        for (int a = 0; a < 3; a++) {
+            if (ext[a] == longest) continue;
+            double c = lo[a] + 0.5 * ext[a];
+            lo[a] = c - 0.5 * longest;
+            hi[a] = lo[a] + longest;
+            ext[a] = longest;
+            if (!isfinite(lo[a]) || !isfinite(hi[a]))
+                return clvox__fail(ctx, CLVOX_ERR_GRID, "the cube around the box overflows a double on axis %c",
+                                   "xyz"[a]);
+        }
+    }
     uint64_t dims[3];
     double h[3];
 

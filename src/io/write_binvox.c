@@ -42,14 +42,14 @@ static clvox_status bv_open(clvox_context *ctx, const clvox__fmt_info *info, voi
     const double h = g->voxel_size[0];
     if (g->dims[1] != N || g->dims[2] != N)
         return clvox__fail(ctx, CLVOX_ERR_GRID,
-                           "cannot write '%s': binvox needs a cubic grid, this one is %ux%ux%u (use -r N with a cube "
-                           "--box, or --dims N,N,N on a cubic box)",
+                           "cannot write '%s': binvox needs a cubic grid, this one is %ux%ux%u (--cube makes the box a "
+                           "cube around its centre; or give a cubic --box and -r N or --dims N,N,N)",
                            info->path, g->dims[0], g->dims[1], g->dims[2]);
     for (int a = 1; a < 3; a++)
         if (fabs(g->voxel_size[a] - h) > 1e-9 * h)
             return clvox__fail(ctx, CLVOX_ERR_GRID,
-                               "cannot write '%s': binvox holds one voxel size, this grid has %g x %g x %g (use -r N "
-                               "with a cube --box)",
+                               "cannot write '%s': binvox holds one voxel size, this grid has %g x %g x %g (use -r N, "
+                               "or --cube)",
                                info->path, g->voxel_size[0], g->voxel_size[1], g->voxel_size[2]);
     uint64_t words = (uint64_t)clvox__row_words(N) * N * N;
     if (words > (uint64_t)SIZE_MAX / 4)

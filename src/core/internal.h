@@ -278,7 +278,8 @@ void clvox__raw_mesh_free(clvox__raw_mesh *raw);
  * files only; path NULL: nothing else can be opened, for the fuzzer)
  * flattened into *out: triangles only (sizes NULL), face_source set, every
  * node's transform applied (in double, relative to the first vertex).
- * Returns 0, -2 when out of memory or over the flattened-size bound, else -1,
+ * Returns 0, -2 when out of memory, else -1 (a bad file, or a flattened
+ * scene over the bound of mesh_assimp.cpp),
  * with a one-line reason in err. */
 int clvox__assimp_supports(const char *ext);
 int clvox__assimp_read(const char *path, const char *ext, const unsigned char *data, size_t n,

@@ -15,7 +15,8 @@
  * node's transform (composed in double from the root) applied to every mesh
  * it references, so an instanced mesh appears once per placement; vertices
  * stored relative to the first flattened vertex (as the OBJ reader does),
- * so a scene far from the origin keeps its precision. The flattened size is
+ * so a scene far from the origin keeps its precision; vertices at exactly
+ * the same position within a mesh merged. The flattened size is
  * bounded: at most 64 MiB + 256 x the unique meshes' own size (a small
  * file that places one big mesh a million times is refused, not expanded),
  * and the node walk stops at a node count or depth a tree cannot exceed.
@@ -41,6 +42,8 @@
 #include <mutex>
 #include <new>
 #include <string>
+#include <tuple>
+#include <algorithm>
 #include <vector>
 
 #include <sys/stat.h>
@@ -208,6 +211,42 @@ double unit_metres(const aiScene *s, const char *ext)
     return 0;
 }
 
+/* A float's bits with -0 as +0: a total order (NaN too) for sorting. */
+uint32_t key(float f)
+{
+    if (f == 0.0f) f = 0.0f;
+    uint32_t u;
+    std::memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+/* rm[v]: the index of vertex v's position among un, the mesh's distinct
+ * positions (by bits) in order of first appearance. */
+void weld(const aiMesh *m, std::vector<uint32_t> &rm, std::vector<uint32_t> &un)
+{
+    unsigned n = m->mNumVertices;
+    std::vector<uint32_t> order(n);
+    for (unsigned v = 0; v < n; v++) order[v] = v;
+    auto k = [m](uint32_t v) {
+        const aiVector3D &q = m->mVertices[v];
+        return std::make_tuple(key(q.x), key(q.y), key(q.z));
+    };
+    std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return k(a) < k(b); });
+    std::vector<uint32_t> first(n); /* per vertex: the first vertex with its position */
+    for (unsigned i = 0; i < n; i++)
+        first[order[i]] = i > 0 && k(order[i]) == k(order[i - 1]) ? first[order[i - 1]] : order[i];
+    rm.assign(n, 0);
+    un.clear();
+    for (unsigned v = 0; v < n; v++) {
+        if (first[v] == v) {
+            rm[v] = (uint32_t)un.size();
+            un.push_back(v);
+        } else {
+            rm[v] = rm[first[v]];
+        }
+    }
+}
+
 std::mutex g_lock; /* some Assimp readers keep static state */
 
 int read_scene(const char *path, const char *ext, const unsigned char *data, size_t n, clvox__raw_mesh *out,
@@ -287,7 +326,7 @@ int read_scene(const char *path, const char *ext, const unsigned char *data, siz
                               "a file of this size (%llu bytes)",
                               (unsigned long long)nv, (unsigned long long)nt, (unsigned long long)bound);
                 set_err(err, err_size, msg);
-                return -2;
+                return -1;
             }
             place.push_back({m, mi, w});
         }
@@ -299,9 +338,19 @@ int read_scene(const char *path, const char *ext, const unsigned char *data, siz
         return -2;
     }
 
+    /* Vertices at exactly the same position within a mesh are one vertex
+     * (Assimp's DAE and 3DS readers, and glTF files with split normals or
+     * UVs, repeat them per corner): the voxels do not change, and a closed
+     * surface is reported closed, as the same triangles in an OBJ are. */
+    std::vector<std::vector<uint32_t>> remap(s->mNumMeshes), uniq(s->mNumMeshes);
+    nv = 0;
+    for (const Placement &p : place) {
+        std::vector<uint32_t> &rm = remap[p.index], &un = uniq[p.index];
+        if (rm.empty() && p.mesh->mNumVertices) weld(p.mesh, rm, un);
+        nv += un.size();
+    }
     Buf<float> xyz;
     Buf<uint32_t> idx, src;
-    std::vector<double> tmp;
     xyz.resize(3 * nv);
     idx.resize(3 * nt);
     src.resize(nt);
@@ -310,8 +359,9 @@ int read_scene(const char *path, const char *ext, const unsigned char *data, siz
     bool first = true;
     for (const Placement &p : place) {
         const aiMesh *m = p.mesh;
-        for (unsigned v = 0; v < m->mNumVertices; v++) {
-            const aiVector3D &q = m->mVertices[v];
+        const std::vector<uint32_t> &rm = remap[p.index], &un = uniq[p.index];
+        for (size_t v = 0; v < un.size(); v++) {
+            const aiVector3D &q = m->mVertices[un[v]];
             double x = q.x, y = q.y, z = q.z, r[3];
             for (int a = 0; a < 3; a++)
                 r[a] = p.world.m[a][0] * x + p.world.m[a][1] * y + p.world.m[a][2] * z + p.world.m[a][3];
@@ -331,11 +381,11 @@ int read_scene(const char *path, const char *ext, const unsigned char *data, siz
             for (int c = 0; c < 3; c++) {
                 unsigned i = face.mIndices[c];
                 /* out of range: left for mesh_build.c to report (as an index past the vertices) */
-                t[c] = i < m->mNumVertices ? (uint32_t)(v0 + i) : UINT32_MAX;
+                t[c] = i < m->mNumVertices ? (uint32_t)(v0 + rm[i]) : UINT32_MAX;
             }
             src.data[f0 + f] = p.index;
         }
-        v0 += m->mNumVertices;
+        v0 += un.size();
         f0 += m->mNumFaces;
     }
     std::memset(out, 0, sizeof *out);

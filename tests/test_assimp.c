@@ -1,0 +1,231 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Formats read through Assimp (src/mesh/mesh_assimp.cpp): one scene written
+ * by tests/make_scenes.py as GLB, glTF + .bin, 3MF and DAE (a cube placed by
+ * two nodes, a tetrahedron under the second one, a line in the glTF files)
+ * and the same triangles flattened into an OBJ.
+ *   - the library: 28 triangles, per-triangle source meshes (24 from the
+ *     cube, 4 from the tetrahedron), placements, the line counted and left
+ *     out, metres for glTF; clvox_mesh_load_isolated gives the same mesh;
+ *   - the CLI: each scene's .exr and .npy byte-identical to the OBJ's;
+ *   - a truncated GLB: one "clvox: error:" line, non-zero exit, no file;
+ *   - batch over meshes one of which kills the reader
+ *     (CLVOX_TEST_ASSIMP_CRASH): the others are written, that one fails
+ *     with "the reader crashed".
+ * Needs python3 (scripts/setup.sh installs it) to write the scenes. */
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700
+#endif
+#include "spawn.h"
+#include "test.h"
+#include "testio.h"
+
+#include <limits.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define RUN_TIMEOUT_S 300.0
+
+static char g_bin[PATH_MAX], g_dir[PATH_MAX], g_in[PATH_MAX], g_out[PATH_MAX], g_logs[PATH_MAX];
+static unsigned g_run;
+
+static int run(spawn_result *r, const char *const *args, const char *const *env)
+{
+    char out_path[PATH_MAX], err_path[PATH_MAX];
+    spawn_log_paths(g_logs, g_run++, out_path, err_path);
+    const char **argv = spawn_argv(g_bin, args);
+    spawn_opts o = {0};
+    o.timeout_s = RUN_TIMEOUT_S;
+    o.env = env;
+    int code = spawn_run_to(r, argv, out_path, err_path, &o);
+    free(argv);
+    return code;
+}
+
+static int same_bytes(const char *a, const char *b)
+{
+    long long na = file_size(a), nb = file_size(b);
+    if (na < 0 || na != nb) return 0;
+    FILE *fa = fopen(a, "rb"), *fb = fopen(b, "rb");
+    int same = fa && fb;
+    for (int ca = 0, cb = 0; same && ca != EOF; same = ca == cb) {
+        ca = fgetc(fa);
+        cb = fgetc(fb);
+    }
+    if (fa) fclose(fa);
+    if (fb) fclose(fb);
+    return same;
+}
+
+static void test_library(clvox_context *ctx)
+{
+    char p[PATH_MAX];
+    path_join(p, sizeof p, g_in, "scene.glb");
+    clvox_mesh *m = NULL, *iso = NULL;
+    CHECK_OK(ctx, clvox_mesh_load(ctx, p, &m));
+    CHECK_OK(ctx, clvox_mesh_load_isolated(ctx, p, &iso));
+    if (!m || !iso) return;
+    const clvox_mesh_report *r = clvox_mesh_get_report(m);
+    CHECK(r->triangles == 28);
+    clvox_mesh_source_info si = CLVOX_MESH_SOURCE_INFO_INIT;
+    CHECK_OK(ctx, clvox_mesh_get_source_info(m, &si));
+    CHECK(!strcmp(si.reader, "assimp"));
+    CHECK_MSG(si.meshes == 3 && si.placements == 3, "%u meshes, %llu placements", si.meshes,
+              (unsigned long long)si.placements);
+    CHECK(si.ignored_lines == 1 && si.ignored_points == 0);
+    CHECK(si.unit_metres == 1.0);
+    clvox_mesh_source_info bad = CLVOX_MESH_SOURCE_INFO_INIT;
+    bad.size = 8;
+    CHECK(clvox_mesh_get_source_info(m, &bad) == CLVOX_ERR_INVALID_ARGUMENT);
+
+    size_t nt = 0, ns = 0, nv = 0, nv2 = 0, nt2 = 0;
+    const uint32_t *src = clvox_mesh_triangle_sources(m, &ns);
+    clvox_mesh_triangles(m, &nt);
+    CHECK(src && ns == nt);
+    size_t per[4] = {0};
+    for (size_t t = 0; src && t < ns; t++) per[src[t] < 3 ? src[t] : 3]++;
+    /* two sources: 24 triangles of the cube (placed twice), 4 of the tetrahedron */
+    CHECK_MSG((per[0] == 24 && per[1] == 4) || (per[0] == 4 && per[1] == 24) || (per[0] == 24 && per[2] == 4) ||
+                  (per[0] == 4 && per[2] == 24) || (per[1] == 24 && per[2] == 4) || (per[1] == 4 && per[2] == 24),
+              "per source %zu %zu %zu %zu", per[0], per[1], per[2], per[3]);
+
+    /* the isolated load: the same mesh, bit for bit */
+    const float *a = clvox_mesh_vertices(m, &nv), *b = clvox_mesh_vertices(iso, &nv2);
+    const uint32_t *ta = clvox_mesh_triangles(m, &nt), *tb = clvox_mesh_triangles(iso, &nt2);
+    double oa[3], ob[3];
+    clvox_mesh_vertex_offset(m, oa);
+    clvox_mesh_vertex_offset(iso, ob);
+    CHECK(nv == nv2 && nt == nt2 && !memcmp(a, b, 3 * nv * sizeof *a) && !memcmp(ta, tb, 3 * nt * sizeof *ta) &&
+          !memcmp(oa, ob, sizeof oa));
+    size_t ns2 = 0;
+    const uint32_t *src2 = clvox_mesh_triangle_sources(iso, &ns2);
+    CHECK(src2 && ns2 == ns && !memcmp(src, src2, ns * sizeof *src));
+    clvox_mesh_destroy(m);
+    clvox_mesh_destroy(iso);
+
+    /* clvox's own readers: one source, no per-triangle index */
+    path_join(p, sizeof p, g_in, "flat.obj");
+    CHECK_OK(ctx, clvox_mesh_load(ctx, p, &m));
+    clvox_mesh_source_info so = CLVOX_MESH_SOURCE_INFO_INIT;
+    CHECK_OK(ctx, clvox_mesh_get_source_info(m, &so));
+    CHECK(!strcmp(so.reader, "obj") && so.meshes == 1 && so.unit_metres == 0);
+    CHECK(clvox_mesh_triangle_sources(m, &ns) == NULL && ns == 0);
+    clvox_mesh_destroy(m);
+
+    /* a truncated GLB and an unknown extension: clear errors */
+    path_join(p, sizeof p, g_in, "truncated.glb");
+    CHECK_STATUS(ctx, clvox_mesh_load(ctx, p, &m), CLVOX_ERR_MESH_FORMAT);
+    CHECK_STATUS(ctx, clvox_mesh_load_isolated(ctx, p, &m), CLVOX_ERR_MESH_FORMAT);
+    CHECK(m == NULL);
+}
+
+/* Each scene's volume, as .exr and .npy, byte-identical to the OBJ's. */
+static void test_same_voxels(void)
+{
+    static const char *const scenes[] = {"scene.glb", "scene.gltf", "scene.3mf", "scene.dae"};
+    static const char *const outs[] = {"exr", "npy"};
+    for (size_t o = 0; o < 2; o++) {
+        char in[PATH_MAX], ref[PATH_MAX], name[64];
+        path_join(in, sizeof in, g_in, "flat.obj");
+        snprintf(name, sizeof name, "flat.%s", outs[o]);
+        path_join(ref, sizeof ref, g_out, name);
+        spawn_result r;
+        CHECK_MSG(run(&r, (const char *const[]){in, "-r", "40", "-o", ref, NULL}, NULL) == 0, "%s", r.err);
+        spawn_free(&r);
+        for (size_t k = 0; k < sizeof scenes / sizeof scenes[0]; k++) {
+            char out[PATH_MAX];
+            snprintf(name, sizeof name, "%s.%s", scenes[k], outs[o]);
+            path_join(in, sizeof in, g_in, scenes[k]);
+            path_join(out, sizeof out, g_out, name);
+            int code = run(&r, (const char *const[]){in, "-r", "40", "-o", out, NULL}, NULL);
+            CHECK_MSG(code == 0, "%s: %s", scenes[k], r.err);
+            CHECK_MSG(strstr(r.out, "scene ") != NULL, "%s: no scene line in\n%s", scenes[k], r.out);
+            spawn_free(&r);
+            CHECK_MSG(same_bytes(ref, out), "%s differs from %s", out, ref);
+        }
+    }
+}
+
+static void test_truncated(void)
+{
+    char in[PATH_MAX], out[PATH_MAX];
+    path_join(in, sizeof in, g_in, "truncated.glb");
+    path_join(out, sizeof out, g_out, "truncated.exr");
+    spawn_result r;
+    int code = run(&r, (const char *const[]){in, "-o", out, NULL}, NULL);
+    CHECK(code != 0 && code > 0 && code < 128);
+    CHECK_MSG(count_lines(r.err) == 1 && !strncmp(r.err, "clvox: error: ", 14) && strstr(r.err, "truncated.glb"),
+              "stderr: %s", r.err);
+    CHECK(!file_exists(out));
+    spawn_free(&r);
+}
+
+/* A reader that kills its process: batch goes on with the others. */
+static void test_batch_crash(void)
+{
+    char a[PATH_MAX], crash[PATH_MAX], obj[PATH_MAX], tmpl[PATH_MAX + 16];
+    path_join(a, sizeof a, g_in, "scene.glb");
+    path_join(crash, sizeof crash, g_in, "crash_me.glb");
+    path_join(obj, sizeof obj, g_in, "flat.obj");
+    char *bytes = read_all(a);
+    FILE *f = fopen(crash, "wb");
+    long long n = file_size(a);
+    CHECK(f && n > 0 && fwrite(bytes, 1, (size_t)n, f) == (size_t)n);
+    if (f) fclose(f);
+    free(bytes);
+    snprintf(tmpl, sizeof tmpl, "%s/{stem}.npy", g_out);
+
+    extern char **environ;
+    size_t ne = 0;
+    while (environ[ne]) ne++;
+    const char **env = calloc(ne + 2, sizeof *env);
+    for (size_t i = 0; i < ne; i++) env[i] = environ[i];
+    env[ne] = "CLVOX_TEST_ASSIMP_CRASH=crash_me";
+    spawn_result r;
+    int code = run(&r, (const char *const[]){"batch", a, crash, obj, "-r", "16", "-o", tmpl, NULL}, env);
+    free(env);
+    CHECK_MSG(code != 0 && code < 128, "exit %d", code); /* one mesh failed; not killed */
+    CHECK_MSG(strstr(r.err, "crash_me.glb") && strstr(r.err, "the reader crashed"), "stderr: %s", r.err);
+    char p[PATH_MAX];
+    path_join(p, sizeof p, g_out, "scene.npy");
+    CHECK(file_exists(p));
+    path_join(p, sizeof p, g_out, "flat.npy");
+    CHECK(file_exists(p));
+    path_join(p, sizeof p, g_out, "crash_me.npy");
+    CHECK(!file_exists(p));
+    spawn_free(&r);
+}
+
+int main(void)
+{
+    const char *bin = getenv("CLVOX_BIN");
+    char bin_abs[PATH_MAX];
+    if (!test_cli_dirs(bin ? bin : "build/release/clvox", "assimp", bin_abs, g_dir, g_in, g_out, g_logs))
+        return test_report();
+    snprintf(g_bin, sizeof g_bin, "%s", bin_abs);
+
+    /* the scenes, written by the script next to this file */
+    char script[PATH_MAX];
+    snprintf(script, sizeof script, "%s", __FILE__);
+    char *slash = strrchr(script, '/');
+    if (slash) snprintf(slash + 1, sizeof script - (size_t)(slash + 1 - script), "make_scenes.py");
+    else snprintf(script, sizeof script, "tests/make_scenes.py");
+    spawn_result r;
+    int code = spawn_run(&r, (const char *const[]){"python3", script, g_in, NULL}, RUN_TIMEOUT_S);
+    CHECK_MSG(code == 0, "python3 %s %s: exit %d: %s", script, g_in, code, r.err);
+    spawn_free(&r);
+    if (code != 0) return test_report();
+
+    clvox_context_options o = CLVOX_CONTEXT_OPTIONS_INIT;
+    o.host_only = 1;
+    clvox_context *ctx = NULL;
+    CHECK_OK(ctx, clvox_context_create(&o, &ctx));
+    test_library(ctx);
+    clvox_context_destroy(ctx);
+    test_same_voxels();
+    test_truncated();
+    test_batch_crash();
+    return test_report();
+}

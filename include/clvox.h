@@ -175,17 +175,12 @@ typedef struct clvox_mesh_report {
  * .gltf/.glb, 3MF, FBX, DAE, 3DS, ...) through Assimp: the scene flattened
  * with every node's transform (a mesh placed by two nodes appears twice),
  * all its meshes one mesh, lines and points left out (counted in
- * clvox_mesh_get_source_info). Validates: non-finite coordinates and
- * out-of-range indices are errors, empty meshes are errors; polygons are
- * fan-triangulated. */
+ * clvox_mesh_get_source_info). Assimp parses in a child process (fork):
+ * its readers abort or crash on some bad files, which is then
+ * CLVOX_ERR_MESH_FORMAT ("the reader crashed ..."), not the end of the
+ * caller. Validates: non-finite coordinates and out-of-range indices are
+ * errors, empty meshes are errors; polygons are fan-triangulated. */
 CLVOX_API clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out);
-
-/* clvox_mesh_load, but a format read by Assimp is parsed in a child process
- * (fork), so a reader that crashes or runs out of memory on a bad file is an
- * error (CLVOX_ERR_MESH_FORMAT, "the reader crashed ..."), not the end of
- * the caller. The mesh is the same as clvox_mesh_load's. clvox's own formats
- * are read in the calling process. POSIX only; costs one fork per file. */
-CLVOX_API clvox_status clvox_mesh_load_isolated(clvox_context *ctx, const char *path, clvox_mesh **out);
 
 /* Where a mesh came from: one file's scene. */
 typedef struct clvox_mesh_source_info {

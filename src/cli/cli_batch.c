@@ -678,7 +678,7 @@ static void *prefetch_main(void *arg)
 {
     prefetch *p = arg;
     double t0 = cli_now();
-    p->st = clvox_mesh_load_isolated(p->ctx, p->path, &p->mesh); /* Assimp formats in a child process */
+    p->st = clvox_mesh_load(p->ctx, p->path, &p->mesh);
     p->seconds = cli_now() - t0;
     if (p->st == CLVOX_OK) (void)clvox_mesh_prepare_winding(p->ctx, p->mesh, p->vox); /* errors: the cast's */
     return NULL;

@@ -589,10 +589,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
         res->load_seconds = job->mesh_seconds;
     } else {
         double t0 = now_seconds();
-        /* batch: a format read by Assimp is parsed in a child process, so
-         * a reader that crashes fails this mesh only */
-        st = s->batch ? clvox_mesh_load_isolated(s->host, job->mesh, &mesh) : clvox_mesh_load(s->host, job->mesh, &mesh);
-        if (st != CLVOX_OK) {
+        if ((st = clvox_mesh_load(s->host, job->mesh, &mesh)) != CLVOX_OK) {
             rc = fail_status(s->host, st, ROLE_INPUT);
             goto done;
         }

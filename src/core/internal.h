@@ -284,8 +284,9 @@ void clvox__raw_mesh_free(clvox__raw_mesh *raw);
 int clvox__assimp_supports(const char *ext);
 int clvox__assimp_read(const char *path, const char *ext, const unsigned char *data, size_t n,
                        clvox__raw_mesh *out, char *err, size_t err_size);
-/* clvox__assimp_read in a forked child (mesh_isolate.c): the same result,
- * or -1 with "the reader crashed (...)" when the child dies. */
+/* clvox__assimp_read in a forked child (mesh_isolate.c), what
+ * clvox_mesh_load uses: the same result, or -1 with "the reader crashed
+ * (...)" when the child dies. */
 int clvox__assimp_read_isolated(const char *path, const char *ext, const unsigned char *data, size_t n,
                                 clvox__raw_mesh *out, char *err, size_t err_size);
 

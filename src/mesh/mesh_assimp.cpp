@@ -22,8 +22,9 @@
  * and the node walk stops at a node count or depth a tree cannot exceed.
  *
  * Assimp's parsers have a long CVE history; everything is caught here, but
- * a crash cannot be: clvox_mesh_load_isolated (mesh_isolate.c) runs this in
- * a child process. tests/fuzz/fuzz_mesh_assimp.c fuzzes it. */
+ * a crash or an abort (Debian builds Assimp with its assertions) cannot be:
+ * mesh_isolate.c runs this in a child process. tests/fuzz/fuzz_mesh_assimp.c
+ * fuzzes it in-process. */
 #include <assimp/IOStream.hpp>
 #include <assimp/IOSystem.hpp>
 #include <assimp/Importer.hpp>

@@ -158,8 +158,8 @@ static clvox_status read_whole_file(clvox_context *ctx, const char *path, int fd
 
 /* Everything clvox_mesh_load does before clvox__mesh_build: open, check, read
  * (natively, through OpenMesh or through Assimp) into *raw (freed on
- * failure). isolated: Assimp runs in a child process (mesh_isolate.c). */
-static clvox_status read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw, int isolated)
+ * failure). */
+static clvox_status read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw)
 {
     memset(out_raw, 0, sizeof *out_raw);
 
@@ -208,11 +208,11 @@ static clvox_status read_raw(clvox_context *ctx, const char *path, clvox__raw_me
     case FMT_OM: st = clvox__mesh_check_om(ctx, path, p, n); break;
     case FMT_ASSIMP: {
         /* Assimp parses the bytes just read (the file cannot change under
-         * it); a .gltf's buffers are opened beside it. */
+         * it), in a child process (mesh_isolate.c: it aborts on some bad
+         * files); a .gltf's buffers are opened beside it. */
         char err[512];
         err[0] = 0;
-        int rc = isolated ? clvox__assimp_read_isolated(path, ext, p, n, &raw, err, sizeof err)
-                          : clvox__assimp_read(path, ext, p, n, &raw, err, sizeof err);
+        int rc = clvox__assimp_read_isolated(path, ext, p, n, &raw, err, sizeof err);
         if (rc == -2) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot read '%s': %s", path, err);
         else if (rc != 0) st = clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "cannot read '%s': %s", path, err);
         else parsed = 1;
@@ -274,10 +274,10 @@ static clvox_status read_raw(clvox_context *ctx, const char *path, clvox__raw_me
 
 clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw)
 {
-    return read_raw(ctx, path, out_raw, 0);
+    return read_raw(ctx, path, out_raw);
 }
 
-static clvox_status mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out, int isolated)
+clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out)
 {
     if (out) *out = NULL;
     if (!ctx) return CLVOX_ERR_INVALID_ARGUMENT;
@@ -285,7 +285,7 @@ static clvox_status mesh_load(clvox_context *ctx, const char *path, clvox_mesh *
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: NULL %s", path ? "out" : "path");
     if (!*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: empty path");
     clvox__raw_mesh raw;
-    clvox_status st = read_raw(ctx, path, &raw, isolated);
+    clvox_status st = read_raw(ctx, path, &raw);
     if (st) return st;
     /* The scene mesh of each triangle clvox__mesh_build keeps: it drops
      * those with a repeated index (Assimp's faces are all triangles). */
@@ -325,15 +325,6 @@ static clvox_status mesh_load(clvox_context *ctx, const char *path, clvox_mesh *
     return CLVOX_OK;
 }
 
-clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out)
-{
-    return mesh_load(ctx, path, out, 0);
-}
-
-clvox_status clvox_mesh_load_isolated(clvox_context *ctx, const char *path, clvox_mesh **out)
-{
-    return mesh_load(ctx, path, out, 1);
-}
 
 clvox_status clvox_mesh_get_source_info(const clvox_mesh *mesh, clvox_mesh_source_info *out)
 {

@@ -74,7 +74,8 @@ def test_trimesh_scene(ctx):
     cube = trimesh.Trimesh(CUBE_V, CUBE_F, process=False)
     tet = trimesh.Trimesh(TET_V, TET_F, process=False)
     scene.add_geometry(cube, geom_name="cube", node_name="a", transform=PLACED[0][1])
-    scene.add_geometry(cube, geom_name="cube", node_name="b", transform=PLACED[1][1])
+    # a second node placing the same geometry (an instance, as trimesh.load makes for a glTF)
+    scene.graph.update(frame_to="b", frame_from=scene.graph.base_frame, matrix=PLACED[1][1], geometry="cube")
     scene.add_geometry(tet, geom_name="tet", node_name="c", parent_node_name="b", transform=_m(1, (0, 0, 1)))
     assert len(scene.geometry) == 2                      # the cube is one geometry, placed twice
     ref = ctx.voxelize(_flat(), resolution=32)

@@ -126,6 +126,36 @@ static void test_library(clvox_context *ctx)
     CHECK(clvox_mesh_triangle_sources(m, &ns) == NULL && ns == 0);
     clvox_mesh_destroy(m);
 
+    /* What the fuzzer found in Assimp itself (tests/fuzz/findings_mesh_assimp,
+     * first byte: 0 .glb, 1 .gltf, 2 .3mf): through clvox_mesh_load this
+     * process lives on, and a failure is one line. */
+    static const char *const findings[] = {"3mf_assert_abort", "glb_strlen_heap_overflow", "oom_00"};
+    for (size_t k = 0; k < sizeof findings / sizeof findings[0]; k++) {
+        static const char *const exts[3] = {"glb", "gltf", "3mf"};
+        char src_path[PATH_MAX], copy[PATH_MAX], name[96];
+        snprintf(src_path, sizeof src_path, "tests/fuzz/findings_mesh_assimp/%s", findings[k]);
+        long long fn = file_size(src_path);
+        char *fb = read_all(src_path);
+        CHECK_MSG(fn > 1, "%s missing", src_path);
+        if (fn <= 1) {
+            free(fb);
+            continue;
+        }
+        snprintf(name, sizeof name, "%s.%s", findings[k], exts[(unsigned char)fb[0] % 3]);
+        path_join(copy, sizeof copy, g_in, name);
+        FILE *cf = fopen(copy, "wb");
+        CHECK(cf && fwrite(fb + 1, 1, (size_t)fn - 1, cf) == (size_t)fn - 1);
+        if (cf) fclose(cf);
+        free(fb);
+        clvox_mesh *fm = NULL;
+        clvox_status fst = clvox_mesh_load(ctx, copy, &fm);
+        const char *msg = clvox_context_error(ctx);
+        CHECK_MSG(fst == CLVOX_OK || ((fst == CLVOX_ERR_MESH_FORMAT || fst == CLVOX_ERR_MESH_EMPTY ||
+                                      fst == CLVOX_ERR_MESH_INVALID) && *msg && !strchr(msg, '\n')),
+                  "%s: %s: %s", name, clvox_status_string(fst), msg);
+        clvox_mesh_destroy(fm);
+    }
+
     /* a truncated GLB and an unknown extension: clear errors */
     path_join(p, sizeof p, g_in, "truncated.glb");
     CHECK_STATUS(ctx, clvox_mesh_load(ctx, p, &m), CLVOX_ERR_MESH_FORMAT);

@@ -36,7 +36,12 @@ endif
 # User flags come last so they win (redis FINAL_CFLAGS).
 FINAL_CFLAGS := $(BASE_CFLAGS) $(OPT) $(CFLAGS)
 FINAL_CXXFLAGS := $(BASE_CXXFLAGS) $(OPT) -Wno-maybe-uninitialized $(CXXFLAGS)
-LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore -lz -lstdc++ -lm -lpthread -ldl
+# Assimp (Debian libassimp-dev) reads the formats clvox has no reader of its
+# own for (glTF, 3MF, FBX, DAE, ...: src/mesh/mesh_assimp.cpp).
+ASSIMP_CFLAGS := $(shell pkg-config --cflags assimp 2>/dev/null)
+ASSIMP_LIBS := $(shell pkg-config --libs assimp 2>/dev/null || echo -lassimp)
+BASE_CXXFLAGS += $(ASSIMP_CFLAGS)
+LIBS := -lOpenCL -lOpenEXRCore-3_1 -lOpenMeshCore $(ASSIMP_LIBS) -lz -lstdc++ -lm -lpthread -ldl
 # libpng (Debian libpng-dev) only for `clvox preview` in the CLI and for the
 # tests that decode its pictures; the library does not use it.
 PNG_LIBS := -lpng

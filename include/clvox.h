@@ -13,7 +13,8 @@
  *  - Option structs: zero means "default". Initialise them with the
  *    CLVOX_*_INIT macros (they set .size for binary stability).
  *  - Output structs that may grow (clvox_stats, clvox_volume_info,
- *    clvox_device_info, clvox_palette_element_info, clvox_ply_totals) also
+ *    clvox_device_info, clvox_palette_element_info, clvox_ply_totals,
+ *    clvox_mesh_source_info) also
  *    begin with `size_t size`: the caller sets it to sizeof the struct it
  *    was compiled with (the CLVOX_*_INIT macros do) before the call, and the
  *    library writes only that many bytes, so a program built against this
@@ -169,10 +170,35 @@ typedef struct clvox_mesh_report {
                                      Coincident copies cancel under the parity rule */
 } clvox_mesh_report;
 
-/* Loads OBJ, OFF, PLY (ascii/binary), STL (ascii/binary), OM by extension.
- * Validates: non-finite coordinates and out-of-range indices are errors,
- * empty meshes are errors; polygons are fan-triangulated. */
+/* Loads OBJ, OFF, PLY (ascii/binary), STL (ascii/binary), OM by extension
+ * with clvox's own readers, and every other format Assimp reads (glTF 2.0
+ * .gltf/.glb, 3MF, FBX, DAE, 3DS, ...) through Assimp: the scene flattened
+ * with every node's transform (a mesh placed by two nodes appears twice),
+ * all its meshes one mesh, lines and points left out (counted in
+ * clvox_mesh_get_source_info). Assimp parses in a child process (fork):
+ * its readers abort or crash on some bad files, which is then
+ * CLVOX_ERR_MESH_FORMAT ("the reader crashed ..."), not the end of the
+ * caller. Validates: non-finite coordinates and out-of-range indices are
+ * errors, empty meshes are errors; polygons are fan-triangulated. */
 CLVOX_API clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out);
+
+/* Where a mesh came from: one file's scene. */
+typedef struct clvox_mesh_source_info {
+    size_t size;              /* sizeof(clvox_mesh_source_info): set by the caller (see Conventions) */
+    char reader[16];          /* "obj", "off", "ply", "stl", "om" (clvox's readers), "assimp" or "arrays" */
+    uint32_t meshes;          /* meshes in the scene (Assimp: after splitting by primitive type) */
+    uint64_t placements;      /* mesh placements flattened (node references; >= meshes used) */
+    uint64_t ignored_lines;   /* line and point primitives left out, over all placements */
+    uint64_t ignored_points;
+    double unit_metres;       /* metres per file unit where the format states it (glTF: 1,
+                                 FBX: UnitScaleFactor / 100), else 0 */
+} clvox_mesh_source_info;
+#define CLVOX_MESH_SOURCE_INFO_INIT { .size = sizeof(clvox_mesh_source_info) }
+CLVOX_API clvox_status clvox_mesh_get_source_info(const clvox_mesh *mesh, clvox_mesh_source_info *out);
+/* Per triangle (clvox_mesh_triangles' order), the index of the scene mesh it
+ * came from (Assimp's mesh index: one material each), or NULL where the mesh
+ * has one source (clvox's own readers, arrays). */
+CLVOX_API const uint32_t *clvox_mesh_triangle_sources(const clvox_mesh *mesh, size_t *triangle_count);
 
 /* Copies the caller's arrays (borrowed): xyz has 3*vertex_count floats,
  * triangles has 3*triangle_count indices. Same validation as loading. */

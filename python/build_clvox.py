@@ -2,7 +2,7 @@
 """cffi (API mode) builder for clvox._clvox.
 
 Links the clvox C library statically, so the extension needs only the system
-libraries clvox itself uses (OpenCL ICD loader, OpenEXRCore, OpenMesh).
+libraries clvox itself uses (OpenCL ICD loader, OpenEXRCore, OpenMesh, Assimp).
 Where the library comes from, first match wins:
 
   CLVOX_LIB=/path/libclvox.a CLVOX_INCLUDE=/path/include   explicit
@@ -23,7 +23,7 @@ from cffi import FFI
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-SYSTEM_LIBS = ["OpenCL", "OpenEXRCore-3_1", "OpenMeshCore", "stdc++", "m", "pthread"]
+SYSTEM_LIBS = ["OpenCL", "OpenEXRCore-3_1", "OpenMeshCore", "assimp", "stdc++", "m", "pthread"]
 
 CDEF = r"""
 typedef enum clvox_status {

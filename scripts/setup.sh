@@ -12,7 +12,7 @@ set -eu
 
 pkgs="build-essential pkg-config ca-certificates time \
 pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo clang llvm oclgrind zlib1g-dev \
-libopenexr-dev openexr libopenmesh-dev libpng-dev libgmp-dev libopenvdb-dev libboost-dev python3-openvdb \
+libopenexr-dev openexr libopenmesh-dev libassimp-dev libpng-dev libgmp-dev libopenvdb-dev libboost-dev python3-openvdb \
 python3 python3-dev python3-cffi python3-numpy python3-pytest python3-setuptools python3-wheel python3-pip python3-venv \
 slurmctld slurmd slurm-client munge"
 peers=0

@@ -34,6 +34,9 @@
 #define LLVMFuzzerTestOneInput fuzz_manifest_one_input
 #include "fuzz/fuzz_manifest.c" /* the batch manifest target, renamed (links src/cli/cli_manifest.c: Makefile) */
 #undef LLVMFuzzerTestOneInput
+#define LLVMFuzzerTestOneInput fuzz_mesh_assimp_one_input
+#include "fuzz/fuzz_mesh_assimp.c" /* the Assimp target (first byte: the extension), renamed */
+#undef LLVMFuzzerTestOneInput
 
 typedef struct target {
     const char *name; /* fuzz_<name>.c, seeds_<name>/, regress_<name>/ */
@@ -48,6 +51,7 @@ static const target targets[] = {
     {"program_cache", NULL, fuzz_program_cache_one_input, 0}, {"manifest", NULL, fuzz_manifest_one_input, 0},
     {"mesh_obj", "obj", NULL, 0}, {"mesh_off", "off", NULL, 0}, {"mesh_ply", "ply", NULL, 0},
     {"mesh_stl", "stl", NULL, 0}, {"mesh_om", "om", NULL, 0},
+    {"mesh_assimp", NULL, fuzz_mesh_assimp_one_input, 0},
 };
 
 static unsigned char *read_all(const char *p, size_t *n)

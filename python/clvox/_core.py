@@ -274,6 +274,29 @@ class Mesh:
         return f"<clvox.Mesh {r['triangles']} triangles, {r['vertices']} vertices, closed={r['closed']}>"
 
 
+def _scene_arrays(scene):
+    """A trimesh.Scene flattened as clvox flattens a glTF or 3MF scene: every
+    node that places a geometry contributes that geometry's triangles moved by
+    the node's world transform (scene.graph[node] -> (matrix, geometry name)),
+    so a geometry placed by two nodes appears twice; geometries without faces
+    (paths, point clouds) are left out. Computed in float64."""
+    vs, fs, base = [], [], 0
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        g = scene.geometry.get(name)
+        faces = getattr(g, "faces", None)
+        if g is None or faces is None or len(faces) == 0:
+            continue
+        m = np.asarray(transform, dtype=np.float64)
+        v = np.asarray(g.vertices, dtype=np.float64) @ m[:3, :3].T + m[:3, 3]
+        vs.append(v)
+        fs.append(np.asarray(faces, dtype=np.int64) + base)
+        base += len(v)
+    if not vs:
+        raise ValueError("the scene holds no triangles")
+    return np.concatenate(vs), np.concatenate(fs)
+
+
 def _as_arrays(vertices, faces):
     """(V, 3) float32 and (F, 3) uint32 C-contiguous arrays, copying only when the input is not
     already such (one copy at most: dtype and layout are changed together)."""
@@ -545,11 +568,13 @@ class Context:
             return Mesh(out[0], os.fsdecode(path))
         if isinstance(mesh, tuple) and len(mesh) == 2:
             vertices, faces = mesh
+        elif hasattr(mesh, "graph") and hasattr(mesh, "geometry"):   # trimesh.Scene
+            vertices, faces = _scene_arrays(mesh)
         elif hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
             vertices, faces = mesh.vertices, mesh.faces
         else:
             raise TypeError("mesh must be a path, a (vertices, faces) tuple, an object with .vertices and "
-                            ".faces (trimesh), or a clvox.Mesh")
+                            ".faces (trimesh.Trimesh), a trimesh.Scene, or a clvox.Mesh")
         v, f = _as_arrays(vertices, faces)
         st = lib.clvox_mesh_from_arrays(self._ptr, ffi.from_buffer("float[]", v), v.shape[0],
                                         ffi.from_buffer("uint32_t[]", f), f.shape[0], out)

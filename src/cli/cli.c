@@ -257,7 +257,7 @@ static int cmd_voxelize(const cli_args *a, const char *argv0)
     }
     if (rc != EXIT_OK) goto done;
     if (!a->quiet && !a->json) {
-        print_summary(mesh_path, &res->report, &res->grid, s.dev, a, s.palette, &res->stats,
+        print_summary(mesh_path, &res->report, &res->source, &res->grid, s.dev, a, s.palette, &res->stats,
                       output, res->setup_seconds, cli_now() - wall_start);
         cli_flush_stdout(); /* the summary before the warnings */
     }

@@ -74,8 +74,9 @@ static void print_batch_help(void)
 "\n"
 "Meshes, in this order (n = the position in the list, from 0):\n"
 "  MESH...                  mesh files\n"
-"  --dir DIR                the mesh files in DIR (.obj .off .ply .stl .om, any\n"
-"                           case; not recursive), sorted by name\n"
+"  --dir DIR                the mesh files in DIR (.obj .off .ply .stl .om .glb\n"
+"                           .gltf .3mf .fbx .dae .3ds, any case; not\n"
+"                           recursive), sorted by name\n"
 "  --manifest FILE          one mesh per line, optionally followed by overrides\n"
 "                           for that mesh: -o OUT, and one of -r N, --dims X,Y,Z,\n"
 "                           --voxel-size S[,S,S]. Fields are separated by spaces\n"
@@ -225,7 +226,7 @@ static void list_free(batch_list *l)
 
 static int is_mesh_name(const char *name)
 {
-    static const char *const exts[] = {"obj", "off", "ply", "stl", "om"};
+    static const char *const exts[] = {"obj", "off", "ply", "stl", "om", "glb", "gltf", "3mf", "fbx", "dae", "3ds"};
     const char *dot = strrchr(name, '.');
     if (!dot || dot == name) return 0;
     for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++) {

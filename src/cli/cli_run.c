@@ -186,7 +186,21 @@ static const char *channel_list(uint32_t mask)
     return buf;
 }
 
-void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
+/* A scene read through Assimp: its meshes, placements, units and what was
+ * left out. Nothing for clvox's own formats (their output is unchanged). */
+static void print_scene(const clvox_mesh_source_info *src)
+{
+    if (!src || strcmp(src->reader, "assimp") != 0) return;
+    char unit[64];
+    if (src->unit_metres > 0) snprintf(unit, sizeof unit, "1 unit = %g m (stated by the file)", src->unit_metres);
+    else snprintf(unit, sizeof unit, "units not stated by the file");
+    printf(LABEL "%u meshes, %llu placed (node transforms applied), %s, %llu lines and %llu points ignored\n",
+           "scene", src->meshes, (unsigned long long)src->placements, unit, (unsigned long long)src->ignored_lines,
+           (unsigned long long)src->ignored_points);
+}
+
+void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_mesh_source_info *src,
+                   const clvox_grid *grid,
                    const clvox_context *devices, const cli_args *a, const clvox_palette *pal,
                    const clvox_stats *s, const char *output, double setup_seconds, double wall_seconds)
 {
@@ -209,6 +223,7 @@ void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvo
     printf(LABEL "%llu triangles, %llu vertices, %llu dropped faces, %llu degenerate%s, %s\n", "",
            (unsigned long long)r->triangles, (unsigned long long)r->vertices, (unsigned long long)r->dropped_faces,
            (unsigned long long)r->degenerate_triangles, extra, closed);
+    print_scene(src);
 
     print_grid_line(grid->dims, grid->origin, grid->voxel_size);
     printf(LABEL "%s (%s, %s)\n", "device", dev ? dev->name : "?", dev ? dev->type : "?",
@@ -596,6 +611,8 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
     if (g_interrupted) { rc = fail_message(EXIT_CANCELLED, "cancelled"); goto done; }
     const clvox_mesh_report *report = clvox_mesh_get_report(mesh);
     res->report = *report;
+    res->source.size = sizeof res->source;
+    if (clvox_mesh_get_source_info(mesh, &res->source) != CLVOX_OK) res->source.reader[0] = 0;
     res->have_report = 1;
 
     if (s->have_like) {
@@ -788,6 +805,16 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
         jb_num3(b, "bbox_min", r->bbox_min);
         jb_num3(b, "bbox_max", r->bbox_max);
         jb_num(b, "enclosed_volume", r->enclosed_volume);
+        if (!strcmp(res->source.reader, "assimp")) { /* only for scenes: other records stay as they were */
+            jb_obj_begin(b, "scene");
+            jb_u64(b, "meshes", res->source.meshes);
+            jb_u64(b, "placements", res->source.placements);
+            jb_u64(b, "ignored_lines", res->source.ignored_lines);
+            jb_u64(b, "ignored_points", res->source.ignored_points);
+            if (res->source.unit_metres > 0) jb_num(b, "unit_metres", res->source.unit_metres);
+            else jb_null(b, "unit_metres");
+            jb_obj_end(b);
+        }
         jb_obj_end(b);
     } else {
         jb_null(b, "mesh");

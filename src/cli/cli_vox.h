@@ -97,6 +97,7 @@ typedef struct vox_result {
     char error[1024];           /* the one-line message when failed */
     int have_report, have_grid, have_stats;
     clvox_mesh_report report;
+    clvox_mesh_source_info source; /* .reader "assimp": a scene (a "scene" line and JSON object) */
     clvox_grid grid;
     clvox_stats stats;
     double load_seconds, setup_seconds, wall_seconds;
@@ -115,7 +116,8 @@ void vox_print_warnings(const vox_session *s, const vox_job *job, const vox_resu
 void vox_result_json(const vox_session *s, const vox_job *job, const vox_result *res, jbuf *b);
 
 /* The text summary of one run that succeeded (`clvox MESH`, cli.c). */
-void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_grid *grid,
+void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvox_mesh_source_info *src,
+                   const clvox_grid *grid,
                    const clvox_context *devices, const cli_args *a, const clvox_palette *pal,
                    const clvox_stats *s, const char *output, double setup_seconds, double wall_seconds);
 

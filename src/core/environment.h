@@ -46,6 +46,9 @@ typedef struct clvox__test_hooks {
                                 * (launch.c); 0: the device's and kernels' limits only */
     int fp32_unrounded;        /* CLVOX_TEST_FP32_UNROUNDED=1: built as for a device without correctly
                                 * rounded float divide/sqrt (no -cl-fp32-correctly-rounded-divide-sqrt) */
+    char assimp_crash[64];     /* CLVOX_TEST_ASSIMP_CRASH=TEXT: the Assimp reader kills its process
+                                * (SIGSEGV) on a file whose path contains TEXT, a stand-in for a
+                                * parser bug (test_assimp: load and batch) */
 } clvox__test_hooks;
 #define CLVOX__FAIL_EVERY_DEVICE (-2)
 /* fail_device_n of "K:0" (the build): a zero-initialised struct fails nothing

@@ -71,6 +71,7 @@ clvox_status clvox__fail(clvox_context *ctx, clvox_status status, const char *fm
 #define CLVOX__DEVICE_INFO_SIZE_0 (offsetof(clvox_device_info, max_alloc_bytes) + sizeof(uint64_t))
 #define CLVOX__ELEMENT_INFO_SIZE_0 (offsetof(clvox_palette_element_info, complement) + sizeof(int))
 #define CLVOX__PLY_TOTALS_SIZE_0 (offsetof(clvox_ply_totals, header_bytes) + sizeof(uint64_t))
+#define CLVOX__MESH_SOURCE_INFO_SIZE_0 (offsetof(clvox_mesh_source_info, unit_metres) + sizeof(double))
 /* Checks the .size of the caller's struct `out` (NULL is fine: nothing to
  * check) against [min_size, full_size]: CLVOX_ERR_INVALID_ARGUMENT naming
  * `what`, else CLVOX_OK. The library then fills a whole struct of its own
@@ -246,6 +247,8 @@ struct clvox_mesh {
     size_t triangle_count;
     clvox_mesh_report report;
     clvox__mesh_volume volume;
+    clvox_mesh_source_info source; /* the file's scene: meshes, units, lines and points ignored */
+    uint32_t *tri_source; /* per triangle, the scene mesh it came from (Assimp formats), or NULL */
     struct clvox__prep_ahead *ahead; /* winding preparation on its way (winding_prep.c), or NULL */
 };
 
@@ -259,12 +262,33 @@ typedef struct clvox__raw_mesh {
     size_t face_count;
     size_t index_count;
     uint64_t nonmanifold_faces;
+    uint32_t *face_source;    /* malloc'ed, per face the scene mesh it came from (Assimp), or NULL */
+    clvox_mesh_source_info source; /* .size unset: a single-mesh file read natively */
 } clvox__raw_mesh;
 
 /* C++ shim around OpenMesh::IO::read_mesh. Never throws. Returns 0 on
  * success, else writes a one-line reason into err. */
 int clvox__openmesh_read(const char *path, clvox__raw_mesh *out, char *err, size_t err_size);
 void clvox__raw_mesh_free(clvox__raw_mesh *raw);
+
+/* C++ shim around Assimp (mesh_assimp.cpp). Never throws. ext: the file's
+ * extension (no dot). clvox__assimp_supports: 1 when Assimp has a reader for
+ * it. clvox__assimp_read: the scene in data[0..n) (the file at path, already
+ * read; .gltf buffers and other files it names are opened beside it, regular
+ * files only; path NULL: nothing else can be opened, for the fuzzer)
+ * flattened into *out: triangles only (sizes NULL), face_source set, every
+ * node's transform applied (in double, relative to the first vertex).
+ * Returns 0, -2 when out of memory, else -1 (a bad file, or a flattened
+ * scene over the bound of mesh_assimp.cpp),
+ * with a one-line reason in err. */
+int clvox__assimp_supports(const char *ext);
+int clvox__assimp_read(const char *path, const char *ext, const unsigned char *data, size_t n,
+                       clvox__raw_mesh *out, char *err, size_t err_size);
+/* clvox__assimp_read in a forked child (mesh_isolate.c), what
+ * clvox_mesh_load uses: the same result, or -1 with "the reader crashed
+ * (...)" when the child dies. */
+int clvox__assimp_read_isolated(const char *path, const char *ext, const unsigned char *data, size_t n,
+                                clvox__raw_mesh *out, char *err, size_t err_size);
 
 /* ---- winding preparation (winding_prep.c) ---- */
 

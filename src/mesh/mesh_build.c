@@ -7,6 +7,7 @@
 #include "mesh_internal.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -131,6 +132,12 @@ clvox_status clvox__mesh_build(clvox_context *ctx, const char *what, float *xyz,
     m->report = r;
     m->volume = volume;
     m->ahead = NULL;
+    memset(&m->source, 0, sizeof m->source);
+    m->source.size = sizeof m->source;
+    snprintf(m->source.reader, sizeof m->source.reader, "arrays");
+    m->source.meshes = 1;
+    m->source.placements = 1;
+    m->tri_source = NULL;
     *out = m;
     return CLVOX_OK;
 

@@ -44,7 +44,8 @@
 
 /* ---- format (by extension) ------------------------------------------------------ */
 
-enum mesh_format { FMT_UNKNOWN = 0, FMT_OBJ, FMT_OFF, FMT_PLY, FMT_STL, FMT_OM };
+enum mesh_format { FMT_UNKNOWN = 0, FMT_OBJ, FMT_OFF, FMT_PLY, FMT_STL, FMT_OM, FMT_ASSIMP };
+static const char *const format_name[] = {"", "obj", "off", "ply", "stl", "om", "assimp"};
 
 static enum mesh_format format_of(const char *path, const char **ext_out)
 {
@@ -61,7 +62,7 @@ static enum mesh_format format_of(const char *path, const char **ext_out)
         while (*a && *b && (*a | 0x20) == *b) a++, b++;
         if (!*a && !*b) return known[k].fmt;
     }
-    return FMT_UNKNOWN;
+    return clvox__assimp_supports(dot + 1) ? FMT_ASSIMP : FMT_UNKNOWN;
 }
 
 int clvox__is_mesh_path(const char *path)
@@ -76,6 +77,7 @@ void clvox__raw_mesh_free(clvox__raw_mesh *raw)
     free(raw->xyz);
     free(raw->face_sizes);
     free(raw->face_indices);
+    free(raw->face_source);
     memset(raw, 0, sizeof *raw);
 }
 
@@ -155,8 +157,9 @@ static clvox_status read_whole_file(clvox_context *ctx, const char *path, int fd
 }
 
 /* Everything clvox_mesh_load does before clvox__mesh_build: open, check, read
- * (natively or through OpenMesh) into *raw (freed on failure). */
-clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw)
+ * (natively, through OpenMesh or through Assimp) into *raw (freed on
+ * failure). */
+static clvox_status read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw)
 {
     memset(out_raw, 0, sizeof *out_raw);
 
@@ -171,7 +174,9 @@ clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__r
     if (fmt == FMT_UNKNOWN) {
         close(fd);
         return clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT,
-                           "'%s': unknown extension '%s' (expected .obj, .off, .ply, .stl or .om)", path, ext);
+                           "'%s': unknown extension '%s' (expected .obj, .off, .ply, .stl, .om, or a format "
+                           "Assimp reads: .glb, .gltf, .3mf, .fbx, .dae, .3ds, ...)",
+                           path, ext);
     }
     if (sb.st_size == 0) {
         close(fd);
@@ -201,6 +206,18 @@ clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__r
     case FMT_PLY: st = clvox__mesh_check_ply(ctx, path, p, n, &ex, &raw, &parsed); break;
     case FMT_STL: st = clvox__mesh_check_stl(ctx, path, p, n, &raw, &parsed); break;
     case FMT_OM: st = clvox__mesh_check_om(ctx, path, p, n); break;
+    case FMT_ASSIMP: {
+        /* Assimp parses the bytes just read (the file cannot change under
+         * it), in a child process (mesh_isolate.c: it aborts on some bad
+         * files); a .gltf's buffers are opened beside it. */
+        char err[512];
+        err[0] = 0;
+        int rc = clvox__assimp_read_isolated(path, ext, p, n, &raw, err, sizeof err);
+        if (rc == -2) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "cannot read '%s': %s", path, err);
+        else if (rc != 0) st = clvox__fail(ctx, CLVOX_ERR_MESH_FORMAT, "cannot read '%s': %s", path, err);
+        else parsed = 1;
+        break;
+    }
     default: st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "unhandled format"); break;
     }
     free(data);
@@ -245,8 +262,19 @@ clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__r
         clvox__raw_mesh_free(&raw);
         return st;
     }
+    if (!raw.source.size) {
+        raw.source.size = sizeof raw.source;
+        snprintf(raw.source.reader, sizeof raw.source.reader, "%s", format_name[fmt]);
+        raw.source.meshes = 1;
+        raw.source.placements = 1;
+    }
     *out_raw = raw;
     return CLVOX_OK;
+}
+
+clvox_status clvox__mesh_read_raw(clvox_context *ctx, const char *path, clvox__raw_mesh *out_raw)
+{
+    return read_raw(ctx, path, out_raw);
 }
 
 clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **out)
@@ -257,8 +285,24 @@ clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **
         return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: NULL %s", path ? "out" : "path");
     if (!*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_mesh_load: empty path");
     clvox__raw_mesh raw;
-    clvox_status st = clvox__mesh_read_raw(ctx, path, &raw);
+    clvox_status st = read_raw(ctx, path, &raw);
     if (st) return st;
+    /* The scene mesh of each triangle clvox__mesh_build keeps: it drops
+     * those with a repeated index (Assimp's faces are all triangles). */
+    uint32_t *tri_source = NULL;
+    if (raw.face_source && !raw.face_sizes) {
+        tri_source = malloc((raw.face_count ? raw.face_count : 1) * sizeof *tri_source);
+        if (!tri_source) {
+            clvox__raw_mesh_free(&raw);
+            return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles", raw.face_count);
+        }
+        size_t kept = 0;
+        for (size_t f = 0; f < raw.face_count; f++) {
+            const uint32_t *t = raw.face_indices + 3 * f;
+            if (t[0] != t[1] && t[1] != t[2] && t[0] != t[2]) tri_source[kept++] = raw.face_source[f];
+        }
+    }
+    clvox_mesh_source_info source = raw.source;
     char what[4200];
     snprintf(what, sizeof what, "'%s'", path);
     float *xyz = raw.xyz;
@@ -272,7 +316,31 @@ clvox_status clvox_mesh_load(clvox_context *ctx, const char *path, clvox_mesh **
                            owned ? owned : raw.face_indices, raw.face_count, raw.index_count, raw.nonmanifold_faces,
                            owned, out);
     clvox__raw_mesh_free(&raw);
-    return st;
+    if (st) {
+        free(tri_source);
+        return st;
+    }
+    (*out)->source = source;
+    (*out)->tri_source = tri_source;
+    return CLVOX_OK;
+}
+
+
+clvox_status clvox_mesh_get_source_info(const clvox_mesh *mesh, clvox_mesh_source_info *out)
+{
+    if (!mesh || !out || out->size < CLVOX__MESH_SOURCE_INFO_SIZE_0 || out->size > sizeof *out)
+        return CLVOX_ERR_INVALID_ARGUMENT;
+    size_t size = out->size;
+    clvox_mesh_source_info full = mesh->source;
+    full.size = size;
+    memcpy(out, &full, size);
+    return CLVOX_OK;
+}
+
+const uint32_t *clvox_mesh_triangle_sources(const clvox_mesh *mesh, size_t *triangle_count)
+{
+    if (triangle_count) *triangle_count = mesh && mesh->tri_source ? mesh->triangle_count : 0;
+    return mesh ? mesh->tri_source : NULL;
 }
 
 clvox_status clvox_mesh_from_arrays(clvox_context *ctx, const float *xyz, size_t vertex_count,
@@ -300,6 +368,7 @@ void clvox_mesh_destroy(clvox_mesh *mesh)
     clvox__prep_ahead_drop(mesh); /* its thread reads the mesh */
     free(mesh->xyz);
     free(mesh->tris);
+    free(mesh->tri_source);
     free(mesh);
 }
 

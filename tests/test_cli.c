@@ -1042,45 +1042,83 @@ static uint32_t doc_scaled(uint32_t a, uint32_t b, uint32_t px)
     return v ? v : 1;
 }
 
-/* The picture the documentation of `clvox preview --help` describes. */
-static void expected_preview(const grey_volume *v, uint32_t N, uint32_t PX, picture *pic)
+/* The documented layout (clvox preview --help): cells of GUT + w by
+ * CAP + h + CAP pixels, BORDER apart; the 3-D view (PX x PX) and the legend
+ * on top, the montage, the row of central slices. */
+enum { PV_B = 2, PV_CAP = 9, PV_GUT = 7, PV_LEGEND = 5 };
+typedef struct pv_rect {
+    uint32_t x0, y0, w, h;
+} pv_rect;
+typedef struct pv_layout {
+    uint32_t W, H, n, C, R;
+    pv_rect view, ortho[3];
+    pv_rect *mont; /* n panels */
+} pv_layout;
+
+static void doc_layout(uint32_t X, uint32_t Y, uint32_t Z, uint32_t N, uint32_t PX, pv_layout *L)
 {
-    const uint32_t X = v->X, Y = v->Y, Z = v->Z, B = 2;
-    const uint32_t n = N < Z ? N : Z;
-    uint32_t C = (uint32_t)ceil(sqrt((double)n)), R = (n + C - 1) / C;
+    const uint32_t B = PV_B, CAP = PV_CAP, GUT = PV_GUT;
+    L->n = N < Z ? N : Z;
+    L->C = (uint32_t)ceil(sqrt((double)L->n));
+    L->R = (L->n + L->C - 1) / L->C;
     uint32_t w[3] = { doc_scaled(X, Y, PX), doc_scaled(X, Z, PX), doc_scaled(Y, Z, PX) };
     uint32_t h[3] = { doc_scaled(Y, X, PX), doc_scaled(Z, X, PX), doc_scaled(Z, Y, PX) };
-    uint32_t mw = B + C * (w[0] + B), mh = B + R * (h[0] + B);
-    uint32_t ow = B + w[0] + B + w[1] + B + w[2] + B;
-    uint32_t oh = h[0];
-    if (h[1] > oh) oh = h[1];
-    if (h[2] > oh) oh = h[2];
-    pic->w = mw > ow ? mw : ow;
-    pic->h = mh + oh + B;
+    uint32_t top = CAP + PX + CAP > PV_LEGEND * CAP ? CAP + PX + CAP : PV_LEGEND * CAP;
+    uint32_t my = B + top + B;
+    L->view = (pv_rect){ B + GUT, B + CAP, PX, PX };
+    L->mont = malloc(L->n * sizeof *L->mont);
+    if (!L->mont) abort();
+    for (uint32_t k = 0; k < L->n; k++)
+        L->mont[k] = (pv_rect){ B + (k % L->C) * (GUT + w[0] + B) + GUT, my + (k / L->C) * (CAP + h[0] + CAP + B) + CAP,
+                                w[0], h[0] };
+    uint32_t oy = my + L->R * (CAP + h[0] + CAP + B), x = B, oh = 0;
+    for (int i = 0; i < 3; i++) {
+        L->ortho[i] = (pv_rect){ x + GUT, oy + CAP, w[i], h[i] };
+        x += GUT + w[i] + B;
+        if (CAP + h[i] + CAP > oh) oh = CAP + h[i] + CAP;
+    }
+    uint32_t mw = B + L->C * (GUT + w[0] + B), tw = B + GUT + PX + B;
+    L->W = mw > x ? mw : x;
+    if (tw > L->W) L->W = tw;
+    L->H = oy + oh + B;
+}
+
+/* The slice panels the documentation of `clvox preview --help` describes
+ * (y and z up: panel row j from the top shows cell floor((h-1-j) * n / h));
+ * pixels outside every panel are marked 0,0,1 (border or label). The 3-D
+ * view is left 0,0,2 (checked by test_preview_view). */
+static void expected_preview(const grey_volume *v, uint32_t N, uint32_t PX, picture *pic, pv_layout *L)
+{
+    const uint32_t X = v->X, Y = v->Y, Z = v->Z;
+    doc_layout(X, Y, Z, N, PX, L);
+    pic->w = L->W;
+    pic->h = L->H;
     pic->rgb = malloc((size_t)pic->w * pic->h * 3);
     if (!pic->rgb) abort();
     for (size_t i = 0; i < (size_t)pic->w * pic->h; i++) {
         pic->rgb[3 * i] = 0;
         pic->rgb[3 * i + 1] = 0;
-        pic->rgb[3 * i + 2] = 128;
+        pic->rgb[3 * i + 2] = 1;
     }
+    for (uint32_t j = 0; j < PX; j++)
+        for (uint32_t i = 0; i < PX; i++) pic->rgb[3 * ((size_t)(L->view.y0 + j) * pic->w + L->view.x0 + i) + 2] = 2;
 #define PUT(px_, py_, i_) put_voxel(pic, v, (px_), (py_), (i_))
 #define VOX(x_, y_, z_) (((size_t)(z_) * Y + (y_)) * X + (x_))
-    for (uint32_t k = 0; k < n; k++) {
-        uint32_t z = (uint32_t)floor((k + 0.5) * Z / n);
-        uint32_t x0 = B + (k % C) * (w[0] + B), y0 = B + (k / C) * (h[0] + B);
-        for (uint32_t j = 0; j < h[0]; j++)
-            for (uint32_t i = 0; i < w[0]; i++) PUT(x0 + i, y0 + j, VOX(i * X / w[0], j * Y / h[0], z));
+    for (uint32_t k = 0; k < L->n; k++) {
+        uint32_t z = (uint32_t)floor((k + 0.5) * Z / L->n);
+        const pv_rect *r = &L->mont[k];
+        for (uint32_t j = 0; j < r->h; j++)
+            for (uint32_t i = 0; i < r->w; i++) PUT(r->x0 + i, r->y0 + j, VOX(i * X / r->w, (r->h - 1 - j) * Y / r->h, z));
     }
-    uint32_t x0 = B;
-    for (uint32_t j = 0; j < h[0]; j++)
-        for (uint32_t i = 0; i < w[0]; i++) PUT(x0 + i, mh + j, VOX(i * X / w[0], j * Y / h[0], Z / 2));
-    x0 += w[0] + B;
-    for (uint32_t j = 0; j < h[1]; j++)
-        for (uint32_t i = 0; i < w[1]; i++) PUT(x0 + i, mh + j, VOX(i * X / w[1], Y / 2, j * Z / h[1]));
-    x0 += w[1] + B;
-    for (uint32_t j = 0; j < h[2]; j++)
-        for (uint32_t i = 0; i < w[2]; i++) PUT(x0 + i, mh + j, VOX(X / 2, i * Y / w[2], j * Z / h[2]));
+    const pv_rect *r = &L->ortho[0];
+    for (uint32_t j = 0; j < r->h; j++)
+        for (uint32_t i = 0; i < r->w; i++) PUT(r->x0 + i, r->y0 + j, VOX(i * X / r->w, (r->h - 1 - j) * Y / r->h, Z / 2));
+    r = &L->ortho[1];
+    for (uint32_t j = 0; j < r->h; j++)
+        for (uint32_t i = 0; i < r->w; i++) PUT(r->x0 + i, r->y0 + j, VOX(i * X / r->w, Y / 2, (r->h - 1 - j) * Z / r->h));
+    r = &L->ortho[2];
+    for (uint32_t j = 0; j < r->h; j++)
+        for (uint32_t i = 0; i < r->w; i++) PUT(r->x0 + i, r->y0 + j, VOX(X / 2, i * Y / r->w, (r->h - 1 - j) * Z / r->h));
 #undef PUT
 #undef VOX
 }
@@ -1107,23 +1145,36 @@ static void check_preview(const char *what, const grey_volume *v, const char *ex
     CHECK_MSG(count_lines(r.out) == 1 && strstr(r.out, png), "%s: stdout: %s", what, r.out);
     spawn_free(&r);
     picture got, want;
+    pv_layout L;
     int ok = read_png(png, &got);
     CHECK_MSG(ok, "%s: %s is not an 8-bit RGB PNG", what, png);
-    expected_preview(v, N, PX, &want);
+    expected_preview(v, N, PX, &want, &L);
     if (want_w) CHECK_MSG(want.w == want_w && want.h == want_h, "%s: the documented size is %u x %u, test says %u x %u",
                           what, want.w, want.h, want_w, want_h);
     if (ok) {
         CHECK_MSG(got.w == want.w && got.h == want.h, "%s: %u x %u pixels, expected %u x %u", what, got.w, got.h,
                   want.w, want.h);
         if (got.w == want.w && got.h == want.h) {
-            size_t bad = 0, first = 0, n = (size_t)got.w * got.h;
-            for (size_t i = 0; i < n; i++)
-                if (memcmp(got.rgb + 3 * i, want.rgb + 3 * i, 3) != 0 && bad++ == 0) first = i;
+            /* slice panels exactly; elsewhere border (0,0,128) or label (255,255,96) */
+            static const uint8_t border[3] = { 0, 0, 128 }, text[3] = { 255, 255, 96 };
+            size_t bad = 0, first = 0, n = (size_t)got.w * got.h, labels = 0;
+            for (size_t i = 0; i < n; i++) {
+                const uint8_t *g = got.rgb + 3 * i, *w = want.rgb + 3 * i;
+                int ok_px;
+                if (w[0] == 0 && w[1] == 0 && w[2] == 2) ok_px = 1; /* the 3-D view */
+                else if (w[0] == 0 && w[1] == 0 && w[2] == 1) {
+                    ok_px = memcmp(g, border, 3) == 0 || memcmp(g, text, 3) == 0;
+                    labels += memcmp(g, text, 3) == 0;
+                } else ok_px = memcmp(g, w, 3) == 0;
+                if (!ok_px && bad++ == 0) first = i;
+            }
             CHECK_MSG(bad == 0, "%s: %zu of %zu pixels differ, first at (%zu, %zu): %u,%u,%u instead of %u,%u,%u",
                       what, bad, n, first % got.w, first / got.w, got.rgb[3 * first], got.rgb[3 * first + 1],
                       got.rgb[3 * first + 2], want.rgb[3 * first], want.rgb[3 * first + 1], want.rgb[3 * first + 2]);
+            CHECK_MSG(labels > 0, "%s: no label pixels", what);
         }
     }
+    free(L.mont);
     /* nothing but the picture next to it */
     char left[1024];
     dir_entries(g_dir, left, sizeof left);
@@ -1296,6 +1347,175 @@ static void test_palette_run_errors(void)
                        "--palette");
 }
 
+/* Writes an occupancy volume (HALF 1 inside the box [lo, hi), 0 elsewhere;
+ * lo == hi: empty) with the tests' own EXR writer. */
+static void write_box(const char *path, uint32_t X, uint32_t Y, uint32_t Z, const uint32_t lo[3], const uint32_t hi[3])
+{
+    size_t n = (size_t)X * Y * Z;
+    uint16_t *occ = calloc(n, 2);
+    if (!occ) abort();
+    for (uint32_t z = lo[2]; z < hi[2]; z++)
+        for (uint32_t y = lo[1]; y < hi[1]; y++)
+            for (uint32_t x = lo[0]; x < hi[0]; x++) occ[((size_t)z * Y + y) * X + x] = 0x3C00;
+    exrgen_channel ch = { "occupancy", EXR_PIXEL_HALF, occ };
+    CHECK(exrgen_write(path, X, Y, Z, &ch, 1, 0, 0, EXR_COMPRESSION_ZIP, 1));
+    free(occ);
+}
+
+static const uint8_t *pic_at(const picture *pic, uint32_t x, uint32_t y)
+{
+    return pic->rgb + 3 * ((size_t)y * pic->w + x);
+}
+
+/* Runs clvox preview exr -o png --size PX --slices N; 1 when it worked and
+ * the picture has the documented size. */
+static int run_preview(const char *exr, const char *png, uint32_t N, uint32_t PX, const pv_layout *L, picture *pic)
+{
+    char n_s[16], px_s[16];
+    snprintf(n_s, sizeof n_s, "%u", N);
+    snprintf(px_s, sizeof px_s, "%u", PX);
+    run_result r;
+    unlink(png);
+    run_cli(&r, NULL, ARGS("preview", exr, "-o", png, "--slices", n_s, "--size", px_s));
+    int ok = r.code == 0;
+    CHECK_MSG(ok, "preview %s: exit %d; %s", exr, r.code, r.err);
+    spawn_free(&r);
+    if (!ok || !read_png(png, pic)) return 0;
+    CHECK_MSG(pic->w == L->W && pic->h == L->H, "preview %s: %u x %u, expected %u x %u", exr, pic->w, pic->h, L->W,
+              L->H);
+    return pic->w == L->W && pic->h == L->H;
+}
+
+/* Whether the caption strips above two panels (the cell's full width less
+ * the gutter's first pixel, CAP - 1 rows) hold the same pixels. */
+static int same_caption(const picture *a, const pv_rect *ra, const picture *b, const pv_rect *rb, size_t *text_px)
+{
+    if (ra->w != rb->w) return 0;
+    *text_px = 0;
+    for (uint32_t j = 1; j < PV_CAP - 1; j++)
+        for (uint32_t i = 1; i < PV_GUT + ra->w; i++) {
+            const uint8_t *pa = pic_at(a, ra->x0 - PV_GUT + i, ra->y0 - PV_CAP + j);
+            const uint8_t *pb = pic_at(b, rb->x0 - PV_GUT + i, rb->y0 - PV_CAP + j);
+            if (memcmp(pa, pb, 3) != 0) return 0;
+            *text_px += pa[0] == 255 && pa[1] == 255 && pa[2] == 96;
+        }
+    return 1;
+}
+
+/* The view's documented projection: the pixel whose centre is nearest the
+ * projection of (x, y, z) (in voxel units). */
+static void view_pixel(const pv_layout *L, uint32_t X, uint32_t Y, uint32_t Z, double x, double y, double z,
+                       uint32_t *pi, uint32_t *pj)
+{
+    const double wu = (X + Z) / sqrt(2.0), hv = (X + Z + 2.0 * Y) / sqrt(6.0), PX = L->view.w;
+    const double s = PX / (wu > hv ? wu : hv);
+    const double u = (x - z) / sqrt(2.0), v = (2 * y - x - z) / sqrt(6.0);
+    *pi = (uint32_t)floor((u + Z / sqrt(2.0)) * s + (PX - wu * s) / 2);
+    *pj = (uint32_t)floor((2.0 * Y / sqrt(6.0) - v) * s + (PX - hv * s) / 2);
+}
+
+/* Pixel tests of the picture on boxes: y up, labels, the 3-D view's faces and
+ * their documented shades, an empty volume, the same bytes twice. */
+static void test_preview_view(void)
+{
+    char box[PATH_MAX], empty[PATH_MAX], png[PATH_MAX], png2[PATH_MAX];
+    path_join(box, sizeof box, g_dir, "box.exr");
+    path_join(empty, sizeof empty, g_dir, "empty.exr");
+    path_join(png, sizeof png, g_dir, "view.png");
+    path_join(png2, sizeof png2, g_dir, "view2.png");
+    const uint32_t X = 16, Y = 16, Z = 16, PX = 96, N = 16;
+    const uint32_t lo[3] = { 4, 10, 4 }, hi[3] = { 12, 15, 12 }; /* towards +y */
+    write_box(box, X, Y, Z, lo, hi);
+    pv_layout L;
+    doc_layout(X, Y, Z, N, PX, &L);
+    picture pic;
+    if (run_preview(box, png, N, PX, &L, &pic)) {
+        /* slice z = 8 (panel 8): white only in the upper half, and some */
+        const pv_rect *r = &L.mont[8];
+        size_t upper = 0, lower = 0;
+        for (uint32_t j = 0; j < r->h; j++)
+            for (uint32_t i = 0; i < r->w; i++)
+                if (pic_at(&pic, r->x0 + i, r->y0 + j)[0] == 255) *(j < r->h / 2 ? &upper : &lower) += 1;
+        CHECK_MSG(upper > 0 && lower == 0, "a box towards +y: %zu white pixels in the upper half of its slice, %zu in "
+                  "the lower", upper, lower);
+        /* the y = Y/2 panel (x right, z up) is empty (the box starts at y = 10); x = X/2 (y right, z up): right half */
+        r = &L.ortho[2];
+        size_t left = 0, right = 0;
+        for (uint32_t j = 0; j < r->h; j++)
+            for (uint32_t i = 0; i < r->w; i++)
+                if (pic_at(&pic, r->x0 + i, r->y0 + j)[0] == 255) *(i < r->w / 2 ? &left : &right) += 1;
+        CHECK_MSG(right > 0 && left == 0, "x = X/2 panel: %zu white pixels left, %zu right (y to the right)", left,
+                  right);
+        /* labels: panel 8 shows z = 8 = Z/2, as the bottom row's first panel does: the same caption; slice 9's differs */
+        size_t t8 = 0, t9 = 0;
+        CHECK_MSG(same_caption(&pic, &L.mont[8], &pic, &L.ortho[0], &t8) && t8 > 20,
+                  "slice z=8's caption differs from the z = Z/2 panel's (%zu label pixels)", t8);
+        CHECK_MSG(!same_caption(&pic, &L.mont[8], &pic, &L.mont[9], &t9), "slices 8 and 9 have the same caption");
+        /* axis letters: the gutter holds the up arrow and 'y', the strip below 'x>' */
+        size_t gut = 0, below = 0;
+        for (uint32_t j = 0; j < 15; j++)
+            for (uint32_t i = 0; i < PV_GUT; i++) gut += pic_at(&pic, r->x0 - PV_GUT + i, r->y0 + j)[2] == 96;
+        for (uint32_t j = 0; j < PV_CAP; j++)
+            for (uint32_t i = 0; i < 11; i++) below += pic_at(&pic, r->x0 + r->w - 11 + i, r->y0 + r->h + j)[2] == 96;
+        CHECK_MSG(gut > 10 && below > 10, "axis labels: %zu pixels in the gutter, %zu below", gut, below);
+
+        /* the 3-D view: the box's three visible faces, at their centres */
+        const double D = X + Y + Z, amb = 0.3, ln = sqrt(14.0);
+        const struct { const char *name; double x, y, z, nl; } face[3] = {
+            { "+x", hi[0], (lo[1] + hi[1]) / 2.0, (lo[2] + hi[2]) / 2.0, 1 },
+            { "+y", (lo[0] + hi[0]) / 2.0, hi[1], (lo[2] + hi[2]) / 2.0, 3 },
+            { "+z", (lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, hi[2], 2 },
+        };
+        int shade[3];
+        for (int f = 0; f < 3; f++) {
+            uint32_t i, j;
+            view_pixel(&L, X, Y, Z, face[f].x, face[f].y, face[f].z, &i, &j);
+            const uint8_t *c = pic_at(&pic, L.view.x0 + i, L.view.y0 + j);
+            shade[f] = c[0];
+            double want = 255 * (amb + (1 - amb) * face[f].nl / ln) * (0.5 + 0.5 * (face[f].x + face[f].y + face[f].z) / D);
+            CHECK_MSG(c[0] == c[1] && c[1] == c[2] && fabs(c[0] - want) <= 4,
+                      "3-D view, face %s at (%u, %u): %u,%u,%u, expected a grey of about %.1f", face[f].name, i, j,
+                      c[0], c[1], c[2], want);
+        }
+        CHECK_MSG(shade[1] > shade[2] && shade[2] > shade[0],
+                  "3-D view: lit from (1,3,2), expected +y brighter than +z brighter than +x: %d %d %d", shade[1],
+                  shade[2], shade[0]);
+        /* corners of the view: background */
+        CHECK(pic_at(&pic, L.view.x0, L.view.y0)[0] == 0 && pic_at(&pic, L.view.x0 + PX - 1, L.view.y0 + PX - 1)[2] == 0);
+        /* the same bytes twice */
+        run_result rr;
+        run_cli(&rr, NULL, ARGS("preview", box, "-o", png2, "--slices", "16", "--size", "96"));
+        CHECK_MSG(rr.code == 0, "second run: exit %d", rr.code);
+        spawn_free(&rr);
+        char *b1 = read_all(png), *b2 = read_all(png2);
+        CHECK_MSG(b1 && b2 && file_size(png) == file_size(png2) &&
+                      memcmp(b1, b2, (size_t)file_size(png)) == 0,
+                  "two runs on the same volume give different PNG bytes");
+        free(b1);
+        free(b2);
+        unlink(png2);
+        free(pic.rgb);
+    }
+
+    /* an empty volume: a black 3-D view */
+    const uint32_t none[3] = { 0, 0, 0 };
+    write_box(empty, X, Y, Z, none, none);
+    if (run_preview(empty, png, N, PX, &L, &pic)) {
+        size_t lit = 0;
+        for (uint32_t j = 0; j < PX; j++)
+            for (uint32_t i = 0; i < PX; i++) {
+                const uint8_t *c = pic_at(&pic, L.view.x0 + i, L.view.y0 + j);
+                lit += c[0] || c[1] || c[2];
+            }
+        CHECK_MSG(lit == 0, "an empty volume: %zu pixels of the 3-D view are not black", lit);
+        free(pic.rgb);
+    }
+    free(L.mont);
+    unlink(png);
+    unlink(box);
+    unlink(empty);
+}
+
 static void test_preview(void)
 {
     char p[PATH_MAX], mesh[PATH_MAX], occ_exr[PATH_MAX], cov_exr[PATH_MAX], both_exr[PATH_MAX];
@@ -1363,9 +1583,10 @@ static void test_preview(void)
     coverage_grey(&cf, 0, &gc);
     coverage_grey(&cf, 1, &go);
     coverage_grey(&cf, 2, &gs);
-    /* 20 x 9 panels of 256 x 115, 4 x 4; 256 x 115, 138 x 256, 62 x 256 below: 1034 x 728 */
-    check_preview("coverage only, defaults", &gc, cov_exr, 16, 256, 1034, 728, NULL);
-    check_preview("coverage + occupancy: coverage by default", &gc, both_exr, 16, 256, 1034, 728, NULL);
+    /* 20 x 9 panels of 256 x 115, 4 x 4; 256 x 115, 138 x 256, 62 x 256 below; cells 7 + w wide, 9 + h + 9
+     * tall, 2 apart; the 3-D view 256 x 256 on top: 2 + 4 * 265 = 1062 x 2 + 274 + 2 + 4 * 135 + 274 + 2 = 1094 */
+    check_preview("coverage only, defaults", &gc, cov_exr, 16, 256, 1062, 1094, NULL);
+    check_preview("coverage + occupancy: coverage by default", &gc, both_exr, 16, 256, 1062, 1094, NULL);
     check_preview("--channel occupancy", &go, both_exr, 7, 33, 0, 0, ARGS("--channel", "occupancy", "--slices", "7",
                                                                           "--size", "33"));
     check_preview("--channel score (FLOAT, clamped, NaN)", &gs, both_exr, 3, 100, 0, 0,
@@ -1820,6 +2041,7 @@ int main(void)
     test_default_mesh();
     test_list_devices();
     test_preview();
+    test_preview_view();
     test_palette_files();
     test_palette_cli();
     test_palette_run();

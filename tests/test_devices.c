@@ -762,6 +762,30 @@ static void test_cli(void)
     spawn_free(&r);
     CHECK_MSG(same_file(p[0], p[4]), "with device 0 failing, --device all wrote another file");
 
+    /* the tetra method and the conservative mode (whose surface pass has a
+     * lead of its own): the same file on the set, and with either device
+     * failing its preparation (one warning) */
+    static const char *const raster_args[2][2] = {{"--method", "tetra"}, {"--mode", "conservative"}};
+    for (int m = 0; m < 2; m++) {
+        char q[4][PATH_MAX];
+        for (int i = 0; i < 4; i++) {
+            char leaf[32];
+            snprintf(leaf, sizeof leaf, "raster%d-%d.npy", m, i);
+            path_join(q[i], sizeof q[i], g_out, leaf);
+            static const char *const fail_at[4] = {NULL, NULL, "0:prepare", "1:prepare"};
+            cli(&r, fail_at[i], ARGS(mesh, "-r", "40", raster_args[m][0], raster_args[m][1], "--device",
+                                     i ? "all" : "0", "-q", "-o", q[i]));
+            char lead[32];
+            snprintf(lead, sizeof lead, "clvox: warning: device %d ", i - 2);
+            CHECK_MSG(r.code == 0 && (i < 2 ? !*r.err : lines_starting(r.err, lead) == 1 && count_lines(r.err) == 1),
+                      "%s %s, CLVOX_TEST_FAIL_DEVICE=%s: exit %d, stderr '%s'", raster_args[m][0], raster_args[m][1],
+                      fail_at[i] ? fail_at[i] : "", r.code, r.err);
+            spawn_free(&r);
+            if (i) CHECK_MSG(same_file(q[0], q[i]), "%s %s: run %d wrote another file than one device",
+                             raster_args[m][0], raster_args[m][1], i);
+        }
+    }
+
     /* every device failing: an error, no file, an older one kept */
     static const char old_text[] = "an older file of that name\n";
     CHECK(write_text(p[5], old_text));

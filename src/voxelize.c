@@ -308,9 +308,13 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         if (sd == CLVOX_OK && m2) {
             clvox__run r2 = rd;
             r2.lead = NULL;
+            for (uint32_t e = 0; e < d && !r2.lead; e++) r2.lead = dev[e].ms2;
             r2.accumulate = 1;
             sd = m2->prepare(dc, mesh, grid, &o, &r2, depth, &mine, &dev[d].ms2);
         }
+        if (sd == CLVOX_OK && clvox__hook_fails_device(dc->position, CLVOX__FAIL_PREPARE))
+            sd = clvox__fail(dc, CLVOX_ERR_OPENCL, "CLVOX_TEST_FAIL_DEVICE=%u:prepare: a simulated OpenCL error",
+                             dc->position);
         for (int i = 0; i < 4 && sd == CLVOX_OK; i++) {
             if (!plane_slice[i]) continue;
             cl_int err = CL_SUCCESS;

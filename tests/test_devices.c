@@ -8,10 +8,16 @@
  *    the set ("all"), at slab depths 1, 3 and auto, on closed, open and
  *    unevenly expensive meshes; every slab reaches the callback once, in
  *    increasing z, contiguous;
+ *  - the mesh is prepared once on the host: in every mode the set's
+ *    first device takes the mesh to grid space as often as one device
+ *    alone, the second never (it copies the first's buffers);
  *  - a device failing at its 1st, 2nd or last slab (CLVOX_TEST_FAIL_DEVICE
  *    through clvox__set_test_hooks): the run succeeds with the same volume
  *    and one warning naming it; alone, or with every device failing, the
  *    run fails; a device whose kernel build fails is left out of the set;
+ *  - a device failing its preparation ("K:prepare"), in the ray, tetra,
+ *    surface and conservative modes: the other device does the run alone,
+ *    preparing the mesh itself when the failing one was the first;
  *  - the reorder buffer stays within reorder_slabs whatever the slices;
  *  - a cancelled run returns CLVOX_ERR_CANCELLED with its threads joined;
  *  - under "basic basic", the command-line tool: --device all writes the
@@ -21,6 +27,7 @@
  * The parent adds the children's counts up and checks that the reorder
  * buffer's size does not depend on how unequal the devices are. */
 #include "core/environment.h"
+#include "core/internal.h" /* clvox_context.grid_space_count */
 #include "meshgen.h"
 #include "spawn.h"
 #include "test.h"
@@ -190,6 +197,33 @@ static void set_fail(int k, unsigned n)
 
 static void clear_fail(void) { clvox__set_test_hooks(&g_hooks); }
 
+static void set_fail_prepare(int k)
+{
+    clvox__test_hooks h = g_hooks;
+    h.fail_device_k = k;
+    h.fail_device_n = CLVOX__FAIL_PREPARE;
+    clvox__set_test_hooks(&h);
+}
+
+/* Meshes taken to grid space on the host (the host preparation): by the
+ * one-device context, by each device of the set. */
+typedef struct prep_count {
+    uint64_t one, dev[2];
+} prep_count;
+
+static prep_count prep_now(void)
+{
+    prep_count c = {g_one->grid_space_count, {g_all->member[0]->grid_space_count, g_all->member[1]->grid_space_count}};
+    return c;
+}
+
+static prep_count prep_since(prep_count before)
+{
+    prep_count c = prep_now();
+    c.one -= before.one, c.dev[0] -= before.dev[0], c.dev[1] -= before.dev[1];
+    return c;
+}
+
 /* ---- meshes ---- */
 
 typedef struct mesh_case {
@@ -273,7 +307,10 @@ static void test_same_volume(const mesh_case *meshes, size_t nmesh)
             clvox_stats rs = CLVOX_STATS_INIT;
             char what[256];
             snprintf(what, sizeof what, "[%s] %s, %s, one device", g_config, mc->name, modes[k].name);
+            prep_count p0 = prep_now();
             CHECK_OK(g_one, run_capture(g_one, mc->mesh, &mc->grid, &modes[k].o, &ref, &rs));
+            const uint64_t once = prep_since(p0).one;
+            CHECK_MSG(once >= 1, "%s: the mesh was never taken to grid space", what);
             check_order(&ref, what);
             CHECK_MSG(rs.device_count == 1 && rs.reorder_slabs == 2 && rs.reorder_peak <= 2,
                       "%s: %u devices, reorder %u/%u", what, rs.device_count, rs.reorder_peak, rs.reorder_slabs);
@@ -285,7 +322,13 @@ static void test_same_volume(const mesh_case *meshes, size_t nmesh)
                 capture c;
                 capture_init(&c, &mc->grid);
                 clvox_stats st = CLVOX_STATS_INIT;
+                p0 = prep_now();
                 CHECK_OK(g_all, run_capture(g_all, mc->mesh, &mc->grid, &o, &c, &st));
+                /* the host work once, on the first device; the second copies */
+                prep_count p = prep_since(p0);
+                CHECK_MSG(p.dev[0] == once && p.dev[1] == 0,
+                          "%s: mesh taken to grid space %llu times on device 0 and %llu on device 1 (one device: %llu)",
+                          what, (unsigned long long)p.dev[0], (unsigned long long)p.dev[1], (unsigned long long)once);
                 check_order(&c, what);
                 check_same(&ref, &c, what);
                 check_shares(&st, Z, what);
@@ -484,6 +527,78 @@ static void test_failures(const mesh_case *mc)
     capture_free(&ref);
 }
 
+/* A device failing its preparation, in the modes whose methods copy the
+ * first device's preparation: the run goes on the other device alone (the
+ * same volume, one warning); when the first device failed, the second
+ * prepared the mesh itself. Alone, or with every device failing, the run
+ * fails. */
+static void test_prepare_failures(const mesh_case *mc)
+{
+    mode_case modes[8];
+    const size_t nall = make_modes(modes);
+    size_t n = 0;
+    for (size_t i = 0; i < nall; i++)
+        if (!strcmp(modes[i].name, "ray parity") || !strcmp(modes[i].name, "tetra") ||
+            !strcmp(modes[i].name, "surface") || !strcmp(modes[i].name, "conservative"))
+            modes[n++] = modes[i];
+    CHECK(n == 4);
+    for (size_t i = 0; i < n; i++) {
+        char what[256];
+        capture ref;
+        capture_init(&ref, &mc->grid);
+        prep_count p0 = prep_now();
+        CHECK_OK(g_one, run_capture(g_one, mc->mesh, &mc->grid, &modes[i].o, &ref, NULL));
+        const uint64_t once = prep_since(p0).one;
+        for (int k = 0; k < 2; k++) {
+            snprintf(what, sizeof what, "[%s] %s, %s, device %d failing its preparation", g_config, mc->name,
+                     modes[i].name, k);
+            capture c;
+            capture_init(&c, &mc->grid);
+            clvox_stats st = CLVOX_STATS_INIT;
+            set_fail_prepare(k);
+            p0 = prep_now();
+            clvox_status s = run_capture(g_all, mc->mesh, &mc->grid, &modes[i].o, &c, &st);
+            prep_count p = prep_since(p0);
+            clear_fail();
+            CHECK_MSG(s == CLVOX_OK, "%s: %s: %s", what, clvox_status_string(s), clvox_context_error(g_all));
+            check_order(&c, what);
+            check_same(&ref, &c, what);
+            const char *w = clvox_context_warnings(g_all);
+            char name[32];
+            snprintf(name, sizeof name, "device %d '", k);
+            CHECK_MSG(strstr(w, name) == w && strstr(w, "left out") && strstr(w, "CLVOX_TEST_FAIL_DEVICE") &&
+                          count_lines(w) == 1,
+                      "%s: warnings '%s'", what, w);
+            CHECK_MSG(st.device_count == 2 && st.devices[k].left_out && st.devices[k].slabs == 0 &&
+                          st.devices[1 - k].slices == mc->grid.dims[2],
+                      "%s: %u devices, device %d left out %d with %u slabs, the other %llu slices", what,
+                      st.device_count, k, st.devices[k].left_out, st.devices[k].slabs,
+                      (unsigned long long)st.devices[1 - k].slices);
+            /* device 0 prepared before failing; device 1 copied it, or had no lead and prepared itself */
+            CHECK_MSG(p.dev[0] == once && p.dev[1] == (k == 0 ? once : 0),
+                      "%s: mesh taken to grid space %llu times on device 0 and %llu on device 1 (one device: %llu)",
+                      what, (unsigned long long)p.dev[0], (unsigned long long)p.dev[1], (unsigned long long)once);
+            capture_free(&c);
+        }
+        /* alone, or every device: the run's error */
+        for (int every = 0; every < 2; every++) {
+            clvox_context *ctx = every ? g_all : g_one;
+            capture c;
+            capture_init(&c, &mc->grid);
+            set_fail_prepare(every ? CLVOX__FAIL_EVERY_DEVICE : 0);
+            clvox_status s = run_capture(ctx, mc->mesh, &mc->grid, &modes[i].o, &c, NULL);
+            clear_fail();
+            const char *e = clvox_context_error(ctx);
+            CHECK_MSG(s == CLVOX_ERR_OPENCL && strstr(e, "CLVOX_TEST_FAIL_DEVICE") && c.calls == 0 &&
+                          (!every || strstr(e, "no device could prepare the run")),
+                      "[%s] %s, %s: %s failing its preparation: %s: '%s', %u slabs", g_config, mc->name,
+                      modes[i].name, every ? "every device" : "one device", clvox_status_string(s), e, c.calls);
+            capture_free(&c);
+        }
+        capture_free(&ref);
+    }
+}
+
 /* ---- 3. the reorder buffer's bound ---- */
 
 static void test_reorder_bound(clvox_mesh *m)
@@ -647,6 +762,30 @@ static void test_cli(void)
     spawn_free(&r);
     CHECK_MSG(same_file(p[0], p[4]), "with device 0 failing, --device all wrote another file");
 
+    /* the tetra method and the conservative mode (whose surface pass has a
+     * lead of its own): the same file on the set, and with either device
+     * failing its preparation (one warning) */
+    static const char *const raster_args[2][2] = {{"--method", "tetra"}, {"--mode", "conservative"}};
+    for (int m = 0; m < 2; m++) {
+        char q[4][PATH_MAX];
+        for (int i = 0; i < 4; i++) {
+            char leaf[32];
+            snprintf(leaf, sizeof leaf, "raster%d-%d.npy", m, i);
+            path_join(q[i], sizeof q[i], g_out, leaf);
+            static const char *const fail_at[4] = {NULL, NULL, "0:prepare", "1:prepare"};
+            cli(&r, fail_at[i], ARGS(mesh, "-r", "40", raster_args[m][0], raster_args[m][1], "--device",
+                                     i ? "all" : "0", "-q", "-o", q[i]));
+            char lead[32];
+            snprintf(lead, sizeof lead, "clvox: warning: device %d ", i - 2);
+            CHECK_MSG(r.code == 0 && (i < 2 ? !*r.err : lines_starting(r.err, lead) == 1 && count_lines(r.err) == 1),
+                      "%s %s, CLVOX_TEST_FAIL_DEVICE=%s: exit %d, stderr '%s'", raster_args[m][0], raster_args[m][1],
+                      fail_at[i] ? fail_at[i] : "", r.code, r.err);
+            spawn_free(&r);
+            if (i) CHECK_MSG(same_file(q[0], q[i]), "%s %s: run %d wrote another file than one device",
+                             raster_args[m][0], raster_args[m][1], i);
+        }
+    }
+
     /* every device failing: an error, no file, an older one kept */
     static const char old_text[] = "an older file of that name\n";
     CHECK(write_text(p[5], old_text));
@@ -728,6 +867,7 @@ static int child(const char *config)
         mesh_case fault = *lop;
         fault.grid = test_grid(g_lo, g_hi, 48, 48, 64);
         test_failures(&fault);
+        test_prepare_failures(&fault);
         test_reorder_bound(lop->mesh);
         test_cancel(&fault);
     }

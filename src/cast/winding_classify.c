@@ -149,7 +149,9 @@ clvox_status clvox__winding_cast_prepare(clvox_context *ctx, const clvox_mesh *m
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
     } else {
         *sp.side = *ctx; /* the parity branch's own error message */
+        const uint64_t counted = ctx->grid_space_count;
         clvox__parallel(2, speculate, &sp);
+        ctx->grid_space_count += sp.side->grid_space_count - counted; /* the side's transforms are ctx's */
         st = sp.prep_st;
         const int same = st == CLVOX_OK && sp.tree_st == CLVOX_OK && wm.cap_count == 0 &&
                          wm.report.flipped_triangles == 0 && wm.triangle_count == mesh->triangle_count;

@@ -58,7 +58,9 @@ static clvox__test_hooks from_environment(void)
         long k = fail[0] == '*' ? CLVOX__FAIL_EVERY_DEVICE : strtol(fail, &colon, 10);
         if (*colon == ':' && (k == CLVOX__FAIL_EVERY_DEVICE || (k >= 0 && k < 64))) {
             unsigned long n = strtoul(colon + 1, &end, 10);
-            if (end != colon + 1 && *end == 0 && n < (1ul << 30))
+            if (!strcmp(colon + 1, "prepare"))
+                h.fail_device_k = (int)k, h.fail_device_n = CLVOX__FAIL_PREPARE;
+            else if (end != colon + 1 && *end == 0 && n < (1ul << 30))
                 h.fail_device_k = (int)k, h.fail_device_n = n ? (unsigned)n : CLVOX__FAIL_BUILD;
         }
     }

@@ -33,7 +33,9 @@ typedef struct clvox__test_hooks {
     int host_threads;          /* CLVOX_HOST_THREADS=1..16: host threads; 0: the online cores, at most 8 */
     /* CLVOX_TEST_FAIL_DEVICE=K:N: device K of a run's device list (from 0)
      * fails at its N-th slab (from 1) with an OpenCL error; N = 0 fails its
-     * kernel build at context creation (fail_device_n = CLVOX__FAIL_BUILD).
+     * kernel build at context creation (fail_device_n = CLVOX__FAIL_BUILD),
+     * N = "prepare" its preparation of a run, once its methods are prepared
+     * (fail_device_n = CLVOX__FAIL_PREPARE).
      * K = '*' (CLVOX__FAIL_EVERY_DEVICE):
      * every device does. fail_device_k = -1: off. */
     int fail_device_k;
@@ -54,9 +56,12 @@ typedef struct clvox__test_hooks {
 /* fail_device_n of "K:0" (the build): a zero-initialised struct fails nothing
  * (no device has a slab 0). */
 #define CLVOX__FAIL_BUILD 0xFFFFFFFFu
+/* fail_device_n of "K:prepare" (voxelize.c, after the device's prepare). */
+#define CLVOX__FAIL_PREPARE 0xFFFFFFFEu
 
 /* Whether CLVOX_TEST_FAIL_DEVICE says device `position` fails at its n-th
- * slab (from 1; n = CLVOX__FAIL_BUILD: its kernel build). */
+ * slab (from 1; n = CLVOX__FAIL_BUILD: its kernel build; n =
+ * CLVOX__FAIL_PREPARE: its preparation of a run). */
 int clvox__hook_fails_device(unsigned position, unsigned n);
 
 /* The switches in force: the environment's, read once on the first call,

@@ -51,6 +51,10 @@ struct clvox_context {
     char warnings[4096];
     size_t warnings_kept;
     int fp32_rounded;       /* 1: built with -cl-fp32-correctly-rounded-divide-sqrt (device_checks.c) */
+    /* Meshes this context took to grid space (clvox__grid_space_vertices
+     * calls): a device of a set that copies the lead's preparation takes
+     * none (test_devices). */
+    uint64_t grid_space_count;
 };
 
 /* Appends one line to ctx->warnings (dropped when full). */
@@ -429,7 +433,8 @@ typedef struct clvox__run {
     int accumulate;
     /* The same method prepared for the same run on another device (device
      * sets), or NULL: a method that can copies the lead's device buffers
-     * instead of preparing the mesh again on the host (the ray method). */
+     * instead of preparing the mesh again on the host (the ray, tetra and
+     * surface methods; the driver passes each method's own lead). */
     const struct clvox__method_state *lead;
 } clvox__run;
 

@@ -208,6 +208,7 @@ clvox_status clvox__grid_space_vertices(clvox_context *ctx, const clvox_mesh *me
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "mesh too large");
     float *gv = page_floats(nv * 3);
     if (!gv) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu vertices in grid space", nv);
+    ctx->grid_space_count++;
     if (threads <= 0) threads = clvox__host_threads();
     if (nv < 10000) threads = 1;
     soup_job J = {.mesh = mesh, .grid = grid, .axes = axes, .gv = gv};

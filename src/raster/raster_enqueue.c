@@ -7,6 +7,8 @@
 #include "raster_enqueue.h"
 #include "core/launch.h"
 
+#include <stddef.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -196,4 +198,66 @@ clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, 
     for (int i = 0; i < EV_N; i++)
         if (ev[i]) clReleaseEvent(ev[i]);
     return st;
+}
+
+/* ---- one preparation for the devices of a run ---- */
+
+cl_mem clvox__raster_copy_buffer(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st,
+                                 const char *what)
+{
+    if (*st != CLVOX_OK) return NULL;
+    size_t bytes = 0;
+    char msg[160];
+    cl_int err = clGetMemObjectInfo(src, CL_MEM_SIZE, sizeof bytes, &bytes, NULL);
+    void *host = NULL;
+    if (err == CL_SUCCESS)
+        host = clEnqueueMapBuffer(from->queue, src, CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &err);
+    if (err != CL_SUCCESS || !host) {
+        snprintf(msg, sizeof msg, "reading the %s of device '%.40s'", what, from->device.name);
+        *st = clvox__cl_fail(ctx, err != CL_SUCCESS ? err : CL_MAP_FAILURE, msg);
+        return NULL;
+    }
+    /* CL_MEM_COPY_HOST_PTR: copied before clCreateBuffer returns */
+    cl_mem m = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes, host, st, what);
+    err = clEnqueueUnmapMemObject(from->queue, src, host, 0, NULL, NULL);
+    if (err == CL_SUCCESS) err = clFinish(from->queue);
+    if (err != CL_SUCCESS && *st == CLVOX_OK) {
+        clvox__release_mem(&m);
+        snprintf(msg, sizeof msg, "clEnqueueUnmapMemObject(the %s of device '%.40s')", what, from->device.name);
+        *st = clvox__cl_fail(ctx, err, msg);
+    }
+    return m;
+}
+
+/* The reference count sits before the array (aligned for any int32). */
+typedef struct shared_i32 {
+    size_t refs;
+    int32_t a[];
+} shared_i32;
+
+static shared_i32 *shared_of(int32_t *a)
+{
+    return (shared_i32 *)(void *)((char *)a - offsetof(shared_i32, a));
+}
+
+int32_t *clvox__shared_i32_new(size_t n)
+{
+    if (n > (SIZE_MAX - sizeof(shared_i32)) / sizeof(int32_t) - 1) return NULL;
+    shared_i32 *h = malloc(sizeof *h + (n ? n : 1) * sizeof(int32_t));
+    if (!h) return NULL;
+    h->refs = 1;
+    return h->a;
+}
+
+int32_t *clvox__shared_i32_ref(int32_t *a)
+{
+    if (a) shared_of(a)->refs++;
+    return a;
+}
+
+void clvox__shared_i32_drop(int32_t *a)
+{
+    if (!a) return;
+    shared_i32 *h = shared_of(a);
+    if (--h->refs == 0) free(h);
 }

@@ -72,4 +72,25 @@ typedef struct clvox__raster_pass {
 /* n tasks binned in t_bin seconds (counted as cast time). */
 clvox_status clvox__raster_run(clvox_context *ctx, const clvox__raster_pass *p, const clvox__raster_tasks *tasks,
                                size_t n, double t_bin, clvox__slab_stats *ss);
+
+/* ---- one preparation for the devices of a run (clvox__run.lead) ----
+ * The lead (the method prepared on an earlier device of the run) did the
+ * host work; a follower takes its host arrays by reference and copies its
+ * device buffers. */
+
+/* A device copy on ctx of `src`, a buffer of the lead's context `from`
+ * (each device has a context of its own, maybe of another platform, so no
+ * clEnqueueCopyBuffer): mapped for reading on the lead's queue, copied into
+ * a new read-only buffer of ctx at creation, unmapped. Nothing is done when
+ * *st is not CLVOX_OK; NULL on failure (*st set, the error in ctx). */
+cl_mem clvox__raster_copy_buffer(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st,
+                                 const char *what);
+
+/* A host array of n int32 shared, read only once prepared, by one method's
+ * states on the devices of a run; freed with its last reference. Taken and
+ * dropped on the run's calling thread only (prepare, release), never by
+ * the slab threads. new: NULL when out of memory. */
+int32_t *clvox__shared_i32_new(size_t n);
+int32_t *clvox__shared_i32_ref(int32_t *a);
+void clvox__shared_i32_drop(int32_t *a); /* NULL-safe */
 #endif

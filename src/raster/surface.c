@@ -47,7 +47,10 @@
  * rows), the kernel ORs each task's intervals into the slab's bit rows
  * (atomic_or), and a count kernel adds up the slab's bits. Slabs are
  * independent: the same volume in any slab depth and order. Memory: the
- * soup, the ranges, one slab's task list and the driver's slab buffer. */
+ * soup, the ranges, one slab's task list and the driver's slab buffer.
+ * Several devices (clvox__run.lead): the first device of a run computes
+ * the soup and the ranges; the others share its ranges (one host array)
+ * and copy its device soup (raster_enqueue.h). */
 #include "raster_enqueue.h"
 
 #include <math.h>
@@ -63,7 +66,8 @@ struct clvox__method_state {
     clvox_grid grid;
     int accumulate;      /* 1: OR over the slab the previous method left (conservative) */
     size_t tri_count;    /* triangles kept (those meeting the grid) */
-    int32_t *range;      /* 4 per triangle: first slice, last slice, first row, last row */
+    int32_t *range;      /* 4 per triangle: first slice, last slice, first row, last row;
+                          * shared with the run's other devices (clvox__shared_i32) */
     uint32_t words_per_row;
     clvox__raster_tasks tasks; /* the slab's (triangle, first slice, end slice, rows first | last << 16) */
     cl_mem soup, filled;
@@ -80,7 +84,7 @@ static void surface_release(clvox__method_state *s)
     clvox__release_mem(&s->filled);
     if (s->k_raster) clReleaseKernel(s->k_raster);
     if (s->k_count) clReleaseKernel(s->k_count);
-    free(s->range);
+    clvox__shared_i32_drop(s->range);
     free(s);
 }
 
@@ -103,28 +107,17 @@ static int cell_range(double mn, double mx, uint32_t n, int32_t *lo, int32_t *hi
     return 1;
 }
 
-static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
-                                    const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
-                                    clvox_stats *stats, clvox__method_state **out)
+/* The host work, done once for a run (by its first device): the grid-space
+ * soup, each triangle's cell ranges, the triangles outside the grid
+ * dropped; the soup uploaded. */
+static clvox_status surface_host(clvox__method_state *s, const clvox_mesh *mesh, const clvox_grid *grid)
 {
-    (void)opts;
-    (void)slab_depth;
-    *out = NULL;
-    clvox__method_state *s = calloc(1, sizeof *s);
-    if (!s) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
-    s->ctx = ctx;
-    s->grid = *grid;
-    s->accumulate = run->accumulate;
-    s->poll = run->poll;
-    s->poll_user = run->poll_user;
-    s->words_per_row = clvox__row_words(grid->dims[0]);
-
-    double t0 = clvox__now();
+    clvox_context *ctx = s->ctx;
     float *soup = NULL;
     clvox_status st = clvox__grid_space_soup(ctx, mesh, grid, clvox__axes_for(CLVOX_AXIS_X), &soup);
     size_t nt = mesh->triangle_count, cap = nt ? nt : 1;
     if (st == CLVOX_OK) {
-        s->range = malloc(cap * 4 * sizeof *s->range);
+        s->range = cap <= SIZE_MAX / 4 ? clvox__shared_i32_new(cap * 4) : NULL;
         if (!s->range) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu triangles", nt);
     }
     size_t kept = 0;
@@ -146,12 +139,43 @@ static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
     if (st == CLVOX_OK) s->soup = clvox__buffer(ctx, ro, kept * 9 * sizeof(float), soup, &st, "triangles");
     free(soup);
+    return st;
+}
+
+static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
+                                    const clvox_voxelize_options *opts, const clvox__run *run, uint32_t slab_depth,
+                                    clvox_stats *stats, clvox__method_state **out)
+{
+    (void)opts;
+    (void)slab_depth;
+    *out = NULL;
+    clvox__method_state *s = calloc(1, sizeof *s);
+    if (!s) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
+    s->ctx = ctx;
+    s->grid = *grid;
+    s->accumulate = run->accumulate;
+    s->poll = run->poll;
+    s->poll_user = run->poll_user;
+    s->words_per_row = clvox__row_words(grid->dims[0]);
+
+    double t0 = clvox__now();
+    clvox_status st = CLVOX_OK;
+    const clvox__method_state *lead = run->lead;
+    if (lead) {
+        /* Another device of the run did the host work: its ranges
+         * (shared), a copy of its soup. */
+        s->tri_count = lead->tri_count;
+        s->range = clvox__shared_i32_ref(lead->range);
+        s->soup = clvox__raster_copy_buffer(ctx, lead->ctx, lead->soup, &st, "triangles");
+    } else {
+        st = surface_host(s, mesh, grid);
+    }
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
     if (st == CLVOX_OK)
         st = clvox__raster_objects(ctx, "clvox_surface_raster", "clvox_surface_count", "surface mode", &s->filled,
                                    &s->k_raster, &s->k_count);
     if (stats) {
-        uint64_t b = (uint64_t)kept * (9 * 4 + 16 + 4);
+        uint64_t b = (uint64_t)s->tri_count * (9 * 4 + 16 + 4);
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;
     }
     if (st != CLVOX_OK) {

@@ -18,6 +18,9 @@
  * bits, in place: the presence buffer is the driver's slab buffer itself.
  * Memory: that buffer (X*Y*nz/8 bytes), the triangle soup, one task list:
  * bounded like the ray method.
+ * Several devices (clvox__run.lead): the first device of a run does the
+ * host work above; the others take its slice ranges (one host array,
+ * shared) and copy its device soup (raster_enqueue.h).
  *
  * Grid space and O. The soup comes from clvox__grid_space_soup (one rounding
  * per vertex, x,y,z order: slices are z = const). O is chosen in world
@@ -91,7 +94,8 @@ struct clvox__method_state {
     clvox_axis tie_axis; /* X, Y or Z (resolved) */
     cl_uint tie_order;   /* axes u | v << 2 | w << 4 */
     size_t tri_count;    /* tetrahedra kept (those that meet the grid), in Morton order */
-    int32_t *klo, *khi;  /* slices of each tetrahedron */
+    int32_t *bins;       /* klo then khi: shared with the run's other devices (clvox__shared_i32) */
+    int32_t *klo, *khi;  /* slices of each tetrahedron (in bins) */
     uint32_t slices_per_task;
     uint32_t words_per_row;
     clvox__raster_tasks tasks; /* the slab's (tetrahedron, first slice, end slice, 0) */
@@ -109,8 +113,7 @@ static void tetra_release(clvox__method_state *s)
     clvox__release_mem(&s->filled);
     if (s->k_raster) clReleaseKernel(s->k_raster);
     if (s->k_resolve) clReleaseKernel(s->k_resolve);
-    free(s->klo);
-    free(s->khi);
+    clvox__shared_i32_drop(s->bins);
     free(s);
 }
 
@@ -175,23 +178,24 @@ static uint32_t spread3(uint32_t x)
     return x;
 }
 
-/* Keeps the tetrahedra that meet the grid (klo <= khi) and sorts them by
- * the Morton code of their triangle's centroid (grid space), so that tasks
- * run together read nearby triangles and touch nearby rows of presence
- * bits: *soup, klo, khi and tri_count are replaced. Stable LSD radix sort,
- * 2 x 15 bits. */
-static clvox_status sort_tetrahedra(clvox__method_state *s, float **soup)
+/* Keeps the tetrahedra that meet the grid (lo[i] <= hi[i], the slices of
+ * the tri_count tetrahedra of *soup) and sorts them by the Morton code of
+ * their triangle's centroid (grid space), so that tasks run together read
+ * nearby triangles and touch nearby rows of presence bits: *soup is
+ * replaced, s->bins, klo, khi and tri_count are set. Stable LSD radix
+ * sort, 2 x 15 bits. */
+static clvox_status sort_tetrahedra(clvox__method_state *s, float **soup, const int32_t *lo, const int32_t *hi)
 {
     size_t n = 0, nt = s->tri_count;
-    for (size_t i = 0; i < nt; i++) n += s->klo[i] <= s->khi[i];
+    for (size_t i = 0; i < nt; i++) n += lo[i] <= hi[i];
     size_t cap = n ? n : 1;
     uint32_t *key = malloc(cap * sizeof *key), *idx = malloc(cap * sizeof *idx);
     uint32_t *key2 = malloc(cap * sizeof *key2), *idx2 = malloc(cap * sizeof *idx2);
     uint32_t *cnt = calloc(1u << 15, sizeof *cnt);
     float *out = malloc(cap * 9 * sizeof *out);
-    int32_t *klo = malloc(cap * sizeof *klo), *khi = malloc(cap * sizeof *khi);
+    int32_t *bins = clvox__shared_i32_new(2 * cap);
     clvox_status st = CLVOX_OK;
-    if (!key || !idx || !key2 || !idx2 || !cnt || !out || !klo || !khi) {
+    if (!key || !idx || !key2 || !idx2 || !cnt || !out || !bins) {
         st = clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory sorting %zu tetrahedra", n);
         goto done;
     }
@@ -199,7 +203,7 @@ static clvox_status sort_tetrahedra(clvox__method_state *s, float **soup)
     for (int a = 0; a < 3; a++) scale[a] = 1023.0 / (s->grid.dims[a] > 1 ? s->grid.dims[a] - 1 : 1);
     n = 0;
     for (size_t i = 0; i < nt; i++) {
-        if (s->klo[i] > s->khi[i]) continue;
+        if (lo[i] > hi[i]) continue;
         const float *t = *soup + i * 9;
         uint32_t code = 0;
         for (int a = 0; a < 3; a++) {
@@ -230,19 +234,18 @@ static clvox_status sort_tetrahedra(clvox__method_state *s, float **soup)
         idx = idx2;
         idx2 = t;
     }
+    s->bins = bins;
+    s->klo = bins;
+    s->khi = bins + cap;
+    bins = NULL;
     for (size_t i = 0; i < n; i++) {
         memcpy(out + i * 9, *soup + (size_t)idx[i] * 9, 9 * sizeof *out);
-        klo[i] = s->klo[idx[i]];
-        khi[i] = s->khi[idx[i]];
+        s->klo[i] = lo[idx[i]];
+        s->khi[i] = hi[idx[i]];
     }
     free(*soup);
     *soup = out;
     out = NULL;
-    free(s->klo);
-    free(s->khi);
-    s->klo = klo;
-    s->khi = khi;
-    klo = khi = NULL;
     s->tri_count = n;
 done:
     free(key);
@@ -251,6 +254,58 @@ done:
     free(idx2);
     free(cnt);
     free(out);
+    clvox__shared_i32_drop(bins);
+    return st;
+}
+
+/* The host work, done once for a run (by its first device): O, the
+ * grid-space soup, each tetrahedron's slices, the Morton order. The soup,
+ * sorted, in *soup (the caller uploads and frees it). */
+static clvox_status tetra_host(clvox__method_state *s, const clvox_mesh *mesh, const clvox_grid *grid,
+                               const clvox_voxelize_options *opts, float **soup)
+{
+    clvox_context *ctx = s->ctx;
+    const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
+    clvox_status st = choose_origin(ctx, mesh, opts, s->origin);
+    for (int a = 0; st == CLVOX_OK && a < 3; a++) {
+        double g = (s->origin[a] - grid->origin[a]) / grid->voxel_size[a] - 0.5;
+        s->origin_g[a] = (float)g;
+        if (!isfinite(s->origin_g[a]))
+            st = clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "tetra origin %g on axis %c is out of range",
+                             s->origin[a], "xyz"[a]);
+    }
+    if (st == CLVOX_OK) st = clvox__grid_space_soup(ctx, mesh, grid, clvox__axes_for(CLVOX_AXIS_X), soup);
+    int32_t *klo = NULL, *khi = NULL;
+    if (st == CLVOX_OK) {
+        klo = malloc((s->tri_count ? s->tri_count : 1) * sizeof *klo);
+        khi = malloc((s->tri_count ? s->tri_count : 1) * sizeof *khi);
+        if (!klo || !khi) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for tetrahedra");
+    }
+    /* Slices each tetrahedron spans (closed range widened by the margin);
+     * tetrahedra that miss the grid's centres altogether are dropped. */
+    const double m = BIN_MARGIN;
+    const double lim[3] = {(double)X - 1, (double)Y - 1, (double)Z - 1};
+    for (size_t i = 0; st == CLVOX_OK && i < s->tri_count; i++) {
+        double lo[3], hi[3];
+        for (int a = 0; a < 3; a++) lo[a] = hi[a] = s->origin_g[a];
+        for (int c = 0; c < 3; c++)
+            for (int a = 0; a < 3; a++) {
+                double x = (*soup)[i * 9 + c * 3 + a];
+                if (x < lo[a]) lo[a] = x;
+                if (x > hi[a]) hi[a] = x;
+            }
+        int miss = 0;
+        for (int a = 0; a < 3; a++) miss |= hi[a] + m < 0 || lo[a] - m > lim[a];
+        if (miss) {
+            klo[i] = 1;
+            khi[i] = 0;
+            continue;
+        }
+        double kl = ceil(lo[2] - m), kh = floor(hi[2] + m);
+        klo[i] = (int32_t)(kl < 0 ? 0 : kl);
+        khi[i] = (int32_t)(kh > lim[2] ? lim[2] : kh);
+    }
+    if (st == CLVOX_OK) st = sort_tetrahedra(s, soup, klo, khi);
     free(klo);
     free(khi);
     return st;
@@ -275,53 +330,29 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     s->tie_axis = opts->ray_axis == CLVOX_AXIS_DEFAULT ? CLVOX_AXIS_X : opts->ray_axis;
     clvox__axes tie = clvox__axes_for(s->tie_axis);
     s->tie_order = (cl_uint)(tie.perm[0] | tie.perm[1] << 2 | tie.perm[2] << 4);
-    const uint32_t X = grid->dims[0], Y = grid->dims[1], Z = grid->dims[2];
-    s->words_per_row = (X + 31) / 32;
+    s->words_per_row = (grid->dims[0] + 31) / 32;
 
     double t0 = clvox__now();
-    clvox_status st = choose_origin(ctx, mesh, opts, s->origin);
-    for (int a = 0; st == CLVOX_OK && a < 3; a++) {
-        double g = (s->origin[a] - grid->origin[a]) / grid->voxel_size[a] - 0.5;
-        s->origin_g[a] = (float)g;
-        if (!isfinite(s->origin_g[a]))
-            st = clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "tetra origin %g on axis %c is out of range",
-                             s->origin[a], "xyz"[a]);
+    clvox_status st = CLVOX_OK;
+    const clvox__method_state *lead = run->lead;
+    if (lead) {
+        /* Another device of the run did the host work: its O, its slice
+         * ranges (shared), a copy of its soup. */
+        memcpy(s->origin, lead->origin, sizeof s->origin);
+        memcpy(s->origin_g, lead->origin_g, sizeof s->origin_g);
+        s->tri_count = lead->tri_count;
+        s->bins = clvox__shared_i32_ref(lead->bins);
+        s->klo = lead->klo;
+        s->khi = lead->khi;
+        s->soup = clvox__raster_copy_buffer(ctx, lead->ctx, lead->soup, &st, "triangles");
+    } else {
+        float *soup = NULL;
+        st = tetra_host(s, mesh, grid, opts, &soup);
+        cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
+        if (st == CLVOX_OK)
+            s->soup = clvox__buffer(ctx, ro, s->tri_count * 9 * sizeof(float), soup, &st, "triangles");
+        free(soup);
     }
-    float *soup = NULL;
-    if (st == CLVOX_OK) st = clvox__grid_space_soup(ctx, mesh, grid, clvox__axes_for(CLVOX_AXIS_X), &soup);
-    if (st == CLVOX_OK) {
-        s->klo = malloc((s->tri_count ? s->tri_count : 1) * sizeof *s->klo);
-        s->khi = malloc((s->tri_count ? s->tri_count : 1) * sizeof *s->khi);
-        if (!s->klo || !s->khi) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for tetrahedra");
-    }
-    /* Slices each tetrahedron spans (closed range widened by the margin);
-     * tetrahedra that miss the grid's centres altogether are dropped. */
-    const double m = BIN_MARGIN;
-    const double lim[3] = {(double)X - 1, (double)Y - 1, (double)Z - 1};
-    for (size_t i = 0; st == CLVOX_OK && i < s->tri_count; i++) {
-        double lo[3], hi[3];
-        for (int a = 0; a < 3; a++) lo[a] = hi[a] = s->origin_g[a];
-        for (int c = 0; c < 3; c++)
-            for (int a = 0; a < 3; a++) {
-                double x = soup[i * 9 + c * 3 + a];
-                if (x < lo[a]) lo[a] = x;
-                if (x > hi[a]) hi[a] = x;
-            }
-        int miss = 0;
-        for (int a = 0; a < 3; a++) miss |= hi[a] + m < 0 || lo[a] - m > lim[a];
-        if (miss) {
-            s->klo[i] = 1;
-            s->khi[i] = 0;
-            continue;
-        }
-        double kl = ceil(lo[2] - m), kh = floor(hi[2] + m);
-        s->klo[i] = (int32_t)(kl < 0 ? 0 : kl);
-        s->khi[i] = (int32_t)(kh > lim[2] ? lim[2] : kh);
-    }
-    if (st == CLVOX_OK) st = sort_tetrahedra(s, &soup);
-    cl_mem_flags ro = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    if (st == CLVOX_OK) s->soup = clvox__buffer(ctx, ro, s->tri_count * 9 * sizeof(float), soup, &st, "triangles");
-    free(soup);
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
 
     if (st == CLVOX_OK)

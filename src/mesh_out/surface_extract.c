@@ -35,6 +35,7 @@
 #include <string.h>
 
 #define MC_MAX_TRI 10
+#define NONE UINT32_MAX
 
 struct clvox__surface {
     clvox_context *ctx;
@@ -54,6 +55,7 @@ struct clvox__surface {
     uint8_t *occ[2];          /* X*Y: slice below, slice above the current plane */
     uint8_t *cfg[2];          /* (X+1)*(Y+1): planes K-1, K */
     uint32_t *base[2];        /* first vertex of each corner, from plane_start */
+    uint32_t *mx[2], *my[2];  /* x / y edges of planes K-1, K: first of their two midpoints, or NONE */
     /* marching cubes */
     uint8_t mc_count[256];
     int8_t mc_tri[256][MC_MAX_TRI * 3];
@@ -234,35 +236,106 @@ static clvox_status faces_plane(clvox__surface *s, uint32_t K)
                 if (st != CLVOX_OK) return st;
             }
         }
+    /* the diagonal edges of the plane: two midpoints each, [0] for the
+     * inside voxel below the plane, [1] for the one above */
+    for (int a = 0; a < 2; a++) {
+        uint32_t ni = a == 0 ? s->X : s->X + 1, nj = a == 0 ? s->Y + 1 : s->Y;
+        uint32_t *m = a == 0 ? s->mx[1] : s->my[1];
+        for (uint32_t J = 0; J < nj; J++)
+            for (uint32_t I = 0; I < ni; I++) {
+                int b[4]; /* [across + 2 * above] */
+                for (int q = 0; q < 4; q++) {
+                    int64_t i = (int64_t)I - (a == 1 ? 1 - (q & 1) : 0), j = (int64_t)J - (a == 0 ? 1 - (q & 1) : 0);
+                    b[q] = occ_at(s, s->occ[q >> 1], i, j);
+                }
+                size_t p = I + (size_t)J * ni;
+                m[p] = NONE;
+                if (b[0] != b[3] || b[1] != b[2] || b[0] == b[1]) continue;
+                m[p] = (uint32_t)(s->nv - s->plane_start[1]);
+                double lat[3] = {I + (a == 0 ? 0.5 : 0.0), J + (a == 1 ? 0.5 : 0.0), K};
+                for (int n = 0; n < 2; n++) {
+                    clvox_status st = put_vertex(s, lat);
+                    if (st != CLVOX_OK) return st;
+                }
+            }
+    }
     return CLVOX_OK;
 }
 
 /* The face of voxel vox on side `side` (0: -, 1: +) of axis d; planes K-1
- * and K (tables 0 and 1) hold its corners. */
-static clvox_status faces_quad(clvox__surface *s, const int64_t vox[3], int d, int side, uint32_t K)
+ * and K (tables 0 and 1) hold its corners. A side on a lattice edge where
+ * two inside voxels touch diagonally gets that voxel's own midpoint vertex
+ * (vmid: the voxel's vertical edges, made on first use, NONE until then),
+ * so that the two pairs of faces round the edge never share an edge of the
+ * mesh; such a face is fanned from its first midpoint. */
+static clvox_status faces_quad(clvox__surface *s, const int64_t vox[3], int d, int side, uint32_t K, uint64_t vmid[4])
 {
     static const int order[2][4][2] = {{{0, 0}, {0, 1}, {1, 1}, {1, 0}}, {{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
     const size_t W = (size_t)s->X + 1;
     int u = (d + 1) % 3, w = (d + 2) % 3;
     uint64_t id[4];
-    double pos[4][3];
+    int64_t P[4][3];
     for (int i = 0; i < 4; i++) {
-        int64_t P[3];
-        P[d] = vox[d] + side;
-        P[u] = vox[u] + order[side][i][0];
-        P[w] = vox[w] + order[side][i][1];
+        P[i][d] = vox[d] + side;
+        P[i][u] = vox[u] + order[side][i][0];
+        P[i][w] = vox[w] + order[side][i][1];
         int v = 0;
-        for (int a = 0; a < 3; a++) v |= (int)(vox[a] - (P[a] - 1)) << a;
-        int t = (int)(P[2] - ((int64_t)K - 1));
-        size_t p = (size_t)P[0] + (size_t)P[1] * W;
+        for (int a = 0; a < 3; a++) v |= (int)(vox[a] - (P[i][a] - 1)) << a;
+        int t = (int)(P[i][2] - ((int64_t)K - 1));
+        size_t p = (size_t)P[i][0] + (size_t)P[i][1] * W;
         int sh = s->sheet_of[s->cfg[t][p]][v * 3 + d];
         if (sh < 0) return clvox__fail(s->ctx, CLVOX_ERR_INTERNAL, "voxel faces: a face without its corner");
         id[i] = s->plane_start[t] + s->base[t][p] + (uint64_t)sh;
-        for (int a = 0; a < 3; a++) pos[i][a] = (double)P[a];
     }
-    clvox_status st = put_triangle(s, id[0], id[1], id[2], pos[0], pos[1], pos[2]);
-    if (st == CLVOX_OK) st = put_triangle(s, id[0], id[2], id[3], pos[0], pos[2], pos[3]);
-    return st;
+    uint64_t pid[8];
+    double pos[8][3];
+    int n = 0, first_mid = -1;
+    for (int i = 0; i < 4; i++) {
+        const int64_t *A = P[i], *B = P[(i + 1) & 3];
+        pid[n] = id[i];
+        for (int a = 0; a < 3; a++) pos[n][a] = (double)A[a];
+        n++;
+        int axis = A[0] != B[0] ? 0 : A[1] != B[1] ? 1 : 2;
+        int64_t lo[3] = {A[0] < B[0] ? A[0] : B[0], A[1] < B[1] ? A[1] : B[1], A[2] < B[2] ? A[2] : B[2]};
+        uint64_t mid = UINT64_MAX;
+        if (axis == 2) { /* a vertical edge of slice vox[2] */
+            int b[4];
+            for (int q = 0; q < 4; q++)
+                b[q] = occ_at(s, s->occ[0], lo[0] - 1 + (q & 1), lo[1] - 1 + (q >> 1));
+            if (b[0] == b[3] && b[1] == b[2] && b[0] != b[1]) {
+                int c = (int)(lo[0] - vox[0]) + 2 * (int)(lo[1] - vox[1]);
+                if (vmid[c] == UINT64_MAX) {
+                    double lat[3] = {(double)lo[0], (double)lo[1], (double)lo[2] + 0.5};
+                    vmid[c] = s->nv;
+                    clvox_status st = put_vertex(s, lat);
+                    if (st != CLVOX_OK) return st;
+                }
+                mid = vmid[c];
+            }
+        } else {
+            int t = (int)(lo[2] - ((int64_t)K - 1));
+            const uint32_t *m = axis == 0 ? s->mx[t] : s->my[t];
+            size_t p = axis == 0 ? (size_t)lo[0] + (size_t)lo[1] * s->X : (size_t)lo[0] + (size_t)lo[1] * W;
+            if (m[p] != NONE) mid = s->plane_start[t] + m[p] + (vox[2] == lo[2] ? 1 : 0);
+        }
+        if (mid != UINT64_MAX) {
+            if (first_mid < 0) first_mid = n;
+            pid[n] = mid;
+            for (int a = 0; a < 3; a++) pos[n][a] = (A[a] + B[a]) * 0.5;
+            n++;
+        }
+    }
+    if (first_mid < 0) {
+        clvox_status st = put_triangle(s, pid[0], pid[1], pid[2], pos[0], pos[1], pos[2]);
+        if (st == CLVOX_OK) st = put_triangle(s, pid[0], pid[2], pid[3], pos[0], pos[2], pos[3]);
+        return st;
+    }
+    for (int k = 1; k + 1 < n; k++) {
+        int a = first_mid, b = (first_mid + k) % n, c = (first_mid + k + 1) % n;
+        clvox_status st = put_triangle(s, pid[a], pid[b], pid[c], pos[a], pos[b], pos[c]);
+        if (st != CLVOX_OK) return st;
+    }
+    return CLVOX_OK;
 }
 
 /* Plane K: its vertices, its z faces, then the x and y faces of slice K-1. */
@@ -274,18 +347,20 @@ static clvox_status faces_step(clvox__surface *s, uint32_t K)
             int below = occ_at(s, s->occ[0], i, j), above = occ_at(s, s->occ[1], i, j);
             if (below == above) continue;
             int64_t vox[3] = {i, j, below ? (int64_t)K - 1 : K};
-            st = faces_quad(s, vox, 2, below, K);
+            uint64_t vmid[4] = {UINT64_MAX, UINT64_MAX, UINT64_MAX, UINT64_MAX};
+            st = faces_quad(s, vox, 2, below, K, vmid);
         }
     if (K > 0)
         for (uint32_t j = 0; j < s->Y && st == CLVOX_OK; j++)
             for (uint32_t i = 0; i < s->X && st == CLVOX_OK; i++) {
                 if (!occ_at(s, s->occ[0], i, j)) continue;
                 int64_t vox[3] = {i, j, (int64_t)K - 1};
+                uint64_t vmid[4] = {UINT64_MAX, UINT64_MAX, UINT64_MAX, UINT64_MAX};
                 for (int d = 0; d < 2 && st == CLVOX_OK; d++)
                     for (int side = 0; side < 2 && st == CLVOX_OK; side++) {
                         int64_t ni = (int64_t)i + (d == 0 ? 2 * side - 1 : 0);
                         int64_t nj = (int64_t)j + (d == 1 ? 2 * side - 1 : 0);
-                        if (!occ_at(s, s->occ[0], ni, nj)) st = faces_quad(s, vox, d, side, K);
+                        if (!occ_at(s, s->occ[0], ni, nj)) st = faces_quad(s, vox, d, side, K, vmid);
                     }
             }
     uint8_t *o = s->occ[0];
@@ -297,6 +372,12 @@ static clvox_status faces_step(clvox__surface *s, uint32_t K)
     uint32_t *b = s->base[0];
     s->base[0] = s->base[1];
     s->base[1] = b;
+    b = s->mx[0];
+    s->mx[0] = s->mx[1];
+    s->mx[1] = b;
+    b = s->my[0];
+    s->my[0] = s->my[1];
+    s->my[1] = b;
     s->plane_start[0] = s->plane_start[1];
     return st;
 }
@@ -452,7 +533,8 @@ clvox_status clvox__surface_create(clvox_context *ctx, int smooth, const uint32_
         size_t xy = (size_t)s->X * s->Y;
         for (int i = 0; i < 2; i++)
             ok = ok && (s->occ[i] = calloc(xy, 1)) && (s->cfg[i] = calloc(n, 1)) &&
-                 (s->base[i] = calloc(n, sizeof(uint32_t)));
+                 (s->base[i] = calloc(n, sizeof(uint32_t))) && (s->mx[i] = calloc(n, sizeof(uint32_t))) &&
+                 (s->my[i] = calloc(n, sizeof(uint32_t)));
     }
     if (!ok) {
         clvox__surface_destroy(s);
@@ -470,6 +552,8 @@ void clvox__surface_destroy(clvox__surface *s)
         free(s->occ[i]);
         free(s->cfg[i]);
         free(s->base[i]);
+        free(s->mx[i]);
+        free(s->my[i]);
         free(s->val[i]);
         free(s->xe[i]);
         free(s->ye[i]);

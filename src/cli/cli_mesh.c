@@ -323,14 +323,14 @@ int cmd_mesh(int argc, char **argv)
     }
     if (!file) return MESH_USAGE("mesh: missing VOLUME (see clvox mesh --help)");
     if (!output) return MESH_USAGE("mesh: missing -o OUT.ply|.obj|.stl (see clvox mesh --help)");
-    const char *ext = mesh_ext(output);
-    if (!ext) return MESH_USAGE("mesh: '%s': unknown mesh extension (use .ply, .obj or .stl)", output);
     int rc = check_output(output);
     if (rc != EXIT_OK) return rc;
     struct stat in_sb, out_sb;
     if (lstat(output, &out_sb) == 0 && stat(file, &in_sb) == 0 && in_sb.st_dev == out_sb.st_dev &&
         in_sb.st_ino == out_sb.st_ino)
         return MESH_USAGE("mesh: the output '%s' is the input volume", output);
+    const char *ext = mesh_ext(output);
+    if (!ext) return MESH_USAGE("mesh: '%s': unknown mesh extension (use .ply, .obj or .stl)", output);
     so.ascii = ascii;
 
     clvox_context *ctx = NULL;

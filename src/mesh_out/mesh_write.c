@@ -345,7 +345,7 @@ static clvox_status to_mesh(clvox_context *ctx, const char *volume, const char *
     } else {
         char head[84];
         memset(head, 0, sizeof head);
-        snprintf(head, 80, "clvox %s mesh: %s", CLVOX_VERSION_STRING, what); /* binary: never "solid" */
+        snprintf(head, 80, "clvox %.8s mesh: %.60s", CLVOX_VERSION_STRING, what); /* binary: never "solid" */
         put(w, sf, head, sizeof head);
     }
     clvox__surface_sink sink = {w, fmt == FMT_STL ? NULL : on_vertex, on_triangle};

@@ -838,6 +838,62 @@ CLVOX_API clvox_status clvox_ply_export_begin(clvox_ply_export *x, clvox_write_a
 CLVOX_API clvox_status clvox_ply_export_slice(clvox_ply_export *x, uint32_t z, const float *element);
 CLVOX_API clvox_status clvox_ply_export_finish(clvox_ply_export *x);
 
+/* ---- meshes from volumes (src/mesh_out) ------------------------------------ */
+/* A triangle mesh of any clvox volume (clvox mesh; docs/design.md "Meshes
+ * from volumes"), read slice by slice through clvox_volume_read_slices (any
+ * format it reads) and written as PLY, OBJ or STL (from the extension of
+ * `mesh`) the way clvox writes its volumes (clvox_output_file_*: a failed
+ * run leaves no file). Vertices are in the volume's world coordinates.
+ *  - FACES: the faces between inside (value > iso) and outside voxels (the
+ *    grid's outside is outside), outward, vertices shared; split where inside
+ *    voxels touch only along an edge or at a corner, so the surface is a
+ *    closed oriented 2-manifold that voxelizes back to the same voxels.
+ *  - SMOOTH: marching cubes through the voxel centres at iso (values outside
+ *    the grid count as 0, so it is closed), vertices on the edges between
+ *    centres; the ambiguous faces always separate the inside corners.
+ * Memory: two slices of values and two planes of vertex numbers. PLY reads
+ * the volume twice (the first pass counts for the header). */
+typedef enum clvox_surface_kind {
+    CLVOX_SURFACE_AUTO = 0, /* SMOOTH for a channel "coverage", else FACES */
+    CLVOX_SURFACE_FACES,
+    CLVOX_SURFACE_SMOOTH,
+    CLVOX_SURFACE_KIND_COUNT
+} clvox_surface_kind;
+CLVOX_API const char *clvox_surface_kind_name(clvox_surface_kind kind); /* "auto", "faces", "smooth" */
+
+typedef struct clvox_surface_options {
+    size_t size;              /* sizeof(clvox_surface_options) */
+    clvox_surface_kind kind;
+    const char *channel;      /* NULL: "coverage" for SMOOTH and AUTO when the volume has
+                                 one, else "occupancy", else "element" (non-zero = inside) */
+    int iso_set;              /* 1: iso below; 0: 0.5 */
+    double iso;
+    int ascii;                /* PLY and STL: ASCII instead of binary little-endian */
+} clvox_surface_options;
+#define CLVOX_SURFACE_OPTIONS_INIT { sizeof(clvox_surface_options), CLVOX_SURFACE_AUTO, NULL, 0, 0.0, 0 }
+
+typedef struct clvox_surface_totals {
+    size_t size;              /* sizeof(clvox_surface_totals): set by the caller (see Conventions) */
+    clvox_surface_kind kind;  /* FACES or SMOOTH: what was made */
+    char channel[32];         /* the channel read */
+    uint32_t dims[3];
+    uint64_t inside_voxels;   /* values > iso */
+    double value_sum;         /* sum of the channel's values (voxel units: the coverage sum) */
+    uint64_t vertices;
+    uint64_t triangles;
+    double enclosed_volume;   /* signed volume of the mesh, world units (FACES: inside_voxels
+                                 x voxel volume) */
+    uint64_t bytes;           /* size of the file */
+} clvox_surface_totals;
+#define CLVOX_SURFACE_TOTALS_INIT { .size = sizeof(clvox_surface_totals) }
+
+/* CLVOX_ERR_INVALID_ARGUMENT: an unknown mesh extension (.ply, .obj, .stl),
+ * a bad option, a mesh too large for PLY's int indices; the reader's errors
+ * for the volume (a channel it lacks: CLVOX_ERR_EXR); CLVOX_ERR_IO for the
+ * output (or a volume that changed between PLY's two passes). */
+CLVOX_API clvox_status clvox_volume_to_mesh(clvox_context *ctx, const char *volume, const char *mesh,
+                                            const clvox_surface_options *options, clvox_surface_totals *totals);
+
 /* ---- render maps (render_map.c) ------------------------------------------ */
 /* A render map gives each element E_v of a palette an ordered list of render
  * objects R_v,1 .. R_v,T with thresholds 1 = D_v,0 > D_v,1 > ... > D_v,T = 0

@@ -938,8 +938,9 @@ static void test_cli(clvox_context *dev)
     run_clvox(&r, (const char *const[]){"tests/data/default.obj", "-r", "12", "-q", "-o", plain, NULL});
     CHECK(r.code == 0);
     run_clvox(&r, (const char *const[]){"mesh", plain, "-o", bad_out, NULL});
-    CHECK_MSG(r.code == 4 && one_line(r.err) && strstr(r.err, "no element channel (channels: occupancy)"), "%d %s",
-              r.code, r.err);
+    /* not a palette volume: its voxel faces (tests/test_volume_mesh.c) */
+    CHECK_MSG(r.code == 0 && strstr(r.out, "voxel faces of occupancy"), "%d %s", r.code, r.err);
+    unlink(bad_out);
     run_clvox(&r, (const char *const[]){"mesh", missing_vol, "-o", bad_out, NULL});
     CHECK_MSG(r.code == 4 && one_line(r.err), "%d %s", r.code, r.err);
     run_clvox(&r, (const char *const[]){"mesh", vol, "-o", missing_dir, NULL});
@@ -957,7 +958,7 @@ static void test_cli(clvox_context *dev)
     run_clvox(&r, (const char *const[]){"mesh", vol, "-o", bad_out, "--binary", NULL});
     CHECK_MSG(r.code == 2 && one_line(r.err) && strstr(r.err, "--binary"), "%d %s", r.code, r.err);
     run_clvox(&r, (const char *const[]){"mesh", "--help", NULL});
-    CHECK(r.code == 0 && strstr(r.out, "Usage: clvox mesh VOLUME.exr -o OUT.ply"));
+    CHECK(r.code == 0 && strstr(r.out, "Usage: clvox mesh VOLUME -o OUT.{ply,obj,stl}"));
     /* not a regular file at OUT: refused and left alone */
     join(target, sizeof target, out, "target.txt");
     join(link_path, sizeof link_path, out, "link.ply");
@@ -979,11 +980,22 @@ static void test_cli(clvox_context *dev)
     run_clvox(&r, (const char *const[]){"mesh", vol, "-o", fifo, NULL});
     CHECK_MSG(r.code == 5 && one_line(r.err), "%d %s", r.code, r.err);
     CHECK(other_entries(out, (const char *const[]){"target.txt", "link.ply", "fifo.ply", NULL}) == 0);
-    /* an existing regular file is replaced */
+    /* an existing regular file is replaced (the output needs a mesh
+     * extension: .ply, .obj or .stl) */
     run_clvox(&r, (const char *const[]){"mesh", vol, "-o", target, NULL});
+    CHECK_MSG(r.code == 2 && strstr(r.err, "unknown mesh extension"), "%d %s", r.code, r.err);
+    char replaced[4096];
+    join(replaced, sizeof replaced, out, "replaced.ply");
+    f = fopen(replaced, "w");
+    if (f) {
+        fputs("keep\n", f);
+        fclose(f);
+    }
+    run_clvox(&r, (const char *const[]){"mesh", vol, "-o", replaced, NULL});
     CHECK(r.code == 0);
-    read_text(target, kept, sizeof kept);
+    read_text(replaced, kept, sizeof kept);
     CHECK(strncmp(kept, "ply\n", 4) == 0);
+    unlink(replaced);
     CHECK(other_entries(out, (const char *const[]){"target.txt", "link.ply", "fifo.ply", NULL}) == 0);
     unlink(fifo);
     unlink(link_path);

@@ -1,8 +1,14 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * clvox mesh VOLUME.exr -o OUT.ply [--ascii]
+ * clvox mesh VOLUME -o OUT.{ply,obj,stl} [--faces | --smooth] [--iso V]
+ *            [--channel NAME] [--ascii]
  *
- * The geometry of a palette volume as a triangle mesh: every voxel whose
+ * Any volume: its surface, from the library (clvox_volume_to_mesh,
+ * src/mesh_out/): voxel faces of occupancy, marching cubes of coverage (or
+ * of occupancy with --smooth). A palette volume written as PLY without
+ * --faces/--smooth/--channel keeps its exact element geometry (below).
+ *
+ * Palette volumes: the geometry as a triangle mesh: every voxel whose
  * element is not 0 (empty) is replaced by its element's exact shape
  * (element_mesh.c: disjoint convex pieces, each a closed outward shell)
  * scaled onto the voxel's box, origin + (i, j, k) * voxel size (anisotropic
@@ -28,41 +34,61 @@
 #include "cli_common.h"
 
 #include <errno.h>
+#include <math.h>
 #include <fcntl.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 static void print_mesh_help(void)
 {
     fputs(
-"Usage: clvox mesh VOLUME.exr -o OUT.ply [--ascii]\n"
+"Usage: clvox mesh VOLUME -o OUT.{ply,obj,stl} [--faces | --smooth] [--iso V]\n"
+"                  [--channel NAME] [--ascii]\n"
 "\n"
-"Writes the geometry of a palette volume (clvox MESH --palette NAME|FILE) as a\n"
-"PLY triangle mesh: every voxel whose element is not 0 (empty) becomes its\n"
-"element's exact shape scaled onto the voxel's box, in world coordinates. The\n"
-"palette is rebuilt from the volume's header. Each element is a union of\n"
-"disjoint convex pieces, each a closed, outward-oriented shell with its own\n"
-"vertices; pieces and neighbouring voxels touch along shared faces, which\n"
-"appear once per side (ray parity and winding numbers count them right;\n"
-"mesh tools may report them as duplicated faces).\n"
+"Writes a triangle mesh of a clvox volume, in the volume's world coordinates\n"
+"(its grid's origin and voxel size), read slice by slice:\n"
+"  occupancy  voxel faces (default): the faces between inside and outside\n"
+"             voxels (outside the grid is outside), outward normals, shared\n"
+"             vertices; where inside voxels touch only along an edge or at a\n"
+"             corner each keeps its own vertices there, so the mesh is a\n"
+"             closed, oriented 2-manifold that voxelizes back (same grid) to\n"
+"             the same voxels\n"
+"  coverage   marching cubes (default): the isosurface at 0.5 through the\n"
+"             voxel centres, vertices on the edges between centres, closed\n"
+"             (values outside the grid count as 0)\n"
+"  element    palette volumes, OUT.ply: every voxel whose element is not 0\n"
+"             becomes its element's exact shape on the voxel's box (the\n"
+"             palette is rebuilt from the header); disjoint convex pieces,\n"
+"             each a closed outward shell with its own vertices; shared faces\n"
+"             appear once per side (mesh tools may report duplicated faces)\n"
 "\n"
 "Options:\n"
-"  -o, --output OUT.ply     the mesh (required); written without a name in the\n"
-"                           same directory and named OUT.ply on success; never\n"
-"                           replaces anything but a regular file\n"
-"  --ascii                  ASCII PLY (fixed-width numbers) instead of binary\n"
-"                           little-endian (float32 vertices, uchar-count int faces)\n"
+"  -o, --output OUT         the mesh (required): .ply, .obj or .stl; written\n"
+"                           without a name in the same directory and named OUT\n"
+"                           on success; never replaces anything but a regular file\n"
+"  --faces                  voxel faces (of occupancy, else of coverage > iso,\n"
+"                           else of element != 0)\n"
+"  --smooth                 marching cubes (of coverage, else of occupancy)\n"
+"  --iso V                  inside: value > V (default 0.5)\n"
+"  --channel NAME           the channel to read (occupancy, coverage, element, ...)\n"
+"  --ascii                  ASCII PLY (fixed-width numbers) or ASCII STL instead\n"
+"                           of binary little-endian (PLY: float32 vertices,\n"
+"                           uchar-count int faces); OBJ is always text\n"
 "  -h, --help               print this help and exit\n"
 "\n"
-"Reads the element channel twice, slice by slice (memory: one slice and the\n"
-"elements' meshes). Needs no OpenCL device. One summary line goes to stdout.\n"
+"Memory: two slices and two planes of vertex numbers (the element geometry:\n"
+"one slice and the elements' meshes). PLY reads the volume twice (the first\n"
+"pass counts, for the header); OBJ and STL once. Needs no OpenCL device. One\n"
+"summary line goes to stdout.\n"
 "\n"
-"Exit codes: 0 ok, 2 usage error, 4 VOLUME missing, not a palette volume\n"
-"(no element channel or palette), a bad element value, or a mesh too large\n"
-"for PLY's int indices, 5 OUT.ply can not be written, 1 other failures.\n"
-"Errors are one line on stderr; a failed run leaves no file.\n",
+"Exit codes: 0 ok, 2 usage error, 4 VOLUME missing or unreadable, a channel it\n"
+"lacks, a bad element value, or a mesh too large for PLY's int indices, 5 OUT\n"
+"can not be written, 1 other failures. Errors are one line on stderr; a failed\n"
+"run leaves no file.\n",
         stdout);
 }
 
@@ -207,10 +233,58 @@ done:
     return rc;
 }
 
+/* The extension of OUT: "ply", "obj", "stl" or NULL. */
+static const char *mesh_ext(const char *path)
+{
+    const char *base = path_basename(path), *dot = strrchr(base, '.');
+    if (!dot) return NULL;
+    static const char *const ext[] = {"ply", "obj", "stl"};
+    for (size_t i = 0; i < 3; i++)
+        if (strcasecmp(dot + 1, ext[i]) == 0) return ext[i];
+    return NULL;
+}
+
+/* Any volume's surface (clvox_volume_to_mesh). */
+static int surface_mesh(clvox_context *ctx, const char *file, const char *output, const clvox_surface_options *o)
+{
+    clvox_surface_totals t = CLVOX_SURFACE_TOTALS_INIT;
+    clvox_status st = clvox_volume_to_mesh(ctx, file, output, o, &t);
+    if (st != CLVOX_OK) {
+        /* the volume was readable at the start: an I/O error is the output's
+         * (or a volume that changed under us); a bad argument is the volume's
+         * (a mesh too large for the format) */
+        role r = st == CLVOX_ERR_IO && is_readable_file(file) ? ROLE_OUTPUT : ROLE_INPUT;
+        int code = st == CLVOX_ERR_INVALID_ARGUMENT ? EXIT_INPUT : exit_code_for(st, r);
+        const char *msg = clvox_context_error(ctx);
+        return fail(code, "%s", msg && *msg ? msg : clvox_status_string(st));
+    }
+    char vol[64];
+    format_volume(t.enclosed_volume, 9, vol, sizeof vol);
+    printf("wrote %s: %s of %s, %llu inside of %u x %u x %u voxels, %llu vertices, %llu triangles, enclosed volume "
+           "%s, %llu bytes\n",
+           output, t.kind == CLVOX_SURFACE_SMOOTH ? "marching cubes" : "voxel faces", t.channel,
+           (unsigned long long)t.inside_voxels, t.dims[0], t.dims[1], t.dims[2], (unsigned long long)t.vertices,
+           (unsigned long long)t.triangles, vol, (unsigned long long)t.bytes);
+    return EXIT_OK;
+}
+
+/* 1: the volume has an element channel (a palette run); 0: it has not; -1:
+ * it could not be read (reported). */
+static int is_palette_volume(clvox_context *ctx, const char *file, int *rc)
+{
+    clvox_volume_info info = CLVOX_VOLUME_INFO_INIT;
+    clvox_status st = clvox_volume_read_slices(ctx, file, "element", &info, stop_at_first, NULL);
+    if (st == CLVOX_OK || st == CLVOX_ERR_CANCELLED) return 1;
+    if (info.dims[0] && info.channels[0] && !has_channel(info.channels, "element")) return 0;
+    *rc = fail_status(ctx, st, ROLE_INPUT);
+    return -1;
+}
+
 int cmd_mesh(int argc, char **argv)
 {
     const char *file = NULL, *output = NULL;
     int ascii = 0;
+    clvox_surface_options so = CLVOX_SURFACE_OPTIONS_INIT;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         const char *v = NULL;
@@ -226,26 +300,59 @@ int cmd_mesh(int argc, char **argv)
         } else if (match_value(argc, argv, &i, "-o", "--output", &v, &missing)) {
             if (missing || !*v) return MESH_USAGE("mesh: -o needs a file name (see clvox mesh --help)");
             output = v;
+        } else if (match_value(argc, argv, &i, NULL, "--channel", &v, &missing)) {
+            if (missing || !*v) return MESH_USAGE("mesh: --channel needs a channel name (see clvox mesh --help)");
+            so.channel = v;
+        } else if (match_value(argc, argv, &i, NULL, "--iso", &v, &missing)) {
+            char *end = NULL;
+            double x = missing ? 0 : strtod(v, &end);
+            if (missing || !*v || *end || !isfinite(x) || fabs(x) > 1e30)
+                return MESH_USAGE("mesh: --iso needs a number, not '%s' (see clvox mesh --help)", missing ? "" : v);
+            so.iso_set = 1;
+            so.iso = x;
         } else if (strcmp(a, "--ascii") == 0) {
             ascii = 1;
+        } else if (strcmp(a, "--faces") == 0 || strcmp(a, "--smooth") == 0) {
+            clvox_surface_kind k = a[2] == 'f' ? CLVOX_SURFACE_FACES : CLVOX_SURFACE_SMOOTH;
+            if (so.kind != CLVOX_SURFACE_AUTO && so.kind != k)
+                return MESH_USAGE("mesh: --faces and --smooth exclude each other (see clvox mesh --help)");
+            so.kind = k;
         } else {
             return MESH_USAGE("mesh: unknown option '%s' (see clvox mesh --help)", a);
         }
     }
-    if (!file) return MESH_USAGE("mesh: missing VOLUME.exr (see clvox mesh --help)");
-    if (!output) return MESH_USAGE("mesh: missing -o OUT.ply (see clvox mesh --help)");
+    if (!file) return MESH_USAGE("mesh: missing VOLUME (see clvox mesh --help)");
+    if (!output) return MESH_USAGE("mesh: missing -o OUT.ply|.obj|.stl (see clvox mesh --help)");
     int rc = check_output(output);
     if (rc != EXIT_OK) return rc;
     struct stat in_sb, out_sb;
     if (lstat(output, &out_sb) == 0 && stat(file, &in_sb) == 0 && in_sb.st_dev == out_sb.st_dev &&
         in_sb.st_ino == out_sb.st_ino)
         return MESH_USAGE("mesh: the output '%s' is the input volume", output);
+    const char *ext = mesh_ext(output);
+    if (!ext) return MESH_USAGE("mesh: '%s': unknown mesh extension (use .ply, .obj or .stl)", output);
+    so.ascii = ascii;
 
     clvox_context *ctx = NULL;
     clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
     co.host_only = 1;
     clvox_status st = clvox_context_create(&co, &ctx);
-    rc = st == CLVOX_OK ? export_mesh(ctx, file, output, ascii) : fail_status(ctx, st, ROLE_OTHER);
+    if (st != CLVOX_OK) {
+        rc = fail_status(ctx, st, ROLE_OTHER);
+    } else if (so.kind != CLVOX_SURFACE_AUTO || so.channel || so.iso_set) {
+        rc = surface_mesh(ctx, file, output, &so);
+    } else {
+        int palette = is_palette_volume(ctx, file, &rc);
+        if (palette == 1 && strcmp(ext, "ply") != 0)
+            rc = fail(EXIT_USAGE,
+                      "mesh: '%s' is a palette volume: its element geometry is written as PLY only (or give --faces "
+                      "or --smooth for its voxel surface)",
+                      file);
+        else if (palette == 1)
+            rc = export_mesh(ctx, file, output, ascii);
+        else if (palette == 0)
+            rc = surface_mesh(ctx, file, output, &so);
+    }
     clvox_context_destroy(ctx);
     return rc;
 }

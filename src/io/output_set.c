@@ -111,8 +111,9 @@ static int lit(jr *r, char c)
     return 1;
 }
 
-/* A JSON string, decoded into buf (\uXXXX only below 0x80, as clvox writes). */
-static int str(jr *r, char *buf, size_t size)
+/* A JSON string, decoded into buf (\uXXXX only below 0x80, as clvox writes);
+ * one longer than buf fails, or with `truncate` is cut to fit. */
+static int str_ex(jr *r, char *buf, size_t size, int truncate)
 {
     if (!lit(r, '"')) return 0;
     size_t k = 0;
@@ -142,8 +143,8 @@ static int str(jr *r, char *buf, size_t size)
             }
         }
         if (buf) {
-            if (k + 1 >= size) return 0;
-            buf[k++] = c;
+            if (k + 1 >= size && !truncate) return 0;
+            if (k + 1 < size) buf[k++] = c;
         }
     }
     if (r->p >= r->end) return 0;
@@ -151,6 +152,8 @@ static int str(jr *r, char *buf, size_t size)
     if (buf) buf[k] = '\0';
     return 1;
 }
+
+static int str(jr *r, char *buf, size_t size) { return str_ex(r, buf, size, 0); }
 
 static int skip(jr *r)
 {
@@ -448,11 +451,11 @@ int clvox__npy_sidecar_parse(const char *text, size_t len, clvox__npy_sidecar *s
             ok = str(&r, f, sizeof f);
             npy = ok && strcmp(f, "npy") == 0;
         } else if (strcmp(key, "clvox_version") == 0) {
-            ok = str(&r, s->version, sizeof s->version);
+            ok = str_ex(&r, s->version, sizeof s->version, 1);
         } else if (strcmp(key, "method") == 0) {
-            ok = str(&r, s->method, sizeof s->method);
-        } else if (strcmp(key, "parameters") == 0) {
-            ok = str(&r, s->parameters, sizeof s->parameters);
+            ok = str_ex(&r, s->method, sizeof s->method, 1);
+        } else if (strcmp(key, "parameters") == 0) { /* cut as the EXR reader cuts it */
+            ok = str_ex(&r, s->parameters, sizeof s->parameters, 1);
         } else if (strcmp(key, "dims") == 0) {
             ok = s->have_dims = triple(&r, s->dims);
         } else if (strcmp(key, "origin") == 0) {

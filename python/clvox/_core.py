@@ -734,7 +734,7 @@ class Context:
                                               pad=pad), progress, prefetch, options)
 
     def read(self, path, channels=None):
-        """Reads a clvox volume (EXR) into a Volume; see clvox.read."""
+        """Reads a clvox volume (EXR, npy, NRRD, binvox, .vdb) into a Volume; see clvox.read."""
         with self._busy():
             return _read(self._ptr, path, channels)
 
@@ -999,7 +999,8 @@ def _host_ctx():
 
 
 def read(path, channels=None):
-    """Reads a clvox volume file (OpenEXR) into a Volume: arrays (Z, Y, X) for each channel
+    """Reads a clvox volume file into a Volume: EXR, npy (+ its .json), NRRD, binvox or .vdb
+    (told by the first bytes; docs/formats.md "Reading volumes back"): arrays (Z, Y, X) for each channel
     (or only `channels`): occupancy bool (> 0.5), coverage/score float32 (the file's HALF
     values), element uint16; .info has the header (method, parameters, palette, ...).
     Needs no OpenCL device."""

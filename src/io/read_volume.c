@@ -316,6 +316,7 @@ static clvox_status npy_open(clvox__vsrc *s, int fd, uint64_t size, clvox_volume
     if (st == CLVOX_OK) st = read_head(ctx, jfd, json, jsize, &text, &len);
     close(jfd);
     clvox__npy_sidecar sc;
+    memset(&sc, 0, sizeof sc);
     if (st == CLVOX_OK && (jsize > HEAD_MAX || !clvox__npy_sidecar_parse(text, len, &sc)))
         st = clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' (the grid of '%s') is not a clvox npy sidecar", json, s->path);
     free(text);
@@ -336,7 +337,7 @@ static clvox_status npy_open(clvox__vsrc *s, int fd, uint64_t size, clvox_volume
     }
     const char *base = strrchr(s->path, '/') ? strrchr(s->path, '/') + 1 : s->path;
     int listed = 0;
-    for (size_t i = 0; i < sc.nchannels && st == CLVOX_OK; i++) {
+    for (size_t i = 0; st == CLVOX_OK && i < sc.nchannels; i++) {
         char *file = beside(json, sc.ch[i].file);
         if (!file) {
             st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
@@ -423,7 +424,9 @@ static clvox_status nrrd_parse(clvox__vsrc *s, const char *path, int fd, uint64_
         return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' is not an NRRD file (NRRD0001 to NRRD0005)", path);
     }
 #define NRRD_BAD(...) do { st = clvox__fail(ctx, CLVOX_ERR_EXR, __VA_ARGS__); goto done; } while (0)
-    const char *p = strchr(head, '\n') + 1, *end = head + len;
+    const char *first_eol = memchr(head, '\n', len);
+    if (!first_eol) NRRD_BAD("'%s' is truncated: its NRRD header has one line", path);
+    const char *p = first_eol + 1, *end = head + len;
     int ended = 0;
     while (p < end) {
         const char *eol = memchr(p, '\n', (size_t)(end - p));

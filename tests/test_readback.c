@@ -380,6 +380,7 @@ int main(void)
         {"c.binvox", "h.binvox", 12, -1, "binvox cut in its header"},
         {"probe.vdb", "t.vdb", 200, -1, "OpenVDB truncated"},
     };
+    char *err = NULL;
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         if (!vdb && strstr(bad[i].from, ".vdb")) continue;
         CHECK(copy_file(tmp(bad[i].from), tmp(bad[i].to), bad[i].keep, bad[i].flip));
@@ -395,6 +396,14 @@ int main(void)
         }
         expect_bad(tmp(bad[i].to), bad[i].what);
     }
+    if (vdb) { /* a .vdb without the plugin: one line that says so */
+        setenv("CLVOX_VDB_PLUGIN", tmp("no-such-plugin.so"), 1);
+        err = NULL;
+        CHECK(run(&err, "info", tmp("probe.vdb"), NULL) == 4 && strstr(err, "OpenVDB plugin") &&
+              strchr(err, '\n') && !strchr(err, '\n')[1]);
+        free(err);
+        unsetenv("CLVOX_VDB_PLUGIN");
+    }
     /* a sidecar cut short; one that lists another file; an unknown magic */
     char *json = read_all(tmp("c.json"));
     json[strlen(json) / 2] = '\0';
@@ -403,7 +412,7 @@ int main(void)
     expect_bad(tmp("c.npy"), "npy sidecar cut short");
     CHECK(write_text(tmp("junk.npy"), "this is not a volume\n"));
     expect_bad(tmp("junk.npy"), "text named .npy");
-    char *err = NULL;
+    err = NULL;
     CHECK(run(&err, "info", tmp("junk.npy"), NULL) == 4 && strstr(err, "not a volume clvox reads"));
     free(err);
     rm_tree(g_dir);

@@ -4,7 +4,8 @@
  * targets' own checks, without libFuzzer: the mesh targets' property check
  * (fuzz/fuzz_mesh.h), the EXR reader target, the palette parser target and
  * the render map parser target, the --like header target, the program
- * cache file target, the batch manifest target,
+ * cache file target, the batch manifest target, the npy, NRRD and binvox
+ * reader targets,
  * compiled here a second time with gcc. Each input runs in a child process with a time limit, so a crash,
  * an abort inside OpenMesh, a hang or (under CONFIG=sanitize) a sanitizer
  * report fails that input alone. Runs from the repository root (run_tests.sh). */
@@ -37,6 +38,15 @@
 #define LLVMFuzzerTestOneInput fuzz_mesh_assimp_one_input
 #include "fuzz/fuzz_mesh_assimp.c" /* the Assimp target (first byte: the extension), renamed */
 #undef LLVMFuzzerTestOneInput
+#define LLVMFuzzerTestOneInput fuzz_read_npy_one_input
+#include "fuzz/fuzz_read_npy.c" /* the npy, NRRD and binvox reader targets, renamed (fuzz/fuzz_read.h) */
+#undef LLVMFuzzerTestOneInput
+#define LLVMFuzzerTestOneInput fuzz_read_nrrd_one_input
+#include "fuzz/fuzz_read_nrrd.c"
+#undef LLVMFuzzerTestOneInput
+#define LLVMFuzzerTestOneInput fuzz_read_binvox_one_input
+#include "fuzz/fuzz_read_binvox.c"
+#undef LLVMFuzzerTestOneInput
 
 typedef struct target {
     const char *name; /* fuzz_<name>.c, seeds_<name>/, regress_<name>/ */
@@ -49,6 +59,8 @@ static const target targets[] = {
     {"volume_read", NULL, LLVMFuzzerTestOneInput, 1}, {"palette", NULL, fuzz_palette_one_input, 0},
     {"render_map", NULL, fuzz_render_map_one_input, 0}, {"like_header", NULL, fuzz_like_header_one_input, 0},
     {"program_cache", NULL, fuzz_program_cache_one_input, 0}, {"manifest", NULL, fuzz_manifest_one_input, 0},
+    {"read_npy", NULL, fuzz_read_npy_one_input, 1}, {"read_nrrd", NULL, fuzz_read_nrrd_one_input, 1},
+    {"read_binvox", NULL, fuzz_read_binvox_one_input, 1},
     {"mesh_obj", "obj", NULL, 0}, {"mesh_off", "off", NULL, 0}, {"mesh_ply", "ply", NULL, 0},
     {"mesh_stl", "stl", NULL, 0}, {"mesh_om", "om", NULL, 0},
     {"mesh_assimp", NULL, fuzz_mesh_assimp_one_input, 0},

@@ -860,7 +860,7 @@ class Context:
         return results
 
     def read(self, path, channels=None):
-        """Reads a clvox volume (EXR) into a Volume; see clvox.read."""
+        """Reads a clvox volume (EXR, npy, NRRD, binvox, .vdb) into a Volume; see clvox.read."""
         with self._busy():
             return _read(self._ptr, path, channels)
 
@@ -1132,7 +1132,8 @@ def batch(meshes, output="{stem}.exr", *, shard=None, skip_existing=False, devic
 
 
 def read(path, channels=None):
-    """Reads a clvox volume file (OpenEXR) into a Volume: arrays (Z, Y, X) for each channel
+    """Reads a clvox volume file into a Volume: EXR, npy (+ its .json), NRRD, binvox or .vdb
+    (told by the first bytes; docs/formats.md "Reading volumes back"): arrays (Z, Y, X) for each channel
     (or only `channels`): occupancy bool (> 0.5), coverage/score float32 (the file's HALF
     values), element uint16; .info has the header (method, parameters, palette, ...).
     Needs no OpenCL device."""

@@ -148,3 +148,36 @@ def test_ctrl_c_leaves_no_file(ctx, tmp, name):
     assert time.process_time() - cpu0 < 6
     assert os.listdir(tmp) == []
     assert ctx.voxelize(DEFAULT, resolution=8).occupancy.any()
+
+
+READ_CASES = [
+    # (file, voxelize kwargs, float32 coverage/score in the file)
+    ("r.npy", dict(resolution=20), False),
+    ("r.npy", dict(resolution=20, npy_bits=True), False),
+    ("r.npy", dict(resolution=20, oversample=2, channels="occupancy,coverage"), False),
+    ("r.npy", dict(resolution=20, oversample=2, float32=True), True),
+    ("r.npy", dict(resolution=12, palette="planar10"), False),
+    ("r.nrrd", dict(resolution=20, compression="none"), True),
+    ("r.nrrd", dict(resolution=20, oversample=2, channels="occupancy,coverage"), True),
+    ("r.nrrd", dict(resolution=12, palette="planar10"), True),
+    ("r.binvox", dict(resolution=20, box=CUBE), False),
+]
+
+
+@pytest.mark.parametrize("name,kw,f32", READ_CASES, ids=[f"{c[0]}-{i}" for i, c in enumerate(READ_CASES)])
+def test_read_every_format_equals_the_exr(ctx, tmp, name, kw, f32):
+    """clvox.read of npy, NRRD and binvox gives the grid and voxels of the EXR of the same run
+    (float32 coverage/score: equal once rounded to float16, the EXR's HALF)."""
+    exr_kw = {k: v for k, v in kw.items() if k not in ("npy_bits", "float32", "compression")}
+    ctx.voxelize_to_file(DEFAULT, tmp / "r.exr", **exr_kw)
+    ctx.voxelize_to_file(DEFAULT, tmp / name, **kw)
+    e, v = clvox.read(tmp / "r.exr"), clvox.read(tmp / name)
+    assert v.dims == e.dims
+    assert np.allclose(v.origin, e.origin, rtol=0, atol=1e-12) and np.allclose(v.voxel_size, e.voxel_size, rtol=1e-14)
+    want = ["occupancy"] if name.endswith(".binvox") else e.channels
+    assert v.channels == want
+    for ch in want:
+        a, b = getattr(v, ch), getattr(e, ch)
+        if f32 and ch in ("coverage", "score"):
+            a = a.astype(np.float16).astype(np.float32)
+        assert np.array_equal(a, b), ch

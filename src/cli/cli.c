@@ -4,12 +4,12 @@
  *
  *   clvox [MESH] [options]        voxelize MESH into an OpenEXR volume (cli_run.c)
  *   clvox batch [MESH...] [options]     many meshes, one device context (cli_batch.c)
- *   clvox info FILE.exr           header, filled voxel count, coverage sum, elements (cli_info.c; no OpenCL needed)
- *   clvox preview FILE.exr -o OUT.png   slices as a PNG picture (cli_preview.c)
+ *   clvox info FILE               header, filled voxel count, coverage sum, elements (cli_info.c; no OpenCL needed)
+ *   clvox preview FILE -o OUT.png       slices as a PNG picture (cli_preview.c)
  *   clvox palette list | show NAME|FILE  palettes of sub-voxel elements (cli_palette.c)
  *   clvox instances VOLUME.exr -o OUT.csv  instances of a palette volume, for rendering (cli_instances.c)
  *   clvox mesh VOLUME.exr -o OUT.ply  a palette volume's geometry as a PLY mesh (cli_mesh.c)
- *   clvox convert IN.exr OUT.EXT  another volume format (cli_convert.c)
+ *   clvox convert IN OUT.EXT      another volume format (cli_convert.c)
  *   clvox --list-devices | --help | --version
  *
  * This file is the entry point: main's dispatch to the subcommands (each

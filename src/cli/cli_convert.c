@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* clvox convert IN.exr OUT.{npy,nrrd,binvox,vdb,exr}: rewrites a clvox EXR volume
+/* clvox convert IN OUT.{npy,nrrd,binvox,vdb,exr}: rewrites a clvox volume (any format)
  * in another format in bounded memory: each channel is streamed slice by
  * slice (clvox_volume_read_slices) into a clvox_volume_writer, so memory is
  * one slice per channel plus the writer's (binvox: the whole volume as bits,
@@ -88,7 +88,7 @@ int cmd_convert(int argc, char **argv)
             return usage_error("convert: more than two files given ('%s')", argv[i]);
         }
     }
-    if (!in || !out) return usage_error("convert: usage: clvox convert IN.exr OUT.{npy,nrrd,binvox,vdb,exr}");
+    if (!in || !out) return usage_error("convert: usage: clvox convert IN OUT.{npy,nrrd,binvox,vdb,exr}");
     int rc = check_output(out);
     if (rc != EXIT_OK) return rc;
     clvox_format format = oo.format ? oo.format : clvox_format_from_path(out);

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * clvox info FILE.exr [--json]: a volume's header, filled voxel count,
+ * clvox info FILE [--json]: a volume's header, filled voxel count,
  * coverage sum and volume, and for palette volumes the elements used, most
  * voxels first. Reads files on a host-only context (no OpenCL device). Its
  * own file, split from cli.c unchanged, because it shares nothing with a
@@ -182,7 +182,7 @@ int cmd_info(int argc, char **argv)
         if (file) return usage_error("info: more than one file given: '%s' and '%s'", file, a);
         file = a;
     }
-    if (!file) return usage_error("info: missing FILE.exr");
+    if (!file) return usage_error("info: missing FILE (a volume: EXR, npy, NRRD, binvox or OpenVDB)");
 
     clvox_context *ctx = NULL;
     clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;

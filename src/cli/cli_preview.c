@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * clvox preview FILE.exr -o OUT.png [--slices N] [--size PX] [--channel NAME] [--shade]
+ * clvox preview FILE -o OUT.png [--slices N] [--size PX] [--channel NAME] [--shade]
  *
  * A picture of a clvox volume, an 8-bit RGB PNG (libpng): a shaded 3-D view
  * of the occupied voxels with a legend, a montage of N evenly spaced z
@@ -740,7 +740,7 @@ static int save_png(clvox_context *ctx, const char *path, const preview *pv, con
 static void print_preview_help(void)
 {
     printf(
-"Usage: clvox preview FILE.exr -o OUT.png [--slices N] [--size PX]\n"
+"Usage: clvox preview FILE -o OUT.png [--slices N] [--size PX]\n"
 "                     [--channel NAME] [--shade]\n"
 "\n"
 "Draws a clvox volume as an 8-bit RGB PNG: a shaded 3-D view of the object,\n"
@@ -890,7 +890,7 @@ int cmd_preview(int argc, char **argv)
             return PREVIEW_USAGE("preview: unknown option '%s' (see clvox preview --help)", a);
         }
     }
-    if (!file) return PREVIEW_USAGE("preview: missing FILE.exr (see clvox preview --help)");
+    if (!file) return PREVIEW_USAGE("preview: missing FILE (see clvox preview --help)");
     if (!output) return PREVIEW_USAGE("preview: missing -o OUT.png (see clvox preview --help)");
     if (shade && channel && strcmp(channel, "element") != 0)
         return PREVIEW_USAGE("preview: --shade shades element colours; --channel %s is drawn in grey levels", channel);

@@ -609,6 +609,29 @@ typedef struct clvox__vdb_host {
                 (sizeof(clvox__fmt_slab) + sizeof(clvox__fmt_ops) + sizeof(clvox_grid)) << 24))
 typedef const clvox__fmt_ops *(*clvox__vdb_plugin_fn)(const clvox__vdb_host *host, uint32_t abi, const char *version);
 
+/* Reading a .vdb back (read_volume.c): the plugin's second entry point
+ * returns these, with the same host table and checks. A channel comes as
+ * FLOAT bands of whole z slices (read_volume.c's clvox__band_fn). */
+typedef clvox_status (*clvox__vdb_band_fn)(void *user, const uint8_t *band, int type, uint64_t row0, uint64_t rows);
+typedef struct clvox__vdb_reader_ops {
+    /* the header into info (dims, origin, voxel_size, method, parameters, version, channels) */
+    clvox_status (*open)(clvox_context *ctx, const char *path, clvox_volume_info *info, void **state);
+    int (*has)(void *state, const char *channel);
+    clvox_status (*read)(void *state, const char *channel, clvox__vdb_band_fn fn, void *user);
+    void (*close)(void *state);
+} clvox__vdb_reader_ops;
+#define CLVOX__VDB_READER_ENTRY "clvox__vdb_plugin_reader"
+#define CLVOX__VDB_READER_ABI                                                                                         \
+    ((uint32_t)(sizeof(clvox__vdb_host) | sizeof(clvox__vdb_reader_ops) << 8 | sizeof(clvox_volume_info) << 16))
+typedef const clvox__vdb_reader_ops *(*clvox__vdb_reader_fn)(const clvox__vdb_host *host, uint32_t abi,
+                                                             const char *version);
+/* vdb_plugin.c: loads the plugin and opens `path` with its reader (a clear
+ * CLVOX_ERR_EXR when clvox has no OpenVDB or the plugin is missing). */
+clvox_status clvox__vdb_reader_open(clvox_context *ctx, const char *path, clvox_volume_info *info, void **state);
+int clvox__vdb_reader_has(void *state, const char *channel);
+clvox_status clvox__vdb_reader_read(void *state, const char *channel, clvox__vdb_band_fn fn, void *user);
+void clvox__vdb_reader_close(void *state);
+
 /* Sample types of the raster formats (npy, NRRD). */
 typedef enum clvox__dtype { CLVOX__U8, CLVOX__BITS, CLVOX__F16, CLVOX__F32, CLVOX__U16, CLVOX__U32 } clvox__dtype;
 size_t clvox__dtype_row_bytes(clvox__dtype t, uint32_t X);

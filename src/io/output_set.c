@@ -13,6 +13,7 @@
 #include "core/internal.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -110,8 +111,9 @@ static int lit(jr *r, char c)
     return 1;
 }
 
-/* A JSON string, decoded into buf (\uXXXX only below 0x80, as clvox writes). */
-static int str(jr *r, char *buf, size_t size)
+/* A JSON string, decoded into buf (\uXXXX only below 0x80, as clvox writes);
+ * one longer than buf fails, or with `truncate` is cut to fit. */
+static int str_ex(jr *r, char *buf, size_t size, int truncate)
 {
     if (!lit(r, '"')) return 0;
     size_t k = 0;
@@ -141,8 +143,8 @@ static int str(jr *r, char *buf, size_t size)
             }
         }
         if (buf) {
-            if (k + 1 >= size) return 0;
-            buf[k++] = c;
+            if (k + 1 >= size && !truncate) return 0;
+            if (k + 1 < size) buf[k++] = c;
         }
     }
     if (r->p >= r->end) return 0;
@@ -150,6 +152,8 @@ static int str(jr *r, char *buf, size_t size)
     if (buf) buf[k] = '\0';
     return 1;
 }
+
+static int str(jr *r, char *buf, size_t size) { return str_ex(r, buf, size, 0); }
 
 static int skip(jr *r)
 {
@@ -375,4 +379,102 @@ int clvox__output_complete(const char *path, char *why, size_t size)
     case CLVOX_FORMAT_NRRD: return nrrd_complete(path, why, size);
     default: return 1; /* one file, named only when complete */
     }
+}
+
+/* ---- npy: OUT.json for the reader (read_volume.c) ---- */
+
+/* A JSON number into *v (finite). */
+static int number(jr *r, double *v)
+{
+    ws(r);
+    char num[48];
+    size_t k = 0;
+    while (r->p < r->end && strchr("+-0123456789.eE", *r->p) && k + 1 < sizeof num) num[k++] = *r->p++;
+    num[k] = '\0';
+    char *e;
+    *v = k ? strtod(num, &e) : 0;
+    return k && *e == '\0' && isfinite(*v);
+}
+
+static int triple(jr *r, double v[3])
+{
+    if (!lit(r, '[')) return 0;
+    for (int i = 0; i < 3; i++)
+        if ((i && !lit(r, ',')) || !number(r, &v[i])) return 0;
+    return lit(r, ']');
+}
+
+static int sidecar_channel(jr *r, clvox__npy_sidecar *s)
+{
+    if (s->nchannels >= 4) return 0;
+    size_t i = s->nchannels;
+    if (!str(r, s->ch[i].name, sizeof s->ch[i].name) || !lit(r, ':') || !lit(r, '{')) return 0;
+    int have_file = 0;
+    if (!lit(r, '}')) {
+        do {
+            char key[32];
+            if (!str(r, key, sizeof key) || !lit(r, ':')) return 0;
+            if (strcmp(key, "file") == 0) {
+                if (!str(r, s->ch[i].file, sizeof s->ch[i].file)) return 0;
+                have_file = 1;
+            } else if (strcmp(key, "dtype") == 0) {
+                if (!str(r, s->ch[i].dtype, sizeof s->ch[i].dtype)) return 0;
+            } else if (strcmp(key, "packed_bits") == 0) {
+                ws(r);
+                if (r->end - r->p >= 4 && memcmp(r->p, "true", 4) == 0) s->ch[i].packed_bits = 1, r->p += 4;
+                else if (r->end - r->p >= 5 && memcmp(r->p, "false", 5) == 0) r->p += 5;
+                else return 0;
+            } else if (!skip(r)) {
+                return 0;
+            }
+        } while (lit(r, ','));
+        if (!lit(r, '}')) return 0;
+    }
+    if (!have_file || !s->ch[i].file[0] || strchr(s->ch[i].file, '/')) return 0;
+    s->nchannels++;
+    return 1;
+}
+
+int clvox__npy_sidecar_parse(const char *text, size_t len, clvox__npy_sidecar *s)
+{
+    memset(s, 0, sizeof *s);
+    jr r = {text, text + len, 0};
+    int npy = 0;
+    if (!lit(&r, '{')) return 0;
+    if (lit(&r, '}')) return 0;
+    do {
+        char key[32];
+        if (!str(&r, key, sizeof key) || !lit(&r, ':')) return 0;
+        int ok = 1;
+        if (strcmp(key, "format") == 0) {
+            char f[16];
+            ok = str(&r, f, sizeof f);
+            npy = ok && strcmp(f, "npy") == 0;
+        } else if (strcmp(key, "clvox_version") == 0) {
+            ok = str_ex(&r, s->version, sizeof s->version, 1);
+        } else if (strcmp(key, "method") == 0) {
+            ok = str_ex(&r, s->method, sizeof s->method, 1);
+        } else if (strcmp(key, "parameters") == 0) { /* cut as the EXR reader cuts it */
+            ok = str_ex(&r, s->parameters, sizeof s->parameters, 1);
+        } else if (strcmp(key, "dims") == 0) {
+            ok = s->have_dims = triple(&r, s->dims);
+        } else if (strcmp(key, "origin") == 0) {
+            ok = s->have_origin = triple(&r, s->origin);
+        } else if (strcmp(key, "voxel_size") == 0) {
+            ok = s->have_voxel_size = triple(&r, s->voxel_size);
+        } else if (strcmp(key, "channels") == 0) {
+            ok = lit(&r, '{');
+            if (ok && !lit(&r, '}')) {
+                do ok = sidecar_channel(&r, s);
+                while (ok && lit(&r, ','));
+                ok = ok && lit(&r, '}');
+            }
+        } else {
+            ok = skip(&r);
+        }
+        if (!ok) return 0;
+    } while (lit(&r, ','));
+    if (!lit(&r, '}')) return 0;
+    ws(&r);
+    return npy && r.p == r.end && s->have_dims && s->nchannels > 0;
 }

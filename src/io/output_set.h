@@ -19,4 +19,19 @@ int clvox__output_complete(const char *path, char *why, size_t why_size);
  * agrees, and `member` (NULL: any), when given, is one of them. */
 int clvox__npy_set_complete(const char *json, const char *member, char *why, size_t why_size);
 
+/* OUT.json as the npy reader needs it (read_volume.c): the grid, method,
+ * parameters and, per channel, the file beside it and how it is stored.
+ * Returns 1, or 0 for text that is not a clvox npy sidecar. */
+typedef struct clvox__npy_sidecar {
+    int have_dims, have_origin, have_voxel_size;
+    double dims[3], origin[3], voxel_size[3];
+    char version[32], method[32], parameters[256];
+    size_t nchannels;
+    struct {
+        char name[16], file[256], dtype[8];
+        int packed_bits;
+    } ch[4];
+} clvox__npy_sidecar;
+int clvox__npy_sidecar_parse(const char *text, size_t len, clvox__npy_sidecar *out);
+
 #endif

@@ -35,6 +35,7 @@
  * the state they share.
  */
 #include "io/exr_reader.h"
+#include "io/volume_source.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -226,7 +227,8 @@ static clvox_status sum_band(void *user, const uint8_t *band, int type, uint64_t
 }
 
 typedef struct slice_state {
-    reader *r;
+    clvox_context *ctx;
+    const char *path;
     uint64_t X, Y;
     float *slice;         /* X*Y */
     clvox_volume_slice_fn fn;
@@ -241,12 +243,67 @@ static clvox_status slice_band(void *user, const uint8_t *band, int type, uint64
         uint64_t row = row0 + k, z = row / s->Y, y = row % s->Y;
         to_float(s->slice + y * s->X, band + (size_t)(k * s->X * bytes), type, (size_t)s->X);
         if (y + 1 == s->Y && s->fn(s->user, (uint32_t)z, s->slice) != 0)
-            return clvox__fail(s->r->ctx, CLVOX_ERR_CANCELLED, "reading '%s' cancelled after slice %llu",
-                               s->r->path, (unsigned long long)z);
+            return clvox__fail(s->ctx, CLVOX_ERR_CANCELLED, "reading '%s' cancelled after slice %llu",
+                               s->path, (unsigned long long)z);
     }
     return CLVOX_OK;
 }
 
+
+_Static_assert((int)CLVOX__SAMPLE_UINT == (int)EXR_PIXEL_UINT && (int)CLVOX__SAMPLE_HALF == (int)EXR_PIXEL_HALF &&
+                   (int)CLVOX__SAMPLE_FLOAT == (int)EXR_PIXEL_FLOAT,
+               "band sample types are OpenEXR's");
+
+/* The other formats (read_volume.c): the same consumers over the source's bands. */
+static clvox_status source_read(clvox_context *ctx, clvox__vsrc *src, const char *path, clvox_volume_info *info,
+                                uint8_t *occupancy, size_t occupancy_size)
+{
+    const int occ = clvox__vsrc_has(src, "occupancy"), cov = clvox__vsrc_has(src, "coverage"),
+              elem = clvox__vsrc_has(src, "element");
+    clvox_status st = CLVOX_OK;
+    if (!occ && !cov && !elem)
+        st = clvox__fail(ctx, CLVOX_ERR_EXR,
+                         "'%s' is not a clvox volume: no channel \"occupancy\", \"coverage\" or \"element\" (has: %s)",
+                         path, info->channels);
+    if (st == CLVOX_OK && occupancy) {
+        uint64_t total = (uint64_t)info->dims[0] * info->dims[1] * info->dims[2];
+        if (total > (uint64_t)SIZE_MAX || occupancy_size < (size_t)total)
+            st = clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                             "occupancy buffer holds %zu bytes, '%s' needs %u x %u x %u = %llu", occupancy_size, path,
+                             info->dims[0], info->dims[1], info->dims[2], (unsigned long long)total);
+    }
+    coverage_sum sum = { 0, 0, 0.0 };
+    count_state cs = { info->dims[0], occupancy, 0, NULL };
+    if (st == CLVOX_OK) {
+        if (!occ && cov) cs.sum = &sum;
+        st = clvox__vsrc_read(src, occ ? "occupancy" : cov ? "coverage" : "element", count_band, &cs);
+    }
+    if (st == CLVOX_OK && occ && cov) {
+        cs.sum = &sum;
+        st = clvox__vsrc_read(src, "coverage", sum_band, &cs);
+    }
+    if (st == CLVOX_OK) {
+        info->filled_voxels = cs.filled;
+        info->coverage_sum = cov ? sum_value(&sum) : 0.0;
+    }
+    return st;
+}
+
+static clvox_status source_read_slices(clvox_context *ctx, clvox__vsrc *src, const char *path, const char *channel,
+                                       clvox_volume_info *info, clvox_volume_slice_fn fn, void *user)
+{
+    if (!clvox__vsrc_has(src, channel))
+        return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' has no channel \"%s\" (has: %s)", path, channel, info->channels);
+    float *slice = NULL;
+    uint64_t n = (uint64_t)info->dims[0] * info->dims[1];
+    if (n > (uint64_t)SIZE_MAX / sizeof *slice || !(slice = malloc((size_t)n * sizeof *slice)))
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a %u x %u slice of '%s'", info->dims[0],
+                           info->dims[1], path);
+    slice_state s = { ctx, path, info->dims[0], info->dims[1], slice, fn, user };
+    clvox_status st = clvox__vsrc_read(src, channel, slice_band, &s);
+    free(slice);
+    return st;
+}
 
 static clvox_status volume_read(clvox_context *ctx, const char *path, clvox_volume_info *info,
                                 uint8_t *occupancy, size_t occupancy_size)
@@ -256,8 +313,15 @@ static clvox_status volume_read(clvox_context *ctx, const char *path, clvox_volu
     clvox_volume_info local;
     if (!info) info = &local;
 
+    clvox__vsrc *src = NULL;
+    clvox_status st = clvox__vsrc_open(ctx, path, info, &src);
+    if (st != CLVOX_OK || src) {
+        if (st == CLVOX_OK) st = source_read(ctx, src, path, info, occupancy, occupancy_size);
+        clvox__vsrc_close(src);
+        return st;
+    }
     reader r;
-    clvox_status st = clvox__exrr_open(&r, ctx, path, info);
+    st = clvox__exrr_open(&r, ctx, path, info);
     const exr_attr_chlist_entry_t *occ = NULL, *cov = NULL, *elem = NULL;
     if (st == CLVOX_OK) {
         occ = clvox__exrr_find_channel(&r, "occupancy");
@@ -315,8 +379,15 @@ static clvox_status volume_read_slices(clvox_context *ctx, const char *path, con
      * error info->channels says what the file has, and before the first call
      * of fn, which can size its buffers from info->dims (clvox preview relies
      * on both; the public header does not promise it yet). */
+    clvox__vsrc *src = NULL;
+    clvox_status st = clvox__vsrc_open(ctx, path, info, &src);
+    if (st != CLVOX_OK || src) {
+        if (st == CLVOX_OK) st = source_read_slices(ctx, src, path, channel, info, fn, user);
+        clvox__vsrc_close(src);
+        return st;
+    }
     reader r;
-    clvox_status st = clvox__exrr_open(&r, ctx, path, info);
+    st = clvox__exrr_open(&r, ctx, path, info);
     const exr_attr_chlist_entry_t *e = NULL;
     if (st == CLVOX_OK && !(e = clvox__exrr_find_channel(&r, channel)))
         st = clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' has no channel \"%s\" (has: %s)", path, channel, info->channels);
@@ -328,7 +399,7 @@ static clvox_status volume_read_slices(clvox_context *ctx, const char *path, con
                              info->dims[1], path);
     }
     if (st == CLVOX_OK) {
-        slice_state s = { &r, info->dims[0], info->dims[1], slice, fn, user };
+        slice_state s = { ctx, path, info->dims[0], info->dims[1], slice, fn, user };
         st = clvox__exrr_read_channel(&r, info, e, slice_band, &s);
     }
     free(slice);
@@ -393,8 +464,16 @@ clvox_status clvox_volume_palette(clvox_context *ctx, const char *path, clvox_pa
     *out = NULL;
     if (!path || !*path) return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT, "clvox_volume_palette: no path");
     clvox_volume_info info;
+    clvox__vsrc *src = NULL;
+    clvox_status st = clvox__vsrc_open(ctx, path, &info, &src);
+    clvox__vsrc_close(src);
+    if (st != CLVOX_OK) return st;
+    if (src)
+        return clvox__fail(ctx, CLVOX_ERR_EXR,
+                           "'%s' has no palette: only clvox's EXR records it (npy, NRRD, binvox and OpenVDB do not)",
+                           path);
     reader r;
-    clvox_status st = clvox__exrr_open(&r, ctx, path, &info);
+    st = clvox__exrr_open(&r, ctx, path, &info);
     if (st != CLVOX_OK) {
         clvox__exrr_close(&r);
         return st;

@@ -42,6 +42,7 @@
 
 static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER;
 static const clvox__fmt_ops *g_ops;   /* the plugin's, once loaded */
+static const clvox__vdb_reader_ops *g_reader; /* its reader (NULL: a plugin without one) */
 static char g_error[PATH_MAX + 512]; /* why the last attempt failed */
 
 static const clvox__vdb_host g_host = {clvox__fail, clvox__outfile_create, clvox__outfile_write,
@@ -77,6 +78,10 @@ static int try_plugin(const char *path)
         return 0;
     }
     g_ops = ops; /* kept loaded for the process */
+    clvox__vdb_reader_fn reader_entry;
+    void *rsym = dlsym(h, CLVOX__VDB_READER_ENTRY);
+    memcpy(&reader_entry, &rsym, sizeof reader_entry);
+    g_reader = reader_entry ? reader_entry(&g_host, CLVOX__VDB_READER_ABI, CLVOX_VERSION_STRING) : NULL;
     return 1;
 }
 
@@ -161,7 +166,61 @@ static void vdb_abort(void *state)
     if (state) ops_loaded()->abort(state);
 }
 
+/* Reading: the same plugin, loaded the same way. */
+clvox_status clvox__vdb_reader_open(clvox_context *ctx, const char *path, clvox_volume_info *info, void **state)
+{
+    *state = NULL;
+    pthread_mutex_lock(&g_lock);
+    if (!g_ops) load_locked();
+    const clvox__vdb_reader_ops *r = g_reader;
+    const int loaded = g_ops != NULL;
+    char why[sizeof g_error];
+    memcpy(why, g_error, sizeof why);
+    pthread_mutex_unlock(&g_lock);
+    if (!loaded)
+        return clvox__fail(ctx, CLVOX_ERR_EXR, "cannot read '%s' (an OpenVDB file): OpenVDB plugin: %s", path, why);
+    if (!r)
+        return clvox__fail(ctx, CLVOX_ERR_EXR, "cannot read '%s' (an OpenVDB file): the OpenVDB plugin has no reader",
+                           path);
+    return r->open(ctx, path, info, state);
+}
+/* The rest come after a successful open: the reader is loaded. */
+static const clvox__vdb_reader_ops *reader_loaded(void)
+{
+    pthread_mutex_lock(&g_lock);
+    const clvox__vdb_reader_ops *r = g_reader;
+    pthread_mutex_unlock(&g_lock);
+    return r;
+}
+int clvox__vdb_reader_has(void *state, const char *channel) { return reader_loaded()->has(state, channel); }
+clvox_status clvox__vdb_reader_read(void *state, const char *channel, clvox__vdb_band_fn fn, void *user)
+{
+    return reader_loaded()->read(state, channel, fn, user);
+}
+void clvox__vdb_reader_close(void *state)
+{
+    if (state) reader_loaded()->close(state);
+}
+
 #else /* !CLVOX_HAVE_OPENVDB */
+
+clvox_status clvox__vdb_reader_open(clvox_context *ctx, const char *path, clvox_volume_info *info, void **state)
+{
+    (void)info;
+    *state = NULL;
+    return clvox__fail(ctx, CLVOX_ERR_EXR, "cannot read '%s' (an OpenVDB file): clvox was built without OpenVDB", path);
+}
+int clvox__vdb_reader_has(void *state, const char *channel)
+{
+    (void)state, (void)channel;
+    return 0;
+}
+clvox_status clvox__vdb_reader_read(void *state, const char *channel, clvox__vdb_band_fn fn, void *user)
+{
+    (void)state, (void)channel, (void)fn, (void)user;
+    return CLVOX_ERR_INTERNAL;
+}
+void clvox__vdb_reader_close(void *state) { (void)state; }
 
 clvox_status clvox__vdb_load(clvox_context *ctx, const char *path)
 {

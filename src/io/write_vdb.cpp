@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* OpenVDB (.vdb) writer: the second C++ shim (the first: mesh_openmesh.cpp),
+/* OpenVDB (.vdb) writer, and its reader (at the end): the second C++ shim (the first: mesh_openmesh.cpp),
  * built as its own plugin, libclvox-vdb.so, when Debian's libopenvdb-dev is
  * there (the Makefile's WITH_OPENVDB); the library loads it on the first
  * .vdb (vdb_plugin.c says why and from where). It links no clvox code: the
@@ -43,7 +43,10 @@ const clvox__vdb_host *g_host; /* set by the entry point */
 #include <openvdb/io/Stream.h>
 #include <openvdb/tools/Prune.h>
 
+#include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <vector>
 #include <exception>
 #include <mutex>
 #include <new>
@@ -291,7 +294,172 @@ clvox_status vdb_finish(void *state, uint64_t *bytes)
     return st;
 }
 
+/* ---- reading a .vdb back (read_volume.c, through clvox__vdb_reader_ops) ----
+ * The grids clvox writes: "density" (coverage when there is an "occupancy"
+ * grid beside it; else occupancy when every value is 0 or 1, coverage
+ * otherwise: the file does not say which) and "occupancy". The grid comes
+ * from the clvox_dims, clvox_origin_corner and clvox_voxel_size metadata;
+ * a .vdb from elsewhere: from the active voxels' bounding box and the
+ * transform's voxel size. Voxels are read one accessor lookup each. */
+
+struct VdbReader {
+    clvox_context *ctx = nullptr;
+    std::string path;
+    openvdb::FloatGrid::Ptr occupancy, coverage;
+    openvdb::Coord base; /* index of voxel (0,0,0) */
+    uint32_t dims[3] = {0, 0, 0};
+};
+
+void vdbr_close(void *state) { delete static_cast<VdbReader *>(state); }
+
+int vdbr_has(void *state, const char *channel)
+{
+    const VdbReader *r = static_cast<const VdbReader *>(state);
+    if (std::strcmp(channel, "occupancy") == 0) return r->occupancy != nullptr;
+    if (std::strcmp(channel, "coverage") == 0) return r->coverage != nullptr;
+    return 0;
+}
+
+template <typename T> bool meta(const openvdb::GridBase &g, const char *name, T &out)
+{
+    typename openvdb::TypedMetadata<T>::ConstPtr m = g.getMetadata<openvdb::TypedMetadata<T>>(name);
+    if (!m) return false;
+    out = m->value();
+    return true;
+}
+
+void copy_meta(const openvdb::GridBase &g, const char *name, char *dst, size_t size)
+{
+    std::string v;
+    if (!meta(g, name, v)) return;
+    std::snprintf(dst, size, "%s", v.c_str());
+    for (char *p = dst; *p; p++)
+        if (static_cast<unsigned char>(*p) < 0x20) *p = ' ';
+}
+
+clvox_status vdbr_open(clvox_context *ctx, const char *path, clvox_volume_info *info, void **state)
+{
+    *state = nullptr;
+    VdbReader *r = nullptr;
+    try {
+        std::call_once(g_init, [] { openvdb::initialize(); });
+        r = new VdbReader;
+        r->ctx = ctx;
+        r->path = path;
+        openvdb::io::File file(path);
+        file.open(false); /* no delayed loading: the file is read now, whole */
+        openvdb::GridPtrVecPtr grids = file.getGrids();
+        file.close();
+        openvdb::FloatGrid::Ptr density;
+        for (const openvdb::GridBase::Ptr &g : *grids) {
+            openvdb::FloatGrid::Ptr f = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+            if (!f) continue;
+            if (f->getName() == "density" && !density) density = f;
+            else if (f->getName() == "occupancy" && !r->occupancy) r->occupancy = f;
+        }
+        if (!density && !r->occupancy) {
+            vdbr_close(r);
+            return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' has no float grid \"density\" or \"occupancy\"", path);
+        }
+        if (density && r->occupancy) {
+            r->coverage = density;
+        } else if (density) {
+            bool binary = true;
+            for (auto it = density->cbeginValueOn(); it && binary; ++it) binary = *it == 0.0f || *it == 1.0f;
+            (binary ? r->occupancy : r->coverage) = density;
+        }
+        const openvdb::FloatGrid &g = density ? *density : *r->occupancy;
+        openvdb::Vec3i d;
+        openvdb::Vec3d o, h;
+        if (meta(g, "clvox_dims", d) && meta(g, "clvox_origin_corner", o) && meta(g, "clvox_voxel_size", h)) {
+            for (int a = 0; a < 3; a++) {
+                if (d[a] < 1 || uint64_t(d[a]) > CLVOX_MAX_AXIS || !(h[a] > 0) || !std::isfinite(o[a])) {
+                    vdbr_close(r);
+                    return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s': bad clvox_dims or clvox_voxel_size", path);
+                }
+                r->dims[a] = uint32_t(d[a]);
+                info->origin[a] = o[a];
+                info->voxel_size[a] = h[a];
+            }
+            r->base = openvdb::Coord(0, 0, 0);
+        } else {
+            openvdb::CoordBBox bb = g.evalActiveVoxelBoundingBox();
+            const openvdb::Vec3d vs = g.voxelSize();
+            if (bb.empty() || !g.transform().isLinear()) {
+                vdbr_close(r);
+                return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s': an empty or non-linear grid, without clvox metadata",
+                                   path);
+            }
+            r->base = bb.min();
+            const openvdb::Vec3d c = g.indexToWorld(bb.min());
+            for (int a = 0; a < 3; a++) {
+                const int64_t n = int64_t(bb.max()[a]) - bb.min()[a] + 1;
+                if (n > int64_t(CLVOX_MAX_AXIS)) {
+                    vdbr_close(r);
+                    return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s': the grid is too large (%lld voxels along %c)", path,
+                                       (long long)n, "xyz"[a]);
+                }
+                r->dims[a] = uint32_t(n);
+                info->voxel_size[a] = vs[a];
+                info->origin[a] = c[a] - 0.5 * vs[a];
+            }
+        }
+        for (int a = 0; a < 3; a++) info->dims[a] = r->dims[a];
+        copy_meta(g, "clvox_method", info->method, sizeof info->method);
+        copy_meta(g, "clvox_parameters", info->parameters, sizeof info->parameters);
+        copy_meta(g, "clvox_version", info->version, sizeof info->version);
+        *state = r;
+        return CLVOX_OK;
+    } catch (const std::bad_alloc &) {
+        vdbr_close(r);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+    } catch (const std::exception &e) {
+        vdbr_close(r);
+        return clvox__fail(ctx, CLVOX_ERR_EXR, "OpenVDB: cannot read '%s': %s", path, e.what());
+    } catch (...) {
+        vdbr_close(r);
+        return clvox__fail(ctx, CLVOX_ERR_EXR, "OpenVDB: cannot read '%s'", path);
+    }
+}
+
+clvox_status vdbr_read(void *state, const char *channel, clvox__vdb_band_fn fn, void *user)
+{
+    VdbReader *r = static_cast<VdbReader *>(state);
+    openvdb::FloatGrid::Ptr g = std::strcmp(channel, "occupancy") == 0 ? r->occupancy
+                                : std::strcmp(channel, "coverage") == 0 ? r->coverage : nullptr;
+    if (!g) return clvox__fail(r->ctx, CLVOX_ERR_EXR, "'%s' has no channel \"%s\"", r->path.c_str(), channel);
+    const uint32_t X = r->dims[0], Y = r->dims[1], Z = r->dims[2];
+    try {
+        std::vector<float> slice(size_t(X) * Y);
+        auto acc = g->getConstAccessor();
+        for (uint32_t z = 0; z < Z; z++) {
+            for (uint32_t y = 0; y < Y; y++)
+                for (uint32_t x = 0; x < X; x++)
+                    slice[size_t(y) * X + x] = acc.getValue(r->base.offsetBy(int(x), int(y), int(z)));
+            clvox_status st = fn(user, reinterpret_cast<const uint8_t *>(slice.data()), 2 /* FLOAT */,
+                                 uint64_t(z) * Y, Y);
+            if (st != CLVOX_OK) return st;
+        }
+        return CLVOX_OK;
+    } catch (const std::bad_alloc &) {
+        return clvox__fail(r->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory reading '%s'", r->path.c_str());
+    } catch (...) {
+        return clvox__fail(r->ctx, CLVOX_ERR_INTERNAL, "OpenVDB: reading '%s' failed", r->path.c_str());
+    }
+}
+
 } // namespace
+
+/* The reader's entry point: its ops, or NULL for another library. */
+extern "C" __attribute__((visibility("default"))) const clvox__vdb_reader_ops *
+clvox__vdb_plugin_reader(const clvox__vdb_host *host, uint32_t abi, const char *version)
+{
+    static const clvox__vdb_reader_ops ops = {vdbr_open, vdbr_has, vdbr_read, vdbr_close};
+    if (!host || abi != CLVOX__VDB_READER_ABI || !version || std::strcmp(version, CLVOX_VERSION_STRING) != 0)
+        return nullptr;
+    g_host = host;
+    return &ops;
+}
 
 /* The plugin's entry point (the library looks it up by name): its ops, or NULL for
  * a library of another version or layout. */

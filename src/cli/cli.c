@@ -8,7 +8,7 @@
  *   clvox preview FILE -o OUT.png       slices as a PNG picture (cli_preview.c)
  *   clvox palette list | show NAME|FILE  palettes of sub-voxel elements (cli_palette.c)
  *   clvox instances VOLUME.exr -o OUT.csv  instances of a palette volume, for rendering (cli_instances.c)
- *   clvox mesh VOLUME.exr -o OUT.ply  a palette volume's geometry as a PLY mesh (cli_mesh.c)
+ *   clvox mesh VOLUME -o OUT.{ply,obj,stl}  a volume's surface, or a palette volume's elements (cli_mesh.c)
  *   clvox convert IN OUT.EXT      another volume format (cli_convert.c)
  *   clvox --list-devices | --help | --version
  *

@@ -60,6 +60,17 @@ int clvox__sched_poll(void *device, double slab_fraction);
  * window's end). */
 uint32_t clvox__sched_window(uint32_t ndev, uint32_t group, uint64_t slab_bytes);
 
+/* Slabs per method call on device dc (docs/design.md "Several devices",
+ * launch groups; voxelize.c): CLVOX_LAUNCH_SLABS where set; the ray method
+ * (ray != 0) on a GPU, enough slabs that a call casts compute units x 2048
+ * rays (x and y rays: the slab's columns x oversample^2; z rays: one slab);
+ * else one (CPU devices: PoCL measured no gain, docs/benchmarks.md). At
+ * most the run's slabs of `depth`, and the group's planes (plane_slice:
+ * bytes per slice of each) within the device's largest buffer and a
+ * quarter of its memory budget. */
+uint32_t clvox__launch_slabs(const clvox_context *dc, int ray, const clvox_voxelize_options *o, const clvox_grid *g,
+                             uint32_t depth, const uint64_t plane_slice[4]);
+
 /* Runs the job: every slab computed once (more where a straggler is
  * re-issued: the first result is kept) and handed to the sink once, in
  * increasing z. A device that fails is dropped with a warning in the

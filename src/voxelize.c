@@ -33,19 +33,14 @@ static uint32_t auto_slab_depth(const clvox_grid *g)
     return (uint32_t)d;
 }
 
-/* Slabs per method call on device dc (docs/design.md "Several devices"):
- * CLVOX_LAUNCH_SLABS where set; the ray method on a GPU, enough slabs that
- * a call casts compute units x LAUNCH_RAYS_PER_UNIT rays; else one slab
- * (CPU devices: PoCL measured no gain, docs/benchmarks.md). At most the
- * run's slabs, and the group's planes within a quarter of the device's
- * memory budget and its largest buffer. */
-static uint32_t launch_slabs(const clvox_context *dc, const clvox__method *m, const clvox_voxelize_options *o,
-                             const clvox_grid *g, uint32_t depth, const uint64_t plane_slice[4])
+/* Slabs per method call on device dc (schedule.h). */
+uint32_t clvox__launch_slabs(const clvox_context *dc, int ray, const clvox_voxelize_options *o, const clvox_grid *g,
+                             uint32_t depth, const uint64_t plane_slice[4])
 {
     const uint32_t X = g->dims[0], Y = g->dims[1], Z = g->dims[2];
     const uint32_t nslabs = (Z + depth - 1) / depth;
     uint64_t n = clvox__hooks()->launch_slabs;
-    if (!n && m == &clvox__method_ray && strcmp(dc->device.type, "gpu") == 0 && dc->device.compute_units) {
+    if (!n && ray && strcmp(dc->device.type, "gpu") == 0 && dc->device.compute_units) {
         const clvox_axis axis = o->ray_axis == CLVOX_AXIS_DEFAULT ? CLVOX_AXIS_X : o->ray_axis;
         /* rays of one slab: a z-ray crosses every slab, so more slabs add none */
         uint64_t rays = axis == CLVOX_AXIS_X ? (uint64_t)Y * depth : axis == CLVOX_AXIS_Y ? (uint64_t)X * depth : 0;
@@ -334,7 +329,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
      * device's next group computing while the last one is written. */
     uint32_t group_max = 1;
     for (uint32_t d = 0; d < ndev; d++) {
-        dev[d].group = launch_slabs(ctx->member[d], m, &o, grid, depth, plane_slice);
+        dev[d].group = clvox__launch_slabs(ctx->member[d], m == &clvox__method_ray, &o, grid, depth, plane_slice);
         if (dev[d].group > group_max) group_max = dev[d].group;
     }
     const uint32_t window = clvox__sched_window(ndev, group_max, depth * all_slices);

@@ -191,6 +191,7 @@ static void test_cli(void)
     const char *bin = getenv("CLVOX_BIN");
     if (!bin) {
         printf("test_cli skipped: CLVOX_BIN is not set (make test sets it)\n");
+        tmesh_free(&box);
         return;
     }
     char mesh[1024], out[1024], err[1024], log[1024];

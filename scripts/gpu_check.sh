@@ -411,6 +411,40 @@ armadillo.off|-r 2048|150"
 $BENCH
 EOF
 
+    # ---- 5b. launch groups on the GPU (docs/design.md "Several devices"):
+    # its default group (compute units x 2048 rays a call) against one slab
+    # a call (CLVOX_LAUNCH_SLABS=1, the old launch), interleaved, same bytes
+    if [ "$ngpu" -gt 0 ]; then
+        log "== launch groups (gpu)"
+        lres="-r 1024"
+        [ "${GPU_CHECK_QUICK:-0}" = 1 ] && lres="-r 192"
+        lsum=""
+        for rep in 1 2; do
+            for g in 1 default; do
+                l=$(limit 60)
+                if [ "$l" -eq 0 ]; then log "  skip launch groups: no time left"; SKIP=$((SKIP + 1)); continue; fi
+                o="$W/bench/g$g.exr"; rm -f "$o"
+                ev=CLVOX_LAUNCH_SLABS=; [ "$g" = 1 ] && ev=CLVOX_LAUNCH_SLABS=1
+                s0=$(date +%s.%N)
+                # shellcheck disable=SC2086 # lres is words
+                env "$ev" timeout -k 5 "$l" "$B/bin/clvox" data/meshes/armadillo.off $lres --device gpu -q -o "$o" 2> "$W/bench/e"
+                rc=$?
+                wall=$(awk -v a="$s0" -v b="$(date +%s.%N)" 'BEGIN {printf "%.2f", b - a}')
+                if [ "$rc" -ne 0 ]; then
+                    result "launch armadillo $lres group $g #$rep" FAIL "$wall" "exit $rc: $(head -c 200 "$W/bench/e")"
+                    continue
+                fi
+                sum=$(sha256sum "$o" | cut -d' ' -f1)
+                same="(first)"
+                if [ -z "$lsum" ]; then lsum=$sum
+                elif [ "$sum" = "$lsum" ]; then same="same bytes"
+                else same=NO; fi
+                if [ "$same" = NO ]; then result "launch armadillo $lres group $g #$rep" FAIL "$wall" "EXR differs from group 1"
+                else result "launch armadillo $lres group $g #$rep" ok "$wall" "$same"; fi
+            done
+        done
+    fi
+
     # ---- summary
     {
         echo "# clvox GPU check"

@@ -16,6 +16,12 @@
  *  - a device with nothing left to take re-computes the lowest slab still
  *    running on another device when it expects to finish it sooner (first
  *    result wins; the other device's method is stopped at its next poll);
+ *  - a device computes up to `group` consecutive slabs of its packet in one
+ *    method call (its launch unit, sized to the device by voxelize.c), all
+ *    below written + window, then reads each slab of the group back into
+ *    its own slot: a group is won, lost, failed or re-issued as a whole
+ *    (a straggler's copy computes the same range), so every slab of it is
+ *    delivered once and its statistics, kept on its first slab, once;
  *  - a device whose throughput is under 1/20 of the others' together takes
  *    no more packets (its share would be under 5 %, while its last slab
  *    could hold the writer up);
@@ -41,6 +47,7 @@ typedef struct slab_info {
     uint8_t state;
     uint8_t owner;     /* ASSIGNED: whose packet; COPYING/DONE: whose result */
     uint32_t runners;  /* devices computing it (bit per device) */
+    uint32_t gbeg, gend; /* RUNNING: the group it is computed in, [gbeg, gend) */
     double started;    /* when its first runner started it */
     clvox__slab_stats ss;
 } slab_info;
@@ -67,10 +74,15 @@ typedef struct clvox__sched {
     uint32_t held, peak;      /* slabs in the buffer (copying or done, not written) */
 } clvox__sched;
 
-uint32_t clvox__sched_window(uint32_t ndev, uint64_t slab_bytes)
+uint32_t clvox__sched_window(uint32_t ndev, uint32_t group, uint64_t slab_bytes)
 {
-    if (ndev <= 1) return 2;
-    uint32_t w = 4 * ndev;
+    if (group < 1) group = 1;
+    if (ndev <= 1) {
+        uint32_t w = 2 * group;
+        while (w > 2 && (uint64_t)w * slab_bytes > WINDOW_BYTES) w--;
+        return w;
+    }
+    uint32_t w = ndev * (2 * group > 4 ? 2 * group : 4);
     while (w > ndev + 1 && (uint64_t)w * slab_bytes > WINDOW_BYTES) w--;
     return w;
 }
@@ -80,6 +92,13 @@ static uint32_t slab_nz(const clvox__sched *s, uint32_t i)
 {
     uint32_t z0 = slab_z0(s, i), Z = s->job->Z;
     return Z - z0 < s->job->depth ? Z - z0 : s->job->depth;
+}
+
+/* Slices of slabs [i, e). */
+static uint32_t range_slices(const clvox__sched *s, uint32_t i, uint32_t e)
+{
+    uint32_t z1 = e * s->job->depth;
+    return (z1 < s->job->Z ? z1 : s->job->Z) - slab_z0(s, i);
 }
 
 static double throughput(const clvox__sched_device *d)
@@ -105,17 +124,20 @@ int clvox__sched_poll(void *user, double slab_fraction)
     return go;
 }
 
-/* Puts back what device d held: its packet's slabs and the slab it ran. */
+/* Puts back what device d held: its packet's slabs and the group it ran
+ * (every slab of it that no other device computes). */
 static void release_slabs(clvox__sched *s, clvox__sched_device *d)
 {
     for (uint32_t k = d->pk_next; k < d->pk_end; k++)
         if (s->slab[k].state == SLAB_ASSIGNED && s->slab[k].owner == d->index) s->slab[k].state = SLAB_TODO, s->redo = 1;
     d->pk_next = d->pk_end = 0;
     if (d->current == NONE) return;
-    slab_info *si = &s->slab[d->current];
-    si->runners &= ~(1u << d->index);
-    if (si->state == SLAB_COPYING && si->owner == d->index) si->state = SLAB_RUNNING, s->held--;
-    if (si->state == SLAB_RUNNING && !si->runners) si->state = SLAB_TODO, s->redo = 1;
+    for (uint32_t k = d->current; k < d->current_end; k++) {
+        slab_info *si = &s->slab[k];
+        si->runners &= ~(1u << d->index);
+        if (si->state == SLAB_COPYING && si->owner == d->index) si->state = SLAB_RUNNING, s->held--;
+        if (si->state == SLAB_RUNNING && !si->runners) si->state = SLAB_TODO, s->redo = 1;
+    }
 }
 
 /* HGuided: d's share of the slabs left, weighted by throughput, over K. */
@@ -123,7 +145,7 @@ static uint32_t packet_size(const clvox__sched *s, const clvox__sched_device *d)
 {
     const clvox__sched_job *job = s->job;
     double mine = throughput(d);
-    if (mine <= 0) return 1;
+    if (mine <= 0) return d->group; /* not measured yet: one call */
     double sum = 0;
     for (uint32_t e = 0; e < job->ndev; e++) {
         const clvox__sched_device *o = &job->dev[e];
@@ -134,8 +156,8 @@ static uint32_t packet_size(const clvox__sched *s, const clvox__sched_device *d)
     double left = (double)(s->nslabs - s->next_fresh);
     double size = left * mine / (PACKET_K * (sum > 0 ? sum : mine));
     uint32_t cap = job->window / (s->alive ? s->alive : 1);
-    if (cap < 1) cap = 1;
-    uint32_t n = size < 1 ? 1 : size > cap ? cap : (uint32_t)size;
+    if (cap < d->group) cap = d->group;
+    uint32_t n = size < d->group ? d->group : size > cap ? cap : (uint32_t)size;
     return n;
 }
 
@@ -165,40 +187,47 @@ static int others_alive(const clvox__sched *s, const clvox__sched_device *d)
     return 0;
 }
 
-/* The lowest running slab d should also compute: one other device runs it
- * and d, by its own average, would finish it sooner than that device will
- * (estimated from the fraction it has polled, else from its average). */
-static uint32_t straggler(const clvox__sched *s, const clvox__sched_device *d, double now)
+/* The lowest running group d should also compute (the same range, which
+ * its planes hold): one other device runs it and d, at its own measured
+ * throughput, would finish it sooner than that device will (estimated from
+ * the fraction it has polled, else from its throughput). *gend: its end. */
+static uint32_t straggler(const clvox__sched *s, const clvox__sched_device *d, double now, uint32_t *gend)
 {
-    if (!d->slabs_won) return NONE;
-    double mine = d->busy_won / d->slabs_won;
+    const double rate = throughput(d);
+    if (rate <= 0) return NONE;
     uint32_t end = s->written + s->job->window;
     if (end > s->nslabs) end = s->nslabs;
     for (uint32_t k = s->written; k < end; k++) {
         const slab_info *si = &s->slab[k];
-        if (si->state != SLAB_RUNNING || (si->runners & (1u << d->index)) || (si->runners & (si->runners - 1)))
+        if (si->state != SLAB_RUNNING || si->gbeg != k || si->gend - k > d->group ||
+            (si->runners & (1u << d->index)) || (si->runners & (si->runners - 1)))
             continue;
         uint32_t e = 0;
         while (!(si->runners & (1u << e))) e++;
         const clvox__sched_device *o = &s->job->dev[e];
+        const double slices = range_slices(s, k, si->gend), mine = slices / rate, theirs = throughput(o);
         double elapsed = now - si->started, left;
         if (o->current == k && o->fraction > 0.01)
             left = elapsed * (1.0 - o->fraction) / o->fraction;
-        else if (o->slabs_won)
-            left = o->busy_won / o->slabs_won - elapsed;
+        else if (theirs > 0)
+            left = slices / theirs - elapsed;
         else
             left = elapsed; /* unmeasured: assume as long again */
-        if (mine < left) return k;
+        if (mine < left) {
+            *gend = si->gend;
+            return k;
+        }
     }
     return NONE;
 }
 
-/* The next slab for d, claimed; NONE when d is to stop. Lock held. */
-static uint32_t pick(clvox__sched *s, clvox__sched_device *d)
+/* The next group for d, [return, *gend), claimed; NONE when d is to stop.
+ * Lock held. */
+static uint32_t pick(clvox__sched *s, clvox__sched_device *d, uint32_t *gend)
 {
     for (;;) {
         if (s->stop || d->dead) return NONE;
-        uint32_t i = NONE;
+        uint32_t i = NONE, e = NONE;
         while (d->pk_next < d->pk_end) {
             const slab_info *si = &s->slab[d->pk_next];
             if (si->state == SLAB_ASSIGNED && si->owner == d->index) {
@@ -228,15 +257,18 @@ static uint32_t pick(clvox__sched *s, clvox__sched_device *d)
         }
         if (i == NONE && !d->left_out && s->redo) {
             s->redo = 0;
+            uint32_t n = 0;
             for (uint32_t k = s->written; k < s->next_fresh; k++)
                 if (s->slab[k].state == SLAB_TODO) {
                     if (i == NONE) i = k;
-                    else s->redo = 1; /* more for the others */
+                    if (k == i + n && n < d->group) n++; /* a packet of up to one group */
+                    else s->redo = 1;                    /* more for the others */
                 }
             if (i != NONE) {
-                s->slab[i].state = SLAB_ASSIGNED, s->slab[i].owner = (uint8_t)d->index;
-                d->pk_next = i; /* a packet of one */
-                d->pk_end = i + 1;
+                for (uint32_t k = i; k < i + n; k++)
+                    s->slab[k].state = SLAB_ASSIGNED, s->slab[k].owner = (uint8_t)d->index;
+                d->pk_next = i;
+                d->pk_end = i + n;
             }
         }
         if (i == NONE && !d->left_out && s->next_fresh < s->nslabs) {
@@ -249,7 +281,7 @@ static uint32_t pick(clvox__sched *s, clvox__sched_device *d)
             s->next_fresh += n;
             i = d->pk_next;
         }
-        if (i == NONE && !d->left_out) i = straggler(s, d, clvox__now());
+        if (i == NONE && !d->left_out) i = straggler(s, d, clvox__now(), &e);
         if (i == NONE) {
             if (s->written == s->nslabs) return NONE;
             int open = 0;
@@ -267,18 +299,31 @@ static uint32_t pick(clvox__sched *s, clvox__sched_device *d)
             pthread_cond_wait(&s->cv, &s->mu);
             continue;
         }
-        slab_info *si = &s->slab[i];
-        if (si->state == SLAB_ASSIGNED || si->state == SLAB_TODO) {
-            si->state = SLAB_RUNNING;
-            si->started = clvox__now();
-            if (d->pk_next == i) d->pk_next = i + 1;
+        if (e == NONE) { /* from its packet: up to a group of it, within the window */
+            uint32_t lim = s->written + s->job->window;
+            if (lim > d->pk_end) lim = d->pk_end;
+            if (lim - i > d->group) lim = i + d->group;
+            e = i + 1;
+            while (e < lim && s->slab[e].state == SLAB_ASSIGNED && s->slab[e].owner == d->index) e++;
+            d->pk_next = e;
         }
-        si->runners |= 1u << d->index;
+        const double now = clvox__now();
+        for (uint32_t k = i; k < e; k++) {
+            slab_info *si = &s->slab[k];
+            if (si->state == SLAB_ASSIGNED || si->state == SLAB_TODO) {
+                si->state = SLAB_RUNNING;
+                si->started = now;
+                si->gbeg = i;
+                si->gend = e;
+            }
+            si->runners |= 1u << d->index;
+        }
+        *gend = e;
         return i;
     }
 }
 
-/* A device failed at slab d->current (lock held): drop it, put its slabs
+/* A device failed at group d->current (lock held): drop it, put its slabs
  * back, end the run if it was the last. */
 static void device_failed(clvox__sched *s, clvox__sched_device *d, clvox_status st)
 {
@@ -307,17 +352,22 @@ static void device_failed(clvox__sched *s, clvox__sched_device *d, clvox_status 
     pthread_cond_broadcast(&s->cv);
 }
 
-/* Reads slab i's planes from d into the reorder buffer's slot. */
-static clvox_status read_back(clvox__sched *s, clvox__sched_device *d, uint32_t i)
+/* Reads slabs [i, e) from d's planes into their reorder buffer slots. */
+static clvox_status read_back(clvox__sched *s, clvox__sched_device *d, uint32_t i, uint32_t e)
 {
     const clvox__sched_job *job = s->job;
-    uint32_t nz = slab_nz(s, i);
-    for (int p = 0; p < 4; p++) {
-        if (!job->plane_slice[p]) continue;
-        cl_int err = clEnqueueReadBuffer(d->ctx->queue, d->plane[p], CL_TRUE, 0, (size_t)(nz * job->plane_slice[p]),
-                                         s->slot[p][i % job->window], 0, NULL, NULL);
-        if (err != CL_SUCCESS) return clvox__cl_fail(d->ctx, err, "reading the slab back");
-    }
+    cl_int err = CL_SUCCESS;
+    for (uint32_t k = i; k < e && err == CL_SUCCESS; k++)
+        for (int p = 0; p < 4 && err == CL_SUCCESS; p++) {
+            if (!job->plane_slice[p]) continue;
+            const size_t off = (size_t)(k - i) * job->depth * job->plane_slice[p];
+            err = clEnqueueReadBuffer(d->ctx->queue, d->plane[p], CL_FALSE, off,
+                                      (size_t)(slab_nz(s, k) * job->plane_slice[p]), s->slot[p][k % job->window], 0,
+                                      NULL, NULL);
+        }
+    cl_int fin = clFinish(d->ctx->queue); /* the reads land before the slots are handed on */
+    if (err == CL_SUCCESS) err = fin;
+    if (err != CL_SUCCESS) return clvox__cl_fail(d->ctx, err, "reading the slab back");
     return CLVOX_OK;
 }
 
@@ -329,54 +379,70 @@ static void *device_main(void *arg)
     const clvox__slab_out out = {d->plane[0], d->plane[1], d->plane[2], d->plane[3]};
     pthread_mutex_lock(&s->mu);
     for (;;) {
-        uint32_t i = pick(s, d);
+        uint32_t e = NONE, i = pick(s, d, &e);
         if (i == NONE) break;
         d->current = i;
+        d->current_end = e;
         d->fraction = 0;
-        d->slabs_started++;
-        int fail_now = clvox__hook_fails_device(d->ctx->position, d->slabs_started);
+        int fail_now = 0; /* the hook's N-th slab is in this group */
+        for (uint32_t k = i; k < e; k++) fail_now |= clvox__hook_fails_device(d->ctx->position, ++d->slabs_started);
+        const uint32_t nth = d->slabs_started;
         pthread_mutex_unlock(&s->mu);
 
         double t0 = clvox__now();
         clvox__slab_stats ss;
         memset(&ss, 0, sizeof ss);
-        uint32_t z0 = slab_z0(s, i), nz = slab_nz(s, i);
+        uint32_t z0 = slab_z0(s, i), nz = range_slices(s, i, e);
         clvox_status st;
         if (fail_now)
             st = clvox__fail(d->ctx, CLVOX_ERR_OPENCL, "CLVOX_TEST_FAIL_DEVICE=%u:%u: a simulated OpenCL error",
-                             d->ctx->position, d->slabs_started);
+                             d->ctx->position, nth);
         else
             st = job->m->slab(d->ms, z0, nz, &out, &ss);
         if (st == CLVOX_OK && job->m2) {
             ss.filled = 0; /* the surface pass counts the union */
             st = job->m2->slab(d->ms2, z0, nz, &out, &ss);
         }
-        int won = 0;
+        /* The group is won whole or not at all: a copy elsewhere computes
+         * the same range and claims it under the same lock. */
         pthread_mutex_lock(&s->mu);
-        if (st == CLVOX_OK && s->slab[i].state <= SLAB_RUNNING && !s->stop) {
-            s->slab[i].state = SLAB_COPYING;
-            s->slab[i].owner = (uint8_t)d->index;
-            if (++s->held > s->peak) s->peak = s->held;
-            won = 1;
+        int won = st == CLVOX_OK && !s->stop;
+        for (uint32_t k = i; k < e && won; k++) won = s->slab[k].state <= SLAB_RUNNING;
+        if (won) {
+            for (uint32_t k = i; k < e; k++) {
+                s->slab[k].state = SLAB_COPYING;
+                s->slab[k].owner = (uint8_t)d->index;
+            }
+            s->held += e - i;
+            if (s->held > s->peak) s->peak = s->held;
         }
         pthread_mutex_unlock(&s->mu);
-        if (won) st = read_back(s, d, i);
+        if (won) st = read_back(s, d, i, e);
         if (st != CLVOX_OK || !won) clFinish(d->ctx->queue); /* a stopped method may leave commands queued */
         double busy = clvox__now() - t0;
 
         pthread_mutex_lock(&s->mu);
         d->busy_all += busy;
         if (st == CLVOX_OK && won) {
-            slab_info *si = &s->slab[i];
-            si->state = SLAB_DONE;
-            si->ss = ss;
-            si->runners &= ~(1u << d->index);
-            d->slabs_won++;
+            for (uint32_t k = i; k < e; k++) {
+                slab_info *si = &s->slab[k];
+                si->state = SLAB_DONE;
+                si->runners &= ~(1u << d->index);
+                if (k == i) si->ss = ss; /* the group's statistics, once */
+                else memset(&si->ss, 0, sizeof si->ss);
+            }
+            d->slabs_won += e - i;
             d->slices_won += nz;
             d->busy_won += busy;
         } else if (st == CLVOX_OK || (st == CLVOX_ERR_CANCELLED && (s->stop || s->slab[i].state > SLAB_RUNNING))) {
-            s->slab[i].runners &= ~(1u << d->index); /* lost the race, or the run stops */
-            if (!s->stop) d->slabs_lost++;
+            /* lost the race, or the run stops: a slab nobody else computes
+             * goes back (none does while copies share whole ranges) */
+            for (uint32_t k = i; k < e; k++) {
+                slab_info *si = &s->slab[k];
+                si->runners &= ~(1u << d->index);
+                if (si->state == SLAB_RUNNING && !si->runners) si->state = SLAB_TODO, s->redo = 1;
+            }
+            if (!s->stop) d->slabs_lost += e - i;
         } else {
             device_failed(s, d, st);
             break;

@@ -18,6 +18,10 @@
  * memory does not grow with the grid (the slab's bits take 2 MiB). */
 #define SLAB_TARGET_VOXELS (16u << 20)
 
+/* A GPU's launch: at least this many rays per compute unit (a large GPU
+ * holds about 2048 threads on each), so that one call fills it. */
+#define LAUNCH_RAYS_PER_UNIT 2048u
+
 typedef clvox__sink_fn sink_fn;
 
 static uint32_t auto_slab_depth(const clvox_grid *g)
@@ -27,6 +31,33 @@ static uint32_t auto_slab_depth(const clvox_grid *g)
     if (d < 1) d = 1;
     if (d > g->dims[2]) d = g->dims[2];
     return (uint32_t)d;
+}
+
+/* Slabs per method call on device dc (schedule.h). */
+uint32_t clvox__launch_slabs(const clvox_context *dc, int ray, const clvox_voxelize_options *o, const clvox_grid *g,
+                             uint32_t depth, const uint64_t plane_slice[4])
+{
+    const uint32_t X = g->dims[0], Y = g->dims[1], Z = g->dims[2];
+    const uint32_t nslabs = (Z + depth - 1) / depth;
+    uint64_t n = clvox__hooks()->launch_slabs;
+    if (!n && ray && strcmp(dc->device.type, "gpu") == 0 && dc->device.compute_units) {
+        const clvox_axis axis = o->ray_axis == CLVOX_AXIS_DEFAULT ? CLVOX_AXIS_X : o->ray_axis;
+        /* rays of one slab: a z-ray crosses every slab, so more slabs add none */
+        uint64_t rays = axis == CLVOX_AXIS_X ? (uint64_t)Y * depth : axis == CLVOX_AXIS_Y ? (uint64_t)X * depth : 0;
+        rays *= o->oversample ? (uint64_t)o->oversample * o->oversample : 1u;
+        const uint64_t target = (uint64_t)dc->device.compute_units * LAUNCH_RAYS_PER_UNIT;
+        n = rays ? (target + rays - 1) / rays : 1;
+    }
+    if (n < 1) n = 1;
+    if (n > nslabs) n = nslabs;
+    uint64_t all = 0;
+    const uint64_t max_alloc = clvox__device_max_alloc(dc), budget = clvox__device_budget(dc) / 4;
+    for (int p = 0; p < 4; p++) {
+        all += plane_slice[p] * depth;
+        while (n > 1 && plane_slice[p] * depth * n > max_alloc) n--;
+    }
+    while (n > 1 && all * n > budget) n--;
+    return (uint32_t)n;
 }
 
 /* Palette runs: t = p = 16 samples unless the caller says (N = 4). */
@@ -294,8 +325,21 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     ctx->warnings[ctx->warnings_kept] = 0;
     clvox__sched_device dev[CLVOX_MAX_DEVICES];
     memset(dev, 0, sizeof dev);
+    /* Each device's launch unit, and the reorder window that keeps every
+     * device's next group computing while the last one is written. */
+    uint32_t group_max = 1;
+    for (uint32_t d = 0; d < ndev; d++) {
+        dev[d].group = clvox__launch_slabs(ctx->member[d], m == &clvox__method_ray, &o, grid, depth, plane_slice);
+        if (dev[d].group > group_max) group_max = dev[d].group;
+    }
+    const uint32_t window = clvox__sched_window(ndev, group_max, depth * all_slices);
+    for (uint32_t d = 0; d < ndev; d++) { /* a window too small for two groups a device: smaller groups */
+        uint32_t fit = window / (2 * ndev);
+        if (dev[d].group > fit) dev[d].group = fit ? fit : 1;
+    }
     clvox_stats first = stats;
     int have_first = 0;
+    uint32_t first_group = 1;
     st = CLVOX_OK;
     for (uint32_t d = 0; d < ndev; d++) {
         clvox_context *dc = ctx->member[d];
@@ -304,13 +348,14 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         clvox__run rd = req;
         rd.poll_user = &dev[d];
         for (uint32_t e = 0; e < d && !rd.lead; e++) rd.lead = dev[e].ms; /* the mesh prepared once */
-        clvox_status sd = m->prepare(dc, mesh, grid, &o, &rd, depth, &mine, &dev[d].ms);
+        const uint32_t gdepth = depth * dev[d].group; /* its planes' slices */
+        clvox_status sd = m->prepare(dc, mesh, grid, &o, &rd, gdepth, &mine, &dev[d].ms);
         if (sd == CLVOX_OK && m2) {
             clvox__run r2 = rd;
             r2.lead = NULL;
             for (uint32_t e = 0; e < d && !r2.lead; e++) r2.lead = dev[e].ms2;
             r2.accumulate = 1;
-            sd = m2->prepare(dc, mesh, grid, &o, &r2, depth, &mine, &dev[d].ms2);
+            sd = m2->prepare(dc, mesh, grid, &o, &r2, gdepth, &mine, &dev[d].ms2);
         }
         if (sd == CLVOX_OK && clvox__hook_fails_device(dc->position, CLVOX__FAIL_PREPARE))
             sd = clvox__fail(dc, CLVOX_ERR_OPENCL, "CLVOX_TEST_FAIL_DEVICE=%u:prepare: a simulated OpenCL error",
@@ -318,7 +363,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         for (int i = 0; i < 4 && sd == CLVOX_OK; i++) {
             if (!plane_slice[i]) continue;
             cl_int err = CL_SUCCESS;
-            dev[d].plane[i] = clCreateBuffer(dc->cl, CL_MEM_READ_WRITE, (size_t)(depth * plane_slice[i]), NULL, &err);
+            dev[d].plane[i] = clCreateBuffer(dc->cl, CL_MEM_READ_WRITE, (size_t)(gdepth * plane_slice[i]), NULL, &err);
             if (err != CL_SUCCESS) {
                 char what[64];
                 snprintf(what, sizeof what, "clCreateBuffer(slab %s)", plane_name[i]);
@@ -326,7 +371,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
             }
         }
         if (sd == CLVOX_OK) {
-            if (!have_first) first = mine, have_first = 1;
+            if (!have_first) first = mine, have_first = 1, first_group = dev[d].group;
             continue;
         }
         if (dev[d].ms) m->release(dev[d].ms);
@@ -362,10 +407,9 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         }
         st = open_sink(user, name, params);
     }
-    uint32_t window = clvox__sched_window(ndev, depth * all_slices);
-    /* one device's: method working set + slab planes (the host's reorder
+    /* one device's: method working set + its planes (the host's reorder
      * buffer is stats.reorder_bytes) */
-    stats.peak_slab_bytes += (uint64_t)depth * all_slices;
+    stats.peak_slab_bytes += (uint64_t)depth * first_group * all_slices;
     if (st == CLVOX_OK) {
         clvox__sched_job job = {ctx, m, m2, dev, ndev, {0}, Z, depth, window, sink, user, o.progress, o.progress_user};
         memcpy(job.plane_slice, plane_slice, sizeof plane_slice);

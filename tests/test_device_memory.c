@@ -5,11 +5,13 @@
  * in smaller batches and the raster methods upload their tasks in windows,
  * and every mode gives the same voxels; where one voxel column does not
  * fit, the run fails with CLVOX_ERR_OUT_OF_MEMORY naming the device, and
- * the CLI exits non-zero and leaves no output file. */
+ * the CLI exits non-zero and leaves no output file. The launch-group rule
+ * (clvox__launch_slabs) for a GPU described by hand. */
 #include "meshgen.h"
 #include "spawn.h"
 #include "test.h"
 #include "core/internal.h"
+#include "schedule.h"
 
 #include <string.h>
 #include <sys/stat.h>
@@ -189,6 +191,7 @@ static void test_cli(void)
     const char *bin = getenv("CLVOX_BIN");
     if (!bin) {
         printf("test_cli skipped: CLVOX_BIN is not set (make test sets it)\n");
+        tmesh_free(&box);
         return;
     }
     char mesh[1024], out[1024], err[1024], log[1024];
@@ -238,6 +241,60 @@ static void test_cli(void)
     tmesh_free(&box);
 }
 
+/* The launch-group rule (clvox__launch_slabs, docs/design.md "Several
+ * devices"): a GPU gets compute units x 2048 rays a call, bounded by the
+ * slabs, its largest buffer and a quarter of its memory budget; CPU
+ * devices, z rays and the raster methods one slab; the hook wins. */
+static void test_launch_rule(void)
+{
+    clvox_context *dc = calloc(1, sizeof *dc);
+    if (!dc) abort();
+    snprintf(dc->device.type, sizeof dc->device.type, "gpu");
+    dc->device.compute_units = 132; /* an H100: 270 336 rays a call */
+    dc->device.global_mem_bytes = 80ull << 30;
+    dc->device.max_alloc_bytes = 20ull << 30;
+    clvox_grid g = {0};
+    g.dims[0] = g.dims[1] = g.dims[2] = 1024;
+    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+    const uint64_t bits[4] = {32u * 4 * 1024, 0, 0, 0}; /* occupancy rows of one slice */
+    /* x rays at slab depth 16: 16 384 rays a slab -> 17 slabs */
+    CHECK_MSG(clvox__launch_slabs(dc, 1, &o, &g, 16, bits) == 17, "gpu, x rays, depth 16: %u",
+              clvox__launch_slabs(dc, 1, &o, &g, 16, bits));
+    o.oversample = 4; /* 16 rays a column: 262 144 a slab -> 2 */
+    CHECK_MSG(clvox__launch_slabs(dc, 1, &o, &g, 16, bits) == 2, "gpu, oversample 4: %u",
+              clvox__launch_slabs(dc, 1, &o, &g, 16, bits));
+    o.oversample = 0;
+    o.ray_axis = CLVOX_AXIS_Z; /* a z ray crosses every slab */
+    CHECK(clvox__launch_slabs(dc, 1, &o, &g, 16, bits) == 1);
+    o.ray_axis = CLVOX_AXIS_DEFAULT;
+    CHECK(clvox__launch_slabs(dc, 0, &o, &g, 16, bits) == 1); /* tetra, surface */
+    CHECK(clvox__launch_slabs(dc, 1, &o, &g, 1000, bits) == 1); /* 2 slabs of 1000: 1 ray in 1000 each */
+    g.dims[2] = 40; /* 3 slabs */
+    CHECK(clvox__launch_slabs(dc, 1, &o, &g, 16, bits) == 3);
+    g.dims[2] = 1024;
+    /* 2 MiB of planes a slab; budget 3/4 of 40 MiB, a quarter of it 7.5 MiB: 3 slabs */
+    dc->device.global_mem_bytes = 40ull << 20;
+    CHECK_MSG(clvox__launch_slabs(dc, 1, &o, &g, 16, bits) == 3, "gpu, 40 MiB: %u",
+              clvox__launch_slabs(dc, 1, &o, &g, 16, bits));
+    dc->device.global_mem_bytes = 80ull << 30;
+    dc->device.max_alloc_bytes = 5ull << 20; /* two 2 MiB slabs a buffer */
+    CHECK(clvox__launch_slabs(dc, 1, &o, &g, 16, bits) == 2);
+    dc->device.max_alloc_bytes = 20ull << 30;
+    snprintf(dc->device.type, sizeof dc->device.type, "cpu");
+    CHECK(clvox__launch_slabs(dc, 1, &o, &g, 16, bits) == 1);
+    clvox__test_hooks h = *clvox__hooks();
+    h.launch_slabs = 5;
+    clvox__set_test_hooks(&h);
+    CHECK(clvox__launch_slabs(dc, 0, &o, &g, 16, bits) == 5);
+    h.launch_slabs = 0;
+    clvox__set_test_hooks(&h);
+    /* the window: two groups with one device, 2 groups or 4 slabs a device */
+    CHECK(clvox__sched_window(1, 1, 1) == 2 && clvox__sched_window(1, 17, 1) == 34);
+    CHECK(clvox__sched_window(2, 1, 1) == 8 && clvox__sched_window(2, 3, 1) == 12);
+    CHECK(clvox__sched_window(1, 17, 64ull << 20) == 4); /* 256 MiB of 64 MiB slabs */
+    free(dc);
+}
+
 int main(void)
 {
     clvox__test_hooks none = {0};
@@ -250,6 +307,7 @@ int main(void)
     CHECK_OK(ctx, clvox_palette_builtin(ctx, "paper46", &pal));
     test_same_voxels(&closed, &open, pal);
     test_too_small();
+    test_launch_rule();
     clvox_palette_destroy(pal);
     clvox_context_destroy(ctx);
     test_cli();

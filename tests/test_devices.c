@@ -667,7 +667,172 @@ static void test_cancel(const mesh_case *mc)
     capture_free(&ref);
 }
 
-/* ---- 5. the command-line tool ---- */
+/* ---- 5. launch groups: several slabs per method call ---- */
+
+static void set_group(unsigned n)
+{
+    clvox__test_hooks h = g_hooks;
+    h.launch_slabs = n;
+    clvox__set_test_hooks(&h);
+}
+
+/* The run's totals, which must not depend on how slabs are grouped. */
+static void check_totals(const clvox_stats *a, const clvox_stats *b, const char *what)
+{
+    CHECK_MSG(a->filled_voxels == b->filled_voxels && a->coverage_sum == b->coverage_sum && a->rays == b->rays &&
+                  a->odd_parity_rays == b->odd_parity_rays && a->overflow_rays == b->overflow_rays &&
+                  a->max_crossings == b->max_crossings && a->winding.exact_points == b->winding.exact_points &&
+                  a->palette_scored_voxels == b->palette_scored_voxels &&
+                  a->palette_nonempty_voxels == b->palette_nonempty_voxels && a->palette_volume == b->palette_volume,
+              "%s: totals differ: filled %llu vs %llu, coverage %.17g vs %.17g, rays %llu vs %llu, odd %llu vs %llu, "
+              "overflow %llu vs %llu, exact %llu vs %llu, scored %llu vs %llu",
+              what, (unsigned long long)a->filled_voxels, (unsigned long long)b->filled_voxels, a->coverage_sum,
+              b->coverage_sum, (unsigned long long)a->rays, (unsigned long long)b->rays,
+              (unsigned long long)a->odd_parity_rays, (unsigned long long)b->odd_parity_rays,
+              (unsigned long long)a->overflow_rays, (unsigned long long)b->overflow_rays,
+              (unsigned long long)a->winding.exact_points, (unsigned long long)b->winding.exact_points,
+              (unsigned long long)a->palette_scored_voxels, (unsigned long long)b->palette_scored_voxels);
+}
+
+/* CLVOX_LAUNCH_SLABS = 1, 2, 3, 5 at slab depths 1, 3 and auto, on one
+ * device and on the pair: the same bytes, every slab once and in order,
+ * the same totals as one slab per call. */
+static void test_groups_same(const mesh_case *mc)
+{
+    mode_case modes[10];
+    size_t n = 0;
+    clvox_voxelize_options base = CLVOX_VOXELIZE_OPTIONS_INIT;
+    modes[n].name = "ray parity", modes[n].o = base, modes[n].o.inside = CLVOX_INSIDE_PARITY, n++;
+    modes[n].name = "ray winding", modes[n].o = base, n++;
+    modes[n].name = "ray winding, z rays", modes[n].o = base, modes[n].o.ray_axis = CLVOX_AXIS_Z, n++;
+    modes[n].name = "coverage", modes[n].o = base, modes[n].o.oversample = 2, n++;
+    modes[n].name = "coverage, y rays", modes[n].o = base, modes[n].o.oversample = 3;
+    modes[n].o.ray_axis = CLVOX_AXIS_Y, n++;
+    modes[n].name = "palette", modes[n].o = base, modes[n].o.palette = g_palette, modes[n].o.oversample = 2, n++;
+    modes[n].name = "tetra", modes[n].o = base, modes[n].o.method = CLVOX_METHOD_TETRA, n++;
+    modes[n].name = "surface", modes[n].o = base, modes[n].o.mode = CLVOX_MODE_SURFACE, n++;
+    modes[n].name = "conservative", modes[n].o = base, modes[n].o.mode = CLVOX_MODE_CONSERVATIVE, n++;
+    static const uint32_t depths[] = {1, 3, 0};
+    static const unsigned groups[] = {2, 3, 5};
+    for (size_t k = 0; k < n; k++)
+        for (size_t d = 0; d < sizeof depths / sizeof depths[0]; d++) {
+            clvox_voxelize_options o = modes[k].o;
+            o.slab_depth = depths[d];
+            char what[256];
+            capture ref;
+            capture_init(&ref, &mc->grid);
+            clvox_stats rs = CLVOX_STATS_INIT;
+            set_group(1);
+            CHECK_OK(g_one, run_capture(g_one, mc->mesh, &mc->grid, &o, &ref, &rs));
+            for (size_t gi = 0; gi < sizeof groups / sizeof groups[0]; gi++)
+                for (int all = 0; all < 2; all++) {
+                    snprintf(what, sizeof what, "[%s] %s, %s, slab depth %u, %u slabs a call, %s", g_config, mc->name,
+                             modes[k].name, depths[d], groups[gi], all ? "two devices" : "one device");
+                    capture c;
+                    capture_init(&c, &mc->grid);
+                    clvox_stats st = CLVOX_STATS_INIT;
+                    set_group(groups[gi]);
+                    clvox_context *ctx = all ? g_all : g_one;
+                    CHECK_OK(ctx, run_capture(ctx, mc->mesh, &mc->grid, &o, &c, &st));
+                    clear_fail();
+                    check_order(&c, what);
+                    check_same(&ref, &c, what);
+                    check_totals(&rs, &st, what);
+                    CHECK_MSG(st.slab_depth == rs.slab_depth || all, "%s: slab depth %u vs %u", what, st.slab_depth,
+                              rs.slab_depth);
+                    if (all) check_shares(&st, mc->grid.dims[2], what);
+                    else /* two groups: one computed while the other is written */
+                        CHECK_MSG(st.reorder_peak <= st.reorder_slabs &&
+                                      st.reorder_slabs == 2 * (groups[gi] < (mc->grid.dims[2] + st.slab_depth - 1) /
+                                                                                   st.slab_depth
+                                                                   ? groups[gi]
+                                                                   : (mc->grid.dims[2] + st.slab_depth - 1) /
+                                                                         st.slab_depth),
+                                  "%s: reorder buffer %u of %u slabs", what, st.reorder_peak, st.reorder_slabs);
+                    CHECK_MSG(!*clvox_context_warnings(ctx), "%s: warnings '%s'", what, clvox_context_warnings(ctx));
+                    capture_free(&c);
+                }
+            capture_free(&ref);
+        }
+    clear_fail();
+}
+
+/* A device failing in the middle of a group (its 2nd slab of a group of
+ * 3): the whole group goes back; alone, the run fails before any slab of
+ * the group reaches the callback; a cancel stops the run. */
+static void test_groups_faults(const mesh_case *mc)
+{
+    clvox_voxelize_options o = fault_options();
+    capture ref;
+    capture_init(&ref, &mc->grid);
+    set_group(1);
+    CHECK_OK(g_one, run_capture(g_one, mc->mesh, &mc->grid, &o, &ref, NULL));
+    for (int k = 0; k < 2; k++) {
+        int failed = 0;
+        for (int attempt = 0; attempt < 8 && !failed; attempt++) {
+            char what[160];
+            snprintf(what, sizeof what, "[%s] groups of 3, device %d failing at its 2nd slab", g_config, k);
+            capture c;
+            capture_init(&c, &mc->grid);
+            clvox_stats st = CLVOX_STATS_INIT;
+            set_group(3);
+            clvox__test_hooks h = *clvox__hooks();
+            h.fail_device_k = k, h.fail_device_n = 2;
+            clvox__set_test_hooks(&h);
+            clvox_status s = run_capture(g_all, mc->mesh, &mc->grid, &o, &c, &st);
+            set_group(3);
+            CHECK_MSG(s == CLVOX_OK, "%s: %s: %s", what, clvox_status_string(s), clvox_context_error(g_all));
+            failed = st.devices[k].failed;
+            if (failed) {
+                check_order(&c, what);
+                check_same(&ref, &c, what);
+                CHECK_MSG(!st.devices[1 - k].failed && st.devices[k].slabs == 0 &&
+                              st.devices[0].slices + st.devices[1].slices == mc->grid.dims[2],
+                          "%s: device %d won %u slabs (%llu slices), the other %llu", what, k, st.devices[k].slabs,
+                          (unsigned long long)st.devices[k].slices, (unsigned long long)st.devices[1 - k].slices);
+                const char *w = clvox_context_warnings(g_all);
+                CHECK_MSG(strstr(w, "failed") && count_lines(w) == 1, "%s: warnings '%s'", what, w);
+            }
+            capture_free(&c);
+        }
+        CHECK_MSG(failed, "[%s] groups of 3: device %d never started a group", g_config, k);
+    }
+    /* one device: the group of slabs 1-3 fails as a whole */
+    {
+        capture c;
+        capture_init(&c, &mc->grid);
+        set_group(3);
+        clvox__test_hooks h = *clvox__hooks();
+        h.fail_device_k = 0, h.fail_device_n = 2;
+        clvox__set_test_hooks(&h);
+        clvox_status s = run_capture(g_one, mc->mesh, &mc->grid, &o, &c, NULL);
+        set_group(3);
+        CHECK_MSG(s == CLVOX_ERR_OPENCL && c.calls == 0, "[%s] one device, groups of 3, failing at slab 2: %s, %u slabs "
+                  "reached the callback", g_config, clvox_status_string(s), c.calls);
+        capture_free(&c);
+    }
+    /* cancelling between batches of a group */
+    for (int at = 1; at <= 2; at++) {
+        capture c;
+        capture_init(&c, &mc->grid);
+        c.cancel_at = at;
+        set_group(3);
+        clvox_status s = run_capture(g_all, mc->mesh, &mc->grid, &o, &c, NULL);
+        CHECK_MSG(s == CLVOX_ERR_CANCELLED && c.progress_calls == at && c.next_z < c.Z,
+                  "[%s] groups of 3, cancelled at progress call %d: %s, %d calls, %u of %u slices", g_config, at,
+                  clvox_status_string(s), c.progress_calls, c.next_z, c.Z);
+        capture_free(&c);
+        capture_init(&c, &mc->grid);
+        CHECK_OK(g_all, run_capture(g_all, mc->mesh, &mc->grid, &o, &c, NULL));
+        check_order(&c, "groups of 3, after a cancelled run");
+        check_same(&ref, &c, "groups of 3, after a cancelled run");
+        capture_free(&c);
+    }
+    clear_fail();
+    capture_free(&ref);
+}
+
+/* ---- 6. the command-line tool ---- */
 
 static char g_bin[PATH_MAX], g_dir[PATH_MAX], g_in[PATH_MAX], g_out[PATH_MAX], g_logs[PATH_MAX];
 static unsigned g_run_id;
@@ -872,6 +1037,16 @@ static int child(const char *config)
         test_cancel(&fault);
     }
     test_same_volume(meshes, n);
+    if (strcmp(config, "pthread pthread")) { /* one device, two equal ones, two unequal ones */
+        if (lop->mesh) {
+            mesh_case fault = *lop;
+            fault.grid = test_grid(g_lo, g_hi, 48, 48, 64);
+            test_groups_faults(&fault);
+        }
+        for (size_t i = 0; i < n; i++)
+            if (meshes[i].mesh && (!strcmp(meshes[i].name, "armadillo.off") || meshes[i].mesh == lop->mesh))
+                test_groups_same(&meshes[i]);
+    }
     if (!strcmp(config, "basic basic")) test_cli();
 
     for (size_t i = 0; i < n; i++) clvox_mesh_destroy(meshes[i].mesh);

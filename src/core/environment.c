@@ -67,6 +67,7 @@ static clvox__test_hooks from_environment(void)
     h.device_max_alloc = (unsigned long long)in_range("CLVOX_DEVICE_MAX_ALLOC", 1, LONG_MAX);
     h.device_global_mem = (unsigned long long)in_range("CLVOX_DEVICE_GLOBAL_MEM", 1, LONG_MAX);
     h.local_size = (unsigned)in_range("CLVOX_LOCAL_SIZE", 1, 1024);
+    h.launch_slabs = (unsigned)in_range("CLVOX_LAUNCH_SLABS", 1, 4096);
     h.fp32_unrounded = is("CLVOX_TEST_FP32_UNROUNDED", "1");
     const char *crash = getenv("CLVOX_TEST_ASSIMP_CRASH");
     if (crash && *crash && strlen(crash) < sizeof h.assimp_crash) strcpy(h.assimp_crash, crash);

@@ -46,6 +46,8 @@ typedef struct clvox__test_hooks {
     unsigned long long device_max_alloc, device_global_mem;
     unsigned local_size;       /* CLVOX_LOCAL_SIZE=1..1024: the kernels' work-groups at most this large
                                 * (launch.c); 0: the device's and kernels' limits only */
+    unsigned launch_slabs;     /* CLVOX_LAUNCH_SLABS=1..4096: slabs each device computes per method call
+                                * (voxelize.c, schedule.c; 0: sized to the device) */
     int fp32_unrounded;        /* CLVOX_TEST_FP32_UNROUNDED=1: built as for a device without correctly
                                 * rounded float divide/sqrt (no -cl-fp32-correctly-rounded-divide-sqrt) */
     char assimp_crash[64];     /* CLVOX_TEST_ASSIMP_CRASH=TEXT: the Assimp reader kills its process

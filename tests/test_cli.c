@@ -611,7 +611,7 @@ static void test_errors(void)
     expect_failure("info random bytes", 4, NULL, ARGS("info", p));
     expect_failure_msg("info on a mesh", 4, NULL, ARGS("info", cube), "is a mesh, not a volume");
     expect_failure_msg("preview of a mesh", 4, NULL, ARGS("preview", cube, "-o", out), "is a mesh, not a volume");
-    expect_failure_msg("info random bytes, not named like a mesh", 4, NULL, ARGS("info", p), "not a readable OpenEXR");
+    expect_failure_msg("info random bytes, not named like a mesh", 4, NULL, ARGS("info", p), "is not a volume clvox reads");
     expect_failure("info without file", 2, NULL, ARGS("info"));
     expect_failure("info with two files", 2, NULL, ARGS("info", cube, cube));
 }

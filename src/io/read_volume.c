@@ -762,6 +762,9 @@ clvox_status clvox__vsrc_open(clvox_context *ctx, const char *path, clvox_volume
         close(fd);
         if (st == CLVOX_OK && format == 0) {
             uint32_t magic = (uint32_t)m[0] | (uint32_t)m[1] << 8 | (uint32_t)m[2] << 16 | (uint32_t)m[3] << 24;
+            /* a mesh given where a volume belongs: name the mix-up, not the magic number */
+            if (clvox__is_mesh_path(path))
+                return clvox__fail(ctx, CLVOX_ERR_EXR, "'%s' is a mesh, not a volume (a file written by clvox)", path);
             st = clvox__fail(ctx, CLVOX_ERR_EXR,
                              "'%s' is not a volume clvox reads (OpenEXR, npy, NRRD, binvox, OpenVDB): %s 0x%08X",
                              path, size < 4 ? "too short, first bytes" : "magic", magic);

@@ -296,11 +296,11 @@ static void test_library(clvox_context *ctx, int have_fbx)
     clvox_mesh_destroy(m);
 
     /* What the fuzzer found in Assimp itself (tests/fuzz/findings_mesh_assimp,
-     * first byte: 0 .glb, 1 .gltf, 2 .3mf): through clvox_mesh_load this
+     * first byte mod 4: 0 .glb, 1 .gltf, 2 .3mf, 3 .fbx): through clvox_mesh_load this
      * process lives on, and a failure is one line. */
     static const char *const findings[] = {"3mf_assert_abort", "glb_strlen_heap_overflow", "oom_00"};
     for (size_t k = 0; k < sizeof findings / sizeof findings[0]; k++) {
-        static const char *const exts[3] = {"glb", "gltf", "3mf"};
+        static const char *const exts[4] = {"glb", "gltf", "3mf", "fbx"};
         char src_path[PATH_MAX], copy[PATH_MAX], name[96];
         snprintf(src_path, sizeof src_path, "tests/fuzz/findings_mesh_assimp/%s", findings[k]);
         long long fn = file_size(src_path);
@@ -310,7 +310,7 @@ static void test_library(clvox_context *ctx, int have_fbx)
             free(fb);
             continue;
         }
-        snprintf(name, sizeof name, "%s.%s", findings[k], exts[(unsigned char)fb[0] % 3]);
+        snprintf(name, sizeof name, "%s.%s", findings[k], exts[(unsigned char)fb[0] % 4]);
         path_join(copy, sizeof copy, g_in, name);
         FILE *cf = fopen(copy, "wb");
         CHECK(cf && fwrite(fb + 1, 1, (size_t)fn - 1, cf) == (size_t)fn - 1);

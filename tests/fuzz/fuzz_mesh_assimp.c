@@ -3,7 +3,7 @@
  * process, on arbitrary bytes, so that libFuzzer sees Assimp's coverage and
  * its crashes (clvox_mesh_load runs the shim in a child process, where a
  * crash is contained: mesh_isolate.c). The first byte picks the extension
- * (mod 3: .glb, .gltf, .3mf), the rest is the file, read from memory only
+ * (mod 4: .glb, .gltf, .3mf, .fbx), the rest is the file, read from memory only
  * (a .gltf's external buffers are not there). Checks on success: at least
  * one triangle, a source per triangle below the scene's mesh count, every
  * index below the vertex count or UINT32_MAX (an out-of-range index, left
@@ -28,9 +28,9 @@
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    static const char *const exts[3] = {"glb", "gltf", "3mf"};
+    static const char *const exts[4] = {"glb", "gltf", "3mf", "fbx"};
     if (!size) return 0;
-    const char *ext = exts[data[0] % 3];
+    const char *ext = exts[data[0] % 4];
     clvox__raw_mesh raw;
     char err[512];
     int rc = clvox__assimp_read(NULL, ext, data + 1, size - 1, &raw, err, sizeof err);

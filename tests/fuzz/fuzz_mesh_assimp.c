@@ -7,7 +7,7 @@
  * (a .gltf's external buffers are not there). Checks on success: at least
  * one triangle, a source per triangle below the scene's mesh count, every
  * index below the vertex count or UINT32_MAX (an out-of-range index, left
- * for mesh_build.c to report), placements >= 1; on failure: a non-empty
+ * for mesh_build.c to report), placements >= 1 when there are triangles; on failure: a non-empty
  * one-line message, no out-of-memory (inputs are small: memory bounded by
  * the file size). Assimp aborts on some inputs (its assertions are on in
  * Debian's build): run with -fork=1 -ignore_crashes=1 to go on past them.
@@ -42,7 +42,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             if (raw.face_indices[i] >= raw.vertex_count && raw.face_indices[i] != UINT32_MAX) why = "index range";
         for (size_t f = 0; !why && f < raw.face_count; f++)
             if (raw.face_source[f] >= raw.source.meshes) why = "source mesh out of range";
-        if (!why && (raw.source.placements < 1 || strcmp(raw.source.reader, "assimp"))) why = "source info";
+        /* no placement only with no triangle (a scene of lines, of no meshes:
+         * fuzzing found such GLB, glTF and FBX files at once) */
+        if (!why && ((raw.source.placements < 1 && raw.face_count > 0) || strcmp(raw.source.reader, "assimp")))
+            why = "source info";
         clvox__raw_mesh_free(&raw);
     } else {
         if (!err[0] || strchr(err, '\n')) why = "no one-line message";

@@ -299,7 +299,8 @@ static void test_library(clvox_context *ctx, int have_fbx)
      * first byte mod 4: 0 .glb, 1 .gltf, 2 .3mf, 3 .fbx): through clvox_mesh_load this
      * process lives on, and a failure is one line. */
     static const char *const findings[] = {"3mf_assert_abort", "glb_strlen_heap_overflow", "oom_00",
-                                           "glb_null_deref_segv", "glb_malloc_4g"};
+                                           "glb_null_deref_segv", "glb_malloc_4g", "glb_heap_overflow_read",
+                                           "fbx_stack_overflow"};
     for (size_t k = 0; k < sizeof findings / sizeof findings[0]; k++) {
         static const char *const exts[4] = {"glb", "gltf", "3mf", "fbx"};
         char src_path[PATH_MAX], copy[PATH_MAX], name[96];

@@ -11,13 +11,16 @@
  * one-line message, no out-of-memory (inputs are small: memory bounded by
  * the file size). Assimp aborts on some inputs (its assertions are on in
  * Debian's build): run with -fork=1 -ignore_crashes=1 to go on past them.
- * Inputs on which Debian's Assimp 5.2.5 itself fails (an abort, an ASan
- * heap overflow, an out-of-memory): tests/fuzz/findings_mesh_assimp/, the
+ * Inputs on which Debian's Assimp 5.2.5 itself fails (a 3MF assertion's
+ * abort, GLB heap overflows and a NULL dereference, 2-4 GB mallocs from small
+ * GLB files, an ASCII FBX nested deep enough to overflow the stack; its 3MF
+ * reader also leaks ~100 bytes on some bad inputs: run with
+ * ASAN_OPTIONS=detect_leaks=0): tests/fuzz/findings_mesh_assimp/, the
  * first byte picking the extension as here (test_assimp loads them through
  * clvox_mesh_load: contained in the child). Seeds: tests/fuzz/seeds_mesh_assimp/ (tests/fuzz/make_assimp_seeds.py),
  * replayed by test_fuzz_smoke. Build and run:
  *   make fuzz FUZZ_ONLY=mesh_assimp
- *   build/fuzz/fuzz_mesh_assimp -fork=1 -ignore_crashes=1 -max_total_time=300 \
+ *   ASAN_OPTIONS=detect_leaks=0 build/fuzz/fuzz_mesh_assimp -fork=1 -ignore_crashes=1 -max_total_time=300 \
  *       build/fuzz/corpus_mesh_assimp tests/fuzz/seeds_mesh_assimp */
 #include "core/internal.h"
 

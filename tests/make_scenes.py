@@ -3,7 +3,11 @@
 same triangles flattened into an OBJ (tests/test_assimp.c):
 
     scene.glb, scene.gltf + scene.bin, scene.3mf, scene.dae, flat.obj,
-    truncated.glb (scene.glb cut in half)
+    truncated.glb (scene.glb cut in half),
+    many_placements.glb (one 20,000-triangle mesh placed by 2,000 nodes:
+    a 270 KB file whose flattened scene, 724 MB, passes clvox's bound),
+    buffer_dir.gltf, buffer_fifo.gltf, buffer_zero.gltf (scene.gltf with its
+    buffer URI naming a directory, a FIFO, and a link to /dev/zero)
 
 The scene: a unit cube placed by two nodes (as is, and scaled by 2 and moved
 to (3, 0.5, 0)), and a tetrahedron under the second node (its own move of
@@ -12,8 +16,8 @@ transform composed through two levels. The glTF files also hold one line
 primitive, which clvox leaves out and counts. Every coordinate and matrix
 entry is exact in float, so the flattened vertices are exact too.
 
-FBX is not made: it is a binary format with no writer in Python's standard
-library, and a hand-written ASCII FBX would test only this script.
+FBX is not made here (no writer in Python's standard library):
+tests/test_assimp.c exports scene.glb to FBX with Assimp's own exporter.
 
 usage: make_scenes.py DIR
 """
@@ -177,6 +181,61 @@ def write_dae(d):
         f.write(doc)
 
 
+def write_many_placements(d, nodes=2000, n=100):
+    """A GLB whose one mesh (an n x n grid of squares, 2 n^2 triangles) is
+    placed by `nodes` nodes: valid glTF, small, and a flattened scene far
+    larger than clvox allows for a file of its size."""
+    vs = [(float(i), float(j), 0.0) for j in range(n + 1) for i in range(n + 1)]
+    ts = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            ts += [(a, a + 1, a + n + 1), (a + 1, a + n + 2, a + n + 1)]
+    pos = struct.pack("<%df" % (3 * len(vs)), *[c for p in vs for c in p])
+    idx = struct.pack("<%dH" % (3 * len(ts)), *[i for t in ts for i in t])
+    blob = pos + idx
+    doc = {"asset": {"version": "2.0", "generator": "clvox tests/make_scenes.py"},
+           "scene": 0, "scenes": [{"nodes": [0]}],
+           "nodes": [{"children": list(range(1, nodes + 1))}] + [{"mesh": 0}] * nodes,
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "mode": 4}]}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": len(vs), "type": "VEC3",
+                          "min": [0, 0, 0], "max": [n, n, 0]},
+                         {"bufferView": 1, "componentType": 5123, "count": 3 * len(ts), "type": "SCALAR"}],
+           "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(pos), "target": 34962},
+                           {"buffer": 0, "byteOffset": len(pos), "byteLength": len(idx), "target": 34963}],
+           "buffers": [{"byteLength": len(blob)}]}
+    js = json.dumps(doc, separators=(",", ":")).encode()
+    while len(js) % 4:
+        js += b" "
+    while len(blob) % 4:
+        blob += b"\0"
+    body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob
+    with open(os.path.join(d, "many_placements.glb"), "wb") as f:
+        f.write(struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body)
+
+
+def write_bad_buffers(d):
+    """scene.gltf with its buffer naming what is not a regular file."""
+    doc, _ = gltf_parts()
+    targets = {"dir": "buffer_dir.d", "fifo": "buffer_fifo.bin", "zero": "buffer_zero.bin"}
+    for kind, name in targets.items():
+        p = os.path.join(d, name)
+        if os.path.lexists(p):
+            if os.path.isdir(p) and not os.path.islink(p):
+                os.rmdir(p)
+            else:
+                os.remove(p)
+        if kind == "dir":
+            os.mkdir(p)
+        elif kind == "fifo":
+            os.mkfifo(p)
+        else:
+            os.symlink("/dev/zero", p)
+        doc["buffers"] = [{"uri": name, "byteLength": 264}]
+        with open(os.path.join(d, "buffer_%s.gltf" % kind), "w") as f:
+            json.dump(doc, f)
+
+
 def main():
     d = sys.argv[1]
     os.makedirs(d, exist_ok=True)
@@ -185,6 +244,8 @@ def main():
     write_glb(d)
     write_3mf(d)
     write_dae(d)
+    write_many_placements(d)
+    write_bad_buffers(d)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,8 @@
  * the buffer mesh_load.c already read and checked (so it cannot change
  * between the check and the parse), other files it names (a .gltf's .bin)
  * are opened only when they are regular files (a FIFO would block) and read
- * whole; nothing is ever written. Import flags: triangulate, split meshes by
+ * whole, and the reason one was refused is added to Assimp's message;
+ * nothing is ever written. Import flags: triangulate, split meshes by
  * primitive type (lines and points are then counted and left out) and
  * validate the data structure.
  *
@@ -118,7 +119,10 @@ public:
         struct stat sb;
         const char *why = nullptr;
         int fd = clvox__open_regular_read(file, &sb, &why);
-        if (fd < 0) return nullptr;
+        if (fd < 0) {
+            refused_ = std::string(file) + ": " + (why ? why : "cannot open");
+            return nullptr;
+        }
         std::vector<unsigned char> buf;
         size_t n = (size_t)sb.st_size, done = 0;
         try {
@@ -133,12 +137,17 @@ public:
             done += (size_t)got;
         }
         close(fd);
-        if (done != n) return nullptr;
+        if (done != n) {
+            refused_ = std::string(file) + ": changed size while read";
+            return nullptr;
+        }
         extra_bytes_ += n;
         return new MemStream(nullptr, n, std::move(buf));
     }
     void Close(Assimp::IOStream *s) override { delete s; }
     size_t extra_bytes() const { return extra_bytes_; }
+    /* why the last file it could not open failed ("" if none) */
+    const std::string &refused() const { return refused_; }
 
 private:
     std::string name_;
@@ -146,6 +155,7 @@ private:
     size_t n_;
     bool disk_;
     size_t extra_bytes_ = 0;
+    std::string refused_;
 };
 
 void set_err(char *err, size_t size, const char *msg)
@@ -207,7 +217,16 @@ double unit_metres(const aiScene *s, const char *ext)
         double d = 0;
         float f = 0;
         if (s->mMetaData->Get("UnitScaleFactor", d) && d > 0 && d < 1e30) return d / 100.0;
-        if (s->mMetaData->Get("UnitScaleFactor", f) && f > 0 && f < 1e30f) return (double)f / 100.0;
+        if (s->mMetaData->Get("UnitScaleFactor", f) && f > 0 && f < 1e30f) {
+            /* the file holds a double, Assimp 5.2 keeps a float: its shortest
+             * decimal (2.54f -> 2.54, not 2.5399999618530273) */
+            char text[32];
+            for (int digits = 6; digits <= 9; digits++) {
+                std::snprintf(text, sizeof text, "%.*g", digits, (double)f);
+                if (std::strtof(text, nullptr) == f) break;
+            }
+            return std::strtod(text, nullptr) / 100.0;
+        }
     }
     return 0;
 }
@@ -268,6 +287,7 @@ int read_scene(const char *path, const char *ext, const unsigned char *data, siz
     if (!s) {
         const char *why = imp.GetErrorString();
         std::string msg = std::string("Assimp: ") + (why && *why ? why : "cannot read the file");
+        if (!io->refused().empty()) msg += " (" + io->refused() + ")"; /* e.g. a buffer that is a FIFO */
         for (auto &c : msg)
             if (c == '\n' || c == '\r') c = ' ';
         set_err(err, err_size, msg.c_str());

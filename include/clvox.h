@@ -520,6 +520,15 @@ typedef struct clvox_stats {
     uint32_t reorder_slabs;
     uint64_t reorder_bytes;
     uint32_t reorder_peak;
+    /* Winding runs (appended after reorder_peak): the device time (profiling
+     * events) of the consumer kernel -- classify, coverage or palette -- of
+     * every batch of rays in which at least one point was evaluated exactly
+     * (winding.exact_points). It includes the other rays of those batches,
+     * so winding_exact_seconds / winding.exact_points is an upper bound on
+     * the time per exact point (on a cracked soup nearly all of it is that
+     * work). Measured from events the run takes anyway: nothing is added
+     * to the kernels. 0 on parity runs and where no point was exact. */
+    double winding_exact_seconds;
 } clvox_stats;
 /* Every function taking a clvox_stats * (may be NULL) needs its .size set. */
 #define CLVOX_STATS_INIT { .size = sizeof(clvox_stats) }

@@ -471,6 +471,7 @@ static void add_slab_stats(clvox_stats *stats, const clvox__slab_stats *ss)
     stats->palette_nonempty_voxels += ss->palette_nonempty;
     stats->palette_volume += ss->palette_volume;
     stats->winding.exact_points += ss->exact_points;
+    stats->winding_exact_seconds += ss->exact_seconds;
     if (ss->max_crossings > stats->max_crossings) stats->max_crossings = ss->max_crossings;
 }
 

@@ -2,7 +2,7 @@
 /*
  * subdivide — benchmark helper: makes large closed meshes from small ones.
  *
- *   subdivide IN.off K OUT.ply
+ *   subdivide IN.off K OUT.ply [--soup REL [SEED]]
  *
  * Reads an OFF mesh (polygons are fan-triangulated), applies K rounds of
  * 1->4 midpoint subdivision (each triangle is split at its edge midpoints;
@@ -10,6 +10,15 @@
  * stays closed and the shape does not change) and writes a binary
  * little-endian PLY: "vertex" float x,y,z; "face" list uchar int
  * vertex_indices. Each round multiplies the triangle count by 4.
+ *
+ * --soup REL: then turns the mesh into a triangle soup, as an STL or a
+ * mesh saved per face gives: every triangle gets three vertices of its own
+ * (none shared), each coordinate moved by a uniform offset in
+ * [-REL, REL] x the bounding box's largest side (in double, then rounded
+ * to float), from a splitmix64 stream seeded by SEED (default 1), so the
+ * same arguments give the same bytes. REL 0 gives the soup unjittered
+ * (vertices at equal positions, which clvox's winding preparation merges).
+ * scripts/bench/bench_winding_soup.sh uses it (issue 35).
  *
  * Built by `make bench-tools` (build/release/bench/subdivide), which the
  * scripts in scripts/bench/ run.
@@ -240,19 +249,69 @@ static void write_ply(const char *path, const mesh *m)
     if (rename(tmp, path) != 0) die("cannot rename to", path);
 }
 
+static uint64_t splitmix64(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+/* --soup: three vertices of its own per triangle, jittered (see the top). */
+static void make_soup(mesh *m, double rel, uint64_t seed)
+{
+    double lo[3], hi[3], extent = 0;
+    size_t i;
+    int k;
+    float *xyz;
+    for (k = 0; k < 3; k++) lo[k] = hi[k] = m->xyz[k];
+    for (i = 0; i < m->nv; i++)
+        for (k = 0; k < 3; k++) {
+            double v = m->xyz[3 * i + k];
+            if (v < lo[k]) lo[k] = v;
+            if (v > hi[k]) hi[k] = v;
+        }
+    for (k = 0; k < 3; k++)
+        if (hi[k] - lo[k] > extent) extent = hi[k] - lo[k];
+    if (m->nt > SIZE_MAX / 9 / sizeof(float) || m->nt * 3 > UINT32_MAX) die("mesh too large for a soup", NULL);
+    xyz = xrealloc(NULL, m->nt * 9 * sizeof(float));
+    for (i = 0; i < m->nt * 3; i++) {
+        const float *v = m->xyz + 3 * (size_t)m->tri[i];
+        for (k = 0; k < 3; k++) {
+            double u = (double)(splitmix64(&seed) >> 11) * 0x1p-53; /* [0, 1) */
+            xyz[3 * i + k] = (float)((double)v[k] + (2.0 * u - 1.0) * rel * extent);
+        }
+        m->tri[i] = (uint32_t)i;
+    }
+    free(m->xyz);
+    m->xyz = xyz;
+    m->nv = m->nt * 3;
+}
+
 int main(int argc, char **argv)
 {
     mesh m;
     long k, r;
     char *end;
-    if (argc != 4) {
-        fprintf(stderr, "usage: subdivide IN.off K OUT.ply\n");
+    double rel = -1;
+    uint64_t seed = 1;
+    if (argc < 4 || argc > 7 || (argc > 4 && strcmp(argv[4], "--soup") != 0) || argc == 5) {
+        fprintf(stderr, "usage: subdivide IN.off K OUT.ply [--soup REL [SEED]]\n");
         return 2;
     }
     k = strtol(argv[2], &end, 10);
     if (*end || k < 0 || k > 8) die("K must be 0..8", argv[2]);
+    if (argc > 5) {
+        rel = strtod(argv[5], &end);
+        if (*end || !(rel >= 0 && rel < 1)) die("REL must be in [0, 1)", argv[5]);
+    }
+    if (argc > 6) {
+        seed = strtoull(argv[6], &end, 10);
+        if (*end) die("bad SEED", argv[6]);
+    }
     read_off(argv[1], &m);
     for (r = 0; r < k; r++) subdivide_once(&m);
+    if (rel >= 0) make_soup(&m, rel, seed);
     write_ply(argv[3], &m);
     printf("%s: %zu vertices, %zu triangles\n", argv[3], m.nv, m.nt);
     free(m.xyz);

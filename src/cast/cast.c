@@ -45,8 +45,14 @@
 #include <string.h>
 
 #define DEFAULT_HIT_CAPACITY 32u
-#define SLOW_FIRST_RAYS 2048u     /* ray_slab: the first batch where there are caps */
-#define SLOW_BATCH_SECONDS 0.25   /* ... and the wall time a batch is sized for */
+/* ray_slab: the first batch where there are caps. Near caps a ray may cost
+ * milliseconds (a cracked soup: armadillo, 52 k triangles jittered by 1e-6,
+ * about 8 ms a ray at 64^3 and 128^3 on 2 cores), so a first batch of 2048
+ * rays held the progress bar still for 10-16 s; 32 such rays take about
+ * 0.25 s, and the time-sized batches double from there (a few more
+ * launches, about a millisecond each, on meshes where rays are cheap). */
+#define SLOW_FIRST_RAYS 32u
+#define SLOW_BATCH_SECONDS 0.25 /* ... and the wall time a batch is sized for */
 
 struct clvox__method_state {
     clvox_context *ctx;
@@ -583,7 +589,9 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
     }
     if (st == CLVOX_OK) {
         ss->cast_seconds += clvox__event_seconds(ev[0]) + clvox__event_seconds(ev[1]) + clvox__event_seconds(ev[2]);
-        ss->classify_seconds += clvox__event_seconds(ev[3]);
+        const double consumer = clvox__event_seconds(ev[3]);
+        ss->classify_seconds += consumer;
+        if (s->exact_host) ss->exact_seconds += consumer; /* clvox_stats.winding_exact_seconds */
     }
     for (int i = 0; i < 4; i++)
         if (ev[i]) clReleaseEvent(ev[i]);

@@ -347,6 +347,11 @@ void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvo
                (unsigned long long)w->cavities, (unsigned long long)w->flipped_triangles,
                (unsigned long long)w->holes, (unsigned long long)w->cap_triangles,
                (unsigned long long)w->exact_points, w->seconds);
+        if (w->exact_points)
+            printf(LABEL "%llu points evaluated exactly: %.3f s of device time in the batches that had any, "
+                         "at most %.1f us a point\n",
+                   "exact", (unsigned long long)w->exact_points, s->winding_exact_seconds,
+                   1e6 * s->winding_exact_seconds / (double)w->exact_points);
     } else if (s->inside == CLVOX_INSIDE_PARITY && a->vox.mode != CLVOX_MODE_SURFACE) {
         printf(LABEL "parity (odd number of crossings beyond the centre)\n", "inside");
     }
@@ -954,6 +959,11 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
             jb_u64(b, "cap_triangles", w->cap_triangles);
             jb_u64(b, "exact_points", w->exact_points);
             jb_num(b, "seconds", w->seconds);
+            jb_num(b, "exact_seconds", st->winding_exact_seconds);
+            if (w->exact_points)
+                jb_num(b, "seconds_per_exact_point", st->winding_exact_seconds / (double)w->exact_points);
+            else
+                jb_null(b, "seconds_per_exact_point");
             jb_obj_end(b);
         } else {
             jb_null(b, "winding");

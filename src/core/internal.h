@@ -414,6 +414,7 @@ typedef struct clvox__slab_stats {
     uint64_t palette_nonempty; /* voxels whose element is not empty */
     double palette_volume;     /* sum of the chosen elements' volumes (voxel units) */
     uint64_t exact_points;     /* winding: points whose cap solid angles were evaluated */
+    double exact_seconds;      /* winding: consumer kernel time of the batches with exact points */
     uint32_t max_crossings;
 } clvox__slab_stats;
 

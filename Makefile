@@ -269,7 +269,7 @@ bench: all
 #        against another tree's build/release (scripts/bench/bench_winding_closed.sh --prep)
 BENCH_BUILD := $(BUILD)/bench
 BENCH_TOOLS := subdivide volume_diff volume_raw bench_load bench_writer bench_winding_oracle \
-  bench_winding_prep bench_winding_prep_borrow
+  bench_winding_prep bench_winding_prep_borrow bench_far_field
 BENCH_BINS := $(BENCH_TOOLS:%=$(BENCH_BUILD)/%)
 # -ffp-contract=off: the oracle's crossing arithmetic must be the library's, operation for operation.
 BENCH_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L $(OPT) -ffp-contract=off -Wall -Wextra -Iinclude -Isrc -Ikernels $(CFLAGS)

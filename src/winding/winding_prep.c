@@ -277,6 +277,8 @@ done:
     free(P.vol);
     free(P.vabs);
     free(P.org);
+    free(P.odelta);
+    free(P.nabs);
     free(P.depth);
     free(P.special.a);
     free(P.pb.a);

@@ -110,7 +110,11 @@ static void oracle_w(const double *q, const uint32_t *tri, size_t nt, const doub
                      (c[0] * a[0] + c[1] * a[1] + c[2] * a[2]) * lb;
         double om = 2.0 * atan2(det, den);
         double r = hypot(det, den), d = 128.0 * eps * M;
-        if (M == 0 || !(d < r)) { /* p on a corner, or too near the triangle to tell */
+        if (M == 0 || !(d < r) || (den <= d && fabs(det) <= d)) {
+            /* p on a corner, or too near the triangle to tell; or p (as good
+             * as) in the triangle's interior: (den, det) within the error of
+             * atan2's branch cut, where the solid angle jumps from 2pi to
+             * -2pi (w by 1) -- a centre on the surface */
             e = INFINITY;
         } else {
             e += 2.0 * (1.5707963267948966 * d / r * 1.0001 + 4.0 * eps * 3.1415926535897931);
@@ -149,6 +153,274 @@ static void oracle(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, 
     free(q);
 }
 
+/* ---- the documented orientation rule ------------------------------------ */
+
+/* The preparation orients the surface before it takes the winding number
+ * (docs/design.md "Winding numbers", Preparation 1-3), and that is the
+ * library's promise: w is the generalized winding number of the surface
+ * *as oriented by these rules*, not of the raw input. A soup's patches are
+ * single triangles whose orientation the rules keep, but an unjittered soup
+ * merges back into the mesh it came from, and a mesh that faces inwards
+ * (tetrahedron.off, ellipe0.003.off in data/meshes) is turned outwards --
+ * closed, by its volume; with faces removed, open, by its volume about its
+ * boundary's centroid. The oracle applies the same rules, implemented here
+ * independently and simply (sorts, quadratic loops, long double):
+ *   1. vertices at equal float positions are one vertex; a triangle with two
+ *      equal corners is dropped (no area);
+ *   2. a patch is a set of triangles joined across edges of exactly two
+ *      triangles, which must traverse them in opposite directions (a conflict
+ *      -- non-orientable -- is beyond this oracle: the case fails);
+ *   3. a patch is closed when its own triangles leave every edge with net
+ *      multiplicity 0. Its sign: 6V = sum det(a - o, b - o, c - o), o = a
+ *      vertex (closed) or the centroid of the boundary edges' endpoints
+ *      weighted by |multiplicity| (open); a closed patch at odd depth (inside
+ *      an odd number of other closed patches: every vertex with |w| = 1 of
+ *      that patch) must end with V < 0, every other patch with V > 0, else
+ *      it is flipped; a volume that is zero (up to the library's rounding
+ *      tolerance, 1e-12 x the sum of the permanents) keeps its orientation.
+ *      A patch of one triangle has volume exactly 0 (o lies in its plane):
+ *      kept without arithmetic. Elsewhere the oracle needs |6V| beyond
+ *      2e-12 x the permanents (or below 0.5e-12: kept) and a vertex of a
+ *      nested patch off the other patch's surface; else the case fails as
+ *      one the oracle cannot decide.
+ * Returns the oriented triangles (corner indices into xyz, dropped ones left
+ * out: *nout of them), 0 on an undecidable case (the reason printed). */
+typedef struct oedge {
+    uint32_t lo, hi, t, dir; /* dir 1: the triangle runs lo -> hi */
+} oedge;
+
+static const float *sort_xyz;
+
+static int cmp_vertex(const void *pa, const void *pb)
+{
+    const float *a = sort_xyz + 3 * (size_t)*(const uint32_t *)pa, *b = sort_xyz + 3 * (size_t)*(const uint32_t *)pb;
+    for (int k = 0; k < 3; k++)
+        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+    return 0;
+}
+
+static int cmp_oedge(const void *pa, const void *pb)
+{
+    const oedge *a = pa, *b = pb;
+    if (a->lo != b->lo) return a->lo < b->lo ? -1 : 1;
+    if (a->hi != b->hi) return a->hi < b->hi ? -1 : 1;
+    return a->t < b->t ? -1 : a->t > b->t;
+}
+
+static uint32_t uf_find(uint32_t *par, unsigned char *rel, uint32_t x, unsigned *flip)
+{
+    unsigned f = 0;
+    while (par[x] != x) {
+        f ^= rel[x];
+        x = par[x];
+    }
+    *flip = f;
+    return x;
+}
+
+static uint32_t *orient_by_rules(const char *name, const char *what, const float *xyz, size_t nt, size_t *nout,
+                                 unsigned *flipped_out)
+{
+    const size_t nv = 3 * nt;
+    uint32_t *order = malloc(nv * sizeof *order), *rep = malloc(nv * sizeof *rep);
+    uint32_t *par = malloc(nt * sizeof *par), *patch = malloc(nt * sizeof *patch), *out = malloc(nv * sizeof *out);
+    unsigned char *rel = calloc(nt, 1), *flip = calloc(nt, 1), *keep = calloc(nt, 1);
+    oedge *e = malloc(nv * sizeof *e);
+    if (!order || !rep || !par || !patch || !out || !rel || !flip || !keep || !e) abort();
+    int ok = 1;
+    /* 1. */
+    for (size_t i = 0; i < nv; i++) order[i] = (uint32_t)i;
+    sort_xyz = xyz;
+    qsort(order, nv, sizeof *order, cmp_vertex);
+    for (size_t i = 0; i < nv; i++)
+        rep[order[i]] = i && cmp_vertex(&order[i - 1], &order[i]) == 0 ? rep[order[i - 1]] : order[i];
+    size_t ne = 0;
+    for (size_t t = 0; t < nt; t++) {
+        uint32_t a = rep[3 * t], b = rep[3 * t + 1], c = rep[3 * t + 2];
+        keep[t] = a != b && b != c && c != a;
+        par[t] = (uint32_t)t;
+        if (!keep[t]) continue;
+        for (int q = 0; q < 3; q++) {
+            uint32_t u = rep[3 * t + q], v = rep[3 * t + (q + 1) % 3];
+            e[ne++] = (oedge){u < v ? u : v, u < v ? v : u, (uint32_t)t, u < v};
+        }
+    }
+    /* 2. */
+    qsort(e, ne, sizeof *e, cmp_oedge);
+    for (size_t i = 0, j; i < ne; i = j) {
+        for (j = i + 1; j < ne && e[j].lo == e[i].lo && e[j].hi == e[i].hi; j++) {}
+        if (j - i != 2) continue;
+        unsigned fa, fb, r = e[i].dir == e[i + 1].dir;
+        uint32_t ra = uf_find(par, rel, e[i].t, &fa), rb = uf_find(par, rel, e[i + 1].t, &fb);
+        if (ra == rb) {
+            if ((fa ^ fb) != r) {
+                printf("  %s %s: a non-orientable patch: beyond the oracle\n", name, what);
+                ok = 0;
+            }
+        } else {
+            par[rb] = ra;
+            rel[rb] = (unsigned char)(fa ^ fb ^ r);
+        }
+    }
+    size_t np = 0;
+    for (size_t t = 0; t < nt; t++) {
+        unsigned f;
+        uint32_t r = uf_find(par, rel, (uint32_t)t, &f);
+        flip[t] = (unsigned char)f;
+        if (r == t) patch[t] = (uint32_t)np++;
+    }
+    for (size_t t = 0; t < nt; t++) {
+        unsigned f;
+        patch[t] = patch[uf_find(par, rel, (uint32_t)t, &f)];
+    }
+    /* 3. per patch: size, boundary (net multiplicity per edge), origin, volume */
+    size_t *count = calloc(np ? np : 1, sizeof *count);
+    long double *acc = calloc(8 * (np ? np : 1), sizeof *acc); /* ends, org x3, vol, perm, -, - */
+    int *sign = calloc(np ? np : 1, sizeof *sign);
+    unsigned char *open = calloc(np ? np : 1, 1);
+    uint32_t *first = malloc((np ? np : 1) * sizeof *first);
+    if (!count || !acc || !sign || !open || !first) abort();
+    for (size_t t = nt; t-- > 0;)
+        if (keep[t]) count[patch[t]]++, first[patch[t]] = (uint32_t)t;
+    for (size_t i = 0, j; i < ne; i = j) {
+        for (j = i + 1; j < ne && e[j].lo == e[i].lo && e[j].hi == e[i].hi; j++) {}
+        for (size_t k = i; k < j; k++) { /* each patch once: its first entry in the group */
+            uint32_t pk = patch[e[k].t];
+            int seen = 0, m = 0;
+            for (size_t l = i; l < k; l++) seen |= patch[e[l].t] == pk;
+            if (seen) continue;
+            for (size_t l = k; l < j; l++)
+                if (patch[e[l].t] == pk) m += (e[l].dir ^ flip[e[l].t]) ? 1 : -1;
+            if (!m) continue;
+            open[pk] = 1;
+            long double w = m > 0 ? m : -m;
+            acc[8 * pk] += 2 * w;
+            for (int a = 0; a < 3; a++)
+                acc[8 * pk + 1 + a] += w * ((long double)xyz[3 * (size_t)e[i].lo + a] + xyz[3 * (size_t)e[i].hi + a]);
+        }
+    }
+    for (size_t c = 0; c < np; c++) {
+        if (!count[c]) continue;
+        for (int a = 0; a < 3; a++)
+            acc[8 * c + 1 + a] = open[c] ? acc[8 * c + 1 + a] / acc[8 * c] : (long double)xyz[3 * (size_t)rep[3 * (size_t)first[c]] + a];
+    }
+    for (size_t t = 0; t < nt; t++) {
+        if (!keep[t]) continue;
+        const long double *o = acc + 8 * (size_t)patch[t] + 1;
+        long double A[3], B[3], C[3];
+        for (int a = 0; a < 3; a++) {
+            A[a] = xyz[3 * (size_t)rep[3 * t] + a] - o[a];
+            B[a] = xyz[3 * (size_t)rep[3 * t + 1] + a] - o[a];
+            C[a] = xyz[3 * (size_t)rep[3 * t + 2] + a] - o[a];
+        }
+        long double v = A[0] * (B[1] * C[2] - B[2] * C[1]) + A[1] * (B[2] * C[0] - B[0] * C[2]) +
+                        A[2] * (B[0] * C[1] - B[1] * C[0]);
+        long double pm = fabsl(A[0]) * (fabsl(B[1] * C[2]) + fabsl(B[2] * C[1])) +
+                         fabsl(A[1]) * (fabsl(B[2] * C[0]) + fabsl(B[0] * C[2])) +
+                         fabsl(A[2]) * (fabsl(B[0] * C[1]) + fabsl(B[1] * C[0]));
+        acc[8 * (size_t)patch[t] + 4] += flip[t] ? -v : v;
+        acc[8 * (size_t)patch[t] + 5] += pm;
+    }
+    for (size_t c = 0; c < np; c++) {
+        long double v = acc[8 * c + 4], pm = acc[8 * c + 5];
+        if (count[c] <= 1 || fabsl(v) <= 0.5e-12L * pm) sign[c] = 0;
+        else if (fabsl(v) > 2e-12L * pm) sign[c] = v > 0 ? 1 : -1;
+        else {
+            printf("  %s %s: patch %zu's volume %Lg is too near the rounding tolerance (%Lg)\n", name, what, c, v, 1e-12L * pm);
+            ok = 0;
+        }
+    }
+    /* depth of the closed patches: c is inside d when c's box lies in d's and
+     * every vertex of c has |w_d| = 1 (w_d: the oracle's sum over d's
+     * triangles; a vertex it cannot decide, on d's surface, fails the case) */
+    size_t nclosed = 0;
+    for (size_t c = 0; c < np; c++) nclosed += count[c] && !open[c];
+    unsigned *depth = calloc(np ? np : 1, sizeof *depth);
+    if (!depth) abort();
+    if (nclosed >= 2) {
+        double *qd = malloc(nv * 3 * sizeof *qd), *box = malloc(6 * np * sizeof *box);
+        uint32_t *dtri = malloc(nv * sizeof *dtri);
+        if (!qd || !box || !dtri) abort();
+        for (size_t i = 0; i < 3 * nv; i++) qd[i] = xyz[i];
+        for (size_t c = 0; c < np; c++)
+            for (int a = 0; a < 3; a++) box[6 * c + a] = INFINITY, box[6 * c + 3 + a] = -INFINITY;
+        for (size_t t = 0; t < nt; t++)
+            for (int q = 0; keep[t] && q < 3; q++)
+                for (int a = 0; a < 3; a++) {
+                    double x = qd[3 * (size_t)rep[3 * t + q] + a], *bx = box + 6 * (size_t)patch[t];
+                    bx[a] = fmin(bx[a], x);
+                    bx[3 + a] = fmax(bx[3 + a], x);
+                }
+        for (size_t d = 0; d < np; d++) {
+            if (!count[d] || open[d]) continue;
+            size_t nd = 0;
+            for (size_t t = 0; t < nt; t++)
+                if (keep[t] && patch[t] == d) {
+                    for (int q = 0; q < 3; q++) dtri[3 * nd + q] = rep[3 * t + q];
+                    nd++;
+                }
+            for (size_t c = 0; c < np; c++) {
+                if (c == d || !count[c] || open[c]) continue;
+                int inside = 1;
+                for (int a = 0; a < 3; a++)
+                    inside &= box[6 * c + a] >= box[6 * d + a] && box[6 * c + 3 + a] <= box[6 * d + 3 + a];
+                for (size_t t = 0; t < nt && inside; t++) {
+                    if (!keep[t] || patch[t] != c) continue;
+                    for (int q = 0; q < 3 && inside; q++) {
+                        double w, err;
+                        oracle_w(qd, dtri, nd, qd + 3 * (size_t)rep[3 * t + q], &w, &err);
+                        if (fabs(w) + err < 0.5) inside = 0;
+                        else if (!(fabs(w) - err > 0.5)) {
+                            printf("  %s %s: a vertex of closed patch %zu on closed patch %zu: beyond the oracle\n",
+                                   name, what, c, d);
+                            ok = 0;
+                            inside = 0;
+                        }
+                    }
+                }
+                depth[c] += (unsigned)inside;
+            }
+        }
+        free(qd);
+        free(box);
+        free(dtri);
+    }
+    size_t n = 0;
+    unsigned flipped = 0;
+    for (size_t t = 0; t < nt; t++) {
+        if (!keep[t]) continue;
+        uint32_t c = patch[t];
+        int odd = !open[c] && (depth[c] & 1u);
+        unsigned pf = sign[c] == (odd ? 1 : -1), f = flip[t] ^ pf; /* reversed relative to the patch's root, then the patch */
+        out[3 * n] = (uint32_t)(3 * t);
+        out[3 * n + 1] = (uint32_t)(3 * t + (f ? 2 : 1));
+        out[3 * n + 2] = (uint32_t)(3 * t + (f ? 1 : 2));
+        flipped += f;
+        n++;
+    }
+    free(depth);
+    free(count);
+    free(acc);
+    free(sign);
+    free(open);
+    free(first);
+    free(order);
+    free(rep);
+    free(par);
+    free(patch);
+    free(rel);
+    free(flip);
+    free(keep);
+    free(e);
+    *nout = n;
+    *flipped_out = flipped;
+    if (!ok) {
+        free(out);
+        return NULL;
+    }
+    return out;
+}
+
 /* ---- cases --------------------------------------------------------------- */
 
 typedef struct tally {
@@ -178,9 +450,15 @@ static size_t soup_case(const char *name, const char *what, const float *xyz, si
     clvox_stats s = CLVOX_STATS_INIT;
     clvox_status st = clvox_voxelize_to_memory(ctx, m, &g, NULL, dev, n, &s);
     CHECK_MSG(st == CLVOX_OK, "%s %s: %s: %s", name, what, clvox_status_string(st), clvox_context_error(ctx));
-    size_t diff = 0, undecided = 0, inside = 0;
-    if (st == CLVOX_OK) {
-        oracle(xyz, nv, tri, nt, &gref, w, err);
+    size_t diff = 0, undecided = 0, inside = 0, no = 0;
+    unsigned oflipped = 0;
+    uint32_t *otri = orient_by_rules(name, what, xyz, nt, &no, &oflipped);
+    CHECK_MSG(otri != NULL, "%s %s: the oracle cannot apply the orientation rules", name, what);
+    if (st == CLVOX_OK && otri) {
+        /* the same rule, the same triangles reversed */
+        CHECK_MSG(oflipped == s.winding.flipped_triangles, "%s %s: the rules reverse %u triangles, the library %llu", name,
+                  what, oflipped, (unsigned long long)s.winding.flipped_triangles);
+        oracle(xyz, nv, otri, no, &gref, w, err);
         const double th = 0.5 + REF_WINDING_EPS;
         for (size_t v = 0; v < n; v++) {
             if (!(w[v] - err[v] > th) && !(w[v] + err[v] <= th)) {
@@ -194,6 +472,10 @@ static size_t soup_case(const char *name, const char *what, const float *xyz, si
             uint8_t ref = w[v] > th;
             inside += ref;
             if (ref != dev[v]) {
+                if (diff < 5 && getenv("SOUPDBG"))
+                    printf("  at %.17g,%.17g,%.17g\n", gref.origin[0] + (v % g.dims[0] + 0.5) * g.voxel_size[0],
+                           gref.origin[1] + (v / g.dims[0] % g.dims[1] + 0.5) * g.voxel_size[1],
+                           gref.origin[2] + (v / g.dims[0] / g.dims[1] + 0.5) * g.voxel_size[2]);
                 if (diff < 5)
                     printf("  DIFF %s %s: voxel (%zu, %zu, %zu): w = %.17g +- %.3g, oracle %s, device %s\n", name, what,
                            v % g.dims[0], v / g.dims[0] % g.dims[1], v / g.dims[0] / g.dims[1], w[v], err[v],
@@ -209,7 +491,7 @@ static size_t soup_case(const char *name, const char *what, const float *xyz, si
            (unsigned long long)s.winding.cap_triangles, (unsigned long long)s.winding.exact_points);
     CHECK_MSG(st == CLVOX_OK && diff == 0, "%s %s: %zu voxels differ from the exact winding number", name, what, diff);
     /* the comparison above can fail: one decided voxel flipped is seen */
-    if (st == CLVOX_OK && ty->cases == 0) {
+    if (st == CLVOX_OK && otri && ty->cases == 0) {
         size_t flipped = 0;
         for (size_t v = 0; v < n; v++)
             if (w[v] - err[v] > 0.5 + REF_WINDING_EPS || w[v] + err[v] <= 0.5 + REF_WINDING_EPS) {
@@ -219,13 +501,14 @@ static size_t soup_case(const char *name, const char *what, const float *xyz, si
                   n - undecided - diff);
     }
     ty->cases++;
-    ty->passed += st == CLVOX_OK && diff == 0;
+    ty->passed += st == CLVOX_OK && otri && diff == 0 && oflipped == s.winding.flipped_triangles;
     ty->voxels += n;
     ty->undecided += undecided;
     free(dev);
     free(w);
     free(err);
     free(tri);
+    free(otri);
     clvox_mesh_destroy(m);
     return diff;
 }

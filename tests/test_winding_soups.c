@@ -13,18 +13,22 @@
  *   the voxel centre p (van Oosterom--Strackee in double, in the library's
  *   own space: ref_winding_space), inside when w > 1/2 + 2^-30,
  *
- * the triangles as given: a soup's patches are single triangles (or, where
- * jitter left vertices equal, small pieces), whose orientation the
- * preparation keeps. The oracle carries an error bound for every centre
- * (oracle_w below); a centre whose interval w +- err contains the threshold
- * 1/2 + 2^-30 is one the oracle cannot decide (a centre on the surface, or
- * as good as): it is counted, printed and excluded, never guessed.
+ * the triangles as oriented by the library's documented rules
+ * (orient_by_rules below: a jittered soup's patches are single triangles,
+ * whose orientation they keep; an unjittered soup merges back into its mesh,
+ * and an inward-facing mesh is turned outwards), the number of triangles the
+ * rules reverse equal to the library's. The oracle carries an error bound
+ * for every centre (oracle_w below); a centre whose interval w +- err
+ * contains the threshold 1/2 + 2^-30 is one the oracle cannot decide (a
+ * centre on the surface, or as good as: star, P and anchor_dense have many,
+ * where a triangle's solid angle jumps by 4 pi): it is counted, printed and
+ * excluded, never guessed.
  *
  * Meshes: the closed meshes of data/meshes (by their edges: no edge used an
  * odd number of times) with at most 10 000 triangles, one of each group of
  * copies (the cube variants are one cube, tetrahedra one tetrahedron, ...),
  * at N voxels along the longest side with N from the triangle count, so
- * that the oracle (O(voxels x triangles x 7 cases)) stays near 60 s on 2
+ * that the oracle (O(voxels x triangles x 7 cases)) stays near 45 s on 2
  * cores: N = 20 up to 500 triangles, 16 up to 2 000, 12 beyond. Larger
  * closed meshes (bull, fandisk, cheese, camel, armadillo, ...) are left out
  * only for time; scripts/bench/bench_winding_soup.sh times the armadillo
@@ -472,10 +476,6 @@ static size_t soup_case(const char *name, const char *what, const float *xyz, si
             uint8_t ref = w[v] > th;
             inside += ref;
             if (ref != dev[v]) {
-                if (diff < 5 && getenv("SOUPDBG"))
-                    printf("  at %.17g,%.17g,%.17g\n", gref.origin[0] + (v % g.dims[0] + 0.5) * g.voxel_size[0],
-                           gref.origin[1] + (v / g.dims[0] % g.dims[1] + 0.5) * g.voxel_size[1],
-                           gref.origin[2] + (v / g.dims[0] / g.dims[1] + 0.5) * g.voxel_size[2]);
                 if (diff < 5)
                     printf("  DIFF %s %s: voxel (%zu, %zu, %zu): w = %.17g +- %.3g, oracle %s, device %s\n", name, what,
                            v % g.dims[0], v / g.dims[0] % g.dims[1], v / g.dims[0] / g.dims[1], w[v], err[v],

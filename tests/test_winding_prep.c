@@ -889,6 +889,43 @@ static void test_one_triangle(void)
     tmesh_free(&t);
 }
 
+/* Lone triangles far from the coordinate origin and nearly parallel to a
+ * coordinate plane (a jittered soup's): their volume about their own
+ * boundary's centroid is exactly 0, but the centroid rounds in double and
+ * moved it by up to 1e-10 of the permanent, beyond the 1e-12 tolerance --
+ * such triangles were flipped (issue 35: cube.off's soup at 1e-6 jitter).
+ * The tolerance now bounds the origin's rounding: none is flipped. */
+static void test_far_flat_triangles(void)
+{
+    tmesh t = {0};
+    uint64_t seed = 12345;
+    for (int i = 0; i < 3000; i++) {
+        double cx = 100.0 + (i % 10), cy = 50.0 + (i / 10 % 10), cz = 30.0 + i / 100, s = 0.05;
+        uint32_t v[3];
+        for (int c = 0; c < 3; c++) {
+            double j[3];
+            for (int a = 0; a < 3; a++) {
+                seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+                j[a] = ((double)(seed >> 11) * 0x1p-53 - 0.5) * 2e-6;
+            }
+            int ax = i % 3; /* the plane: x, y or z = const */
+            double p[3] = {cx + j[0], cy + j[1], cz + j[2]};
+            double du = c == 1 ? s : 0, dv = c == 2 ? s : 0;
+            p[(ax + 1) % 3] += du;
+            p[(ax + 2) % 3] += dv;
+            v[c] = tmesh_add_vertex(&t, (float)p[0], (float)p[1], (float)p[2]);
+        }
+        tmesh_add_tri(&t, v[0], v[1], v[2]);
+    }
+    prepared p = prep_tmesh(&t, 0);
+    CHECK_OK(ctx, p.st);
+    CHECK(p.w.report.components == 3000 && p.w.report.closed_components == 0);
+    CHECK_MSG(p.w.report.flipped_triangles == 0, "%llu of 3000 lone triangles flipped",
+              (unsigned long long)p.w.report.flipped_triangles);
+    prep_free(&p);
+    tmesh_free(&t);
+}
+
 static void time_armadillo(void)
 {
     const char *path = "data/meshes/armadillo_s3.ply";
@@ -1200,6 +1237,7 @@ int main(void)
     test_moebius();
     test_nonmanifold();
     test_one_triangle();
+    test_far_flat_triangles();
     test_random_damage();
     test_vertex_blocks();
     test_borrow();

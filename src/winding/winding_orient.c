@@ -311,8 +311,10 @@ clvox_status clvox__prep_orient_patches(prep *P, uint64_t *nonmanifold, uint64_t
     P->vol = calloc(nc ? nc : 1, sizeof *P->vol);
     P->vabs = calloc(nc ? nc : 1, sizeof *P->vabs);
     P->org = calloc((nc ? nc : 1) * 3, sizeof *P->org);
+    P->odelta = calloc(nc ? nc : 1, sizeof *P->odelta);
+    P->nabs = calloc(nc ? nc : 1, sizeof *P->nabs);
     P->depth = calloc(nc ? nc : 1, sizeof *P->depth);
-    if (!P->first || !P->pstate || !P->vol || !P->vabs || !P->org || !P->depth) goto nomem;
+    if (!P->first || !P->pstate || !P->vol || !P->vabs || !P->org || !P->odelta || !P->nabs || !P->depth) goto nomem;
     for (size_t u = nt; u-- > 0;) P->first[PATCH(P, u)] = (uint32_t)u;
     uint64_t nonor = 0;
     for (size_t k = 0; k < nconf; k++) {
@@ -339,7 +341,10 @@ clvox_status clvox__prep_patch_boundaries(prep *P)
 {
     uint64_t *scratch = NULL;
     size_t cap = 0;
-    double *ends = calloc(P->ncomp ? P->ncomp : 1, sizeof *ends); /* boundary endpoints per patch */
+    /* per patch: boundary endpoints (weighted), number of terms summed into
+     * org, sum of the weighted endpoints' largest |coordinate| */
+    size_t nc1 = P->ncomp ? P->ncomp : 1;
+    double *ends = calloc(3 * nc1, sizeof *ends), *nterm = ends ? ends + nc1 : NULL, *sabs = ends ? ends + 2 * nc1 : NULL;
     if (!ends) return oom(P, "for the boundary");
     for (size_t s = 0; s < P->special.n; s++) {
         uint32_t b = P->special.a[s].begin, e = P->special.a[s].end;
@@ -374,19 +379,31 @@ clvox_status clvox__prep_patch_boundaries(prep *P)
                     return oom(P, "for the boundary");
                 }
                 P->pstate[pc] |= P_OPEN;
-                double w = m > 0 ? m : -m;
-                for (int a = 0; a < 3; a++)
-                    P->org[3 * pc + a] += w * ((double)P->xyz[3 * (size_t)lo + a] + P->xyz[3 * (size_t)hi + a]);
+                double w = m > 0 ? m : -m, ml = 0, mh = 0;
+                for (int a = 0; a < 3; a++) {
+                    double xl = P->xyz[3 * (size_t)lo + a], xh = P->xyz[3 * (size_t)hi + a];
+                    P->org[3 * pc + a] += w * (xl + xh);
+                    ml = fmax(ml, fabs(xl));
+                    mh = fmax(mh, fabs(xh));
+                }
                 ends[pc] += 2 * w;
+                nterm[pc] += 1;
+                sabs[pc] += w * (ml + mh);
             }
             k = j;
         }
     }
     free(scratch);
-    /* Origins: centroid of the boundary endpoints (open), first vertex (closed). */
+    /* Origins: centroid of the boundary endpoints (open), first vertex
+     * (closed, exact). The open one's rounding: each term w (x_lo + x_hi)
+     * takes 2 roundings, the n-term sum n - 1 more, the division 1, so
+     * |org - exact| <= gamma_(n+3) x sum |terms| / ends (gamma_k = k u /
+     * (1 - k u), u = 2^-53), and sum |terms| <= sabs; (n + 4) 2^-52
+     * covers gamma_(n+3) and the rounding of this bound. */
     for (size_t c = 0; c < P->ncomp; c++) {
         if (P->pstate[c] & P_OPEN) {
             for (int a = 0; a < 3; a++) P->org[3 * c + a] /= ends[c];
+            P->odelta[c] = (nterm[c] + 4.0) * 0x1p-52 * (sabs[c] / ends[c]);
         } else {
             const float *o = P->xyz + 3 * (size_t)P->tris[3 * (size_t)P->first[c]];
             for (int a = 0; a < 3; a++) P->org[3 * c + a] = o[a];
@@ -410,6 +427,11 @@ void clvox__prep_patch_volumes(prep *P)
         vol_term(a, b, d, o[0], o[1], o[2], &v, &va);
         P->vol[c] += FLIP(P, t) ? -v : v;
         P->vabs[c] += va;
+        if (P->odelta[c] > 0) { /* |2N|_1, 2N = (b - a) x (d - a), for the origin's rounding (volume_sign) */
+            double u0 = (double)b[0] - a[0], u1 = (double)b[1] - a[1], u2 = (double)b[2] - a[2];
+            double w0 = (double)d[0] - a[0], w1 = (double)d[1] - a[1], w2 = (double)d[2] - a[2];
+            P->nabs[c] += fabs(u1 * w2 - u2 * w1) + fabs(u2 * w0 - u0 * w2) + fabs(u0 * w1 - u1 * w0);
+        }
     }
 }
 

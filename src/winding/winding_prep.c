@@ -52,8 +52,9 @@
  *    shells; each is flipped when its signed volume about the centroid of
  *    its own boundary edges' endpoints (i.e. the patch closed by one fan
  *    from that centroid) is < 0. A volume that is zero up to rounding
- *    (|V| <= 1e-12 x the sum of the determinants' permanents: a flat sheet,
- *    a lone triangle of a soup) flips nothing.
+ *    (|V| <= 1e-12 x the sum of the determinants' permanents, plus, open,
+ *    the bound on what the centroid's rounding moves it by: volume_sign in
+ *    winding_prep.h; a flat sheet, a lone triangle of a soup) flips nothing.
  *    Parts that merely intersect (a vertex outside) are not nested: both
  *    face outwards, and the winding number gives their union.
  * 5. Boundary chain and caps. For every undirected edge {a,b} of the
@@ -277,6 +278,8 @@ done:
     free(P.vol);
     free(P.vabs);
     free(P.org);
+    free(P.odelta);
+    free(P.nabs);
     free(P.depth);
     free(P.special.a);
     free(P.pb.a);

@@ -80,6 +80,8 @@ typedef struct prep {
     double *vol;         /* 6 x signed volume per patch */
     double *vabs;        /* sum of the permanents of those determinants */
     double *org;         /* 3 per patch: volume origin */
+    double *odelta;      /* per patch: bound on each coordinate's rounding in org (0: exact, closed) */
+    double *nabs;        /* per patch with odelta > 0: sum of |2 x area vector|_1 of its triangles */
     uint32_t *depth;
     size_t ncomp;
     span_list special;
@@ -97,10 +99,19 @@ static inline clvox_status oom(prep *P, const char *what)
 
 /* The sign of a patch's volume, 0 when it is within 1e-12 of the sum of
  * the permanents (zero up to rounding: a flat sheet, one triangle, a
- * back-to-back pair), which then keeps its orientation. */
+ * back-to-back pair), which then keeps its orientation. An open patch's
+ * volume is taken about the exact centroid of its boundary, which double
+ * rounds: 6V is linear in the origin o (sum det(a-o, b-o, c-o) =
+ * sum det(a, b, c) - o . sum 2N, 2N = (b-a) x (c-a)), so the rounding moves
+ * it by at most odelta x sum |2N|_1 -- twice that is added (for the rounding
+ * of the sum itself). A lone triangle or a flat sheet, whose exact volume
+ * about a point of its plane is 0, then never gets a sign from rounding
+ * (a soup's triangle far from the coordinate origin, nearly parallel to a
+ * coordinate plane: up to 1e-10 of the permanent). Closed patches: exact
+ * origin, odelta = 0, the tolerance is the permanents' alone. */
 static inline int volume_sign(const prep *P, size_t c)
 {
-    double v = P->vol[c], tol = 1e-12 * P->vabs[c];
+    double v = P->vol[c], tol = 1e-12 * P->vabs[c] + 2.0 * P->odelta[c] * P->nabs[c];
     return v > tol ? 1 : v < -tol ? -1 : 0;
 }
 

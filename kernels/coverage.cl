@@ -228,3 +228,31 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
         abs_mode, axis, h, nodes, node_count, caps, exact_points);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
+
+#ifdef CLVOX_FP64
+/* The ray positions of a batch of columns (src/cast/cast.c ray_slab), one
+ * work-item per ray: ray r of column i at rays[i * R + r], R = N * N, made
+ * by sampler.h's clvox_column_ray in double as the host makes them, so the
+ * same floats bit for bit (a float build would round the strata otherwise:
+ * there the host makes the rays and this kernel does not exist). The
+ * column's id is w * dim_v + v. */
+kernel void clvox_column_rays(global const clvox_column *cols, uint n_cols, uint N, uint dim_v, uint stochastic,
+                              uint seed_lo, uint seed_hi, global clvox_ray *rays,
+                              global uint *clvox_done, uint clvox_done_slot)
+{
+    const uint R = N * N;
+    const size_t g = get_global_id(0);
+    if (g < (size_t)n_cols * R) {
+        const uint i = (uint)(g / R), r = (uint)(g % R), id = cols[i].id;
+        float pv, pw;
+        clvox_column_ray(id % dim_v, id / dim_v, id, r, N, (int)stochastic, seed_lo, seed_hi, &pv, &pw);
+        clvox_ray ray;
+        ray.v = pv;
+        ray.w = pw;
+        ray.out_base = 0u;
+        ray.bit = 0u;
+        rays[g] = ray;
+    }
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}
+#endif

@@ -85,4 +85,20 @@ CLVOX_SAMPLER_FN clvox_real clvox_stratum(clvox_u32 i, clvox_u32 n, int stochast
     return ((clvox_real)i + j) / (clvox_real)n;
 }
 
+/* Ray r = a + N*b of column (v, w), id = w * dim_v + v: its ray-plane
+ * position, computed in clvox_real and rounded to float once. The host
+ * (src/cast/cast.c column_rays) and, on fp64 devices, the kernel
+ * clvox_column_rays (kernels/coverage.cl) run this same code in double, so
+ * that rays made on either side are bit for bit the same. */
+CLVOX_SAMPLER_FN void clvox_column_ray(clvox_u32 v, clvox_u32 w, clvox_u32 id, clvox_u32 r, clvox_u32 N, int stochastic,
+                                       clvox_u32 seed_lo, clvox_u32 seed_hi, float *pv, float *pw)
+{
+    clvox_u32 bits[4] = {0, 0, 0, 0};
+    if (stochastic) clvox_philox4x32_10(id, r, CLVOX_SAMPLER_RAY_WORD, 0, seed_lo, seed_hi, bits);
+    clvox_real v_ = ((clvox_real)v - (clvox_real)0.5) + clvox_stratum(r % N, N, stochastic, bits[0]);
+    clvox_real w_ = ((clvox_real)w - (clvox_real)0.5) + clvox_stratum(r / N, N, stochastic, bits[1]);
+    *pv = (float)v_;
+    *pw = (float)w_;
+}
+
 #endif /* CLVOX_SAMPLER_H */

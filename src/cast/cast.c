@@ -439,6 +439,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         uint64_t per_item = (uint64_t)(s->coverage ? s->cov.R : 1) * (s->leaf_max ? s->leaf_max : 1);
         uint64_t k = CLVOX__BATCH_TESTS / per_item;
         s->batch_items = k < 1 ? 1 : k > max_items ? max_items : (size_t)k;
+        const unsigned hook = clvox__hooks()->batch_items; /* CLVOX_BATCH_ITEMS: many batches a slab (tests) */
+        if (hook && hook < s->batch_items) s->batch_items = hook;
     }
     /* Where there are caps the winding classify near them is the cost, not
      * the intersection tests that bound batch_items (b9_mesh: 12 s for the
@@ -455,7 +457,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     s->wind.local = s->timed && strcmp(ctx->device.type, "cpu") == 0 ? 4 : 64;
     if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage, s->palette, s->winding);
     if (st == CLVOX_OK) {
-        s->rays_host = malloc(max_rays * sizeof *s->rays_host);
+        if (!s->coverage || !s->cov.k_rays) s->rays_host = malloc(max_rays * sizeof *s->rays_host);
         s->counts_host = malloc(max_rays * sizeof *s->counts_host);
         s->filled_host = malloc(max_items * sizeof *s->filled_host);
         if (s->coverage) {
@@ -466,7 +468,7 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
             s->pstats_host = malloc(max_items * 4 * sizeof *s->pstats_host);
             s->pvolume_host = malloc(max_items * sizeof *s->pvolume_host);
         }
-        if (!s->rays_host || !s->counts_host || !s->filled_host || (s->coverage && (!s->cols_host || !s->sums_host)) ||
+        if ((!s->rays_host && (!s->coverage || !s->cov.k_rays)) || !s->counts_host || !s->filled_host || (s->coverage && (!s->cols_host || !s->sums_host)) ||
             (s->palette && (!s->pstats_host || !s->pvolume_host)))
             st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", max_rays);
     }
@@ -512,8 +514,9 @@ static cl_int set_cast_args(clvox__method_state *s, const clvox__batch_mem *m, c
     return err;
 }
 
-/* Uploads a batch (n rays; coverage: n_cols columns of R rays each), runs
- * lookup, intersect, sort and the consumer, and reads back the crossing
+/* Uploads a batch (n rays; coverage: n_cols columns of R rays each, the
+ * rays made on the device from the columns where s->cov.k_rays, `rays`
+ * then unused), runs lookup, intersect, sort and the consumer, and reads back the crossing
  * count of every ray, the filled voxels of every item and (coverage) the
  * count sum of every column. cast = 0: the batch's rays, columns, sorted
  * crossings and counts are already in m (z rays, ray_slab): only the
@@ -525,13 +528,15 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
                                    uint64_t *pvolume, clvox__slab_stats *ss)
 {
     clvox_context *ctx = s->ctx;
-    cl_event ev[4] = {0};
+    cl_event ev[5] = {0}; /* lookup, intersect, sort, consumer, column rays */
     cl_int err = 0;
     clvox_status st = CLVOX_OK;
     cl_uint capacity = m->capacity;
 
+    const int make_rays = cast && s->coverage && s->cov.k_rays; /* rays made on the device from the columns */
     if (cast) {
-        err = clEnqueueWriteBuffer(ctx->queue, m->rays, CL_FALSE, 0, n * sizeof *rays, rays, 0, NULL, NULL);
+        err = make_rays ? CL_SUCCESS
+                        : clEnqueueWriteBuffer(ctx->queue, m->rays, CL_FALSE, 0, n * sizeof *rays, rays, 0, NULL, NULL);
         if (err == CL_SUCCESS && s->coverage)
             err = clEnqueueWriteBuffer(ctx->queue, m->cols, CL_FALSE, 0, n_cols * sizeof *cols, cols, 0, NULL, NULL);
         if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "uploading rays");
@@ -544,6 +549,10 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
         if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the exact-point counter");
     }
     clvox__launch_begin(ctx);
+    if (make_rays) {
+        st = clvox__column_rays_enqueue(ctx, &s->cov, m, n_cols, &ev[4]);
+        if (st != CLVOX_OK) return st;
+    }
     if (cast) {
         st = clvox__launch(ctx, s->k_lookup, "clvox_quadtree_lookup", 0, n, 64, &ev[0]);
         if (st != CLVOX_OK) return st;
@@ -588,12 +597,13 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
         if (st == CLVOX_OK) ss->exact_points += s->exact_host;
     }
     if (st == CLVOX_OK) {
-        ss->cast_seconds += clvox__event_seconds(ev[0]) + clvox__event_seconds(ev[1]) + clvox__event_seconds(ev[2]);
+        ss->cast_seconds += clvox__event_seconds(ev[0]) + clvox__event_seconds(ev[1]) + clvox__event_seconds(ev[2]) +
+                            clvox__event_seconds(ev[4]);
         const double consumer = clvox__event_seconds(ev[3]);
         ss->classify_seconds += consumer;
         if (s->exact_host) ss->exact_seconds += consumer; /* clvox_stats.winding_exact_seconds */
     }
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < 5; i++)
         if (ev[i]) clReleaseEvent(ev[i]);
     return st;
 }
@@ -657,7 +667,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     if (!cnt || !fil || !sum || !pst || !pvol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", items);
     for (size_t i0 = 0; st == CLVOX_OK && i0 < items; i0 += per) {
         size_t k = items - i0 < per ? items - i0 : per;
-        st = cast_batch(s, &m, 1, rays + i0 * R, (cl_uint)(k * R), cols ? cols + i0 : NULL, (cl_uint)k, t, cnt, fil, sum,
+        st = cast_batch(s, &m, 1, rays ? rays + i0 * R : NULL, (cl_uint)(k * R), cols ? cols + i0 : NULL, (cl_uint)k, t, cnt, fil, sum,
                         pst, pvol, ss);
         for (size_t i = 0; st == CLVOX_OK && i < k * R; i++)
             if (cnt[i] != expect[i0 * R + i])
@@ -699,18 +709,14 @@ static void slab_column(const clvox__method_state *s, uint32_t z0, size_t i, uin
 }
 
 /* The R = N*N rays of a coverage column (sampler.h). */
-static void column_rays(const clvox__method_state *s, uint32_t v, uint32_t w, uint32_t id, clvox_ray *out)
+void clvox__column_rays(uint32_t N, int stochastic, uint32_t seed_lo, uint32_t seed_hi, uint32_t v, uint32_t w,
+                        uint32_t id, clvox_ray *out)
 {
-    const uint32_t N = s->cov.N;
-    for (uint32_t b = 0; b < N; b++)
-        for (uint32_t a = 0; a < N; a++) {
-            uint32_t r = a + N * b, bits[4] = {0, 0, 0, 0};
-            if (s->cov.stochastic)
-                clvox_philox4x32_10(id, r, CLVOX_SAMPLER_RAY_WORD, 0, s->cov.seed_lo, s->cov.seed_hi, bits);
-            double pv = ((double)v - 0.5) + clvox_stratum(a, N, s->cov.stochastic, bits[0]);
-            double pw = ((double)w - 0.5) + clvox_stratum(b, N, s->cov.stochastic, bits[1]);
-            out[r] = (clvox_ray){(float)pv, (float)pw, 0, 0};
-        }
+    for (uint32_t r = 0; r < N * N; r++) {
+        float pv, pw;
+        clvox_column_ray(v, w, id, r, N, stochastic, seed_lo, seed_hi, &pv, &pw);
+        out[r] = (clvox_ray){pv, pw, 0, 0};
+    }
 }
 
 /* Item c of the slab that starts at z0 into batch position i: its ray
@@ -726,7 +732,9 @@ static void slab_item(clvox__method_state *s, uint32_t z0, size_t c, size_t i)
     } else {
         uint32_t id = w * s->dim_v + v;
         s->cols_host[i] = (clvox_column){id, base, bit, 0};
-        column_rays(s, v, w, id, s->rays_host + i * R);
+        if (!s->cov.k_rays) /* else made on the device (cast_batch_run) */
+            clvox__column_rays(s->cov.N, s->cov.stochastic, s->cov.seed_lo, s->cov.seed_hi, v, w, id,
+                               s->rays_host + i * R);
     }
 }
 
@@ -818,7 +826,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
                 slab_item(s, z0, c0 + i, over); /* its rays were not made for this slab */
                 if (over != i) memmove(s->counts_host + over * R, s->counts_host + i * R, R * sizeof *s->counts_host);
             } else if (over != i) {
-                memmove(s->rays_host + over * R, s->rays_host + i * R, R * sizeof *s->rays_host);
+                if (s->rays_host) memmove(s->rays_host + over * R, s->rays_host + i * R, R * sizeof *s->rays_host);
                 memmove(s->counts_host + over * R, s->counts_host + i * R, R * sizeof *s->counts_host);
                 if (s->coverage) s->cols_host[over] = s->cols_host[i];
             }

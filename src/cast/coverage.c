@@ -5,6 +5,7 @@
  * one place so that the two lists cannot drift apart. */
 #include "coverage.h"
 #include "classify.h"
+#include "core/launch.h"
 
 #include <stdlib.h>
 
@@ -41,6 +42,15 @@ clvox_status clvox__coverage_prepare(clvox_context *ctx, clvox__coverage *c, con
                                       table, &st, "coverage table");
     free(table);
     if (st == CLVOX_OK && !o->palette) st = clvox__kernel(ctx, "clvox_coverage", &c->k);
+    /* Rays made on the device only where its kernels compute in double:
+     * clvox_column_ray's double arithmetic (correctly rounded +, -, / in
+     * OpenCL's fp64, no contraction) then gives the host's floats bit for
+     * bit. A float build would round the strata differently, so the rays,
+     * hence the voxels, would depend on the device: there the host makes
+     * them (and the kernel is not even built, kernels/coverage.cl). */
+    c->dim_v = grid->dims[clvox__axes_for(axis).perm[1]];
+    if (st == CLVOX_OK && ctx->real_size == 8 && !clvox__hooks()->host_rays)
+        st = clvox__kernel(ctx, "clvox_column_rays", &c->k_rays);
     return st;
 }
 
@@ -49,6 +59,25 @@ void clvox__coverage_release(clvox__coverage *c)
     clvox__release_mem(&c->value_of_count);
     if (c->k) clReleaseKernel(c->k);
     c->k = NULL;
+    if (c->k_rays) clReleaseKernel(c->k_rays);
+    c->k_rays = NULL;
+}
+
+clvox_status clvox__column_rays_enqueue(clvox_context *ctx, const clvox__coverage *c, const clvox__batch_mem *m,
+                                        cl_uint n_cols, cl_event *ev)
+{
+    cl_uint N = c->N, st_flag = (cl_uint)c->stochastic;
+    cl_int err = 0;
+    err |= clSetKernelArg(c->k_rays, 0, sizeof(cl_mem), &m->cols);
+    err |= clSetKernelArg(c->k_rays, 1, sizeof(cl_uint), &n_cols);
+    err |= clSetKernelArg(c->k_rays, 2, sizeof(cl_uint), &N);
+    err |= clSetKernelArg(c->k_rays, 3, sizeof(cl_uint), &c->dim_v);
+    err |= clSetKernelArg(c->k_rays, 4, sizeof(cl_uint), &st_flag);
+    err |= clSetKernelArg(c->k_rays, 5, sizeof(cl_uint), &c->seed_lo);
+    err |= clSetKernelArg(c->k_rays, 6, sizeof(cl_uint), &c->seed_hi);
+    err |= clSetKernelArg(c->k_rays, 7, sizeof(cl_mem), &m->rays);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_column_rays)");
+    return clvox__launch(ctx, c->k_rays, "clvox_column_rays", 0, (size_t)n_cols * c->R, 64, ev);
 }
 
 static cl_int set_kargs(cl_kernel k, cl_uint *i, clvox__karg_span s)

@@ -20,12 +20,28 @@ typedef struct clvox__coverage {
     cl_uint X, W;                /* the grid's row: voxels, bit-row words */
     cl_uint vox_stride;          /* voxels between consecutive voxels of a ray in the coverage plane */
     cl_kernel k;                 /* clvox_coverage; NULL on palette runs */
+    /* Ray positions: made on the device by clvox_column_rays from the
+     * uploaded columns (k_rays) where the kernels compute in double, as the
+     * host does (sampler.h clvox_column_ray), so that both give the same
+     * floats; else (float kernels, CLVOX_KERNEL_FLOAT=1, or CLVOX_HOST_RAYS=1)
+     * by the host (clvox__column_rays) and uploaded, 16 bytes a ray. */
+    cl_kernel k_rays;            /* NULL: host rays */
+    cl_uint dim_v;               /* columns along v: id = w * dim_v + v */
 } clvox__coverage;
 
 /* Also for palette runs (then without the coverage kernel). */
 clvox_status clvox__coverage_prepare(clvox_context *ctx, clvox__coverage *c, const clvox_voxelize_options *o,
                                      const clvox__run *run, const clvox_grid *grid, clvox_axis axis);
 void clvox__coverage_release(clvox__coverage *c);
+/* The R = N*N rays of column (v, w), id = w * dim_v + v, into out[0..R)
+ * (sampler.h; out_base and bit 0): the host's rays, and the reference of the
+ * device's (tests/test_device_rays.c). */
+void clvox__column_rays(uint32_t N, int stochastic, uint32_t seed_lo, uint32_t seed_hi, uint32_t v, uint32_t w,
+                        uint32_t id, clvox_ray *out);
+/* Enqueues clvox_column_rays (c->k_rays, not NULL): the R rays of each of
+ * the n_cols columns in m->cols into m->rays, ray r of column i at i*R + r. */
+clvox_status clvox__column_rays_enqueue(clvox_context *ctx, const clvox__coverage *c, const clvox__batch_mem *m,
+                                        cl_uint n_cols, cl_event *ev);
 clvox_status clvox__coverage_enqueue(clvox_context *ctx, const clvox__coverage *c, const clvox__winding_classify *w,
                                      const clvox__batch_mem *m, cl_uint n_cols, const clvox__slab_target *t,
                                      cl_event *ev);

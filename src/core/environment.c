@@ -68,6 +68,8 @@ static clvox__test_hooks from_environment(void)
     h.device_global_mem = (unsigned long long)in_range("CLVOX_DEVICE_GLOBAL_MEM", 1, LONG_MAX);
     h.local_size = (unsigned)in_range("CLVOX_LOCAL_SIZE", 1, 1024);
     h.launch_slabs = (unsigned)in_range("CLVOX_LAUNCH_SLABS", 1, 4096);
+    h.host_rays = is("CLVOX_HOST_RAYS", "1");
+    h.batch_items = (unsigned)in_range("CLVOX_BATCH_ITEMS", 1, 1 << 30);
     h.fp32_unrounded = is("CLVOX_TEST_FP32_UNROUNDED", "1");
     const char *crash = getenv("CLVOX_TEST_ASSIMP_CRASH");
     if (crash && *crash && strlen(crash) < sizeof h.assimp_crash) strcpy(h.assimp_crash, crash);

@@ -48,6 +48,10 @@ typedef struct clvox__test_hooks {
                                 * (launch.c); 0: the device's and kernels' limits only */
     unsigned launch_slabs;     /* CLVOX_LAUNCH_SLABS=1..4096: slabs each device computes per method call
                                 * (voxelize.c, schedule.c; 0: sized to the device) */
+    int host_rays;             /* CLVOX_HOST_RAYS=1: column runs' ray positions made on the host even where
+                                * the device could make them (cast.c; the outputs are the same) */
+    unsigned batch_items;      /* CLVOX_BATCH_ITEMS=1..2^30: the ray method's batches at most this many items
+                                * (rays, or columns of N*N rays; cast.c): many batches a slab. 0: off */
     int fp32_unrounded;        /* CLVOX_TEST_FP32_UNROUNDED=1: built as for a device without correctly
                                 * rounded float divide/sqrt (no -cl-fp32-correctly-rounded-divide-sqrt) */
     char assimp_crash[64];     /* CLVOX_TEST_ASSIMP_CRASH=TEXT: the Assimp reader kills its process

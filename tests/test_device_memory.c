@@ -134,15 +134,16 @@ static void test_same_voxels(const tmesh *closed, const tmesh *open, const clvox
          * 2304 rays' crossings do not (2 a ray: 36 kB; 32: 590 kB); the
          * global memory: a budget (3/4) of the mesh's buffers (estimated:
          * vertices, triangles, quadtree nodes and references, 8 kB for
-         * caps and tables) and the default run's batch and planes, of
-         * which the batches take half of what the mesh leaves */
+         * caps and tables) and half the default run's batches: one set
+         * of batches takes half of what the mesh leaves, two sets (several
+         * batches a slab, in flight two at a time) a third each */
         const uint64_t leaves = a.stats.quadtree_leaves;
         const uint64_t mesh = (uint64_t)cases[i].mesh->nt * 12 + (uint64_t)cases[i].mesh->nv * 12 +
                               a.stats.quadtree_refs * 4 + (leaves + (leaves ? leaves - 1 : 0) / 3) * 16 + 8192;
         struct {
             uint64_t alloc, global;
         } limits[] = {{o.hit_capacity ? 28672 : raster ? 8192 : 131072, 0},
-                      {0, (mesh + a.stats.peak_slab_bytes) / 3 * 4}};
+                      {0, (mesh + a.stats.peak_slab_bytes / 2) / 3 * 4}};
         for (int l = 0; l < 2; l++) {
             h.device_max_alloc = limits[l].alloc;
             h.device_global_mem = limits[l].global;

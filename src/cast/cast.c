@@ -54,6 +54,25 @@
 #define SLOW_FIRST_RAYS 32u
 #define SLOW_BATCH_SECONDS 0.25 /* ... and the wall time a batch is sized for */
 
+/* One batch's device buffers and host arrays, and what is in flight of it
+ * (ray_slab keeps two, alternating, where the device holds them: batch
+ * k + 1 runs while the host tallies batch k and makes batch k + 2). */
+typedef struct batch_set {
+    clvox__batch_mem mem;
+    clvox_ray *rays;             /* max_rays; NULL on column runs whose rays the device makes */
+    clvox_column *cols;          /* coverage: max_items */
+    uint32_t *counts;            /* max_rays */
+    uint32_t *filled;            /* max_items */
+    uint64_t *sums;              /* column runs: max_items */
+    uint32_t *pstats;            /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
+    uint64_t *pvolume;           /* palette: per item, element volumes in 2^-32 voxels */
+    cl_uint exact;               /* winding: the batch's exact points (read back; not on the stack) */
+    cl_event ev[5];              /* profiling: lookup, intersect, sort, consumer, column rays */
+    clvox__launch_ticket ticket; /* the batch's completion counts, read last: its read event ends the batch */
+    int queued;                  /* 1: enqueued, not yet waited for */
+    size_t c0, k;                /* ray_slab: the batch's first item in the slab, its items */
+} batch_set;
+
 struct clvox__method_state {
     clvox_context *ctx;
     clvox_grid grid;
@@ -69,7 +88,8 @@ struct clvox__method_state {
     clvox__winding_classify wind; /* its caps and rims (zero on parity runs: the column consumers take them too) */
     uint32_t leaf_size;
     uint64_t leaf_max;           /* most triangles in one quadtree leaf */
-    clvox__batch_mem mem;               /* the fast pass */
+    batch_set set[2];            /* the fast pass's batches: set[0], and set[1] where sets == 2 */
+    int sets;                    /* 2: batches in flight two at a time (fit_batches); 1: one at a time */
     size_t batch_items;          /* items per fast-pass batch (work-bounded) */
     int timed;                   /* caps: batches sized by their time (ray_slab) */
     size_t batch_now;            /* items in the next batch: batch_items, or fewer where timed */
@@ -78,19 +98,11 @@ struct clvox__method_state {
     uint64_t max_alloc;          /* the device's largest buffer */
     uint64_t redo_room;          /* device bytes left for redo_overflow's batches (fit_batches) */
     uint64_t held_bytes;         /* device bytes held besides them: the mesh, the slab planes, the fast pass */
-    clvox_ray *rays_host;        /* max_rays */
-    clvox_column *cols_host;     /* coverage: max_items */
-    uint32_t *counts_host;       /* max_rays */
-    uint32_t *filled_host;       /* max_items */
-    uint64_t *sums_host;         /* column runs: max_items */
-    uint32_t *pstats_host;       /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
-    uint64_t *pvolume_host;      /* palette: per item, element volumes in 2^-32 voxels */
-    cl_uint exact_host;          /* winding: the batch's exact points (read back; not on the stack) */
     /* z rays: every slab's rays are the same X*Y columns, only the slices
      * they classify differ. When one batch holds them all, the first slab
-     * cast leaves their sorted crossings in `mem` and the next slabs run
+     * cast leaves their sorted crossings in set[0] and the next slabs run
      * only the consumer (at 1024^3, 64 slabs cast once instead of 64 times). */
-    int z_cast;                  /* 1: mem holds the crossings of every z column */
+    int z_cast;                  /* 1: set[0].mem holds the crossings of every z column */
     uint32_t *z_counts;          /* their crossing counts (the first pass's), X*Y*R */
     /* coverage and palette (column runs) */
     int coverage;                /* 1: a column run (the coverage or the palette consumer) */
@@ -148,6 +160,55 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, siz
     return st;
 }
 
+static void batch_drop(batch_set *b)
+{
+    for (int i = 0; i < 5; i++)
+        if (b->ev[i]) clReleaseEvent(b->ev[i]), b->ev[i] = NULL;
+    clvox__launch_ticket_drop(&b->ticket);
+    b->queued = 0;
+}
+
+static void batch_set_free(batch_set *b)
+{
+    batch_drop(b);
+    batch_mem_release(&b->mem);
+    free(b->rays);
+    free(b->cols);
+    free(b->counts);
+    free(b->filled);
+    free(b->sums);
+    free(b->pstats);
+    free(b->pvolume);
+    memset(b, 0, sizeof *b);
+}
+
+/* A batch set of max_rays rays (max_items items) of `capacity` crossings;
+ * with_rays: the host ray array too, where the host makes the rays. */
+static clvox_status batch_set_alloc(clvox__method_state *s, batch_set *b, size_t max_rays, size_t max_items,
+                                    cl_uint capacity, int with_rays)
+{
+    memset(b, 0, sizeof *b);
+    clvox_status st = batch_mem_alloc(s->ctx, &b->mem, max_rays, max_items, capacity, s->coverage, s->palette,
+                                      s->winding);
+    if (st != CLVOX_OK) return st;
+    const int rays = with_rays && (!s->coverage || !s->cov.k_rays);
+    if (rays) b->rays = malloc(max_rays * sizeof *b->rays);
+    b->counts = malloc(max_rays * sizeof *b->counts);
+    b->filled = malloc(max_items * sizeof *b->filled);
+    if (s->coverage) {
+        b->cols = malloc(max_items * sizeof *b->cols);
+        b->sums = malloc(max_items * sizeof *b->sums);
+    }
+    if (s->palette) {
+        b->pstats = malloc(max_items * 4 * sizeof *b->pstats);
+        b->pvolume = malloc(max_items * sizeof *b->pvolume);
+    }
+    if ((rays && !b->rays) || !b->counts || !b->filled || (s->coverage && (!b->cols || !b->sums)) ||
+        (s->palette && (!b->pstats || !b->pvolume)))
+        return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", max_rays);
+    return CLVOX_OK;
+}
+
 /* Device bytes of one batch item (a ray, or a column of R rays) whose rays
  * hold `capacity` crossings each: what batch_mem_alloc allocates per item. */
 static uint64_t item_bytes(const clvox_context *ctx, size_t R, cl_uint capacity, int coverage, int palette,
@@ -180,7 +241,7 @@ static uint64_t slab_plane_bytes(const clvox_grid *g, uint32_t channels, uint32_
  * smaller ones give the same voxels. CLVOX_ERR_OUT_OF_MEMORY where one item
  * does not fit. */
 static clvox_status fit_batches(clvox__method_state *s, const clvox__run *run, uint32_t depth, cl_uint capacity,
-                                size_t *max_items)
+                                size_t *max_items, size_t work_items)
 {
     clvox_context *ctx = s->ctx;
     const size_t R = s->coverage ? s->cov.R : 1;
@@ -209,9 +270,23 @@ static clvox_status fit_batches(clvox__method_state *s, const clvox__run *run, u
                  "for rays with more", R, R == 1 ? "" : "s", capacity);
         return clvox__device_oom(ctx, fixed + 2 * one, budget, what);
     }
-    if (avail / 2 / one < k) k = avail / 2 / one;
+    /* Two sets of batch buffers (batches in flight two at a time,
+     * ray_slab) where a slab takes several batches: each within the
+     * largest buffer, both beside as much again for redo_overflow within
+     * the budget (a third each of what is left, instead of a half), and
+     * where memory is what cuts the slab into batches, each half of what
+     * one set would be (the same device memory: smaller batches, the same
+     * voxels). One set where a slab is one batch (z rays cast once: the
+     * crossings of every column in one set), where batches are timed (one
+     * at a time, for the cancel), or where an item leaves no room for two. */
+    const uint64_t one_set = avail / 2 / one < k ? avail / 2 / one : k;
+    uint64_t two_sets = avail / 3 / one < k ? avail / 3 / one : k;
+    if (one_set < *max_items && one_set / 2 < two_sets) two_sets = one_set / 2;
+    const int several = s->coverage || one_set < *max_items || work_items < *max_items; /* batches a slab */
+    s->sets = several && !s->timed && two_sets >= 1 ? 2 : 1;
+    k = s->sets == 2 ? two_sets : one_set;
     if (k < *max_items) *max_items = (size_t)k;
-    s->held_bytes = fixed + *max_items * one;
+    s->held_bytes = fixed + (uint64_t)s->sets * *max_items * one;
     s->redo_room = budget > s->held_bytes ? budget - s->held_bytes : 0;
     return CLVOX_OK;
 }
@@ -285,20 +360,14 @@ static void ray_release(clvox__method_state *s)
     s->tris_owned = NULL;
     clvox__coverage_release(&s->cov);
     clvox__palette_score_release(&s->pal);
-    batch_mem_release(&s->mem);
+    batch_set_free(&s->set[0]);
+    batch_set_free(&s->set[1]);
     clvox__winding_classify_release(&s->wind);
     if (s->k_lookup) clReleaseKernel(s->k_lookup);
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
     if (s->k_sort) clReleaseKernel(s->k_sort);
     if (s->k_classify) clReleaseKernel(s->k_classify);
     clvox__quadtree_free(&s->qt);
-    free(s->rays_host);
-    free(s->cols_host);
-    free(s->counts_host);
-    free(s->filled_host);
-    free(s->sums_host);
-    free(s->pstats_host);
-    free(s->pvolume_host);
     free(s->z_counts);
     free(s);
 }
@@ -423,25 +492,28 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     }
     cl_uint capacity = opts->hit_capacity ? opts->hit_capacity : DEFAULT_HIT_CAPACITY;
     if (capacity > CLVOX__MAX_CROSSINGS) capacity = CLVOX__MAX_CROSSINGS;
-    if (st == CLVOX_OK) st = fit_batches(s, run, slab_depth, capacity, &max_items);
-    max_rays = max_items * (s->coverage ? s->cov.R : 1);
     /* Batches of bounded work: items x rays per item x the largest leaf. */
     for (size_t i = 0; s->qt.nodes && i < s->qt.node_count; i++)
         if (s->qt.nodes[i].count != CLVOX_QT_INTERNAL && s->qt.nodes[i].count > s->leaf_max)
             s->leaf_max = s->qt.nodes[i].count;
+    size_t work_items;
+    {
+        uint64_t per_item = (uint64_t)(s->coverage ? s->cov.R : 1) * (s->leaf_max ? s->leaf_max : 1);
+        uint64_t k = CLVOX__BATCH_TESTS / per_item;
+        work_items = k < 1 ? 1 : k > max_items ? max_items : (size_t)k;
+        const unsigned hook = clvox__hooks()->batch_items; /* CLVOX_BATCH_ITEMS: many batches a slab (tests) */
+        if (hook && hook < work_items) work_items = hook;
+    }
+    s->timed = s->wind.caps.node_count > 0; /* see below */
+    if (st == CLVOX_OK) st = fit_batches(s, run, slab_depth, capacity, &max_items, work_items);
+    max_rays = max_items * (s->coverage ? s->cov.R : 1);
     /* The device has its copies: the host arrays go (the tree's counts stay, for describe). */
     free(s->verts_host);
     free(s->tris_owned);
     free(s->qt.nodes);
     free(s->qt.refs);
     s->verts_host = NULL, s->tris_owned = NULL, s->qt.nodes = NULL, s->qt.refs = NULL;
-    {
-        uint64_t per_item = (uint64_t)(s->coverage ? s->cov.R : 1) * (s->leaf_max ? s->leaf_max : 1);
-        uint64_t k = CLVOX__BATCH_TESTS / per_item;
-        s->batch_items = k < 1 ? 1 : k > max_items ? max_items : (size_t)k;
-        const unsigned hook = clvox__hooks()->batch_items; /* CLVOX_BATCH_ITEMS: many batches a slab (tests) */
-        if (hook && hook < s->batch_items) s->batch_items = hook;
-    }
+    s->batch_items = work_items < max_items ? work_items : max_items;
     /* Where there are caps the winding classify near them is the cost, not
      * the intersection tests that bound batch_items (b9_mesh: 12 s for the
      * one batch of its one slab at 256^3), and it is between batches that
@@ -451,30 +523,15 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
      * work-groups of 4 rays keep a short batch from ending on one group of
      * 64 costly rays (2 cores, cylinder at 256^3 in batches: 0.99 s with
      * 64, 0.82 with 4, 0.94 in one batch of 64; docs/benchmarks.md). */
-    s->timed = s->wind.caps.node_count > 0;
     const size_t first = SLOW_FIRST_RAYS / (s->coverage ? s->cov.R : 1); /* items: rays or columns */
     s->batch_now = s->timed && first < s->batch_items ? (first ? first : 1) : s->batch_items;
     s->wind.local = s->timed && strcmp(ctx->device.type, "cpu") == 0 ? 4 : 64;
-    if (st == CLVOX_OK) st = batch_mem_alloc(ctx, &s->mem, max_rays, max_items, capacity, s->coverage, s->palette, s->winding);
-    if (st == CLVOX_OK) {
-        if (!s->coverage || !s->cov.k_rays) s->rays_host = malloc(max_rays * sizeof *s->rays_host);
-        s->counts_host = malloc(max_rays * sizeof *s->counts_host);
-        s->filled_host = malloc(max_items * sizeof *s->filled_host);
-        if (s->coverage) {
-            s->cols_host = malloc(max_items * sizeof *s->cols_host);
-            s->sums_host = malloc(max_items * sizeof *s->sums_host);
-        }
-        if (s->palette) {
-            s->pstats_host = malloc(max_items * 4 * sizeof *s->pstats_host);
-            s->pvolume_host = malloc(max_items * sizeof *s->pvolume_host);
-        }
-        if ((!s->rays_host && (!s->coverage || !s->cov.k_rays)) || !s->counts_host || !s->filled_host || (s->coverage && (!s->cols_host || !s->sums_host)) ||
-            (s->palette && (!s->pstats_host || !s->pvolume_host)))
-            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", max_rays);
-    }
+    for (int i = 0; st == CLVOX_OK && i < s->sets; i++)
+        st = batch_set_alloc(s, &s->set[i], max_rays, max_items, capacity, 1);
     if (stats) {
         uint64_t b = (uint64_t)max_rays * (sizeof(clvox_ray) * 2 + 3 * 4 + capacity * ctx->real_size) +
                      (uint64_t)max_items * (4 * 2 + (s->coverage ? sizeof(clvox_column) + 8 * 2 : 0));
+        b *= (uint64_t)s->sets;
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;
     }
     if (st != CLVOX_OK) {
@@ -514,26 +571,28 @@ static cl_int set_cast_args(clvox__method_state *s, const clvox__batch_mem *m, c
     return err;
 }
 
-/* Uploads a batch (n rays; coverage: n_cols columns of R rays each, the
- * rays made on the device from the columns where s->cov.k_rays, `rays`
- * then unused), runs lookup, intersect, sort and the consumer, and reads back the crossing
- * count of every ray, the filled voxels of every item and (coverage) the
- * count sum of every column. cast = 0: the batch's rays, columns, sorted
- * crossings and counts are already in m (z rays, ray_slab): only the
- * consumer runs, and counts are not read. The uploads and read-backs are
- * not blocking: cast_batch waits for them on every path. */
-static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_mem *m, int cast, const clvox_ray *rays,
-                                   cl_uint n, const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t,
-                                   uint32_t *counts, uint32_t *filled, uint64_t *sums, uint32_t *pstats,
-                                   uint64_t *pvolume, clvox__slab_stats *ss)
+/* Enqueues a batch in b (n rays; coverage: n_cols columns of R rays
+ * each, the rays made on the device from the columns where s->cov.k_rays,
+ * `rays` then unused): uploads `rays` and `cols`, runs lookup, intersect,
+ * sort and the consumer, and reads back, without waiting, the crossing
+ * count of every ray, the filled voxels of every item, (coverage) the count
+ * sum of every column, (palette) the tallies, and last the launches'
+ * completion counts (b->ticket: its read ends the batch). cast = 0: the
+ * batch's rays, columns, sorted crossings and counts are already in b->mem
+ * (z rays, ray_slab): only the consumer runs, and counts are not read.
+ * `rays`, `cols` and b's arrays are the device's until batch_wait, or on an
+ * error batch_abandon. */
+static clvox_status batch_enqueue(clvox__method_state *s, batch_set *b, int cast, const clvox_ray *rays,
+                                  const clvox_column *cols, cl_uint n, cl_uint n_cols, const clvox__slab_target *t)
 {
     clvox_context *ctx = s->ctx;
-    cl_event ev[5] = {0}; /* lookup, intersect, sort, consumer, column rays */
+    const clvox__batch_mem *m = &b->mem;
     cl_int err = 0;
     clvox_status st = CLVOX_OK;
     cl_uint capacity = m->capacity;
-
     const int make_rays = cast && s->coverage && s->cov.k_rays; /* rays made on the device from the columns */
+    b->queued = 1; /* from the first enqueue on: an error waits for the queue (batch_abandon) */
+
     if (cast) {
         err = make_rays ? CL_SUCCESS
                         : clEnqueueWriteBuffer(ctx->queue, m->rays, CL_FALSE, 0, n * sizeof *rays, rays, 0, NULL, NULL);
@@ -550,75 +609,86 @@ static clvox_status cast_batch_run(clvox__method_state *s, const clvox__batch_me
     }
     clvox__launch_begin(ctx);
     if (make_rays) {
-        st = clvox__column_rays_enqueue(ctx, &s->cov, m, n_cols, &ev[4]);
+        st = clvox__column_rays_enqueue(ctx, &s->cov, m, n_cols, &b->ev[4]);
         if (st != CLVOX_OK) return st;
     }
     if (cast) {
-        st = clvox__launch(ctx, s->k_lookup, "clvox_quadtree_lookup", 0, n, 64, &ev[0]);
+        st = clvox__launch(ctx, s->k_lookup, "clvox_quadtree_lookup", 0, n, 64, &b->ev[0]);
         if (st != CLVOX_OK) return st;
-        st = clvox__launch(ctx, s->k_intersect, "clvox_intersect", 0, n, 64, &ev[1]);
-        if (st == CLVOX_OK) st = clvox__launch(ctx, s->k_sort, "clvox_sort", 0, n, 64, &ev[2]);
+        st = clvox__launch(ctx, s->k_intersect, "clvox_intersect", 0, n, 64, &b->ev[1]);
+        if (st == CLVOX_OK) st = clvox__launch(ctx, s->k_sort, "clvox_sort", 0, n, 64, &b->ev[2]);
     }
     if (st == CLVOX_OK) {
         if (s->palette) {
-            st = clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, m, n_cols, t, &ev[3]);
+            st = clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, m, n_cols, t, &b->ev[3]);
         } else if (s->coverage) {
-            st = clvox__coverage_enqueue(ctx, &s->cov, &s->wind, m, n_cols, t, &ev[3]);
+            st = clvox__coverage_enqueue(ctx, &s->cov, &s->wind, m, n_cols, t, &b->ev[3]);
         } else if (s->winding) {
-            st = clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, m, n, t, &ev[3]);
+            st = clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, m, n, t, &b->ev[3]);
         } else {
             clvox__classify_args a = {m->rays, n, m->hits, m->counts, capacity, t->u_begin, t->u_count,
                                       t->out_stride, t->out->occupancy, m->filled};
-            st = clvox__classify_enqueue(ctx, s->k_classify, &a, &ev[3]);
+            st = clvox__classify_enqueue(ctx, s->k_classify, &a, &b->ev[3]);
         }
     }
+    if (st != CLVOX_OK) return st;
     cl_uint items = s->coverage ? n_cols : n;
-    if (st == CLVOX_OK) {
-        err = cast ? clEnqueueReadBuffer(ctx->queue, m->counts, CL_FALSE, 0, n * sizeof *counts, counts, 0, NULL, NULL)
-                   : CL_SUCCESS;
-        if (err == CL_SUCCESS)
-            err = clEnqueueReadBuffer(ctx->queue, m->filled, CL_FALSE, 0, items * sizeof *filled, filled, 0, NULL,
-                                      NULL);
-        if (err == CL_SUCCESS && s->coverage)
-            err = clEnqueueReadBuffer(ctx->queue, m->sums, CL_FALSE, 0, items * sizeof *sums, sums, 0, NULL, NULL);
-        if (err == CL_SUCCESS && s->palette)
-            err = clEnqueueReadBuffer(ctx->queue, m->pstats, CL_FALSE, 0, items * 4 * sizeof *pstats, pstats, 0, NULL,
-                                      NULL);
-        if (err == CL_SUCCESS && s->palette)
-            err = clEnqueueReadBuffer(ctx->queue, m->pvolume, CL_FALSE, 0, items * sizeof *pvolume, pvolume, 0, NULL,
-                                      NULL);
-        s->exact_host = 0;
-        if (err == CL_SUCCESS && s->winding)
-            err = clEnqueueReadBuffer(ctx->queue, m->exact, CL_FALSE, 0, sizeof s->exact_host, &s->exact_host, 0, NULL,
-                                      NULL);
-        if (err == CL_SUCCESS) err = clFinish(ctx->queue);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "running the cast kernels");
-        if (st == CLVOX_OK) st = clvox__launch_check(ctx);
-        if (st == CLVOX_OK) ss->exact_points += s->exact_host;
-    }
-    if (st == CLVOX_OK) {
-        ss->cast_seconds += clvox__event_seconds(ev[0]) + clvox__event_seconds(ev[1]) + clvox__event_seconds(ev[2]) +
-                            clvox__event_seconds(ev[4]);
-        const double consumer = clvox__event_seconds(ev[3]);
-        ss->classify_seconds += consumer;
-        if (s->exact_host) ss->exact_seconds += consumer; /* clvox_stats.winding_exact_seconds */
-    }
-    for (int i = 0; i < 5; i++)
-        if (ev[i]) clReleaseEvent(ev[i]);
+    err = cast ? clEnqueueReadBuffer(ctx->queue, m->counts, CL_FALSE, 0, n * sizeof *b->counts, b->counts, 0, NULL,
+                                     NULL)
+               : CL_SUCCESS;
+    if (err == CL_SUCCESS)
+        err = clEnqueueReadBuffer(ctx->queue, m->filled, CL_FALSE, 0, items * sizeof *b->filled, b->filled, 0, NULL,
+                                  NULL);
+    if (err == CL_SUCCESS && s->coverage)
+        err = clEnqueueReadBuffer(ctx->queue, m->sums, CL_FALSE, 0, items * sizeof *b->sums, b->sums, 0, NULL, NULL);
+    if (err == CL_SUCCESS && s->palette)
+        err = clEnqueueReadBuffer(ctx->queue, m->pstats, CL_FALSE, 0, items * 4 * sizeof *b->pstats, b->pstats, 0,
+                                  NULL, NULL);
+    if (err == CL_SUCCESS && s->palette)
+        err = clEnqueueReadBuffer(ctx->queue, m->pvolume, CL_FALSE, 0, items * sizeof *b->pvolume, b->pvolume, 0, NULL,
+                                  NULL);
+    b->exact = 0;
+    if (err == CL_SUCCESS && s->winding)
+        err = clEnqueueReadBuffer(ctx->queue, m->exact, CL_FALSE, 0, sizeof b->exact, &b->exact, 0, NULL, NULL);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "reading the batch back");
+    st = clvox__launch_defer(ctx, &b->ticket);
+    /* submitted now, so that the device runs it while the host goes on */
+    if (st == CLVOX_OK && (err = clFlush(ctx->queue)) != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clFlush");
     return st;
 }
 
-/* cast_batch_run, and on an error a wait for what it left queued: the
- * upload of `rays` and `cols` and the read-backs into the arrays, which the
- * callers free or refill next (the result of the wait is not the error). */
-static clvox_status cast_batch(clvox__method_state *s, const clvox__batch_mem *m, int cast, const clvox_ray *rays,
-                               cl_uint n, const clvox_column *cols, cl_uint n_cols, const clvox__slab_target *t,
-                               uint32_t *counts, uint32_t *filled, uint64_t *sums, uint32_t *pstats, uint64_t *pvolume,
-                               clvox__slab_stats *ss)
+/* Waits for batch b (its last read: the queue is in order), checks that
+ * its launches completed, and adds its exact points and kernel times to
+ * ss. b's arrays are the host's again. */
+static clvox_status batch_wait(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss)
 {
-    clvox_status st = cast_batch_run(s, m, cast, rays, n, cols, n_cols, t, counts, filled, sums, pstats, pvolume, ss);
-    if (st != CLVOX_OK) clFinish(s->ctx->queue);
+    clvox_context *ctx = s->ctx;
+    cl_int err = b->ticket.read ? clWaitForEvents(1, &b->ticket.read) : clFinish(ctx->queue);
+    clvox_status st = err == CL_SUCCESS ? clvox__launch_verify(ctx, &b->ticket)
+                                        : clvox__cl_fail(ctx, err, "running the cast kernels");
+    if (st == CLVOX_OK) {
+        ss->exact_points += b->exact;
+        ss->cast_seconds += clvox__event_seconds(b->ev[0]) + clvox__event_seconds(b->ev[1]) +
+                            clvox__event_seconds(b->ev[2]) + clvox__event_seconds(b->ev[4]);
+        const double consumer = clvox__event_seconds(b->ev[3]);
+        ss->classify_seconds += consumer;
+        if (b->exact) ss->exact_seconds += consumer; /* clvox_stats.winding_exact_seconds */
+    }
+    batch_drop(b);
     return st;
+}
+
+/* After an error: waits for what is queued (uploads from and read-backs
+ * into host arrays that the callers free or refill next; the result of the
+ * wait is not the error) and forgets the batches in flight, b too where
+ * not NULL (redo_overflow's). */
+static void batch_abandon(clvox__method_state *s, batch_set *b)
+{
+    clFinish(s->ctx->queue);
+    clvox__launch_begin(s->ctx);
+    for (int i = 0; i < 2; i++)
+        if (s->set[i].queued) batch_drop(&s->set[i]);
+    if (b) batch_drop(b);
 }
 
 /* Asks the driver whether to go on (between batches); 1 = go on. */
@@ -646,7 +716,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
                            "largest buffer (%llu MB)",
                            R, need, (unsigned long long)((uint64_t)need * R * ctx->real_size >> 20),
                            (unsigned long long)(s->max_alloc >> 20));
-    size_t per = (s->mem.max_rays * s->mem.capacity) / ((size_t)need * R);
+    size_t per = (s->set[0].mem.max_rays * s->set[0].mem.capacity) / ((size_t)need * R);
     if (per < 1) per = 1;
     /* beside the fast pass's buffers, within the run's budget (fit_batches) */
     const uint64_t one = item_bytes(ctx, R, need, s->coverage, s->palette, s->winding);
@@ -659,34 +729,29 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
     if (s->redo_room / one < per) per = (size_t)(s->redo_room / one);
     if (per > s->batch_items) per = s->batch_items;
     if (per > items) per = items;
-    clvox__batch_mem m;
-    clvox_status st = batch_mem_alloc(ctx, &m, per * R, per, need, s->coverage, s->palette, s->winding);
-    if (st != CLVOX_OK) return st;
-    uint32_t *cnt = malloc(per * R * sizeof *cnt), *fil = malloc(per * sizeof *fil), *pst = malloc(per * 4 * sizeof *pst);
-    uint64_t *sum = malloc(per * sizeof *sum), *pvol = malloc(per * sizeof *pvol);
-    if (!cnt || !fil || !sum || !pst || !pvol) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory redoing %zu rays", items);
+    /* one batch at a time (rare: the rays with many crossings), behind
+     * the fast pass's batch in flight, if any */
+    batch_set m;
+    clvox_status st = batch_set_alloc(s, &m, per * R, per, need, 0);
     for (size_t i0 = 0; st == CLVOX_OK && i0 < items; i0 += per) {
         size_t k = items - i0 < per ? items - i0 : per;
-        st = cast_batch(s, &m, 1, rays ? rays + i0 * R : NULL, (cl_uint)(k * R), cols ? cols + i0 : NULL, (cl_uint)k, t, cnt, fil, sum,
-                        pst, pvol, ss);
+        st = batch_enqueue(s, &m, 1, rays ? rays + i0 * R : NULL, cols ? cols + i0 : NULL, (cl_uint)(k * R),
+                           (cl_uint)k, t);
+        if (st == CLVOX_OK) st = batch_wait(s, &m, ss);
+        if (st != CLVOX_OK) batch_abandon(s, &m);
         for (size_t i = 0; st == CLVOX_OK && i < k * R; i++)
-            if (cnt[i] != expect[i0 * R + i])
-                st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "overflow redo counted %u crossings instead of %u", cnt[i],
-                                 expect[i0 * R + i]);
+            if (m.counts[i] != expect[i0 * R + i])
+                st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "overflow redo counted %u crossings instead of %u",
+                                 m.counts[i], expect[i0 * R + i]);
         for (size_t i = 0; st == CLVOX_OK && i < k; i++) {
-            ss->filled += fil[i];
-            if (s->coverage) ss->coverage_count += sum[i];
-            if (s->palette) clvox__palette_tally(ss, pst + 4 * i, pvol[i]);
+            ss->filled += m.filled[i];
+            if (s->coverage) ss->coverage_count += m.sums[i];
+            if (s->palette) clvox__palette_tally(ss, m.pstats + 4 * i, m.pvolume[i]);
         }
         if (st == CLVOX_OK && i0 + k < items && !poll_ok(s, f0 + (f1 - f0) * (double)(i0 + k) / (double)items))
             st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled while redoing rays with many crossings");
     }
-    batch_mem_release(&m);
-    free(cnt);
-    free(fil);
-    free(sum);
-    free(pst);
-    free(pvol);
+    batch_set_free(&m);
     return st;
 }
 
@@ -721,20 +786,20 @@ void clvox__column_rays(uint32_t N, int stochastic, uint32_t seed_lo, uint32_t s
 
 /* Item c of the slab that starts at z0 into batch position i: its ray
  * (binary runs), or its column and R rays (column runs). */
-static void slab_item(clvox__method_state *s, uint32_t z0, size_t c, size_t i)
+static void slab_item(clvox__method_state *s, batch_set *b, uint32_t z0, size_t c, size_t i)
 {
     const size_t R = s->coverage ? s->cov.R : 1;
     uint32_t v, w;
     clvox_u32 base, bit;
     slab_column(s, z0, c, &v, &w, &base, &bit);
     if (!s->coverage) {
-        s->rays_host[i] = (clvox_ray){(float)v, (float)w, base, bit};
+        b->rays[i] = (clvox_ray){(float)v, (float)w, base, bit};
     } else {
         uint32_t id = w * s->dim_v + v;
-        s->cols_host[i] = (clvox_column){id, base, bit, 0};
-        if (!s->cov.k_rays) /* else made on the device (cast_batch_run) */
+        b->cols[i] = (clvox_column){id, base, bit, 0};
+        if (b->rays) /* else made on the device (batch_enqueue) */
             clvox__column_rays(s->cov.N, s->cov.stochastic, s->cov.seed_lo, s->cov.seed_hi, v, w, id,
-                               s->rays_host + i * R);
+                               b->rays + i * R);
     }
 }
 
@@ -767,36 +832,57 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
     /* Items (rays or columns) per batch: s->batch_now, where timed sized
      * from the last batch's wall time to take about SLOW_BATCH_SECONDS (the
      * rays are independent: the same voxels whatever the batches). z rays
-     * whose crossings an earlier slab left in mem (s->z_cast) are not cast
-     * again: one batch runs the consumer on them. */
+     * whose crossings an earlier slab left in set[0] (s->z_cast) are not
+     * cast again: one batch runs the consumer on them.
+     * Batches in flight: with two sets, batch j + 1 is enqueued before the
+     * host waits for batch j, and batch j + 2 (in j's set) once the host
+     * has tallied j, so that the host's work (rays, tallies) and the
+     * device's read-backs overlap the device's next batch. Timed batches
+     * run one at a time: they are sized for the cancel (poll_ok between
+     * batches), which a batch queued behind would delay. */
     const int reuse = s->axis == CLVOX_AXIS_Z && s->z_cast;
+    const unsigned depth = reuse || s->timed ? 1u : (unsigned)s->sets;
     clvox_status st = CLVOX_OK;
-    for (size_t c0 = 0, k = 0; st == CLVOX_OK && c0 < columns; c0 += k) {
-        const size_t per = reuse ? columns : s->batch_now;
-        k = columns - c0 < per ? columns - c0 : per;
-        const double t_batch = s->timed ? clvox__now() : 0.0;
-        if (reuse)
-            memcpy(s->counts_host, s->z_counts, k * R * sizeof *s->counts_host);
-        else
-            for (size_t i = 0; i < k; i++) slab_item(s, z0, c0 + i, i);
-        st = cast_batch(s, &s->mem, !reuse, s->rays_host, (cl_uint)(k * R), s->cols_host, (cl_uint)k, &t,
-                        s->counts_host, s->filled_host, s->sums_host, s->pstats_host, s->pvolume_host, ss);
+    size_t next = 0;                 /* the first item not yet enqueued */
+    unsigned head = 0, inflight = 0; /* the oldest batch in flight (its number in the slab), how many */
+    double t_batch = 0.0;
+    size_t per = 0;
+    while (st == CLVOX_OK) {
+        while (st == CLVOX_OK && inflight < depth && next < columns) {
+            batch_set *b = &s->set[(head + inflight) % (unsigned)s->sets]; /* batch 0 in set[0] (z_cast) */
+            per = reuse ? columns : s->batch_now;
+            const size_t k = columns - next < per ? columns - next : per;
+            b->c0 = next, b->k = k;
+            if (s->timed) t_batch = clvox__now();
+            if (reuse)
+                memcpy(b->counts, s->z_counts, k * R * sizeof *b->counts);
+            else
+                for (size_t i = 0; i < k; i++) slab_item(s, b, z0, next + i, i);
+            st = batch_enqueue(s, b, !reuse, b->rays, b->cols, (cl_uint)(k * R), (cl_uint)k, &t);
+            next += k;
+            inflight++;
+        }
+        if (st != CLVOX_OK || inflight == 0) break;
+        batch_set *b = &s->set[head % (unsigned)s->sets];
+        head++, inflight--;
+        st = batch_wait(s, b, ss);
         if (st != CLVOX_OK) break;
+        const size_t c0 = b->c0, k = b->k;
         if (s->axis == CLVOX_AXIS_Z && !reuse && !s->timed && k == columns) {
-            /* mem now holds every z column's crossings: keep their counts
+            /* set[0] now holds every z column's crossings: keep their counts
              * (before the tally below compacts them); without the memory
              * the next slabs cast again, to the same voxels */
             if (!s->z_counts) s->z_counts = malloc(columns * R * sizeof *s->z_counts);
             if (s->z_counts) {
-                memcpy(s->z_counts, s->counts_host, columns * R * sizeof *s->z_counts);
+                memcpy(s->z_counts, b->counts, columns * R * sizeof *s->z_counts);
                 s->z_cast = 1;
             }
         }
-        if (s->timed) {
+        if (s->timed) { /* one batch at a time: per is this batch's */
             const double dt = clvox__now() - t_batch;
-            double next = dt > 0 ? (double)k * SLOW_BATCH_SECONDS / dt : (double)s->batch_items;
-            if (next > 2.0 * (double)per) next = 2.0 * (double)per; /* grow gently: a batch's cost varies */
-            s->batch_now = next >= (double)s->batch_items ? s->batch_items : next < 1.0 ? 1u : (size_t)next;
+            double nx = dt > 0 ? (double)k * SLOW_BATCH_SECONDS / dt : (double)s->batch_items;
+            if (nx > 2.0 * (double)per) nx = 2.0 * (double)per; /* grow gently: a batch's cost varies */
+            s->batch_now = nx >= (double)s->batch_items ? s->batch_items : nx < 1.0 ? 1u : (size_t)nx;
         }
 
         /* Tally; compact the items that overflowed to the front (in place:
@@ -806,53 +892,56 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
         for (size_t i = 0; i < k; i++) {
             int overflowed = 0;
             for (size_t r = 0; r < R; r++) {
-                uint32_t c = s->counts_host[i * R + r];
+                uint32_t c = b->counts[i * R + r];
                 if (count_rays) {
                     ss->odd_parity_rays += c & 1u;
                     if (c > ss->max_crossings) ss->max_crossings = c;
                 }
-                if (c > s->mem.capacity) {
+                if (c > b->mem.capacity) {
                     overflowed = 1;
                     if (c > need) need = c;
                 }
             }
             if (!overflowed) {
-                ss->filled += s->filled_host[i];
-                if (s->coverage) ss->coverage_count += s->sums_host[i];
-                if (s->palette) clvox__palette_tally(ss, s->pstats_host + 4 * i, s->pvolume_host[i]);
+                ss->filled += b->filled[i];
+                if (s->coverage) ss->coverage_count += b->sums[i];
+                if (s->palette) clvox__palette_tally(ss, b->pstats + 4 * i, b->pvolume[i]);
                 continue;
             }
             if (reuse) {
-                slab_item(s, z0, c0 + i, over); /* its rays were not made for this slab */
-                if (over != i) memmove(s->counts_host + over * R, s->counts_host + i * R, R * sizeof *s->counts_host);
+                slab_item(s, b, z0, c0 + i, over); /* its rays were not made for this slab */
+                if (over != i) memmove(b->counts + over * R, b->counts + i * R, R * sizeof *b->counts);
             } else if (over != i) {
-                if (s->rays_host) memmove(s->rays_host + over * R, s->rays_host + i * R, R * sizeof *s->rays_host);
-                memmove(s->counts_host + over * R, s->counts_host + i * R, R * sizeof *s->counts_host);
-                if (s->coverage) s->cols_host[over] = s->cols_host[i];
+                if (b->rays) memmove(b->rays + over * R, b->rays + i * R, R * sizeof *b->rays);
+                memmove(b->counts + over * R, b->counts + i * R, R * sizeof *b->counts);
+                if (s->coverage) b->cols[over] = b->cols[i];
             }
             over++;
         }
         if (count_rays) ss->rays += k * R;
-        if (need > CLVOX__MAX_CROSSINGS)
-            return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
-                               "a ray crosses the surface %u times (at most %u): the mesh holds many coincident or "
-                               "duplicated copies of its surfaces, where the inside test is meaningless",
-                               need, CLVOX__MAX_CROSSINGS);
+        if (need > CLVOX__MAX_CROSSINGS) {
+            st = clvox__fail(ctx, CLVOX_ERR_MESH_INVALID,
+                             "a ray crosses the surface %u times (at most %u): the mesh holds many coincident or "
+                             "duplicated copies of its surfaces, where the inside test is meaningless",
+                             need, CLVOX__MAX_CROSSINGS);
+            break;
+        }
         if (over) {
-            st = redo_overflow(s, s->rays_host, s->coverage ? s->cols_host : NULL, s->counts_host, over, need, &t,
+            st = redo_overflow(s, b->rays, s->coverage ? b->cols : NULL, b->counts, over, need, &t,
                                (double)c0 / (double)columns, (double)(c0 + k) / (double)columns, ss);
             if (st == CLVOX_OK && count_rays) ss->overflow_rays += over * R;
         }
         if (st == CLVOX_OK && c0 + k < columns && !poll_ok(s, (double)(c0 + k) / (double)columns))
             st = clvox__fail(ctx, CLVOX_ERR_CANCELLED, "cancelled within slab %u", z0);
     }
+    if (st != CLVOX_OK) batch_abandon(s, NULL);
     return st;
 }
 
 static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
 {
     int n = snprintf(buf, size, "axis=%c quadtree_depth=%u quadtree_leaf_size=%u hit_capacity=%u rule=centre-on-surface:+x+y+z",
-                     "?xyz"[s->axis], s->qt.depth, s->leaf_size, s->mem.capacity);
+                     "?xyz"[s->axis], s->qt.depth, s->leaf_size, s->set[0].mem.capacity);
     if (n > 0 && (size_t)n < size) {
         const clvox_winding_report *w = &s->wind.prep;
         int m = s->winding ? snprintf(buf + n, size - (size_t)n,

@@ -131,6 +131,45 @@ clvox_status clvox__launch_check(clvox_context *ctx)
     return CLVOX_OK;
 }
 
+clvox_status clvox__launch_defer(clvox_context *ctx, clvox__launch_ticket *t)
+{
+    struct clvox__launch_state *s = ctx->launch;
+    t->n = 0;
+    t->read = NULL;
+    if (!s || !s->pending) return CLVOX_OK;
+    unsigned n = s->pending;
+    s->pending = 0;
+    memcpy(t->expect, s->expect, n * sizeof *t->expect);
+    memcpy(t->name, s->name, n * sizeof *t->name);
+    cl_int err = clEnqueueReadBuffer(ctx->queue, s->done, CL_FALSE, 0, n * sizeof(cl_uint), t->got, 0, NULL, &t->read);
+    if (err != CL_SUCCESS) {
+        t->read = NULL;
+        return clvox__cl_fail(ctx, err, "reading the completion counts");
+    }
+    t->n = n;
+    return CLVOX_OK;
+}
+
+clvox_status clvox__launch_verify(clvox_context *ctx, clvox__launch_ticket *t)
+{
+    if (!t->read) return CLVOX_OK;
+    cl_int err = clWaitForEvents(1, &t->read);
+    clvox__launch_ticket_drop(t);
+    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "reading the completion counts");
+    for (unsigned i = 0; i < t->n; i++)
+        if (t->got[i] != t->expect[i])
+            return clvox__fail(ctx, CLVOX_ERR_OPENCL,
+                               "kernel %s did not complete on device %s (%u of %u work-groups finished)",
+                               t->name[i], ctx->device.name, (unsigned)t->got[i], (unsigned)t->expect[i]);
+    return CLVOX_OK;
+}
+
+void clvox__launch_ticket_drop(clvox__launch_ticket *t)
+{
+    if (t->read) clReleaseEvent(t->read);
+    t->read = NULL;
+}
+
 void clvox__launch_release(clvox_context *ctx)
 {
     if (!ctx || !ctx->launch) return;

@@ -38,6 +38,26 @@ clvox_status clvox__launch(clvox_context *ctx, cl_kernel k, const char *name, si
  * on device Y" where a launch's count is short. Forgets the launches. */
 clvox_status clvox__launch_check(clvox_context *ctx);
 
+/* The check of launches still running, for batches in flight (the ray
+ * method, src/cast/cast.c): clvox__launch_defer enqueues the read of the
+ * completion counts of the launches since the last check into t, without
+ * waiting (t->read: its event; the queue is in order, so that the read
+ * completes after them, and before the next launches clear the counts),
+ * and forgets them, as clvox__launch_check does; once t->read has
+ * completed, clvox__launch_verify compares them as clvox__launch_check does
+ * and releases t->read. t must stay in place until then. */
+typedef struct clvox__launch_ticket {
+    unsigned n;
+    cl_uint expect[CLVOX__LAUNCH_SLOTS];
+    cl_uint got[CLVOX__LAUNCH_SLOTS];
+    char name[CLVOX__LAUNCH_SLOTS][40];
+    cl_event read; /* NULL: nothing to verify */
+} clvox__launch_ticket;
+clvox_status clvox__launch_defer(clvox_context *ctx, clvox__launch_ticket *t);
+clvox_status clvox__launch_verify(clvox_context *ctx, clvox__launch_ticket *t);
+/* Releases t->read without a check (error paths, once the queue is finished). */
+void clvox__launch_ticket_drop(clvox__launch_ticket *t);
+
 /* Frees the launch state (clvox_context_destroy). NULL-safe. */
 void clvox__launch_release(clvox_context *ctx);
 #endif

@@ -128,7 +128,7 @@ static void batch_mem_release(clvox__batch_mem *m)
 }
 
 static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, size_t max_rays, size_t max_items,
-                                    cl_uint capacity, int coverage, int palette, int winding)
+                                    cl_uint capacity, int coverage, int palette, int winding, int device_rays)
 {
     clvox_status st = CLVOX_OK;
     memset(m, 0, sizeof *m);
@@ -138,7 +138,8 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, siz
     if (max_rays > SIZE_MAX / ((size_t)capacity * ctx->real_size))
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "crossing buffer for %zu rays x %u too large", max_rays,
                            capacity);
-    m->rays = clvox__buffer(ctx, CL_MEM_READ_ONLY, max_rays * sizeof(clvox_ray), NULL, &st, "rays");
+    /* device_rays: written by clvox_column_rays */
+    m->rays = clvox__buffer(ctx, device_rays ? CL_MEM_READ_WRITE : CL_MEM_READ_ONLY, max_rays * sizeof(clvox_ray), NULL, &st, "rays");
     if (st == CLVOX_OK) m->leaf = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * sizeof(cl_uint), NULL, &st, "leaves");
     if (st == CLVOX_OK)
         m->hits = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * capacity * ctx->real_size, NULL, &st, "crossings");
@@ -189,7 +190,7 @@ static clvox_status batch_set_alloc(clvox__method_state *s, batch_set *b, size_t
 {
     memset(b, 0, sizeof *b);
     clvox_status st = batch_mem_alloc(s->ctx, &b->mem, max_rays, max_items, capacity, s->coverage, s->palette,
-                                      s->winding);
+                                      s->winding, s->coverage && s->cov.k_rays);
     if (st != CLVOX_OK) return st;
     const int rays = with_rays && (!s->coverage || !s->cov.k_rays);
     if (rays) b->rays = malloc(max_rays * sizeof *b->rays);

@@ -24,6 +24,10 @@
  * holds are found from the counts and cast again (in coverage runs, with
  * the rest of their column) with a buffer as large as the largest count, in
  * batches of at most max_rays * capacity crossings (at least one column).
+ * Where a slab takes several batches they are in flight two at a time (two
+ * batch sets, alternating: ray_slab), and column runs' rays are made on the
+ * device from the uploaded columns where the kernels compute in double
+ * (docs/design.md "Batches in flight", "Ray positions on the device").
  * Rays along z are the same X*Y columns in every slab: when one batch holds
  * them all, they are cast once per device and later slabs run only the
  * consumer on the crossings left in the batch buffers.

@@ -70,6 +70,7 @@ static clvox__test_hooks from_environment(void)
     h.launch_slabs = (unsigned)in_range("CLVOX_LAUNCH_SLABS", 1, 4096);
     h.host_rays = is("CLVOX_HOST_RAYS", "1");
     h.batch_items = (unsigned)in_range("CLVOX_BATCH_ITEMS", 1, 1 << 30);
+    h.copy_slabs = is("CLVOX_COPY_SLABS", "1");
     h.fp32_unrounded = is("CLVOX_TEST_FP32_UNROUNDED", "1");
     const char *crash = getenv("CLVOX_TEST_ASSIMP_CRASH");
     if (crash && *crash && strlen(crash) < sizeof h.assimp_crash) strcpy(h.assimp_crash, crash);

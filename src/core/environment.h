@@ -52,6 +52,8 @@ typedef struct clvox__test_hooks {
                                 * the device could make them (cast.c; the outputs are the same) */
     unsigned batch_items;      /* CLVOX_BATCH_ITEMS=1..2^30: the ray method's batches at most this many items
                                 * (rays, or columns of N*N rays; cast.c): many batches a slab. 0: off */
+    int copy_slabs;            /* CLVOX_COPY_SLABS=1: one CPU device's slabs copied into the writer's slots
+                                * rather than handed over mapped (schedule.c; the outputs are the same) */
     int fp32_unrounded;        /* CLVOX_TEST_FP32_UNROUNDED=1: built as for a device without correctly
                                 * rounded float divide/sqrt (no -cl-fp32-correctly-rounded-divide-sqrt) */
     char assimp_crash[64];     /* CLVOX_TEST_ASSIMP_CRASH=TEXT: the Assimp reader kills its process

@@ -845,6 +845,21 @@ static int convert_slice(int stored, const uint8_t *in, uint32_t X, uint32_t Y, 
     }
 }
 
+/* Gives zlib the next (at most 64 KiB) input of a gzip stream that ends at
+ * `size`, read at *zoff into zin. */
+static clvox_status gz_refill(clvox_context *ctx, int fd, const char *file, z_stream *zs, uint8_t *zin, uint64_t size,
+                              uint64_t *zoff)
+{
+    const size_t k = size - *zoff < (1u << 16) ? (size_t)(size - *zoff) : (1u << 16);
+    clvox_status st = read_at(ctx, fd, file, zin, k, *zoff);
+    if (st != CLVOX_OK) return st;
+    *zoff += k;
+    zs->next_in = zin;
+    zs->avail_in = (uInt)k;
+    return CLVOX_OK;
+}
+
+
 static clvox_status read_raster(clvox__vsrc *s, const vchan *c, clvox__band_fn fn, void *user)
 {
     clvox_context *ctx = s->ctx;
@@ -892,11 +907,7 @@ static clvox_status read_raster(clvox__vsrc *s, const vchan *c, clvox__band_fn f
                                          c->file, z, Z);
                         break;
                     }
-                    size_t k = size - zoff < (1u << 16) ? (size_t)(size - zoff) : (1u << 16);
-                    if ((st = read_at(ctx, fd, c->file, zin, k, zoff)) != CLVOX_OK) break;
-                    zoff += k;
-                    zs.next_in = zin;
-                    zs.avail_in = (uInt)k;
+                    if ((st = gz_refill(ctx, fd, c->file, &zs, zin, size, &zoff)) != CLVOX_OK) break;
                 }
                 int zr = inflate(&zs, Z_NO_FLUSH);
                 if (zr == Z_STREAM_END) zend = 1;
@@ -915,13 +926,8 @@ static clvox_status read_raster(clvox__vsrc *s, const vchan *c, clvox__band_fn f
         zs.next_out = &extra;
         zs.avail_out = 1;
         while (st == CLVOX_OK && !zend) {
-            if (zs.avail_in == 0 && zoff < size) {
-                size_t k = size - zoff < (1u << 16) ? (size_t)(size - zoff) : (1u << 16);
-                if ((st = read_at(ctx, fd, c->file, zin, k, zoff)) != CLVOX_OK) break;
-                zoff += k;
-                zs.next_in = zin;
-                zs.avail_in = (uInt)k;
-            }
+            if (zs.avail_in == 0 && zoff < size && (st = gz_refill(ctx, fd, c->file, &zs, zin, size, &zoff)) != CLVOX_OK)
+                break;
             int zr = inflate(&zs, Z_NO_FLUSH);
             if (zr == Z_STREAM_END) zend = 1;
             else if (zs.avail_out == 0 || (zr != Z_OK && zr != Z_BUF_ERROR) || (zs.avail_in == 0 && zoff >= size))

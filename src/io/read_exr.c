@@ -254,24 +254,32 @@ _Static_assert((int)CLVOX__SAMPLE_UINT == (int)EXR_PIXEL_UINT && (int)CLVOX__SAM
                    (int)CLVOX__SAMPLE_FLOAT == (int)EXR_PIXEL_FLOAT,
                "band sample types are OpenEXR's");
 
+/* What every volume read needs, whatever the format: a channel the filled
+ * count comes from, and room for the occupancy asked for. */
+static clvox_status check_read(clvox_context *ctx, const char *path, const clvox_volume_info *info, int has_channel,
+                               const uint8_t *occupancy, size_t occupancy_size)
+{
+    if (!has_channel)
+        return clvox__fail(ctx, CLVOX_ERR_EXR,
+                           "'%s' is not a clvox volume: no channel \"occupancy\", \"coverage\" or \"element\" (has: %s)",
+                           path, info->channels);
+    if (occupancy) {
+        uint64_t total = (uint64_t)info->dims[0] * info->dims[1] * info->dims[2];
+        if (total > (uint64_t)SIZE_MAX || occupancy_size < (size_t)total)
+            return clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
+                               "occupancy buffer holds %zu bytes, '%s' needs %u x %u x %u = %llu", occupancy_size,
+                               path, info->dims[0], info->dims[1], info->dims[2], (unsigned long long)total);
+    }
+    return CLVOX_OK;
+}
+
 /* The other formats (read_volume.c): the same consumers over the source's bands. */
 static clvox_status source_read(clvox_context *ctx, clvox__vsrc *src, const char *path, clvox_volume_info *info,
                                 uint8_t *occupancy, size_t occupancy_size)
 {
     const int occ = clvox__vsrc_has(src, "occupancy"), cov = clvox__vsrc_has(src, "coverage"),
               elem = clvox__vsrc_has(src, "element");
-    clvox_status st = CLVOX_OK;
-    if (!occ && !cov && !elem)
-        st = clvox__fail(ctx, CLVOX_ERR_EXR,
-                         "'%s' is not a clvox volume: no channel \"occupancy\", \"coverage\" or \"element\" (has: %s)",
-                         path, info->channels);
-    if (st == CLVOX_OK && occupancy) {
-        uint64_t total = (uint64_t)info->dims[0] * info->dims[1] * info->dims[2];
-        if (total > (uint64_t)SIZE_MAX || occupancy_size < (size_t)total)
-            st = clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
-                             "occupancy buffer holds %zu bytes, '%s' needs %u x %u x %u = %llu", occupancy_size, path,
-                             info->dims[0], info->dims[1], info->dims[2], (unsigned long long)total);
-    }
+    clvox_status st = check_read(ctx, path, info, occ || cov || elem, occupancy, occupancy_size);
     coverage_sum sum = { 0, 0, 0.0 };
     count_state cs = { info->dims[0], occupancy, 0, NULL };
     if (st == CLVOX_OK) {
@@ -327,18 +335,7 @@ static clvox_status volume_read(clvox_context *ctx, const char *path, clvox_volu
         occ = clvox__exrr_find_channel(&r, "occupancy");
         cov = clvox__exrr_find_channel(&r, "coverage");
         elem = clvox__exrr_find_channel(&r, "element");
-        if (!occ && !cov && !elem)
-            st = clvox__fail(ctx, CLVOX_ERR_EXR,
-                             "'%s' is not a clvox volume: no channel \"occupancy\", \"coverage\" or \"element\" "
-                             "(has: %s)",
-                             path, info->channels);
-    }
-    if (st == CLVOX_OK && occupancy) {
-        uint64_t total = (uint64_t)info->dims[0] * info->dims[1] * info->dims[2];
-        if (total > (uint64_t)SIZE_MAX || occupancy_size < (size_t)total)
-            st = clvox__fail(ctx, CLVOX_ERR_INVALID_ARGUMENT,
-                             "occupancy buffer holds %zu bytes, '%s' needs %u x %u x %u = %llu", occupancy_size, path,
-                             info->dims[0], info->dims[1], info->dims[2], (unsigned long long)total);
+        st = check_read(ctx, path, info, occ || cov || elem, occupancy, occupancy_size);
     }
     coverage_sum sum = { 0, 0, 0.0 };
     count_state cs = { info->dims[0], occupancy, 0, NULL };

@@ -153,13 +153,13 @@ same_as_ref out "job array"
 jid=$(sbatch --parsable --cpus-per-task=1 --array=0-3%1 -o "$tmp/log/resume-%a.log" "$script" list.txt out2 $res 2>sbatch2.err)
 if [ -z "$jid" ]; then fail "sbatch: $(cat sbatch2.err)"; finish; fi
 got=""
-for _ in $(seq 1 600); do
+for _ in $(seq 1 3000); do
   if [ "$(ls out2/*.exr 2>/dev/null | wc -l)" -ge 1 ]; then got=1; break; fi
   sleep 0.1
 done
 scancel "$jid"
 wait_job "$jid" && ok || fail "job $jid still queued after scancel"
-[ -n "$got" ] && ok || fail "no output within 60 s of submitting"
+[ -n "$got" ] && ok || fail "no output within 300 s of submitting (a hang guard, not a timing check)"
 same_as_ref out2 "cancelled array"
 before=$seen
 [ "$before" -ge 1 ] && [ "$before" -lt "$total" ] && ok || echo "note: $before of $total outputs before the cancel"

@@ -529,6 +529,17 @@ typedef struct clvox_stats {
      * work). Measured from events the run takes anyway: nothing is added
      * to the kernels. 0 on parity runs and where no point was exact. */
     double winding_exact_seconds;
+    /* The certified crack weld of winding runs (appended after
+     * winding_exact_seconds; docs/design.md "Cracks"): on a cracked mesh or
+     * a triangle soup, without options.weld, the cast runs over the mesh
+     * welded within crack_weld_distance, and the difference to the mesh as
+     * given is evaluated where it could change a voxel: the voxels are
+     * those of the mesh as given (winding.* describes it), only faster.
+     * crack_pairs 0: not used. */
+    double crack_weld_distance;     /* mesh units: 1/100 of the smallest voxel side */
+    uint64_t crack_welded_vertices; /* vertices it merged */
+    uint64_t crack_pairs;           /* triangles it moved (or collapsed) */
+    uint64_t crack_holes;           /* holes left after it (winding.holes: before it) */
 } clvox_stats;
 /* Every function taking a clvox_stats * (may be NULL) needs its .size set. */
 #define CLVOX_STATS_INIT { .size = sizeof(clvox_stats) }

@@ -68,7 +68,17 @@ typedef struct clvox_column {
  * on a cap leaf, where its caps are again, lane-major (the index of the
  * first real: real k of lane l at block + 4k + l, lanes past tri_count
  * repeating the first), after the caps themselves in the same buffer; 0
- * elsewhere. */
+ * elsewhere.
+ * Weld pairs (src/winding/crack_weld.c): a node holding them has radius
+ * CLVOX_PAIR_RADIUS, which turns off the estimates (only the box bound
+ * holds), area4pi >= the sum of its pairs' (per(T) + 6 delta) delta / 4pi
+ * (kernels/winding_bounds.h), half_count = its pairs (no pair changes w by
+ * more than 1), the moments 0; its box holds both triangles of each pair,
+ * which lie next to each other in the caps (rev T, then T'), two pairs a
+ * leaf. Where the caps and the pairs share a tree, the root's children are
+ * the caps' tree and the pairs' tree, and the root has the pairs' radius.
+ * A tree whose root has it is a pair tree (CLVOX_PAIR_TREE). */
+#define CLVOX_PAIR_RADIUS 1e30f
 typedef struct clvox_cap_node {
     clvox_f32 lo[3], area4pi;
     clvox_f32 hi[3], half_count;

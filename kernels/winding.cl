@@ -71,6 +71,23 @@ static inline void clvox_emit(global uint *o, uint out_stride, uint bit, uint j,
         atomic_or(o + (size_t)j * out_stride, bit);
     }
 }
+/* Voxels [a, b) of the ray all `inside` into its bits and count (b
+ * ending a word leaves no stale bits for clvox_emit). */
+static inline void clvox_emit_run(global uint *o, uint out_stride, uint bit, uint a, uint b, int inside, uint *word,
+                                  uint *cnt)
+{
+    if (inside) *cnt += b - a;
+    if (out_stride == 0) {
+        clvox_row_bits(o, word, a, b, inside);
+        if ((b & 31u) == 0) *word = 0;
+    } else if (inside) {
+        for (uint i = a; i < b; i++) atomic_or(o + (size_t)i * out_stride, bit);
+    }
+}
+
+#define CLVOX_RUN_STACK 40u   /* halvings of a run (weld pairs) */
+#define CLVOX_RUN_BUDGET 48u  /* node steps of a run's bound (weld pairs) */
+
 static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_count, global const clvox_real *hits,
                                         global const char *signs, global const uint *counts, uint capacity,
                                         uint u_begin, uint u_count, uint out_stride, global uint *out,
@@ -96,9 +113,61 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
     const clvox_real g0[3] = {(clvox_real)u_begin, rv, rw}, g1[3] = {(clvox_real)(u_begin + u_count - 1u), rv, rw};
     clvox_real q0[3], q1[3];
     clvox_scaled_box(axis, g0, g1, h, q0, q1);
-    const int far = clvox_caps_far(nodes, node_count, q0, q1, 16u);
+    const int pairs = CLVOX_PAIR_TREE(nodes, node_count);
+    const int far = !pairs && clvox_caps_far(nodes, node_count, q0, q1, 16u);
     uint j = 0, cnt = 0, word = 0;
-    if (far) {
+    if (pairs) {
+        /* Weld pairs (src/winding/crack_weld.c): w - K is not smooth along
+         * the ray (a pair steps where T and T' do, not where K does), so no
+         * line between anchors. K is constant between crossings: a run of
+         * centres whose box the tree's bounds keep under 1/2 is decided by
+         * K at once; else it is halved, down to single centres, which are
+         * evaluated (each from the last one's cut). */
+        uint exact = 0, cut[CLVOX_CUT_MAX], cut_n = 0, fresh_exact = 0;
+        clvox_real lo, hi;
+        for (uint k = 0; k <= n && j < u_count; k++) {
+            uint end = u_count;
+            if (k < n) {
+                clvox_real e = ceil(hh[k]) - (clvox_real)u_begin;
+                end = e <= 0 ? 0u : (e >= (clvox_real)u_count ? u_count : (uint)e);
+            }
+            if (end > j) {
+                const int kin = clvox_k_inside(K, abs_mode);
+                uint ra[CLVOX_RUN_STACK], rb[CLVOX_RUN_STACK], rsp = 1;
+                ra[0] = j;
+                rb[0] = end;
+                while (rsp) {
+                    rsp--;
+                    const uint a = ra[rsp], b = rb[rsp];
+                    if (b - a == 1u) {
+                        const int in = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
+                                                        (clvox_real)(u_begin + a), rv, rw, 0u, &exact, &lo, &hi,
+                                                        cut, &cut_n, &fresh_exact);
+                        clvox_emit(o, out_stride, bit, a, in, &word, &cnt);
+                        continue;
+                    }
+                    const clvox_real r0[3] = {(clvox_real)(u_begin + a), rv, rw},
+                                     r1[3] = {(clvox_real)(u_begin + b - 1u), rv, rw};
+                    clvox_real p0[3], p1[3];
+                    clvox_scaled_box(axis, r0, r1, h, p0, p1);
+                    if (rsp + 2u > CLVOX_RUN_STACK || clvox_caps_far(nodes, node_count, p0, p1, CLVOX_RUN_BUDGET)) {
+                        /* (a full stack cannot happen: halving 2^32 centres takes 32 levels) */
+                        clvox_emit_run(o, out_stride, bit, a, b, kin, &word, &cnt);
+                        continue;
+                    }
+                    const uint m = a + (b - a) / 2u;
+                    ra[rsp] = m; /* the right half after the left */
+                    rb[rsp++] = b;
+                    ra[rsp] = a;
+                    rb[rsp++] = m;
+                }
+                j = end;
+            }
+            if (k < n) K -= CLVOX_UNIT(sg[k]);
+        }
+        j = u_count;
+        if (exact) atomic_add(exact_points, exact);
+    } else if (far) {
         for (uint k = 0; k <= n && j < u_count; k++) {
             uint end = u_count;
             if (k < n) {

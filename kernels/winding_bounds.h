@@ -16,16 +16,54 @@ static inline clvox_real clvox_node_box_d2(global const clvox_cap_node *n, const
     return d2;
 }
 
+/* A weld-pair node's slab (clvox_cap_node): every corner y of its pairs
+ * has n . y in [smin, smax] (n = normal4pi, unit; smin, smax = quad4pi[0],
+ * quad4pi[1]; none: -+FLT_MAX), so no triangle between T and T' comes
+ * nearer to p than the slab does. The distance from the box [q0, q1] to
+ * it, a lower bound: the dot products' rounding (a few ulps of the terms'
+ * magnitudes) is taken off, and |n| may exceed 1 by its float rounding. */
+#if defined(CLVOX_FP64)
+#define CLVOX_SLAB_ERR 1e-14
+#else
+#define CLVOX_SLAB_ERR 1e-6f
+#endif
+static inline clvox_real clvox_pair_slab_gap(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
+{
+    clvox_real lo = 0, hi = 0, mag = 0;
+    for (uint a = 0; a < 3u; a++) {
+        const clvox_real na = n->normal4pi[a], u = na * q0[a], v = na * q1[a];
+        lo += fmin(u, v);
+        hi += fmax(u, v);
+        mag += fmax(fabs(q0[a]), fabs(q1[a]));
+    }
+    const clvox_real smin = n->quad4pi[0], smax = n->quad4pi[1];
+    const clvox_real gap = fmax(fmax(smin - hi, lo - smax), (clvox_real)0);
+    const clvox_real g = gap - (clvox_real)CLVOX_SLAB_ERR * (mag + fmax(fabs(smin), fabs(smax)));
+    return g > 0 ? g * (clvox_real)(1 - 1e-6) : 0;
+}
+
 /* Upper bound on |w| of the node's caps seen from any point of the box
  * [q0, q1] (a point when q0 == q1). */
 static inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
 {
-    const clvox_real d2 = clvox_node_box_d2(n, q0, q1);
+    clvox_real d2 = clvox_node_box_d2(n, q0, q1);
+    if (n->radius >= CLVOX_PAIR_RADIUS) {
+        const clvox_real g = clvox_pair_slab_gap(n, q0, q1);
+        d2 = fmax(d2, g * g);
+    }
     const clvox_real cap = (clvox_real)n->half_count;
     if (d2 == 0) return cap;
     const clvox_real b = (clvox_real)n->area4pi / d2 * (clvox_real)1.000001;
     return b < cap ? b : cap;
 }
+
+/* A tree with weld pairs (clvox_cap_node, src/winding/crack_weld.c): its
+ * root has CLVOX_PAIR_RADIUS. A pair node's estimate is 0 and its bound
+ * the box bound alone (the radius makes d - r negative in
+ * clvox_cap_estimate4): area4pi / D^2 with area4pi the sum of (per(T) +
+ * 6 delta) delta / 4pi, which bounds |Omega(T) - Omega(T')| / 4pi of each
+ * pair seen from outside the box, and half_count (1 a pair) inside it. */
+#define CLVOX_PAIR_TREE(nodes, count) ((count) > 0u && (nodes)[0].radius >= CLVOX_PAIR_RADIUS)
 
 /* Inside from K alone (no caps near): w = K exactly, K >= 1 (abs: K != 0). */
 static inline int clvox_k_inside(int K, uint abs_mode) { return abs_mode ? K != 0 : K >= 1; }
@@ -126,12 +164,22 @@ static inline void clvox_cap_estimate4(global const clvox_cap_node *k, global co
     const clvox_real4 gx = fmax(fmax(CLVOX_N4(lo[0]) - px, px - CLVOX_N4(hi[0])), zero);
     const clvox_real4 gy = fmax(fmax(CLVOX_N4(lo[1]) - py, py - CLVOX_N4(hi[1])), zero);
     const clvox_real4 gz = fmax(fmax(CLVOX_N4(lo[2]) - pz, pz - CLVOX_N4(hi[2])), zero);
-    const clvox_real4 db2 = gx * gx + gy * gy + gz * gz;
+    clvox_real4 db2 = gx * gx + gy * gy + gz * gz;
+    const clvox_real4 r = CLVOX_N4(radius);
+    const clvox_mask4 pair = r >= (clvox_real4)CLVOX_PAIR_RADIUS;
+    if (any(pair)) { /* weld pairs: the slab too (clvox_pair_slab_gap at a point) */
+        const clvox_real4 dot = CLVOX_N4(normal4pi[0]) * px + CLVOX_N4(normal4pi[1]) * py + CLVOX_N4(normal4pi[2]) * pz;
+        const clvox_real4 smin = CLVOX_N4(quad4pi[0]), smax = CLVOX_N4(quad4pi[1]);
+        const clvox_real4 gap = fmax(fmax(smin - dot, dot - smax), zero);
+        const clvox_real4 g = gap - (clvox_real)CLVOX_SLAB_ERR * ((clvox_real4)(fabs(px) + fabs(py) + fabs(pz)) +
+                                                                  fmax(fabs(smin), fabs(smax)));
+        const clvox_real4 gs = fmax(g, zero) * (clvox_real)(1 - 1e-6);
+        db2 = select(db2, fmax(db2, gs * gs), pair);
+    }
     const clvox_real4 a = CLVOX_N4(area4pi), cap = CLVOX_N4(half_count);
     const clvox_real4 bb = a / db2 * (clvox_real)1.000001;
     const clvox_real4 b0 = select(select(cap, bb, bb < cap), cap, db2 == zero);
     const clvox_real4 x = CLVOX_N4(centre[0]) - px, y = CLVOX_N4(centre[1]) - py, z = CLVOX_N4(centre[2]) - pz;
-    const clvox_real4 r = CLVOX_N4(radius);
     const clvox_real4 d2 = x * x + y * y + z * z, d = sqrt(d2);
     const clvox_real4 dm = d * (1 - (clvox_real)CLVOX_EST_DREL) - r;
     const clvox_real4 idr = (clvox_real)1 / dm, idr2 = idr * idr;

@@ -430,11 +430,17 @@ static uint32_t *orient_by_rules(const char *name, const char *what, const float
 typedef struct tally {
     unsigned cases, passed;
     size_t voxels, undecided;
+    unsigned welded; /* cases through the certified crack weld */
+    uint64_t flipped; /* the last case's triangles reversed by the rules */
 } tally;
 
 /* Voxelizes the soup (xyz: 3 vertices per triangle, nt triangles) and
- * compares it with the oracle; returns the number of differing voxels. */
-static size_t soup_case(const char *name, const char *what, const float *xyz, size_t nt, uint32_t N, tally *ty)
+ * compares it with the oracle; returns the number of differing voxels.
+ * weld: 1 when the certified crack weld must have been used (a jittered
+ * soup with enough boundary edges: src/winding/crack_weld.c), 0 when it
+ * must not (nothing to weld), -1 either. */
+static size_t soup_case(const char *name, const char *what, const float *xyz, size_t nt, uint32_t N, int weld,
+                        tally *ty)
 {
     size_t nv = nt * 3;
     uint32_t *tri = malloc((nv ? nv : 1) * sizeof *tri);
@@ -484,11 +490,16 @@ static size_t soup_case(const char *name, const char *what, const float *xyz, si
             }
         }
     }
-    printf("%-26s %-14s %5zu tris %ux%ux%u: %zu inside, %zu undecided, %zu differ; prep %llu merged, %llu flipped, "
-           "%llu caps, %llu exact points\n",
+    printf("%-26s %-20s %5zu tris %ux%ux%u: %zu inside, %zu undecided, %zu differ; prep %llu merged, %llu flipped, "
+           "%llu caps, %llu exact points; crack weld %llu pairs, %llu holes left\n",
            name, what, nt, g.dims[0], g.dims[1], g.dims[2], inside, undecided, diff,
            (unsigned long long)s.winding.merged_vertices, (unsigned long long)s.winding.flipped_triangles,
-           (unsigned long long)s.winding.cap_triangles, (unsigned long long)s.winding.exact_points);
+           (unsigned long long)s.winding.cap_triangles, (unsigned long long)s.winding.exact_points,
+           (unsigned long long)s.crack_pairs, (unsigned long long)s.crack_holes);
+    if (weld >= 0)
+        CHECK_MSG((s.crack_pairs > 0) == weld, "%s %s: the crack weld was %sused", name, what, weld ? "not " : "");
+    ty->welded += s.crack_pairs > 0;
+    ty->flipped = s.winding.flipped_triangles;
     CHECK_MSG(st == CLVOX_OK && diff == 0, "%s %s: %zu voxels differ from the exact winding number", name, what, diff);
     /* the comparison above can fail: one decided voxel flipped is seen */
     if (st == CLVOX_OK && otri && ty->cases == 0) {
@@ -537,7 +548,12 @@ static void soup_mesh(const char *name, tally *ty)
     const uint32_t N = grid_n(nt);
     float *soup = malloc(nt * 9 * sizeof *soup);
     if (!soup) abort();
+    /* The crack weld must be used on every jittered soup with enough
+     * boundary edges (64), but for a mesh that faces inwards: welded, it is
+     * turned outwards, every triangle against its orientation in the soup,
+     * and the weld would not pay (it is refused: src/winding/crack_weld.c) */
     static const double jitter[] = {0, 1e-7, 1e-6, 1e-5, 1e-4};
+    int inward = 0;
     for (size_t j = 0; j < sizeof jitter / sizeof jitter[0]; j++) {
         uint64_t seed = 0x5eed0000u + j;
         for (size_t i = 0; i < nt * 3; i++)
@@ -546,29 +562,36 @@ static void soup_mesh(const char *name, tally *ty)
                                           (2.0 * uniform01(&seed) - 1.0) * jitter[j] * extent);
         char what[32];
         snprintf(what, sizeof what, "jitter %g", jitter[j]);
-        soup_case(name, what, soup, nt, N, ty);
+        soup_case(name, what, soup, nt, N, jitter[j] == 0 || inward ? 0 : 3 * nt >= 64 ? 1 : -1, ty);
+        if (jitter[j] == 0) inward = ty->flipped == nt;
     }
-    /* unjittered, with 1 % and 10 % of the triangles removed */
-    static const double removed[] = {0.01, 0.10};
+    /* unjittered, with 1 % and 10 % of the triangles removed; and jittered
+     * by 1e-6 with 10 % removed (welded, still open: its caps and the weld
+     * pairs in one tree) */
+    static const double removed[] = {0.01, 0.10, 0.10}, removed_jitter[] = {0, 0, 1e-6};
     uint8_t *drop = malloc(nt);
     if (!drop) abort();
     for (size_t r = 0; r < sizeof removed / sizeof removed[0]; r++) {
         size_t k = (size_t)lround(removed[r] * (double)nt), kept = 0;
         if (k < 1) k = 1;
         memset(drop, 0, nt);
-        uint64_t seed = 0xd40b0000u + r;
+        uint64_t seed = 0xd40b0000u + r, jseed = 0x5eed1000u + r;
         for (size_t d = 0; d < k;) { /* k distinct triangles */
             size_t t = (size_t)(uniform01(&seed) * (double)nt);
             if (t < nt && !drop[t]) drop[t] = 1, d++;
         }
         for (size_t t = 0; t < nt; t++) {
             if (drop[t]) continue;
-            for (int c = 0; c < 3; c++) memcpy(soup + 9 * kept + 3 * c, xyz + 3 * (size_t)tri[3 * t + c], 3 * sizeof *soup);
+            for (int c = 0; c < 3; c++)
+                for (int a = 0; a < 3; a++)
+                    soup[9 * kept + 3 * c + a] = (float)((double)xyz[3 * (size_t)tri[3 * t + c] + a] +
+                                                         (2.0 * uniform01(&jseed) - 1.0) * removed_jitter[r] * extent);
             kept++;
         }
-        char what[32];
-        snprintf(what, sizeof what, "%g%% removed", removed[r] * 100);
-        soup_case(name, what, soup, kept, N, ty);
+        char what[48];
+        if (removed_jitter[r] > 0) snprintf(what, sizeof what, "jitter %g, %g%% removed", removed_jitter[r], removed[r] * 100);
+        else snprintf(what, sizeof what, "%g%% removed", removed[r] * 100);
+        soup_case(name, what, soup, kept, N, removed_jitter[r] > 0 && 3 * kept >= 64 ? !inward : -1, ty);
     }
     free(drop);
     free(soup);
@@ -579,12 +602,12 @@ int main(void)
 {
     ctx = test_context();
     const char *only = getenv("CLVOX_SOUPS_ONLY");
-    tally ty = {0, 0, 0, 0};
+    tally ty = {0, 0, 0, 0, 0, 0};
     for (size_t i = 0; i < sizeof meshes / sizeof meshes[0]; i++)
         if (!only || strstr(meshes[i], only)) soup_mesh(meshes[i], &ty);
-    printf("soups: %u of %u cases equal to the exact winding number; %zu of %zu voxels undecided by the oracle "
-           "(excluded)\n",
-           ty.passed, ty.cases, ty.undecided, ty.voxels);
+    printf("soups: %u of %u cases equal to the exact winding number (%u through the crack weld); %zu of %zu voxels "
+           "undecided by the oracle (excluded)\n",
+           ty.passed, ty.cases, ty.welded, ty.undecided, ty.voxels);
     clvox_context_destroy(ctx);
     return test_report();
 }

@@ -432,12 +432,16 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         copy_caps(ctx, from, &lead->wind.rims, &s->wind.rims, &st);
         s->wind.prep = lead->wind.prep;
         s->wind.surface_count = lead->wind.surface_count;
+        s->wind.crack_distance = lead->wind.crack_distance;
+        s->wind.crack_welded = lead->wind.crack_welded;
+        s->wind.crack_pairs = lead->wind.crack_pairs;
+        s->wind.crack_holes = lead->wind.crack_holes;
         s->qt.node_count = lead->qt.node_count;
         s->qt.ref_count = lead->qt.ref_count;
         s->qt.depth = lead->qt.depth;
         s->qt.leaf_count = lead->qt.leaf_count;
         s->leaf_max = lead->leaf_max;
-        if (stats) stats->winding = lead->wind.prep;
+        if (stats) clvox__winding_stats(&s->wind, stats);
     } else if (st == CLVOX_OK && s->winding)
         st = clvox__winding_cast_prepare(ctx, mesh, grid, opts, s->axes, s->dim_v, s->dim_w, s->leaf_size, &s->wind,
                                          stats, &ct);
@@ -957,6 +961,11 @@ static void ray_describe(const clvox__method_state *s, char *buf, size_t size)
                                       (unsigned long long)w->holes, (unsigned long long)w->cap_triangles)
                            : snprintf(buf + n, size - (size_t)n, " inside=parity");
         n += m > 0 ? m : 0;
+        if (s->winding && s->wind.crack_pairs && n > 0 && (size_t)n < size) {
+            m = snprintf(buf + n, size - (size_t)n, " crack_weld=%.17g crack_pairs=%llu", s->wind.crack_distance,
+                         (unsigned long long)s->wind.crack_pairs);
+            n += m > 0 ? m : 0;
+        }
     }
     if (s->coverage && n > 0 && (size_t)n < size) {
         int m = snprintf(buf + n, size - (size_t)n, " oversample=%ux%u points=%u sampling=%s seed=%llu sampler=philox4x32-10",

@@ -7,6 +7,7 @@
 #include "winding_classify.h"
 #include "classify.h"
 #include "core/parallel.h"
+#include "winding/crack_weld.h"
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -102,22 +103,29 @@ static clvox_status winding_indexed(clvox_context *ctx, const clvox_mesh *mesh, 
     return CLVOX_OK;
 }
 
-/* clvox__caps_upload from the indexed triangles: the caps follow the
- * wm->triangle_count surface triangles. */
+/* clvox__caps_upload_pairs from the indexed triangles: the caps follow the
+ * wm->triangle_count surface triangles; the crack weld's pairs (6 mesh
+ * vertex indices each) over the same vertices. */
 static clvox_status caps_upload_indexed(clvox_context *ctx, const float *verts, const uint32_t *tris,
-                                        const clvox__winding_mesh *wm, clvox__axes axes, const clvox_grid *grid,
-                                        clvox__caps *out)
+                                        const clvox__winding_mesh *wm, const clvox__crack_weld *cw,
+                                        clvox__axes axes, const clvox_grid *grid, clvox__caps *out)
 {
-    size_t n = wm->cap_count;
-    float *soup = malloc((n ? n : 1) * 9 * sizeof *soup);
+    size_t nw = wm->cap_count, n = nw + (cw->used ? cw->extra_count : 0), np = cw->used ? cw->pair_count : 0;
+    float *soup = malloc((n + 2 * np ? n + 2 * np : 1) * 9 * sizeof *soup);
     if (!soup) {
         memset(out, 0, sizeof *out);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu caps", n);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu caps", n + 2 * np);
     }
     const uint32_t *cap = tris + wm->triangle_count * 3;
-    for (size_t t = 0; t < n; t++)
-        for (int c = 0; c < 3; c++) memcpy(soup + t * 9 + c * 3, verts + (size_t)cap[t * 3 + c] * 3, 3 * sizeof *soup);
-    clvox_status st = clvox__caps_upload(ctx, soup, n, axes, grid, out);
+    for (size_t t = 0; t < n; t++) {
+        const uint32_t *tri = t < nw ? cap + t * 3 : cw->extra + (t - nw) * 3;
+        for (int c = 0; c < 3; c++) memcpy(soup + t * 9 + c * 3, verts + (size_t)tri[c] * 3, 3 * sizeof *soup);
+    }
+    float *pairs = soup + n * 9;
+    for (size_t t = 0; t < np; t++)
+        for (int c = 0; c < 6; c++)
+            memcpy(pairs + t * 18 + c * 3, verts + (size_t)cw->pairs[t * 6 + c] * 3, 3 * sizeof *soup);
+    clvox_status st = clvox__caps_upload_pairs(ctx, soup, n, pairs, np, axes, grid, out);
     free(soup);
     return st;
 }
@@ -166,18 +174,48 @@ clvox_status clvox__winding_cast_prepare(clvox_context *ctx, const clvox_mesh *m
         }
         free(sp.side);
     }
+    /* A cracked mesh or a soup: the same voxels through the welded mesh
+     * and the pairs that certify it (src/winding/crack_weld.c). The report
+     * stays the mesh's as given. */
+    clvox__crack_weld cw;
+    memset(&cw, 0, sizeof cw);
+    clvox_winding_report report = wm.report;
+    if (st == CLVOX_OK && !out->have_tree && opts->weld == 0 && wm.cap_count) {
+        const double h[3] = {grid->voxel_size[0], grid->voxel_size[1], grid->voxel_size[2]};
+        st = clvox__crack_weld_try(ctx, mesh, &wm, clvox__crack_weld_distance(h), &cw);
+        if (st == CLVOX_OK && cw.used) {
+            report.seconds += cw.welded.report.seconds;
+            w->crack_distance = cw.distance;
+            w->crack_welded = cw.welded.report.welded_vertices;
+            w->crack_pairs = cw.pair_count;
+            w->crack_holes = cw.welded.report.holes;
+            clvox__winding_mesh_free(&wm);
+            wm = cw.welded; /* moved: the cast's surface and caps */
+            memset(&cw.welded, 0, sizeof cw.welded);
+        }
+    }
     if (st == CLVOX_OK && !out->have_tree) {
         st = winding_indexed(ctx, mesh, grid, axes, &wm, &out->verts, &out->vert_count, &out->tris_owned,
                              &out->tri_count);
         out->tris = out->tris_owned;
     }
-    if (st == CLVOX_OK) st = caps_upload_indexed(ctx, out->verts, out->tris, &wm, axes, grid, &w->caps);
+    if (st == CLVOX_OK) st = caps_upload_indexed(ctx, out->verts, out->tris, &wm, &cw, axes, grid, &w->caps);
     if (st == CLVOX_OK) st = clvox__rims_upload(ctx, mesh, grid, wm.rim, wm.rim_count, &w->rims);
     w->surface_count = (cl_uint)wm.triangle_count;
-    if (stats) stats->winding = wm.report;
-    w->prep = wm.report;
+    w->prep = report;
+    if (stats) clvox__winding_stats(w, stats);
     clvox__winding_mesh_free(&wm);
+    clvox__crack_weld_free(&cw);
     return st;
+}
+
+void clvox__winding_stats(const clvox__winding_classify *w, clvox_stats *stats)
+{
+    stats->winding = w->prep;
+    stats->crack_weld_distance = w->crack_pairs ? w->crack_distance : 0.0;
+    stats->crack_welded_vertices = w->crack_welded;
+    stats->crack_pairs = w->crack_pairs;
+    stats->crack_holes = w->crack_holes;
 }
 
 void clvox__winding_classify_release(clvox__winding_classify *w)

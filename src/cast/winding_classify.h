@@ -16,6 +16,8 @@ typedef struct clvox__winding_classify {
     clvox__caps caps, rims;
     clvox_winding_report prep;   /* what the preparation did (for the file's parameters) */
     cl_uint surface_count;       /* soup triangles before the caps (the cast signs these) */
+    double crack_distance;       /* the certified crack weld (src/winding/crack_weld.c), when crack_pairs */
+    uint64_t crack_welded, crack_pairs, crack_holes;
     size_t local;                /* work-group size of clvox_classify_winding */
 } clvox__winding_classify;
 
@@ -42,6 +44,8 @@ clvox_status clvox__winding_cast_prepare(clvox_context *ctx, const clvox_mesh *m
                                          uint32_t dim_w, uint32_t leaf_size, clvox__winding_classify *w,
                                          clvox_stats *stats, clvox__cast_tris *out);
 void clvox__winding_classify_release(clvox__winding_classify *w);
+/* The preparation's report and the crack weld's figures into stats. */
+void clvox__winding_stats(const clvox__winding_classify *w, clvox_stats *stats);
 
 /* From argument *i on: abs_mode, the ray axis (with_axis), the cap tree and
  * the exact-point counter, as the winding kernels' consumers (kernels/winding_*.h) take them. */

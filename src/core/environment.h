@@ -56,6 +56,8 @@ typedef struct clvox__test_hooks {
                                 * rather than handed over mapped (schedule.c; the outputs are the same) */
     int fp32_unrounded;        /* CLVOX_TEST_FP32_UNROUNDED=1: built as for a device without correctly
                                 * rounded float divide/sqrt (no -cl-fp32-correctly-rounded-divide-sqrt) */
+    int no_crack_weld;         /* CLVOX_CRACK_WELD=0: no certified crack weld (src/winding/crack_weld.c; the
+                                * voxels are the same, found the slow way) */
     char assimp_crash[64];     /* CLVOX_TEST_ASSIMP_CRASH=TEXT: the Assimp reader kills its process
                                 * (SIGSEGV) on a file whose path contains TEXT, a stand-in for a
                                 * parser bug (test_assimp: load and batch) */

@@ -313,6 +313,8 @@ typedef struct clvox__winding_mesh {
     size_t apex_count;
     uint32_t *rim;         /* 2 per directed boundary edge (from, to): the caps' loops as given */
     size_t rim_count;
+    uint32_t *rep;         /* with CLVOX__PREP_KEEP_REP: each mesh vertex's representative after the
+                              merge and weld (its index, or the one it was merged into); else NULL */
     clvox_winding_report report; /* all but exact_points */
 } clvox__winding_mesh;
 

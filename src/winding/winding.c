@@ -55,49 +55,183 @@ static void put_real(void *arr, size_t rs, size_t i, double v)
     else ((float *)arr)[i] = (float)v;
 }
 
-/* The tree over n items of 9 scaled reals each (q, consumed): triangles,
- * or with `segments` edges q[0..2] -> q[3..5] (q[6..8] = q[3..5]), whose
- * "area" is their length. */
-static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, clvox__caps *out);
+/* A tree built on the host: nodes, and its reals (rs bytes each): the
+ * triangles in leaf order (9 each), then the leaves' lane-major copies. */
+typedef struct tree {
+    clvox_cap_node *nodes;
+    size_t node_count;
+    void *reals;
+    size_t real_count, tri_count, block_reals;
+} tree;
+
+enum { TREE_CAPS, TREE_SEGMENTS, TREE_PAIRS };
+
+static void tree_free(tree *t)
+{
+    free(t->nodes);
+    free(t->reals);
+    memset(t, 0, sizeof *t);
+}
+
+/* The tree over n items (q, consumed): cap triangles (9 scaled reals each),
+ * edges (TREE_SEGMENTS: q[0..2] -> q[3..5], q[6..8] = q[3..5], whose "area"
+ * is their length), or weld pairs (TREE_PAIRS: 18 reals, T then T', see
+ * clvox_cap_node). */
+static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode, tree *out);
+/* Uploads t (freed) into out, which holds the voxel size already. */
+static clvox_status tree_send(clvox_context *ctx, tree *t, int segments, clvox__caps *out);
+static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, clvox__caps *out)
+{
+    tree t;
+    clvox_status st = tree_build(ctx, q, n, segments ? TREE_SEGMENTS : TREE_CAPS, &t);
+    if (st == CLVOX_OK) st = tree_send(ctx, &t, segments, out);
+    if (st != CLVOX_OK) clvox__caps_release(out);
+    return st;
+}
+
+/* The voxel size buffer every cap tree carries (the kernels take it). */
+static clvox_status upload_h(clvox_context *ctx, const clvox_grid *grid, clvox__caps *out)
+{
+    clvox_status st = CLVOX_OK;
+    double hb[3];
+    for (int a = 0; a < 3; a++) put_real(hb, ctx->real_size, (size_t)a, grid->voxel_size[a]);
+    out->h = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 3 * ctx->real_size, hb, &st, "voxel size");
+    return st;
+}
+
+/* Grid-space triangles (u, v, w order, 9 floats each) to scaled x, y, z. */
+static void scaled(const float *soup, size_t n, clvox__axes axes, const double h3[3], double *q)
+{
+    for (size_t t = 0; t < n; t++)
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++) {
+                int a = axes.perm[k];
+                q[t * 9 + c * 3 + a] = (double)soup[t * 9 + c * 3 + k] * h3[a];
+            }
+}
 
 clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,
                                 const clvox_grid *grid, clvox__caps *out)
 {
+    return clvox__caps_upload_pairs(ctx, cap_soup, n, NULL, 0, axes, grid, out);
+}
+
+/* The root over the caps' tree c and the pairs' tree p (both non-empty):
+ * [root, c's root, p's root, c's other nodes, p's other nodes]; the reals
+ * [c's triangles, p's triangles, c's blocks, p's blocks]. */
+static clvox_status tree_join(clvox_context *ctx, tree *c, tree *p, tree *out)
+{
     memset(out, 0, sizeof *out);
-    clvox_status st = CLVOX_OK;
-    double h3[3] = {grid->voxel_size[0], grid->voxel_size[1], grid->voxel_size[2]};
-    /* h is needed even without caps (the kernels take it) */
-    size_t rs = ctx->real_size;
-    {
-        double hb[3];
-        for (int a = 0; a < 3; a++) put_real(hb, rs, (size_t)a, h3[a]);
-        out->h = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 3 * rs, hb, &st, "voxel size");
+    const size_t rs = ctx->real_size, nc = c->node_count, np = p->node_count;
+    const size_t ct = c->tri_count * 9, pt = p->tri_count * 9;
+    size_t total = ct + pt + c->block_reals + p->block_reals;
+    const int blocks = total <= UINT32_MAX;
+    if (!blocks) total = ct + pt;
+    out->nodes = malloc((1 + nc + np) * sizeof *out->nodes);
+    out->reals = malloc(total * rs);
+    if (!out->nodes || !out->reals) {
+        tree_free(out);
+        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps",
+                           c->tri_count + p->tri_count);
     }
-    if (st != CLVOX_OK || n == 0) {
+    char *r = out->reals;
+    memcpy(r, c->reals, ct * rs);
+    memcpy(r + ct * rs, p->reals, pt * rs);
+    if (blocks) {
+        memcpy(r + (ct + pt) * rs, (char *)c->reals + ct * rs, c->block_reals * rs);
+        memcpy(r + (ct + pt + c->block_reals) * rs, (char *)p->reals + pt * rs, p->block_reals * rs);
+    }
+    for (size_t k = 0; k < nc; k++) {
+        clvox_cap_node nd = c->nodes[k];
+        if (nd.child) nd.child = nd.child + 2;
+        nd.block = blocks && nd.block ? (uint32_t)(nd.block + pt) : 0;
+        out->nodes[k == 0 ? 1 : k + 2] = nd;
+    }
+    for (size_t k = 0; k < np; k++) {
+        clvox_cap_node nd = p->nodes[k];
+        if (nd.child) nd.child = (uint32_t)(nd.child + nc + 1);
+        nd.tri_first += (uint32_t)c->tri_count;
+        nd.block = blocks && nd.block ? (uint32_t)(nd.block + ct + c->block_reals) : 0;
+        out->nodes[k == 0 ? 2 : k + nc + 1] = nd;
+    }
+    const clvox_cap_node *a = &c->nodes[0], *b = &p->nodes[0];
+    clvox_cap_node *root = &out->nodes[0];
+    memset(root, 0, sizeof *root);
+    for (int k = 0; k < 3; k++) {
+        root->lo[k] = a->lo[k] < b->lo[k] ? a->lo[k] : b->lo[k];
+        root->hi[k] = a->hi[k] > b->hi[k] ? a->hi[k] : b->hi[k];
+        root->centre[k] = 0.5f * (root->lo[k] + root->hi[k]);
+    }
+    root->area4pi = round_up(((double)a->area4pi + (double)b->area4pi) * (1.0 + 1e-9));
+    root->half_count = round_up((double)a->half_count + (double)b->half_count);
+    root->radius = CLVOX_PAIR_RADIUS;
+    root->quad4pi[0] = -FLT_MAX; /* no slab */
+    root->quad4pi[1] = FLT_MAX;
+    root->child = 1;
+    root->tri_first = 0;
+    root->tri_count = (uint32_t)(c->tri_count + p->tri_count);
+    out->node_count = 1 + nc + np;
+    out->tri_count = c->tri_count + p->tri_count;
+    out->real_count = total;
+    out->block_reals = total - ct - pt;
+    return CLVOX_OK;
+}
+
+clvox_status clvox__caps_upload_pairs(clvox_context *ctx, const float *cap_soup, size_t n, const float *pair_soup,
+                                      size_t np, clvox__axes axes, const clvox_grid *grid, clvox__caps *out)
+{
+    memset(out, 0, sizeof *out);
+    clvox_status st = upload_h(ctx, grid, out);
+    if (st != CLVOX_OK || (n == 0 && np == 0)) {
         if (st == CLVOX_OK) { /* bind something: the kernels read no node when node_count is 0 */
             clvox_cap_node dummy;
             memset(&dummy, 0, sizeof dummy);
             out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof dummy, &dummy, &st,
                                        "cap tree");
-            if (st == CLVOX_OK) out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY, 9 * rs, NULL, &st, "caps");
+            if (st == CLVOX_OK) out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY, 9 * ctx->real_size, NULL, &st, "caps");
         }
         if (st != CLVOX_OK) clvox__caps_release(out);
         return st;
     }
-    if (n > UINT32_MAX / 2) return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu cap triangles: too many", n);
-    /* Scaled x, y, z (grid coordinates times h): solid angles of the world. */
-    double *q = malloc(n * 9 * sizeof *q);
-    if (!q) {
+    if (n > UINT32_MAX / 4 || np > UINT32_MAX / 8) {
         clvox__caps_release(out);
-        return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap triangles", n);
+        return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu cap triangles: too many", n + 2 * np);
     }
-    for (size_t t = 0; t < n; t++)
-        for (int c = 0; c < 3; c++)
-            for (int k = 0; k < 3; k++) {
-                int a = axes.perm[k];
-                q[t * 9 + c * 3 + a] = (double)cap_soup[t * 9 + c * 3 + k] * h3[a];
-            }
-    return tree_upload(ctx, q, n, 0, out);
+    /* Scaled x, y, z (grid coordinates times h): solid angles of the world. */
+    const double h3[3] = {grid->voxel_size[0], grid->voxel_size[1], grid->voxel_size[2]};
+    tree c = {0}, p = {0}, j = {0};
+    if (n) {
+        double *q = malloc(n * 9 * sizeof *q);
+        if (!q) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap triangles", n);
+        if (st == CLVOX_OK) {
+            scaled(cap_soup, n, axes, h3, q);
+            st = tree_build(ctx, q, n, TREE_CAPS, &c);
+        }
+    }
+    if (st == CLVOX_OK && np) {
+        double *q = malloc(np * 18 * sizeof *q);
+        if (!q) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu weld pairs", np);
+        if (st == CLVOX_OK) {
+            scaled(pair_soup, 2 * np, axes, h3, q);
+            st = tree_build(ctx, q, np, TREE_PAIRS, &p);
+        }
+    }
+    if (st == CLVOX_OK) {
+        if (n && np) {
+            st = tree_join(ctx, &c, &p, &j);
+            tree_free(&c);
+            tree_free(&p);
+        } else {
+            j = n ? c : p;
+            memset(n ? &c : &p, 0, sizeof c);
+        }
+    }
+    if (st == CLVOX_OK) st = tree_send(ctx, &j, 0, out);
+    tree_free(&c);
+    tree_free(&p);
+    tree_free(&j);
+    if (st != CLVOX_OK) clvox__caps_release(out);
+    return st;
 }
 
 clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,
@@ -120,17 +254,79 @@ clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, cons
     return tree_upload(ctx, q, n, 1, out);
 }
 
-static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, clvox__caps *out)
+/* (per(T) + 6 delta) delta of pair p (18 scaled reals: T, then T'):
+ * the bound's numerator (src/winding/crack_weld.c), rounded up. */
+static double pair_sweep(const double *p)
 {
+    double delta = 0.0, per = 0.0;
+    for (int c = 0; c < 3; c++) {
+        double d2 = 0.0, e2 = 0.0;
+        for (int a = 0; a < 3; a++) {
+            const double d = p[9 + c * 3 + a] - p[c * 3 + a], e = p[((c + 1) % 3) * 3 + a] - p[c * 3 + a];
+            d2 += d * d;
+            e2 += e * e;
+        }
+        if (sqrt(d2) > delta) delta = sqrt(d2);
+        per += sqrt(e2);
+    }
+    return (per + 6.0 * delta) * delta * (1.0 + 1e-12);
+}
+
+/* A pair node's slab (clvox_cap_node; kernels/winding_bounds.h
+ * clvox_pair_slab_gap): n the unit sum of its T's vector areas, in float,
+ * and [smin, smax] holding n . y of every corner (T and T'), computed in
+ * double with that float n and rounded outwards. None (-+FLT_MAX) where
+ * the areas cancel. */
+static void pair_slab(const double *q, const uint32_t *items, uint32_t count, clvox_cap_node *nd)
+{
+    double v[3] = {0, 0, 0};
+    for (uint32_t i = 0; i < count; i++) {
+        const double *p = q + (size_t)items[i] * 18;
+        double e1[3], e2[3];
+        for (int a = 0; a < 3; a++) e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
+        v[0] += e1[1] * e2[2] - e1[2] * e2[1];
+        v[1] += e1[2] * e2[0] - e1[0] * e2[2];
+        v[2] += e1[0] * e2[1] - e1[1] * e2[0];
+    }
+    const double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    memset(nd->normal4pi, 0, sizeof nd->normal4pi);
+    memset(nd->quad4pi, 0, sizeof nd->quad4pi);
+    nd->second4pi = 0;
+    nd->quad4pi[0] = -FLT_MAX;
+    nd->quad4pi[1] = FLT_MAX;
+    if (!(len > 1e-300) || !isfinite(len)) return;
+    float n[3];
+    for (int a = 0; a < 3; a++) n[a] = (float)(v[a] / len);
+    double lo = DBL_MAX, hi = -DBL_MAX;
+    for (uint32_t i = 0; i < count; i++) {
+        const double *p = q + (size_t)items[i] * 18;
+        for (int c = 0; c < 6; c++) {
+            const double d = (double)n[0] * p[3 * c] + (double)n[1] * p[3 * c + 1] + (double)n[2] * p[3 * c + 2];
+            if (d < lo) lo = d;
+            if (d > hi) hi = d;
+        }
+    }
+    const double m = 1e-12 * (fabs(lo) > fabs(hi) ? fabs(lo) : fabs(hi)) + 1e-300;
+    for (int a = 0; a < 3; a++) nd->normal4pi[a] = n[a];
+    nd->quad4pi[0] = round_down(lo - m);
+    nd->quad4pi[1] = round_up(hi + m);
+}
+
+static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode, tree *out)
+{
+    memset(out, 0, sizeof *out);
     clvox_status st = CLVOX_OK;
+    const int segments = mode == TREE_SEGMENTS, pairs = mode == TREE_PAIRS;
+    const size_t stride = pairs ? 18 : 9, per_item = pairs ? 2 : 1;         /* reals, triangles an item */
+    const uint32_t leaf_items = pairs ? CAP_LEAF / 2 : CAP_LEAF;
     size_t rs = ctx->real_size;
     cap_key *keys = malloc(n * sizeof *keys);
     uint32_t *order = malloc(n * sizeof *order);
     clvox_cap_node *nodes = malloc(2 * n * sizeof *nodes);
     uint32_t *stack = malloc(2 * n * sizeof *stack);
-    void *tris = malloc(n * 9 * rs);
+    void *tris = malloc(n * per_item * 9 * rs);
     if (!keys || !order || !nodes || !stack || !tris) {
-        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n);
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n * per_item);
         goto done;
     }
     for (size_t t = 0; t < n; t++) order[t] = (uint32_t)t;
@@ -146,15 +342,19 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         double clo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, chi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
         double area = 0.0, vec[3] = {0, 0, 0};
         for (uint32_t i = first; i < first + count; i++) {
-            const double *p = q + (size_t)order[i] * 9;
+            const double *p = q + (size_t)order[i] * stride;
             for (int a = 0; a < 3; a++) {
-                for (int c = 0; c < 3; c++) {
+                for (int c = 0; c < 3 * (int)per_item; c++) {
                     if (p[c * 3 + a] < lo[a]) lo[a] = p[c * 3 + a];
                     if (p[c * 3 + a] > hi[a]) hi[a] = p[c * 3 + a];
                 }
                 double m = (p[a] + p[3 + a] + p[6 + a]) / 3.0;
                 if (m < clo[a]) clo[a] = m;
                 if (m > chi[a]) chi[a] = m;
+            }
+            if (pairs) { /* the pair's bound numerator in area (clvox_cap_node) */
+                area += pair_sweep(p);
+                continue;
             }
             double e1[3], e2[3];
             for (int a = 0; a < 3; a++) e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
@@ -182,8 +382,9 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
          * centroid g, corners v), M += S (g - c)^T exactly and the second
          * moment is A (|g - c|^2 + sum |v - g|^2 / 12) */
         double r2 = 0.0, M[3][3] = {{0}}, second = 0.0;
+        int continue_pairs = 0;
         const double cc[3] = {nd->centre[0], nd->centre[1], nd->centre[2]};
-        for (uint32_t i = first; i < first + count; i++) {
+        for (uint32_t i = first; i < first + count && !pairs; i++) {
             const double *p = q + (size_t)order[i] * 9;
             for (int c = 0; c < 3; c++) {
                 double dx = p[c * 3] - cc[0], dy = p[c * 3 + 1] - cc[1], dz = p[c * 3 + 2] - cc[2];
@@ -205,8 +406,12 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             for (int a = 0; a < 3; a++)
                 for (int b = 0; b < 3; b++) M[a][b] += S[a] * (g[b] - cc[b]);
         }
-        nd->radius = round_up(sqrt(r2) * (1.0 + 1e-9));
-        {
+        nd->radius = pairs ? CLVOX_PAIR_RADIUS : round_up(sqrt(r2) * (1.0 + 1e-9));
+        if (pairs) { /* the slab (clvox_cap_node), set in place of the moments below */
+            pair_slab(q, order + first, count, nd);
+            continue_pairs = 1;
+        }
+        if (!continue_pairs) {
             const double k = 1.0 / FOUR_PI;
             const double tr = M[0][0] + M[1][1] + M[2][2];
             const int ia[6] = {0, 1, 2, 0, 0, 1}, ib[6] = {0, 1, 2, 1, 2, 2};
@@ -215,27 +420,28 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             nd->second4pi = round_up(second * k * (1.0 + 1e-9));
         }
         nd->area4pi = round_up(area / FOUR_PI * (1.0 + 1e-9));
-        nd->half_count = round_up(0.5 * count);
+        nd->half_count = round_up(0.5 * count * per_item); /* a pair: at most 1 */
         nd->child = 0;
         nd->block = 0;
-        if (count <= CAP_LEAF) continue;
+        if (count <= leaf_items) continue;
         int axis = 0;
         for (int a = 1; a < 3; a++)
             if (chi[a] - clo[a] > chi[axis] - clo[axis]) axis = a;
         for (uint32_t i = 0; i < count; i++) {
-            const double *p = q + (size_t)order[first + i] * 9;
+            const double *p = q + (size_t)order[first + i] * stride;
             keys[i].key = p[axis] + p[3 + axis] + p[6 + axis];
             keys[i].index = order[first + i];
         }
         qsort(keys, count, sizeof *keys, cmp_cap_key);
         for (uint32_t i = 0; i < count; i++) order[first + i] = keys[i].index;
-        /* caps: the split falls on a multiple of CAP_LEAF, so that the
-         * leaves hold CAP_LEAF caps (one per vector lane, kernels/winding_angles.h)
-         * but for at most one per node; rim edges: halves */
+        /* caps and pairs: the split falls on a multiple of a leaf, so that
+         * the leaves hold CAP_LEAF caps (one per vector lane,
+         * kernels/winding_angles.h) but for at most one per node; rim
+         * edges: halves */
         uint32_t half = count / 2;
         if (!segments) {
-            uint32_t blocks = (count + CAP_LEAF - 1) / CAP_LEAF;
-            half = blocks / 2 * CAP_LEAF;
+            uint32_t blocks = (count + leaf_items - 1) / leaf_items;
+            half = blocks / 2 * leaf_items;
         }
         uint32_t c = (uint32_t)node_count;
         node_count += 2;
@@ -247,26 +453,50 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
         stack[sp++] = c;
         stack[sp++] = c + 1;
     }
+    const size_t nt = n * per_item; /* triangles */
+    if (pairs)
+        for (size_t i = 0; i < node_count; i++) nodes[i].tri_first *= 2, nodes[i].tri_count *= 2;
+    /* the triangles in leaf order: a pair as rev T, then T' (a point where
+     * the weld collapsed it: no area, no tie, exactly 0) */
+    double *tv = malloc(nt * 9 * sizeof *tv);
+    if (!tv) {
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", nt);
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const double *p = q + (size_t)order[i] * stride;
+        if (!pairs) {
+            memcpy(tv + i * 9, p, 9 * sizeof *tv);
+            continue;
+        }
+        double *r = tv + i * 18;
+        static const int rev[3] = {0, 2, 1};
+        for (int c = 0; c < 3; c++) memcpy(r + 3 * c, p + 3 * rev[c], 3 * sizeof *r);
+        const double *w = p + 9;
+        const int collapsed = !memcmp(w, w + 3, 3 * sizeof *w) || !memcmp(w + 3, w + 6, 3 * sizeof *w) ||
+                              !memcmp(w, w + 6, 3 * sizeof *w);
+        for (int c = 0; c < 3; c++) memcpy(r + 9 + 3 * c, collapsed ? w : w + 3 * c, 3 * sizeof *r);
+    }
     /* caps: after them, each leaf's caps again, lane-major (36 reals a
      * leaf, clvox_cap_node.block), for the kernels' vector loads */
-    size_t leaves = 0, reals = n * 9;
+    size_t leaves = 0, reals = nt * 9;
     if (!segments) {
         for (size_t i = 0; i < node_count; i++) leaves += nodes[i].child == 0;
-        if (n * 9 + leaves * 36 <= UINT32_MAX) reals += leaves * 36;
+        if (nt * 9 + leaves * 36 <= UINT32_MAX) reals += leaves * 36;
         else leaves = 0; /* too many for a u32 index: the kernels read the caps one by one */
     }
-    if (reals > n * 9) {
+    if (reals > nt * 9) {
         void *t = realloc(tris, reals * rs);
         if (!t) {
-            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n);
+            free(tv);
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", nt);
             goto done;
         }
         tris = t;
     }
-    for (size_t i = 0; i < n; i++)
-        for (int k = 0; k < 9; k++) put_real(tris, rs, i * 9 + k, q[(size_t)order[i] * 9 + k]);
+    for (size_t i = 0; i < nt * 9; i++) put_real(tris, rs, i, tv[i]);
     if (leaves) {
-        size_t at = n * 9;
+        size_t at = nt * 9;
         for (size_t i = 0; i < node_count; i++) {
             clvox_cap_node *nd = &nodes[i];
             if (nd->child != 0) continue;
@@ -274,18 +504,20 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
             for (int k = 0; k < 9; k++)
                 for (uint32_t l = 0; l < 4; l++) {
                     uint32_t t = nd->tri_first + (l < nd->tri_count ? l : 0);
-                    put_real(tris, rs, at + 4 * (size_t)k + l, q[(size_t)order[t] * 9 + k]);
+                    put_real(tris, rs, at + 4 * (size_t)k + l, tv[(size_t)t * 9 + k]);
                 }
             at += 36;
         }
     }
-    out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, node_count * sizeof *nodes, nodes, &st,
-                               "cap tree");
-    if (st == CLVOX_OK)
-        out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, reals * rs, tris, &st,
-                                  segments ? "boundary edges" : "caps");
-    out->node_count = (cl_uint)node_count;
-    out->cap_count = n;
+    free(tv);
+    out->nodes = nodes;
+    out->node_count = node_count;
+    out->reals = tris;
+    out->real_count = reals;
+    out->tri_count = nt;
+    out->block_reals = reals - nt * 9;
+    nodes = NULL;
+    tris = NULL;
 done:
     free(q);
     free(keys);
@@ -293,7 +525,20 @@ done:
     free(nodes);
     free(stack);
     free(tris);
-    if (st != CLVOX_OK) clvox__caps_release(out);
+    return st;
+}
+
+static clvox_status tree_send(clvox_context *ctx, tree *t, int segments, clvox__caps *out)
+{
+    clvox_status st = CLVOX_OK;
+    out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, t->node_count * sizeof *t->nodes,
+                               t->nodes, &st, "cap tree");
+    if (st == CLVOX_OK)
+        out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, t->real_count * ctx->real_size,
+                                  t->reals, &st, segments ? "boundary edges" : "caps");
+    out->node_count = (cl_uint)t->node_count;
+    out->cap_count = t->tri_count;
+    tree_free(t);
     return st;
 }
 

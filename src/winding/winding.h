@@ -16,6 +16,12 @@ typedef struct clvox__caps {
 /* cap_soup: n cap triangles of the cast's soup (grid space, u,v,w order). */
 clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,
                                 const clvox_grid *grid, clvox__caps *out);
+/* The same with np weld pairs (src/winding/crack_weld.c): pair_soup holds
+ * 18 floats a pair, grid space like cap_soup: the input triangle T as
+ * oriented, then its welded copy T'. Caps and pairs get a tree each under
+ * one root (clvox_cap_node, CLVOX_PAIR_RADIUS). */
+clvox_status clvox__caps_upload_pairs(clvox_context *ctx, const float *cap_soup, size_t n, const float *pair_soup,
+                                      size_t np, clvox__axes axes, const clvox_grid *grid, clvox__caps *out);
 void clvox__caps_release(clvox__caps *c);
 /* The rims' tree: n boundary edges (rim, 2 vertex indices each) in scaled
  * grid space, area4pi = length / 4pi (kernels/winding_rims.h clvox_rim_bound);
@@ -29,6 +35,9 @@ clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, cons
  * vertex merged or welded, no triangle dropped or flipped; caps and the
  * report as always); clvox__winding_mesh_own_tris then makes the copy. */
 #define CLVOX__PREP_BORROW 1u
+/* CLVOX__PREP_KEEP_REP: out->rep keeps every vertex's representative
+ * (src/winding/crack_weld.c maps each input triangle to its welded copy). */
+#define CLVOX__PREP_KEEP_REP 2u
 clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *mesh, double weld, unsigned flags,
                                           clvox__winding_mesh *out);
 clvox_status clvox__winding_mesh_own_tris(clvox_context *ctx, const clvox_mesh *mesh, clvox__winding_mesh *w);

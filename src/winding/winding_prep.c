@@ -112,6 +112,7 @@ void clvox__winding_mesh_free(clvox__winding_mesh *w)
     free(w->caps);
     free(w->apex);
     free(w->rim);
+    free(w->rep);
     memset(w, 0, sizeof *w);
 }
 
@@ -176,6 +177,14 @@ clvox_status clvox__winding_prepare_flags(clvox_context *ctx, const clvox_mesh *
     if (weld > 0) {
         st = clvox__prep_weld_vertices(ctx, mesh->xyz, nv, mesh->tris, nt_in, weld, rep, &rep_out->welded_vertices);
         if (st != CLVOX_OK) goto done;
+    }
+    if (flags & CLVOX__PREP_KEEP_REP) {
+        out->rep = malloc((nv ? nv : 1) * sizeof *out->rep);
+        if (!out->rep) {
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory preparing %zu vertices", nv);
+            goto done;
+        }
+        memcpy(out->rep, rep, nv * sizeof *rep);
     }
     size_t nt = 0;
     if (rep_out->merged_vertices == 0 && rep_out->welded_vertices == 0) {

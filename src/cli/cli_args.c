@@ -567,7 +567,11 @@ void print_help(void)
 "                           (Thon et al.; needs a closed mesh). The tetra method\n"
 "                           is parity by construction.\n"
 "  --weld EPS               winding: also merge vertices within EPS (mesh units)\n"
-"                           of each other, closing cracks (default 0: exact only)\n"
+"                           of each other, closing cracks: the voxels are then\n"
+"                           the welded mesh's (default 0: exact only). Without\n"
+"                           it, cracks are the mesh's as given: a soup or a mesh\n"
+"                           with many cracks is welded within 1/100 voxel only\n"
+"                           to find its own exact voxels faster (\"cracks\" line)\n"
 "\n", stdout);
     fputs(
 "Method:\n"

@@ -347,6 +347,12 @@ void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvo
                (unsigned long long)w->cavities, (unsigned long long)w->flipped_triangles,
                (unsigned long long)w->holes, (unsigned long long)w->cap_triangles,
                (unsigned long long)w->exact_points, w->seconds);
+        if (s->crack_pairs)
+            printf(LABEL "welded within %.3g (1/100 voxel) to find the same voxels faster: %llu vertices merged, "
+                         "%llu of %llu holes left, %llu moved triangles checked where they could change a voxel\n",
+                   "cracks", s->crack_weld_distance, (unsigned long long)s->crack_welded_vertices,
+                   (unsigned long long)s->crack_holes, (unsigned long long)w->holes,
+                   (unsigned long long)s->crack_pairs);
         if (w->exact_points)
             printf(LABEL "%llu points evaluated exactly: %.3f s of device time in the batches that had any, "
                          "at most %.1f us a point\n",
@@ -964,6 +970,16 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
                 jb_num(b, "seconds_per_exact_point", st->winding_exact_seconds / (double)w->exact_points);
             else
                 jb_null(b, "seconds_per_exact_point");
+            if (st->crack_pairs) { /* the certified crack weld (docs/design.md "Cracks") */
+                jb_obj_begin(b, "crack_weld");
+                jb_num(b, "distance", st->crack_weld_distance);
+                jb_u64(b, "welded_vertices", st->crack_welded_vertices);
+                jb_u64(b, "pairs", st->crack_pairs);
+                jb_u64(b, "holes_left", st->crack_holes);
+                jb_obj_end(b);
+            } else {
+                jb_null(b, "crack_weld");
+            }
             jb_obj_end(b);
         } else {
             jb_null(b, "winding");

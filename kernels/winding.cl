@@ -133,9 +133,26 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
             }
             if (end > j) {
                 const int kin = clvox_k_inside(K, abs_mode);
+                /* The centres next to the crossings first, alone: the rest of
+                 * the run is then mostly decided in one piece. */
+                uint a0 = j, b0 = end;
+                int last = -1;
+                if (k > 0u && b0 - a0 >= 2u) {
+                    const int in = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
+                                                    (clvox_real)(u_begin + a0), rv, rw, 0u, &exact, &lo, &hi, cut,
+                                                    &cut_n, &fresh_exact);
+                    clvox_emit(o, out_stride, bit, a0, in, &word, &cnt);
+                    a0++;
+                }
+                if (k < n && b0 - a0 >= 2u) {
+                    last = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
+                                            (clvox_real)(u_begin + b0 - 1u), rv, rw, 0u, &exact, &lo, &hi, cut,
+                                            &cut_n, &fresh_exact);
+                    b0--;
+                }
                 uint ra[CLVOX_RUN_STACK], rb[CLVOX_RUN_STACK], rsp = 1;
-                ra[0] = j;
-                rb[0] = end;
+                ra[0] = a0;
+                rb[0] = b0;
                 while (rsp) {
                     rsp--;
                     const uint a = ra[rsp], b = rb[rsp];
@@ -161,6 +178,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                     ra[rsp] = a;
                     rb[rsp++] = m;
                 }
+                if (last >= 0) clvox_emit(o, out_stride, bit, end - 1u, last, &word, &cnt);
                 j = end;
             }
             if (k < n) K -= CLVOX_UNIT(sg[k]);

@@ -312,6 +312,80 @@ static void pair_slab(const double *q, const uint32_t *items, uint32_t count, cl
     nd->quad4pi[1] = round_up(hi + m);
 }
 
+/* What a node needs of an item, summed or bounded over its items: box,
+ * centroid (times 3: the split key), area (pairs: the bound's numerator),
+ * vector area (segments: length across each axis). */
+typedef struct item {
+    double lo[3], hi[3], key[3], area, vec[3];
+} item;
+
+static void item_summary(const double *p, int per_item, int mode, item *it)
+{
+    memset(it->vec, 0, sizeof it->vec);
+    it->area = 0.0;
+    for (int a = 0; a < 3; a++) {
+        it->lo[a] = DBL_MAX, it->hi[a] = -DBL_MAX;
+        for (int c = 0; c < 3 * per_item; c++) {
+            if (p[c * 3 + a] < it->lo[a]) it->lo[a] = p[c * 3 + a];
+            if (p[c * 3 + a] > it->hi[a]) it->hi[a] = p[c * 3 + a];
+        }
+        it->key[a] = p[a] + p[3 + a] + p[6 + a];
+    }
+    if (mode == TREE_PAIRS) {
+        it->area = pair_sweep(p);
+        return;
+    }
+    double e1[3], e2[3];
+    for (int a = 0; a < 3; a++) e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
+    if (mode == TREE_SEGMENTS) {
+        for (int a = 0; a < 3; a++) {
+            const double x1 = e1[(a + 1) % 3], x2 = e1[(a + 2) % 3];
+            it->vec[a] = sqrt(x1 * x1 + x2 * x2);
+        }
+        return;
+    }
+    double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    it->area = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+    it->vec[0] = 0.5 * cx, it->vec[1] = 0.5 * cy, it->vec[2] = 0.5 * cz;
+}
+
+static int key_less(const cap_key *a, const cap_key *b)
+{
+    return a->key < b->key || (a->key == b->key && a->index < b->index);
+}
+
+/* Rearranges a[0 .. n) so that its k first are the k smallest in (key,
+ * index) order (a total order), in O(n) on average: quickselect, median
+ * of three; past 2 log2(n) + 16 rounds the rest is sorted. */
+static void select_keys(cap_key *a, size_t n, size_t k)
+{
+    size_t lo = 0, hi = n, rounds = 16;
+    for (size_t m = n; m > 1; m >>= 1) rounds += 2;
+    while (hi - lo > 16 && k > lo && k < hi) {
+        if (rounds-- == 0) {
+            qsort(a + lo, hi - lo, sizeof *a, cmp_cap_key);
+            return;
+        }
+        cap_key *x = &a[lo], *y = &a[lo + (hi - lo) / 2], *z = &a[hi - 1];
+        const cap_key p = key_less(x, y) ? (key_less(y, z) ? *y : key_less(x, z) ? *z : *x)
+                                         : (key_less(x, z) ? *x : key_less(y, z) ? *z : *y);
+        size_t i = lo, j = hi - 1;
+        for (;;) { /* Hoare: [lo, j] <= p <= [j + 1, hi) */
+            while (key_less(&a[i], &p)) i++;
+            while (key_less(&p, &a[j])) j--;
+            if (i >= j) break;
+            const cap_key t = a[i];
+            a[i] = a[j];
+            a[j] = t;
+            i++;
+            j--;
+        }
+        if (k <= j) hi = j + 1;
+        else lo = j + 1;
+    }
+    if (hi - lo > 1 && k > lo && k < hi) qsort(a + lo, hi - lo, sizeof *a, cmp_cap_key);
+}
+
 static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode, tree *out)
 {
     memset(out, 0, sizeof *out);
@@ -325,11 +399,15 @@ static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode
     clvox_cap_node *nodes = malloc(2 * n * sizeof *nodes);
     uint32_t *stack = malloc(2 * n * sizeof *stack);
     void *tris = malloc(n * per_item * 9 * rs);
-    if (!keys || !order || !nodes || !stack || !tris) {
+    item *sum = malloc(n * sizeof *sum);
+    if (!keys || !order || !nodes || !stack || !tris || !sum) {
         st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", n * per_item);
         goto done;
     }
-    for (size_t t = 0; t < n; t++) order[t] = (uint32_t)t;
+    for (size_t t = 0; t < n; t++) {
+        order[t] = (uint32_t)t;
+        item_summary(q + t * stride, (int)per_item, mode, &sum[t]);
+    }
     /* Top-down median split on the longest axis of the centroids' box. */
     size_t node_count = 1, sp = 0;
     nodes[0].tri_first = 0;
@@ -342,33 +420,16 @@ static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode
         double clo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, chi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
         double area = 0.0, vec[3] = {0, 0, 0};
         for (uint32_t i = first; i < first + count; i++) {
-            const double *p = q + (size_t)order[i] * stride;
+            const item *it = &sum[order[i]];
             for (int a = 0; a < 3; a++) {
-                for (int c = 0; c < 3 * (int)per_item; c++) {
-                    if (p[c * 3 + a] < lo[a]) lo[a] = p[c * 3 + a];
-                    if (p[c * 3 + a] > hi[a]) hi[a] = p[c * 3 + a];
-                }
-                double m = (p[a] + p[3 + a] + p[6 + a]) / 3.0;
+                if (it->lo[a] < lo[a]) lo[a] = it->lo[a];
+                if (it->hi[a] > hi[a]) hi[a] = it->hi[a];
+                const double m = it->key[a] / 3.0;
                 if (m < clo[a]) clo[a] = m;
                 if (m > chi[a]) chi[a] = m;
+                vec[a] += it->vec[a];
             }
-            if (pairs) { /* the pair's bound numerator in area (clvox_cap_node) */
-                area += pair_sweep(p);
-                continue;
-            }
-            double e1[3], e2[3];
-            for (int a = 0; a < 3; a++) e1[a] = p[3 + a] - p[a], e2[a] = p[6 + a] - p[a];
-            if (segments) { /* the edge's length across each axis, in vec (area stays 0) */
-                for (int a = 0; a < 3; a++) {
-                    const double x1 = e1[(a + 1) % 3], x2 = e1[(a + 2) % 3];
-                    vec[a] += sqrt(x1 * x1 + x2 * x2);
-                }
-                continue;
-            }
-            double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
-                   cz = e1[0] * e2[1] - e1[1] * e2[0];
-            area += 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
-            vec[0] += 0.5 * cx, vec[1] += 0.5 * cy, vec[2] += 0.5 * cz;
+            area += it->area;
         }
         for (int a = 0; a < 3; a++) {
             nd->lo[a] = round_down(lo[a]);
@@ -428,12 +489,9 @@ static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode
         for (int a = 1; a < 3; a++)
             if (chi[a] - clo[a] > chi[axis] - clo[axis]) axis = a;
         for (uint32_t i = 0; i < count; i++) {
-            const double *p = q + (size_t)order[first + i] * stride;
-            keys[i].key = p[axis] + p[3 + axis] + p[6 + axis];
+            keys[i].key = sum[order[first + i]].key[axis];
             keys[i].index = order[first + i];
         }
-        qsort(keys, count, sizeof *keys, cmp_cap_key);
-        for (uint32_t i = 0; i < count; i++) order[first + i] = keys[i].index;
         /* caps and pairs: the split falls on a multiple of a leaf, so that
          * the leaves hold CAP_LEAF caps (one per vector lane,
          * kernels/winding_angles.h) but for at most one per node; rim
@@ -443,6 +501,12 @@ static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode
             uint32_t blocks = (count + leaf_items - 1) / leaf_items;
             half = blocks / 2 * leaf_items;
         }
+        /* the `half` first in (key, index) order, as a full sort would put
+         * them; a child that is a leaf keeps that order inside it */
+        select_keys(keys, count, half);
+        if (half <= leaf_items) qsort(keys, half, sizeof *keys, cmp_cap_key);
+        if (count - half <= leaf_items) qsort(keys + half, count - half, sizeof *keys, cmp_cap_key);
+        for (uint32_t i = 0; i < count; i++) order[first + i] = keys[i].index;
         uint32_t c = (uint32_t)node_count;
         node_count += 2;
         nd->child = c;
@@ -525,6 +589,7 @@ done:
     free(nodes);
     free(stack);
     free(tris);
+    free(sum);
     return st;
 }
 

@@ -183,8 +183,8 @@ clvox_status clvox__winding_cast_prepare(clvox_context *ctx, const clvox_mesh *m
     if (st == CLVOX_OK && !out->have_tree && opts->weld == 0 && wm.cap_count) {
         const double h[3] = {grid->voxel_size[0], grid->voxel_size[1], grid->voxel_size[2]};
         st = clvox__crack_weld_try(ctx, mesh, &wm, clvox__crack_weld_distance(h), &cw);
+        report.seconds += cw.seconds;
         if (st == CLVOX_OK && cw.used) {
-            report.seconds += cw.welded.report.seconds;
             w->crack_distance = cw.distance;
             w->crack_welded = cw.welded.report.welded_vertices;
             w->crack_pairs = cw.pair_count;

@@ -62,10 +62,12 @@ double clvox__crack_weld_distance(const double h[3])
 void clvox__crack_weld_free(clvox__crack_weld *cw)
 {
     if (!cw) return;
+    const double seconds = cw->seconds;
     clvox__winding_mesh_free(&cw->welded);
     free(cw->pairs);
     free(cw->extra);
     memset(cw, 0, sizeof *cw);
+    cw->seconds = seconds;
 }
 
 static int same_pos(const float *xyz, uint32_t a, uint32_t b)
@@ -102,6 +104,7 @@ clvox_status clvox__crack_weld_try(clvox_context *ctx, const clvox_mesh *mesh, c
         return st;
     }
     free(side);
+    cw->seconds = cw->welded.report.seconds; /* spent whether it is used or not */
     if (st != CLVOX_OK || cw->welded.cap_count * 2 > soup->cap_count || !cw->welded.rep) {
         clvox__crack_weld_free(cw);
         return CLVOX_OK;

@@ -21,6 +21,7 @@ typedef struct clvox__crack_weld {
                                        the two preparations orient differently */
     size_t extra_count;
     double distance;                /* the weld distance (mesh units) */
+    double seconds;                 /* host time of the welded preparation, used or not (kept by _free) */
 } clvox__crack_weld;
 
 /* The weld distance tried for a grid of voxel size h (mesh units): a

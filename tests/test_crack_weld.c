@@ -326,6 +326,11 @@ static void test_runs(void)
 
     m = soup_of(&sphere, 1e-6, 0, 0, 1);
     same_both_ways("sphere soup, jitter 1e-6", m, 40, &o, 1);
+    o.ray_axis = CLVOX_AXIS_Y;
+    same_both_ways("sphere soup, jitter 1e-6, rays along y", m, 40, &o, 1);
+    o.ray_axis = CLVOX_AXIS_Z; /* the z classify ORs bits across words */
+    same_both_ways("sphere soup, jitter 1e-6, rays along z", m, 40, &o, 1);
+    o.ray_axis = CLVOX_AXIS_X;
     o.inside = CLVOX_INSIDE_WINDING_ABS;
     same_both_ways("sphere soup, jitter 1e-6, |w|", m, 40, &o, 1);
     o = (clvox_voxelize_options)CLVOX_VOXELIZE_OPTIONS_INIT;

@@ -363,10 +363,10 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
     const clvox_real px = pts[3 * i], py = pts[3 * i + 1], pz = pts[3 * i + 2];
     clvox_real e[4], b[4], e1, b1;
     global clvox_real *o = out + (size_t)i * 12u;
-    clvox_cap_estimate(nd, px, py, pz, &e1, &b1);
+    clvox_cap_estimate(nd, px, py, pz, 1, &e1, &b1);
     o[0] = e1;
     o[1] = b1;
-    clvox_cap_estimate2(nd, nd, px, py, pz, e, b);
+    clvox_cap_estimate2(nd, nd, px, py, pz, 1, e, b);
     o[2] = e[0];
     o[3] = b[0];
     o[4] = e[1];
@@ -374,7 +374,7 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
     uint factors = 0;
     o[6] = clvox_cap_node_exact(nd, caps, px, py, pz, 0u, &factors);
     o[7] = (clvox_real)factors;
-    clvox_cap_estimate4(nd, nodes, nodes, nd, px, py, pz, e, b);
+    clvox_cap_estimate4(nd, nodes, nodes, nd, px, py, pz, 1, e, b);
     o[8] = e[0];
     o[9] = b[0];
     o[10] = e[3];

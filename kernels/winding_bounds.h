@@ -157,7 +157,7 @@ static inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_c
  * per axis is max(lo - p, p - hi, 0), exactly its branches' value). */
 static inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clvox_cap_node *l,
                                        global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
-                                       clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
+                                       clvox_real py, clvox_real pz, int pairs, clvox_real *est, clvox_real *err)
 {
 #define CLVOX_N4(f) ((clvox_real4)(k->f, l->f, m->f, n->f))
     const clvox_real4 zero = (clvox_real4)0;
@@ -167,7 +167,7 @@ static inline void clvox_cap_estimate4(global const clvox_cap_node *k, global co
     clvox_real4 db2 = gx * gx + gy * gy + gz * gz;
     const clvox_real4 r = CLVOX_N4(radius);
     const clvox_mask4 pair = r >= (clvox_real4)CLVOX_PAIR_RADIUS;
-    if (any(pair)) { /* weld pairs: the slab too (clvox_pair_slab_gap at a point) */
+    if (pairs && any(pair)) { /* weld pairs (a tree that has them: `pairs`): the slab too (clvox_pair_slab_gap) */
         const clvox_real4 dot = CLVOX_N4(normal4pi[0]) * px + CLVOX_N4(normal4pi[1]) * py + CLVOX_N4(normal4pi[2]) * pz;
         const clvox_real4 smin = CLVOX_N4(quad4pi[0]), smax = CLVOX_N4(quad4pi[1]);
         const clvox_real4 gap = fmax(fmax(smin - dot, dot - smax), zero);
@@ -205,10 +205,10 @@ static inline void clvox_cap_estimate4(global const clvox_cap_node *k, global co
 /* The same for one node (the root; a frontier's odd one out): every lane
  * the node, one body for all. */
 static inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
-                                      clvox_real *est, clvox_real *err)
+                                      int pairs, clvox_real *est, clvox_real *err)
 {
     clvox_real e[4], b[4];
-    clvox_cap_estimate4(n, n, n, n, px, py, pz, e, b);
+    clvox_cap_estimate4(n, n, n, n, px, py, pz, pairs, e, b);
     *est = e[0];
     *err = b[0];
 }
@@ -216,10 +216,10 @@ static inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real
 /* The same for two nodes (a node's children): lanes 2 and 3 repeat them
  * (on the CPU devices a vector of four doubles costs what one of two does). */
 static inline void clvox_cap_estimate2(global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
-                                       clvox_real py, clvox_real pz, clvox_real *est, clvox_real *err)
+                                       clvox_real py, clvox_real pz, int pairs, clvox_real *est, clvox_real *err)
 {
     clvox_real e[4], b[4];
-    clvox_cap_estimate4(m, n, m, n, px, py, pz, e, b);
+    clvox_cap_estimate4(m, n, m, n, px, py, pz, pairs, e, b);
     est[0] = e[0];
     est[1] = e[1];
     err[0] = b[0];

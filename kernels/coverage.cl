@@ -80,10 +80,12 @@ static inline uint clvox_column_step(global const clvox_real *hits, global const
 static inline int clvox_column_winding_setup(global const char *signs, global const uint *counts,
                                              global const clvox_ray *rays, size_t r0, uint R, uint capacity, int *ks,
                                              uint axis, uint u_begin, uint u_count, global const clvox_real *h,
-                                             global const clvox_cap_node *nodes, uint node_count)
+                                             global const clvox_cap_node *nodes, uint node_count, clvox_real *g0,
+                                             clvox_real *g1)
 {
-    clvox_real g0[3] = {(clvox_real)u_begin - (clvox_real)0.5, 0, 0};
-    clvox_real g1[3] = {(clvox_real)(u_begin + u_count) - (clvox_real)0.5, 0, 0};
+    g0[0] = (clvox_real)u_begin - (clvox_real)0.5;
+    g1[0] = (clvox_real)(u_begin + u_count) - (clvox_real)0.5;
+    g0[1] = g0[2] = g1[1] = g1[2] = 0;
     for (uint r = 0; r < R; r++) {
         global const char *sg = signs + (r0 + r) * capacity;
         int K = 0;
@@ -101,16 +103,52 @@ static inline int clvox_column_winding_setup(global const char *signs, global co
     return !clvox_caps_far(nodes, node_count, q0, q1, 16u);
 }
 
+/* In a column near a cap (g0, g1: its rays' box in grid space, u along
+ * the column): the end e of a stretch [j, e), e <= next, whose samples
+ * the caps' bounds leave to K (clvox_caps_far over its box): j when voxel
+ * j alone is not such a stretch (its samples are evaluated one by one),
+ * else the longest of [j, next), halved while it is not. Most voxels of a
+ * column that comes near a cap are far from it (a soup's weld pairs lie
+ * along the whole surface: every column crossing it is near). */
+static inline uint clvox_column_far_until(uint j, uint next, const clvox_real *g0, const clvox_real *g1, uint axis,
+                                          uint u_begin, global const clvox_real *h,
+                                          global const clvox_cap_node *nodes, uint node_count)
+{
+    clvox_real a0[3] = {(clvox_real)(u_begin + j) - (clvox_real)0.5, g0[1], g0[2]}, a1[3] = {0, g1[1], g1[2]};
+    clvox_real q0[3], q1[3];
+    uint e = j + 1u;
+    for (int first = 1;; first = 0) {
+        a1[0] = (clvox_real)(u_begin + e) - (clvox_real)0.5;
+        clvox_scaled_box(axis, a0, a1, h, q0, q1);
+        const int far = clvox_caps_far(nodes, node_count, q0, q1, CLVOX_COLUMN_BUDGET);
+        if (first) {
+            if (!far) return j;
+            if (next <= j + 1u) return j + 1u;
+            e = next;
+            continue;
+        }
+        if (far) return e;
+        e = j + 1u + (e - j - 1u) / 2u; /* [j, j + 1) is far: halving ends there */
+        if (e == j + 1u) return e;
+    }
+}
+
 /* The sample at u on ray r of a column near a cap: K at u (signed
  * crossings beyond it, from ks and the crossings kk.. passed), then the
- * caps. */
+ * caps, from the cut of the column's last sample (clvox_winding_inside_cut:
+ * the samples of a column are each other's neighbours). */
+typedef struct clvox_sample_cut {
+    uint cut[CLVOX_CUT_MAX], n, fresh_exact;
+} clvox_sample_cut;
+
 static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
                                        global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                       global const clvox_real *caps, uint *exact)
+                                       global const clvox_real *caps, uint *exact, clvox_sample_cut *sc)
 {
-    clvox_real x, y, z;
+    clvox_real x, y, z, lo, hi;
     clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);
-    return clvox_winding_inside(K, abs_mode, nodes, node_count, caps, x, y, z, axis, exact);
+    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, x, y, z, axis, 0u, exact, &lo, &hi, sc->cut,
+                                    &sc->n, &sc->fresh_exact);
 }
 
 static void clvox_coverage_body(global const clvox_column *cols, uint col_count, uint R, uint M,
@@ -140,10 +178,14 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
     uint k[CLVOX_COVERAGE_MAX_RAYS]; /* per ray: crossings before the current voxel */
     int ks[CLVOX_COVERAGE_MAX_RAYS];  /* winding: signed crossings beyond them */
     for (uint r = 0; r < R; r++) k[r] = 0;
-    const int near = signs ? clvox_column_winding_setup(signs, counts, rays, r0, R, capacity, ks, axis,
-                                                        u_begin, u_count, h, nodes, node_count)
-                           : 0;
+    clvox_real g0[3], g1[3];
+    const int col_near = signs ? clvox_column_winding_setup(signs, counts, rays, r0, R, capacity, ks, axis,
+                                                            u_begin, u_count, h, nodes, node_count, g0, g1)
+                               : 0;
     uint exact = 0;
+    clvox_sample_cut sc;
+    sc.n = 0;
+    sc.fresh_exact = 0;
     ulong sum = 0;
     uint filled = 0, word = 0;
     uint j = 0;
@@ -152,7 +194,14 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
         const clvox_real hi = lo + (clvox_real)1;
         uint next, rays_in = clvox_column_step(hits, signs, counts, r0, R, capacity, k, ks, abs_mode, u_begin,
                                                u_count, j, lo, &next);
-        if (near) next = j; /* every sample on its own */
+        int near = 0; /* voxel j's samples one by one */
+        if (col_near) {
+            const uint e = clvox_column_far_until(j, next > j ? next : j + 1u, g0, g1, axis, u_begin, h, nodes,
+                                                  node_count);
+            near = e == j;
+            if (near) next = j;
+            else if (next > j) next = e;
+        }
         uint clean = rays_in * M; /* the points of the clean rays that are inside */
         uint end = next > j ? next : j + 1; /* voxels [j, end) get one value */
         uint cnt = clean;
@@ -177,7 +226,7 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                     if (sg) {
                         while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
                         cnt += near ? (uint)clvox_sample_winding(K, abs_mode, axis, p, rays + r0 + r, h, nodes,
-                                                                 node_count, caps, &exact)
+                                                                 node_count, caps, &exact, &sc)
                                     : (uint)clvox_k_inside(K, abs_mode);
                     } else {
                         while (kk < n && hr[kk] <= p) kk++;

@@ -102,10 +102,14 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
         k[r] = 0;
     }
     /* the ray axis: palette `axis` is 1..3 (x..z), the winding helpers take 0..2 */
-    const int near = signs ? clvox_column_winding_setup(signs, counts, rays, r0, R, capacity, ks, axis - 1u,
-                                                        u_begin, u_count, h, nodes, node_count)
-                           : 0;
+    clvox_real g0[3], g1[3];
+    const int col_near = signs ? clvox_column_winding_setup(signs, counts, rays, r0, R, capacity, ks, axis - 1u,
+                                                            u_begin, u_count, h, nodes, node_count, g0, g1)
+                               : 0;
     uint exact = 0;
+    clvox_sample_cut sc;
+    sc.n = 0;
+    sc.fresh_exact = 0;
     ulong sum = 0;
     uint filled = 0, word = 0, n_early = 0, n_short = 0, n_scored = 0, nonempty = 0;
     ulong volume = 0;
@@ -117,7 +121,14 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
         /* the first voxel (>= j) holding a crossing; rays inside until then */
         uint next, rays_in = clvox_column_step(hits, signs, counts, r0, R, capacity, k, ks, abs_mode, u_begin,
                                                u_count, j, lo, &next);
-        if (near) next = j; /* every sample on its own */
+        int near = 0; /* voxel j's samples one by one (clvox_column_far_until) */
+        if (col_near) {
+            const uint e = clvox_column_far_until(j, next > j ? next : j + 1u, g0, g1, axis - 1u, u_begin, h, nodes,
+                                                  node_count);
+            near = e == j;
+            if (near) next = j;
+            else if (next > j) next = e;
+        }
         uint end = j + 1, elem = 0, score = 0, cnt = 0;
         if (next > j && early_out && (rays_in == 0 || rays_in == R)) {
             end = next; /* wholly outside or inside: empty or full, score 1 */
@@ -148,7 +159,7 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                         if (sg) {
                             while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
                             in = near ? (uint)clvox_sample_winding(K, abs_mode, axis - 1u, p, rays + r0 + r, h,
-                                                                   nodes, node_count, caps, &exact)
+                                                                   nodes, node_count, caps, &exact, &sc)
                                       : (uint)clvox_k_inside(K, abs_mode);
                         } else {
                             while (kk < n && hr[kk] <= p) kk++;

@@ -29,10 +29,8 @@ static inline void clvox_winding_advance(global const clvox_real *hh, global con
     }
 }
 
-/* The inside test at ray voxel u (clvox_winding_inside_m), started from
- * the last evaluation's tree cut (any cut is a valid start; a neighbour's
- * saves most of the descent), which is dropped once it has grown much past
- * a fresh start's (a cut only refines). */
+/* The inside test at ray voxel u, from the last evaluation's tree cut
+ * (clvox_winding_inside_cut). */
 static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
                                    global const clvox_real *caps, uint axis, global const clvox_real *h, clvox_real u,
                                    clvox_real rv, clvox_real rw, uint tight, uint *exact, clvox_real *lo,
@@ -40,14 +38,8 @@ static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_
 {
     clvox_real px, py, pz;
     clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
-    const int fresh = *cut_n == 0;
-    const int inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, tight, exact,
-                                              lo, hi, cut, cut_n);
-    uint cut_exact = 0;
-    for (uint i = 0; i < *cut_n; i++) cut_exact += (cut[i] & CLVOX_CUT_EXACT) != 0;
-    if (fresh) *fresh_exact = cut_exact;
-    else if (cut_exact > *fresh_exact + *fresh_exact / 2u + 2u) *cut_n = 0;
-    return inside;
+    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, tight, exact, lo, hi, cut,
+                                    cut_n, fresh_exact);
 }
 
 /* How far an evaluation's interval [lo, hi] lies from the threshold thr

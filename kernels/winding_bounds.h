@@ -65,6 +65,8 @@ static inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, con
  * pair seen from outside the box, and half_count (1 a pair) inside it. */
 #define CLVOX_PAIR_TREE(nodes, count) ((count) > 0u && (nodes)[0].radius >= CLVOX_PAIR_RADIUS)
 
+#define CLVOX_COLUMN_BUDGET 48u /* node steps of a column stretch's bound (kernels/coverage.cl) */
+
 /* Inside from K alone (no caps near): w = K exactly, K >= 1 (abs: K != 0). */
 static inline int clvox_k_inside(int K, uint abs_mode) { return abs_mode ? K != 0 : K >= 1; }
 

@@ -177,10 +177,22 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
     }
 }
 
-static inline int clvox_winding_inside(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                       global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                       uint axis, uint *exact)
+/* clvox_winding_inside_m started from the cut of the last evaluation
+ * nearby (any cut is a valid start; a neighbour's saves most of the
+ * descent), which is dropped once it has grown much past a fresh start's
+ * (a cut only refines): *fresh_exact holds the exact nodes of the last
+ * fresh start. */
+static inline int clvox_winding_inside_cut(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
+                                           global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
+                                           uint axis, uint tight, uint *exact, clvox_real *lo, clvox_real *hi,
+                                           uint *cut, uint *cut_n, uint *fresh_exact)
 {
-    clvox_real lo, hi;
-    return clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, 0u, exact, &lo, &hi, 0, 0);
+    const int fresh = *cut_n == 0;
+    const int inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, tight, exact,
+                                              lo, hi, cut, cut_n);
+    uint cut_exact = 0;
+    for (uint i = 0; i < *cut_n; i++) cut_exact += (cut[i] & CLVOX_CUT_EXACT) != 0;
+    if (fresh) *fresh_exact = cut_exact;
+    else if (cut_exact > *fresh_exact + *fresh_exact / 2u + 2u) *cut_n = 0;
+    return inside;
 }

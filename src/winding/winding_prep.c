@@ -88,7 +88,7 @@
  * once and a flip array, ~180 MB before that).
  * Measured: armadillo_s3 (3.3 M triangles, closed) 0.19-0.23 s of CPU on
  * the shared 2-core development box, load 4 (0.24-0.27 s before; see
- * docs/benchmarks.md "Winding numbers").
+ * docs/benchmarks.md "Winding on closed meshes").
  *
  * The steps are in winding_merge.c (1-2), winding_orient.c (3-4),
  * winding_nesting.c (4) and winding_caps.c (5), their shared state in

@@ -130,7 +130,8 @@ typedef struct clvox_stats {
     uint64_t palette_nonempty_voxels; double palette_volume; clvox_inside inside;
     clvox_winding_report winding; uint32_t device_count; clvox_device_share devices[16];
     double scheduling_efficiency; uint32_t reorder_slabs; uint64_t reorder_bytes; uint32_t reorder_peak;
-    double winding_exact_seconds; ...;
+    double winding_exact_seconds; double crack_weld_distance; uint64_t crack_welded_vertices;
+    uint64_t crack_pairs; uint64_t crack_holes; ...;
 } clvox_stats;
 
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,

@@ -173,6 +173,11 @@ def _stats_dict(s):
     d["inside"] = ffi.string(lib.clvox_inside_name(s.inside)).decode()
     d["winding"] = ({f: getattr(s.winding, f) for f in _WINDING_FIELDS}
                     if s.inside in (lib.CLVOX_INSIDE_WINDING, lib.CLVOX_INSIDE_WINDING_ABS) else None)
+    if d["winding"] is not None:  # the certified crack weld (docs/design.md "Cracks"), as --json has it
+        d["winding"]["crack_weld"] = ({"distance": float(s.crack_weld_distance),
+                                       "welded_vertices": int(s.crack_welded_vertices),
+                                       "pairs": int(s.crack_pairs), "holes_left": int(s.crack_holes)}
+                                      if s.crack_pairs else None)
     d["devices"] = [{"index": int(e.device), "slabs": int(e.slabs), "slices": int(e.slices),
                      "busy_s": float(e.busy_seconds), "discarded_slabs": int(e.discarded_slabs),
                      "failed": bool(e.failed), "left_out": bool(e.left_out)}

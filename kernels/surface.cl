@@ -23,8 +23,10 @@
 #define CLVOX_SURFACE_ROW_AXES 3
 #endif
 
-#if defined(CLVOX_FP64)
-/* every operation rounded as written (the filters' error bounds assume it) */
+/* In clvox_ovr (kernels/overlap.h): clvox_ovr where the device has fp64,
+ * float where it has not; every decision is an exact sign either way, so
+ * both give the same voxels. Every operation rounded as written (the
+ * filters' error bounds assume it). */
 #pragma OPENCL FP_CONTRACT OFF
 
 /* One separating-axis predicate: the sign of an affine function of the
@@ -34,50 +36,50 @@
  *         ds, dt = b - a rounded as clvox_e2_sign rounds them;
  * kind 1: clvox_o3_sign(v0, v1, v2, c + o). */
 typedef struct clvox_spred {
-    double ds, dt, cs, ct; /* kind 0: b - a (rounded), c0 in (s, t) */
-    double r0, ry, rz;     /* approximate root along x: r0 + ry*y + rz*z (x-dependent ones) */
+    clvox_ovr ds, dt, cs, ct; /* kind 0: b - a (rounded), c0 in (s, t) */
+    clvox_ovr r0, ry, rz;     /* approximate root along x: r0 + ry*y + rz*z (x-dependent ones) */
     float o[3];            /* corner offset, -+0.5 per axis */
     uchar kind, s, t, a, b, c0;
     char want;
     uchar pad;
 } clvox_spred;
 
-static inline double clvox_coord(uint axis, double x, double y, double z) { return axis == 0 ? x : axis == 1 ? y : z; }
+static inline clvox_ovr clvox_coord(uint axis, clvox_ovr x, clvox_ovr y, clvox_ovr z) { return axis == 0 ? x : axis == 1 ? y : z; }
 
-static inline int clvox_spred_holds(const clvox_spred *p, const double *v, const double *om, double x, double y,
-                                    double z)
+static inline int clvox_spred_holds(const clvox_spred *p, const clvox_ovr *v, const clvox_ovr *om, clvox_ovr x, clvox_ovr y,
+                                    clvox_ovr z)
 {
     int sg;
     if (p->kind == 0) {
         /* clvox_e2_sign with the differences b - a already taken */
-        const double Cs = clvox_coord(p->s, x, y, z) + (double)p->o[p->s];
-        const double Ct = clvox_coord(p->t, x, y, z) + (double)p->o[p->t];
-        const double l = p->ds * (Ct - p->ct), r = p->dt * (Cs - p->cs);
-        const double det = l - r, bound = CLVOX_OV_E2_ERR * (fabs(l) + fabs(r));
+        const clvox_ovr Cs = clvox_coord(p->s, x, y, z) + (clvox_ovr)p->o[p->s];
+        const clvox_ovr Ct = clvox_coord(p->t, x, y, z) + (clvox_ovr)p->o[p->t];
+        const clvox_ovr l = p->ds * (Ct - p->ct), r = p->dt * (Cs - p->cs);
+        const clvox_ovr det = l - r, bound = CLVOX_OV_BOUND(CLVOX_OV_E2_ERR * (fabs(l) + fabs(r)));
         if (det > bound) sg = 1;
         else if (-det > bound) sg = -1;
         else
             sg = clvox_e2_exact(v[3 * p->a + p->s], v[3 * p->a + p->t], v[3 * p->b + p->s], v[3 * p->b + p->t], p->cs,
                                 p->ct, Cs, Ct);
     } else {
-        sg = clvox_o3_sign_pre(v, om, om + 3, x + (double)p->o[0], y + (double)p->o[1], z + (double)p->o[2]);
+        sg = clvox_o3_sign_pre(v, om, om + 3, x + (clvox_ovr)p->o[0], y + (clvox_ovr)p->o[1], z + (clvox_ovr)p->o[2]);
     }
     return p->want > 0 ? sg >= 0 : sg <= 0;
 }
 
 /* clvox_spred_holds out of line: the rows' fallback when a filter cannot
  * decide (rare), kept out of their loops. */
-static __attribute__((noinline)) int clvox_spred_holds_cold(const clvox_spred *p, const double *v,
-                                                            const double *om, double x, double y, double z)
+static __attribute__((noinline)) int clvox_spred_holds_cold(const clvox_spred *p, const clvox_ovr *v,
+                                                            const clvox_ovr *om, clvox_ovr x, clvox_ovr y, clvox_ovr z)
 {
     return clvox_spred_holds(p, v, om, x, y, z);
 }
 
 /* All predicates of one group hold at cell x of the row (idx[first] tried first). */
-static inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const double *v,
-                                    const double *om, int x, double y, double z)
+static inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int n, int first, const clvox_ovr *v,
+                                    const clvox_ovr *om, int x, clvox_ovr y, clvox_ovr z)
 {
-    const double xd = (double)x;
+    const clvox_ovr xd = (clvox_ovr)x;
     if (n && !clvox_spred_holds(&p[idx[first]], v, om, xd, y, z)) return 0;
     for (int i = 0; i < n; i++)
         if (i != first && !clvox_spred_holds(&p[idx[i]], v, om, xd, y, z)) return 0;
@@ -99,61 +101,61 @@ static inline int clvox_group_holds(const clvox_spred *p, const uchar *idx, int 
  * decided when |value| > bound; otherwise clvox_spred_holds re-evaluates it
  * (filter, then the exact expansion). */
 typedef struct clvox_rpred {
-    double coef, off, base, A, A2, pcoef, B, B2, err, dir;
+    clvox_ovr coef, off, base, A, A2, pcoef, B, B2, err, dir;
     uchar idx;
     uchar pad[7];
 } clvox_rpred;
 
-static inline void clvox_rpred_setup(clvox_rpred *r, const clvox_spred *p, uchar idx, const double *v, const double *om,
-                                     double y, double z)
+static inline void clvox_rpred_setup(clvox_rpred *r, const clvox_spred *p, uchar idx, const clvox_ovr *v, const clvox_ovr *om,
+                                     clvox_ovr y, clvox_ovr z)
 {
     r->idx = idx;
-    double flip;
+    clvox_ovr flip;
     if (p->kind == 0) {
         /* s or t is x (the slope along x is not 0) */
         const int sx = p->s == 0;
         const uint ca = sx ? p->t : p->s; /* the constant coordinate */
-        const double Cc = clvox_coord(ca, 0.0, y, z) + (double)p->o[ca];
-        double A;
+        const clvox_ovr Cc = clvox_coord(ca, (clvox_ovr)0, y, z) + (clvox_ovr)p->o[ca];
+        clvox_ovr A;
         if (sx) { /* det = ds (Ct - ct) - dt (Cs - cs), Cs = x + os */
             A = p->ds * (Cc - p->ct);
-            r->coef = p->dt, r->off = (double)p->o[p->s], r->base = p->cs, flip = -1.0;
+            r->coef = p->dt, r->off = (clvox_ovr)p->o[p->s], r->base = p->cs, flip = -(clvox_ovr)1;
         } else { /* t is x: det = ds (Ct - ct) - dt (Cs - cs), Ct = x + ot */
             A = p->dt * (Cc - p->cs);
-            r->coef = p->ds, r->off = (double)p->o[p->t], r->base = p->ct, flip = 1.0;
+            r->coef = p->ds, r->off = (clvox_ovr)p->o[p->t], r->base = p->ct, flip = (clvox_ovr)1;
         }
         /* var - A as (var + (-A)) + 0 and |A| + |var| as (|w| |coef| + |A|)
          * + 0: the same values (|w| |coef| = |w coef| exactly) */
-        r->A = -A, r->A2 = 0.0;
-        r->pcoef = fabs(r->coef), r->B = fabs(A), r->B2 = 0.0;
+        r->A = -A, r->A2 = (clvox_ovr)0;
+        r->pcoef = fabs(r->coef), r->B = fabs(A), r->B2 = (clvox_ovr)0;
         r->err = CLVOX_OV_E2_ERR;
     } else {
-        const double wy = (y + (double)p->o[1]) - v[1], wz = (z + (double)p->o[2]) - v[2];
-        r->coef = om[0], r->off = (double)p->o[0], r->base = v[0];
+        const clvox_ovr wy = (y + (clvox_ovr)p->o[1]) - v[1], wz = (z + (clvox_ovr)p->o[2]) - v[2];
+        r->coef = om[0], r->off = (clvox_ovr)p->o[0], r->base = v[0];
         r->A = wy * om[1], r->A2 = wz * om[2];
         r->pcoef = om[3], r->B = fabs(wy) * om[4], r->B2 = fabs(wz) * om[5];
         r->err = CLVOX_OV_O3_ERR;
-        flip = 1.0;
+        flip = (clvox_ovr)1;
     }
     r->dir = p->want > 0 ? flip : -flip; /* holds iff dir * det >= 0 */
 }
 
-static inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const double *v, const double *om,
-                                    int x, double y, double z)
+static inline int clvox_rpred_holds(const clvox_rpred *r, const clvox_spred *p, const clvox_ovr *v, const clvox_ovr *om,
+                                    int x, clvox_ovr y, clvox_ovr z)
 {
-    const double xd = (double)x;
-    const double w = (xd + r->off) - r->base;
+    const clvox_ovr xd = (clvox_ovr)x;
+    const clvox_ovr w = (xd + r->off) - r->base;
     /* kind 0: flip * det = var - A; kind 1: det; times dir = +-1 (exact) */
-    const double sd = r->dir * ((w * r->coef + r->A) + r->A2);
-    const double bound = r->err * ((fabs(w) * r->pcoef + r->B) + r->B2);
+    const clvox_ovr sd = r->dir * ((w * r->coef + r->A) + r->A2);
+    const clvox_ovr bound = CLVOX_OV_BOUND(r->err * ((fabs(w) * r->pcoef + r->B) + r->B2));
     if (sd > bound) return 1;
     if (-sd > bound) return 0;
     return clvox_spred_holds_cold(&p[r->idx], v, om, xd, y, z);
 }
 
 /* All row predicates hold at x (rp[first] tried first). */
-static inline int clvox_rgroup_holds(const clvox_rpred *rp, int n, int first, const clvox_spred *p, const double *v,
-                                     const double *om, int x, double y, double z)
+static inline int clvox_rgroup_holds(const clvox_rpred *rp, int n, int first, const clvox_spred *p, const clvox_ovr *v,
+                                     const clvox_ovr *om, int x, clvox_ovr y, clvox_ovr z)
 {
     if (n && !clvox_rpred_holds(&rp[first], p, v, om, x, y, z)) return 0;
     for (int i = 0; i < n; i++)
@@ -163,22 +165,22 @@ static inline int clvox_rgroup_holds(const clvox_rpred *rp, int n, int first, co
 
 /* Smallest i of [lo, hi] with i + 1/2 >= m, or hi + 1; largest with
  * i - 1/2 <= m, or lo - 1 (exact comparisons; m a float). */
-static inline int clvox_first_cell(double m, int lo, int hi)
+static inline int clvox_first_cell(clvox_ovr m, int lo, int hi)
 {
-    if (m <= (double)lo - 0.5) return lo;
-    if (!(m <= (double)hi + 0.5)) return hi + 1;
-    int i = (int)ceil(m - 0.5);
-    while (i > lo && (double)(i - 1) + 0.5 >= m) i--;
-    while (i <= hi && (double)i + 0.5 < m) i++;
+    if (m <= (clvox_ovr)lo - (clvox_ovr)0.5) return lo;
+    if (!(m <= (clvox_ovr)hi + (clvox_ovr)0.5)) return hi + 1;
+    int i = (int)ceil(m - (clvox_ovr)0.5);
+    while (i > lo && (clvox_ovr)(i - 1) + (clvox_ovr)0.5 >= m) i--;
+    while (i <= hi && (clvox_ovr)i + (clvox_ovr)0.5 < m) i++;
     return i;
 }
-static inline int clvox_last_cell(double m, int lo, int hi)
+static inline int clvox_last_cell(clvox_ovr m, int lo, int hi)
 {
-    if (m >= (double)hi + 0.5) return hi;
-    if (!(m >= (double)lo - 0.5)) return lo - 1;
-    int i = (int)floor(m + 0.5);
-    while (i < hi && (double)(i + 1) - 0.5 <= m) i++;
-    while (i >= lo && (double)i - 0.5 > m) i--;
+    if (m >= (clvox_ovr)hi + (clvox_ovr)0.5) return hi;
+    if (!(m >= (clvox_ovr)lo - (clvox_ovr)0.5)) return lo - 1;
+    int i = (int)floor(m + (clvox_ovr)0.5);
+    while (i < hi && (clvox_ovr)(i + 1) - (clvox_ovr)0.5 <= m) i++;
+    while (i >= lo && (clvox_ovr)i - (clvox_ovr)0.5 > m) i--;
     return i;
 }
 
@@ -206,8 +208,8 @@ static void clvox_surface_raster_body(global const float *soup, global const uin
     if (gid >= task_count) return;
     global const uint *task = tasks + (size_t)gid * 4;
     global const float *tp = soup + (size_t)task[0] * 9;
-    double w[9]; /* grid space */
-    for (int i = 0; i < 9; i++) w[i] = (double)tp[i];
+    clvox_ovr w[9]; /* grid space */
+    for (int i = 0; i < 9; i++) w[i] = (clvox_ovr)tp[i];
 
     /* The task's cells per axis (exact closed-extent ranges; y and z from
      * the host, already clipped to the task). */
@@ -239,7 +241,7 @@ static void clvox_surface_raster_body(global const float *soup, global const uin
 #endif
     /* frames: x rows (x, y, z), y rows (y, x, z), z rows (z, x, y) */
     const int perm0 = row_axis, perm1 = row_axis == 0 ? 1 : 0, perm2 = row_axis == 2 ? 1 : 2;
-    double v[9];
+    clvox_ovr v[9];
     for (int i = 0; i < 3; i++) {
         v[3 * i] = w[3 * i + perm0];
         v[3 * i + 1] = w[3 * i + perm1];
@@ -250,7 +252,7 @@ static void clvox_surface_raster_body(global const float *soup, global const uin
     /* Exact signs of the normal's components: n_k is the orientation of the
      * triangle projected along axis k, in the cyclic coordinates (s, t). */
     int sn[3];
-    double na[3]; /* approximate normal */
+    clvox_ovr na[3]; /* approximate normal */
     for (int k = 0; k < 3; k++) {
         int s = (k + 1) % 3, t = (k + 2) % 3;
         sn[k] = clvox_e2_sign(v[s], v[t], v[3 + s], v[3 + t], v[s], v[t], v[6 + s], v[6 + t]);
@@ -269,7 +271,7 @@ static void clvox_surface_raster_body(global const float *soup, global const uin
         const int s = (k + 1) % 3, t = (k + 2) % 3;
         for (int m = 0; m < 3; m++) {
             const int a = m, b = (m + 1) % 3, r = (m + 2) % 3;
-            const double ds = v[3 * b + s] - v[3 * a + s], dt = v[3 * b + t] - v[3 * a + t];
+            const clvox_ovr ds = v[3 * b + s] - v[3 * a + s], dt = v[3 * b + t] - v[3 * a + t];
             const int gs = v[3 * b + t] < v[3 * a + t] ? 1 : v[3 * b + t] > v[3 * a + t] ? -1 : 0; /* sign(-dt) */
             const int gt = v[3 * b + s] > v[3 * a + s] ? 1 : v[3 * b + s] < v[3 * a + s] ? -1 : 0; /* sign(ds) */
             if (!gs && !gt) continue; /* a point in this projection: no axis */
@@ -297,12 +299,12 @@ static void clvox_surface_raster_body(global const float *soup, global const uin
                 q->c0 = (uchar)(use_r ? r : a);
                 q->want = (char)(side ? -1 : 1);
                 /* value = ds (C.t - c0.t) - dt (C.s - c0.s), C = c + o */
-                double g[3] = {0.0, 0.0, 0.0};
+                clvox_ovr g[3] = {(clvox_ovr)0, (clvox_ovr)0, (clvox_ovr)0};
                 g[s] = -dt;
                 g[t] = ds;
-                const double h = ds * ((double)ot - v[3 * q->c0 + t]) - dt * ((double)os - v[3 * q->c0 + s]);
+                const clvox_ovr h = ds * ((clvox_ovr)ot - v[3 * q->c0 + t]) - dt * ((clvox_ovr)os - v[3 * q->c0 + s]);
                 q->ds = ds, q->dt = dt, q->cs = v[3 * q->c0 + s], q->ct = v[3 * q->c0 + t];
-                const double inv = -1.0 / g[0]; /* inf when g[0] == 0: then unused */
+                const clvox_ovr inv = -(clvox_ovr)1 / g[0]; /* inf when g[0] == 0: then unused */
                 q->r0 = h * inv, q->ry = g[1] * inv, q->rz = g[2] * inv;
                 /* exact slope along x: ds when t is x, -dt when s is x, none when k is x */
                 const int slope = t == 0 ? gt : s == 0 ? gs : 0;
@@ -323,10 +325,10 @@ static void clvox_surface_raster_body(global const float *soup, global const uin
             q->kind = 1;
             q->s = q->t = q->a = q->b = q->c0 = 0;
             q->want = (char)(side ? -1 : 1);
-            const double h = na[0] * ((double)q->o[0] - v[0]) + na[1] * ((double)q->o[1] - v[1]) +
-                             na[2] * ((double)q->o[2] - v[2]);
-            q->ds = q->dt = q->cs = q->ct = 0.0;
-            const double inv = -1.0 / na[0];
+            const clvox_ovr h = na[0] * ((clvox_ovr)q->o[0] - v[0]) + na[1] * ((clvox_ovr)q->o[1] - v[1]) +
+                             na[2] * ((clvox_ovr)q->o[2] - v[2]);
+            q->ds = q->dt = q->cs = q->ct = (clvox_ovr)0;
+            const clvox_ovr inv = -(clvox_ovr)1 / na[0];
             q->r0 = h * inv, q->ry = na[1] * inv, q->rz = na[2] * inv;
             const int incr = sn[0] * q->want;
             if (incr == 0) cst[ncst++] = (uchar)np;
@@ -336,24 +338,24 @@ static void clvox_surface_raster_body(global const float *soup, global const uin
         }
     }
 
-    double om[6]; /* the triangle's part of the plane predicates' filter */
+    clvox_ovr om[6]; /* the triangle's part of the plane predicates' filter */
     clvox_o3_setup(v, om, om + 3);
     const int j0 = lo[perm1], j1 = hi[perm1];
-    const double xlod = (double)xlo, xhid = (double)xhi;
+    const clvox_ovr xlod = (clvox_ovr)xlo, xhid = (clvox_ovr)xhi;
     for (int k = lo[perm2]; k <= hi[perm2]; k++) {
-        const double kd = (double)k;
+        const clvox_ovr kd = (clvox_ovr)k;
         for (int j = j0; j <= j1; j++) {
-            const double yd = (double)j;
+            const clvox_ovr yd = (clvox_ovr)j;
             if (!clvox_group_holds(p, cst, ncst, 0, v, om, xlo, yd, kd)) continue;
             clvox_rpred rlo[20], rup[20];
             for (int i = 0; i < nlo; i++) clvox_rpred_setup(&rlo[i], &p[lower[i]], lower[i], v, om, yd, kd);
             /* L: first x of [xlo, xhi] where every lower predicate holds;
              * the one with the largest approximate root is tried first */
-            double guess = xlod;
+            clvox_ovr guess = xlod;
             int first = 0;
             for (int i = 0; i < nlo; i++) {
                 const clvox_spred *q = &p[lower[i]];
-                double root = q->r0 + q->ry * yd + q->rz * kd;
+                clvox_ovr root = q->r0 + q->ry * yd + q->rz * kd;
                 if (root > guess) guess = root, first = i; /* NaN ignored */
             }
             int L = (int)ceil(fmin(guess, xhid));
@@ -370,10 +372,10 @@ static void clvox_surface_raster_body(global const float *soup, global const uin
             first = 0;
             for (int i = 0; i < nup; i++) {
                 const clvox_spred *q = &p[upper[i]];
-                double root = q->r0 + q->ry * yd + q->rz * kd;
+                clvox_ovr root = q->r0 + q->ry * yd + q->rz * kd;
                 if (root < guess) guess = root, first = i;
             }
-            int U = (int)floor(fmax(guess, (double)L));
+            int U = (int)floor(fmax(guess, (clvox_ovr)L));
             if (clvox_rgroup_holds(rup, nup, first, p, v, om, U, yd, kd)) {
                 while (U < xhi && clvox_rgroup_holds(rup, nup, first, p, v, om, U + 1, yd, kd)) U++;
             } else {
@@ -428,4 +430,3 @@ kernel void clvox_surface_count(global const uint *bits, uint words_per_row, uin
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
-#endif /* CLVOX_FP64 */

@@ -23,8 +23,6 @@
  * symbolic perturbation P + e*t0 + e^2*t1 + e^3*t2 (t = the ray axes u,v,w):
  * the sign of the first non-zero of n.t0, n.t1, n.t2. */
 
-#if defined(CLVOX_FP64)
-
 /* Slices and rows within this distance (voxel units) of a tetrahedron are
  * visited, far more than the rounding of F (about 1e-11 voxel). */
 #ifndef CLVOX_TETRA_MARGIN
@@ -48,6 +46,8 @@ static inline int clvox_swap3(float *p, float *q)
     }
     return -1;
 }
+
+#if defined(CLVOX_FP64)
 
 /* One face of a tetrahedron, ready for thresholds along x. */
 typedef struct clvox_tface {
@@ -161,6 +161,8 @@ static inline int4 clvox_bound_fast4(double4 xe, double tol, double Xd)
     return select((int4)(-1), hi + 1, lo == hi);
 }
 
+#endif /* CLVOX_FP64 */
+
 /* Flips the centres [L, U) of one row of presence differences. */
 static inline void clvox_span_xor(global uint *row, int L, int U, int X)
 {
@@ -177,9 +179,9 @@ static inline void clvox_span_xor(global uint *row, int L, int U, int X)
  * {C,D}: it is AC). Each point is interpolated from the edge's lower end,
  * so at a vertex's height it is that vertex, and a flat edge gives its
  * lower-indexed end (the other is on another edge). */
-static inline void clvox_section(const double *vy, const double *vz, double h, const double *e, double *lo, double *hi)
+static inline void clvox_section(const clvox_ovr *vy, const clvox_ovr *vz, clvox_ovr h, const clvox_ovr *e, clvox_ovr *lo, clvox_ovr *hi)
 {
-    double p0 = vy[3] + (h - vz[3]) * e[2], p1, p2, p3;
+    clvox_ovr p0 = vy[3] + (h - vz[3]) * e[2], p1, p2, p3;
     if (h >= vz[1]) {
         p1 = vy[1] + (h - vz[1]) * e[0];
         p2 = vy[2] + (h - vz[2]) * e[1];
@@ -196,6 +198,8 @@ static inline void clvox_section(const double *vy, const double *vz, double h, c
     *lo = fmin(fmin(p0, p1), fmin(p2, p3));
     *hi = fmax(fmax(p0, p1), fmax(p2, p3));
 }
+
+#if defined(CLVOX_FP64)
 
 /* clvox_section at four heights at once (each within [D.z, A.z]). */
 static inline void clvox_section4(const double *vy, const double *vz, double4 h, const double *e, double4 *lo,
@@ -413,6 +417,211 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
+#else /* !CLVOX_FP64: float, every sign exact (kernels/overlap.h) */
+
+/* One face of a tetrahedron on a device without fp64. The face function is
+ * the exact F(P) = n.(P - A), n = (P1 - A) x (P2 - A), of the same
+ * canonical (A, P1, P2) as in double, its sign taken with clvox_o3_sign_pre
+ * (a float filter, then the exact expansion), and F == 0 broken by the same
+ * perturbation from the exact signs of n's components (clvox_e2_sign). The
+ * float n only guesses where a row's threshold is; the threshold itself is
+ * settled by exact signs at the integers around the guess. */
+typedef struct clvox_tface_x {
+    float v[9];        /* A, P1, P2 */
+    float m[3], pm[3]; /* clvox_o3_setup(v) */
+    float nx, ny, nz;  /* n, rounded (guesses only) */
+    float inv_nx;      /* 1 / nx (0 when nx == 0) */
+    int snx;           /* the exact sign of n.x */
+    int want;          /* sign F must have inside the tetrahedron */
+    int tie;           /* sign of F when F == 0 (0: degenerate face) */
+} clvox_tface_x;
+
+/* Face through A, P1, P2 (floats in grid space). */
+static inline void clvox_face_set_x(clvox_tface_x *f, float ax, float ay, float az, float p1x, float p1y, float p1z,
+                                    float p2x, float p2y, float p2z, uint order)
+{
+    const float v[9] = {ax, ay, az, p1x, p1y, p1z, p2x, p2y, p2z};
+    for (int i = 0; i < 9; i++) f->v[i] = v[i];
+    clvox_o3_setup(f->v, f->m, f->pm);
+    f->nx = f->m[0], f->ny = f->m[1], f->nz = f->m[2];
+    f->inv_nx = f->nx != 0.0f ? 1.0f / f->nx : 0.0f;
+    /* exact signs of n's components: n_k is the 2x2 determinant in the
+     * cyclic coordinates (s, t) = (k + 1, k + 2) */
+    int sn[3];
+    for (int k = 0; k < 3; k++) {
+        const int s = (k + 1) % 3, t = (k + 2) % 3;
+        sn[k] = clvox_e2_sign(v[s], v[t], v[3 + s], v[3 + t], v[s], v[t], v[6 + s], v[6 + t]);
+    }
+    f->snx = sn[0];
+    f->tie = 0;
+    for (int i = 2; i >= 0; i--) { /* the first non-zero of n.t0, n.t1, n.t2 */
+        const int c = sn[(order >> (2 * i)) & 3u];
+        if (c) f->tie = c;
+    }
+}
+
+/* Internal face (O, p, q): canonical order p < q, as in double. Returns the
+ * sign relating F_Opq to the canonical function. */
+static inline int clvox_face_internal_x(clvox_tface_x *f, float ox, float oy, float oz, float px, float py, float pz,
+                                        float qx, float qy, float qz, uint order)
+{
+    if (clvox_lex_less(qx, qy, qz, px, py, pz)) {
+        clvox_face_set_x(f, ox, oy, oz, qx, qy, qz, px, py, pz, order);
+        return -1;
+    }
+    clvox_face_set_x(f, ox, oy, oz, px, py, pz, qx, qy, qz, order);
+    return 1;
+}
+
+/* The exact sign of F at (x, y, k), ties broken by the perturbation. */
+static inline int clvox_face_sign_x(const clvox_tface_x *f, float x, float y, float k)
+{
+    const int s = clvox_o3_sign_pre(f->v, f->m, f->pm, x, y, k);
+    return s ? s : f->tie;
+}
+
+/* First x in [0, X] where snx * sign(F(x)) > 0 (X when none): F is affine
+ * in x with slope n.x, so that sign flips once along the row; the walk
+ * starts at the guessed root and steps until it has found the flip. */
+static inline int clvox_face_threshold_x(const clvox_tface_x *f, float yd, float kd, int X)
+{
+    const float xs = f->v[0] - (f->ny * (yd - f->v[1]) + f->nz * (kd - f->v[2])) * f->inv_nx;
+    int t = (int)fmin(fmax(rint(xs), 0.0f), (float)X); /* NaN -> 0 */
+    while (t > 0 && f->snx * clvox_face_sign_x(f, (float)(t - 1), yd, kd) > 0) t--;
+    while (t < X && f->snx * clvox_face_sign_x(f, (float)t, yd, kd) <= 0) t++;
+    return t;
+}
+
+/* The span of a row: L = the largest threshold of the lower faces, U = the
+ * smallest of the upper ones. */
+static inline int clvox_group_bound_x(const clvox_tface_x *f, const int *idx, int n, float yd, float kd, int X,
+                                      int upper)
+{
+    int b = upper ? X : 0;
+    for (int a = 0; a < n; a++) {
+        const int t = clvox_face_threshold_x(&f[idx[a]], yd, kd, X);
+        b = upper ? min(b, t) : max(b, t);
+    }
+    return b;
+}
+
+/* The raster of one task as in double, with exact signs throughout: the
+ * tetrahedron's orientation, the faces' sides and slopes, the constant
+ * faces and every threshold. Rows come from the float cross-sections,
+ * widened by a margin that covers their rounding (below 13 u of the
+ * largest coordinate: u = 2^-24; 2^-19 of it is taken), so no row with a
+ * covered centre is skipped; a row outside the tetrahedron gives L >= U. */
+static void clvox_tetra_raster_body(global const float *soup, global const uint *tasks, uint task_count, float ox,
+                                    float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
+                                    global uint *bits)
+{
+    uint gid = get_global_id(0);
+    if (gid >= task_count) return;
+    global const uint *task = tasks + (size_t)gid * 4;
+    global const float *t = soup + (size_t)task[0] * 9;
+    float a0 = t[0], a1 = t[1], a2 = t[2];
+    float b0 = t[3], b1 = t[4], b2 = t[5];
+    float c0 = t[6], c1 = t[7], c2 = t[8];
+
+    clvox_tface_x f[4];
+    int s0 = clvox_face_internal_x(&f[0], ox, oy, oz, a0, a1, a2, b0, b1, b2, tie_order);
+    int s1 = clvox_face_internal_x(&f[1], ox, oy, oz, b0, b1, b2, c0, c1, c2, tie_order);
+    int s2 = clvox_face_internal_x(&f[2], ox, oy, oz, c0, c1, c2, a0, a1, a2, tie_order);
+    const int vol = s0 * clvox_o3_sign_pre(f[0].v, f[0].m, f[0].pm, c0, c1, c2); /* det[a-O; b-O; c-O] */
+    if (vol == 0) return; /* flat: covers nothing */
+    const int s = vol;
+    f[0].want = s * s0;
+    f[1].want = s * s1;
+    f[2].want = s * s2;
+    {
+        float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
+        int par = 1;
+        if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
+        if (clvox_lex_less(r[0], r[1], r[2], q[0], q[1], q[2])) par *= clvox_swap3(q, r);
+        if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
+        clvox_face_set_x(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
+        f[3].want = -s * par;
+    }
+    int lo_idx[4], up_idx[4], cst_idx[4], nlo = 0, nup = 0, ncst = 0;
+    for (int i = 0; i < 4; i++) {
+        if (f[i].snx == 0) cst_idx[ncst++] = i;
+        else if (f[i].want == f[i].snx) lo_idx[nlo++] = i;
+        else up_idx[nup++] = i;
+    }
+    if (nlo > 3 || nup > 3) return;
+
+    float vy[4] = {oy, a1, b1, c1}, vz[4] = {oz, a2, b2, c2};
+    float big = fmax((float)Y, (float)task[2]);
+    for (int i = 0; i < 4; i++) big = fmax(big, fmax(fabs(vy[i]), fabs(vz[i])));
+    for (int i = 1; i < 4; i++)
+        for (int j = i; j > 0 && vz[j] > vz[j - 1]; j--) {
+            float ty = vy[j], tz = vz[j];
+            vy[j] = vy[j - 1];
+            vz[j] = vz[j - 1];
+            vy[j - 1] = ty;
+            vz[j - 1] = tz;
+        }
+    float e[6];
+    e[0] = vz[0] > vz[1] ? (vy[0] - vy[1]) / (vz[0] - vz[1]) : 0.0f;
+    e[1] = vz[0] > vz[2] ? (vy[0] - vy[2]) / (vz[0] - vz[2]) : 0.0f;
+    e[2] = vz[0] > vz[3] ? (vy[0] - vy[3]) / (vz[0] - vz[3]) : 0.0f;
+    e[3] = vz[1] > vz[2] ? (vy[1] - vy[2]) / (vz[1] - vz[2]) : 0.0f;
+    e[4] = vz[1] > vz[3] ? (vy[1] - vy[3]) / (vz[1] - vz[3]) : 0.0f;
+    e[5] = vz[2] > vz[3] ? (vy[2] - vy[3]) / (vz[2] - vz[3]) : 0.0f;
+    const float m = (float)CLVOX_TETRA_MARGIN + 0x1p-19f * big;
+    const float widen = 2.0f * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
+                                        fmax(fabs(e[4]), fabs(e[5])));
+    const int iX = (int)X;
+    for (uint k = task[1]; k < task[2]; k++) {
+        const float kd = (float)k;
+        float lo = INFINITY, hi = -INFINITY;
+        if (widen < 0.5f) {
+            const float kc = fmin(fmax(kd, vz[3]), vz[0]);
+            if (fabs(kd - kc) > m) continue;
+            clvox_section(vy, vz, kc, e, &lo, &hi);
+            lo -= widen;
+            hi += widen;
+        } else {
+            for (int i = 0; i < 4; i++)
+                if (fabs(vz[i] - kd) <= m) {
+                    lo = fmin(lo, vy[i]);
+                    hi = fmax(hi, vy[i]);
+                }
+            for (int i = -1; i <= 1; i += 2) {
+                float h = kd + (float)i * m, l2, h2;
+                if (h < vz[3] || h > vz[0]) continue;
+                clvox_section(vy, vz, h, e, &l2, &h2);
+                lo = fmin(lo, l2);
+                hi = fmax(hi, h2);
+            }
+        }
+        const float jlo = fmax(ceil(lo - m), 0.0f), jhi = fmin(floor(hi + m), (float)Y - 1.0f);
+        if (!(jlo <= jhi)) continue;
+        for (int j = (int)jlo; j <= (int)jhi; j++) {
+            const float yd = (float)j;
+            int out = 0;
+            for (int a = 0; a < ncst && !out; a++) /* faces with F constant along the row */
+                out = clvox_face_sign_x(&f[cst_idx[a]], 0.0f, yd, kd) != f[cst_idx[a]].want;
+            if (out) continue;
+            const int L = clvox_group_bound_x(f, lo_idx, nlo, yd, kd, iX, 0);
+            const int U = clvox_group_bound_x(f, up_idx, nup, yd, kd, iX, 1);
+            if (L >= U) continue;
+            clvox_span_xor(bits + ((size_t)(k - z0) * Y + (size_t)j) * words_per_row, L, U, iX);
+        }
+    }
+}
+
+kernel void clvox_tetra_raster(global const float *soup, global const uint *tasks, uint task_count, float ox,
+                               float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
+                               global uint *bits,
+                               global uint *clvox_done, uint clvox_done_slot)
+{
+    clvox_tetra_raster_body(soup, tasks, task_count, ox, oy, oz, tie_order, z0, X, Y, words_per_row, bits);
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}
+
+#endif /* CLVOX_FP64 */
+
 /* Prefix XOR along each row, in place: difference markers -> occupancy bits
  * (the slab format of src/core/internal.h, bits past X cleared), and the count
  * of filled voxels. rows = Y * nz. */
@@ -448,4 +657,3 @@ kernel void clvox_tetra_resolve(global uint *bits, uint words_per_row, uint X, u
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
-#endif /* CLVOX_FP64 */

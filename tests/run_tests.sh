@@ -57,6 +57,12 @@ if [ -z "${CLVOX_QUICK:-}" ] && [ -x "$t" ]; then
     failed=$((failed + 1)); broken="$broken test_winding_float"
   fi
 fi
+# The raster methods' and the ray method's exact float paths against their
+# oracles (GMP clipping, tetra == ray), in float.
+for name in test_surface test_tetra; do
+  t="$build/tests/$name"
+  if [ -z "${CLVOX_QUICK:-}" ] && [ -x "$t" ]; then run_one "${name}_float" CLVOX_KERNEL_FLOAT=1 "$t"; fi
+done
 [ -n "$broken" ] && echo "failing:$broken"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -13,7 +13,9 @@
 # build/$CONFIG/tests/test_oclgrind; tests/run_tests.sh runs it like the C
 # test programs. Ends with one "N passed, N failed" line. docs/testing.md.
 # The same cases also run on PoCL with CLVOX_LOCAL_SIZE=1 (work-groups of
-# one work-item) and must give the same bytes.
+# one work-item) and must give the same bytes. The float build of the
+# kernels (CLVOX_KERNEL_FLOAT=1) runs under Oclgrind too, in the modes it
+# decides exactly, and must give the double kernels' bytes.
 set -u
 here=$(cd "$(dirname "$0")" && pwd)          # build/CONFIG/tests
 build=$(dirname "$here")
@@ -62,6 +64,11 @@ check_case() {
     pocl-local=*) # PoCL with work-groups of at most N work-items (CLVOX_LOCAL_SIZE)
       CLVOX_LOCAL_SIZE=${opts#pocl-local=} "$bin" "$@" -q -o "$d/out.exr" > "$d/stdout" 2> "$d/stderr"
       rc=$?; : > "$d/oclgrind.log" ;;
+    float:*) # the kernels built as for a device without fp64, under Oclgrind
+      # shellcheck disable=SC2086 # opts: several words
+      CLVOX_KERNEL_FLOAT=1 oclgrind ${opts#float:} --log "$d/oclgrind.log" "$bin" "$@" -q -o "$d/out.exr" \
+        > "$d/stdout" 2> "$d/stderr"
+      rc=$? ;;
     *) # shellcheck disable=SC2086 # opts: several words
       oclgrind $opts --log "$d/oclgrind.log" "$bin" "$@" -q -o "$d/out.exr" > "$d/stdout" 2> "$d/stderr"
       rc=$? ;;
@@ -114,6 +121,27 @@ for opts in "--data-races --check-api" "--max-wgsize 16" "pocl-local=1"; do
   IFS=$old_ifs
 done
 echo "cases: $((passed + failed)) runs (oclgrind twice, PoCL local size 1 once) in $(($(date +%s) - start)) s"
+
+# The float build (devices without fp64: CLVOX_KERNEL_FLOAT=1) under
+# Oclgrind, in the modes it decides exactly: the same bytes as the double
+# kernels on PoCL (tests/test_float_kernels.c compares them on PoCL).
+float_cases="
+$M/cow.off -r 16 --inside parity
+$M/cube-ouvert.off -r 12 --inside parity --axis y
+$M/cow.off -r 16 --method tetra
+$M/corner_with_hole.off -r 12 --mode surface
+$M/cow.off -r 16 --mode conservative --method tetra --axis z
+"
+old_ifs=$IFS; IFS='
+'
+for line in $float_cases; do
+  IFS=$old_ifs
+  # shellcheck disable=SC2086
+  if check_case float "float:--data-races --check-api" $line; then pass; else failed=$((failed + 1)); fi
+  IFS='
+'
+done
+IFS=$old_ifs
 
 # The negative checks: a broken kernel must fail a case (the cache off, so
 # the broken build is not kept nor an earlier one taken).

@@ -844,19 +844,13 @@ static void test_options(void)
     CHECK(strstr(clvox_context_error(ctx), "tetra") != NULL || strstr(clvox_context_error(ctx), "winding") != NULL);
     o.inside = CLVOX_INSIDE_WINDING_ABS;
     CHECK_STATUS(ctx, clvox_voxelize_to_memory(ctx, mb, &g, &o, buf, n, NULL), CLVOX_ERR_INVALID_ARGUMENT);
-    if (ctx->real_size == 8) {
-        o.inside = CLVOX_INSIDE_DEFAULT;
-        CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, mb, &g, &o, buf, n, &s));
-        CHECK(s.inside == CLVOX_INSIDE_PARITY);
-        o.inside = CLVOX_INSIDE_PARITY;
-        CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, mb, &g, &o, buf, n, &s));
-        CHECK(s.inside == CLVOX_INSIDE_PARITY);
-    } else { /* float kernels (CLVOX_KERNEL_FLOAT=1): tetra refuses to run at all */
-        o.inside = CLVOX_INSIDE_DEFAULT;
-        CHECK(clvox_voxelize_to_memory(ctx, mb, &g, &o, buf, n, &s) != CLVOX_OK &&
-              strstr(clvox_context_error(ctx), "double precision") != NULL &&
-              strstr(clvox_context_error(ctx), "CLVOX_KERNEL_FLOAT") != NULL);
-    }
+    /* double and float kernels alike (tetra runs exactly in float too) */
+    o.inside = CLVOX_INSIDE_DEFAULT;
+    CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, mb, &g, &o, buf, n, &s));
+    CHECK(s.inside == CLVOX_INSIDE_PARITY);
+    o.inside = CLVOX_INSIDE_PARITY;
+    CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, mb, &g, &o, buf, n, &s));
+    CHECK(s.inside == CLVOX_INSIDE_PARITY);
     CHECK(strcmp(clvox_inside_name(CLVOX_INSIDE_WINDING), "winding") == 0 &&
           strcmp(clvox_inside_name(CLVOX_INSIDE_WINDING_ABS), "winding-abs") == 0 &&
           strcmp(clvox_inside_name(CLVOX_INSIDE_PARITY), "parity") == 0 &&

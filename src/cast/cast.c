@@ -86,6 +86,8 @@ struct clvox__method_state {
     clvox__quadtree qt;
     cl_mem verts, tris, nodes, refs; /* the triangles, indexed; the quadtree (read-only device copies) */
     float *verts_host;           /* grid-space vertices (owned) */
+    size_t float_outside;        /* clvox__float_outside over them (float kernels decide exactly without it) */
+    float float_coord;
     uint32_t *tris_owned;        /* the index array when it is not the mesh's own (winding) */
     cl_kernel k_lookup, k_intersect, k_sort, k_classify; /* k_classify: binary runs, parity or winding */
     int winding;                 /* 1: signed crossings and the winding inside test */
@@ -441,6 +443,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         s->qt.depth = lead->qt.depth;
         s->qt.leaf_count = lead->qt.leaf_count;
         s->leaf_max = lead->leaf_max;
+        s->float_outside = lead->float_outside;
+        s->float_coord = lead->float_coord;
         if (stats) clvox__winding_stats(&s->wind, stats);
     } else if (st == CLVOX_OK && s->winding)
         st = clvox__winding_cast_prepare(ctx, mesh, grid, opts, s->axes, s->dim_v, s->dim_w, s->leaf_size, &s->wind,
@@ -456,6 +460,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     /* held by s from here (ray_release frees them after the buffers) */
     s->verts_host = verts;
     s->tris_owned = tris_owned;
+    if (st == CLVOX_OK && !lead) s->float_outside = clvox__float_outside(verts, vert_count * 3, &s->float_coord);
+    if (st == CLVOX_OK) st = clvox__float_check(ctx, "the ray method", s->float_outside, s->float_coord);
     if (st == CLVOX_OK && !have_tree && !lead)
         st = clvox__quadtree_build(ctx, verts, tris, tri_count, s->dim_v, s->dim_w, opts->quadtree_max_depth,
                                    s->leaf_size, &s->qt);

@@ -7,6 +7,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -342,14 +343,26 @@ static clvox_status build_program(clvox_context *ctx)
                        (int)err, log);
 }
 
-clvox_status clvox__need_fp64(clvox_context *ctx, const char *what)
+size_t clvox__float_outside(const float *v, size_t n, float *bad)
 {
-    if (ctx->kernels_float)
-        return clvox__fail(ctx, CLVOX_ERR_NO_DEVICE,
-                           "%s needs double precision (cl_khr_fp64): CLVOX_KERNEL_FLOAT=1 built the kernels in float",
-                           what);
-    return clvox__fail(ctx, CLVOX_ERR_NO_DEVICE, "%s needs double precision (cl_khr_fp64), which device '%s' lacks",
-                       what, ctx->device.name);
+    for (size_t i = 0; i < n; i++) {
+        const float a = fabsf(v[i]);
+        if (a != 0.0f && !(a >= 0x1p-24f && a <= 0x1p36f)) {
+            *bad = v[i];
+            return i + 1;
+        }
+    }
+    return 0;
+}
+
+clvox_status clvox__float_check(clvox_context *ctx, const char *what, size_t outside, float bad)
+{
+    if (ctx->real_size != 4 || !outside) return CLVOX_OK;
+    return clvox__fail(ctx, CLVOX_ERR_NO_DEVICE,
+                       "%s in float (%s): grid coordinate %g is outside the range where float decides exactly "
+                       "(0, or 2^-24 to 2^36 voxels); use a device with double precision",
+                       what, ctx->kernels_float ? "CLVOX_KERNEL_FLOAT=1" : "the device has no cl_khr_fp64",
+                       (double)bad);
 }
 
 /* The kernels compute crossings in double when the device compiler offers

@@ -86,10 +86,15 @@ void clvox__out_end(void *out, const void *full); /* NULL-safe */
 
 /* Same for an OpenCL error: "<what>: CL_OUT_OF_RESOURCES (-5)". */
 clvox_status clvox__cl_fail(clvox_context *ctx, cl_int err, const char *what);
-/* CLVOX_ERR_NO_DEVICE for `what` (a stage whose kernels exist only with
- * fp64): "WHAT needs double precision ...", naming the device or the
- * CLVOX_KERNEL_FLOAT that made the kernels float. */
-clvox_status clvox__need_fp64(clvox_context *ctx, const char *what);
+/* Float kernels (devices without fp64) decide their predicates exactly
+ * for grid coordinates that are 0 or of magnitude in [2^-24, 2^36]
+ * (kernels/overlap.h "Range"). clvox__float_outside: 1 + the index of the
+ * first of v[0 .. n) outside it (its value in *bad), 0 when all are
+ * inside. clvox__float_check: where ctx's kernels are float and
+ * `outside`, CLVOX_ERR_NO_DEVICE saying so (`what`: the mode or method);
+ * else CLVOX_OK. */
+size_t clvox__float_outside(const float *v, size_t n, float *bad);
+clvox_status clvox__float_check(clvox_context *ctx, const char *what, size_t outside, float bad);
 const char *clvox__cl_error_name(cl_int err);
 /* The kernel program's binary kept between processes (program_cache.c):
  * the program built from the cached binary for ctx's device, or NULL (off,

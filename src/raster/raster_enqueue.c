@@ -23,12 +23,12 @@ clvox_status clvox__raster_objects(clvox_context *ctx, const char *raster_name, 
     if (st != CLVOX_OK) return st;
     cl_int err;
     *raster = clCreateKernel(ctx->program, raster_name, &err);
-    if (err == CL_INVALID_KERNEL_NAME) return clvox__need_fp64(ctx, what);
     if (err != CL_SUCCESS) {
         char msg[96];
         snprintf(msg, sizeof msg, "clCreateKernel(%s)", raster_name);
         return clvox__cl_fail(ctx, err, msg);
     }
+    (void)what;
     return clvox__kernel(ctx, count_name, count);
 }
 

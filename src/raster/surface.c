@@ -38,7 +38,8 @@
  * z: the kernel permutes the triangle's coordinates; exact signs make the
  * frame irrelevant to the result).
  * The result is the per-cell test for every cell, bit for bit, on any
- * device; tests/test_surface.c compares it with a CPU reference that clips
+ * device, with fp64 or without (the predicates in float: overlap.h;
+ * coordinates outside float's exact range refuse a float run); tests/test_surface.c compares it with a CPU reference that clips
  * each triangle by each cell in GMP rationals.
  *
  * Streaming (as the tetra method): prepare computes each triangle's exact
@@ -69,6 +70,8 @@ struct clvox__method_state {
     int32_t *range;      /* 4 per triangle: first slice, last slice, first row, last row;
                           * shared with the run's other devices (clvox__shared_i32) */
     uint32_t words_per_row;
+    size_t float_outside;  /* first kept triangle + 1 with a coordinate outside float's exact range (0: none) */
+    float float_coord;     /* that coordinate */
     clvox__raster_tasks tasks; /* the slab's (triangle, first slice, end slice, rows first | last << 16) */
     cl_mem soup, filled;
     cl_kernel k_raster, k_count;
@@ -130,6 +133,7 @@ static clvox_status surface_host(clvox__method_state *s, const clvox_mesh *mesh,
             in = cell_range(mn, mx, grid->dims[a], &r[2 * a], &r[2 * a + 1]);
         }
         if (!in) continue;
+        if (!s->float_outside) s->float_outside = clvox__float_outside(t, 9, &s->float_coord) ? kept + 1 : 0;
         int32_t *q = s->range + 4 * kept;
         q[0] = r[4], q[1] = r[5], q[2] = r[2], q[3] = r[3];
         if (kept != i) memcpy(soup + kept * 9, t, 9 * sizeof *soup); /* compact in place (kept <= i) */
@@ -165,6 +169,8 @@ static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
         /* Another device of the run did the host work: its ranges
          * (shared), a copy of its soup. */
         s->tri_count = lead->tri_count;
+        s->float_outside = lead->float_outside;
+        s->float_coord = lead->float_coord;
         s->range = clvox__shared_i32_ref(lead->range);
         s->soup = clvox__raster_copy_buffer(ctx, lead->ctx, lead->soup, &st, "triangles");
     } else {
@@ -174,6 +180,7 @@ static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     if (st == CLVOX_OK)
         st = clvox__raster_objects(ctx, "clvox_surface_raster", "clvox_surface_count", "surface mode", &s->filled,
                                    &s->k_raster, &s->k_count);
+    if (st == CLVOX_OK) st = clvox__float_check(ctx, "surface mode", s->float_outside, s->float_coord);
     if (stats) {
         uint64_t b = (uint64_t)s->tri_count * (9 * 4 + 16 + 4);
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;

@@ -69,9 +69,12 @@
  * within about 1e-11 voxel of a plane; the shared-face consistency still
  * holds, so only such points can be misclassified. The ray method computes
  * its crossings in double too, so the two methods agree bit for bit on
- * every test (tests/test_tetra.c compares every voxel, no tolerance). The
- * kernels need cl_khr_fp64; without it prepare fails with
- * CLVOX_ERR_NO_DEVICE. */
+ * every test (tests/test_tetra.c compares every voxel, no tolerance).
+ * Without cl_khr_fp64 the kernel takes every sign exactly in float
+ * (kernels/overlap.h): the exact F, which the double F equals wherever its
+ * rounding does not matter (docs/design.md "Devices without double
+ * precision"); coordinates outside float's exact range refuse the run
+ * (clvox__float_check). */
 #include "raster_enqueue.h"
 
 #include <math.h>
@@ -98,6 +101,8 @@ struct clvox__method_state {
     int32_t *klo, *khi;  /* slices of each tetrahedron (in bins) */
     uint32_t slices_per_task;
     uint32_t words_per_row;
+    size_t float_outside; /* clvox__float_outside over O and the kept soup */
+    float float_coord;
     clvox__raster_tasks tasks; /* the slab's (tetrahedron, first slice, end slice, 0) */
     cl_mem soup, filled; /* the presence bits live in the driver's slab buffer */
     cl_kernel k_raster, k_resolve;
@@ -306,6 +311,11 @@ static clvox_status tetra_host(clvox__method_state *s, const clvox_mesh *mesh, c
         khi[i] = (int32_t)(kh > lim[2] ? lim[2] : kh);
     }
     if (st == CLVOX_OK) st = sort_tetrahedra(s, soup, klo, khi);
+    if (st == CLVOX_OK) {
+        s->float_outside = clvox__float_outside(s->origin_g, 3, &s->float_coord);
+        if (!s->float_outside)
+            s->float_outside = clvox__float_outside(*soup, s->tri_count * 9, &s->float_coord);
+    }
     free(klo);
     free(khi);
     return st;
@@ -341,6 +351,8 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
         memcpy(s->origin, lead->origin, sizeof s->origin);
         memcpy(s->origin_g, lead->origin_g, sizeof s->origin_g);
         s->tri_count = lead->tri_count;
+        s->float_outside = lead->float_outside;
+        s->float_coord = lead->float_coord;
         s->bins = clvox__shared_i32_ref(lead->bins);
         s->klo = lead->klo;
         s->khi = lead->khi;
@@ -358,6 +370,7 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     if (st == CLVOX_OK)
         st = clvox__raster_objects(ctx, "clvox_tetra_raster", "clvox_tetra_resolve", "method tetra", &s->filled,
                                    &s->k_raster, &s->k_resolve);
+    if (st == CLVOX_OK) st = clvox__float_check(ctx, "method tetra", s->float_outside, s->float_coord);
     if (stats) {
         uint64_t b = (uint64_t)s->tri_count * (9 * 4 + 8); /* + the slab's bits, counted by the driver */
         if (b > stats->peak_slab_bytes) stats->peak_slab_bytes = b;

@@ -199,6 +199,43 @@ static inline void clvox_section(const clvox_ovr *vy, const clvox_ovr *vz, clvox
     *hi = fmax(fmax(p0, p1), fmax(p2, p3));
 }
 
+/* The cross-sections' data: the vertices O, a, b, c (their y and z) sorted
+ * by decreasing z into vy, vz, and e = dy/dz of the edges AB, AC, AD, BC,
+ * BD, CD (0 when flat: not used). */
+static inline void clvox_section_setup(float oy, float oz, float a1, float a2, float b1, float b2, float c1, float c2,
+                                       clvox_ovr *vy, clvox_ovr *vz, clvox_ovr *e)
+{
+    const float y0[4] = {oy, a1, b1, c1}, z0[4] = {oz, a2, b2, c2};
+    for (int i = 0; i < 4; i++) vy[i] = y0[i], vz[i] = z0[i];
+    for (int i = 1; i < 4; i++)
+        for (int j = i; j > 0 && vz[j] > vz[j - 1]; j--) {
+            clvox_ovr ty = vy[j], tz = vz[j];
+            vy[j] = vy[j - 1];
+            vz[j] = vz[j - 1];
+            vy[j - 1] = ty;
+            vz[j - 1] = tz;
+        }
+    const clvox_ovr zero = 0;
+    e[0] = vz[0] > vz[1] ? (vy[0] - vy[1]) / (vz[0] - vz[1]) : zero;
+    e[1] = vz[0] > vz[2] ? (vy[0] - vy[2]) / (vz[0] - vz[2]) : zero;
+    e[2] = vz[0] > vz[3] ? (vy[0] - vy[3]) / (vz[0] - vz[3]) : zero;
+    e[3] = vz[1] > vz[2] ? (vy[1] - vy[2]) / (vz[1] - vz[2]) : zero;
+    e[4] = vz[1] > vz[3] ? (vy[1] - vy[3]) / (vz[1] - vz[3]) : zero;
+    e[5] = vz[2] > vz[3] ? (vy[2] - vy[3]) / (vz[2] - vz[3]) : zero;
+}
+
+/* Sorts the mesh face's vertices p, q, r lexicographically (so that a
+ * duplicated triangle gives the same face function); returns the parity of
+ * the permutation (+-1). */
+static inline int clvox_sort3(float *p, float *q, float *r)
+{
+    int par = 1;
+    if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
+    if (clvox_lex_less(r[0], r[1], r[2], q[0], q[1], q[2])) par *= clvox_swap3(q, r);
+    if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
+    return par;
+}
+
 #if defined(CLVOX_FP64)
 
 /* clvox_section at four heights at once (each within [D.z, A.z]). */
@@ -246,10 +283,7 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
      * has the sign -s. */
     {
         float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
-        int par = 1;
-        if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
-        if (clvox_lex_less(r[0], r[1], r[2], q[0], q[1], q[2])) par *= clvox_swap3(q, r);
-        if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
+        const int par = clvox_sort3(p, q, r);
         clvox_face_set(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
         f[3].want = -s * par;
     }
@@ -286,23 +320,8 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
     if (nlo > 3 || nup > 3) return; /* all four on one side: cannot cover anything */
 
     /* Cross-sections: vertices sorted by decreasing z (clvox_section). */
-    double vy[4] = {oy, a1, b1, c1}, vz[4] = {oz, a2, b2, c2};
-    for (int i = 1; i < 4; i++)
-        for (int j = i; j > 0 && vz[j] > vz[j - 1]; j--) {
-            double ty = vy[j], tz = vz[j];
-            vy[j] = vy[j - 1];
-            vz[j] = vz[j - 1];
-            vy[j - 1] = ty;
-            vz[j - 1] = tz;
-        }
-    /* dy/dz of the edges AB, AC, AD, BC, BD, CD (0 when flat: not used). */
-    double e[6];
-    e[0] = vz[0] > vz[1] ? (vy[0] - vy[1]) / (vz[0] - vz[1]) : 0.0;
-    e[1] = vz[0] > vz[2] ? (vy[0] - vy[2]) / (vz[0] - vz[2]) : 0.0;
-    e[2] = vz[0] > vz[3] ? (vy[0] - vy[3]) / (vz[0] - vz[3]) : 0.0;
-    e[3] = vz[1] > vz[2] ? (vy[1] - vy[2]) / (vz[1] - vz[2]) : 0.0;
-    e[4] = vz[1] > vz[3] ? (vy[1] - vy[3]) / (vz[1] - vz[3]) : 0.0;
-    e[5] = vz[2] > vz[3] ? (vy[2] - vy[3]) / (vz[2] - vz[3]) : 0.0;
+    double vy[4], vz[4], e[6];
+    clvox_section_setup(oy, oz, a1, a2, b1, b2, c1, c2, vy, vz, e);
 
     const double m = CLVOX_TETRA_MARGIN, Yd = (double)Y, Xd = (double)X;
     const double widen = 2.0 * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
@@ -535,10 +554,7 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
     f[2].want = s * s2;
     {
         float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
-        int par = 1;
-        if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
-        if (clvox_lex_less(r[0], r[1], r[2], q[0], q[1], q[2])) par *= clvox_swap3(q, r);
-        if (clvox_lex_less(q[0], q[1], q[2], p[0], p[1], p[2])) par *= clvox_swap3(p, q);
+        const int par = clvox_sort3(p, q, r);
         clvox_face_set_x(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
         f[3].want = -s * par;
     }
@@ -550,24 +566,10 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
     }
     if (nlo > 3 || nup > 3) return;
 
-    float vy[4] = {oy, a1, b1, c1}, vz[4] = {oz, a2, b2, c2};
+    float vy[4], vz[4], e[6];
+    clvox_section_setup(oy, oz, a1, a2, b1, b2, c1, c2, vy, vz, e);
     float big = fmax((float)Y, (float)task[2]);
     for (int i = 0; i < 4; i++) big = fmax(big, fmax(fabs(vy[i]), fabs(vz[i])));
-    for (int i = 1; i < 4; i++)
-        for (int j = i; j > 0 && vz[j] > vz[j - 1]; j--) {
-            float ty = vy[j], tz = vz[j];
-            vy[j] = vy[j - 1];
-            vz[j] = vz[j - 1];
-            vy[j - 1] = ty;
-            vz[j - 1] = tz;
-        }
-    float e[6];
-    e[0] = vz[0] > vz[1] ? (vy[0] - vy[1]) / (vz[0] - vz[1]) : 0.0f;
-    e[1] = vz[0] > vz[2] ? (vy[0] - vy[2]) / (vz[0] - vz[2]) : 0.0f;
-    e[2] = vz[0] > vz[3] ? (vy[0] - vy[3]) / (vz[0] - vz[3]) : 0.0f;
-    e[3] = vz[1] > vz[2] ? (vy[1] - vy[2]) / (vz[1] - vz[2]) : 0.0f;
-    e[4] = vz[1] > vz[3] ? (vy[1] - vy[3]) / (vz[1] - vz[3]) : 0.0f;
-    e[5] = vz[2] > vz[3] ? (vy[2] - vy[3]) / (vz[2] - vz[3]) : 0.0f;
     const float m = (float)CLVOX_TETRA_MARGIN + 0x1p-19f * big;
     const float widen = 2.0f * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
                                         fmax(fabs(e[4]), fabs(e[5])));

@@ -103,6 +103,7 @@ static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_g
     const long d = compare_run(what, mesh, g, &o);
     winding_runs++;
     if (d > 0) {
+        printf("  %s: %ld voxels differ (not checked)\n", what, d);
         winding_differ++;
         winding_voxels += (uint64_t)d;
     }

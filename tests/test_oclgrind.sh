@@ -104,21 +104,25 @@ $M/corner_with_hole.off -r 12 --mode surface
 $M/cow.off -r 16 --mode conservative --axis y
 $M/cube-ouvert.off -r 12 --mode conservative --method tetra
 "
-start=$(date +%s)
-# Last, PoCL itself with work-groups of 1 (the results must not depend on
-# the local size; Oclgrind above ran them at 16 and at its default).
-for opts in "--data-races --check-api" "--max-wgsize 16" "pocl-local=1"; do
-  # word splitting of each line is what we want: no spaces in the arguments
-  old_ifs=$IFS; IFS='
+# run_cases LABEL OPTS CASES: check_case on each line of CASES (word
+# splitting of each line is what we want: no spaces in the arguments)
+run_cases() {
+  rc_label=$1; rc_opts=$2; old_ifs=$IFS; IFS='
 '
-  for line in $cases; do
+  for line in $3; do
     IFS=$old_ifs
     # shellcheck disable=SC2086
-    if check_case case "$opts" $line; then pass; else failed=$((failed + 1)); fi
+    if check_case "$rc_label" "$rc_opts" $line; then pass; else failed=$((failed + 1)); fi
     IFS='
 '
   done
   IFS=$old_ifs
+}
+start=$(date +%s)
+# Last, PoCL itself with work-groups of 1 (the results must not depend on
+# the local size; Oclgrind above ran them at 16 and at its default).
+for opts in "--data-races --check-api" "--max-wgsize 16" "pocl-local=1"; do
+  run_cases case "$opts" "$cases"
 done
 echo "cases: $((passed + failed)) runs (oclgrind twice, PoCL local size 1 once) in $(($(date +%s) - start)) s"
 
@@ -132,16 +136,7 @@ $M/cow.off -r 16 --method tetra
 $M/corner_with_hole.off -r 12 --mode surface
 $M/cow.off -r 16 --mode conservative --method tetra --axis z
 "
-old_ifs=$IFS; IFS='
-'
-for line in $float_cases; do
-  IFS=$old_ifs
-  # shellcheck disable=SC2086
-  if check_case float "float:--data-races --check-api" $line; then pass; else failed=$((failed + 1)); fi
-  IFS='
-'
-done
-IFS=$old_ifs
+run_cases float "float:--data-races --check-api" "$float_cases"
 
 # The negative checks: a broken kernel must fail a case (the cache off, so
 # the broken build is not kept nor an earlier one taken).

@@ -1,0 +1,88 @@
+#!/bin/bash
+# SPDX-License-Identifier: Apache-2.0
+# Float kernels against double kernels (issue 37), not a test: the same
+# clvox run with the kernels built in double and built as for a device
+# without fp64 (CLVOX_KERNEL_FLOAT=1), interleaved, on the same device.
+#
+#   scripts/bench/bench_float.sh [-r N] [--repeat R] [--quick]
+#
+#   -r N        grid resolution (default 256)
+#   --repeat R  runs per case, the best whole-process wall time is shown
+#               (default 3)
+#   --quick     armadillo and elephant-with-holes only
+#
+# Cases: closed meshes (armadillo 52 k triangles, bunny00 75 k) in the
+# default mode (winding: on a closed mesh parity's voxels), --inside parity,
+# --method tetra, --mode surface; open meshes of the winding benchmark
+# (elephant-with-holes, holes, cylinder, mech-holes-shark, mushroom,
+# nefertiti, b9_mesh) in the default mode. Each row: double and float
+# seconds, their ratio, and whether the two EXR files are byte-identical
+# (else the filled-voxel counts). Markdown to stdout and to
+# build/bench/float.md.
+[ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
+set -euo pipefail
+here=$(cd "$(dirname "$0")/../.." && pwd)
+cd "$here"
+res=256 repeat=3 quick=0
+while [ $# -gt 0 ]; do
+  case "$1" in
+    -r) res=${2:?-r needs a number}; shift ;;
+    --repeat) repeat=${2:?--repeat needs a number}; shift ;;
+    --quick) quick=1 ;;
+    *) echo "unknown option $1" >&2; exit 2 ;;
+  esac
+  shift
+done
+bin=build/release/clvox
+[ -x "$bin" ] || make -j2 >/dev/null
+export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$here/build/pocl-cache}"
+out=build/bench/float
+mkdir -p "$out"
+md=build/bench/float.md
+
+best() { # best of $repeat wall times of: env VAR=VALUE... clvox ARGS
+  local b="" t
+  for _ in $(seq "$repeat"); do
+    local s e
+    s=$(date +%s.%N)
+    env "$@" > /dev/null 2> "$out/err" || { echo "fail"; return; }
+    e=$(date +%s.%N)
+    t=$(echo "$e - $s" | bc -l)
+    if [ -z "$b" ] || [ "$(echo "$t < $b" | bc -l)" = 1 ]; then b=$t; fi
+  done
+  printf '%.2f' "$b"
+}
+
+row() { # NAME MESH ARGS...
+  local name=$1 mesh=$2; shift 2
+  [ -f "data/meshes/$mesh.off" ] || { echo "| $name | $mesh | missing | | | |"; return; }
+  local a="$out/double.exr" b="$out/float.exr"
+  # warm both builds' program caches once
+  "$bin" "data/meshes/$mesh.off" -r 8 -q -o "$out/warm.exr" "$@" > /dev/null 2>&1 || true
+  CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" -r 8 -q -o "$out/warm.exr" "$@" > /dev/null 2>&1 || true
+  local td tf
+  td=$(best CLVOX_KERNEL_FLOAT=0 "$bin" "data/meshes/$mesh.off" -r "$res" -q -o "$a" "$@")
+  tf=$(best CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" -r "$res" -q -o "$b" "$@")
+  local same ratio="-"
+  if [ "$td" = fail ] || [ "$tf" = fail ]; then same="run failed: $(head -c 200 "$out/err")"
+  elif cmp -s "$a" "$b"; then same="identical"
+  else same="differ: $("$bin" info "$a" | grep -i filled | head -1) vs $("$bin" info "$b" | grep -i filled | head -1)"; fi
+  [ "$td" != fail ] && [ "$tf" != fail ] && ratio=$(printf '%.2f' "$(echo "$tf / $td" | bc -l)")
+  echo "| $name | $mesh | $td | $tf | $ratio | $same |"
+}
+
+{
+  echo "Float kernels (CLVOX_KERNEL_FLOAT=1) against double, ${res}^3, best of $repeat, whole process (s), $(nproc) cores, $(date -u +%Y-%m-%d)"
+  echo
+  echo "| case | mesh | double | float | float/double | bytes |"
+  echo "|---|---|---|---|---|---|"
+  closed="armadillo bunny00"; open="elephant-with-holes holes cylinder mech-holes-shark mushroom nefertiti b9_mesh"
+  [ "$quick" = 1 ] && closed=armadillo && open=elephant-with-holes
+  for m in $closed; do
+    row "default (winding)" "$m"
+    row "parity" "$m" --inside parity
+    row "tetra" "$m" --method tetra
+    row "surface" "$m" --mode surface
+  done
+  for m in $open; do row "default (winding), open" "$m"; done
+} | tee "$md"

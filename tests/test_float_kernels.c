@@ -11,6 +11,7 @@
  *  - grid-aligned meshes whose faces, edges and vertices lie on voxel
  *    centres and cell faces (exact ties everywhere),
  *  - random closed meshes and their soups, and lattice soups.
+ * A coordinate outside float's exact range refuses a float run.
  * The default winding inside test is not exact in float yet (issue 37): its
  * differences are counted and printed, not checked.
  * CLVOX_FLOAT_RES=n sets the data meshes' resolution (default 24). */
@@ -178,6 +179,34 @@ static void test_random(void)
     }
 }
 
+/* A coordinate outside float's exact range (a vertex 1e-9 voxel from the
+ * plane of centre 0): every float run refuses with one line naming it, the
+ * double kernels run. */
+static void test_range_refused(void)
+{
+    const double lo[3] = {-0.5, -0.5, -0.5}, hi[3] = {15.5, 15.5, 15.5};
+    const clvox_grid g = test_grid(lo, hi, 16, 16, 16);
+    tmesh m = tmesh_box(1e-9, 2, 2, 10, 10, 10);
+    clvox_mesh *mesh = NULL;
+    CHECK_OK(cd, clvox_mesh_from_arrays(cd, m.xyz, m.nv, m.tri, m.nt, &mesh));
+    uint8_t *buf = malloc(16 * 16 * 16);
+    for (size_t c = 0; mesh && buf && c < sizeof exact_cases / sizeof exact_cases[0]; c++) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.mode = exact_cases[c].mode;
+        o.method = exact_cases[c].method;
+        o.inside = exact_cases[c].inside;
+        CHECK_OK(cd, clvox_voxelize_to_memory(cd, mesh, &g, &o, buf, 16 * 16 * 16, NULL));
+        CHECK_STATUS(cf, clvox_voxelize_to_memory(cf, mesh, &g, &o, buf, 16 * 16 * 16, NULL), CLVOX_ERR_NO_DEVICE);
+        const char *e = clvox_context_error(cf);
+        CHECK_MSG(strstr(e, "outside the range where float decides exactly") && strstr(e, "1e-09") &&
+                      !strchr(e, '\n'),
+                  "%s: %s", exact_cases[c].name, e);
+    }
+    free(buf);
+    clvox_mesh_destroy(mesh);
+    tmesh_free(&m);
+}
+
 static int by_name(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
 
 static void test_data_meshes(void)
@@ -232,6 +261,7 @@ int main(void)
     if (cf->real_size != 4 || cd->real_size != 8) return test_report();
     test_grid_aligned();
     test_random();
+    test_range_refused();
     if (!getenv("CLVOX_QUICK")) test_data_meshes();
     printf("%u runs of the exact modes compared; winding (not exact in float yet): %u of %u runs differ, %llu "
            "voxels\n",

@@ -7,7 +7,8 @@
  * without double precision"): the ray method's parity (rays along x, y and
  * z), the tetra method, surface and conservative (with ray or tetra) --
  * every one must be byte-identical, on
- *  - every mesh of data/meshes (the CGAL meshes; closed, open, broken),
+ *  - every mesh of data/meshes (the CGAL meshes; closed, open, broken;
+ *    parity along x and conservative with tetra only, for time),
  *  - grid-aligned meshes whose faces, edges and vertices lie on voxel
  *    centres and cell faces (exact ties everywhere),
  *  - random closed meshes and their soups, and lattice soups.
@@ -83,10 +84,15 @@ static long compare_run(const char *what, const clvox_mesh *mesh, const clvox_gr
     return d;
 }
 
-/* Every exact mode on one mesh: byte-identical; the winding test counted. */
-static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_grid *g)
+/* Every exact mode on one mesh (with `all_axes` 0, parity along x only and
+ * conservative with tetra only: the data meshes, to keep the test short):
+ * byte-identical; the winding test counted. */
+static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_grid *g, int all_axes)
 {
     for (size_t c = 0; c < sizeof exact_cases / sizeof exact_cases[0]; c++) {
+        const char *cn = exact_cases[c].name;
+        if (!all_axes && (!strcmp(cn, "parity y") || !strcmp(cn, "parity z") || !strcmp(cn, "conservative ray")))
+            continue;
         clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
         o.mode = exact_cases[c].mode;
         o.method = exact_cases[c].method;
@@ -114,7 +120,7 @@ static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g)
 {
     clvox_mesh *mesh = NULL;
     CHECK_OK(cd, clvox_mesh_from_arrays(cd, m->xyz, m->nv, m->tri, m->nt, &mesh));
-    if (mesh) compare_mesh(name, mesh, g);
+    if (mesh) compare_mesh(name, mesh, g, 1);
     clvox_mesh_destroy(mesh);
 }
 
@@ -242,7 +248,7 @@ static void test_data_meshes(void)
         go.padding = 1;
         clvox_grid g;
         if (r->triangles > 0 && clvox_grid_compute(cd, &go, r->bbox_min, r->bbox_max, &g) == CLVOX_OK) {
-            compare_mesh(names[i], mesh, &g);
+            compare_mesh(names[i], mesh, &g, 0);
             loaded++;
         }
         clvox_mesh_destroy(mesh);

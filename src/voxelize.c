@@ -337,6 +337,17 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         uint32_t fit = window / (2 * ndev);
         if (dev[d].group > fit) dev[d].group = fit ? fit : 1;
     }
+    /* Members whose kernels follow other rules than the set's best (float
+     * kernels beside double ones: clvox__kernel_rules) decide some voxels
+     * of winding, coverage and palette runs differently: left out of those.
+     * Parity, tetra, surface and conservative by either are decided exactly
+     * in every build (docs/design.md "Devices without double precision"). */
+    int best_rules = 0;
+    for (uint32_t d = 0; d < ndev; d++)
+        if (clvox__kernel_rules(ctx->member[d]) > best_rules) best_rules = clvox__kernel_rules(ctx->member[d]);
+    const int same_in_float = !o.oversample && !o.palette &&
+                              (o.mode == CLVOX_MODE_SURFACE || o.method == CLVOX_METHOD_TETRA ||
+                               o.inside == CLVOX_INSIDE_PARITY);
     clvox_stats first = stats;
     int have_first = 0;
     uint32_t first_group = 1;
@@ -344,6 +355,16 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     for (uint32_t d = 0; d < ndev; d++) {
         clvox_context *dc = ctx->member[d];
         dev[d].ctx = dc;
+        if (!same_in_float && clvox__kernel_rules(dc) != best_rules) {
+            clvox__warn(ctx,
+                        "device %u '%s' left out: its kernels are %s and would decide some voxels of this run "
+                        "differently from the other devices' (parity, tetra, surface and conservative runs use it)",
+                        dc->position, dc->device.name,
+                        best_rules == 8 ? (dc->kernels_float ? "built without double precision (CLVOX_KERNEL_FLOAT)"
+                                                             : "built without double precision (no cl_khr_fp64)")
+                                        : "in float without correctly rounded division");
+            continue;
+        }
         clvox_stats mine = stats;
         clvox__run rd = req;
         rd.poll_user = &dev[d];

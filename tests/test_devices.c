@@ -993,6 +993,66 @@ static void test_cli(void)
     spawn_free(&r);
 }
 
+/* ---- a device without fp64 beside one with it ---- */
+
+/* Device 1 built as a device without fp64 (CLVOX_KERNEL_FLOAT_DEVICE=1):
+ * the set keeps both; parity, tetra and surface runs give device 1 slabs
+ * and the one-device volume; winding, coverage, palette and conservative by
+ * winding leave device 1 out with one warning, and give it too. */
+static void test_mixed_precision(const mesh_case *mc)
+{
+    clvox__test_hooks h = g_hooks;
+    h.kernels_float_device = 1;
+    clvox__set_test_hooks(&h);
+    clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
+    co.device = "all";
+    clvox_context *mixed = NULL;
+    clvox_status cs = clvox_context_create(&co, &mixed);
+    clear_fail();
+    CHECK_MSG(cs == CLVOX_OK && clvox_context_device_count(mixed) == 2 && !*clvox_context_warnings(mixed) &&
+                  mixed->member[0]->real_size == 8 && mixed->member[1]->real_size == 4,
+              "[%s] a float device beside a double one: %s, %zu devices, warnings '%s'", g_config,
+              clvox_status_string(cs), cs == CLVOX_OK ? clvox_context_device_count(mixed) : 0,
+              cs == CLVOX_OK ? clvox_context_warnings(mixed) : clvox_context_error(mixed));
+    if (cs != CLVOX_OK || clvox_context_device_count(mixed) != 2) {
+        clvox_context_destroy(mixed);
+        return;
+    }
+    mode_case modes[8];
+    size_t nmode = make_modes(modes);
+    for (size_t k = 0; k < nmode; k++) {
+        const char *name = modes[k].name;
+        const int both = !strcmp(name, "ray parity") || !strcmp(name, "tetra") || !strcmp(name, "surface");
+        char what[256];
+        snprintf(what, sizeof what, "[%s] %s, %s, a float device beside a double one", g_config, mc->name, name);
+        capture ref, c;
+        capture_init(&ref, &mc->grid);
+        capture_init(&c, &mc->grid);
+        CHECK_OK(g_one, run_capture(g_one, mc->mesh, &mc->grid, &modes[k].o, &ref, NULL));
+        clvox_stats st = CLVOX_STATS_INIT;
+        clvox_voxelize_options o = modes[k].o;
+        o.slab_depth = 2; /* several slabs a device */
+        clvox_status s = run_capture(mixed, mc->mesh, &mc->grid, &o, &c, &st);
+        CHECK_MSG(s == CLVOX_OK, "%s: %s: %s", what, clvox_status_string(s), clvox_context_error(mixed));
+        check_order(&c, what);
+        check_same(&ref, &c, what);
+        const char *w = clvox_context_warnings(mixed);
+        if (both)
+            /* it computes slabs (the scheduler may still leave it out later
+             * as slow: that depends on the load, not checked) */
+            CHECK_MSG(!*w && st.device_count == 2 && st.devices[1].slabs > 0,
+                      "%s: warnings '%s', device 1 with %u slabs", what, w, st.devices[1].slabs);
+        else
+            CHECK_MSG(strstr(w, "device 1 '") == w && strstr(w, "left out") && strstr(w, "double precision") &&
+                          count_lines(w) == 1 && st.devices[1].left_out && st.devices[1].slabs == 0,
+                      "%s: warnings '%s', device 1 left out %d with %u slabs", what, w, st.devices[1].left_out,
+                      st.devices[1].slabs);
+        capture_free(&ref);
+        capture_free(&c);
+    }
+    clvox_context_destroy(mixed);
+}
+
 /* ---- the child: one pair of devices ---- */
 
 static int child(const char *config)
@@ -1047,7 +1107,10 @@ static int child(const char *config)
             if (meshes[i].mesh && (!strcmp(meshes[i].name, "armadillo.off") || meshes[i].mesh == lop->mesh))
                 test_groups_same(&meshes[i]);
     }
-    if (!strcmp(config, "basic basic")) test_cli();
+    if (!strcmp(config, "basic basic")) {
+        test_cli();
+        if (lop->mesh) test_mixed_precision(lop);
+    }
 
     for (size_t i = 0; i < n; i++) clvox_mesh_destroy(meshes[i].mesh);
     clvox_palette_destroy(g_palette);

@@ -314,7 +314,9 @@ static clvox_status build_program(clvox_context *ctx)
     /* Correctly rounded division where the device has it (device_checks.c).
      * CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device without fp64
      * (a developer's check of the float path on PoCL). */
-    ctx->kernels_float = clvox__hooks()->kernels_float;
+    const clvox__test_hooks *hk = clvox__hooks();
+    ctx->kernels_float = hk->kernels_float ||
+                         (hk->kernels_float_device >= 0 && (uint32_t)hk->kernels_float_device == ctx->position);
     const char *base;
     clvox_status st = clvox__program_options(ctx, &base); /* device_checks.c */
     if (st != CLVOX_OK) return st;
@@ -507,31 +509,21 @@ static clvox_status open_set(clvox_context *ctx, const device_entry *list, const
     if (n == 0)
         return clvox__fail(ctx, first_st, "none of the %u devices could be used; device 0: %s", count, first_error);
     /* Kernels with and without fp64, or float kernels with and without
-     * correctly rounded division, decide some open-mesh voxels differently
-     * (docs/design.md "Device requirements"): one rule per volume, the
-     * best one present (double, else rounded float). */
+     * correctly rounded division, decide some voxels of some runs
+     * differently (docs/design.md "Device requirements", "Devices without
+     * double precision"): all stay in the set, those with the best rules
+     * present (double, else rounded float) first, and each run leaves out
+     * the others unless its mode decides the same in every build
+     * (voxelize.c). */
     int best = 0;
     for (uint32_t i = 0; i < n; i++)
         if (clvox__kernel_rules(open[i]) > best) best = clvox__kernel_rules(open[i]);
+    clvox_context *order[CLVOX_MAX_DEVICES];
     uint32_t kept = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        if (clvox__kernel_rules(open[i]) != best) {
-            const char *why = open[i]->real_size != 8 ? (open[i]->kernels_float ? "built without double precision "
-                                                                                   "(CLVOX_KERNEL_FLOAT=1)"
-                                                                                 : "built without double precision "
-                                                                                   "(no cl_khr_fp64)")
-                                                      : "";
-            if (best == 4) why = "in float without correctly rounded division";
-            clvox__warn(ctx,
-                        "device %u '%s' left out: its kernels are %s and would decide some voxels differently from "
-                        "the other devices'",
-                        open[i]->position, open[i]->device.name, why);
-            close_device(open[i]);
-            free(open[i]);
-            continue;
-        }
-        open[kept++] = open[i];
-    }
+    for (int pass = 0; pass < 2; pass++)
+        for (uint32_t i = 0; i < n; i++)
+            if ((clvox__kernel_rules(open[i]) == best) == (pass == 0)) order[kept++] = open[i];
+    memcpy(open, order, kept * sizeof *open);
     /* member 0 becomes ctx itself: all of it but the warnings so far */
     clvox_context *first = open[0];
     memcpy(first->warnings, ctx->warnings, sizeof ctx->warnings);

@@ -1003,7 +1003,7 @@ static void test_cli(void)
 static void test_mixed_precision(const mesh_case *mc)
 {
     clvox__test_hooks h = g_hooks;
-    h.kernels_float_device = 1;
+    h.kernels_float_device = 2; /* device 1 */
     clvox__set_test_hooks(&h);
     clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
     co.device = "all";

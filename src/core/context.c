@@ -316,7 +316,7 @@ static clvox_status build_program(clvox_context *ctx)
      * (a developer's check of the float path on PoCL). */
     const clvox__test_hooks *hk = clvox__hooks();
     ctx->kernels_float = hk->kernels_float ||
-                         (hk->kernels_float_device >= 0 && (uint32_t)hk->kernels_float_device == ctx->position);
+                         (hk->kernels_float_device > 0 && (uint32_t)hk->kernels_float_device == ctx->position + 1);
     const char *base;
     clvox_status st = clvox__program_options(ctx, &base); /* device_checks.c */
     if (st != CLVOX_OK) return st;

@@ -42,7 +42,7 @@ static clvox__test_hooks from_environment(void)
     clvox__test_hooks h = {0};
     h.kernels_float = is("CLVOX_KERNEL_FLOAT", "1");
     const char *kfd = getenv("CLVOX_KERNEL_FLOAT_DEVICE");
-    h.kernels_float_device = kfd && *kfd >= '0' && *kfd <= '9' ? atoi(kfd) : -1;
+    h.kernels_float_device = kfd && *kfd >= '0' && *kfd <= '9' ? atoi(kfd) + 1 : 0;
     h.mesh_reader_openmesh = is("CLVOX_MESH_READER", "openmesh");
     h.palette_no_masks = is("CLVOX_BENCH_NO_MASKS", "1");
     h.partition_lean_bits = (unsigned)in_range("CLVOX_PARTITION_LEAN_BITS", 10, 24);

@@ -24,9 +24,9 @@ const char *clvox__setting_value(clvox__setting s);
  * kernels_float, which builds the kernels as for a device without fp64. */
 typedef struct clvox__test_hooks {
     int kernels_float;         /* CLVOX_KERNEL_FLOAT=1: kernels built with -DCLVOX_NO_FP64 */
-    int kernels_float_device;  /* CLVOX_KERNEL_FLOAT_DEVICE=K: only device K of a set (its position in the
-                                * device list, from 0) built so, as a device without fp64 beside ones
-                                * with it; -1: none */
+    int kernels_float_device;  /* CLVOX_KERNEL_FLOAT_DEVICE=K: K + 1; only device K of a set (its position
+                                * in the device list, from 0) built so, as a device without fp64 beside
+                                * ones with it; 0: none (a zeroed struct builds none so) */
     int mesh_reader_openmesh;  /* CLVOX_MESH_READER=openmesh: binary PLY/STL through OpenMesh */
     int palette_no_masks;      /* CLVOX_BENCH_NO_MASKS=1: uniform palette samples scored one by one */
     unsigned partition_lean_bits; /* CLVOX_PARTITION_LEAN_BITS=10..24: 2^bits triangles start the

@@ -15,21 +15,14 @@
 /* Target duration of one raster chunk between polls (seconds). */
 #define RASTER_CHUNK_SECONDS 0.15
 
-clvox_status clvox__raster_objects(clvox_context *ctx, const char *raster_name, const char *count_name,
-                                   const char *what, cl_mem *filled, cl_kernel *raster, cl_kernel *count)
+clvox_status clvox__raster_objects(clvox_context *ctx, const char *raster_name, const char *count_name, cl_mem *filled,
+                                   cl_kernel *raster, cl_kernel *count)
 {
     clvox_status st = CLVOX_OK;
     *filled = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "filled count");
-    if (st != CLVOX_OK) return st;
-    cl_int err;
-    *raster = clCreateKernel(ctx->program, raster_name, &err);
-    if (err != CL_SUCCESS) {
-        char msg[96];
-        snprintf(msg, sizeof msg, "clCreateKernel(%s)", raster_name);
-        return clvox__cl_fail(ctx, err, msg);
-    }
-    (void)what;
-    return clvox__kernel(ctx, count_name, count);
+    if (st == CLVOX_OK) st = clvox__kernel(ctx, raster_name, raster);
+    if (st == CLVOX_OK) st = clvox__kernel(ctx, count_name, count);
+    return st;
 }
 
 clvox_status clvox__raster_tasks_grow(clvox_context *ctx, clvox__raster_tasks *t)

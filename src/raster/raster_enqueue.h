@@ -10,8 +10,8 @@
 
 /* A method's filled counter (one cl_uint) and kernels. Both raster
  * kernels are built in double and in float (kernels/overlap.h). */
-clvox_status clvox__raster_objects(clvox_context *ctx, const char *raster_name, const char *count_name,
-                                   const char *what, cl_mem *filled, cl_kernel *raster, cl_kernel *count);
+clvox_status clvox__raster_objects(clvox_context *ctx, const char *raster_name, const char *count_name, cl_mem *filled,
+                                   cl_kernel *raster, cl_kernel *count);
 
 
 /* Tasks of 4 cl_uint each (their meaning is the method's). */

@@ -178,7 +178,7 @@ static clvox_status surface_prepare(clvox_context *ctx, const clvox_mesh *mesh, 
     }
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
     if (st == CLVOX_OK)
-        st = clvox__raster_objects(ctx, "clvox_surface_raster", "clvox_surface_count", "surface mode", &s->filled,
+        st = clvox__raster_objects(ctx, "clvox_surface_raster", "clvox_surface_count", &s->filled,
                                    &s->k_raster, &s->k_count);
     if (st == CLVOX_OK) st = clvox__float_check(ctx, "surface mode", s->float_outside, s->float_coord);
     if (stats) {

@@ -368,7 +368,7 @@ static clvox_status tetra_prepare(clvox_context *ctx, const clvox_mesh *mesh, co
     if (stats) stats->seconds[CLVOX_STAGE_PARTITION] += clvox__now() - t0;
 
     if (st == CLVOX_OK)
-        st = clvox__raster_objects(ctx, "clvox_tetra_raster", "clvox_tetra_resolve", "method tetra", &s->filled,
+        st = clvox__raster_objects(ctx, "clvox_tetra_raster", "clvox_tetra_resolve", &s->filled,
                                    &s->k_raster, &s->k_resolve);
     if (st == CLVOX_OK) st = clvox__float_check(ctx, "method tetra", s->float_outside, s->float_coord);
     if (stats) {

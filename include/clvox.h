@@ -540,6 +540,11 @@ typedef struct clvox_stats {
     uint64_t crack_welded_vertices; /* vertices it merged */
     uint64_t crack_pairs;           /* triangles it moved (or collapsed) */
     uint64_t crack_holes;           /* holes left after it (winding.holes: before it) */
+    /* Winding runs on a device without fp64 (appended after crack_holes;
+     * docs/design.md "Devices without double precision"): the voxel centres
+     * whose float bounds could not settle the inside test, decided on the
+     * host in double -- the same voxels as a double device's. */
+    uint64_t winding_host_points;
 } clvox_stats;
 /* Every function taking a clvox_stats * (may be NULL) needs its .size set. */
 #define CLVOX_STATS_INIT { .size = sizeof(clvox_stats) }

@@ -147,8 +147,11 @@ static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_re
 {
     clvox_real x, y, z, lo, hi;
     clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);
+    /* no CLVOX_EXACT_SIGNS (the samples' positions need not be floats) and
+     * no host list: the float build's unsure answers stand (its coverage is
+     * not exact, docs/design.md "Devices without double precision") */
     return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, x, y, z, axis, 0u, exact, &lo, &hi, sc->cut,
-                                    &sc->n, &sc->fresh_exact);
+                                    &sc->n, &sc->fresh_exact) & 1;
 }
 
 static void clvox_coverage_body(global const clvox_column *cols, uint col_count, uint R, uint M,

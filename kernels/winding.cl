@@ -29,17 +29,38 @@ static inline void clvox_winding_advance(global const clvox_real *hh, global con
     }
 }
 
-/* The inside test at ray voxel u, from the last evaluation's tree cut
- * (clvox_winding_inside_cut). */
+/* A point the float build could not certify (CLVOX_UNSURE): ray gid,
+ * voxel j of the slab's stretch and K there, appended to the list the host
+ * reads after the batch (unsure[0]: entries wanted, unsure[1]: room; the
+ * entries from unsure[2], three words each). */
+static inline void clvox_unsure_push(global uint *unsure, uint gid, uint j, int K)
+{
+    const uint i = atomic_inc(unsure);
+    if (i < unsure[1]) {
+        global uint *e = unsure + 2 + (size_t)i * 3u;
+        e[0] = gid;
+        e[1] = j;
+        e[2] = (uint)K;
+    }
+}
+
+/* The inside test at ray voxel j (centre u_begin + j), from the last
+ * evaluation's tree cut (clvox_winding_inside_cut); an unsure answer goes
+ * to the host's list too. */
 static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                   global const clvox_real *caps, uint axis, global const clvox_real *h, clvox_real u,
-                                   clvox_real rv, clvox_real rw, uint tight, uint *exact, clvox_real *lo,
-                                   clvox_real *hi, uint *cut, uint *cut_n, uint *fresh_exact)
+                                   global const clvox_real *caps, uint axis, global const clvox_real *h,
+                                   global uint *unsure, uint gid, uint u_begin, uint j, clvox_real rv, clvox_real rw,
+                                   uint tight, uint *exact, clvox_real *lo, clvox_real *hi, uint *cut, uint *cut_n,
+                                   uint *fresh_exact)
 {
     clvox_real px, py, pz;
-    clvox_scaled_xyz(axis, u, rv, rw, h, &px, &py, &pz);
-    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, tight, exact, lo, hi, cut,
-                                    cut_n, fresh_exact);
+    clvox_scaled_xyz(axis, (clvox_real)(u_begin + j), rv, rw, h, &px, &py, &pz);
+    const uint flags = h[3] != 0 ? CLVOX_EXACT_SIGNS : 0u;
+    const int in = clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, px, py, pz, axis | flags, tight,
+                                            exact, lo, hi, cut, cut_n, fresh_exact);
+    if (!(in & CLVOX_UNSURE)) return in;
+    clvox_unsure_push(unsure, gid, j, K);
+    return 0; /* the host sets the voxel where it is inside */
 }
 
 /* How far an evaluation's interval [lo, hi] lies from the threshold thr
@@ -87,7 +108,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                                         global const clvox_cap_node *nodes, uint node_count,
                                         global const clvox_real *caps, global uint *exact_points,
                                         global const clvox_cap_node *rims, uint rim_count,
-                                        global const clvox_real *rim_edges)
+                                        global const clvox_real *rim_edges, global uint *unsure)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -131,14 +152,14 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                 int last = -1;
                 if (k > 0u && b0 - a0 >= 2u) {
                     const int in = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
-                                                    (clvox_real)(u_begin + a0), rv, rw, 0u, &exact, &lo, &hi, cut,
+                                                    unsure, gid, u_begin, a0, rv, rw, 0u, &exact, &lo, &hi, cut,
                                                     &cut_n, &fresh_exact);
                     clvox_emit(o, out_stride, bit, a0, in, &word, &cnt);
                     a0++;
                 }
                 if (k < n && b0 - a0 >= 2u) {
                     last = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
-                                            (clvox_real)(u_begin + b0 - 1u), rv, rw, 0u, &exact, &lo, &hi, cut,
+                                            unsure, gid, u_begin, b0 - 1u, rv, rw, 0u, &exact, &lo, &hi, cut,
                                             &cut_n, &fresh_exact);
                     b0--;
                 }
@@ -150,7 +171,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                     const uint a = ra[rsp], b = rb[rsp];
                     if (b - a == 1u) {
                         const int in = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
-                                                        (clvox_real)(u_begin + a), rv, rw, 0u, &exact, &lo, &hi,
+                                                        unsure, gid, u_begin, a, rv, rw, 0u, &exact, &lo, &hi,
                                                         cut, &cut_n, &fresh_exact);
                         clvox_emit(o, out_stride, bit, a, in, &word, &cnt);
                         continue;
@@ -215,7 +236,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
         clvox_real Jc = 0, lo = 0, hi = 0;
         const clvox_real step = h[axis], thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
         clvox_winding_advance(hh, sg, n, (clvox_real)u_begin, &k, &K, &Jc);
-        int inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h, (clvox_real)u_begin, rv, rw,
+        int inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h, unsure, gid, u_begin, 0u, rv, rw,
                                       CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n, &fresh_exact);
         clvox_real la = lo - Jc, ha = hi - Jc; /* anchor a: g's interval */
         clvox_emit(o, out_stride, bit, 0u, inside, &word, &cnt);
@@ -250,7 +271,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
             clvox_real Jb = Jc;
             clvox_winding_advance(hh, sg, n, (clvox_real)(u_begin + jb), &kb, &Kb, &Jb);
             const int ib = clvox_winding_at(Kb, abs_mode, nodes, node_count, caps, axis, h,
-                                            (clvox_real)(u_begin + jb), rv, rw, CLVOX_TIGHT, &exact, &lo, &hi, cut,
+                                            unsure, gid, u_begin, jb, rv, rw, CLVOX_TIGHT, &exact, &lo, &hi, cut,
                                             &cut_n, &fresh_exact);
             const clvox_real lb = lo - Jb, hb = hi - Jb;
             const clvox_real mb = clvox_margin(ib, lo, hi, thr, abs_mode); /* b's */
@@ -270,7 +291,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                 }
                 if (inside < 0) {
                     inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
-                                              (clvox_real)(u_begin + i), rv, rw, smooth ? CLVOX_TIGHT : 0u, &exact,
+                                              unsure, gid, u_begin, i, rv, rw, smooth ? CLVOX_TIGHT : 0u, &exact,
                                               &lo, &hi, cut, &cut_n, &fresh_exact);
                     ja = i;
                     la = lo - Jc;
@@ -331,11 +352,11 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                                    global const clvox_cap_node *nodes, uint node_count,
                                    global const clvox_real *caps, global uint *exact_points,
                                    global const clvox_cap_node *rims, uint rim_count,
-                                   global const clvox_real *rim_edges,
+                                   global const clvox_real *rim_edges, global uint *unsure,
                                    global uint *clvox_done, uint clvox_done_slot)
 {
     clvox_classify_winding_body(rays, ray_count, hits, signs, counts, capacity, u_begin, u_count, out_stride, out,
-        filled, abs_mode, axis, h, nodes, node_count, caps, exact_points, rims, rim_count, rim_edges);
+        filled, abs_mode, axis, h, nodes, node_count, caps, exact_points, rims, rim_count, rim_edges, unsure);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
@@ -363,9 +384,9 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
     o[3] = b[0];
     o[4] = e[1];
     o[5] = b[1];
-    uint factors = 0;
-    o[6] = clvox_cap_node_exact(nd, caps, px, py, pz, 0u, &factors);
-    o[7] = (clvox_real)factors;
+    clvox_real err = 0;
+    o[6] = clvox_cap_node_exact(nd, caps, px, py, pz, 0u, &err);
+    o[7] = err;
     clvox_cap_estimate4(nd, nodes, nodes, nd, px, py, pz, 1, e, b);
     o[8] = e[0];
     o[9] = b[0];
@@ -388,4 +409,15 @@ kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, g
     }
     const uint axis = q1[1] != q0[1] ? 1u : (q1[2] != q0[2] ? 2u : 0u);
     out[i] = clvox_rim_bound(rims, rim_count, edges, q0, q1, axis, CLVOX_RIM_BUDGET);
+}
+
+/* The host's answers for the points the float build left unsure
+ * (src/cast/cast.c resolve_unsure): words at[2i] of out get the bits
+ * at[2i + 1] (atomic: several points may share a word). */
+kernel void clvox_set_bits(global uint *out, global const uint *at, uint n, global uint *clvox_done,
+                           uint clvox_done_slot)
+{
+    const uint i = get_global_id(0);
+    if (i < n) atomic_or(out + at[2u * i], at[2u * i + 1u]);
+    clvox_done_mark(clvox_done, clvox_done_slot);
 }

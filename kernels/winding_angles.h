@@ -36,6 +36,35 @@
 #define CLVOX_CAP_STACK 256
 #define CLVOX_TIGHT 8u
 #define CLVOX_TIGHT_F 0.5
+/* The winding functions' `axis` (0, 1, 2: the tie rule's first axis) may
+ * carry CLVOX_EXACT_SIGNS: the scaled coordinates are the grid's floats
+ * (cubic voxels, src/winding/winding.c clvox__winding_scale; the scale
+ * buffer's h[3] == 1), so a cap's orientation at p and its normal's
+ * components have exact signs (kernels/overlap.h). */
+#define CLVOX_AXIS_OF(a) ((a) & 3u)
+#define CLVOX_EXACT_SIGNS 4u
+/* A bound on the rounding of a cap factor den + i det (below): |d den| +
+ * |d det| <= CLVOX_FACTOR_DELTA * la lb lc, 256 u (u the unit roundoff;
+ * about 120 u counted: the corners' differences from p, the lengths with a
+ * 3-ulp sqrt, the triple product and the dot products). */
+#if defined(CLVOX_FP64)
+#define CLVOX_REAL_U 1.1102230246251565e-16 /* 2^-53 */
+#else
+#define CLVOX_REAL_U 5.9604644775390625e-8f /* 2^-24 */
+#endif
+#define CLVOX_FACTOR_DELTA (256 * CLVOX_REAL_U)
+/* The sums of up to CLVOX_CAP_STACK (+ a few) bounds, rounded: a relative
+ * error below (n + 8) u. */
+#if defined(CLVOX_FP64)
+#define CLVOX_SUM_ROUND 1.000001
+#else
+#define CLVOX_SUM_ROUND 1.00002f
+#endif
+/* An error bound that decides nothing (in w units). */
+#define CLVOX_ERR_UNBOUNDED 4
+/* Set on an inside test's result (clvox_winding_inside_m) that the float
+ * build could not certify: the host decides that point in double. */
+#define CLVOX_UNSURE 2
 
 /* atan2(y, x) in [-pi, pi], lane by lane, for the cap solid angles, where
  * the runtime's double atan2 was most of the winding time (PoCL: 56 % of a
@@ -84,7 +113,8 @@ typedef float4 clvox_real4;
 typedef int4 clvox_mask4;
 #define clvox_atan2_4 atan2
 #define clvox_convert_real4 convert_float4
-#define CLVOX_FACTOR_ERR 1.5e-7f /* sqrt5 u, u = 2^-24, plus the builtin atan2's few ulp */
+/* The builtin atan2's error (6 ulp of pi: OpenCL 1.2, 7.4) over 2pi. */
+#define CLVOX_ATAN2_ERR 2.5e-7f
 #endif
 
 /* The solid angles of several cap triangles at once, four lanes (the CPU
@@ -113,6 +143,7 @@ typedef struct clvox_angles {
     clvox_mask4 k;      /* the lanes' wraps: the sum is arg(re + i im) + 2pi k */
     clvox_real halves;  /* the in-plane halves */
     uint n;             /* factors (for the error bound) */
+    clvox_real4 err;    /* float: the lanes' argument errors (radians), clvox_cap_angles4_v */
 } clvox_angles;
 
 static inline void clvox_angles_init(clvox_angles *a)
@@ -122,6 +153,7 @@ static inline void clvox_angles_init(clvox_angles *a)
     a->k = (clvox_mask4)0;
     a->halves = 0;
     a->n = 0;
+    a->err = (clvox_real4)0;
 }
 
 /* a *= den + i det lane by lane, counting the wraps (den = 1, det = 0:
@@ -164,6 +196,16 @@ static inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px
                                        clvox_real den, uint axis)
 {
     if (!(den < 0)) return 0;
+    if (axis & CLVOX_EXACT_SIGNS) { /* the normal's signs exactly: N_i = e2 over axes i + 1, i + 2 */
+        const uint a0 = CLVOX_AXIS_OF(axis);
+        int d = 0;
+        for (uint k = 0; k < 3u && d == 0; k++) {
+            const uint i = (a0 + k) % 3u, s = (i + 1u) % 3u, r = (i + 2u) % 3u;
+            d = -clvox_e2_sign(t[s], t[r], t[3 + s], t[3 + r], t[s], t[r], t[6 + s], t[6 + r]);
+        }
+        return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
+    }
+    axis = CLVOX_AXIS_OF(axis);
     const clvox_real ax = t[0] - px, ay = t[1] - py, az = t[2] - pz;
     const clvox_real bx = t[3] - px, by = t[4] - py, bz = t[5] - pz;
     const clvox_real cx = t[6] - px, cy = t[7] - py, cz = t[8] - pz;
@@ -189,11 +231,30 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
     const clvox_real4 lb = sqrt(bx * bx + by * by + bz * bz);
     const clvox_real4 lc = sqrt(cx * cx + cy * cy + cz * cz);
     clvox_real4 det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx);
-    clvox_real4 den = la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la +
+    const clvox_real4 L = la * lb * lc;
+    clvox_real4 den = L + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la +
                       (cx * ax + cy * ay + cz * az) * lb;
     const clvox_real4 zero = (clvox_real4)0;
     const clvox_mask4 lane = (clvox_mask4)(0, 1, 2, 3) < (clvox_mask4)count;
     const clvox_mask4 past = (clvox_mask4)(0, 1, 2, 3) >= (clvox_mask4)count; /* not ~lane: clvox_angles_mul */
+    const clvox_real4 delta = (clvox_real)CLVOX_FACTOR_DELTA * L; /* |d den| + |d det| */
+    if ((axis & CLVOX_EXACT_SIGNS) && any(lane & (fabs(det) <= delta))) {
+        /* rare (p within about 256 u of the cap's plane): det's sign
+         * exactly, -orient3d(A, B, C, p), and 0 when p lies in the plane;
+         * a det of the wrong sign becomes a small one of the right sign,
+         * within 2 delta of the true det (its error bound below) */
+        clvox_real tv[4], bv[4];
+        vstore4(det, 0, tv);
+        vstore4(delta, 0, bv);
+        for (uint i = 0; i < count; i++) {
+            if (!(fabs(tv[i]) <= bv[i])) continue;
+            clvox_real v[9];
+            for (uint c = 0; c < 9u; c++) v[c] = t[i * 9u + c];
+            const int sg = -clvox_o3_sign(v, px, py, pz);
+            tv[i] = sg == 0 ? (clvox_real)0 : (tv[i] * (clvox_real)sg > 0 ? tv[i] : (clvox_real)sg * bv[i] * (clvox_real)0x1p-10);
+        }
+        det = vload4(0, tv);
+    }
     const clvox_mask4 flat = lane & (det == zero);
     if (any(flat)) { /* rare: the tie rule, lane by lane (arrays: no run-time vector subscript) */
         clvox_real dv[4], tv[4];
@@ -202,6 +263,23 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
         for (uint i = 0; i < count; i++)
             if (tv[i] == 0) a->halves += clvox_cap_tie(t + i * 9u, px, py, pz, dv[i], axis);
     }
+#if !defined(CLVOX_FP64)
+    /* The factor's rounding (float: the host's double decides where it
+     * matters, clvox_winding_inside_m): with |df| <= 2 delta (above) and
+     * |f| >= max(|den|, |det|), arg f moves by at most asin(rho) <= 1.05
+     * rho, rho = 2 delta / max(|den|, |det|) <= 1/2 -- det's sign being
+     * exact (CLVOX_EXACT_SIGNS), f stays on its side of the cut -- and the
+     * product by sqrt5 u more (clvox_angles_mul). Past 1/2 (p near an
+     * edge's line, or at a corner: NaN) nothing is bounded. A flat lane
+     * (exact det == 0) multiplies by 1 exactly; its tie needs den's sign,
+     * certain where |den| > 2 delta. */
+    {
+        const clvox_real4 rho = (2 * delta) / fmax(fabs(den), fabs(det));
+        clvox_real4 e = select((clvox_real4)CLVOX_ERR_UNBOUNDED, rho * 1.05f + 3 * CLVOX_REAL_U, rho <= 0.5f);
+        e = select(e, select((clvox_real4)CLVOX_ERR_UNBOUNDED, zero, fabs(den) > 2 * delta), flat);
+        a->err += select(e, zero, past);
+    }
+#endif
     const clvox_mask4 skip = past | (det == zero) | isnan(det) | isnan(den); /* NaN: as atan2's 0 */
     den = select(den, (clvox_real4)1, skip);
     det = select(det, zero, skip);
@@ -234,10 +312,21 @@ static inline void clvox_cap_block4(global const clvox_real *blk, global const c
 }
 
 /* The solid angle / 4pi of everything multiplied in: the lanes' (arg + 2pi
- * k) / 2pi, summed. */
-static inline clvox_real clvox_angles_value(const clvox_angles *a)
+ * k) / 2pi, summed; adds its error bound to *err. Double: CLVOX_FACTOR_ERR
+ * per factor and atan2. Float: the lanes' argument errors over 2pi, the
+ * builtin atan2's, and the scaling and the sum's roundings (a few u of the
+ * terms' magnitudes). */
+static inline clvox_real clvox_angles_value(const clvox_angles *a, clvox_real *err)
 {
     const clvox_real4 v =
         clvox_atan2_4(a->im, a->re) * (clvox_real)0.15915494309189535 + clvox_convert_real4(a->k);
-    return (v.s0 + v.s1) + (v.s2 + v.s3) + a->halves;
+    const clvox_real value = (v.s0 + v.s1) + (v.s2 + v.s3) + a->halves;
+#if defined(CLVOX_FP64)
+    *err += (clvox_real)(a->n + 4u) * (clvox_real)CLVOX_FACTOR_ERR;
+#else
+    const clvox_real4 av = fabs(v);
+    *err += ((a->err.s0 + a->err.s1) + (a->err.s2 + a->err.s3)) * 0.16f + 4 * CLVOX_ATAN2_ERR +
+            8 * CLVOX_REAL_U * ((av.s0 + av.s1) + (av.s2 + av.s3) + fabs(a->halves) + fabs(value));
+#endif
+    return value;
 }

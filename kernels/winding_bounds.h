@@ -90,7 +90,7 @@ static inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_c
             B += sb[i];
             if (sb[i] > sb[best]) best = i;
         }
-        if (B * (clvox_real)1.000001 < limit) return 1;
+        if (B * (clvox_real)CLVOX_SUM_ROUND < limit) return 1;
         if (it >= budget || sp + 1u >= CLVOX_CAP_STACK) return 0;
         const uint nd = stack[best];
         if (nodes[nd].child == 0) return 0; /* a leaf's own bound is too large */

@@ -23,15 +23,15 @@ static inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global
         clvox_cap_angles4(caps + (size_t)(first + t) * 9u, min(count - t, 4u), px, py, pz, axis, a);
 }
 
-/* The node's caps' solid angles / 4pi at p, exactly. */
+/* The node's caps' solid angles / 4pi at p, exactly; adds the value's
+ * error bound to *err (clvox_angles_value). */
 static inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global const clvox_real *caps,
-                                              clvox_real px, clvox_real py, clvox_real pz, uint axis, uint *factors)
+                                              clvox_real px, clvox_real py, clvox_real pz, uint axis, clvox_real *err)
 {
     clvox_angles a;
     clvox_angles_init(&a);
     clvox_cap_node_angles(nd, caps, px, py, pz, axis, &a);
-    *factors += a.n + 4u;
-    return clvox_angles_value(&a);
+    return clvox_angles_value(&a, err);
 }
 
 /* The inside test at p (scaled grid space, x, y, z) given K there:
@@ -58,7 +58,7 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
     uint ex[CLVOX_CUT_MAX];
     uint sp = 0, nex = 0;
     clvox_real S = 0;
-    uint factors = 0; /* factors and atan2s behind S (its error bound) */
+    clvox_real serr = 0; /* S's error bound (clvox_angles_value, and in float its sums) */
     int evaluated = 0, answer = -1, lost = 0; /* lost: the exact nodes do not fit ex */
     if (cut && *cut_n) {
         clvox_angles all; /* the cut's exact nodes: one product, one atan2 */
@@ -80,8 +80,7 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
         for (; i + 1u < sp; i += 2u)
             clvox_cap_estimate2(nodes + stack[i], nodes + stack[i + 1u], px, py, pz, pairs, se + i, sb + i);
         if (i < sp) clvox_cap_estimate(nodes + stack[i], px, py, pz, pairs, &se[i], &sb[i]);
-        S = clvox_angles_value(&all);
-        factors = all.n + 4u;
+        S = clvox_angles_value(&all, &serr);
     } else {
         stack[sp] = 0;
         clvox_cap_estimate(nodes, px, py, pz, pairs, &se[sp], &sb[sp]);
@@ -107,10 +106,9 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
             best = gt ? i : best;
             bv = gt ? sb[i] : bv;
         }
-        /* the sums' own rounding, and S's: CLVOX_FACTOR_ERR per factor
-         * (clvox_angles_mul) and per atan2 */
-        const clvox_real slack = (clvox_real)1e-12 + (clvox_real)factors * (clvox_real)CLVOX_FACTOR_ERR;
-        const clvox_real wr = (clvox_real)K - S - Er, Bq = Br * (clvox_real)1.000001 + slack;
+        /* the sums' own rounding, and S's (clvox_angles_value) */
+        const clvox_real slack = (clvox_real)1e-12 + serr;
+        const clvox_real wr = (clvox_real)K - S - Er, Bq = Br * (clvox_real)CLVOX_SUM_ROUND + slack;
         /* decided: the tight phase ends after `tight` steps, or where the
          * bound is within CLVOX_TIGHT_F of w's distance from the threshold */
         int last = 0, look;
@@ -122,15 +120,23 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
             look = sp == 0 || clvox_interval_inside(wr - Bq, wr + Bq, abs_mode) >= 0;
         }
         if (look) {
-            clvox_real B = 0, E = 0;
+            clvox_real B = 0, E = 0, EA = 0;
             for (uint i = 0; i < sp; i++) {
                 B += sb[i];
                 E += se[i];
+                EA += fabs(se[i]);
             }
             Br = B;
             Er = E;
-            B = B * (clvox_real)1.000001 + slack;
+            B = B * (clvox_real)CLVOX_SUM_ROUND + slack;
             const clvox_real w = (clvox_real)K - S - E;
+#if !defined(CLVOX_FP64)
+            /* float: the estimates' sum (sp terms) and K - S - E rounded */
+            B += (clvox_real)1.01f * CLVOX_REAL_U *
+                 ((clvox_real)(sp + 2u) * EA + 2 * (fabs((clvox_real)K) + fabs(S) + fabs(E)));
+#else
+            (void)EA;
+#endif
             if (answer < 0) {
                 answer = clvox_interval_inside(w - B, w + B, abs_mode);
                 if (answer >= 0) last = extra++ >= tight;
@@ -150,7 +156,12 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
                     }
                 }
                 if (answer >= 0) return answer;
-                return abs_mode ? (w > thr || w < -thr) : w > thr;
+                const int guess = abs_mode ? (w > thr || w < -thr) : w > thr;
+#if defined(CLVOX_FP64)
+                return guess;
+#else
+                return guess | CLVOX_UNSURE; /* decided by the host (src/cast/winding_classify.c) */
+#endif
             }
         }
         Br -= sb[best];
@@ -162,7 +173,10 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
         sp--;
         const uint child = nodes[nd].child;
         if (child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
-            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis, &factors);
+            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis, &serr);
+#if !defined(CLVOX_FP64)
+            serr += CLVOX_REAL_U * fabs(S); /* the sum's rounding */
+#endif
             evaluated = 1;
             if (nex < CLVOX_CUT_MAX) ex[nex++] = nd;
             else lost = 1;

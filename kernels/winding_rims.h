@@ -122,7 +122,7 @@ static inline clvox_real clvox_rim_bound(global const clvox_cap_node *rims, uint
             if (inf) return (clvox_real)INFINITY;
             G = 0; /* the exact sum (the running one drifts by subtraction) */
             for (uint i = 0; i < sp; i++) G += sb[i];
-            return G * (clvox_real)1.000001;
+            return G * (clvox_real)CLVOX_SUM_ROUND;
         }
         const uint e = stack[best], nd = e & ~(CLVOX_RIM_FINAL | CLVOX_RIM_LEAF);
         if (isfinite(sb[best])) G -= sb[best];

@@ -521,6 +521,7 @@ static void add_slab_stats(clvox_stats *stats, const clvox__slab_stats *ss)
     stats->palette_volume += ss->palette_volume;
     stats->winding.exact_points += ss->exact_points;
     stats->winding_exact_seconds += ss->exact_seconds;
+    stats->winding_host_points += ss->host_points;
     if (ss->max_crossings > stats->max_crossings) stats->max_crossings = ss->max_crossings;
 }
 

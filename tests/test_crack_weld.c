@@ -213,7 +213,9 @@ static void test_pair_bounds(void)
             /* the value from the pairs as given equals the tree's (rev T, T') */
             {
                 double p0[3] = {-3, 2, 40}, w0 = 0, wt = 0;
-                for (size_t q = 0; q < np; q++) w0 += pair_value(pairs + 18 * q, p0, h);
+                double sc[3]; /* the kernels' scale (clvox__winding_scale) */
+                clvox__winding_scale(&grid, sc);
+                for (size_t q = 0; q < np; q++) w0 += pair_value(pairs + 18 * q, p0, sc);
                 for (size_t t = 0; t < 2 * np; t++) {
                     double A[3], B[3], C[3];
                     for (int a = 0; a < 3; a++) {

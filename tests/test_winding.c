@@ -1377,8 +1377,10 @@ static void test_rim_bounds(void)
         uint64_t *keys = malloc(t->nt * 3 * sizeof *keys);
         uint32_t *rim = malloc(t->nt * 3 * 2 * sizeof *rim);
         CHECK(v && keys && rim);
+        double sc[3]; /* the kernels' scale (clvox__winding_scale) */
+        clvox__winding_scale(&g, sc);
         for (size_t i = 0; i < t->nv * 3; i++)
-            v[i] = (double)clvox__grid_coord(t->xyz[i], g.origin[i % 3], g.voxel_size[i % 3]) * g.voxel_size[i % 3];
+            v[i] = (double)clvox__grid_coord(t->xyz[i], g.origin[i % 3], g.voxel_size[i % 3]) * sc[i % 3];
         /* boundary edges: those of one triangle only (these meshes are
          * manifold), directed as that triangle has them */
         for (size_t f = 0; f < t->nt; f++)
@@ -1408,6 +1410,10 @@ static void test_rim_bounds(void)
             len[i] = 0.01 + 0.3 * tmesh_rng_uniform(&seed);
             for (int a = 0; a < 3; a++) segs[6 * i + a] = segs[6 * i + 3 + a] = -0.1 + 1.2 * tmesh_rng_uniform(&seed);
             segs[6 * i + 3 + axis[i]] += len[i];
+            /* in world units so far: to the scaled space (cubic voxels: a
+             * factor 1 / h) */
+            for (int a = 0; a < 6; a++) segs[6 * i + a] *= sc[a % 3] / g.voxel_size[a % 3];
+            len[i] *= sc[axis[i]] / g.voxel_size[axis[i]];
         }
         cl_int ce = CL_SUCCESS;
         cl_mem bs = clCreateBuffer(ctx->cl, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, SEGS * 6 * sizeof *segs, segs, &ce);

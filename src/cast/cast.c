@@ -57,6 +57,7 @@
  * launches, about a millisecond each, on meshes where rays are cheap). */
 #define SLOW_FIRST_RAYS 32u
 #define SLOW_BATCH_SECONDS 0.25 /* ... and the wall time a batch is sized for */
+#define UNSURE_ROOM 4096u       /* a float device's unsure points a batch lists before a rerun (resolve_unsure) */
 
 /* One batch's device buffers and host arrays, and what is in flight of it
  * (ray_slab keeps two, alternating, where the device holds them: batch
@@ -71,6 +72,12 @@ typedef struct batch_set {
     uint32_t *pstats;            /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
     uint64_t *pvolume;           /* palette: per item, element volumes in 2^-32 voxels */
     cl_uint exact;               /* winding: the batch's exact points (read back; not on the stack) */
+    cl_uint *unsure;             /* binary winding on a float device: the unsure list read back (resolve_unsure) */
+    cl_uint unsure_head[2];      /* what the list starts from: 0 entries, its room */
+    const clvox_ray *cast_rays;  /* the rays batch_enqueue uploaded (NULL: z rays already on the device) */
+    uint32_t z0;                 /* ray_slab: the slab's first slice */
+    cl_uint n_rays;              /* rays enqueued */
+    clvox__slab_target t;        /* where its voxels went */
     cl_event ev[5];              /* profiling: lookup, intersect, sort, consumer, column rays */
     clvox__launch_ticket ticket; /* the batch's completion counts, read last: its read event ends the batch */
     int queued;                  /* 1: enqueued, not yet waited for */
@@ -90,6 +97,7 @@ struct clvox__method_state {
     float float_coord;
     uint32_t *tris_owned;        /* the index array when it is not the mesh's own (winding) */
     cl_kernel k_lookup, k_intersect, k_sort, k_classify; /* k_classify: binary runs, parity or winding */
+    cl_kernel k_set_bits;        /* binary winding runs on a float device: the host's answers (resolve_unsure) */
     int winding;                 /* 1: signed crossings and the winding inside test */
     clvox__winding_classify wind; /* its caps and rims (zero on parity runs: the column consumers take them too) */
     uint32_t leaf_size;
@@ -131,6 +139,7 @@ static void batch_mem_release(clvox__batch_mem *m)
     clvox__release_mem(&m->pvolume);
     clvox__release_mem(&m->signs);
     clvox__release_mem(&m->exact);
+    clvox__release_mem(&m->unsure);
 }
 
 static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, size_t max_rays, size_t max_items,
@@ -163,6 +172,13 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, siz
     if (st == CLVOX_OK && winding)
         m->signs = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * capacity, NULL, &st, "crossing signs");
     if (st == CLVOX_OK && winding) m->exact = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "exact points");
+    if (st == CLVOX_OK && winding && !coverage) {
+        /* a float device's unsure points (resolve_unsure); a double device
+         * leaves none, its list has no room */
+        m->unsure_room = ctx->real_size == 4 ? UNSURE_ROOM : 0;
+        m->unsure = clvox__buffer(ctx, CL_MEM_READ_WRITE, (2 + 3 * (size_t)m->unsure_room) * sizeof(cl_uint), NULL,
+                                  &st, "unsure points");
+    }
     if (st != CLVOX_OK) batch_mem_release(m);
     return st;
 }
@@ -186,6 +202,7 @@ static void batch_set_free(batch_set *b)
     free(b->sums);
     free(b->pstats);
     free(b->pvolume);
+    free(b->unsure);
     memset(b, 0, sizeof *b);
 }
 
@@ -210,7 +227,9 @@ static clvox_status batch_set_alloc(clvox__method_state *s, batch_set *b, size_t
         b->pstats = malloc(max_items * 4 * sizeof *b->pstats);
         b->pvolume = malloc(max_items * sizeof *b->pvolume);
     }
+    if (b->mem.unsure_room) b->unsure = malloc((2 + 3 * (size_t)b->mem.unsure_room) * sizeof *b->unsure);
     if ((rays && !b->rays) || !b->counts || !b->filled || (s->coverage && (!b->cols || !b->sums)) ||
+        (b->mem.unsure_room && !b->unsure) ||
         (s->palette && (!b->pstats || !b->pvolume)))
         return clvox__fail(s->ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", max_rays);
     return CLVOX_OK;
@@ -374,6 +393,7 @@ static void ray_release(clvox__method_state *s)
     if (s->k_intersect) clReleaseKernel(s->k_intersect);
     if (s->k_sort) clReleaseKernel(s->k_sort);
     if (s->k_classify) clReleaseKernel(s->k_classify);
+    if (s->k_set_bits) clReleaseKernel(s->k_set_bits);
     clvox__quadtree_free(&s->qt);
     free(s->z_counts);
     free(s);
@@ -497,6 +517,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
     if (st == CLVOX_OK) st = clvox__kernel(ctx, "clvox_sort", &s->k_sort);
     if (st == CLVOX_OK && !s->coverage)
         st = clvox__kernel(ctx, s->winding ? "clvox_classify_winding" : "clvox_classify", &s->k_classify);
+    if (st == CLVOX_OK && s->winding && !s->coverage && ctx->real_size == 4)
+        st = clvox__kernel(ctx, "clvox_set_bits", &s->k_set_bits);
 
     /* A coverage batch holds whole columns: as many rays as a binary slab,
      * and at least one column. */
@@ -622,6 +644,16 @@ static clvox_status batch_enqueue(clvox__method_state *s, batch_set *b, int cast
         err = clEnqueueFillBuffer(ctx->queue, m->exact, &zero, sizeof zero, 0, sizeof zero, 0, NULL, NULL);
         if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the exact-point counter");
     }
+    b->cast_rays = cast ? rays : NULL;
+    b->n_rays = n;
+    b->t = *t;
+    if (m->unsure_room) {
+        b->unsure_head[0] = 0;
+        b->unsure_head[1] = m->unsure_room;
+        err = clEnqueueWriteBuffer(ctx->queue, m->unsure, CL_FALSE, 0, sizeof b->unsure_head, b->unsure_head, 0, NULL,
+                                   NULL);
+        if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the unsure points");
+    }
     clvox__launch_begin(ctx);
     if (make_rays) {
         st = clvox__column_rays_enqueue(ctx, &s->cov, m, n_cols, &b->ev[4]);
@@ -665,10 +697,113 @@ static clvox_status batch_enqueue(clvox__method_state *s, batch_set *b, int cast
     b->exact = 0;
     if (err == CL_SUCCESS && s->winding)
         err = clEnqueueReadBuffer(ctx->queue, m->exact, CL_FALSE, 0, sizeof b->exact, &b->exact, 0, NULL, NULL);
+    if (err == CL_SUCCESS && m->unsure_room)
+        err = clEnqueueReadBuffer(ctx->queue, m->unsure, CL_FALSE, 0, (2 + 3 * (size_t)m->unsure_room) * sizeof(cl_uint),
+                                  b->unsure, 0, NULL, NULL);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "reading the batch back");
     st = clvox__launch_defer(ctx, &b->ticket);
     /* submitted now, so that the device runs it while the host goes on */
     if (st == CLVOX_OK && (err = clFlush(ctx->queue)) != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clFlush");
+    return st;
+}
+
+/* The points a float device left unsure (kernels/winding.cl
+ * clvox_unsure_push: ray, voxel, K), decided on the host in double as the
+ * double kernels decide them (clvox__caps_host_inside); the inside ones
+ * get their bits (clvox_set_bits), behind the batch on the queue. A list
+ * that overflowed its room is made again, whole, by running the batch's
+ * consumer once more with room for all (its rays' bits and counts come out
+ * the same). */
+static void slab_column(const clvox__method_state *s, uint32_t z0, size_t i, uint32_t *v, uint32_t *w,
+                        clvox_u32 *out_base, clvox_u32 *bit);
+static clvox_status resolve_unsure(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss)
+{
+    clvox_context *ctx = s->ctx;
+    const size_t count = b->unsure[0];
+    const cl_uint *list = b->unsure + 2;
+    cl_uint *again = NULL, *at = NULL;
+    cl_mem tmp = NULL;
+    clvox_status st = CLVOX_OK;
+    if (count > b->mem.unsure_room) {
+        if (count > (SIZE_MAX / sizeof(cl_uint) - 2) / 3 || !(again = malloc((2 + 3 * count) * sizeof *again)))
+            return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+        tmp = clvox__buffer(ctx, CL_MEM_READ_WRITE, (2 + 3 * count) * sizeof(cl_uint), NULL, &st, "unsure points");
+        clvox__batch_mem m2 = b->mem;
+        m2.unsure = tmp;
+        m2.unsure_room = (cl_uint)count;
+        const cl_uint head[2] = {0, (cl_uint)count};
+        cl_int err = CL_SUCCESS;
+        if (st == CLVOX_OK) {
+            err = clEnqueueWriteBuffer(ctx->queue, tmp, CL_TRUE, 0, sizeof head, head, 0, NULL, NULL);
+            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the unsure points");
+        }
+        if (st == CLVOX_OK) {
+            clvox__launch_begin(ctx);
+            st = clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, &m2, b->n_rays, &b->t, NULL);
+            if (st == CLVOX_OK) st = clvox__launch_check(ctx);
+        }
+        if (st == CLVOX_OK) {
+            err = clEnqueueReadBuffer(ctx->queue, tmp, CL_TRUE, 0, (2 + 3 * count) * sizeof(cl_uint), again, 0, NULL,
+                                      NULL);
+            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "reading the unsure points");
+            else if (again[0] != count)
+                st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the batch's consumer left %u unsure points, then %zu",
+                                 (unsigned)again[0], count);
+        }
+        clvox__release_mem(&tmp);
+        list = again + 2;
+    }
+    double scale[3];
+    const int exact = clvox__winding_scale(&s->grid, scale);
+    const unsigned axis = s->wind.axis;
+    size_t inside = 0;
+    if (st == CLVOX_OK && !(at = malloc(2 * count * sizeof *at)))
+        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
+        const cl_uint gid = list[3 * i], j = list[3 * i + 1];
+        const int K = (int)list[3 * i + 2];
+        uint32_t v, w;
+        clvox_u32 base, bit;
+        if (b->cast_rays) {
+            const clvox_ray *r = &b->cast_rays[gid];
+            v = (uint32_t)r->v, w = (uint32_t)r->w, base = r->out_base, bit = r->bit;
+        } else {
+            slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
+        }
+        double g[3], p[3];
+        g[axis] = (double)(b->t.u_begin + j);
+        g[(axis + 1) % 3] = v;
+        g[(axis + 2) % 3] = w;
+        for (int a = 0; a < 3; a++) p[a] = g[a] * scale[a];
+        if (!clvox__caps_host_inside(&s->wind.caps, p, K, (int)s->wind.abs_mode, axis, exact)) continue;
+        at[2 * inside] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
+        at[2 * inside + 1] = 1u << ((b->t.out_stride == 0 ? j : bit) & 31u);
+        inside++;
+    }
+    free(again);
+    if (st == CLVOX_OK && inside && b->t.out->occupancy) {
+        tmp = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 2 * inside * sizeof *at, at, &st,
+                            "unsure answers");
+        cl_uint n = (cl_uint)inside;
+        cl_int err = CL_SUCCESS;
+        if (st == CLVOX_OK) {
+            err |= clSetKernelArg(s->k_set_bits, 0, sizeof(cl_mem), &b->t.out->occupancy);
+            err |= clSetKernelArg(s->k_set_bits, 1, sizeof(cl_mem), &tmp);
+            err |= clSetKernelArg(s->k_set_bits, 2, sizeof(cl_uint), &n);
+            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_set_bits)");
+        }
+        if (st == CLVOX_OK) {
+            clvox__launch_begin(ctx);
+            st = clvox__launch(ctx, s->k_set_bits, "clvox_set_bits", 0, inside, 64, NULL);
+            if (st == CLVOX_OK) st = clvox__launch_check(ctx); /* waits: tmp is released below */
+        }
+        clvox__release_mem(&tmp);
+    }
+    free(at);
+    if (st == CLVOX_OK) {
+        ss->filled += inside;
+        ss->host_points += count;
+    }
     return st;
 }
 
@@ -681,6 +816,7 @@ static clvox_status batch_wait(clvox__method_state *s, batch_set *b, clvox__slab
     cl_int err = b->ticket.read ? clWaitForEvents(1, &b->ticket.read) : clFinish(ctx->queue);
     clvox_status st = err == CL_SUCCESS ? clvox__launch_verify(ctx, &b->ticket)
                                         : clvox__cl_fail(ctx, err, "running the cast kernels");
+    if (st == CLVOX_OK && b->mem.unsure_room && b->unsure[0]) st = resolve_unsure(s, b, ss);
     if (st == CLVOX_OK) {
         ss->exact_points += b->exact;
         ss->cast_seconds += clvox__event_seconds(b->ev[0]) + clvox__event_seconds(b->ev[1]) +
@@ -867,7 +1003,7 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
             batch_set *b = &s->set[(head + inflight) % (unsigned)s->sets]; /* batch 0 in set[0] (z_cast) */
             per = reuse ? columns : s->batch_now;
             const size_t k = columns - next < per ? columns - next : per;
-            b->c0 = next, b->k = k;
+            b->c0 = next, b->k = k, b->z0 = z0;
             if (s->timed) t_batch = clvox__now();
             if (reuse)
                 memcpy(b->counts, s->z_counts, k * R * sizeof *b->counts);

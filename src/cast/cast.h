@@ -11,6 +11,8 @@
 typedef struct clvox__batch_mem {
     cl_mem rays, cols, leaf, hits, counts, filled, sums, pstats, pvolume;
     cl_mem signs, exact; /* winding: a sign per crossing; points evaluated exactly */
+    cl_mem unsure;       /* binary winding runs: the float build's unsure points (kernels/winding.cl) */
+    cl_uint unsure_room; /* entries it holds (0: a double device, which leaves none) */
     size_t max_rays, max_items; /* items: rays (binary) or columns (coverage) */
     cl_uint capacity;
 } clvox__batch_mem;

@@ -250,5 +250,6 @@ clvox_status clvox__winding_classify_enqueue(clvox_context *ctx, cl_kernel k, co
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &w->rims.nodes);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &w->rims.node_count);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &w->rims.tris);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->unsure);
     return clvox__consumer_launch(ctx, k, "clvox_classify_winding", err, n, w->local, ev);
 }

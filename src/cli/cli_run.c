@@ -358,6 +358,11 @@ void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvo
                          "at most %.1f us a point\n",
                    "exact", (unsigned long long)w->exact_points, s->winding_exact_seconds,
                    1e6 * s->winding_exact_seconds / (double)w->exact_points);
+        if (s->winding_host_points)
+            printf(LABEL "%llu points decided on the host in double (%.2g of the voxels): the float device's "
+                         "bounds could not settle them\n",
+                   "host", (unsigned long long)s->winding_host_points,
+                   (double)s->winding_host_points / (double)(s->total_voxels ? s->total_voxels : 1));
     } else if (s->inside == CLVOX_INSIDE_PARITY && a->vox.mode != CLVOX_MODE_SURFACE) {
         printf(LABEL "parity (odd number of crossings beyond the centre)\n", "inside");
     }
@@ -964,6 +969,7 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
             jb_u64(b, "holes", w->holes);
             jb_u64(b, "cap_triangles", w->cap_triangles);
             jb_u64(b, "exact_points", w->exact_points);
+            jb_u64(b, "host_points", st->winding_host_points);
             jb_num(b, "seconds", w->seconds);
             jb_num(b, "exact_seconds", st->winding_exact_seconds);
             if (w->exact_points)

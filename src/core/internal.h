@@ -422,6 +422,7 @@ typedef struct clvox__slab_stats {
     double palette_volume;     /* sum of the chosen elements' volumes (voxel units) */
     uint64_t exact_points;     /* winding: points whose cap solid angles were evaluated */
     double exact_seconds;      /* winding: consumer kernel time of the batches with exact points */
+    uint64_t host_points;      /* winding, float devices: points decided on the host (clvox_stats.winding_host_points) */
     uint32_t max_crossings;
 } clvox__slab_stats;
 

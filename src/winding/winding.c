@@ -6,6 +6,8 @@
  * made in src/cast/cast.c (winding_indexed). */
 #include "winding.h"
 
+#include "../../kernels/overlap.h" /* the exact signs, in double */
+
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -42,8 +44,58 @@ void clvox__caps_release(clvox__caps *c)
     clvox__release_mem(&c->nodes);
     clvox__release_mem(&c->tris);
     clvox__release_mem(&c->h);
+    free(c->host);
+    c->host = NULL;
     c->node_count = 0;
     c->cap_count = 0;
+}
+
+/* Cap triangle t's solid angle / 4pi at p as the double kernels take it
+ * (kernels/winding_angles.h clvox_cap_angles4_v, one triangle): van
+ * Oosterom-Strackee, det's sign exact with `exact` (the coordinates are
+ * floats), the tie rule where it is 0, NaN as 0. */
+static double cap_w(const double *t, const double *p, unsigned axis, int exact)
+{
+    double a[3], b[3], c[3];
+    for (int k = 0; k < 3; k++) a[k] = t[k] - p[k], b[k] = t[3 + k] - p[k], c[k] = t[6 + k] - p[k];
+    const double la = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    const double lb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    const double lc = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    double det = a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) +
+                 a[2] * (b[0] * c[1] - b[1] * c[0]);
+    const double L = la * lb * lc;
+    const double den = L + (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * lc +
+                       (b[0] * c[0] + b[1] * c[1] + b[2] * c[2]) * la + (c[0] * a[0] + c[1] * a[1] + c[2] * a[2]) * lb;
+    if (exact) {
+        const int sg = -clvox_o3_sign(t, p[0], p[1], p[2]);
+        if (sg == 0) det = 0;
+        else if (det * sg <= 0) det = sg * L * 0x1p-50;
+    }
+    if (det == 0) {
+        if (!(den < 0)) return 0;
+        int d = 0;
+        for (unsigned k = 0; k < 3 && d == 0; k++) {
+            const unsigned i = (axis + k) % 3, s = (i + 1) % 3, r = (i + 2) % 3;
+            if (exact) {
+                d = -clvox_e2_sign(t[s], t[r], t[3 + s], t[3 + r], t[s], t[r], t[6 + s], t[6 + r]);
+            } else {
+                const double n = (t[3 + s] - t[s]) * (t[6 + r] - t[r]) - (t[3 + r] - t[r]) * (t[6 + s] - t[s]);
+                d = n > 0 ? -1 : n < 0 ? 1 : 0;
+            }
+        }
+        return d > 0 ? 0.5 : d < 0 ? -0.5 : 0;
+    }
+    if (isnan(det) || isnan(den)) return 0;
+    return atan2(det, den) / (2.0 * 3.14159265358979323846);
+}
+
+int clvox__caps_host_inside(const clvox__caps *c, const double p[3], int K, int abs_mode, unsigned axis, int exact)
+{
+    double w = 0;
+    for (size_t t = 0; t < c->host_count; t++) w += cap_w(c->host + t * 9, p, axis, exact);
+    w = (double)K - w;
+    const double thr = 0.5 + 0x1p-30;
+    return abs_mode ? (w > thr || w < -thr) : w > thr;
 }
 
 #define FOUR_PI (4.0 * 3.14159265358979323846)
@@ -89,13 +141,24 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
     return st;
 }
 
-/* The voxel size buffer every cap tree carries (the kernels take it). */
+int clvox__winding_scale(const clvox_grid *grid, double s[3])
+{
+    const double *h = grid->voxel_size;
+    const double m = fmax(h[0], fmax(h[1], h[2]));
+    for (int a = 0; a < 3; a++) s[a] = m > 0 ? h[a] / m : 1.0;
+    return h[0] == h[1] && h[0] == h[2];
+}
+
+/* The scale buffer every cap tree carries (the kernels take it): s, then
+ * 1 where the scaled coordinates are the grid's floats (cubic voxels). */
 static clvox_status upload_h(clvox_context *ctx, const clvox_grid *grid, clvox__caps *out)
 {
     clvox_status st = CLVOX_OK;
-    double hb[3];
-    for (int a = 0; a < 3; a++) put_real(hb, ctx->real_size, (size_t)a, grid->voxel_size[a]);
-    out->h = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 3 * ctx->real_size, hb, &st, "voxel size");
+    double hb[4], s[3];
+    const int exact = clvox__winding_scale(grid, s);
+    for (int a = 0; a < 3; a++) put_real(hb, ctx->real_size, (size_t)a, s[a]);
+    put_real(hb, ctx->real_size, 3, exact ? 1.0 : 0.0);
+    out->h = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 4 * ctx->real_size, hb, &st, "voxel scale");
     return st;
 }
 
@@ -197,8 +260,10 @@ clvox_status clvox__caps_upload_pairs(clvox_context *ctx, const float *cap_soup,
         clvox__caps_release(out);
         return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu cap triangles: too many", n + 2 * np);
     }
-    /* Scaled x, y, z (grid coordinates times h): solid angles of the world. */
-    const double h3[3] = {grid->voxel_size[0], grid->voxel_size[1], grid->voxel_size[2]};
+    /* Scaled x, y, z (grid coordinates times s, clvox__winding_scale):
+     * solid angles of the world, which a uniform scale keeps. */
+    double h3[3];
+    clvox__winding_scale(grid, h3);
     tree c = {0}, p = {0}, j = {0};
     if (n) {
         double *q = malloc(n * 9 * sizeof *q);
@@ -242,13 +307,15 @@ clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, cons
     if (n > UINT32_MAX / 2) return clvox__fail(ctx, CLVOX_ERR_MESH_INVALID, "%zu boundary edges: too many", n);
     double *q = malloc(n * 9 * sizeof *q);
     if (!q) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu boundary edges", n);
-    /* grid space (clvox__grid_coord, as the soup), times h */
+    /* grid space (clvox__grid_coord, as the soup), times s */
+    double s3[3];
+    clvox__winding_scale(grid, s3);
     for (size_t e = 0; e < n; e++)
         for (int c = 0; c < 3; c++) {
             const float *p = mesh->xyz + 3 * (size_t)rim[2 * e + (c ? 1 : 0)];
             for (int a = 0; a < 3; a++) {
                 float g = clvox__grid_coord(p[a], grid->origin[a] - mesh->offset[a], grid->voxel_size[a]);
-                q[e * 9 + c * 3 + a] = (double)g * grid->voxel_size[a];
+                q[e * 9 + c * 3 + a] = (double)g * s3[a];
             }
         }
     return tree_upload(ctx, q, n, 1, out);
@@ -603,6 +670,15 @@ static clvox_status tree_send(clvox_context *ctx, tree *t, int segments, clvox__
                                   t->reals, &st, segments ? "boundary edges" : "caps");
     out->node_count = (cl_uint)t->node_count;
     out->cap_count = t->tri_count;
+    if (st == CLVOX_OK && !segments && ctx->real_size == 4 && t->tri_count) {
+        /* a float device's unsure points are decided on the host, in
+         * double, over the same triangles (clvox__caps_host_inside) */
+        out->host = malloc(t->tri_count * 9 * sizeof *out->host);
+        if (!out->host)
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap triangles", t->tri_count);
+        for (size_t i = 0; st == CLVOX_OK && i < t->tri_count * 9; i++) out->host[i] = ((const float *)t->reals)[i];
+        out->host_count = st == CLVOX_OK ? t->tri_count : 0;
+    }
     tree_free(t);
     return st;
 }

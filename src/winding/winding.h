@@ -5,13 +5,30 @@
 #include "core/internal.h"
 
 /* The cap tree on the device (kernels/winding_*.h): nodes, the cap triangles
- * in its leaf order as scaled x, y, z reals, and the voxel size h (3 reals,
- * always set). node_count 0: no caps. */
+ * in its leaf order as scaled x, y, z reals, and the scale h (4 reals,
+ * always set: clvox__winding_scale's s, then its result). node_count 0: no
+ * caps. */
 typedef struct clvox__caps {
     cl_mem nodes, tris, h;
     cl_uint node_count;
     size_t cap_count;
+    double *host;      /* float devices: the triangles (9 each, leaf order) for clvox__caps_host_inside */
+    size_t host_count; /* triangles in host */
 } clvox__caps;
+
+/* The inside test at scaled point p given K there, in double on the host
+ * over every cap triangle (what the double kernels decide; the float ones
+ * leave it the points they cannot certify, kernels/winding.cl): w = K -
+ * the caps' solid angles / 4pi, w > 1/2 + 2^-30 (abs_mode: |w|). axis: the
+ * tie rule's; exact: clvox__winding_scale's result (exact signs). */
+int clvox__caps_host_inside(const clvox__caps *c, const double p[3], int K, int abs_mode, unsigned axis, int exact);
+
+/* The winding code's scale (kernels/winding_*.h "scaled grid space"):
+ * s[a] = h[a] / max(h), grid coordinates times s being the world's up to one
+ * uniform scale, which keeps every solid angle. 1 when the voxels are cubes:
+ * then s = 1 and the scaled coordinates are the grid's floats themselves, on
+ * which the kernels take exact signs (and a float device is exact). */
+int clvox__winding_scale(const clvox_grid *grid, double s[3]);
 
 /* cap_soup: n cap triangles of the cast's soup (grid space, u,v,w order). */
 clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,

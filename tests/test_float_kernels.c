@@ -12,9 +12,14 @@
  *  - grid-aligned meshes whose faces, edges and vertices lie on voxel
  *    centres and cell faces (exact ties everywhere),
  *  - random closed meshes and their soups, and lattice soups.
+ * The default winding inside test (and |w| > 1/2 on the generated meshes)
+ * must be byte-identical too: the float build decides what its bounds
+ * settle and leaves the rest to the host in double
+ * (clvox_stats.winding_host_points, counted here). Adversarial points: open
+ * boxes whose missing face lies within a few float ulps of a plane of
+ * centres, so that w there is 1/2 + O(1e-7), against a long-double
+ * reference of w at every centre.
  * A coordinate outside float's exact range refuses a float run.
- * The default winding inside test is not exact in float yet (issue 37): its
- * differences are counted and printed, not checked.
  * CLVOX_FLOAT_RES=n sets the data meshes' resolution (default 24). */
 #include "test.h"
 #include "meshgen.h"
@@ -29,8 +34,8 @@
 #include <sys/stat.h>
 
 static clvox_context *cd, *cf; /* double and float kernels */
-static unsigned runs, winding_runs, winding_differ;
-static uint64_t winding_voxels;
+static unsigned runs, winding_runs;
+static uint64_t host_points; /* the float runs' points decided on the host */
 
 static clvox_context *context_with(int kernels_float)
 {
@@ -70,8 +75,10 @@ static long compare_run(const char *what, const clvox_mesh *mesh, const clvox_gr
         free(b);
         return -1;
     }
+    clvox_stats st = CLVOX_STATS_INIT;
     clvox_status sa = clvox_voxelize_to_memory(cd, mesh, g, o, a, n, NULL);
-    clvox_status sb = clvox_voxelize_to_memory(cf, mesh, g, o, b, n, NULL);
+    clvox_status sb = clvox_voxelize_to_memory(cf, mesh, g, o, b, n, &st);
+    host_points += st.winding_host_points;
     CHECK_MSG(sa == CLVOX_OK && sb == CLVOX_OK, "%s: double %s, float %s (%s)", what, clvox_status_string(sa),
               clvox_status_string(sb), sb != CLVOX_OK ? clvox_context_error(cf) : clvox_context_error(cd));
     long d = -1;
@@ -104,16 +111,97 @@ static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_g
         CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
         runs++;
     }
-    clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT; /* the default: winding */
-    char what[256];
-    snprintf(what, sizeof what, "%s winding", name);
-    const long d = compare_run(what, mesh, g, &o);
-    winding_runs++;
-    if (d > 0) {
-        printf("  %s: %ld voxels differ (not checked)\n", what, d);
-        winding_differ++;
-        winding_voxels += (uint64_t)d;
+    for (int abs_mode = 0; abs_mode <= all_axes; abs_mode++) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT; /* the default: winding */
+        if (abs_mode) o.inside = CLVOX_INSIDE_WINDING_ABS;
+        char what[256];
+        snprintf(what, sizeof what, "%s %s", name, abs_mode ? "winding-abs" : "winding");
+        const long d = compare_run(what, mesh, g, &o);
+        CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
+        winding_runs++;
     }
+}
+
+/* w at p of the triangles, in long double (van Oosterom-Strackee). */
+static long double ref_w(const tmesh *m, const double p[3])
+{
+    long double w = 0;
+    for (size_t t = 0; t < m->nt; t++) {
+        long double a[3], b[3], c[3];
+        for (int k = 0; k < 3; k++) {
+            a[k] = (long double)m->xyz[3 * m->tri[3 * t] + k] - p[k];
+            b[k] = (long double)m->xyz[3 * m->tri[3 * t + 1] + k] - p[k];
+            c[k] = (long double)m->xyz[3 * m->tri[3 * t + 2] + k] - p[k];
+        }
+        const long double la = sqrtl(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        const long double lb = sqrtl(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+        const long double lc = sqrtl(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+        const long double det = a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) +
+                                a[2] * (b[0] * c[1] - b[1] * c[0]);
+        const long double den = la * lb * lc + (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * lc +
+                                (b[0] * c[0] + b[1] * c[1] + b[2] * c[2]) * la +
+                                (c[0] * a[0] + c[1] * a[1] + c[2] * a[2]) * lb;
+        w += 2 * atan2l(det, den);
+    }
+    return w / (4 * 3.14159265358979323846264338327950288L);
+}
+
+/* Adversarial points: a box open at the top, whose top lies k float ulps
+ * (2^-20 at 8) above the plane of centres z = 8. Every centre inside the
+ * opening on that plane has w = 1/2 + O(k 1e-7) (on the opening itself w
+ * is exactly 1/2: the box fills the half-space below), the float bounds
+ * cannot settle them and the host decides them. Float == double, and both
+ * == the long-double reference wherever it is 1e-12 from the threshold. */
+static void test_adversarial(void)
+{
+    const double lo[3] = {-0.5, -0.5, -0.5}, hi[3] = {15.5, 15.5, 15.5};
+    const clvox_grid g = test_grid(lo, hi, 16, 16, 16);
+    const uint64_t before = host_points;
+    unsigned near = 0, checked = 0;
+    for (int k = -6; k <= 6; k++) {
+        const double top = 8.0 + k * 0x1p-20;
+        tmesh box = tmesh_box(2.3, 3.1, 2.7, 13.7, 12.9, top), open = {0};
+        for (size_t v = 0; v < box.nv; v++) tmesh_add_vertex(&open, box.xyz[3 * v], box.xyz[3 * v + 1], box.xyz[3 * v + 2]);
+        for (size_t t = 0; t < box.nt; t++) {
+            const uint32_t *c = box.tri + 3 * t;
+            int up = 1;
+            for (int i = 0; i < 3; i++) up &= box.xyz[3 * c[i] + 2] == (float)top;
+            if (!up) tmesh_add_tri(&open, c[0], c[1], c[2]);
+        }
+        CHECK(open.nt == 10);
+        char name[64];
+        snprintf(name, sizeof name, "open box, top %+d ulp from centres", k);
+        clvox_mesh *mesh = NULL;
+        CHECK_OK(cd, clvox_mesh_from_arrays(cd, open.xyz, open.nv, open.tri, open.nt, &mesh));
+        uint8_t *a = malloc(16 * 16 * 16);
+        CHECK(a != NULL);
+        if (mesh && a) {
+            compare_mesh(name, mesh, &g, 1);
+            clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+            CHECK_OK(cf, clvox_voxelize_to_memory(cf, mesh, &g, &o, a, 16 * 16 * 16, NULL));
+            for (int z = 0; z < 16; z++)
+                for (int y = 0; y < 16; y++)
+                    for (int x = 0; x < 16; x++) {
+                        const double p[3] = {x, y, z};
+                        const long double w = ref_w(&open, p), d = w - (0.5L + 0x1p-30L);
+                        if (fabsl(w - 0.5L) < 1e-6L) near++;
+                        if (fabsl(d) < 1e-12L) continue;
+                        checked++;
+                        const int want = d > 0;
+                        CHECK_MSG(a[(z * 16 + y) * 16 + x] == want, "%s: voxel (%d, %d, %d) w - 1/2 = %.3Lg: %d", name,
+                                  x, y, z, w - 0.5L, a[(z * 16 + y) * 16 + x]);
+                    }
+        }
+        free(a);
+        clvox_mesh_destroy(mesh);
+        tmesh_free(&box);
+        tmesh_free(&open);
+    }
+    printf("adversarial: %u centres within 1e-6 of w = 1/2, %u checked against long double, %llu points "
+           "decided on the host\n",
+           near, checked, (unsigned long long)(host_points - before));
+    CHECK_MSG(near >= 100, "only %u centres near w = 1/2", near);
+    CHECK_MSG(host_points > before, "no point was left to the host");
 }
 
 static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g)
@@ -268,10 +356,11 @@ int main(void)
     test_grid_aligned();
     test_random();
     test_range_refused();
+    test_adversarial();
     if (!getenv("CLVOX_QUICK")) test_data_meshes();
-    printf("%u runs of the exact modes compared; winding (not exact in float yet): %u of %u runs differ, %llu "
-           "voxels\n",
-           runs, winding_differ, winding_runs, (unsigned long long)winding_voxels);
+    printf("%u runs of the exact modes and %u winding runs compared, byte-identical; %llu points decided on the "
+           "host\n",
+           runs, winding_runs, (unsigned long long)host_points);
     clvox_context_destroy(cf);
     clvox_context_destroy(cd);
     return test_report();

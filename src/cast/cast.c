@@ -363,12 +363,67 @@ static cl_mem copy_from(clvox_context *ctx, clvox_context *from, cl_mem src, clv
     return m;
 }
 
-static void copy_caps(clvox_context *ctx, clvox_context *from, const clvox__caps *src, clvox__caps *dst,
+/* copy_from for an array of clvox_real: converted where the two devices'
+ * kernels differ (a float device beside a double lead; the lead's doubles
+ * are floats times a scale of 1 on cubic voxels, so nothing is lost
+ * there). With `host` (a float device's caps), their first host_count * 9
+ * reals in double too (clvox__caps.host). */
+static cl_mem copy_reals(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st, const char *what,
+                         double **host, size_t host_count)
+{
+    if (host) *host = NULL;
+    if (ctx->real_size == from->real_size && !host) return copy_from(ctx, from, src, st, what);
+    if (!src || *st != CLVOX_OK) return NULL;
+    size_t bytes = 0;
+    cl_int err = clGetMemObjectInfo(src, CL_MEM_SIZE, sizeof bytes, &bytes, NULL);
+    const size_t n = bytes / from->real_size;
+    double *d = err == CL_SUCCESS ? malloc(n ? n * sizeof *d : 1) : NULL;
+    void *conv = err == CL_SUCCESS ? malloc(n ? n * ctx->real_size : 1) : NULL;
+    if (err == CL_SUCCESS && (!d || !conv)) {
+        free(d);
+        free(conv);
+        *st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory copying the %s", what);
+        return NULL;
+    }
+    if (err == CL_SUCCESS && n) {
+        if (from->real_size == 8) {
+            err = clEnqueueReadBuffer(from->queue, src, CL_TRUE, 0, n * sizeof *d, d, 0, NULL, NULL);
+        } else {
+            float *f = (float *)conv; /* ctx->real_size >= 4: room for n floats */
+            err = clEnqueueReadBuffer(from->queue, src, CL_TRUE, 0, n * sizeof *f, f, 0, NULL, NULL);
+            for (size_t i = n; err == CL_SUCCESS && i-- > 0;) d[i] = f[i];
+        }
+    }
+    if (err != CL_SUCCESS) {
+        char msg[96];
+        snprintf(msg, sizeof msg, "reading the %s back from device '%.40s'", what, from->device.name);
+        free(d);
+        free(conv);
+        *st = clvox__cl_fail(ctx, err, msg);
+        return NULL;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (ctx->real_size == 8) ((double *)conv)[i] = d[i];
+        else ((float *)conv)[i] = (float)d[i];
+    }
+    cl_mem m = upload(ctx, n * ctx->real_size, conv, st, what);
+    free(conv);
+    if (host && *st == CLVOX_OK && host_count * 9 <= n) {
+        *host = d; /* its first host_count * 9 reals: the triangles in leaf order */
+        d = NULL;
+    }
+    free(d);
+    return m;
+}
+
+static void copy_caps(clvox_context *ctx, clvox_context *from, const clvox__caps *src, clvox__caps *dst, int caps,
                       clvox_status *st)
 {
     dst->nodes = copy_from(ctx, from, src->nodes, st, "cap tree");
-    dst->tris = copy_from(ctx, from, src->tris, st, "cap triangles");
-    dst->h = copy_from(ctx, from, src->h, st, "cap scale");
+    const int keep = caps && ctx->real_size == 4 && src->cap_count; /* clvox__caps.host */
+    dst->tris = copy_reals(ctx, from, src->tris, st, "cap triangles", keep ? &dst->host : NULL, src->cap_count);
+    dst->host_count = dst->host ? src->cap_count : 0;
+    dst->h = copy_reals(ctx, from, src->h, st, "cap scale", NULL, 0);
     dst->node_count = src->node_count;
     dst->cap_count = src->cap_count;
 }
@@ -450,8 +505,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         s->tris = copy_from(ctx, from, lead->tris, &st, "triangles");
         s->nodes = copy_from(ctx, from, lead->nodes, &st, "quadtree");
         s->refs = copy_from(ctx, from, lead->refs, &st, "quadtree refs");
-        copy_caps(ctx, from, &lead->wind.caps, &s->wind.caps, &st);
-        copy_caps(ctx, from, &lead->wind.rims, &s->wind.rims, &st);
+        copy_caps(ctx, from, &lead->wind.caps, &s->wind.caps, 1, &st);
+        copy_caps(ctx, from, &lead->wind.rims, &s->wind.rims, 0, &st);
         s->wind.prep = lead->wind.prep;
         s->wind.surface_count = lead->wind.surface_count;
         s->wind.crack_distance = lead->wind.crack_distance;

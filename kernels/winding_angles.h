@@ -44,15 +44,19 @@
 #define CLVOX_AXIS_OF(a) ((a) & 3u)
 #define CLVOX_EXACT_SIGNS 4u
 /* A bound on the rounding of a cap factor den + i det (below): |d den| +
- * |d det| <= CLVOX_FACTOR_DELTA * la lb lc, 256 u (u the unit roundoff;
- * about 120 u counted: the corners' differences from p, the lengths with a
- * 3-ulp sqrt, the triple product and the dot products). */
+ * |d det| <= CLVOX_FACTOR_DELTA * la lb lc, 128 u (u the unit roundoff),
+ * counted with the corners' differences from p rounded (u each): the
+ * lengths (squares, sums and a 3-ulp sqrt: 5.5 u each, their product 18.5
+ * u), the three dot-product terms (5 u of sum |a_i b_i| <= la lb, times a
+ * length: 11.5 u of L = la lb lc each), den's three sums (3 u of 4 L): 65 u
+ * of L; det, 8 u of its permanent, which is at most |a|_1 |b|_1 |c|_1 <=
+ * 3^1.5 L: 42 u of L. */
 #if defined(CLVOX_FP64)
 #define CLVOX_REAL_U 1.1102230246251565e-16 /* 2^-53 */
 #else
 #define CLVOX_REAL_U 5.9604644775390625e-8f /* 2^-24 */
 #endif
-#define CLVOX_FACTOR_DELTA (256 * CLVOX_REAL_U)
+#define CLVOX_FACTOR_DELTA (128 * CLVOX_REAL_U)
 /* The sums of up to CLVOX_CAP_STACK (+ a few) bounds, rounded: a relative
  * error below (n + 8) u. */
 #if defined(CLVOX_FP64)
@@ -238,22 +242,33 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
     const clvox_mask4 lane = (clvox_mask4)(0, 1, 2, 3) < (clvox_mask4)count;
     const clvox_mask4 past = (clvox_mask4)(0, 1, 2, 3) >= (clvox_mask4)count; /* not ~lane: clvox_angles_mul */
     const clvox_real4 delta = (clvox_real)CLVOX_FACTOR_DELTA * L; /* |d den| + |d det| */
-    if ((axis & CLVOX_EXACT_SIGNS) && any(lane & (fabs(det) <= delta))) {
-        /* rare (p within about 256 u of the cap's plane): det's sign
-         * exactly, -orient3d(A, B, C, p), and 0 when p lies in the plane;
-         * a det of the wrong sign becomes a small one of the right sign,
-         * within 2 delta of the true det (its error bound below) */
-        clvox_real tv[4], bv[4];
+    clvox_real4 dfac = (clvox_real4)1; /* the factor's error: delta, or 2 delta where det's sign was replaced */
+    if ((axis & CLVOX_EXACT_SIGNS) && any(lane & (fabs(det) <= delta) & (den <= delta))) {
+        /* rare (p within about 128 u of the cap's plane, and den not
+         * surely positive: where it is, f and its rounding lie in the right
+         * half-plane and det's sign moves arg f by no more than its bound
+         * below): det's sign exactly, -orient3d(A, B, C, p), and 0 when p
+         * lies in the plane; a det of the wrong sign becomes a small one of
+         * the right sign, within 2 delta of the true det (its error bound
+         * below). Not for slivers seen from afar (den about 4 L): their det
+         * is small, and its exact sign would cost (cylinder's rim caps,
+         * 256^3: 4x the classify). */
+        clvox_real tv[4], bv[4], fv[4] = {1, 1, 1, 1};
         vstore4(det, 0, tv);
         vstore4(delta, 0, bv);
+        clvox_real nv[4];
+        vstore4(den, 0, nv);
         for (uint i = 0; i < count; i++) {
-            if (!(fabs(tv[i]) <= bv[i])) continue;
+            if (!(fabs(tv[i]) <= bv[i] && nv[i] <= bv[i])) continue;
             clvox_real v[9];
             for (uint c = 0; c < 9u; c++) v[c] = t[i * 9u + c];
             const int sg = -clvox_o3_sign(v, px, py, pz);
-            tv[i] = sg == 0 ? (clvox_real)0 : (tv[i] * (clvox_real)sg > 0 ? tv[i] : (clvox_real)sg * bv[i] * (clvox_real)0x1p-10);
+            if (sg != 0 && tv[i] * (clvox_real)sg > 0) continue;
+            tv[i] = (clvox_real)sg * bv[i] * (clvox_real)0x1p-10;
+            fv[i] = 2; /* replaced: within 2 delta */
         }
         det = vload4(0, tv);
+        dfac = vload4(0, fv);
     }
     const clvox_mask4 flat = lane & (det == zero);
     if (any(flat)) { /* rare: the tie rule, lane by lane (arrays: no run-time vector subscript) */
@@ -265,18 +280,19 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
     }
 #if !defined(CLVOX_FP64)
     /* The factor's rounding (float: the host's double decides where it
-     * matters, clvox_winding_inside_m): with |df| <= 2 delta (above) and
-     * |f| >= max(|den|, |det|), arg f moves by at most asin(rho) <= 1.05
-     * rho, rho = 2 delta / max(|den|, |det|) <= 1/2 -- det's sign being
+     * matters, clvox_winding_inside_m): with |df| <= delta (2 delta where
+     * det's sign was replaced, above), arg f moves by at most asin(rho) <=
+     * 1.05 rho, rho = |df| / |f| <= 1/2 (|f| taken 1e-4 below its float
+     * value, which is within a few u of it) -- det's sign being
      * exact (CLVOX_EXACT_SIGNS), f stays on its side of the cut -- and the
      * product by sqrt5 u more (clvox_angles_mul). Past 1/2 (p near an
      * edge's line, or at a corner: NaN) nothing is bounded. A flat lane
      * (exact det == 0) multiplies by 1 exactly; its tie needs den's sign,
      * certain where |den| > 2 delta. */
     {
-        const clvox_real4 rho = (2 * delta) / fmax(fabs(den), fabs(det));
+        const clvox_real4 rho = (dfac * delta) / (hypot(den, det) * 0.9999f); /* hypot: no overflow */
         clvox_real4 e = select((clvox_real4)CLVOX_ERR_UNBOUNDED, rho * 1.05f + 3 * CLVOX_REAL_U, rho <= 0.5f);
-        e = select(e, select((clvox_real4)CLVOX_ERR_UNBOUNDED, zero, fabs(den) > 2 * delta), flat);
+        e = select(e, select((clvox_real4)CLVOX_ERR_UNBOUNDED, zero, fabs(den) > delta), flat);
         a->err += select(e, zero, past);
     }
 #endif

@@ -142,7 +142,21 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
                 if (answer >= 0) last = extra++ >= tight;
             }
             const clvox_real dist = abs_mode ? fmin(fabs(w - thr), fabs(w + thr)) : fabs(w - thr);
-            if (sp == 0 || (answer >= 0 && (last || B <= (clvox_real)CLVOX_TIGHT_F * dist))) {
+            int stop = sp == 0 || (answer >= 0 && (last || B <= (clvox_real)CLVOX_TIGHT_F * dist));
+#if !defined(CLVOX_FP64)
+            /* float: where the part of B that refining cannot shrink (S's
+             * error, the sums' rounding) dominates, refining is wasted: a
+             * decided point stops tightening, an undecided one whose
+             * interval would straddle the threshold even with the frontier's
+             * bounds gone goes to the host now (either only changes how
+             * much work is done, never a voxel: the host decides exactly) */
+            {
+                const clvox_real refinable = Br * (clvox_real)CLVOX_SUM_ROUND, fixed = B - refinable;
+                if (answer >= 0 && refinable <= fixed) stop = 1;
+                if (answer < 0 && dist + refinable <= fixed) stop = 1;
+            }
+#endif
+            if (stop) {
                 if (evaluated) (*exact)++;
                 *wlo = w - B;
                 *whi = w + B; /* w lies in [w - B, w + B] */

@@ -17,7 +17,8 @@
 # (elephant-with-holes, holes, cylinder, mech-holes-shark, mushroom,
 # nefertiti, b9_mesh) in the default mode. Each row: double and float
 # seconds, their ratio, and whether the two EXR files are byte-identical
-# (else the filled-voxel counts). Markdown to stdout and to
+# (else the filled-voxel counts), and the float run's points decided on the
+# host in double (clvox_stats.winding_host_points). Markdown to stdout and to
 # build/bench/float.md.
 [ -z "${BASH_VERSION:-}" ] && exec bash "$0" "$@"
 set -euo pipefail
@@ -68,14 +69,18 @@ row() { # NAME MESH ARGS...
   elif cmp -s "$a" "$b"; then same="identical"
   else same="differ: $("$bin" info "$a" | grep -i filled | head -1) vs $("$bin" info "$b" | grep -i filled | head -1)"; fi
   [ "$td" != fail ] && [ "$tf" != fail ] && ratio=$(printf '%.2f' "$(echo "$tf / $td" | bc -l)")
-  echo "| $name | $mesh | $td | $tf | $ratio | $same |"
+  # the float run's points decided on the host (winding runs), one more run
+  local host
+  host=$(CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" -r "$res" -o "$b" --json "$@" 2>/dev/null |
+         grep -o '"host_points":[0-9]*' | cut -d: -f2)
+  echo "| $name | $mesh | $td | $tf | $ratio | $same | ${host:--} |"
 }
 
 {
   echo "Float kernels (CLVOX_KERNEL_FLOAT=1) against double, ${res}^3, best of $repeat, whole process (s), $(nproc) cores, $(date -u +%Y-%m-%d)"
   echo
-  echo "| case | mesh | double | float | float/double | bytes |"
-  echo "|---|---|---|---|---|---|"
+  echo "| case | mesh | double | float | float/double | bytes | host points |"
+  echo "|---|---|---|---|---|---|---|"
   closed="armadillo bunny00"; open="elephant-with-holes holes cylinder mech-holes-shark mushroom nefertiti b9_mesh"
   [ "$quick" = 1 ] && closed=armadillo && open=elephant-with-holes
   for m in $closed; do

@@ -131,7 +131,7 @@ typedef struct clvox_stats {
     clvox_winding_report winding; uint32_t device_count; clvox_device_share devices[16];
     double scheduling_efficiency; uint32_t reorder_slabs; uint64_t reorder_bytes; uint32_t reorder_peak;
     double winding_exact_seconds; double crack_weld_distance; uint64_t crack_welded_vertices;
-    uint64_t crack_pairs; uint64_t crack_holes; ...;
+    uint64_t crack_pairs; uint64_t crack_holes; uint64_t winding_host_points; ...;
 } clvox_stats;
 
 clvox_status clvox_voxelize_to_exr(clvox_context *ctx, const clvox_mesh *mesh, const clvox_grid *grid,

@@ -178,6 +178,7 @@ def _stats_dict(s):
                                        "welded_vertices": int(s.crack_welded_vertices),
                                        "pairs": int(s.crack_pairs), "holes_left": int(s.crack_holes)}
                                       if s.crack_pairs else None)
+        d["winding"]["host_points"] = int(s.winding_host_points)  # float devices: decided on the host
     d["devices"] = [{"index": int(e.device), "slabs": int(e.slabs), "slices": int(e.slices),
                      "busy_s": float(e.busy_seconds), "discarded_slabs": int(e.discarded_slabs),
                      "failed": bool(e.failed), "left_out": bool(e.left_out)}

@@ -170,6 +170,7 @@ def test_soup_crack_weld(ctx):
     cw = s.stats["winding"]["crack_weld"]
     assert cw is not None and cw["pairs"] > 0 and cw["holes_left"] == 0 and cw["distance"] > 0
     assert s.stats["winding"]["holes"] == len(f)  # the report is the soup's as given
+    assert s.stats["winding"]["host_points"] == 0  # a double device decides every point itself
     closed = ctx.voxelize((v, f), resolution=24)
     assert closed.stats["winding"]["crack_weld"] is None
     plain = ctx.voxelize((soup_v, soup_f), resolution=24)

@@ -72,7 +72,7 @@ row() { # NAME MESH ARGS...
   # the float run's points decided on the host (winding runs), one more run
   local host
   host=$(CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" -r "$res" -o "$b" --json "$@" 2>/dev/null |
-         grep -o '"host_points":[0-9]*' | cut -d: -f2)
+         grep -o '"host_points":[0-9]*' | cut -d: -f2 || true)
   echo "| $name | $mesh | $td | $tf | $ratio | $same | ${host:--} |"
 }
 

@@ -122,6 +122,8 @@ static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_g
     }
 }
 
+static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g);
+
 /* w at p of the triangles, in long double (van Oosterom-Strackee). */
 static long double ref_w(const tmesh *m, const double p[3])
 {
@@ -194,6 +196,28 @@ static void test_adversarial(void)
         }
         free(a);
         clvox_mesh_destroy(mesh);
+        tmesh_free(&box);
+        tmesh_free(&open);
+    }
+    /* a list with room for 1 point: the batch's consumer runs again with
+     * room for all (resolve_unsure), to the same voxels */
+    {
+        clvox__test_hooks h = *clvox__hooks();
+        h.unsure_room = 1;
+        clvox__set_test_hooks(&h);
+        tmesh box = tmesh_box(2.3, 3.1, 2.7, 13.7, 12.9, 8.0 + 0x1p-20), open = {0};
+        for (size_t v = 0; v < box.nv; v++) tmesh_add_vertex(&open, box.xyz[3 * v], box.xyz[3 * v + 1], box.xyz[3 * v + 2]);
+        for (size_t t = 0; t < box.nt; t++) {
+            const uint32_t *c = box.tri + 3 * t;
+            if (!(box.xyz[3 * c[0] + 2] == box.xyz[3 * c[1] + 2] && box.xyz[3 * c[1] + 2] == box.xyz[3 * c[2] + 2] &&
+                  box.xyz[3 * c[0] + 2] > 8.0f))
+                tmesh_add_tri(&open, c[0], c[1], c[2]);
+        }
+        const uint64_t h0 = host_points;
+        compare_tmesh("open box, unsure list of 1", &open, &g);
+        CHECK_MSG(host_points - h0 > 2, "only %llu host points with a list of 1", (unsigned long long)(host_points - h0));
+        h.unsure_room = 0;
+        clvox__set_test_hooks(&h);
         tmesh_free(&box);
         tmesh_free(&open);
     }

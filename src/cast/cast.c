@@ -175,7 +175,8 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, siz
     if (st == CLVOX_OK && winding && !coverage) {
         /* a float device's unsure points (resolve_unsure); a double device
          * leaves none, its list has no room */
-        m->unsure_room = ctx->real_size == 4 ? UNSURE_ROOM : 0;
+        const unsigned room = clvox__hooks()->unsure_room;
+        m->unsure_room = ctx->real_size == 4 ? (room ? room : UNSURE_ROOM) : 0;
         m->unsure = clvox__buffer(ctx, CL_MEM_READ_WRITE, (2 + 3 * (size_t)m->unsure_room) * sizeof(cl_uint), NULL,
                                   &st, "unsure points");
     }

@@ -75,6 +75,7 @@ static clvox__test_hooks from_environment(void)
     h.copy_slabs = is("CLVOX_COPY_SLABS", "1");
     h.fp32_unrounded = is("CLVOX_TEST_FP32_UNROUNDED", "1");
     h.no_crack_weld = is("CLVOX_CRACK_WELD", "0");
+    h.unsure_room = (unsigned)in_range("CLVOX_UNSURE_ROOM", 1, 4096);
     const char *crash = getenv("CLVOX_TEST_ASSIMP_CRASH");
     if (crash && *crash && strlen(crash) < sizeof h.assimp_crash) strcpy(h.assimp_crash, crash);
     return h;

@@ -55,7 +55,7 @@ static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_
 {
     clvox_real px, py, pz;
     clvox_scaled_xyz(axis, (clvox_real)(u_begin + j), rv, rw, h, &px, &py, &pz);
-    const uint flags = h[3] != 0 ? CLVOX_EXACT_SIGNS : 0u;
+    const uint flags = CLVOX_AXIS_FLAGS(h[3]);
     const int in = clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, px, py, pz, axis | flags, tight,
                                             exact, lo, hi, cut, cut_n, fresh_exact);
     if (!(in & CLVOX_UNSURE)) return in;

@@ -38,11 +38,15 @@
 #define CLVOX_TIGHT_F 0.5
 /* The winding functions' `axis` (0, 1, 2: the tie rule's first axis) may
  * carry CLVOX_EXACT_SIGNS: the scaled coordinates are the grid's floats
- * (cubic voxels, src/winding/winding.c clvox__winding_scale; the scale
- * buffer's h[3] == 1), so a cap's orientation at p and its normal's
- * components have exact signs (kernels/overlap.h). */
+ * times 2^-k (cubic voxels, src/winding/winding.c clvox__winding_scale; the
+ * scale buffer's h[3] == 1 + k, k in the bits from 3 on), so a cap's
+ * orientation at p and its normal's components have exact signs
+ * (kernels/overlap.h, on the coordinates times 2^k: the grid's floats, in
+ * the range where float's expansions are exact). */
 #define CLVOX_AXIS_OF(a) ((a) & 3u)
 #define CLVOX_EXACT_SIGNS 4u
+#define CLVOX_AXIS_FLAGS(h3) ((h3) != 0 ? CLVOX_EXACT_SIGNS | ((uint)((h3) - 1) << 3) : 0u)
+#define CLVOX_BACK(a) ((clvox_real)(1u << ((a) >> 3))) /* 2^k: scaled to grid coordinates */
 /* A bound on the rounding of a cap factor den + i det (below): |d den| +
  * |d det| <= CLVOX_FACTOR_DELTA * la lb lc, 128 u (u the unit roundoff),
  * counted with the corners' differences from p rounded (u each): the
@@ -147,7 +151,9 @@ typedef struct clvox_angles {
     clvox_mask4 k;      /* the lanes' wraps: the sum is arg(re + i im) + 2pi k */
     clvox_real halves;  /* the in-plane halves */
     uint n;             /* factors (for the error bound) */
+#if !defined(CLVOX_FP64)
     clvox_real4 err;    /* float: the lanes' argument errors (radians), clvox_cap_angles4_v */
+#endif
 } clvox_angles;
 
 static inline void clvox_angles_init(clvox_angles *a)
@@ -157,7 +163,9 @@ static inline void clvox_angles_init(clvox_angles *a)
     a->k = (clvox_mask4)0;
     a->halves = 0;
     a->n = 0;
+#if !defined(CLVOX_FP64)
     a->err = (clvox_real4)0;
+#endif
 }
 
 /* a *= den + i det lane by lane, counting the wraps (den = 1, det = 0:
@@ -202,10 +210,12 @@ static inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px
     if (!(den < 0)) return 0;
     if (axis & CLVOX_EXACT_SIGNS) { /* the normal's signs exactly: N_i = e2 over axes i + 1, i + 2 */
         const uint a0 = CLVOX_AXIS_OF(axis);
+        const clvox_real b = CLVOX_BACK(axis);
         int d = 0;
         for (uint k = 0; k < 3u && d == 0; k++) {
             const uint i = (a0 + k) % 3u, s = (i + 1u) % 3u, r = (i + 2u) % 3u;
-            d = -clvox_e2_sign(t[s], t[r], t[3 + s], t[3 + r], t[s], t[r], t[6 + s], t[6 + r]);
+            d = -clvox_e2_sign(t[s] * b, t[r] * b, t[3 + s] * b, t[3 + r] * b, t[s] * b, t[r] * b, t[6 + s] * b,
+                               t[6 + r] * b);
         }
         return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
     }
@@ -219,6 +229,27 @@ static inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px
     const clvox_real nu = n[axis], nv = n[(axis + 1u) % 3u], nw = n[(axis + 2u) % 3u];
     const clvox_real d = nu != 0 ? -nu : nv != 0 ? -nv : -nw;
     return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
+}
+
+/* clvox_cap_angles4_v's rare path, out of line (the hot loop stays small):
+ * lanes i < count whose det (tv) and den (nv) are both within delta (bv)
+ * of 0 get det's exact sign, -orient3d(A, B, C, p): 0 in the plane, a
+ * wrong sign replaced by a small value of the right one, fv[i] = 2 (its
+ * error within 2 delta), else 1. */
+static inline void clvox_det_signs(global const clvox_real *t, uint count, clvox_real px, clvox_real py, clvox_real pz, uint axis,
+                     clvox_real *tv, const clvox_real *bv, const clvox_real *nv, clvox_real *fv)
+{
+    const clvox_real back = CLVOX_BACK(axis);
+    for (uint i = 0; i < 4u; i++) fv[i] = 1;
+    for (uint i = 0; i < count; i++) {
+        if (!(fabs(tv[i]) <= bv[i] && nv[i] <= bv[i])) continue;
+        clvox_real v[9];
+        for (uint c = 0; c < 9u; c++) v[c] = t[i * 9u + c] * back;
+        const int sg = -clvox_o3_sign(v, px * back, py * back, pz * back);
+        if (sg != 0 && tv[i] * (clvox_real)sg > 0) continue;
+        tv[i] = (clvox_real)sg * bv[i] * (clvox_real)0x1p-10;
+        fv[i] = 2;
+    }
 }
 
 /* Multiplies in the cap triangles with corners a, b, c (lane by lane, in
@@ -243,7 +274,8 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
     const clvox_mask4 past = (clvox_mask4)(0, 1, 2, 3) >= (clvox_mask4)count; /* not ~lane: clvox_angles_mul */
     const clvox_real4 delta = (clvox_real)CLVOX_FACTOR_DELTA * L; /* |d den| + |d det| */
     clvox_real4 dfac = (clvox_real4)1; /* the factor's error: delta, or 2 delta where det's sign was replaced */
-    if ((axis & CLVOX_EXACT_SIGNS) && any(lane & (fabs(det) <= delta) & (den <= delta))) {
+    /* (lanes past count repeat triangle 0: clvox_det_signs looks at i < count only) */
+    if ((axis & CLVOX_EXACT_SIGNS) && any(fmax(fabs(det), den) <= delta)) {
         /* rare (p within about 128 u of the cap's plane, and den not
          * surely positive: where it is, f and its rounding lie in the right
          * half-plane and det's sign moves arg f by no more than its bound
@@ -253,20 +285,11 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
          * below). Not for slivers seen from afar (den about 4 L): their det
          * is small, and its exact sign would cost (cylinder's rim caps,
          * 256^3: 4x the classify). */
-        clvox_real tv[4], bv[4], fv[4] = {1, 1, 1, 1};
+        clvox_real tv[4], bv[4], nv[4], fv[4];
         vstore4(det, 0, tv);
         vstore4(delta, 0, bv);
-        clvox_real nv[4];
         vstore4(den, 0, nv);
-        for (uint i = 0; i < count; i++) {
-            if (!(fabs(tv[i]) <= bv[i] && nv[i] <= bv[i])) continue;
-            clvox_real v[9];
-            for (uint c = 0; c < 9u; c++) v[c] = t[i * 9u + c];
-            const int sg = -clvox_o3_sign(v, px, py, pz);
-            if (sg != 0 && tv[i] * (clvox_real)sg > 0) continue;
-            tv[i] = (clvox_real)sg * bv[i] * (clvox_real)0x1p-10;
-            fv[i] = 2; /* replaced: within 2 delta */
-        }
+        clvox_det_signs(t, count, px, py, pz, axis, tv, bv, nv, fv);
         det = vload4(0, tv);
         dfac = vload4(0, fv);
     }

@@ -124,7 +124,9 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
             for (uint i = 0; i < sp; i++) {
                 B += sb[i];
                 E += se[i];
+#if !defined(CLVOX_FP64)
                 EA += fabs(se[i]);
+#endif
             }
             Br = B;
             Er = E;

@@ -93,8 +93,16 @@ typedef struct clvox_context_options {
     /* 1: open no OpenCL device; enough for loading meshes, computing grids
      * and reading volumes (clvox info), not for voxelizing. */
     int host_only;
+    /* appended in 0.3: 1 = build every device's kernels without double
+     * precision, as on a device without cl_khr_fp64 (which always gets
+     * them): the same voxels in every mode but coverage, palette and the
+     * winding test on voxels that are not cubes (docs/design.md "Devices
+     * without double precision"), and faster where double is slow (most
+     * consumer GPUs run it at 1/16 to 1/64 of float). 0: double wherever
+     * the device has it. */
+    int float_kernels;
 } clvox_context_options;
-#define CLVOX_CONTEXT_OPTIONS_INIT { sizeof(clvox_context_options), NULL, 0 }
+#define CLVOX_CONTEXT_OPTIONS_INIT { sizeof(clvox_context_options), NULL, 0, 0 }
 
 typedef struct clvox_device_info {
     size_t size;           /* sizeof(clvox_device_info): set by the caller (see Conventions) */
@@ -107,8 +115,8 @@ typedef struct clvox_device_info {
     uint64_t global_mem_bytes;
     uint64_t max_alloc_bytes;
     /* appended in 0.2: 1 when the device has double precision
-     * (CL_DEVICE_DOUBLE_FP_CONFIG): devices combine in one run only when
-     * they agree on it (the kernels' exact paths use it). */
+     * (CL_DEVICE_DOUBLE_FP_CONFIG); one without it gets kernels built in
+     * float (clvox_context_options.float_kernels). */
     int fp64;
 } clvox_device_info;
 #define CLVOX_DEVICE_INFO_INIT { .size = sizeof(clvox_device_info) }

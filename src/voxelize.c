@@ -352,8 +352,8 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
                                o.inside == CLVOX_INSIDE_PARITY || cubic);
     if (!same_in_float && best_rules != 8) /* float devices alone */
         clvox__warn(ctx,
-                    "no device of this run has double precision: its %s may differ from a double device's where a "
-                    "sample lies within about 1e-6 of the inside test's threshold",
+                    "the kernels of this run are built without double precision: its %s may differ from a double "
+                    "device's where a sample lies within about 1e-6 of the inside test's threshold",
                     o.oversample || o.palette ? "coverage and palette samples" : "winding test on voxels that are not cubes");
     clvox_stats first = stats;
     int have_first = 0;

@@ -2023,6 +2023,30 @@ static void test_npy_sidecar_name(void)
     CHECK_MSG(lstat(p, &sb) != 0, "--format npy -o y.json: y.json was left");
 }
 
+/* --float-kernels: the kernels built without double precision on a
+ * device that has it; the default run's file unchanged, a coverage run
+ * warned (not exact in float). */
+static void test_float_kernels_flag(void)
+{
+    char mesh[PATH_MAX], a[PATH_MAX], b[PATH_MAX];
+    path_join(mesh, sizeof mesh, g_in, "cube.obj");
+    path_join(a, sizeof a, g_dir, "fk_a.exr");
+    path_join(b, sizeof b, g_dir, "fk_b.exr");
+    run_result r;
+    run_cli(&r, NULL, ARGS(mesh, "-r", "20", "-o", a, "-q"));
+    CHECK_MSG(r.code == 0, "default: exit %d: %s", r.code, r.err);
+    spawn_free(&r);
+    run_cli(&r, NULL, ARGS(mesh, "-r", "20", "-o", b, "-q", "--float-kernels"));
+    CHECK_MSG(r.code == 0 && !*r.err, "--float-kernels: exit %d: %s", r.code, r.err);
+    spawn_free(&r);
+    CHECK_MSG(same_file(a, b), "--float-kernels changed the default run's file");
+    run_cli(&r, NULL, ARGS(mesh, "-r", "12", "--oversample", "2", "-o", b, "-q", "--float-kernels"));
+    CHECK_MSG(r.code == 0 && strstr(r.err, "warning: the kernels of this run are built without double precision") &&
+                  count_lines(r.err) == 1,
+              "--float-kernels coverage: exit %d: %s", r.code, r.err);
+    spawn_free(&r);
+}
+
 int main(void)
 {
     const char *bin = getenv("CLVOX_BIN");
@@ -2040,6 +2064,7 @@ int main(void)
     test_precision_warning();
     test_default_mesh();
     test_list_devices();
+    test_float_kernels_flag();
     test_preview();
     test_preview_view();
     test_palette_files();

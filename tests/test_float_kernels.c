@@ -381,6 +381,15 @@ int main(void)
     test_random();
     test_range_refused();
     test_adversarial();
+    { /* the public option (clvox_context_options.float_kernels) builds them so too */
+        clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
+        co.float_kernels = 1;
+        clvox_context *c = NULL;
+        CHECK_OK(c, clvox_context_create(&co, &c));
+        CHECK_MSG(c && c->real_size == 4 && c->kernels_float, "float_kernels: kernels of %zu bytes",
+                  c ? c->real_size : 0);
+        clvox_context_destroy(c);
+    }
     if (!getenv("CLVOX_QUICK")) test_data_meshes();
     printf("%u runs of the exact modes and %u winding runs compared, byte-identical; %llu points decided on the "
            "host\n",

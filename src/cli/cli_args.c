@@ -161,6 +161,7 @@ int parse_args(int argc, char **argv, int first, int multi, cli_extra_opt_fn ext
         if (strcmp(arg, "-V") == 0 || strcmp(arg, "--version") == 0) { a->version = 1; continue; }
         if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) { a->quiet = 1; continue; }
         if (strcmp(arg, "--no-progress") == 0) { a->no_progress = 1; continue; }
+        if (strcmp(arg, "--float-kernels") == 0) { a->float_kernels = 1; continue; }
         if (strcmp(arg, "--list-devices") == 0) { a->list_devices = 1; continue; }
         if (strcmp(arg, "--npy-bits") == 0) { a->out.flags |= CLVOX_OUTPUT_PACK_BITS; continue; }
         if (strcmp(arg, "--npy-float32") == 0) { a->out.flags |= CLVOX_OUTPUT_FLOAT32; continue; }
@@ -642,7 +643,8 @@ void print_help(void)
 "                           for palette runs, whose UINT element channel RLE\n"
 "                           cannot shrink); .nrrd: none or zip (gzip, default)\n"
 "  --threads N              host encoder threads (default 0 = number of cores)\n"
-"\n"
+"\n", stdout);
+    fputs(
 "Device:\n"
 "  --device SEL             auto, gpu, cpu, accelerator, an index from\n"
 "                           --list-devices, or a case-insensitive substring of the\n"
@@ -653,6 +655,11 @@ void print_help(void)
 "                           (a device that fails is dropped with a warning)\n"
 "  --list-devices           list the OpenCL devices (index, type, name, platform,\n"
 "                           version, fp64, memory) and exit\n"
+"  --float-kernels          build the kernels without double precision on every\n"
+"                           device, as devices without fp64 always get them: the\n"
+"                           same voxels but in coverage, palette and winding on\n"
+"                           non-cubic voxels (a warning says so); faster where\n"
+"                           double is slow (most consumer GPUs)\n"
 "\n"
 "Other:\n"
 "  -q, --quiet              no summary and no progress bar (errors and warnings\n"

@@ -653,6 +653,7 @@ int vox_run(vox_session *s, const vox_job *job, vox_result *res)
         double t1 = now_seconds();
         clvox_context_options dco = CLVOX_CONTEXT_OPTIONS_INIT;
         dco.device = a->device;
+        dco.float_kernels = a->float_kernels;
         if ((st = clvox_context_create(&dco, &s->dev)) != CLVOX_OK) {
             rc = fail_status(s->dev, st, ROLE_OTHER);
             clvox_context_destroy(s->dev);

@@ -24,6 +24,7 @@ typedef struct cli_args {
     const char *grid_opt[3];
     clvox_voxelize_options vox;
     const char *device;
+    int float_kernels;        /* --float-kernels: clvox_context_options.float_kernels */
     int list_devices, quiet, no_progress, help, version;
     int seed_given;
     const char *palette;       /* --palette NAME|FILE */

@@ -315,7 +315,7 @@ static clvox_status build_program(clvox_context *ctx)
      * CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device without fp64
      * (a developer's check of the float path on PoCL). */
     const clvox__test_hooks *hk = clvox__hooks();
-    ctx->kernels_float = hk->kernels_float ||
+    ctx->kernels_float = ctx->want_float || hk->kernels_float ||
                          (hk->kernels_float_device > 0 && (uint32_t)hk->kernels_float_device == ctx->position + 1);
     const char *base;
     clvox_status st = clvox__program_options(ctx, &base); /* device_checks.c */
@@ -363,7 +363,7 @@ clvox_status clvox__float_check(clvox_context *ctx, const char *what, size_t out
     return clvox__fail(ctx, CLVOX_ERR_NO_DEVICE,
                        "%s in float (%s): grid coordinate %g is outside the range where float decides exactly "
                        "(0, or 2^-24 to 2^36 voxels); use a device with double precision",
-                       what, ctx->kernels_float ? "CLVOX_KERNEL_FLOAT=1" : "the device has no cl_khr_fp64",
+                       what, ctx->kernels_float ? "kernels built without double precision" : "the device has no cl_khr_fp64",
                        (double)bad);
 }
 
@@ -496,6 +496,7 @@ static clvox_status open_set(clvox_context *ctx, const device_entry *list, const
             return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory");
         }
         c->position = i;
+        c->want_float = ctx->want_float;
         clvox_status st = open_device(c, &list[picks[i]]);
         if (st == CLVOX_OK) {
             open[n++] = c;
@@ -549,6 +550,7 @@ clvox_status clvox_context_create(const clvox_context_options *options, clvox_co
     }
     ctx->host_only = o.host_only;
     if (o.host_only) return CLVOX_OK;
+    ctx->want_float = o.float_kernels != 0;
 
     const char *sel = o.device;
     if (!sel || !*sel) sel = clvox__setting_value(CLVOX__ENV_DEVICE);

@@ -38,7 +38,8 @@ struct clvox_context {
     cl_program program;     /* all kernels, built once per context */
     int program_cached;     /* 1: program made from the cached binary (program_cache.c) */
     size_t real_size;       /* sizeof(clvox_real) in the kernels: 8 with fp64, else 4 */
-    int kernels_float;      /* 1: CLVOX_KERNEL_FLOAT=1 built them without fp64 (build_program) */
+    int kernels_float;      /* 1: built without fp64 on a device that has it (build_program) */
+    int want_float;         /* clvox_context_options.float_kernels */
     /* The run's devices (clvox_context_options.device "a,b" or "all"):
      * member[0] is this context; member[1..] are contexts of their own, one
      * per device (devices of different platforms cannot share a

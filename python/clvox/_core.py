@@ -475,13 +475,16 @@ class Context:
     devices at once: "all", "0,1", or a list such as [0, "gpu"] (every call then spreads its
     slabs over them, same voxels; .devices lists them, .warnings says who was left out).
     host_only=True opens no device (reading volumes, loading meshes).
+    float_kernels=True builds the kernels without double precision on every device (as devices
+    without fp64 always get them): the same voxels but in coverage, palette and the winding test on
+    voxels that are not cubes; faster where double is slow (clvox --float-kernels).
 
     Thread safety: a Context runs one call at a time; a second call made while one is running
     (from another thread, or inside a slab iterator's loop) raises RuntimeError. Use one
     Context per thread; calls on different contexts run in parallel (the GIL is released
     while the library works)."""
 
-    def __init__(self, device=None, host_only=False):
+    def __init__(self, device=None, host_only=False, float_kernels=False):
         from . import _pocl
         if _pocl.POCL_ERROR and not host_only:  # the wheel's PoCL would fail every kernel build
             raise Error(lib.CLVOX_ERR_KERNEL_BUILD, _pocl.POCL_ERROR)
@@ -501,6 +504,7 @@ class Context:
         keep = ffi.new("char[]", dev) if dev is not None else ffi.NULL
         opts.device = keep
         opts.host_only = 1 if host_only else 0
+        opts.float_kernels = 1 if float_kernels else 0
         out = ffi.new("clvox_context **")
         st = lib.clvox_context_create(opts, out)
         if st != lib.CLVOX_OK:

@@ -468,8 +468,14 @@ static inline void clvox_face_set_x(clvox_tface_x *f, float ax, float ay, float 
      * cyclic coordinates (s, t) = (k + 1, k + 2) */
     int sn[3];
     for (int k = 0; k < 3; k++) {
+        /* the rounded minor m[k] is within 4.1 u of its permanent pm[k] of
+         * n_k (clvox_face_threshold_x): its sign where it is farther from
+         * 0 than that, else exactly */
+        const float bound = CLVOX_OV_BOUND(4.1f * CLVOX_OV_U * f->pm[k]);
         const int s = (k + 1) % 3, t = (k + 2) % 3;
-        sn[k] = clvox_e2_sign(v[s], v[t], v[3 + s], v[3 + t], v[s], v[t], v[6 + s], v[6 + t]);
+        sn[k] = f->m[k] > bound    ? 1
+                : -f->m[k] > bound ? -1
+                                   : clvox_e2_sign(v[s], v[t], v[3 + s], v[3 + t], v[s], v[t], v[6 + s], v[6 + t]);
     }
     f->snx = sn[0];
     f->tie = 0;

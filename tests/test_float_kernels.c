@@ -148,6 +148,23 @@ static long double ref_w(const tmesh *m, const double p[3])
     return w / (4 * 3.14159265358979323846264338327950288L);
 }
 
+/* The box [2.3, 13.7] x [3.1, 12.9] x [2.7, top] without its top face (10
+ * triangles). */
+static tmesh open_box(double top)
+{
+    tmesh box = tmesh_box(2.3, 3.1, 2.7, 13.7, 12.9, top), open = {0};
+    for (size_t v = 0; v < box.nv; v++) tmesh_add_vertex(&open, box.xyz[3 * v], box.xyz[3 * v + 1], box.xyz[3 * v + 2]);
+    for (size_t t = 0; t < box.nt; t++) {
+        const uint32_t *c = box.tri + 3 * t;
+        int up = 1;
+        for (int i = 0; i < 3; i++) up &= box.xyz[3 * c[i] + 2] == (float)top;
+        if (!up) tmesh_add_tri(&open, c[0], c[1], c[2]);
+    }
+    CHECK(open.nt == 10);
+    tmesh_free(&box);
+    return open;
+}
+
 /* Adversarial points: a box open at the top, whose top lies k float ulps
  * (2^-20 at 8) above the plane of centres z = 8. Every centre inside the
  * opening on that plane has w = 1/2 + O(k 1e-7) (on the opening itself w
@@ -162,15 +179,7 @@ static void test_adversarial(void)
     unsigned near = 0, checked = 0;
     for (int k = -6; k <= 6; k++) {
         const double top = 8.0 + k * 0x1p-20;
-        tmesh box = tmesh_box(2.3, 3.1, 2.7, 13.7, 12.9, top), open = {0};
-        for (size_t v = 0; v < box.nv; v++) tmesh_add_vertex(&open, box.xyz[3 * v], box.xyz[3 * v + 1], box.xyz[3 * v + 2]);
-        for (size_t t = 0; t < box.nt; t++) {
-            const uint32_t *c = box.tri + 3 * t;
-            int up = 1;
-            for (int i = 0; i < 3; i++) up &= box.xyz[3 * c[i] + 2] == (float)top;
-            if (!up) tmesh_add_tri(&open, c[0], c[1], c[2]);
-        }
-        CHECK(open.nt == 10);
+        tmesh open = open_box(top);
         char name[64];
         snprintf(name, sizeof name, "open box, top %+d ulp from centres", k);
         clvox_mesh *mesh = NULL;
@@ -196,7 +205,6 @@ static void test_adversarial(void)
         }
         free(a);
         clvox_mesh_destroy(mesh);
-        tmesh_free(&box);
         tmesh_free(&open);
     }
     /* a list with room for 1 point: the batch's consumer runs again with
@@ -205,20 +213,12 @@ static void test_adversarial(void)
         clvox__test_hooks h = *clvox__hooks();
         h.unsure_room = 1;
         clvox__set_test_hooks(&h);
-        tmesh box = tmesh_box(2.3, 3.1, 2.7, 13.7, 12.9, 8.0 + 0x1p-20), open = {0};
-        for (size_t v = 0; v < box.nv; v++) tmesh_add_vertex(&open, box.xyz[3 * v], box.xyz[3 * v + 1], box.xyz[3 * v + 2]);
-        for (size_t t = 0; t < box.nt; t++) {
-            const uint32_t *c = box.tri + 3 * t;
-            if (!(box.xyz[3 * c[0] + 2] == box.xyz[3 * c[1] + 2] && box.xyz[3 * c[1] + 2] == box.xyz[3 * c[2] + 2] &&
-                  box.xyz[3 * c[0] + 2] > 8.0f))
-                tmesh_add_tri(&open, c[0], c[1], c[2]);
-        }
+        tmesh open = open_box(8.0 + 0x1p-20);
         const uint64_t h0 = host_points;
         compare_tmesh("open box, unsure list of 1", &open, &g);
         CHECK_MSG(host_points - h0 > 2, "only %llu host points with a list of 1", (unsigned long long)(host_points - h0));
         h.unsure_room = 0;
         clvox__set_test_hooks(&h);
-        tmesh_free(&box);
         tmesh_free(&open);
     }
     printf("adversarial: %u centres within 1e-6 of w = 1/2, %u checked against long double, %llu points "

@@ -365,9 +365,9 @@ static cl_mem copy_from(clvox_context *ctx, clvox_context *from, cl_mem src, clv
 }
 
 /* copy_from for an array of clvox_real: converted where the two devices'
- * kernels differ (a float device beside a double lead; the lead's doubles
- * are floats times a scale of 1 on cubic voxels, so nothing is lost
- * there). With `host` (a float device's caps), their first host_count * 9
+ * kernels differ (a float device beside a double lead; on cubic voxels the
+ * lead's doubles are floats times 2^-k, clvox__winding_scale, so nothing is
+ * lost). With `host` (a float device's caps), their first host_count * 9
  * reals in double too (clvox__caps.host). */
 static cl_mem copy_reals(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st, const char *what,
                          double **host, size_t host_count)

@@ -225,7 +225,7 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                 for (uint m = 0; m < M; m++) {
                     if (stochastic && (m & 3u) == 0)
                         clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
-                    clvox_real p = lo + clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
+                    const clvox_real p = clvox_sample_u(u, m, M, (int)stochastic, bits[m & 3u]);
                     if (sg) {
                         while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
                         cnt += near ? (uint)clvox_sample_winding(K, abs_mode, axis, p, rays + r0 + r, h, nodes,

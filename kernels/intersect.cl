@@ -44,7 +44,7 @@ static inline int clvox_hit_at_or_below(const float *v, float i, float pv, float
 }
 
 static inline int clvox_ray_crosses_x(global const float *a, global const float *b, global const float *c, float pv,
-                                      float pw, float *u_hit)
+                                      float pw, int exact_hits, float *u_hit)
 {
     const int sab = clvox_edge_sign_x(pv, pw, a[1], a[2], b[1], b[2]);
     const int sbc = clvox_edge_sign_x(pv, pw, b[1], b[2], c[1], c[2]);
@@ -55,6 +55,10 @@ static inline int clvox_ray_crosses_x(global const float *a, global const float 
     const float eab = Av * Bw - Aw * Bv, ebc = Bv * Cw - Bw * Cv, eca = Cv * Aw - Cw * Av;
     const float ua = a[0];
     float h = ua + (eca * (b[0] - ua) + eab * (c[0] - ua)) / (eab + ebc + eca);
+    if (exact_hits) { /* every float compared exactly, integers among them */
+        *u_hit = h;
+        return sab;
+    }
     /* u lies in the triangle's u-range: the integers to search are those
      * between ceil(umin) and ceil(umax), clipped to +-2^22 (far past any
      * grid: a crossing beyond is on the same side of every centre) */
@@ -70,11 +74,88 @@ static inline int clvox_ray_crosses_x(global const float *a, global const float 
 }
 #endif
 
+/* Crossings for the column consumers (coverage), which compare them with
+ * sample points that are floats (sampler.h clvox_sample_u), not only
+ * integers: the crossing is stored as RU(u), the smallest float f >= u of
+ * the set S = {0} and 2^-24 <= |f| <= 2^22, so that "f > p" is exactly
+ * "u > p" for every p in S (u > p: f >= u > p; u <= p: f <= p), and
+ * ceil(f) = ceil(u). "u <= f" is the exact sign of the triangle's plane
+ * function at (f, pv, pw) (clvox_hit_at_or_below), monotone in f: from
+ * the estimate, a galloping search then bisection over S in order (keys:
+ * the floats' bit patterns, counted from 2^-24). In double the estimate is
+ * within a fraction of a float's spacing, and the filter of overlap.h
+ * decides the two signs at once but at ties; in float a few steps each
+ * way. Both builds get the same float. */
+#define CLVOX_HIT_MIN_BITS 0x33800000 /* as_int(0x1p-24f) */
+static inline long clvox_hit_key(float f) /* f in S */
+{
+    if (f == 0.0f) return 0;
+    const long k = (long)as_int(fabs(f)) - CLVOX_HIT_MIN_BITS + 1;
+    return f > 0.0f ? k : -k;
+}
+static inline float clvox_hit_of_key(long k)
+{
+    if (k == 0) return 0.0f;
+    const float f = as_float((int)((k > 0 ? k : -k) - 1 + CLVOX_HIT_MIN_BITS));
+    return k > 0 ? f : -f;
+}
+/* The key of a float f clamped into S's range: below it (down) or above. */
+static inline long clvox_hit_key_near(float f, int up)
+{
+    f = fmin(fmax(f, -0x1p22f), 0x1p22f);
+    if (fabs(f) < 0x1p-24f) return f == 0.0f ? 0 : (f > 0.0f ? (up ? 1 : 0) : (up ? 0 : -1));
+    return clvox_hit_key(f);
+}
+static inline int clvox_hit_below_pre(const clvox_ovr *v, const clvox_ovr *m, const clvox_ovr *pm, long k, float pv,
+                                      float pw, int s)
+{
+    return s * clvox_o3_sign_pre(v, m, pm, clvox_hit_of_key(k), pv, pw) >= 0;
+}
+static inline float clvox_hit_round_up(global const float *a, global const float *b, global const float *c, float pv,
+                                       float pw, int s, clvox_real est)
+{
+    const clvox_ovr v[9] = {a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]};
+    clvox_ovr m[3], pm[3];
+    clvox_o3_setup(v, m, pm);
+    const long klo = clvox_hit_key_near(fmin(fmin(a[0], b[0]), c[0]), 0);
+    const long khi = clvox_hit_key_near(fmax(fmax(a[0], b[0]), c[0]), 1);
+    long k = clvox_hit_key_near((float)est, 1); /* NaN: fmin/fmax give the bound */
+    k = k < klo ? klo : (k > khi ? khi : k);
+    /* invariant: "u <= key b" holds (b = khi if never seen), "u <= key a"
+     * does not (a = klo - 1 if never seen) */
+    long lo, hi, step = 1;
+    if (clvox_hit_below_pre(v, m, pm, k, pv, pw, s)) {
+        hi = k;
+        lo = k - 1;
+        while (lo >= klo && clvox_hit_below_pre(v, m, pm, lo, pv, pw, s)) {
+            hi = lo;
+            step *= 2;
+            lo = hi - step;
+        }
+        if (lo < klo) lo = klo - 1;
+    } else {
+        lo = k;
+        hi = k + 1;
+        while (hi <= khi && !clvox_hit_below_pre(v, m, pm, hi, pv, pw, s)) {
+            lo = hi;
+            step *= 2;
+            hi = lo + step;
+        }
+        if (hi > khi) hi = khi;
+    }
+    while (hi - lo > 1) {
+        const long mid = lo + (hi - lo) / 2;
+        if (clvox_hit_below_pre(v, m, pm, mid, pv, pw, s)) hi = mid;
+        else lo = mid;
+    }
+    return clvox_hit_of_key(hi);
+}
+
 static void clvox_intersect_body(global const clvox_ray *rays, uint ray_count,
                                  global const uint *leaf_of_ray, global const clvox_qt_node *nodes,
                                  global const uint *refs, global const float *verts, global const uint *tris,
                                  uint capacity, global clvox_real *hits, global uint *counts, global char *signs,
-                                 uint surface_count)
+                                 uint surface_count, uint exact_hits)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -91,8 +172,11 @@ static void clvox_intersect_body(global const clvox_ray *rays, uint ray_count,
                                         pv, pw, &u);
 #else
         const int s = clvox_ray_crosses_x(verts + (size_t)k3[0] * 3, verts + (size_t)k3[1] * 3,
-                                          verts + (size_t)k3[2] * 3, pv, pw, &u);
+                                          verts + (size_t)k3[2] * 3, pv, pw, (int)exact_hits, &u);
 #endif
+        if (s && exact_hits)
+            u = clvox_hit_round_up(verts + (size_t)k3[0] * 3, verts + (size_t)k3[1] * 3, verts + (size_t)k3[2] * 3, pv,
+                                   pw, s, u);
         if (s) {
             if (n < capacity) {
                 out[n] = u;
@@ -110,10 +194,10 @@ kernel void clvox_intersect(global const clvox_ray *rays, uint ray_count,
                             global const uint *leaf_of_ray, global const clvox_qt_node *nodes,
                             global const uint *refs, global const float *verts, global const uint *tris,
                             uint capacity, global clvox_real *hits, global uint *counts, global char *signs,
-                            uint surface_count,
+                            uint surface_count, uint exact_hits,
                             global uint *clvox_done, uint clvox_done_slot)
 {
     clvox_intersect_body(rays, ray_count, leaf_of_ray, nodes, refs, verts, tris, capacity, hits, counts, signs,
-        surface_count);
+        surface_count, exact_hits);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }

@@ -36,9 +36,12 @@
 #ifdef __OPENCL_VERSION__
 typedef ulong clvox_u64;
 #define CLVOX_SAMPLER_FN static inline /* static: see CLVOX_OV_FN (overlap.h) */
+#define CLVOX_SAMPLER_LDEXP ldexp
 #else
+#include <math.h>
 #include <stdint.h>
 typedef uint64_t clvox_u64;
+#define CLVOX_SAMPLER_LDEXP ldexpf
 typedef double clvox_real; /* the kernels' type on fp64 devices (prelude.cl) */
 #define CLVOX_SAMPLER_FN static inline
 #endif
@@ -83,6 +86,45 @@ CLVOX_SAMPLER_FN clvox_real clvox_stratum(clvox_u32 i, clvox_u32 n, int stochast
 {
     clvox_real j = stochastic ? (clvox_real)bits * (clvox_real)2.3283064365386963e-10 : (clvox_real)0.5;
     return ((clvox_real)i + j) / (clvox_real)n;
+}
+
+/* Point m of M of voxel u along a ray (grid space, centres at integers):
+ * u - 1/2 + (m + j) / M, j = bits * 2^-32 (stochastic) or 1/2, as the
+ * nearest float (ties to even), 0 where that is below 2^-24 in magnitude.
+ * Computed exactly in integers, so that every device, either precision and
+ * the host get the same float; a float because the crossings are compared
+ * with it exactly (kernels/intersect.cl clvox_hit_round_up) and the float
+ * range of kernels/overlap.h's exact signs holds for it. The value is
+ * X / (M 2^32), X = (M (2u - 1) + 2m) 2^31 + j 2^32, |X| < 2^61 for
+ * u < 2^20 and M <= 255 (the largest oversample_points). */
+CLVOX_SAMPLER_FN float clvox_sample_u(clvox_u32 u, clvox_u32 m, clvox_u32 M, int stochastic, clvox_u32 bits)
+{
+    const clvox_u64 J = stochastic ? (clvox_u64)bits : (clvox_u64)0x80000000u;
+    const clvox_u64 pos = ((clvox_u64)M * (2u * (clvox_u64)u) + 2u * (clvox_u64)m) * 0x80000000u + J;
+    const clvox_u64 neg = (clvox_u64)M * 0x80000000u; /* X = pos - neg */
+    const int negative = pos < neg;
+    const clvox_u64 A = negative ? neg - pos : pos - neg;
+    if (A < (clvox_u64)M * 256u) return 0.0f; /* |x| < 2^-24 (and 0) */
+    clvox_u64 Q = A / M, R = A % M; /* |x| = (Q + R / M) 2^-32, Q >= 2^8 */
+    int e = -32;
+    if (Q >= 0x1000000u) { /* 25 bits or more: keep 24, round on the rest */
+        int s = 0;
+        while ((Q >> s) >= 0x1000000u) s++;
+        const clvox_u64 low = Q & ((((clvox_u64)1) << s) - 1u), rest2 = 2u * (low * M + R), half2 = (clvox_u64)M << s;
+        Q >>= s;
+        e += s;
+        if (rest2 > half2 || (rest2 == half2 && (Q & 1u))) Q++;
+    } else { /* fewer: more bits from the remainder */
+        while (Q < 0x800000u) {
+            R *= 2u;
+            Q = 2u * Q + (R >= M);
+            if (R >= M) R -= M;
+            e--;
+        }
+        if (2u * R > M || (2u * R == M && (Q & 1u))) Q++;
+    }
+    const float x = CLVOX_SAMPLER_LDEXP((float)Q, e); /* Q <= 2^24: exact */
+    return negative ? -x : x;
 }
 
 /* Ray r = a + N*b of column (v, w), id = w * dim_v + v: its ray-plane

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "../kernels/clvox_types.h"
+#include "../kernels/overlap.h"
 #include "../kernels/sampler.h"
 
 /* Edge sign with the symbolic tie rule (design.md), in double as the
@@ -68,6 +69,37 @@ static size_t ray_crossings(const float *gv, const uint32_t *tri, size_t nt, flo
     return n;
 }
 
+/* The crossings of the ray at (pv, pw), unsorted, as the triangles
+ * crossed (their corners, 9 each) and the crossings' orientations: the
+ * coverage reference tests each sample against each exactly. */
+static size_t ray_crossing_tris(const float *gv, const uint32_t *tri, size_t nt, float fpv, float fpw, double *corners,
+                                int *orient)
+{
+    double pv = fpv, pw = fpw;
+    size_t n = 0;
+    for (size_t t = 0; t < nt; t++) {
+        const float *c3[3] = {gv + 3 * (size_t)tri[3 * t], gv + 3 * (size_t)tri[3 * t + 1], gv + 3 * (size_t)tri[3 * t + 2]};
+        const float *a = c3[0], *b = c3[1], *c = c3[2];
+        double Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
+        double eab, ebc, eca;
+        int s1 = edge_sign(Av, Aw, Bv, Bw, &eab);
+        int s2 = edge_sign(Bv, Bw, Cv, Cw, &ebc);
+        int s3 = edge_sign(Cv, Cw, Av, Aw, &eca);
+        if (s1 == 0 || s1 != s2 || s1 != s3) continue;
+        for (int k = 0; k < 9; k++) corners[9 * n + k] = c3[k / 3][k % 3];
+        orient[n++] = s1;
+    }
+    return n;
+}
+
+/* Is the crossing of orientation s with the triangle of corners v strictly
+ * beyond the float point u of the ray (pv, pw)? The plane function n . (q -
+ * v0) at q = (u, pv, pw) is n_u (u - u_hit), n_u of sign s: exact sign. */
+static int crossing_beyond(const double *v, int s, float u, float pv, float pw)
+{
+    return s * clvox_o3_sign(v, u, pv, pw) < 0;
+}
+
 static size_t voxel_index(const clvox_grid *g, const int perm[3], uint32_t i, uint32_t jv, uint32_t jw)
 {
     uint32_t idx[3];
@@ -108,8 +140,9 @@ void ref_coverage(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, c
     int perm[3];
     axis_perm(axis, perm);
     float *gv = grid_vertices(xyz, nv, g, perm);
-    double *hits = malloc((nt + 1) * sizeof *hits);
-    if (!hits) abort();
+    double *corners = malloc((nt + 1) * 9 * sizeof *corners);
+    int *orient = malloc((nt + 1) * sizeof *orient);
+    if (!corners || !orient) abort();
     const uint32_t du = g->dims[perm[0]], dv = g->dims[perm[1]], dw = g->dims[perm[2]];
     const uint32_t slo = (uint32_t)seed, shi = (uint32_t)(seed >> 32);
     memset(counts, 0, (size_t)du * dv * dw * sizeof *counts);
@@ -122,19 +155,20 @@ void ref_coverage(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, c
                     if (stochastic) clvox_philox4x32_10(id, r, CLVOX_SAMPLER_RAY_WORD, 0, slo, shi, bits);
                     float pv = (float)(((double)jv - 0.5) + clvox_stratum(a, N, stochastic, bits[0]));
                     float pw = (float)(((double)jw - 0.5) + clvox_stratum(b, N, stochastic, bits[1]));
-                    size_t n = ray_crossings(gv, tri, nt, pv, pw, hits);
+                    size_t n = ray_crossing_tris(gv, tri, nt, pv, pw, corners, orient);
                     for (uint32_t i = 0; i < du; i++)
                         for (uint32_t m = 0; m < M; m++) { /* every point, no shortcut */
                             uint32_t pb = stochastic ? clvox_point_bits(slo, shi, id, r, i, m) : 0;
-                            double p = ((double)i - 0.5) + clvox_stratum(m, M, stochastic, pb);
+                            const float p = clvox_sample_u(i, m, M, stochastic, pb);
                             size_t beyond = 0;
-                            for (size_t k = 0; k < n; k++) beyond += hits[k] > p;
+                            for (size_t k = 0; k < n; k++) beyond += crossing_beyond(corners + 9 * k, orient[k], p, pv, pw);
                             counts[voxel_index(g, perm, i, jv, jw)] += (uint32_t)(beyond & 1);
                         }
                 }
         }
     free(gv);
-    free(hits);
+    free(corners);
+    free(orient);
 }
 
 /* Both palette references: score every element (given == NULL), or count

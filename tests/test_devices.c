@@ -998,8 +998,9 @@ static void test_cli(void)
 /* Device 1 built as a device without fp64 (CLVOX_KERNEL_FLOAT_DEVICE=1):
  * the set keeps both; parity, tetra and surface runs use both and give
  * the one-device volume, and device 1 alone gives it too (device 0 made to
- * fail at its first slab); winding, coverage, palette and conservative by
- * winding leave device 1 out with one warning, and give it too. */
+ * fail at its first slab); so do coverage with parity, and winding and
+ * conservative on cubic voxels; the other coverage runs and palette ones
+ * leave device 1 out with one warning, and give it too. */
 static void test_mixed_precision(const mesh_case *mc)
 {
     clvox__test_hooks h = g_hooks;
@@ -1019,8 +1020,10 @@ static void test_mixed_precision(const mesh_case *mc)
         clvox_context_destroy(mixed);
         return;
     }
-    mode_case modes[8];
+    mode_case modes[10];
     size_t nmode = make_modes(modes);
+    modes[nmode].name = "coverage parity", modes[nmode].o = modes[3].o; /* "coverage" */
+    modes[nmode].o.inside = CLVOX_INSIDE_PARITY, modes[nmode].o.oversample_points = 3, nmode++;
     for (size_t k = 0; k < nmode; k++) {
         const char *name = modes[k].name;
         /* winding (and conservative with it) too on cubic voxels, where the
@@ -1029,6 +1032,7 @@ static void test_mixed_precision(const mesh_case *mc)
         const clvox_grid *g = &mc->grid;
         const int cubic = g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2];
         const int both = !strcmp(name, "ray parity") || !strcmp(name, "tetra") || !strcmp(name, "surface") ||
+                         !strcmp(name, "coverage parity") ||
                          (cubic && (!strcmp(name, "ray winding") || !strcmp(name, "conservative")));
         char what[256];
         snprintf(what, sizeof what, "[%s] %s, %s, a float device beside a double one", g_config, mc->name, name);

@@ -91,6 +91,55 @@ static long compare_run(const char *what, const clvox_mesh *mesh, const clvox_gr
     return d;
 }
 
+/* Coverage runs (grey levels) on both contexts: the coverage channel
+ * compared bit for bit; the number of voxels that differ, or -1
+ * when a run failed (reported). */
+static unsigned coverage_runs;
+static long compare_coverage(const char *what, const clvox_mesh *mesh, const clvox_grid *g,
+                             const clvox_voxelize_options *o)
+{
+    const size_t n = (size_t)g->dims[0] * g->dims[1] * g->dims[2];
+    float *ca = malloc(n * sizeof *ca), *cb = malloc(n * sizeof *cb);
+    long d = -1;
+    CHECK(ca && cb);
+    if (ca && cb) {
+        clvox_stats st = CLVOX_STATS_INIT;
+        clvox_status sa = clvox_voxelize_to_buffers(cd, mesh, g, o, NULL, 0, ca, n, NULL);
+        clvox_status sb = clvox_voxelize_to_buffers(cf, mesh, g, o, NULL, 0, cb, n, &st);
+        host_points += st.winding_host_points;
+        CHECK_MSG(sa == CLVOX_OK && sb == CLVOX_OK, "%s: double %s, float %s (%s)", what, clvox_status_string(sa),
+                  clvox_status_string(sb), sb != CLVOX_OK ? clvox_context_error(cf) : clvox_context_error(cd));
+        if (sa == CLVOX_OK && sb == CLVOX_OK) {
+            d = 0;
+            for (size_t i = 0; i < n; i++) d += memcmp(ca + i, cb + i, sizeof *ca) != 0;
+        }
+    }
+    free(ca);
+    free(cb);
+    coverage_runs++;
+    return d;
+}
+
+/* The coverage cases of one mesh: uniform 2x2 rays x 3 points (strata that
+ * are not dyadic: the points are rounded floats) and stochastic 2x2x2, with
+ * the inside test `inside`. */
+static void compare_mesh_coverage(const char *name, const clvox_mesh *mesh, const clvox_grid *g, clvox_inside inside)
+{
+    for (int stochastic = 0; stochastic <= 1; stochastic++) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.inside = inside;
+        o.oversample = 2;
+        o.oversample_points = stochastic ? 2 : 3;
+        o.stochastic = stochastic;
+        o.seed = 7;
+        char what[256];
+        snprintf(what, sizeof what, "%s coverage %s %s %ux%ux%u", name, stochastic ? "stochastic" : "uniform",
+                 inside == CLVOX_INSIDE_PARITY ? "parity" : "winding", g->dims[0], g->dims[1], g->dims[2]);
+        const long d = compare_coverage(what, mesh, g, &o);
+        CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
+    }
+}
+
 /* Every exact mode on one mesh (with `all_axes` 0, parity along x only and
  * conservative with tetra only: the data meshes, to keep the test short):
  * byte-identical; the winding test counted. */
@@ -120,6 +169,7 @@ static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_g
         CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
         winding_runs++;
     }
+    compare_mesh_coverage(name, mesh, g, CLVOX_INSIDE_PARITY);
 }
 
 static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g);
@@ -391,9 +441,9 @@ int main(void)
         clvox_context_destroy(c);
     }
     if (!getenv("CLVOX_QUICK")) test_data_meshes();
-    printf("%u runs of the exact modes and %u winding runs compared, byte-identical; %llu points decided on the "
-           "host\n",
-           runs, winding_runs, (unsigned long long)host_points);
+    printf("%u runs of the exact modes, %u winding runs and %u coverage runs compared, byte-identical; %llu points "
+           "decided on the host\n",
+           runs, winding_runs, coverage_runs, (unsigned long long)host_points);
     clvox_context_destroy(cf);
     clvox_context_destroy(cd);
     return test_report();

@@ -11,6 +11,7 @@
 #include "core/internal.h"
 #include "../kernels/sampler.h"
 
+#include <gmp.h>
 #include <math.h>
 #include <string.h>
 
@@ -75,6 +76,60 @@ static void test_philox_known_answers(void)
     CHECK(clvox_stratum(3, 4, 0, 0) == 0.875);
     CHECK(clvox_stratum(2, 4, 1, 0) == 0.5);
     CHECK(clvox_stratum(3, 4, 1, 0xFFFFFFFFu) < 1.0);
+}
+
+/* clvox_sample_u (the points along a ray, the same float in every build)
+ * against GMP: the nearest float, ties to even, of u - 1/2 + (m + j) / M,
+ * j = bits 2^-32 or 1/2, and 0 below 2^-24 in magnitude; voxel centres
+ * (M = 1, uniform) exactly u. */
+static void test_sample_points(void)
+{
+    uint64_t rng = 0x9E3779B97F4A7C15u;
+    int bad = 0, n = 0;
+    mpq_t x, t, mid;
+    mpq_inits(x, t, mid, NULL);
+    for (int i = 0; i < 200000; i++) {
+        rng = rng * 6364136223846793005u + 1442695040888963407u;
+        const uint32_t r = (uint32_t)(rng >> 32), r2 = (uint32_t)rng;
+        const uint32_t u = i % 3 == 0 ? r % 4u : (i % 3 == 1 ? r % 70000u : r % (1u << 20));
+        const uint32_t M = i % 5 == 0 ? 255u : 1u + r2 % 16u, m = (r >> 8) % M;
+        const int st = i & 1;
+        const uint32_t bits = st ? r2 * 2654435761u : 0;
+        const float f = clvox_sample_u(u, m, M, st, bits);
+        /* x = (2u - 1)/2 + (m 2^32 + J) / (M 2^32) */
+        mpq_set_si(x, 2 * (long)u - 1, 2);
+        mpz_set_ui(mpq_numref(t), m);
+        mpz_mul_2exp(mpq_numref(t), mpq_numref(t), 32);
+        mpz_add_ui(mpq_numref(t), mpq_numref(t), st ? bits : 0x80000000u);
+        mpz_set_ui(mpq_denref(t), M);
+        mpz_mul_2exp(mpq_denref(t), mpq_denref(t), 32);
+        mpq_canonicalize(t);
+        mpq_add(x, x, t);
+        int ok;
+        mpq_set_d(mid, 0x1p-24);
+        mpq_abs(t, x);
+        if (mpq_cmp(t, mid) < 0) {
+            ok = f == 0.0f;
+        } else {
+            const float lo = nextafterf(f, -INFINITY), hi = nextafterf(f, INFINITY);
+            uint32_t fb;
+            memcpy(&fb, &f, sizeof fb);
+            const int even = (fb & 1u) == 0;
+            mpq_set_d(mid, ((double)lo + (double)f) / 2); /* exact in double */
+            const int c1 = mpq_cmp(x, mid);
+            mpq_set_d(mid, ((double)f + (double)hi) / 2);
+            const int c2 = mpq_cmp(x, mid);
+            ok = f != 0.0f && (c1 > 0 || (c1 == 0 && even)) && (c2 < 0 || (c2 == 0 && even));
+        }
+        if (!ok && bad++ < 3) fprintf(stderr, "sample u %u m %u M %u bits %08x: %.9g\n", u, m, M, bits, f);
+        n++;
+    }
+    mpq_clears(x, t, mid, NULL);
+    CHECK_MSG(bad == 0, "%d of %d sample points not the nearest float", bad, n);
+    int centres = 0;
+    for (uint32_t u = 0; u < 70000; u++) centres += clvox_sample_u(u, 0, 1, 0, 0) == (float)u;
+    CHECK_MSG(centres == 70000, "%d of 70000 centres exact", centres);
+    CHECK(clvox_sample_u(5, 1, 2, 0, 0) == 5.25f && clvox_sample_u(0, 0, 2, 0, 0) == -0.25f);
 }
 
 static void test_half_rounding(void)
@@ -536,6 +591,7 @@ int main(void)
 {
     setenv("POCL_DEVICES", "pthread pthread", 0); /* two devices for test_determinism */
     test_philox_known_answers();
+    test_sample_points();
     test_half_rounding();
     ctx = test_context();
     test_exact_fractions();

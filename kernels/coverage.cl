@@ -141,17 +141,20 @@ typedef struct clvox_sample_cut {
     uint cut[CLVOX_CUT_MAX], n, fresh_exact;
 } clvox_sample_cut;
 
-static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
-                                       global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
+static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, uint flags, clvox_real u,
+                                       global const clvox_ray *ray, global const clvox_real *h,
+                                       global const clvox_cap_node *nodes, uint node_count,
                                        global const clvox_real *caps, uint *exact, clvox_sample_cut *sc)
 {
     clvox_real x, y, z, lo, hi;
     clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);
-    /* no CLVOX_EXACT_SIGNS (the samples' positions need not be floats) and
-     * no host list: the float build's unsure answers stand (its coverage is
-     * not exact, docs/design.md "Devices without double precision") */
-    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, x, y, z, axis, 0u, exact, &lo, &hi, sc->cut,
-                                    &sc->n, &sc->fresh_exact) & 1;
+    /* flags: CLVOX_EXACT_SIGNS where the sample is a float (coverage's,
+     * clvox_sample_u) on cubic voxels; the float build's unsure answers
+     * (CLVOX_UNSURE) go to the host there, the palette's stand (its samples
+     * are not floats yet: not exact in float, docs/design.md "Devices
+     * without double precision") */
+    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, x, y, z, axis | flags, 0u, exact, &lo, &hi,
+                                    sc->cut, &sc->n, &sc->fresh_exact);
 }
 
 static void clvox_coverage_body(global const clvox_column *cols, uint col_count, uint R, uint M,
@@ -163,7 +166,7 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                                 global ulong *col_sum, global uint *col_filled,
                                 global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
                                 global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, global uint *exact_points)
+                                global const clvox_real *caps, global uint *exact_points, global uint *unsure)
 {
     uint gid = get_global_id(0);
     if (gid >= col_count || R > CLVOX_COVERAGE_MAX_RAYS) return;
@@ -211,6 +214,8 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
         if (next == j) { /* voxel j holds a crossing: look at the points of those rays */
             cnt = 0;
             const uint u = u_begin + j;
+            const uint flags = signs ? CLVOX_AXIS_FLAGS(h[3]) : 0u;
+            uint unsure_n = 0; /* samples left to the host */
             for (uint r = 0; r < R; r++) {
                 global const clvox_real *hr = hits + (r0 + r) * capacity;
                 global const char *sg = signs ? signs + (r0 + r) * capacity : 0;
@@ -228,15 +233,27 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                     const clvox_real p = clvox_sample_u(u, m, M, (int)stochastic, bits[m & 3u]);
                     if (sg) {
                         while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
-                        cnt += near ? (uint)clvox_sample_winding(K, abs_mode, axis, p, rays + r0 + r, h, nodes,
-                                                                 node_count, caps, &exact, &sc)
-                                    : (uint)clvox_k_inside(K, abs_mode);
+                        if (!near) {
+                            cnt += (uint)clvox_k_inside(K, abs_mode);
+                            continue;
+                        }
+                        const int in = clvox_sample_winding(K, abs_mode, axis, flags, p, rays + r0 + r, h, nodes,
+                                                            node_count, caps, &exact, &sc);
+                        if (in & CLVOX_UNSURE) {
+                            clvox_unsure_push(unsure, gid, j, (uint)K, (r << 8) | m);
+                            unsure_n++;
+                        } else {
+                            cnt += (uint)in;
+                        }
                     } else {
                         while (kk < n && hr[kk] <= p) kk++;
                         cnt += (n - kk) & 1u;
                     }
                 }
             }
+            /* the voxel's sure count: the host adds its unsure samples
+             * inside and rewrites the voxel (its value, its bit) */
+            if (unsure_n) clvox_unsure_push(unsure, gid, j, cnt, CLVOX_UNSURE_VOXEL);
         }
         const uint len = end - j;
         sum += (ulong)cnt * len;
@@ -272,12 +289,12 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
                            global ulong *col_sum, global uint *col_filled,
                            global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
                            global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                           global const clvox_real *caps, global uint *exact_points,
+                           global const clvox_real *caps, global uint *exact_points, global uint *unsure,
                            global uint *clvox_done, uint clvox_done_slot)
 {
     clvox_coverage_body(cols, col_count, R, M, hits, counts, capacity, u_begin, u_count, stochastic, seed_lo, seed_hi,
         value_of_count, occ_min, X, W, vox_stride, out_stride, coverage, occupancy, col_sum, col_filled, signs, rays,
-        abs_mode, axis, h, nodes, node_count, caps, exact_points);
+        abs_mode, axis, h, nodes, node_count, caps, exact_points, unsure);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
@@ -308,3 +325,18 @@ kernel void clvox_column_rays(global const clvox_column *cols, uint n_cols, uint
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 #endif
+
+/* The host's answers for the coverage samples the float build left unsure
+ * (src/cast/cast.c resolve_unsure): at[4i ..] = the voxel's index in
+ * `coverage` and its new value, the occupancy word and the bits to set
+ * (0: none); either plane may be absent. */
+kernel void clvox_set_coverage(global ushort *coverage, global uint *occupancy, global const uint *at, uint n,
+                               global uint *clvox_done, uint clvox_done_slot)
+{
+    const uint i = get_global_id(0);
+    if (i < n) {
+        if (coverage) coverage[at[4u * i]] = (ushort)at[4u * i + 1u];
+        if (occupancy && at[4u * i + 3u]) atomic_or(occupancy + at[4u * i + 2u], at[4u * i + 3u]);
+    }
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}

@@ -158,8 +158,8 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                         clvox_real p = lo + clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
                         if (sg) {
                             while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
-                            in = near ? (uint)clvox_sample_winding(K, abs_mode, axis - 1u, p, rays + r0 + r, h,
-                                                                   nodes, node_count, caps, &exact, &sc)
+                            in = near ? (uint)clvox_sample_winding(K, abs_mode, axis - 1u, 0u, p, rays + r0 + r, h,
+                                                                   nodes, node_count, caps, &exact, &sc) & 1u
                                       : (uint)clvox_k_inside(K, abs_mode);
                         } else {
                             while (kk < n && hr[kk] <= p) kk++;

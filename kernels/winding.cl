@@ -29,21 +29,6 @@ static inline void clvox_winding_advance(global const clvox_real *hh, global con
     }
 }
 
-/* A point the float build could not certify (CLVOX_UNSURE): ray gid,
- * voxel j of the slab's stretch and K there, appended to the list the host
- * reads after the batch (unsure[0]: entries wanted, unsure[1]: room; the
- * entries from unsure[2], three words each). */
-static inline void clvox_unsure_push(global uint *unsure, uint gid, uint j, int K)
-{
-    const uint i = atomic_inc(unsure);
-    if (i < unsure[1]) {
-        global uint *e = unsure + 2 + (size_t)i * 3u;
-        e[0] = gid;
-        e[1] = j;
-        e[2] = (uint)K;
-    }
-}
-
 /* The inside test at ray voxel j (centre u_begin + j), from the last
  * evaluation's tree cut (clvox_winding_inside_cut); an unsure answer goes
  * to the host's list too. */
@@ -59,7 +44,7 @@ static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_
     const int in = clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, px, py, pz, axis | flags, tight,
                                             exact, lo, hi, cut, cut_n, fresh_exact);
     if (!(in & CLVOX_UNSURE)) return in;
-    clvox_unsure_push(unsure, gid, j, K);
+    clvox_unsure_push(unsure, gid, j, (uint)K, 0u);
     return 0; /* the host sets the voxel where it is inside */
 }
 

@@ -226,3 +226,25 @@ static inline int clvox_winding_inside_cut(int K, uint abs_mode, global const cl
     else if (cut_exact > *fresh_exact + *fresh_exact / 2u + 2u) *cut_n = 0;
     return inside;
 }
+
+/* A point the float build could not certify (CLVOX_UNSURE), appended to
+ * the list the host reads after the batch (unsure[0]: entries wanted,
+ * unsure[1]: room; the entries from unsure[2], CLVOX_UNSURE_WORDS words
+ * each): binary runs (kernels/winding.cl) ray gid, voxel j of the slab's
+ * stretch, K there, 0; coverage (kernels/coverage.cl) column gid, voxel j,
+ * K, ray r << 8 | point m for a sample, and after the voxel's samples
+ * (column gid, voxel j, the count of its sure samples inside,
+ * CLVOX_UNSURE_VOXEL). Decided by src/cast/cast.c resolve_unsure. */
+#define CLVOX_UNSURE_WORDS 4u
+#define CLVOX_UNSURE_VOXEL 0xFFFFFFFFu
+static inline void clvox_unsure_push(global uint *unsure, uint gid, uint j, uint a, uint b)
+{
+    const uint i = atomic_inc(unsure);
+    if (i < unsure[1]) {
+        global uint *e = unsure + 2 + (size_t)i * CLVOX_UNSURE_WORDS;
+        e[0] = gid;
+        e[1] = j;
+        e[2] = a;
+        e[3] = b;
+    }
+}

@@ -339,16 +339,16 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     }
     /* Members whose kernels follow other rules than the set's best (float
      * kernels beside double ones: clvox__kernel_rules) decide some voxels
-     * of palette runs, of coverage runs with the winding test, and of
-     * winding runs on voxels that are not cubes, differently: left out of
-     * those. Parity, tetra, surface, conservative, coverage with parity,
-     * and winding on cubic voxels are decided exactly in every build
-     * (docs/design.md "Devices without double precision"). */
+     * of palette runs, and of winding runs (binary or coverage) on voxels
+     * that are not cubes, differently: left out of those. Parity, tetra,
+     * surface, conservative, coverage with parity, and winding on cubic
+     * voxels are decided exactly in every build (docs/design.md "Devices
+     * without double precision"). */
     int best_rules = 0;
     for (uint32_t d = 0; d < ndev; d++)
         if (clvox__kernel_rules(ctx->member[d]) > best_rules) best_rules = clvox__kernel_rules(ctx->member[d]);
     const int cubic = grid->voxel_size[0] == grid->voxel_size[1] && grid->voxel_size[0] == grid->voxel_size[2];
-    const int same_in_float = !o.palette && (o.oversample ? o.inside == CLVOX_INSIDE_PARITY
+    const int same_in_float = !o.palette && (o.oversample ? o.inside == CLVOX_INSIDE_PARITY || cubic
                                                            : o.mode == CLVOX_MODE_SURFACE ||
                                                                  o.method == CLVOX_METHOD_TETRA ||
                                                                  o.inside == CLVOX_INSIDE_PARITY || cubic);
@@ -356,9 +356,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         clvox__warn(ctx,
                     "the kernels of this run are built without double precision: its %s may differ from a double "
                     "device's where a sample lies within about 1e-6 of the inside test's threshold",
-                    o.palette      ? "palette samples"
-                    : o.oversample ? "coverage samples' winding test"
-                                   : "winding test on voxels that are not cubes");
+                    o.palette ? "palette samples" : "winding test on voxels that are not cubes");
     clvox_stats first = stats;
     int have_first = 0;
     uint32_t first_group = 1;
@@ -370,7 +368,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
             clvox__warn(ctx,
                         "device %u '%s' left out: its kernels are %s and would decide some voxels of this run "
                         "differently from the other devices' (it takes part in every run but palette ones, "
-                        "coverage with the winding test, and winding runs on voxels that are not cubes)",
+                        "and winding runs on voxels that are not cubes)",
                         dc->position, dc->device.name,
                         best_rules == 8 ? (dc->kernels_float ? "built without double precision (CLVOX_KERNEL_FLOAT)"
                                                              : "built without double precision (no cl_khr_fp64)")

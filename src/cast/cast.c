@@ -58,6 +58,8 @@
 #define SLOW_FIRST_RAYS 32u
 #define SLOW_BATCH_SECONDS 0.25 /* ... and the wall time a batch is sized for */
 #define UNSURE_ROOM 4096u       /* a float device's unsure points a batch lists before a rerun (resolve_unsure) */
+#define UNSURE_WORDS 4u         /* words an entry (kernels/winding_inside.h CLVOX_UNSURE_WORDS) */
+#define UNSURE_VOXEL 0xFFFFFFFFu /* a coverage voxel's entry (CLVOX_UNSURE_VOXEL) */
 
 /* One batch's device buffers and host arrays, and what is in flight of it
  * (ray_slab keeps two, alternating, where the device holds them: batch
@@ -72,9 +74,11 @@ typedef struct batch_set {
     uint32_t *pstats;            /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
     uint64_t *pvolume;           /* palette: per item, element volumes in 2^-32 voxels */
     cl_uint exact;               /* winding: the batch's exact points (read back; not on the stack) */
-    cl_uint *unsure;             /* binary winding on a float device: the unsure list read back (resolve_unsure) */
+    cl_uint *unsure;             /* winding on a float device: the unsure list read back (resolve_unsure) */
     cl_uint unsure_head[2];      /* what the list starts from: 0 entries, its room */
     const clvox_ray *cast_rays;  /* the rays batch_enqueue uploaded (NULL: z rays already on the device) */
+    const clvox_column *cast_cols; /* coverage: the columns it uploaded (NULL: as cast_rays) */
+    cl_uint n_cols;              /* coverage: columns enqueued */
     uint32_t z0;                 /* ray_slab: the slab's first slice */
     cl_uint n_rays;              /* rays enqueued */
     clvox__slab_target t;        /* where its voxels went */
@@ -98,6 +102,7 @@ struct clvox__method_state {
     uint32_t *tris_owned;        /* the index array when it is not the mesh's own (winding) */
     cl_kernel k_lookup, k_intersect, k_sort, k_classify; /* k_classify: binary runs, parity or winding */
     cl_kernel k_set_bits;        /* binary winding runs on a float device: the host's answers (resolve_unsure) */
+    cl_kernel k_set_coverage;    /* coverage winding runs on a float device: the same */
     int winding;                 /* 1: signed crossings and the winding inside test */
     clvox__winding_classify wind; /* its caps and rims (zero on parity runs: the column consumers take them too) */
     uint32_t leaf_size;
@@ -172,13 +177,14 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, siz
     if (st == CLVOX_OK && winding)
         m->signs = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * capacity, NULL, &st, "crossing signs");
     if (st == CLVOX_OK && winding) m->exact = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "exact points");
-    if (st == CLVOX_OK && winding && !coverage) {
+    if (st == CLVOX_OK && winding && !palette) {
         /* a float device's unsure points (resolve_unsure); a double device
          * leaves none, its list has no room */
         const unsigned room = clvox__hooks()->unsure_room;
         m->unsure_room = ctx->real_size == 4 ? (room ? room : UNSURE_ROOM) : 0;
-        m->unsure = clvox__buffer(ctx, CL_MEM_READ_WRITE, (2 + 3 * (size_t)m->unsure_room) * sizeof(cl_uint), NULL,
-                                  &st, "unsure points");
+        m->unsure = clvox__buffer(ctx, CL_MEM_READ_WRITE,
+                                  (2 + UNSURE_WORDS * (size_t)m->unsure_room) * sizeof(cl_uint), NULL, &st,
+                                  "unsure points");
     }
     if (st != CLVOX_OK) batch_mem_release(m);
     return st;
@@ -228,7 +234,7 @@ static clvox_status batch_set_alloc(clvox__method_state *s, batch_set *b, size_t
         b->pstats = malloc(max_items * 4 * sizeof *b->pstats);
         b->pvolume = malloc(max_items * sizeof *b->pvolume);
     }
-    if (b->mem.unsure_room) b->unsure = malloc((2 + 3 * (size_t)b->mem.unsure_room) * sizeof *b->unsure);
+    if (b->mem.unsure_room) b->unsure = malloc((2 + UNSURE_WORDS * (size_t)b->mem.unsure_room) * sizeof *b->unsure);
     if ((rays && !b->rays) || !b->counts || !b->filled || (s->coverage && (!b->cols || !b->sums)) ||
         (b->mem.unsure_room && !b->unsure) ||
         (s->palette && (!b->pstats || !b->pvolume)))
@@ -450,6 +456,7 @@ static void ray_release(clvox__method_state *s)
     if (s->k_sort) clReleaseKernel(s->k_sort);
     if (s->k_classify) clReleaseKernel(s->k_classify);
     if (s->k_set_bits) clReleaseKernel(s->k_set_bits);
+    if (s->k_set_coverage) clReleaseKernel(s->k_set_coverage);
     clvox__quadtree_free(&s->qt);
     free(s->z_counts);
     free(s);
@@ -575,6 +582,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         st = clvox__kernel(ctx, s->winding ? "clvox_classify_winding" : "clvox_classify", &s->k_classify);
     if (st == CLVOX_OK && s->winding && !s->coverage && ctx->real_size == 4)
         st = clvox__kernel(ctx, "clvox_set_bits", &s->k_set_bits);
+    if (st == CLVOX_OK && s->winding && s->coverage && !s->palette && ctx->real_size == 4)
+        st = clvox__kernel(ctx, "clvox_set_coverage", &s->k_set_coverage);
 
     /* A coverage batch holds whole columns: as many rays as a binary slab,
      * and at least one column. */
@@ -706,6 +715,8 @@ static clvox_status batch_enqueue(clvox__method_state *s, batch_set *b, int cast
         if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the exact-point counter");
     }
     b->cast_rays = cast ? rays : NULL;
+    b->cast_cols = cast ? cols : NULL;
+    b->n_cols = n_cols;
     b->n_rays = n;
     b->t = *t;
     if (m->unsure_room) {
@@ -759,8 +770,9 @@ static clvox_status batch_enqueue(clvox__method_state *s, batch_set *b, int cast
     if (err == CL_SUCCESS && s->winding)
         err = clEnqueueReadBuffer(ctx->queue, m->exact, CL_FALSE, 0, sizeof b->exact, &b->exact, 0, NULL, NULL);
     if (err == CL_SUCCESS && m->unsure_room)
-        err = clEnqueueReadBuffer(ctx->queue, m->unsure, CL_FALSE, 0, (2 + 3 * (size_t)m->unsure_room) * sizeof(cl_uint),
-                                  b->unsure, 0, NULL, NULL);
+        err = clEnqueueReadBuffer(ctx->queue, m->unsure, CL_FALSE, 0,
+                                  (2 + UNSURE_WORDS * (size_t)m->unsure_room) * sizeof(cl_uint), b->unsure, 0, NULL,
+                                  NULL);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "reading the batch back");
     st = clvox__launch_defer(ctx, &b->ticket);
     /* submitted now, so that the device runs it while the host goes on */
@@ -768,61 +780,113 @@ static clvox_status batch_enqueue(clvox__method_state *s, batch_set *b, int cast
     return st;
 }
 
-/* The points a float device left unsure (kernels/winding.cl
- * clvox_unsure_push: ray, voxel, K), decided on the host in double as the
- * double kernels decide them (clvox__caps_host_inside); the inside ones
- * get their bits (clvox_set_bits), behind the batch on the queue. A list
- * that overflowed its room is made again, whole, by running the batch's
- * consumer once more with room for all (its rays' bits and counts come out
- * the same). */
+/* The points a float device left unsure (kernels/winding_inside.h
+ * clvox_unsure_push), decided on the host in double as the double kernels
+ * decide them (clvox__caps_host_inside), then written behind the batch on
+ * the queue: a binary run's inside points get their bits (clvox_set_bits),
+ * a coverage run's voxels with unsure samples their counts' values and
+ * bits (clvox_set_coverage). A list that overflowed its room is made
+ * again, whole, by running the batch's consumer once more with room for
+ * all (its voxels, counts and tallies come out the same). */
 static void slab_column(const clvox__method_state *s, uint32_t z0, size_t i, uint32_t *v, uint32_t *w,
                         clvox_u32 *out_base, clvox_u32 *bit);
-static clvox_status resolve_unsure(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss)
+
+/* The list of batch b, made again with room for all where it overflowed
+ * (*again: the copy to free); NULL on an error. */
+static const cl_uint *unsure_list(clvox__method_state *s, batch_set *b, size_t count, cl_uint **again,
+                                  clvox_status *st)
 {
     clvox_context *ctx = s->ctx;
-    const size_t count = b->unsure[0];
-    const cl_uint *list = b->unsure + 2;
-    cl_uint *again = NULL, *at = NULL;
-    cl_mem tmp = NULL;
-    clvox_status st = CLVOX_OK;
-    if (count > b->mem.unsure_room) {
-        if (count > (SIZE_MAX / sizeof(cl_uint) - 2) / 3 || !(again = malloc((2 + 3 * count) * sizeof *again)))
-            return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
-        tmp = clvox__buffer(ctx, CL_MEM_READ_WRITE, (2 + 3 * count) * sizeof(cl_uint), NULL, &st, "unsure points");
-        clvox__batch_mem m2 = b->mem;
-        m2.unsure = tmp;
-        m2.unsure_room = (cl_uint)count;
-        const cl_uint head[2] = {0, (cl_uint)count};
-        cl_int err = CL_SUCCESS;
-        if (st == CLVOX_OK) {
-            err = clEnqueueWriteBuffer(ctx->queue, tmp, CL_TRUE, 0, sizeof head, head, 0, NULL, NULL);
-            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the unsure points");
-        }
-        if (st == CLVOX_OK) {
-            clvox__launch_begin(ctx);
-            st = clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, &m2, b->n_rays, &b->t, NULL);
-            if (st == CLVOX_OK) st = clvox__launch_check(ctx);
-        }
-        if (st == CLVOX_OK) {
-            err = clEnqueueReadBuffer(ctx->queue, tmp, CL_TRUE, 0, (2 + 3 * count) * sizeof(cl_uint), again, 0, NULL,
-                                      NULL);
-            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "reading the unsure points");
-            else if (again[0] != count)
-                st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the batch's consumer left %u unsure points, then %zu",
-                                 (unsigned)again[0], count);
-        }
-        clvox__release_mem(&tmp);
-        list = again + 2;
+    *again = NULL;
+    if (count <= b->mem.unsure_room) return b->unsure + 2;
+    const size_t bytes = (2 + UNSURE_WORDS * count) * sizeof(cl_uint);
+    if (count > (SIZE_MAX / sizeof(cl_uint) - 2) / UNSURE_WORDS || !(*again = malloc(bytes))) {
+        *st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+        return NULL;
     }
+    cl_mem tmp = clvox__buffer(ctx, CL_MEM_READ_WRITE, bytes, NULL, st, "unsure points");
+    clvox__batch_mem m2 = b->mem;
+    m2.unsure = tmp;
+    m2.unsure_room = (cl_uint)count;
+    const cl_uint head[2] = {0, (cl_uint)count};
+    cl_int err = CL_SUCCESS;
+    if (*st == CLVOX_OK) {
+        err = clEnqueueWriteBuffer(ctx->queue, tmp, CL_TRUE, 0, sizeof head, head, 0, NULL, NULL);
+        if (err != CL_SUCCESS) *st = clvox__cl_fail(ctx, err, "clearing the unsure points");
+    }
+    if (*st == CLVOX_OK) {
+        clvox__launch_begin(ctx);
+        *st = s->coverage ? clvox__coverage_enqueue(ctx, &s->cov, &s->wind, &m2, b->n_cols, &b->t, NULL)
+                          : clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, &m2, b->n_rays, &b->t, NULL);
+        if (*st == CLVOX_OK) *st = clvox__launch_check(ctx);
+    }
+    if (*st == CLVOX_OK) {
+        err = clEnqueueReadBuffer(ctx->queue, tmp, CL_TRUE, 0, bytes, *again, 0, NULL, NULL);
+        if (err != CL_SUCCESS) *st = clvox__cl_fail(ctx, err, "reading the unsure points");
+        else if ((*again)[0] != count)
+            *st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the batch's consumer left %u unsure points, then %zu",
+                              (unsigned)(*again)[0], count);
+    }
+    clvox__release_mem(&tmp);
+    if (*st != CLVOX_OK) {
+        free(*again);
+        *again = NULL;
+        return NULL;
+    }
+    return *again + 2;
+}
+
+/* Runs k (clvox_set_bits or clvox_set_coverage, whose first arguments are
+ * `planes` cl_mems) over the n answers in at (`words` each), and waits. */
+static clvox_status unsure_write(clvox_context *ctx, cl_kernel k, const char *name, const cl_mem *planes,
+                                 int nplanes, const cl_uint *at, size_t n, size_t words)
+{
+    clvox_status st = CLVOX_OK;
+    cl_mem tmp = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, words * n * sizeof *at, (void *)at, &st,
+                               "unsure answers");
+    cl_uint nn = (cl_uint)n;
+    cl_int err = CL_SUCCESS;
+    if (st == CLVOX_OK) {
+        cl_uint i = 0;
+        for (int p = 0; p < nplanes; p++) err |= clSetKernelArg(k, i++, sizeof(cl_mem), planes[p] ? &planes[p] : NULL);
+        err |= clSetKernelArg(k, i++, sizeof(cl_mem), &tmp);
+        err |= clSetKernelArg(k, i++, sizeof(cl_uint), &nn);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(unsure answers)");
+    }
+    if (st == CLVOX_OK) {
+        clvox__launch_begin(ctx);
+        st = clvox__launch(ctx, k, name, 0, n, 64, NULL);
+        if (st == CLVOX_OK) st = clvox__launch_check(ctx); /* waits: tmp is released below */
+    }
+    clvox__release_mem(&tmp);
+    return st;
+}
+
+/* A scaled point of the winding code from grid-space u (along the axis),
+ * v and w. */
+static void unsure_point(const clvox__method_state *s, const double scale[3], double u, double v, double w,
+                         double p[3])
+{
+    const unsigned axis = s->wind.axis;
+    double g[3];
+    g[axis] = u;
+    g[(axis + 1) % 3] = v;
+    g[(axis + 2) % 3] = w;
+    for (int a = 0; a < 3; a++) p[a] = g[a] * scale[a];
+}
+
+static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss, const cl_uint *list,
+                                   size_t count)
+{
+    clvox_context *ctx = s->ctx;
     double scale[3];
     const int exact = clvox__winding_scale(&s->grid, scale);
-    const unsigned axis = s->wind.axis;
     size_t inside = 0;
-    if (st == CLVOX_OK && !(at = malloc(2 * count * sizeof *at)))
-        st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
-    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
-        const cl_uint gid = list[3 * i], j = list[3 * i + 1];
-        const int K = (int)list[3 * i + 2];
+    cl_uint *at = malloc(2 * count * sizeof *at);
+    if (!at) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+    for (size_t i = 0; i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        const cl_uint gid = e[0], j = e[1];
         uint32_t v, w;
         clvox_u32 base, bit;
         if (b->cast_rays) {
@@ -831,40 +895,130 @@ static clvox_status resolve_unsure(clvox__method_state *s, batch_set *b, clvox__
         } else {
             slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
         }
-        double g[3], p[3];
-        g[axis] = (double)(b->t.u_begin + j);
-        g[(axis + 1) % 3] = v;
-        g[(axis + 2) % 3] = w;
-        for (int a = 0; a < 3; a++) p[a] = g[a] * scale[a];
-        if (!clvox__caps_host_inside(&s->wind.caps, p, K, (int)s->wind.abs_mode, axis, exact)) continue;
+        double p[3];
+        unsure_point(s, scale, (double)(b->t.u_begin + j), v, w, p);
+        if (!clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact))
+            continue;
         at[2 * inside] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
         at[2 * inside + 1] = 1u << ((b->t.out_stride == 0 ? j : bit) & 31u);
         inside++;
     }
-    free(again);
-    if (st == CLVOX_OK && inside && b->t.out->occupancy) {
-        tmp = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 2 * inside * sizeof *at, at, &st,
-                            "unsure answers");
-        cl_uint n = (cl_uint)inside;
-        cl_int err = CL_SUCCESS;
-        if (st == CLVOX_OK) {
-            err |= clSetKernelArg(s->k_set_bits, 0, sizeof(cl_mem), &b->t.out->occupancy);
-            err |= clSetKernelArg(s->k_set_bits, 1, sizeof(cl_mem), &tmp);
-            err |= clSetKernelArg(s->k_set_bits, 2, sizeof(cl_uint), &n);
-            if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_set_bits)");
+    clvox_status st = CLVOX_OK;
+    if (inside && b->t.out->occupancy)
+        st = unsure_write(ctx, s->k_set_bits, "clvox_set_bits", &b->t.out->occupancy, 1, at, inside, 2);
+    free(at);
+    if (st == CLVOX_OK) ss->filled += inside;
+    return st;
+}
+
+/* Coverage: each voxel's entry (its sure count) after its samples'; a
+ * voxel's samples found inside are added to its count, which gives its
+ * value, its bit, and the column's tallies (b->sums, b->filled: the tally
+ * after batch_wait reads them). */
+static clvox_status resolve_coverage(clvox__method_state *s, batch_set *b, const cl_uint *list, size_t count)
+{
+    clvox_context *ctx = s->ctx;
+    const clvox__coverage *c = &s->cov;
+    double scale[3];
+    const int exact = clvox__winding_scale(&s->grid, scale);
+    size_t voxels = 0;
+    for (size_t i = 0; i < count; i++) voxels += list[UNSURE_WORDS * i + 3] == UNSURE_VOXEL;
+    cl_uint *at = malloc((voxels ? voxels : 1) * 4 * sizeof *at);
+    uint32_t *inside = calloc(voxels ? voxels : 1, sizeof *inside);
+    uint64_t *key = malloc((voxels ? voxels : 1) * sizeof *key);
+    clvox_status st = CLVOX_OK;
+    if (!at || !inside || !key) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+    /* the voxels (column, voxel) in list order, to find each sample's */
+    size_t nv = 0;
+    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        if (e[3] == UNSURE_VOXEL) key[nv++] = (uint64_t)e[0] << 32 | e[1];
+    }
+    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        if (e[3] == UNSURE_VOXEL) continue;
+        const cl_uint gid = e[0], j = e[1], r = e[3] >> 8, m = e[3] & 255u;
+        clvox_column col;
+        if (b->cast_cols) {
+            col = b->cast_cols[gid];
+        } else {
+            uint32_t v, w;
+            slab_column(s, b->z0, b->c0 + gid, &v, &w, &col.out_base, &col.bit);
+            col.id = w * s->dim_v + v;
         }
-        if (st == CLVOX_OK) {
-            clvox__launch_begin(ctx);
-            st = clvox__launch(ctx, s->k_set_bits, "clvox_set_bits", 0, inside, 64, NULL);
-            if (st == CLVOX_OK) st = clvox__launch_check(ctx); /* waits: tmp is released below */
+        const uint32_t v = col.id % s->dim_v, w = col.id / s->dim_v, u = b->t.u_begin + j;
+        float pv, pw;
+        clvox_column_ray(v, w, col.id, r, c->N, c->stochastic, c->seed_lo, c->seed_hi, &pv, &pw);
+        uint32_t bits[4] = {0, 0, 0, 0};
+        if (c->stochastic) clvox_philox4x32_10(col.id, r, u, m >> 2, c->seed_lo, c->seed_hi, bits);
+        double p[3];
+        unsure_point(s, scale, clvox_sample_u(u, m, c->M, c->stochastic, bits[m & 3u]), pv, pw, p);
+        if (!clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact))
+            continue;
+        const uint64_t k = (uint64_t)gid << 32 | j;
+        size_t x = 0;
+        while (x < nv && key[x] != k) x++; /* few voxels a batch: a scan */
+        if (x == nv) {
+            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "an unsure sample of column %u voxel %u has no voxel entry",
+                             (unsigned)gid, (unsigned)j);
+            break;
         }
-        clvox__release_mem(&tmp);
+        inside[x]++;
+    }
+    size_t n = 0, x = 0;
+    const uint32_t samples = c->R * c->M;
+    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        if (e[3] != UNSURE_VOXEL) continue;
+        const uint32_t add = inside[x++];
+        if (!add) continue;
+        const cl_uint gid = e[0], j = e[1], was = e[2], now = was + add;
+        if (now > samples) {
+            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "a voxel counted %u of %u samples", (unsigned)now,
+                             (unsigned)samples);
+            break;
+        }
+        const clvox_column col = b->cast_cols ? b->cast_cols[gid] : (clvox_column){0, 0, 0, 0};
+        clvox_u32 base = col.out_base, bit = col.bit;
+        if (!b->cast_cols) {
+            uint32_t v, w;
+            slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
+        }
+        /* where kernels/coverage.cl writes voxel j of the column */
+        const size_t row = base / c->W, x0 = (size_t)(base % c->W) * 32u + bit;
+        at[4 * n] = (cl_uint)(row * c->X + x0 + (size_t)j * (c->vox_stride ? c->vox_stride : 1u));
+        at[4 * n + 1] = c->table[now];
+        const int set = now >= c->occ_min && was < c->occ_min;
+        at[4 * n + 2] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
+        at[4 * n + 3] = set ? 1u << ((b->t.out_stride == 0 ? j : bit) & 31u) : 0u;
+        b->sums[gid] += add;
+        b->filled[gid] += (uint32_t)set;
+        n++;
+    }
+    if (st == CLVOX_OK && n) {
+        const cl_mem planes[2] = {b->t.out->coverage, b->t.out->occupancy};
+        st = unsure_write(ctx, s->k_set_coverage, "clvox_set_coverage", planes, 2, at, n, 4);
     }
     free(at);
-    if (st == CLVOX_OK) {
-        ss->filled += inside;
-        ss->host_points += count;
+    free(inside);
+    free(key);
+    return st;
+}
+
+static clvox_status resolve_unsure(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss)
+{
+    const size_t count = b->unsure[0];
+    cl_uint *again = NULL;
+    clvox_status st = CLVOX_OK;
+    const cl_uint *list = unsure_list(s, b, count, &again, &st);
+    if (list) st = s->coverage ? resolve_coverage(s, b, list, count) : resolve_binary(s, b, ss, list, count);
+    if (st == CLVOX_OK) { /* the points, not the voxels' entries */
+        size_t points = count;
+        if (s->coverage)
+            for (size_t i = 0; i < count; i++) points -= list[UNSURE_WORDS * i + 3] == UNSURE_VOXEL;
+        ss->host_points += points;
     }
+    free(again);
     return st;
 }
 

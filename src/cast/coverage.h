@@ -17,6 +17,7 @@ typedef struct clvox__coverage {
     double threshold;            /* occupancy: coverage > threshold ... */
     uint32_t occ_min;            /* ... i.e. count >= occ_min */
     cl_mem value_of_count;       /* ushort[R*M+1]: HALF bits, or the count itself */
+    uint16_t *table;             /* the same on the host (a float device's unsure samples, src/cast/cast.c) */
     cl_uint X, W;                /* the grid's row: voxels, bit-row words */
     cl_uint vox_stride;          /* voxels between consecutive voxels of a ray in the coverage plane */
     cl_kernel k;                 /* clvox_coverage; NULL on palette runs */
@@ -65,6 +66,7 @@ typedef struct clvox__karg_span {
 typedef struct clvox__column_extra {
     clvox__karg_span after_seeds, before_planes, after_planes, after_tallies;
     int winding_axis;
+    int unsure; /* 1: the batch's unsure list after the winding arguments (coverage) */
 } clvox__column_extra;
 
 /* Sets k's arguments (per_column: the kernel's rays-per-column argument)

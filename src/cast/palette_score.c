@@ -116,7 +116,7 @@ clvox_status clvox__palette_score_enqueue(clvox_context *ctx, const clvox__palet
     const clvox__karg tallies[] = {{sizeof(cl_mem), &m->pstats}, {sizeof(cl_mem), &m->pvolume}};
     /* the kernel has its own ray axis (1..3) among the scoring arguments */
     const clvox__column_extra x = {CLVOX__KARGS(scoring), CLVOX__KARGS(outputs), CLVOX__KARGS(volume),
-                                   CLVOX__KARGS(tallies), 0};
+                                   CLVOX__KARGS(tallies), 0, 0};
     return clvox__column_enqueue(ctx, p->k, "clvox_palette_score", c->N, c, w, m, n_cols, t, &x, ev);
 }
 

@@ -4,9 +4,10 @@
 # clvox run with the kernels built in double and built as for a device
 # without fp64 (CLVOX_KERNEL_FLOAT=1), interleaved, on the same device.
 #
-#   scripts/bench/bench_float.sh [-r N] [--repeat R] [--quick]
+#   scripts/bench/bench_float.sh [-r N] [--cov-r N] [--repeat R] [--quick]
 #
 #   -r N        grid resolution (default 256)
+#   --cov-r N   the coverage cases' resolution (default 128)
 #   --repeat R  runs per case, the best whole-process wall time is shown
 #               (default 3)
 #   --quick     armadillo and elephant-with-holes only
@@ -15,7 +16,10 @@
 # default mode (winding: on a closed mesh parity's voxels), --inside parity,
 # --method tetra, --mode surface; open meshes of the winding benchmark
 # (elephant-with-holes, holes, cylinder, mech-holes-shark, mushroom,
-# nefertiti, b9_mesh) in the default mode. Each row: double and float
+# nefertiti, b9_mesh) in the default mode; coverage (grey levels, the
+# default winding test): the closed meshes with 3^3 samples uniform and 2x2
+# rays x 3 points stochastic, elephant-with-holes, holes and cylinder with
+# 2^3 samples. Each row: double and float
 # seconds, their ratio, and whether the two EXR files are byte-identical
 # (else the filled-voxel counts), and the float run's points decided on the
 # host in double (clvox_stats.winding_host_points). Markdown to stdout and to
@@ -24,10 +28,11 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
-res=256 repeat=3 quick=0
+res=256 cov_res=128 repeat=3 quick=0
 while [ $# -gt 0 ]; do
   case "$1" in
     -r) res=${2:?-r needs a number}; shift ;;
+    --cov-r) cov_res=${2:?--cov-r needs a number}; shift ;;
     --repeat) repeat=${2:?--repeat needs a number}; shift ;;
     --quick) quick=1 ;;
     *) echo "unknown option $1" >&2; exit 2 ;;
@@ -54,8 +59,8 @@ best() { # best of $repeat wall times of: env VAR=VALUE... clvox ARGS
   printf '%.2f' "$b"
 }
 
-row() { # NAME MESH ARGS...
-  local name=$1 mesh=$2; shift 2
+row() { # NAME MESH ARGS... (ROW_RES=N: that resolution)
+  local name=$1 mesh=$2 res=${ROW_RES:-$res}; shift 2
   [ -f "data/meshes/$mesh.off" ] || { echo "| $name | $mesh | missing | | | |"; return; }
   local a="$out/double.exr" b="$out/float.exr"
   # warm both builds' program caches once
@@ -73,7 +78,7 @@ row() { # NAME MESH ARGS...
   local host
   host=$(CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" -r "$res" -o "$b" --json "$@" 2>/dev/null |
          grep -o '"host_points":[0-9]*' | cut -d: -f2 || true)
-  echo "| $name | $mesh | $td | $tf | $ratio | $same | ${host:--} |"
+  echo "| $name | $mesh $res^3 | $td | $tf | $ratio | $same | ${host:--} |"
 }
 
 {
@@ -90,4 +95,11 @@ row() { # NAME MESH ARGS...
     row "surface" "$m" --mode surface
   done
   for m in $open; do row "default (winding), open" "$m"; done
+  for m in $closed; do
+    ROW_RES=$cov_res row "coverage 3^3" "$m" --oversample 3
+    ROW_RES=$cov_res row "coverage 2x2x3 stochastic" "$m" --oversample 2,3 --stochastic
+  done
+  cov_open="elephant-with-holes holes cylinder"
+  [ "$quick" = 1 ] && cov_open=elephant-with-holes
+  for m in $cov_open; do ROW_RES=$cov_res row "coverage 2^3, open" "$m" --oversample 2; done
 } | tee "$md"

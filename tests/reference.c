@@ -46,27 +46,42 @@ static void axis_perm(clvox_axis axis, int perm[3])
     if (axis == CLVOX_AXIS_Z) perm[0] = 2, perm[1] = 0, perm[2] = 1;
 }
 
+/* Does the ray at (pv, pw) cross triangle (a, b, c)? Its orientation (0:
+ * no), and in *u where, as the kernels compute it in double. */
+static int tri_crossing(const float *a, const float *b, const float *c, double pv, double pw, double *u)
+{
+    double Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
+    double eab, ebc, eca;
+    int s1 = edge_sign(Av, Aw, Bv, Bw, &eab);
+    int s2 = edge_sign(Bv, Bw, Cv, Cw, &ebc);
+    int s3 = edge_sign(Cv, Cw, Av, Aw, &eca);
+    if (s1 == 0 || s1 != s2 || s1 != s3) return 0;
+    double au = a[0];
+    double num = eca * ((double)b[0] - au) + eab * ((double)c[0] - au);
+    double den = eab + ebc + eca;
+    *u = au + num / den;
+    return s1;
+}
+
 /* Sorted crossings of the ray at (fpv, fpw) with every triangle. */
 static size_t ray_crossings(const float *gv, const uint32_t *tri, size_t nt, float fpv, float fpw, double *hits)
 {
-    double pv = fpv, pw = fpw;
     size_t n = 0;
-    for (size_t t = 0; t < nt; t++) {
-        const float *a = gv + 3 * (size_t)tri[3 * t], *b = gv + 3 * (size_t)tri[3 * t + 1],
-                    *c = gv + 3 * (size_t)tri[3 * t + 2];
-        double Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
-        double eab, ebc, eca;
-        int s1 = edge_sign(Av, Aw, Bv, Bw, &eab);
-        int s2 = edge_sign(Bv, Bw, Cv, Cw, &ebc);
-        int s3 = edge_sign(Cv, Cw, Av, Aw, &eca);
-        if (s1 == 0 || s1 != s2 || s1 != s3) continue;
-        double au = a[0];
-        double num = eca * ((double)b[0] - au) + eab * ((double)c[0] - au);
-        double den = eab + ebc + eca;
-        hits[n++] = au + num / den;
-    }
+    for (size_t t = 0; t < nt; t++)
+        if (tri_crossing(gv + 3 * (size_t)tri[3 * t], gv + 3 * (size_t)tri[3 * t + 1], gv + 3 * (size_t)tri[3 * t + 2],
+                         fpv, fpw, &hits[n]))
+            n++;
     qsort(hits, n, sizeof *hits, cmp_double);
     return n;
+}
+
+static size_t voxel_index(const clvox_grid *g, const int perm[3], uint32_t i, uint32_t jv, uint32_t jw)
+{
+    uint32_t idx[3];
+    idx[perm[0]] = i;
+    idx[perm[1]] = jv;
+    idx[perm[2]] = jw;
+    return ((size_t)idx[2] * g->dims[1] + idx[1]) * g->dims[0] + idx[0];
 }
 
 /* The crossings of the ray at (pv, pw), unsorted, as the triangles
@@ -75,19 +90,14 @@ static size_t ray_crossings(const float *gv, const uint32_t *tri, size_t nt, flo
 static size_t ray_crossing_tris(const float *gv, const uint32_t *tri, size_t nt, float fpv, float fpw, double *corners,
                                 int *orient)
 {
-    double pv = fpv, pw = fpw;
     size_t n = 0;
     for (size_t t = 0; t < nt; t++) {
         const float *c3[3] = {gv + 3 * (size_t)tri[3 * t], gv + 3 * (size_t)tri[3 * t + 1], gv + 3 * (size_t)tri[3 * t + 2]};
-        const float *a = c3[0], *b = c3[1], *c = c3[2];
-        double Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
-        double eab, ebc, eca;
-        int s1 = edge_sign(Av, Aw, Bv, Bw, &eab);
-        int s2 = edge_sign(Bv, Bw, Cv, Cw, &ebc);
-        int s3 = edge_sign(Cv, Cw, Av, Aw, &eca);
-        if (s1 == 0 || s1 != s2 || s1 != s3) continue;
+        double u;
+        const int s = tri_crossing(c3[0], c3[1], c3[2], fpv, fpw, &u);
+        if (!s) continue;
         for (int k = 0; k < 9; k++) corners[9 * n + k] = c3[k / 3][k % 3];
-        orient[n++] = s1;
+        orient[n++] = s;
     }
     return n;
 }
@@ -98,15 +108,6 @@ static size_t ray_crossing_tris(const float *gv, const uint32_t *tri, size_t nt,
 static int crossing_beyond(const double *v, int s, float u, float pv, float pw)
 {
     return s * clvox_o3_sign(v, u, pv, pw) < 0;
-}
-
-static size_t voxel_index(const clvox_grid *g, const int perm[3], uint32_t i, uint32_t jv, uint32_t jw)
-{
-    uint32_t idx[3];
-    idx[perm[0]] = i;
-    idx[perm[1]] = jv;
-    idx[perm[2]] = jw;
-    return ((size_t)idx[2] * g->dims[1] + idx[1]) * g->dims[0] + idx[0];
 }
 
 uint64_t ref_voxelize(const float *xyz, size_t nv, const uint32_t *tri, size_t nt, const clvox_grid *g,

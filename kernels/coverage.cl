@@ -327,7 +327,7 @@ kernel void clvox_column_rays(global const clvox_column *cols, uint n_cols, uint
 #endif
 
 /* The host's answers for the coverage samples the float build left unsure
- * (src/cast/cast.c resolve_unsure): at[4i ..] = the voxel's index in
+ * (src/cast/unsure.c): at[4i ..] = the voxel's index in
  * `coverage` and its new value, the occupancy word and the bits to set
  * (0: none); either plane may be absent. */
 kernel void clvox_set_coverage(global ushort *coverage, global uint *occupancy, global const uint *at, uint n,

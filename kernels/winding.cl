@@ -397,7 +397,7 @@ kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, g
 }
 
 /* The host's answers for the points the float build left unsure
- * (src/cast/cast.c resolve_unsure): words at[2i] of out get the bits
+ * (src/cast/unsure.c): words at[2i] of out get the bits
  * at[2i + 1] (atomic: several points may share a word). */
 kernel void clvox_set_bits(global uint *out, global const uint *at, uint n, global uint *clvox_done,
                            uint clvox_done_slot)

@@ -176,7 +176,7 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
 #if defined(CLVOX_FP64)
                 return guess;
 #else
-                return guess | CLVOX_UNSURE; /* decided by the host (src/cast/winding_classify.c) */
+                return guess | CLVOX_UNSURE; /* decided by the host (src/cast/unsure.c) */
 #endif
             }
         }
@@ -234,7 +234,7 @@ static inline int clvox_winding_inside_cut(int K, uint abs_mode, global const cl
  * stretch, K there, 0; coverage (kernels/coverage.cl) column gid, voxel j,
  * K, ray r << 8 | point m for a sample, and after the voxel's samples
  * (column gid, voxel j, the count of its sure samples inside,
- * CLVOX_UNSURE_VOXEL). Decided by src/cast/cast.c resolve_unsure. */
+ * CLVOX_UNSURE_VOXEL). Decided by src/cast/unsure.c. */
 #define CLVOX_UNSURE_WORDS 4u
 #define CLVOX_UNSURE_VOXEL 0xFFFFFFFFu
 static inline void clvox_unsure_push(global uint *unsure, uint gid, uint j, uint a, uint b)

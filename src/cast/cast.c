@@ -38,10 +38,10 @@
  * of the cast's triangles, caps and rims), coverage.c (clvox_coverage, and
  * the samples and arguments both column consumers share) and
  * palette_score.c (clvox_palette_score). cast.h is what they get of a
- * batch. */
-#include "classify.h"
+ * batch. A float device's unsure winding points are decided on the host in
+ * unsure.c (the state both files share: cast_state.h). */
+#include "cast_state.h"
 #include "core/launch.h"
-#include "palette_score.h"
 #include "../../kernels/sampler.h"
 
 #include <stdio.h>
@@ -57,80 +57,6 @@
  * launches, about a millisecond each, on meshes where rays are cheap). */
 #define SLOW_FIRST_RAYS 32u
 #define SLOW_BATCH_SECONDS 0.25 /* ... and the wall time a batch is sized for */
-#define UNSURE_ROOM 4096u       /* a float device's unsure points a batch lists before a rerun (resolve_unsure) */
-#define UNSURE_WORDS 4u         /* words an entry (kernels/winding_inside.h CLVOX_UNSURE_WORDS) */
-#define UNSURE_VOXEL 0xFFFFFFFFu /* a coverage voxel's entry (CLVOX_UNSURE_VOXEL) */
-
-/* One batch's device buffers and host arrays, and what is in flight of it
- * (ray_slab keeps two, alternating, where the device holds them: batch
- * k + 1 runs while the host tallies batch k and makes batch k + 2). */
-typedef struct batch_set {
-    clvox__batch_mem mem;
-    clvox_ray *rays;             /* max_rays; NULL on column runs whose rays the device makes */
-    clvox_column *cols;          /* coverage: max_items */
-    uint32_t *counts;            /* max_rays */
-    uint32_t *filled;            /* max_items */
-    uint64_t *sums;              /* column runs: max_items */
-    uint32_t *pstats;            /* palette: 4 per item (early, shortcut, scored, non-empty voxels) */
-    uint64_t *pvolume;           /* palette: per item, element volumes in 2^-32 voxels */
-    cl_uint exact;               /* winding: the batch's exact points (read back; not on the stack) */
-    cl_uint *unsure;             /* winding on a float device: the unsure list read back (resolve_unsure) */
-    cl_uint unsure_head[2];      /* what the list starts from: 0 entries, its room */
-    const clvox_ray *cast_rays;  /* the rays batch_enqueue uploaded (NULL: z rays already on the device) */
-    const clvox_column *cast_cols; /* coverage: the columns it uploaded (NULL: as cast_rays) */
-    cl_uint n_cols;              /* coverage: columns enqueued */
-    uint32_t z0;                 /* ray_slab: the slab's first slice */
-    cl_uint n_rays;              /* rays enqueued */
-    clvox__slab_target t;        /* where its voxels went */
-    cl_event ev[5];              /* profiling: lookup, intersect, sort, consumer, column rays */
-    clvox__launch_ticket ticket; /* the batch's completion counts, read last: its read event ends the batch */
-    int queued;                  /* 1: enqueued, not yet waited for */
-    size_t c0, k;                /* ray_slab: the batch's first item in the slab, its items */
-} batch_set;
-
-struct clvox__method_state {
-    clvox_context *ctx;
-    clvox_grid grid;
-    clvox_axis axis;       /* X, Y or Z (resolved) */
-    clvox__axes axes;
-    uint32_t dim_u, dim_v, dim_w;
-    clvox__quadtree qt;
-    cl_mem verts, tris, nodes, refs; /* the triangles, indexed; the quadtree (read-only device copies) */
-    float *verts_host;           /* grid-space vertices (owned) */
-    size_t float_outside;        /* clvox__float_outside over them (float kernels decide exactly without it) */
-    float float_coord;
-    uint32_t *tris_owned;        /* the index array when it is not the mesh's own (winding) */
-    cl_kernel k_lookup, k_intersect, k_sort, k_classify; /* k_classify: binary runs, parity or winding */
-    cl_kernel k_set_bits;        /* binary winding runs on a float device: the host's answers (resolve_unsure) */
-    cl_kernel k_set_coverage;    /* coverage winding runs on a float device: the same */
-    int winding;                 /* 1: signed crossings and the winding inside test */
-    clvox__winding_classify wind; /* its caps and rims (zero on parity runs: the column consumers take them too) */
-    uint32_t leaf_size;
-    uint64_t leaf_max;           /* most triangles in one quadtree leaf */
-    batch_set set[2];            /* the fast pass's batches: set[0], and set[1] where sets == 2 */
-    int sets;                    /* 2: batches in flight two at a time (fit_batches); 1: one at a time */
-    size_t batch_items;          /* items per fast-pass batch (work-bounded) */
-    int timed;                   /* caps: batches sized by their time (ray_slab) */
-    size_t batch_now;            /* items in the next batch: batch_items, or fewer where timed */
-    int (*poll)(void *, double); /* clvox__run.poll */
-    void *poll_user;
-    uint64_t max_alloc;          /* the device's largest buffer */
-    uint64_t redo_room;          /* device bytes left for redo_overflow's batches (fit_batches) */
-    uint64_t held_bytes;         /* device bytes held besides them: the mesh, the slab planes, the fast pass */
-    /* z rays: every slab's rays are the same X*Y columns, only the slices
-     * they classify differ. When one batch holds them all, the first slab
-     * cast leaves their sorted crossings in set[0] and the next slabs run
-     * only the consumer (at 1024^3, 64 slabs cast once instead of 64 times). */
-    int z_cast;                  /* 1: set[0].mem holds the crossings of every z column */
-    uint32_t *z_counts;          /* their crossing counts (the first pass's), X*Y*R */
-    /* coverage and palette (column runs) */
-    int coverage;                /* 1: a column run (the coverage or the palette consumer) */
-    clvox__coverage cov;         /* the samples (both consumers) */
-    uint32_t channels;
-    int palette;                 /* 1: the palette consumer */
-    clvox__palette_score pal;
-};
-
 static void batch_mem_release(clvox__batch_mem *m)
 {
     clvox__release_mem(&m->rays);
@@ -178,7 +104,7 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, siz
         m->signs = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * capacity, NULL, &st, "crossing signs");
     if (st == CLVOX_OK && winding) m->exact = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "exact points");
     if (st == CLVOX_OK && winding && !palette) {
-        /* a float device's unsure points (resolve_unsure); a double device
+        /* a float device's unsure points (unsure.c); a double device
          * leaves none, its list has no room */
         const unsigned room = clvox__hooks()->unsure_room;
         m->unsure_room = ctx->real_size == 4 ? (room ? room : UNSURE_ROOM) : 0;
@@ -780,248 +706,6 @@ static clvox_status batch_enqueue(clvox__method_state *s, batch_set *b, int cast
     return st;
 }
 
-/* The points a float device left unsure (kernels/winding_inside.h
- * clvox_unsure_push), decided on the host in double as the double kernels
- * decide them (clvox__caps_host_inside), then written behind the batch on
- * the queue: a binary run's inside points get their bits (clvox_set_bits),
- * a coverage run's voxels with unsure samples their counts' values and
- * bits (clvox_set_coverage). A list that overflowed its room is made
- * again, whole, by running the batch's consumer once more with room for
- * all (its voxels, counts and tallies come out the same). */
-static void slab_column(const clvox__method_state *s, uint32_t z0, size_t i, uint32_t *v, uint32_t *w,
-                        clvox_u32 *out_base, clvox_u32 *bit);
-
-/* The list of batch b, made again with room for all where it overflowed
- * (*again: the copy to free); NULL on an error. */
-static const cl_uint *unsure_list(clvox__method_state *s, batch_set *b, size_t count, cl_uint **again,
-                                  clvox_status *st)
-{
-    clvox_context *ctx = s->ctx;
-    *again = NULL;
-    if (count <= b->mem.unsure_room) return b->unsure + 2;
-    const size_t bytes = (2 + UNSURE_WORDS * count) * sizeof(cl_uint);
-    if (count > (SIZE_MAX / sizeof(cl_uint) - 2) / UNSURE_WORDS || !(*again = malloc(bytes))) {
-        *st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
-        return NULL;
-    }
-    cl_mem tmp = clvox__buffer(ctx, CL_MEM_READ_WRITE, bytes, NULL, st, "unsure points");
-    clvox__batch_mem m2 = b->mem;
-    m2.unsure = tmp;
-    m2.unsure_room = (cl_uint)count;
-    const cl_uint head[2] = {0, (cl_uint)count};
-    cl_int err = CL_SUCCESS;
-    if (*st == CLVOX_OK) {
-        err = clEnqueueWriteBuffer(ctx->queue, tmp, CL_TRUE, 0, sizeof head, head, 0, NULL, NULL);
-        if (err != CL_SUCCESS) *st = clvox__cl_fail(ctx, err, "clearing the unsure points");
-    }
-    if (*st == CLVOX_OK) {
-        clvox__launch_begin(ctx);
-        *st = s->coverage ? clvox__coverage_enqueue(ctx, &s->cov, &s->wind, &m2, b->n_cols, &b->t, NULL)
-                          : clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, &m2, b->n_rays, &b->t, NULL);
-        if (*st == CLVOX_OK) *st = clvox__launch_check(ctx);
-    }
-    if (*st == CLVOX_OK) {
-        err = clEnqueueReadBuffer(ctx->queue, tmp, CL_TRUE, 0, bytes, *again, 0, NULL, NULL);
-        if (err != CL_SUCCESS) *st = clvox__cl_fail(ctx, err, "reading the unsure points");
-        else if ((*again)[0] != count)
-            *st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the batch's consumer left %u unsure points, then %zu",
-                              (unsigned)(*again)[0], count);
-    }
-    clvox__release_mem(&tmp);
-    if (*st != CLVOX_OK) {
-        free(*again);
-        *again = NULL;
-        return NULL;
-    }
-    return *again + 2;
-}
-
-/* Runs k (clvox_set_bits or clvox_set_coverage, whose first arguments are
- * `planes` cl_mems) over the n answers in at (`words` each), and waits. */
-static clvox_status unsure_write(clvox_context *ctx, cl_kernel k, const char *name, const cl_mem *planes,
-                                 int nplanes, const cl_uint *at, size_t n, size_t words)
-{
-    clvox_status st = CLVOX_OK;
-    cl_mem tmp = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, words * n * sizeof *at, (void *)at, &st,
-                               "unsure answers");
-    cl_uint nn = (cl_uint)n;
-    cl_int err = CL_SUCCESS;
-    if (st == CLVOX_OK) {
-        cl_uint i = 0;
-        for (int p = 0; p < nplanes; p++) err |= clSetKernelArg(k, i++, sizeof(cl_mem), planes[p] ? &planes[p] : NULL);
-        err |= clSetKernelArg(k, i++, sizeof(cl_mem), &tmp);
-        err |= clSetKernelArg(k, i++, sizeof(cl_uint), &nn);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(unsure answers)");
-    }
-    if (st == CLVOX_OK) {
-        clvox__launch_begin(ctx);
-        st = clvox__launch(ctx, k, name, 0, n, 64, NULL);
-        if (st == CLVOX_OK) st = clvox__launch_check(ctx); /* waits: tmp is released below */
-    }
-    clvox__release_mem(&tmp);
-    return st;
-}
-
-/* A scaled point of the winding code from grid-space u (along the axis),
- * v and w. */
-static void unsure_point(const clvox__method_state *s, const double scale[3], double u, double v, double w,
-                         double p[3])
-{
-    const unsigned axis = s->wind.axis;
-    double g[3];
-    g[axis] = u;
-    g[(axis + 1) % 3] = v;
-    g[(axis + 2) % 3] = w;
-    for (int a = 0; a < 3; a++) p[a] = g[a] * scale[a];
-}
-
-static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss, const cl_uint *list,
-                                   size_t count)
-{
-    clvox_context *ctx = s->ctx;
-    double scale[3];
-    const int exact = clvox__winding_scale(&s->grid, scale);
-    size_t inside = 0;
-    cl_uint *at = malloc(2 * count * sizeof *at);
-    if (!at) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
-    for (size_t i = 0; i < count; i++) {
-        const cl_uint *e = list + UNSURE_WORDS * i;
-        const cl_uint gid = e[0], j = e[1];
-        uint32_t v, w;
-        clvox_u32 base, bit;
-        if (b->cast_rays) {
-            const clvox_ray *r = &b->cast_rays[gid];
-            v = (uint32_t)r->v, w = (uint32_t)r->w, base = r->out_base, bit = r->bit;
-        } else {
-            slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
-        }
-        double p[3];
-        unsure_point(s, scale, (double)(b->t.u_begin + j), v, w, p);
-        if (!clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact))
-            continue;
-        at[2 * inside] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
-        at[2 * inside + 1] = 1u << ((b->t.out_stride == 0 ? j : bit) & 31u);
-        inside++;
-    }
-    clvox_status st = CLVOX_OK;
-    if (inside && b->t.out->occupancy)
-        st = unsure_write(ctx, s->k_set_bits, "clvox_set_bits", &b->t.out->occupancy, 1, at, inside, 2);
-    free(at);
-    if (st == CLVOX_OK) ss->filled += inside;
-    return st;
-}
-
-/* Coverage: each voxel's entry (its sure count) after its samples'; a
- * voxel's samples found inside are added to its count, which gives its
- * value, its bit, and the column's tallies (b->sums, b->filled: the tally
- * after batch_wait reads them). */
-static clvox_status resolve_coverage(clvox__method_state *s, batch_set *b, const cl_uint *list, size_t count)
-{
-    clvox_context *ctx = s->ctx;
-    const clvox__coverage *c = &s->cov;
-    double scale[3];
-    const int exact = clvox__winding_scale(&s->grid, scale);
-    size_t voxels = 0;
-    for (size_t i = 0; i < count; i++) voxels += list[UNSURE_WORDS * i + 3] == UNSURE_VOXEL;
-    cl_uint *at = malloc((voxels ? voxels : 1) * 4 * sizeof *at);
-    uint32_t *inside = calloc(voxels ? voxels : 1, sizeof *inside);
-    uint64_t *key = malloc((voxels ? voxels : 1) * sizeof *key);
-    clvox_status st = CLVOX_OK;
-    if (!at || !inside || !key) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
-    /* the voxels (column, voxel) in list order, to find each sample's */
-    size_t nv = 0;
-    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
-        const cl_uint *e = list + UNSURE_WORDS * i;
-        if (e[3] == UNSURE_VOXEL) key[nv++] = (uint64_t)e[0] << 32 | e[1];
-    }
-    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
-        const cl_uint *e = list + UNSURE_WORDS * i;
-        if (e[3] == UNSURE_VOXEL) continue;
-        const cl_uint gid = e[0], j = e[1], r = e[3] >> 8, m = e[3] & 255u;
-        clvox_column col;
-        if (b->cast_cols) {
-            col = b->cast_cols[gid];
-        } else {
-            uint32_t v, w;
-            slab_column(s, b->z0, b->c0 + gid, &v, &w, &col.out_base, &col.bit);
-            col.id = w * s->dim_v + v;
-        }
-        const uint32_t v = col.id % s->dim_v, w = col.id / s->dim_v, u = b->t.u_begin + j;
-        float pv, pw;
-        clvox_column_ray(v, w, col.id, r, c->N, c->stochastic, c->seed_lo, c->seed_hi, &pv, &pw);
-        uint32_t bits[4] = {0, 0, 0, 0};
-        if (c->stochastic) clvox_philox4x32_10(col.id, r, u, m >> 2, c->seed_lo, c->seed_hi, bits);
-        double p[3];
-        unsure_point(s, scale, clvox_sample_u(u, m, c->M, c->stochastic, bits[m & 3u]), pv, pw, p);
-        if (!clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact))
-            continue;
-        const uint64_t k = (uint64_t)gid << 32 | j;
-        size_t x = 0;
-        while (x < nv && key[x] != k) x++; /* few voxels a batch: a scan */
-        if (x == nv) {
-            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "an unsure sample of column %u voxel %u has no voxel entry",
-                             (unsigned)gid, (unsigned)j);
-            break;
-        }
-        inside[x]++;
-    }
-    size_t n = 0, x = 0;
-    const uint32_t samples = c->R * c->M;
-    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
-        const cl_uint *e = list + UNSURE_WORDS * i;
-        if (e[3] != UNSURE_VOXEL) continue;
-        const uint32_t add = inside[x++];
-        if (!add) continue;
-        const cl_uint gid = e[0], j = e[1], was = e[2], now = was + add;
-        if (now > samples) {
-            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "a voxel counted %u of %u samples", (unsigned)now,
-                             (unsigned)samples);
-            break;
-        }
-        const clvox_column col = b->cast_cols ? b->cast_cols[gid] : (clvox_column){0, 0, 0, 0};
-        clvox_u32 base = col.out_base, bit = col.bit;
-        if (!b->cast_cols) {
-            uint32_t v, w;
-            slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
-        }
-        /* where kernels/coverage.cl writes voxel j of the column */
-        const size_t row = base / c->W, x0 = (size_t)(base % c->W) * 32u + bit;
-        at[4 * n] = (cl_uint)(row * c->X + x0 + (size_t)j * (c->vox_stride ? c->vox_stride : 1u));
-        at[4 * n + 1] = c->table[now];
-        const int set = now >= c->occ_min && was < c->occ_min;
-        at[4 * n + 2] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
-        at[4 * n + 3] = set ? 1u << ((b->t.out_stride == 0 ? j : bit) & 31u) : 0u;
-        b->sums[gid] += add;
-        b->filled[gid] += (uint32_t)set;
-        n++;
-    }
-    if (st == CLVOX_OK && n) {
-        const cl_mem planes[2] = {b->t.out->coverage, b->t.out->occupancy};
-        st = unsure_write(ctx, s->k_set_coverage, "clvox_set_coverage", planes, 2, at, n, 4);
-    }
-    free(at);
-    free(inside);
-    free(key);
-    return st;
-}
-
-static clvox_status resolve_unsure(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss)
-{
-    const size_t count = b->unsure[0];
-    cl_uint *again = NULL;
-    clvox_status st = CLVOX_OK;
-    const cl_uint *list = unsure_list(s, b, count, &again, &st);
-    if (list) st = s->coverage ? resolve_coverage(s, b, list, count) : resolve_binary(s, b, ss, list, count);
-    if (st == CLVOX_OK) { /* the points, not the voxels' entries */
-        size_t points = count;
-        if (s->coverage)
-            for (size_t i = 0; i < count; i++) points -= list[UNSURE_WORDS * i + 3] == UNSURE_VOXEL;
-        ss->host_points += points;
-    }
-    free(again);
-    return st;
-}
-
 /* Waits for batch b (its last read: the queue is in order), checks that
  * its launches completed, and adds its exact points and kernel times to
  * ss. b's arrays are the host's again. */
@@ -1031,7 +715,7 @@ static clvox_status batch_wait(clvox__method_state *s, batch_set *b, clvox__slab
     cl_int err = b->ticket.read ? clWaitForEvents(1, &b->ticket.read) : clFinish(ctx->queue);
     clvox_status st = err == CL_SUCCESS ? clvox__launch_verify(ctx, &b->ticket)
                                         : clvox__cl_fail(ctx, err, "running the cast kernels");
-    if (st == CLVOX_OK && b->mem.unsure_room && b->unsure[0]) st = resolve_unsure(s, b, ss);
+    if (st == CLVOX_OK && b->mem.unsure_room && b->unsure[0]) st = clvox__resolve_unsure(s, b, ss);
     if (st == CLVOX_OK) {
         ss->exact_points += b->exact;
         ss->cast_seconds += clvox__event_seconds(b->ev[0]) + clvox__event_seconds(b->ev[1]) +
@@ -1123,7 +807,7 @@ static clvox_status redo_overflow(clvox__method_state *s, const clvox_ray *rays,
 
 /* Column i of the slab that starts at z0: its ray-plane position (v, w) and
  * where its voxels go (out_base, bit; see clvox_ray). */
-static void slab_column(const clvox__method_state *s, uint32_t z0, size_t i, uint32_t *v, uint32_t *w,
+void clvox__slab_column(const clvox__method_state *s, uint32_t z0, size_t i, uint32_t *v, uint32_t *w,
                         clvox_u32 *out_base, clvox_u32 *bit)
 {
     const uint32_t X = s->grid.dims[0], Y = s->grid.dims[1], W = clvox__row_words(X);
@@ -1157,7 +841,7 @@ static void slab_item(clvox__method_state *s, batch_set *b, uint32_t z0, size_t 
     const size_t R = s->coverage ? s->cov.R : 1;
     uint32_t v, w;
     clvox_u32 base, bit;
-    slab_column(s, z0, c, &v, &w, &base, &bit);
+    clvox__slab_column(s, z0, c, &v, &w, &base, &bit);
     if (!s->coverage) {
         b->rays[i] = (clvox_ray){(float)v, (float)w, base, bit};
     } else {

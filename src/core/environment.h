@@ -62,8 +62,8 @@ typedef struct clvox__test_hooks {
     int no_crack_weld;         /* CLVOX_CRACK_WELD=0: no certified crack weld (src/winding/crack_weld.c; the
                                 * voxels are the same, found the slow way) */
     unsigned unsure_room;      /* CLVOX_UNSURE_ROOM=1..4096: a float device's unsure winding points a batch
-                                * lists before its consumer runs again with room for all (cast.c
-                                * resolve_unsure; the outputs are the same). 0: 4096 */
+                                * lists before its consumer runs again with room for all
+                                * (src/cast/unsure.c; the outputs are the same). 0: 4096 */
     char assimp_crash[64];     /* CLVOX_TEST_ASSIMP_CRASH=TEXT: the Assimp reader kills its process
                                 * (SIGSEGV) on a file whose path contains TEXT, a stand-in for a
                                 * parser bug (test_assimp: load and batch) */

@@ -1,0 +1,250 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Stage cast, a float device's part on the host: the points (binary
+ * winding runs) and samples (coverage winding runs) whose float bounds
+ * could not settle the inside test, decided in double (docs/design.md
+ * "Devices without double precision"). */
+#include "cast_state.h"
+#include "core/launch.h"
+#include "winding/winding.h"
+#include "../../kernels/sampler.h"
+
+#include <stdlib.h>
+
+/* The points a float device left unsure (kernels/winding_inside.h
+ * clvox_unsure_push), decided on the host in double as the double kernels
+ * decide them (clvox__caps_host_inside), then written behind the batch on
+ * the queue: a binary run's inside points get their bits (clvox_set_bits),
+ * a coverage run's voxels with unsure samples their counts' values and
+ * bits (clvox_set_coverage). A list that overflowed its room is made
+ * again, whole, by running the batch's consumer once more with room for
+ * all (its voxels, counts and tallies come out the same). */
+/* The list of batch b, made again with room for all where it overflowed
+ * (*again: the copy to free); NULL on an error. */
+static const cl_uint *unsure_list(clvox__method_state *s, batch_set *b, size_t count, cl_uint **again,
+                                  clvox_status *st)
+{
+    clvox_context *ctx = s->ctx;
+    *again = NULL;
+    if (count <= b->mem.unsure_room) return b->unsure + 2;
+    const size_t bytes = (2 + UNSURE_WORDS * count) * sizeof(cl_uint);
+    if (count > (SIZE_MAX / sizeof(cl_uint) - 2) / UNSURE_WORDS || !(*again = malloc(bytes))) {
+        *st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+        return NULL;
+    }
+    cl_mem tmp = clvox__buffer(ctx, CL_MEM_READ_WRITE, bytes, NULL, st, "unsure points");
+    clvox__batch_mem m2 = b->mem;
+    m2.unsure = tmp;
+    m2.unsure_room = (cl_uint)count;
+    const cl_uint head[2] = {0, (cl_uint)count};
+    cl_int err = CL_SUCCESS;
+    if (*st == CLVOX_OK) {
+        err = clEnqueueWriteBuffer(ctx->queue, tmp, CL_TRUE, 0, sizeof head, head, 0, NULL, NULL);
+        if (err != CL_SUCCESS) *st = clvox__cl_fail(ctx, err, "clearing the unsure points");
+    }
+    if (*st == CLVOX_OK) {
+        clvox__launch_begin(ctx);
+        *st = s->coverage ? clvox__coverage_enqueue(ctx, &s->cov, &s->wind, &m2, b->n_cols, &b->t, NULL)
+                          : clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, &m2, b->n_rays, &b->t, NULL);
+        if (*st == CLVOX_OK) *st = clvox__launch_check(ctx);
+    }
+    if (*st == CLVOX_OK) {
+        err = clEnqueueReadBuffer(ctx->queue, tmp, CL_TRUE, 0, bytes, *again, 0, NULL, NULL);
+        if (err != CL_SUCCESS) *st = clvox__cl_fail(ctx, err, "reading the unsure points");
+        else if ((*again)[0] != count)
+            *st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the batch's consumer left %u unsure points, then %zu",
+                              (unsigned)(*again)[0], count);
+    }
+    clvox__release_mem(&tmp);
+    if (*st != CLVOX_OK) {
+        free(*again);
+        *again = NULL;
+        return NULL;
+    }
+    return *again + 2;
+}
+
+/* Runs k (clvox_set_bits or clvox_set_coverage, whose first arguments are
+ * `planes` cl_mems) over the n answers in at (`words` each), and waits. */
+static clvox_status unsure_write(clvox_context *ctx, cl_kernel k, const char *name, const cl_mem *planes,
+                                 int nplanes, const cl_uint *at, size_t n, size_t words)
+{
+    clvox_status st = CLVOX_OK;
+    cl_mem tmp = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, words * n * sizeof *at, (void *)at, &st,
+                               "unsure answers");
+    cl_uint nn = (cl_uint)n;
+    cl_int err = CL_SUCCESS;
+    if (st == CLVOX_OK) {
+        cl_uint i = 0;
+        for (int p = 0; p < nplanes; p++) err |= clSetKernelArg(k, i++, sizeof(cl_mem), planes[p] ? &planes[p] : NULL);
+        err |= clSetKernelArg(k, i++, sizeof(cl_mem), &tmp);
+        err |= clSetKernelArg(k, i++, sizeof(cl_uint), &nn);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(unsure answers)");
+    }
+    if (st == CLVOX_OK) {
+        clvox__launch_begin(ctx);
+        st = clvox__launch(ctx, k, name, 0, n, 64, NULL);
+        if (st == CLVOX_OK) st = clvox__launch_check(ctx); /* waits: tmp is released below */
+    }
+    clvox__release_mem(&tmp);
+    return st;
+}
+
+/* A scaled point of the winding code from grid-space u (along the axis),
+ * v and w. */
+static void unsure_point(const clvox__method_state *s, const double scale[3], double u, double v, double w,
+                         double p[3])
+{
+    const unsigned axis = s->wind.axis;
+    double g[3];
+    g[axis] = u;
+    g[(axis + 1) % 3] = v;
+    g[(axis + 2) % 3] = w;
+    for (int a = 0; a < 3; a++) p[a] = g[a] * scale[a];
+}
+
+static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss, const cl_uint *list,
+                                   size_t count)
+{
+    clvox_context *ctx = s->ctx;
+    double scale[3];
+    const int exact = clvox__winding_scale(&s->grid, scale);
+    size_t inside = 0;
+    cl_uint *at = malloc(2 * count * sizeof *at);
+    if (!at) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+    for (size_t i = 0; i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        const cl_uint gid = e[0], j = e[1];
+        uint32_t v, w;
+        clvox_u32 base, bit;
+        if (b->cast_rays) {
+            const clvox_ray *r = &b->cast_rays[gid];
+            v = (uint32_t)r->v, w = (uint32_t)r->w, base = r->out_base, bit = r->bit;
+        } else {
+            clvox__slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
+        }
+        double p[3];
+        unsure_point(s, scale, (double)(b->t.u_begin + j), v, w, p);
+        if (!clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact))
+            continue;
+        at[2 * inside] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
+        at[2 * inside + 1] = 1u << ((b->t.out_stride == 0 ? j : bit) & 31u);
+        inside++;
+    }
+    clvox_status st = CLVOX_OK;
+    if (inside && b->t.out->occupancy)
+        st = unsure_write(ctx, s->k_set_bits, "clvox_set_bits", &b->t.out->occupancy, 1, at, inside, 2);
+    free(at);
+    if (st == CLVOX_OK) ss->filled += inside;
+    return st;
+}
+
+/* Coverage: each voxel's entry (its sure count) after its samples'; a
+ * voxel's samples found inside are added to its count, which gives its
+ * value, its bit, and the column's tallies (b->sums, b->filled: the tally
+ * after batch_wait reads them). */
+static clvox_status resolve_coverage(clvox__method_state *s, batch_set *b, const cl_uint *list, size_t count)
+{
+    clvox_context *ctx = s->ctx;
+    const clvox__coverage *c = &s->cov;
+    double scale[3];
+    const int exact = clvox__winding_scale(&s->grid, scale);
+    size_t voxels = 0;
+    for (size_t i = 0; i < count; i++) voxels += list[UNSURE_WORDS * i + 3] == UNSURE_VOXEL;
+    cl_uint *at = malloc((voxels ? voxels : 1) * 4 * sizeof *at);
+    uint32_t *inside = calloc(voxels ? voxels : 1, sizeof *inside);
+    uint64_t *key = malloc((voxels ? voxels : 1) * sizeof *key);
+    clvox_status st = CLVOX_OK;
+    if (!at || !inside || !key) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+    /* the voxels (column, voxel) in list order, to find each sample's */
+    size_t nv = 0;
+    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        if (e[3] == UNSURE_VOXEL) key[nv++] = (uint64_t)e[0] << 32 | e[1];
+    }
+    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        if (e[3] == UNSURE_VOXEL) continue;
+        const cl_uint gid = e[0], j = e[1], r = e[3] >> 8, m = e[3] & 255u;
+        clvox_column col;
+        if (b->cast_cols) {
+            col = b->cast_cols[gid];
+        } else {
+            uint32_t v, w;
+            clvox__slab_column(s, b->z0, b->c0 + gid, &v, &w, &col.out_base, &col.bit);
+            col.id = w * s->dim_v + v;
+        }
+        const uint32_t v = col.id % s->dim_v, w = col.id / s->dim_v, u = b->t.u_begin + j;
+        float pv, pw;
+        clvox_column_ray(v, w, col.id, r, c->N, c->stochastic, c->seed_lo, c->seed_hi, &pv, &pw);
+        uint32_t bits[4] = {0, 0, 0, 0};
+        if (c->stochastic) clvox_philox4x32_10(col.id, r, u, m >> 2, c->seed_lo, c->seed_hi, bits);
+        double p[3];
+        unsure_point(s, scale, clvox_sample_u(u, m, c->M, c->stochastic, bits[m & 3u]), pv, pw, p);
+        if (!clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact))
+            continue;
+        const uint64_t k = (uint64_t)gid << 32 | j;
+        size_t x = 0;
+        while (x < nv && key[x] != k) x++; /* few voxels a batch: a scan */
+        if (x == nv) {
+            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "an unsure sample of column %u voxel %u has no voxel entry",
+                             (unsigned)gid, (unsigned)j);
+            break;
+        }
+        inside[x]++;
+    }
+    size_t n = 0, x = 0;
+    const uint32_t samples = c->R * c->M;
+    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        if (e[3] != UNSURE_VOXEL) continue;
+        const uint32_t add = inside[x++];
+        if (!add) continue;
+        const cl_uint gid = e[0], j = e[1], was = e[2], now = was + add;
+        if (now > samples) {
+            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "a voxel counted %u of %u samples", (unsigned)now,
+                             (unsigned)samples);
+            break;
+        }
+        const clvox_column col = b->cast_cols ? b->cast_cols[gid] : (clvox_column){0, 0, 0, 0};
+        clvox_u32 base = col.out_base, bit = col.bit;
+        if (!b->cast_cols) {
+            uint32_t v, w;
+            clvox__slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
+        }
+        /* where kernels/coverage.cl writes voxel j of the column */
+        const size_t row = base / c->W, x0 = (size_t)(base % c->W) * 32u + bit;
+        at[4 * n] = (cl_uint)(row * c->X + x0 + (size_t)j * (c->vox_stride ? c->vox_stride : 1u));
+        at[4 * n + 1] = c->table[now];
+        const int set = now >= c->occ_min && was < c->occ_min;
+        at[4 * n + 2] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
+        at[4 * n + 3] = set ? 1u << ((b->t.out_stride == 0 ? j : bit) & 31u) : 0u;
+        b->sums[gid] += add;
+        b->filled[gid] += (uint32_t)set;
+        n++;
+    }
+    if (st == CLVOX_OK && n) {
+        const cl_mem planes[2] = {b->t.out->coverage, b->t.out->occupancy};
+        st = unsure_write(ctx, s->k_set_coverage, "clvox_set_coverage", planes, 2, at, n, 4);
+    }
+    free(at);
+    free(inside);
+    free(key);
+    return st;
+}
+
+clvox_status clvox__resolve_unsure(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss)
+{
+    const size_t count = b->unsure[0];
+    cl_uint *again = NULL;
+    clvox_status st = CLVOX_OK;
+    const cl_uint *list = unsure_list(s, b, count, &again, &st);
+    if (list) st = s->coverage ? resolve_coverage(s, b, list, count) : resolve_binary(s, b, ss, list, count);
+    if (st == CLVOX_OK) { /* the points, not the voxels' entries */
+        size_t points = count;
+        if (s->coverage)
+            for (size_t i = 0; i < count; i++) points -= list[UNSURE_WORDS * i + 3] == UNSURE_VOXEL;
+        ss->host_points += points;
+    }
+    free(again);
+    return st;
+}

@@ -216,6 +216,10 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
             const uint u = u_begin + j;
             const uint flags = signs ? CLVOX_AXIS_FLAGS(h[3]) : 0u;
             uint unsure_n = 0; /* samples left to the host */
+            /* uniform points are the same on every ray: made once */
+            float pu[16];
+            const int same_points = !stochastic && M <= 16u;
+            for (uint m = 0; same_points && m < M; m++) pu[m] = clvox_sample_u(u, m, M, 0, 0u);
             for (uint r = 0; r < R; r++) {
                 global const clvox_real *hr = hits + (r0 + r) * capacity;
                 global const char *sg = signs ? signs + (r0 + r) * capacity : 0;
@@ -230,7 +234,7 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                 for (uint m = 0; m < M; m++) {
                     if (stochastic && (m & 3u) == 0)
                         clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
-                    const clvox_real p = clvox_sample_u(u, m, M, (int)stochastic, bits[m & 3u]);
+                    const clvox_real p = same_points ? pu[m] : clvox_sample_u(u, m, M, (int)stochastic, bits[m & 3u]);
                     if (sg) {
                         while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
                         if (!near) {

@@ -37,11 +37,13 @@
 typedef ulong clvox_u64;
 #define CLVOX_SAMPLER_FN static inline /* static: see CLVOX_OV_FN (overlap.h) */
 #define CLVOX_SAMPLER_LDEXP ldexp
+#define CLVOX_SAMPLER_NEXT nextafter
 #else
 #include <math.h>
 #include <stdint.h>
 typedef uint64_t clvox_u64;
 #define CLVOX_SAMPLER_LDEXP ldexpf
+#define CLVOX_SAMPLER_NEXT nextafterf
 typedef double clvox_real; /* the kernels' type on fp64 devices (prelude.cl) */
 #define CLVOX_SAMPLER_FN static inline
 #endif
@@ -97,7 +99,7 @@ CLVOX_SAMPLER_FN clvox_real clvox_stratum(clvox_u32 i, clvox_u32 n, int stochast
  * range of kernels/overlap.h's exact signs holds for it. The value is
  * X / (M 2^32), X = (M (2u - 1) + 2m) 2^31 + j 2^32, |X| < 2^61 for
  * u < 2^20 and M <= 255 (the largest oversample_points). */
-CLVOX_SAMPLER_FN float clvox_sample_u(clvox_u32 u, clvox_u32 m, clvox_u32 M, int stochastic, clvox_u32 bits)
+CLVOX_SAMPLER_FN float clvox_sample_u_exact(clvox_u32 u, clvox_u32 m, clvox_u32 M, int stochastic, clvox_u32 bits)
 {
     const clvox_u64 J = stochastic ? (clvox_u64)bits : (clvox_u64)0x80000000u;
     const clvox_u64 pos = ((clvox_u64)M * (2u * (clvox_u64)u) + 2u * (clvox_u64)m) * 0x80000000u + J;
@@ -125,6 +127,30 @@ CLVOX_SAMPLER_FN float clvox_sample_u(clvox_u32 u, clvox_u32 m, clvox_u32 M, int
     }
     const float x = CLVOX_SAMPLER_LDEXP((float)Q, e); /* Q <= 2^24: exact */
     return negative ? -x : x;
+}
+
+/* The same float, faster where double is at hand (the host, fp64 devices):
+ * for u >= 1, x = (u - 1/2) + t in double, t = (m 2^32 + j) / (M 2^32)
+ * rounded, is within 3 * 2^-53 |x| of the exact value (t's rounding is
+ * at most 2^-53 t, t < 1 <= 2 x; the sum's 2^-53 x), so its float is the
+ * exact value's wherever x lies farther than 2^-50 x from both midpoints
+ * next to that float (the midpoints are exact in double); else, for u = 0
+ * and in float builds, clvox_sample_u_exact. */
+CLVOX_SAMPLER_FN float clvox_sample_u(clvox_u32 u, clvox_u32 m, clvox_u32 M, int stochastic, clvox_u32 bits)
+{
+#if !defined(__OPENCL_VERSION__) || defined(CLVOX_FP64)
+    if (u >= 1u) {
+        const double J = stochastic ? (double)bits : 2147483648.0;
+        const double t = ((double)m * 4294967296.0 + J) / ((double)M * 4294967296.0);
+        const double x = ((double)u - 0.5) + t;
+        const float f = (float)x;
+        const double below = ((double)CLVOX_SAMPLER_NEXT(f, 0.0f) + (double)f) * 0.5;
+        const double above = ((double)f + (double)CLVOX_SAMPLER_NEXT(f, 2.0f * f)) * 0.5;
+        const double err = x * 0x1p-50;
+        if (x - below > err && above - x > err) return f;
+    }
+#endif
+    return clvox_sample_u_exact(u, m, M, stochastic, bits);
 }
 
 /* Ray r = a + N*b of column (v, w), id = w * dim_v + v: its ray-plane

@@ -97,8 +97,8 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
     for (uint r = 0; r < R; r++) {
         uint a = r % N, b = r / N, bits[4] = {0, 0, 0, 0};
         if (stochastic) clvox_philox4x32_10(c.id, r, CLVOX_SAMPLER_RAY_WORD, 0, seed_lo, seed_hi, bits);
-        fv[r] = (float)clvox_stratum(a, N, (int)stochastic, bits[0]);
-        fw[r] = (float)clvox_stratum(b, N, (int)stochastic, bits[1]);
+        fv[r] = clvox_stratum_float(a, N, (int)stochastic, bits[0]);
+        fw[r] = clvox_stratum_float(b, N, (int)stochastic, bits[1]);
         k[r] = 0;
     }
     /* the ray axis: palette `axis` is 1..3 (x..z), the winding helpers take 0..2 */
@@ -155,7 +155,7 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                     } else {
                         if (stochastic && (m & 3u) == 0)
                             clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
-                        clvox_real p = lo + clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
+                        const clvox_real p = clvox_sample_u(u, m, M, (int)stochastic, bits[m & 3u]);
                         if (sg) {
                             while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
                             in = near ? (uint)clvox_sample_winding(K, abs_mode, axis - 1u, 0u, p, rays + r0 + r, h,
@@ -198,7 +198,7 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                         const uint s = r * M + m;
                         const uint in = (O[s >> 5] >> (s & 31u)) & 1u;
                         if (stochastic && (m & 3u) == 0) clvox_philox4x32_10(c.id, r, u, m >> 2, seed_lo, seed_hi, bits);
-                        float fu = (float)clvox_stratum(m, M, (int)stochastic, bits[m & 3u]);
+                        const float fu = clvox_stratum_float(m, M, (int)stochastic, bits[m & 3u]);
                         float px, py, pz;
                         clvox_unit_xyz(axis, fu, fv[r], fw[r], &px, &py, &pz);
                         for (uint e = 0; e < n_elements; e++) {

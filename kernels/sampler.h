@@ -90,24 +90,11 @@ CLVOX_SAMPLER_FN clvox_real clvox_stratum(clvox_u32 i, clvox_u32 n, int stochast
     return ((clvox_real)i + j) / (clvox_real)n;
 }
 
-/* Point m of M of voxel u along a ray (grid space, centres at integers):
- * u - 1/2 + (m + j) / M, j = bits * 2^-32 (stochastic) or 1/2, as the
- * nearest float (ties to even), 0 where that is below 2^-24 in magnitude.
- * Computed exactly in integers, so that every device, either precision and
- * the host get the same float; a float because the crossings are compared
- * with it exactly (kernels/intersect.cl clvox_hit_round_up) and the float
- * range of kernels/overlap.h's exact signs holds for it. The value is
- * X / (M 2^32), X = (M (2u - 1) + 2m) 2^31 + j 2^32, |X| < 2^61 for
- * u < 2^20 and M <= 255 (the largest oversample_points). */
-CLVOX_SAMPLER_FN float clvox_sample_u_exact(clvox_u32 u, clvox_u32 m, clvox_u32 M, int stochastic, clvox_u32 bits)
+/* A / (M 2^32) as the nearest float (ties to even), A > 0, exactly in
+ * integers (A < 2^61, M <= 255): Q + R / M = A / M, then 24 bits of it. */
+CLVOX_SAMPLER_FN float clvox_ratio_float(clvox_u64 A, clvox_u32 M)
 {
-    const clvox_u64 J = stochastic ? (clvox_u64)bits : (clvox_u64)0x80000000u;
-    const clvox_u64 pos = ((clvox_u64)M * (2u * (clvox_u64)u) + 2u * (clvox_u64)m) * 0x80000000u + J;
-    const clvox_u64 neg = (clvox_u64)M * 0x80000000u; /* X = pos - neg */
-    const int negative = pos < neg;
-    const clvox_u64 A = negative ? neg - pos : pos - neg;
-    if (A < (clvox_u64)M * 256u) return 0.0f; /* |x| < 2^-24 (and 0) */
-    clvox_u64 Q = A / M, R = A % M; /* |x| = (Q + R / M) 2^-32, Q >= 2^8 */
+    clvox_u64 Q = A / M, R = A % M;
     int e = -32;
     if (Q >= 0x1000000u) { /* 25 bits or more: keep 24, round on the rest */
         int s = 0;
@@ -125,8 +112,38 @@ CLVOX_SAMPLER_FN float clvox_sample_u_exact(clvox_u32 u, clvox_u32 m, clvox_u32 
         }
         if (2u * R > M || (2u * R == M && (Q & 1u))) Q++;
     }
-    const float x = CLVOX_SAMPLER_LDEXP((float)Q, e); /* Q <= 2^24: exact */
+    return CLVOX_SAMPLER_LDEXP((float)Q, e); /* Q <= 2^24: exact */
+}
+
+/* Point m of M of voxel u along a ray (grid space, centres at integers):
+ * u - 1/2 + (m + j) / M, j = bits * 2^-32 (stochastic) or 1/2, as the
+ * nearest float (ties to even), 0 where that is below 2^-24 in magnitude.
+ * Computed exactly in integers, so that every device, either precision and
+ * the host get the same float; a float because the crossings are compared
+ * with it exactly (kernels/intersect.cl clvox_hit_round_up) and the float
+ * range of kernels/overlap.h's exact signs holds for it. The value is
+ * X / (M 2^32), X = (M (2u - 1) + 2m) 2^31 + j 2^32, |X| < 2^61 for
+ * u < 2^20 and M <= 255 (the largest oversample_points). */
+CLVOX_SAMPLER_FN float clvox_sample_u_exact(clvox_u32 u, clvox_u32 m, clvox_u32 M, int stochastic, clvox_u32 bits)
+{
+    const clvox_u64 J = stochastic ? (clvox_u64)bits : (clvox_u64)0x80000000u;
+    const clvox_u64 pos = ((clvox_u64)M * (2u * (clvox_u64)u) + 2u * (clvox_u64)m) * 0x80000000u + J;
+    const clvox_u64 neg = (clvox_u64)M * 0x80000000u; /* X = pos - neg */
+    const int negative = pos < neg;
+    const clvox_u64 A = negative ? neg - pos : pos - neg;
+    if (A < (clvox_u64)M * 256u) return 0.0f; /* |x| < 2^-24 (and 0) */
+    const float x = clvox_ratio_float(A, M);
     return negative ? -x : x;
+}
+
+/* Offset of stratum i of n inside a unit cell, (i + j) / n as
+ * clvox_stratum, as the nearest float computed exactly (so the same in
+ * every build): the palette's positions in the unit voxel, which its
+ * elements are tested at. */
+CLVOX_SAMPLER_FN float clvox_stratum_float(clvox_u32 i, clvox_u32 n, int stochastic, clvox_u32 bits)
+{
+    const clvox_u64 A = ((clvox_u64)i << 32) + (stochastic ? (clvox_u64)bits : (clvox_u64)0x80000000u);
+    return A ? clvox_ratio_float(A, n) : 0.0f;
 }
 
 /* The same float, faster where double is at hand (the host, fp64 devices):

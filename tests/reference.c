@@ -183,14 +183,15 @@ static uint64_t palette_columns(const float *xyz, size_t nv, const uint32_t *tri
     int perm[3];
     axis_perm(axis, perm);
     float *gv = grid_vertices(xyz, nv, g, perm);
-    double *hits = malloc((nt + 1) * sizeof *hits);
+    double *corners = malloc((nt + 1) * 9 * sizeof *corners);
+    int *orient = malloc((nt + 1) * sizeof *orient);
     const uint32_t du = g->dims[perm[0]], dv = g->dims[perm[1]], dw = g->dims[perm[2]];
     const uint32_t R = N * N, S = R * M, slo = (uint32_t)seed, shi = (uint32_t)(seed >> 32);
     const size_t ne = clvox_palette_count(pal);
     /* one column at a time: o and the unit-voxel position of every sample */
     uint8_t *o = malloc((size_t)du * S);
     float *pos = malloc((size_t)du * S * 3 * sizeof *pos);
-    if (!hits || !o || !pos) abort();
+    if (!corners || !orient || !o || !pos) abort();
     for (uint32_t jw = 0; jw < dw; jw++)
         for (uint32_t jv = 0; jv < dv; jv++) {
             const uint32_t id = jw * dv + jv;
@@ -198,20 +199,21 @@ static uint64_t palette_columns(const float *xyz, size_t nv, const uint32_t *tri
                 for (uint32_t a = 0; a < N; a++) {
                     uint32_t r = a + N * b, bits[4] = {0, 0, 0, 0};
                     if (stochastic) clvox_philox4x32_10(id, r, CLVOX_SAMPLER_RAY_WORD, 0, slo, shi, bits);
-                    double sv = clvox_stratum(a, N, stochastic, bits[0]), sw = clvox_stratum(b, N, stochastic, bits[1]);
-                    float pv = (float)(((double)jv - 0.5) + sv), pw = (float)(((double)jw - 0.5) + sw);
-                    size_t n = ray_crossings(gv, tri, nt, pv, pw, hits);
+                    const double sv = clvox_stratum(a, N, stochastic, bits[0]), sw = clvox_stratum(b, N, stochastic, bits[1]);
+                    const float pv = (float)(((double)jv - 0.5) + sv), pw = (float)(((double)jw - 0.5) + sw);
+                    const float fv = clvox_stratum_float(a, N, stochastic, bits[0]),
+                                fw = clvox_stratum_float(b, N, stochastic, bits[1]);
+                    size_t n = ray_crossing_tris(gv, tri, nt, pv, pw, corners, orient);
                     for (uint32_t i = 0; i < du; i++)
                         for (uint32_t m = 0; m < M; m++) {
                             uint32_t pb = stochastic ? clvox_point_bits(slo, shi, id, r, i, m) : 0;
-                            double su = clvox_stratum(m, M, stochastic, pb);
-                            double p = ((double)i - 0.5) + su;
+                            const float p = clvox_sample_u(i, m, M, stochastic, pb);
                             size_t beyond = 0;
-                            for (size_t k = 0; k < n; k++) beyond += hits[k] > p;
+                            for (size_t k = 0; k < n; k++) beyond += crossing_beyond(corners + 9 * k, orient[k], p, pv, pw);
                             size_t at = (size_t)i * S + r * M + m;
                             o[at] = (uint8_t)(beyond & 1);
                             float *q = pos + at * 3;
-                            q[perm[0]] = (float)su, q[perm[1]] = (float)sv, q[perm[2]] = (float)sw;
+                            q[perm[0]] = clvox_stratum_float(m, M, stochastic, pb), q[perm[1]] = fv, q[perm[2]] = fw;
                         }
                 }
             for (uint32_t i = 0; i < du && given; i++) {
@@ -249,7 +251,8 @@ static uint64_t palette_columns(const float *xyz, size_t nv, const uint32_t *tri
             }
         }
     free(gv);
-    free(hits);
+    free(corners);
+    free(orient);
     free(o);
     free(pos);
     return violations;
@@ -438,7 +441,7 @@ uint64_t ref_winding_coverage(const float *xyz, size_t nv, const uint32_t *tri, 
                     for (uint32_t i = 0; i < du; i++)
                         for (uint32_t m = 0; m < M; m++) {
                             uint32_t pb = stochastic ? clvox_point_bits(slo, shi, id, r, i, m) : 0;
-                            double pu = ((double)i - 0.5) + clvox_stratum(m, M, stochastic, pb);
+                            const double pu = clvox_sample_u(i, m, M, stochastic, pb);
                             double s[3], p[3];
                             s[perm[0]] = pu, s[perm[1]] = pv, s[perm[2]] = pw;
                             for (int k = 0; k < 3; k++) p[k] = s[k] * g->voxel_size[k];

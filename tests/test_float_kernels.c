@@ -120,6 +120,58 @@ static long compare_coverage(const char *what, const clvox_mesh *mesh, const clv
     return d;
 }
 
+/* Palette runs on both contexts: element and score compared bit for bit;
+ * the number of voxels that differ, or -1. */
+static clvox_palette *g_palette;
+static unsigned palette_runs;
+static long compare_palette(const char *what, const clvox_mesh *mesh, const clvox_grid *g,
+                            const clvox_voxelize_options *o)
+{
+    const size_t n = (size_t)g->dims[0] * g->dims[1] * g->dims[2];
+    uint16_t *ea = malloc(n * sizeof *ea), *eb = malloc(n * sizeof *eb);
+    float *sa = malloc(n * sizeof *sa), *sb = malloc(n * sizeof *sb);
+    long d = -1;
+    CHECK(ea && eb && sa && sb);
+    if (ea && eb && sa && sb) {
+        clvox_stats st = CLVOX_STATS_INIT;
+        clvox_status ra = clvox_voxelize_palette_to_buffers(cd, mesh, g, o, ea, n, sa, n, NULL);
+        clvox_status rb = clvox_voxelize_palette_to_buffers(cf, mesh, g, o, eb, n, sb, n, &st);
+        host_points += st.winding_host_points;
+        CHECK_MSG(ra == CLVOX_OK && rb == CLVOX_OK, "%s: double %s, float %s (%s)", what, clvox_status_string(ra),
+                  clvox_status_string(rb), rb != CLVOX_OK ? clvox_context_error(cf) : clvox_context_error(cd));
+        if (ra == CLVOX_OK && rb == CLVOX_OK) {
+            d = 0;
+            for (size_t i = 0; i < n; i++) d += ea[i] != eb[i] || memcmp(sa + i, sb + i, sizeof *sa) != 0;
+        }
+    }
+    free(ea);
+    free(eb);
+    free(sa);
+    free(sb);
+    palette_runs++;
+    return d;
+}
+
+/* The palette cases of one mesh: planar10, uniform 3x3 rays x 2 points and
+ * stochastic 2x2x3, with the inside test `inside`. */
+static void compare_mesh_palette(const char *name, const clvox_mesh *mesh, const clvox_grid *g, clvox_inside inside)
+{
+    for (int stochastic = 0; stochastic <= 1; stochastic++) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.inside = inside;
+        o.palette = g_palette;
+        o.oversample = stochastic ? 2 : 3;
+        o.oversample_points = stochastic ? 3 : 2;
+        o.stochastic = stochastic;
+        o.seed = 11;
+        char what[256];
+        snprintf(what, sizeof what, "%s palette %s %s %ux%ux%u", name, stochastic ? "stochastic" : "uniform",
+                 inside == CLVOX_INSIDE_PARITY ? "parity" : "winding", g->dims[0], g->dims[1], g->dims[2]);
+        const long d = compare_palette(what, mesh, g, &o);
+        CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
+    }
+}
+
 /* The coverage cases of one mesh: uniform 2x2 rays x 3 points (strata that
  * are not dyadic: the points are rounded floats) and stochastic 2x2x2, with
  * the inside test `inside`. */
@@ -172,6 +224,7 @@ static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_g
     compare_mesh_coverage(name, mesh, g, CLVOX_INSIDE_PARITY);
     if (g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2])
         compare_mesh_coverage(name, mesh, g, CLVOX_INSIDE_WINDING);
+    compare_mesh_palette(name, mesh, g, CLVOX_INSIDE_PARITY);
 }
 
 static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g);
@@ -426,6 +479,7 @@ int main(void)
 {
     cf = context_with(1);
     cd = context_with(0);
+    CHECK_OK(cd, clvox_palette_builtin(cd, "planar10", &g_palette));
     CHECK_MSG(cf->real_size == 4 && cd->real_size == 8, "kernels of %zu and %zu bytes: not a float and a double build",
               cf->real_size, cd->real_size);
     if (cf->real_size != 4 || cd->real_size != 8) return test_report();
@@ -443,9 +497,10 @@ int main(void)
         clvox_context_destroy(c);
     }
     if (!getenv("CLVOX_QUICK")) test_data_meshes();
-    printf("%u runs of the exact modes, %u winding runs and %u coverage runs compared, byte-identical; %llu points "
-           "decided on the host\n",
-           runs, winding_runs, coverage_runs, (unsigned long long)host_points);
+    printf("%u runs of the exact modes, %u winding runs, %u coverage runs and %u palette runs compared, "
+           "byte-identical; %llu points decided on the host\n",
+           runs, winding_runs, coverage_runs, palette_runs, (unsigned long long)host_points);
+    clvox_palette_destroy(g_palette);
     clvox_context_destroy(cf);
     clvox_context_destroy(cd);
     return test_report();

@@ -590,10 +590,10 @@ static cl_int set_cast_args(clvox__method_state *s, const clvox__batch_mem *m, c
     err |= clSetKernelArg(s->k_intersect, 8, sizeof(cl_mem), &m->hits);
     err |= clSetKernelArg(s->k_intersect, 9, sizeof(cl_mem), &m->counts);
     err |= clSetKernelArg(s->k_intersect, 10, sizeof(cl_mem), &m->signs); /* NULL unless winding */
-    /* coverage: every crossing as the float RU(u) (kernels/intersect.cl
-     * clvox_hit_round_up), which the float sample points compare with
-     * exactly; the palette's points are not floats yet */
-    const cl_uint exact_hits = s->coverage && !s->palette;
+    /* column runs (coverage, palette): every crossing as the float RU(u)
+     * (kernels/intersect.cl clvox_hit_round_up), which the float sample
+     * points compare with exactly */
+    const cl_uint exact_hits = s->coverage;
     err |= clSetKernelArg(s->k_intersect, 11, sizeof(cl_uint), &s->wind.surface_count);
     err |= clSetKernelArg(s->k_intersect, 12, sizeof(cl_uint), &exact_hits);
     err |= clSetKernelArg(s->k_sort, 0, sizeof(cl_uint), &n);

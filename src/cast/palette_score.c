@@ -16,8 +16,8 @@
  * as (x, y, z) for the run's ray axis: the kernel's clvox_unit_xyz. */
 static void uniform_sample_xyz(const clvox__coverage *c, clvox__axes axes, uint32_t r, uint32_t m, float p[3])
 {
-    float fu = (float)clvox_stratum(m, c->M, 0, 0);
-    float fv = (float)clvox_stratum(r % c->N, c->N, 0, 0), fw = (float)clvox_stratum(r / c->N, c->N, 0, 0);
+    float fu = clvox_stratum_float(m, c->M, 0, 0);
+    float fv = clvox_stratum_float(r % c->N, c->N, 0, 0), fw = clvox_stratum_float(r / c->N, c->N, 0, 0);
     p[axes.perm[0]] = fu;
     p[axes.perm[1]] = fv;
     p[axes.perm[2]] = fw;

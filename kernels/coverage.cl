@@ -148,11 +148,9 @@ static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, uint fla
 {
     clvox_real x, y, z, lo, hi;
     clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);
-    /* flags: CLVOX_EXACT_SIGNS where the sample is a float (coverage's,
-     * clvox_sample_u) on cubic voxels; the float build's unsure answers
-     * (CLVOX_UNSURE) go to the host there, the palette's stand (its samples
-     * are not floats yet: not exact in float, docs/design.md "Devices
-     * without double precision") */
+    /* flags: CLVOX_EXACT_SIGNS on cubic voxels (the samples are floats,
+     * clvox_sample_u); the float build's unsure answers (CLVOX_UNSURE) go
+     * to the host (src/cast/unsure.c) */
     return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, x, y, z, axis | flags, 0u, exact, &lo, &hi,
                                     sc->cut, &sc->n, &sc->fresh_exact);
 }

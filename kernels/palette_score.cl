@@ -59,6 +59,25 @@ static inline void clvox_unit_xyz(uint axis, float fu, float fv, float fw, float
     }
 }
 
+/* The host's answer for sample (ray r, point m) of voxel j of column gid,
+ * which the first pass left unsure (src/cast/unsure.c): answers[3i ..] =
+ * (column, voxel, r << 8 | m | inside << 31), sorted by those three. */
+static inline uint clvox_palette_answer(global const uint *answers, uint n, uint gid, uint j, uint rm)
+{
+    uint lo = 0, hi = n;
+    while (lo < hi) {
+        const uint mid = lo + (hi - lo) / 2u;
+        global const uint *a = answers + 3u * mid;
+        const uint key = a[2] & 0x7FFFFFFFu;
+        const int less = a[0] < gid || (a[0] == gid && (a[1] < j || (a[1] == j && key < rm)));
+        if (less) lo = mid + 1u;
+        else hi = mid;
+    }
+    if (lo < n && answers[3u * lo] == gid && answers[3u * lo + 1u] == j && (answers[3u * lo + 2u] & 0x7FFFFFFFu) == rm)
+        return answers[3u * lo + 2u] >> 31;
+    return 2u; /* not found (cannot happen: the same samples come out unsure) */
+}
+
 static void clvox_palette_score_body(global const clvox_column *cols, uint col_count, uint N, uint M,
                                      global const clvox_real *hits, global const uint *counts, uint capacity,
                                      uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi, uint axis,
@@ -73,7 +92,8 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                                      global uint *pstats, global ulong *col_volume,
                                      global const char *signs, global const clvox_ray *rays, uint abs_mode,
                                      global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                     global const clvox_real *caps, global uint *exact_points)
+                                     global const clvox_real *caps, global uint *exact_points,
+                                     global uint *unsure, global const uint *answers, uint n_answers)
 {
     const uint gid = get_global_id(0);
     const uint R = N * N, S = R * M, words = (S + 31u) / 32u;
@@ -158,9 +178,23 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                         const clvox_real p = clvox_sample_u(u, m, M, (int)stochastic, bits[m & 3u]);
                         if (sg) {
                             while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
-                            in = near ? (uint)clvox_sample_winding(K, abs_mode, axis - 1u, 0u, p, rays + r0 + r, h,
-                                                                   nodes, node_count, caps, &exact, &sc) & 1u
-                                      : (uint)clvox_k_inside(K, abs_mode);
+                            if (near) {
+                                /* a float build's unsure sample: listed for the host, whose answer the
+                                 * second pass takes (the same samples come out unsure there) */
+                                const int w = clvox_sample_winding(K, abs_mode, axis - 1u, CLVOX_AXIS_FLAGS(h[3]), p,
+                                                                   rays + r0 + r, h, nodes, node_count, caps, &exact,
+                                                                   &sc);
+                                in = (uint)w & 1u;
+                                if (w & CLVOX_UNSURE) {
+                                    const uint a = n_answers ? clvox_palette_answer(answers, n_answers, gid, j,
+                                                                                    (r << 8) | m)
+                                                             : 2u;
+                                    if (a < 2u) in = a;
+                                    else clvox_unsure_push(unsure, gid, j, (uint)K, (r << 8) | m); /* the host's */
+                                }
+                            } else {
+                                in = (uint)clvox_k_inside(K, abs_mode);
+                            }
                         } else {
                             while (kk < n && hr[kk] <= p) kk++;
                             in = (n - kk) & 1u;
@@ -275,13 +309,14 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                                 global uint *pstats, global ulong *col_volume,
                                 global const char *signs, global const clvox_ray *rays, uint abs_mode,
                                 global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, global uint *exact_points,
+                                global const clvox_real *caps, global uint *exact_points, global uint *unsure,
+                                global const uint *answers, uint n_answers,
                                 global uint *clvox_done, uint clvox_done_slot)
 {
     clvox_palette_score_body(cols, col_count, N, M, hits, counts, capacity, u_begin, u_count, stochastic, seed_lo,
         seed_hi, axis, elements, cells, planes, n_elements, use_masks, masks, metric, early_out, sc_lo, sc_hi,
         value_of_count, occ_min, X, W, vox_stride, out_stride, element_out, score_out, coverage, occupancy,
         volume_fixed, col_sum, col_filled, pstats, col_volume, signs, rays, abs_mode, h, nodes, node_count, caps,
-        exact_points);
+        exact_points, unsure, answers, n_answers);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }

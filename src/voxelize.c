@@ -339,24 +339,25 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     }
     /* Members whose kernels follow other rules than the set's best (float
      * kernels beside double ones: clvox__kernel_rules) decide some voxels
-     * of palette runs, and of winding runs (binary or coverage) on voxels
-     * that are not cubes, differently: left out of those. Parity, tetra,
-     * surface, conservative, coverage with parity, and winding on cubic
-     * voxels are decided exactly in every build (docs/design.md "Devices
-     * without double precision"). */
+     * of winding runs (binary, coverage or palette) on voxels that are not
+     * cubes differently: left out of those. Everything else -- parity,
+     * tetra, surface, conservative, and the winding test on cubic voxels,
+     * binary or sampled -- is decided exactly in every build (docs/design.md
+     * "Devices without double precision"). */
     int best_rules = 0;
     for (uint32_t d = 0; d < ndev; d++)
         if (clvox__kernel_rules(ctx->member[d]) > best_rules) best_rules = clvox__kernel_rules(ctx->member[d]);
     const int cubic = grid->voxel_size[0] == grid->voxel_size[1] && grid->voxel_size[0] == grid->voxel_size[2];
-    const int same_in_float = !o.palette && (o.oversample ? o.inside == CLVOX_INSIDE_PARITY || cubic
-                                                           : o.mode == CLVOX_MODE_SURFACE ||
-                                                                 o.method == CLVOX_METHOD_TETRA ||
-                                                                 o.inside == CLVOX_INSIDE_PARITY || cubic);
+    const int same_in_float = o.oversample || o.palette ? o.inside == CLVOX_INSIDE_PARITY || cubic
+                                                         : o.mode == CLVOX_MODE_SURFACE ||
+                                                               o.method == CLVOX_METHOD_TETRA ||
+                                                               o.inside == CLVOX_INSIDE_PARITY || cubic;
     if (!same_in_float && best_rules != 8) /* float devices alone */
         clvox__warn(ctx,
                     "the kernels of this run are built without double precision: its %s may differ from a double "
                     "device's where a sample lies within about 1e-6 of the inside test's threshold",
-                    o.palette ? "palette samples" : "winding test on voxels that are not cubes");
+                    o.oversample || o.palette ? "samples' winding test on voxels that are not cubes"
+                                              : "winding test on voxels that are not cubes");
     clvox_stats first = stats;
     int have_first = 0;
     uint32_t first_group = 1;
@@ -367,8 +368,8 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         if (!same_in_float && clvox__kernel_rules(dc) != best_rules) {
             clvox__warn(ctx,
                         "device %u '%s' left out: its kernels are %s and would decide some voxels of this run "
-                        "differently from the other devices' (it takes part in every run but palette ones, "
-                        "and winding runs on voxels that are not cubes)",
+                        "differently from the other devices' (it takes part in every run but winding runs on "
+                        "voxels that are not cubes)",
                         dc->position, dc->device.name,
                         best_rules == 8 ? (dc->kernels_float ? "built without double precision (CLVOX_KERNEL_FLOAT)"
                                                              : "built without double precision (no cl_khr_fp64)")

@@ -2024,8 +2024,9 @@ static void test_npy_sidecar_name(void)
 }
 
 /* --float-kernels: the kernels built without double precision on a
- * device that has it; the default run's and a coverage run's files
- * unchanged, a palette run warned (not exact in float). */
+ * device that has it; the default run's, a coverage run's and a palette
+ * run's files unchanged, a winding run on voxels that are not cubes warned
+ * (not exact in float). */
 static void test_float_kernels_flag(void)
 {
     char mesh[PATH_MAX], a[PATH_MAX], b[PATH_MAX];
@@ -2047,11 +2048,18 @@ static void test_float_kernels_flag(void)
     CHECK_MSG(r.code == 0 && !*r.err, "--float-kernels coverage: exit %d: %s", r.code, r.err);
     spawn_free(&r);
     CHECK_MSG(same_file(a, b), "--float-kernels changed the coverage run's file");
+    run_cli(&r, NULL, ARGS(mesh, "-r", "8", "--palette", "planar10", "--samples", "4,4", "-o", a, "-q"));
+    CHECK_MSG(r.code == 0, "palette: exit %d: %s", r.code, r.err);
+    spawn_free(&r);
     run_cli(&r, NULL, ARGS(mesh, "-r", "8", "--palette", "planar10", "--samples", "4,4", "-o", b, "-q",
                            "--float-kernels"));
+    CHECK_MSG(r.code == 0 && !*r.err, "--float-kernels palette: exit %d: %s", r.code, r.err);
+    spawn_free(&r);
+    CHECK_MSG(same_file(a, b), "--float-kernels changed the palette run's file");
+    run_cli(&r, NULL, ARGS(mesh, "--voxel-size", "0.1,0.1,0.15", "-o", b, "-q", "--float-kernels"));
     CHECK_MSG(r.code == 0 && strstr(r.err, "warning: the kernels of this run are built without double precision") &&
-                  strstr(r.err, "palette samples") && count_lines(r.err) == 1,
-              "--float-kernels palette: exit %d: %s", r.code, r.err);
+                  strstr(r.err, "voxels that are not cubes") && count_lines(r.err) == 1,
+              "--float-kernels, voxels that are not cubes: exit %d: %s", r.code, r.err);
     spawn_free(&r);
 }
 

@@ -999,9 +999,8 @@ static void test_cli(void)
  * the set keeps both; parity, tetra and surface runs use both and give
  * the one-device volume, and device 1 alone gives it too (device 0 made to
  * fail at its first slab); so do coverage with parity, and winding,
- * conservative and coverage with winding on cubic voxels; palette runs,
- * and winding on other voxels, leave device 1 out with one warning, and
- * give it too. */
+ * conservative, coverage and palette on cubic voxels; winding on other
+ * voxels leaves device 1 out with one warning, and gives it too. */
 static void test_mixed_precision(const mesh_case *mc)
 {
     clvox__test_hooks h = g_hooks;
@@ -1035,7 +1034,8 @@ static void test_mixed_precision(const mesh_case *mc)
         const int both = !strcmp(name, "ray parity") || !strcmp(name, "tetra") || !strcmp(name, "surface") ||
                          !strcmp(name, "coverage parity") ||
                          (cubic && (!strcmp(name, "ray winding") || !strcmp(name, "conservative") ||
-                                    !strcmp(name, "coverage") || !strcmp(name, "stochastic coverage")));
+                                    !strcmp(name, "coverage") || !strcmp(name, "stochastic coverage") ||
+                                    !strcmp(name, "palette")));
         char what[256];
         snprintf(what, sizeof what, "[%s] %s, %s, a float device beside a double one", g_config, mc->name, name);
         capture ref, c;

@@ -225,6 +225,8 @@ static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_g
     if (g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2])
         compare_mesh_coverage(name, mesh, g, CLVOX_INSIDE_WINDING);
     compare_mesh_palette(name, mesh, g, CLVOX_INSIDE_PARITY);
+    if (g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2])
+        compare_mesh_palette(name, mesh, g, CLVOX_INSIDE_WINDING);
 }
 
 static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g);

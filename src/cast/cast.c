@@ -103,7 +103,7 @@ static clvox_status batch_mem_alloc(clvox_context *ctx, clvox__batch_mem *m, siz
     if (st == CLVOX_OK && winding)
         m->signs = clvox__buffer(ctx, CL_MEM_READ_WRITE, max_rays * capacity, NULL, &st, "crossing signs");
     if (st == CLVOX_OK && winding) m->exact = clvox__buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint), NULL, &st, "exact points");
-    if (st == CLVOX_OK && winding && !palette) {
+    if (st == CLVOX_OK && winding) {
         /* a float device's unsure points (unsure.c); a double device
          * leaves none, its list has no room */
         const unsigned room = clvox__hooks()->unsure_room;

@@ -43,8 +43,10 @@ static const cl_uint *unsure_list(clvox__method_state *s, batch_set *b, size_t c
     }
     if (*st == CLVOX_OK) {
         clvox__launch_begin(ctx);
-        *st = s->coverage ? clvox__coverage_enqueue(ctx, &s->cov, &s->wind, &m2, b->n_cols, &b->t, NULL)
-                          : clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, &m2, b->n_rays, &b->t, NULL);
+        *st = s->palette    ? clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, &m2, b->n_cols, &b->t, NULL)
+              : s->coverage ? clvox__coverage_enqueue(ctx, &s->cov, &s->wind, &m2, b->n_cols, &b->t, NULL)
+                            : clvox__winding_classify_enqueue(ctx, s->k_classify, &s->wind, &m2, b->n_rays, &b->t,
+                                                              NULL);
         if (*st == CLVOX_OK) *st = clvox__launch_check(ctx);
     }
     if (*st == CLVOX_OK) {
@@ -138,6 +140,104 @@ static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__
     return st;
 }
 
+/* Column run entry e (column, voxel, K, ray << 8 | point): is the sample
+ * inside? */
+static int sample_inside(const clvox__method_state *s, const batch_set *b, const cl_uint *e, const double scale[3],
+                         int exact)
+{
+    const clvox__coverage *c = &s->cov;
+    const cl_uint gid = e[0], j = e[1], r = e[3] >> 8, m = e[3] & 255u;
+    clvox_column col;
+    if (b->cast_cols) {
+        col = b->cast_cols[gid];
+    } else {
+        uint32_t v, w;
+        clvox__slab_column(s, b->z0, b->c0 + gid, &v, &w, &col.out_base, &col.bit);
+        col.id = w * s->dim_v + v;
+    }
+    const uint32_t v = col.id % s->dim_v, w = col.id / s->dim_v, u = b->t.u_begin + j;
+    float pv, pw;
+    clvox_column_ray(v, w, col.id, r, c->N, c->stochastic, c->seed_lo, c->seed_hi, &pv, &pw);
+    uint32_t bits[4] = {0, 0, 0, 0};
+    if (c->stochastic) clvox_philox4x32_10(col.id, r, u, m >> 2, c->seed_lo, c->seed_hi, bits);
+    double p[3];
+    unsure_point(s, scale, clvox_sample_u(u, m, c->M, c->stochastic, bits[m & 3u]), pv, pw, p);
+    return clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact);
+}
+
+static int cmp_answer(const void *pa, const void *pb)
+{
+    const cl_uint *a = pa, *b = pb;
+    for (int i = 0; i < 3; i++) {
+        const cl_uint x = i == 2 ? a[i] & 0x7FFFFFFFu : a[i], y = i == 2 ? b[i] & 0x7FFFFFFFu : b[i];
+        if (x != y) return x < y ? -1 : 1;
+    }
+    return 0;
+}
+
+/* Palette: a voxel's score depends on all its samples at once, so the
+ * batch's scoring runs a second time with the host's answers for the
+ * samples the first pass left unsure (sorted, for the kernel's binary
+ * search), which rewrites the batch's voxels and tallies (read back here:
+ * the tally after batch_wait reads them). The second pass meets the same
+ * unsure samples and lists none. */
+static clvox_status resolve_palette(clvox__method_state *s, batch_set *b, const cl_uint *list, size_t count)
+{
+    clvox_context *ctx = s->ctx;
+    double scale[3];
+    const int exact = clvox__winding_scale(&s->grid, scale);
+    cl_uint *ans = malloc((count ? count : 1) * 3 * sizeof *ans);
+    if (!ans) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+    for (size_t i = 0; i < count; i++) {
+        const cl_uint *e = list + UNSURE_WORDS * i;
+        ans[3 * i] = e[0];
+        ans[3 * i + 1] = e[1];
+        ans[3 * i + 2] = e[3] | (sample_inside(s, b, e, scale, exact) ? 0x80000000u : 0u);
+    }
+    qsort(ans, count, 3 * sizeof *ans, cmp_answer);
+    clvox_status st = CLVOX_OK;
+    cl_mem mem = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 3 * count * sizeof *ans, ans, &st,
+                               "unsure answers");
+    free(ans);
+    const cl_uint head[2] = {0, b->mem.unsure_room};
+    cl_uint again[2] = {0, 0};
+    cl_int err = CL_SUCCESS;
+    if (st == CLVOX_OK) {
+        err = clEnqueueWriteBuffer(ctx->queue, b->mem.unsure, CL_TRUE, 0, sizeof head, head, 0, NULL, NULL);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the unsure points");
+    }
+    if (st == CLVOX_OK) {
+        s->pal.answers = mem;
+        s->pal.n_answers = (cl_uint)count;
+        clvox__launch_begin(ctx);
+        st = clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, &b->mem, b->n_cols, &b->t, NULL);
+        if (st == CLVOX_OK) st = clvox__launch_check(ctx);
+        s->pal.answers = NULL;
+        s->pal.n_answers = 0;
+    }
+    const size_t k = b->n_cols;
+    if (st == CLVOX_OK) {
+        err = clEnqueueReadBuffer(ctx->queue, b->mem.unsure, CL_TRUE, 0, sizeof again, again, 0, NULL, NULL);
+        if (err == CL_SUCCESS)
+            err = clEnqueueReadBuffer(ctx->queue, b->mem.filled, CL_TRUE, 0, k * sizeof *b->filled, b->filled, 0, NULL,
+                                      NULL);
+        if (err == CL_SUCCESS)
+            err = clEnqueueReadBuffer(ctx->queue, b->mem.sums, CL_TRUE, 0, k * sizeof *b->sums, b->sums, 0, NULL, NULL);
+        if (err == CL_SUCCESS)
+            err = clEnqueueReadBuffer(ctx->queue, b->mem.pstats, CL_TRUE, 0, k * 4 * sizeof *b->pstats, b->pstats, 0,
+                                      NULL, NULL);
+        if (err == CL_SUCCESS)
+            err = clEnqueueReadBuffer(ctx->queue, b->mem.pvolume, CL_TRUE, 0, k * sizeof *b->pvolume, b->pvolume, 0,
+                                      NULL, NULL);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "reading the batch back");
+        else if (again[0])
+            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the palette's second pass left %u samples unsure",
+                             (unsigned)again[0]);
+    }
+    clvox__release_mem(&mem);
+    return st;
+}
+
 /* Coverage: each voxel's entry (its sure count) after its samples'; a
  * voxel's samples found inside are added to its count, which gives its
  * value, its bit, and the column's tallies (b->sums, b->filled: the tally
@@ -164,24 +264,8 @@ static clvox_status resolve_coverage(clvox__method_state *s, batch_set *b, const
     for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
         const cl_uint *e = list + UNSURE_WORDS * i;
         if (e[3] == UNSURE_VOXEL) continue;
-        const cl_uint gid = e[0], j = e[1], r = e[3] >> 8, m = e[3] & 255u;
-        clvox_column col;
-        if (b->cast_cols) {
-            col = b->cast_cols[gid];
-        } else {
-            uint32_t v, w;
-            clvox__slab_column(s, b->z0, b->c0 + gid, &v, &w, &col.out_base, &col.bit);
-            col.id = w * s->dim_v + v;
-        }
-        const uint32_t v = col.id % s->dim_v, w = col.id / s->dim_v, u = b->t.u_begin + j;
-        float pv, pw;
-        clvox_column_ray(v, w, col.id, r, c->N, c->stochastic, c->seed_lo, c->seed_hi, &pv, &pw);
-        uint32_t bits[4] = {0, 0, 0, 0};
-        if (c->stochastic) clvox_philox4x32_10(col.id, r, u, m >> 2, c->seed_lo, c->seed_hi, bits);
-        double p[3];
-        unsure_point(s, scale, clvox_sample_u(u, m, c->M, c->stochastic, bits[m & 3u]), pv, pw, p);
-        if (!clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact))
-            continue;
+        const cl_uint gid = e[0], j = e[1];
+        if (!sample_inside(s, b, e, scale, exact)) continue;
         const uint64_t k = (uint64_t)gid << 32 | j;
         size_t x = 0;
         while (x < nv && key[x] != k) x++; /* few voxels a batch: a scan */
@@ -238,7 +322,10 @@ clvox_status clvox__resolve_unsure(clvox__method_state *s, batch_set *b, clvox__
     cl_uint *again = NULL;
     clvox_status st = CLVOX_OK;
     const cl_uint *list = unsure_list(s, b, count, &again, &st);
-    if (list) st = s->coverage ? resolve_coverage(s, b, list, count) : resolve_binary(s, b, ss, list, count);
+    if (list)
+        st = s->palette    ? resolve_palette(s, b, list, count)
+             : s->coverage ? resolve_coverage(s, b, list, count)
+                           : resolve_binary(s, b, ss, list, count);
     if (st == CLVOX_OK) { /* the points, not the voxels' entries */
         size_t points = count;
         if (s->coverage)

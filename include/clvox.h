@@ -95,8 +95,8 @@ typedef struct clvox_context_options {
     int host_only;
     /* appended in 0.3: 1 = build every device's kernels without double
      * precision, as on a device without cl_khr_fp64 (which always gets
-     * them): the same voxels in every mode but coverage, palette and the
-     * winding test on voxels that are not cubes (docs/design.md "Devices
+     * them): the same voxels in every mode but the winding test on voxels
+     * that are not cubes (docs/design.md "Devices
      * without double precision"), and faster where double is slow (most
      * consumer GPUs run it at 1/16 to 1/64 of float). 0: double wherever
      * the device has it. */

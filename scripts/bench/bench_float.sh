@@ -19,7 +19,8 @@
 # nefertiti, b9_mesh) in the default mode; coverage (grey levels, the
 # default winding test): the closed meshes with 3^3 samples uniform and 2x2
 # rays x 3 points stochastic, elephant-with-holes, holes and cylinder with
-# 2^3 samples. Each row: double and float
+# 2^3 samples; the planar10 palette with 4x4 samples on armadillo (64^3)
+# and elephant-with-holes (48^3). Each row: double and float
 # seconds, their ratio, and whether the two EXR files are byte-identical
 # (else the filled-voxel counts), and the float run's points decided on the
 # host in double (clvox_stats.winding_host_points). Markdown to stdout and to
@@ -102,4 +103,6 @@ row() { # NAME MESH ARGS... (ROW_RES=N: that resolution)
   cov_open="elephant-with-holes holes cylinder"
   [ "$quick" = 1 ] && cov_open=elephant-with-holes
   for m in $cov_open; do ROW_RES=$cov_res row "coverage 2^3, open" "$m" --oversample 2; done
+  ROW_RES=64 row "palette planar10 4x4" armadillo --palette planar10 --samples 4,4
+  ROW_RES=48 row "palette planar10 4x4, open" elephant-with-holes --palette planar10 --samples 4,4
 } | tee "$md"

@@ -657,7 +657,7 @@ void print_help(void)
 "                           version, fp64, memory) and exit\n"
 "  --float-kernels          build the kernels without double precision on every\n"
 "                           device, as devices without fp64 always get them: the\n"
-"                           same voxels but in coverage, palette and winding on\n"
+"                           same voxels in every mode but the winding test on\n"
 "                           non-cubic voxels (a warning says so); faster where\n"
 "                           double is slow (most consumer GPUs)\n"
 "\n"

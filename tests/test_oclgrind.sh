@@ -127,8 +127,8 @@ done
 echo "cases: $((passed + failed)) runs (oclgrind twice, PoCL local size 1 once) in $(($(date +%s) - start)) s"
 
 # The float build (devices without fp64: CLVOX_KERNEL_FLOAT=1) under
-# Oclgrind, in the modes it decides exactly (winding and coverage: with the
-# host deciding the points its float bounds cannot settle): the same bytes as the double
+# Oclgrind, in the modes it decides exactly (winding, coverage and palette:
+# with the host deciding the points its float bounds cannot settle): the same bytes as the double
 # kernels on PoCL (tests/test_float_kernels.c compares them on PoCL).
 float_cases="
 $M/cow.off -r 16 --inside parity
@@ -142,6 +142,8 @@ $M/cross.off -r 16 --axis z --inside winding-abs
 $M/cow.off -r 12 --oversample 2 --axis z
 $M/cube-ouvert.off -r 8 --oversample 3,2
 $M/cow.off -r 12 --oversample 2 --stochastic --seed 7 --axis y --inside parity
+$M/cube-ouvert.off -r 8 --palette planar10 --samples 4,4
+$M/cow.off -r 6 --palette binary --samples 4,2 --stochastic --axis z
 "
 run_cases float "float:--data-races --check-api" "$float_cases"
 

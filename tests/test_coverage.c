@@ -270,6 +270,33 @@ static void test_reference(void)
         CHECK_MSG(b == 0, "aligned box, axis %d: %d voxels differ", axis, b);
     }
     tmesh_free(&box);
+    /* faces on the sample points and rays themselves (2 x 2 rays x 2 points:
+     * samples at grid k -+ 1/4, here 1.75 and 5.25): every comparison of a
+     * point with a crossing a tie, decided by the exact rule (the
+     * crossings rounded up to floats, kernels/intersect.cl), against the
+     * reference's exact sign per point and triangle, in parity and winding */
+    tmesh onpts = tmesh_box_subdivided(2.25 / 8, 2.25 / 8, 2.25 / 8, 5.75 / 8, 5.75 / 8, 5.75 / 8, 3);
+    for (int inside = 0; inside <= 1; inside++) {
+        g_inside = inside ? CLVOX_INSIDE_PARITY : CLVOX_INSIDE_DEFAULT;
+        for (int axis = CLVOX_AXIS_X; axis <= CLVOX_AXIS_Z; axis++) {
+            int b = compare_reference(ctx, &onpts, &gg, (clvox_axis)axis, 2, 2, 0, 0, 0, 0);
+            CHECK_MSG(b == 0, "box on the sample points, axis %d, %s: %d voxels differ", axis,
+                      inside ? "parity" : "winding", b);
+        }
+    }
+    /* sloped: the octahedron |x - 4| + |y - 4| + |z - 4| = 2.75 (grid
+     * space) holds many samples of the rays on its faces: the tie rule on
+     * sloped faces (its crossings are dyadic, so exact either way; the
+     * rounding up itself is held by test_float_kernels' lattice soups) */
+    tmesh octa = tmesh_octahedron(4.5 / 8, 4.5 / 8, 4.5 / 8, 2.75 / 8);
+    for (int axis = CLVOX_AXIS_X; axis <= CLVOX_AXIS_Z; axis++) {
+        g_inside = CLVOX_INSIDE_PARITY;
+        int b = compare_reference(ctx, &octa, &gg, (clvox_axis)axis, 2, 2, 0, 0, 0, 0);
+        CHECK_MSG(b == 0, "octahedron through the sample points, axis %d: %d voxels differ", axis, b);
+    }
+    tmesh_free(&octa);
+    g_inside = CLVOX_INSIDE_DEFAULT;
+    tmesh_free(&onpts);
     /* overlapping shells (parity, not union), slab depth 1 and crossing capacity 1 */
     double c1[3], c2[3];
     tmesh ov = tmesh_random_overlap(5, 3, c1, c2);

@@ -159,7 +159,7 @@ def test_inside_winding_and_parity(ctx):
 
 def test_float_kernels(ctx):
     """float_kernels=True: the kernels without double precision give the default (winding) run's
-    voxels on an open mesh, the centres float cannot settle decided on the host."""
+    voxels on an open mesh, the centres float cannot settle decided on the host, and its coverage."""
     v, f = octa_sphere(4)
     open_f = f[::2].copy()  # every other face: an open mesh, w near 1/2 in places
     fk = clvox.Context(float_kernels=True)
@@ -167,6 +167,10 @@ def test_float_kernels(ctx):
     b = fk.voxelize((v, open_f), resolution=24)
     assert np.array_equal(a.occupancy, b.occupancy)
     assert a.stats["winding"]["host_points"] == 0 and b.stats["winding"]["host_points"] >= 0
+    # grey levels too (3x3 rays x 2 points, stochastic): the same coverage, bit for bit
+    c = ctx.voxelize((v, open_f), resolution=16, oversample=(3, 2), stochastic=True, seed=5)
+    d = fk.voxelize((v, open_f), resolution=16, oversample=(3, 2), stochastic=True, seed=5)
+    assert np.array_equal(c.coverage, d.coverage) and c.coverage.dtype == np.float32
 
 
 def test_soup_crack_weld(ctx):

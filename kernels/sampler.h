@@ -37,13 +37,31 @@
 typedef ulong clvox_u64;
 #define CLVOX_SAMPLER_FN static inline /* static: see CLVOX_OV_FN (overlap.h) */
 #define CLVOX_SAMPLER_LDEXP ldexp
-#define CLVOX_SAMPLER_NEXT nextafter
+#define CLVOX_SAMPLER_FBITS(f) as_uint(f)
+#if defined(CLVOX_FP64)
+#define CLVOX_SAMPLER_POW2(e) as_double((ulong)((e) + 1023) << 52) /* 2^e, e in the normal range */
+#endif
 #else
 #include <math.h>
 #include <stdint.h>
 typedef uint64_t clvox_u64;
+#include <string.h>
 #define CLVOX_SAMPLER_LDEXP ldexpf
-#define CLVOX_SAMPLER_NEXT nextafterf
+static inline uint32_t clvox_sampler_fbits(float f)
+{
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    return b;
+}
+static inline double clvox_sampler_pow2(int e)
+{
+    const uint64_t b = (uint64_t)(e + 1023) << 52;
+    double d;
+    memcpy(&d, &b, sizeof d);
+    return d;
+}
+#define CLVOX_SAMPLER_FBITS(f) clvox_sampler_fbits(f)
+#define CLVOX_SAMPLER_POW2(e) clvox_sampler_pow2(e)
 typedef double clvox_real; /* the kernels' type on fp64 devices (prelude.cl) */
 #define CLVOX_SAMPLER_FN static inline
 #endif
@@ -151,8 +169,9 @@ CLVOX_SAMPLER_FN float clvox_stratum_float(clvox_u32 i, clvox_u32 n, int stochas
  * rounded, is within 3 * 2^-53 |x| of the exact value (t's rounding is
  * at most 2^-53 t, t < 1 <= 2 x; the sum's 2^-53 x), so its float is the
  * exact value's wherever x lies farther than 2^-50 x from both midpoints
- * next to that float (the midpoints are exact in double); else, for u = 0
- * and in float builds, clvox_sample_u_exact. */
+ * next to that float (half a spacing from it, the spacing from the float's
+ * exponent bits); else, for u = 0 and in float builds,
+ * clvox_sample_u_exact. */
 CLVOX_SAMPLER_FN float clvox_sample_u(clvox_u32 u, clvox_u32 m, clvox_u32 M, int stochastic, clvox_u32 bits)
 {
 #if !defined(__OPENCL_VERSION__) || defined(CLVOX_FP64)
@@ -160,11 +179,14 @@ CLVOX_SAMPLER_FN float clvox_sample_u(clvox_u32 u, clvox_u32 m, clvox_u32 M, int
         const double J = stochastic ? (double)bits : 2147483648.0;
         const double t = ((double)m * 4294967296.0 + J) / ((double)M * 4294967296.0);
         const double x = ((double)u - 0.5) + t;
-        const float f = (float)x;
-        const double below = ((double)CLVOX_SAMPLER_NEXT(f, 0.0f) + (double)f) * 0.5;
-        const double above = ((double)f + (double)CLVOX_SAMPLER_NEXT(f, 2.0f * f)) * 0.5;
+        const float f = (float)x; /* >= 1/2, normal */
+        const unsigned fb = CLVOX_SAMPLER_FBITS(f);
+        /* the float spacing above f, and below it (half that at a power of two) */
+        const double up = CLVOX_SAMPLER_POW2((int)((fb >> 23) & 0xFFu) - 150);
+        const double down = (fb & 0x7FFFFFu) ? up : up * 0.5;
+        const double d = x - (double)f; /* exact: x and f are within a spacing */
         const double err = x * 0x1p-50;
-        if (x - below > err && above - x > err) return f;
+        if (d >= 0 ? d + err < up * 0.5 : err - d < down * 0.5) return f;
     }
 #endif
     return clvox_sample_u_exact(u, m, M, stochastic, bits);

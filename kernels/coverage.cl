@@ -141,18 +141,17 @@ typedef struct clvox_sample_cut {
     uint cut[CLVOX_CUT_MAX], n, fresh_exact;
 } clvox_sample_cut;
 
-static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, uint flags, clvox_real u,
-                                       global const clvox_ray *ray, global const clvox_real *h,
-                                       global const clvox_cap_node *nodes, uint node_count,
+static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
+                                       global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
                                        global const clvox_real *caps, uint *exact, clvox_sample_cut *sc)
 {
     clvox_real x, y, z, lo, hi;
     clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);
-    /* flags: CLVOX_EXACT_SIGNS on cubic voxels (the samples are floats,
+    /* the exact signs on cubic voxels (h[3]; the samples are floats,
      * clvox_sample_u); the float build's unsure answers (CLVOX_UNSURE) go
-     * to the host (src/cast/unsure.c) */
-    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, x, y, z, axis | flags, 0u, exact, &lo, &hi,
-                                    sc->cut, &sc->n, &sc->fresh_exact);
+     * to the host (clvox_unsure_sample) */
+    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, x, y, z, axis | CLVOX_AXIS_FLAGS(h[3]), 0u,
+                                    exact, &lo, &hi, sc->cut, &sc->n, &sc->fresh_exact);
 }
 
 static void clvox_coverage_body(global const clvox_column *cols, uint col_count, uint R, uint M,
@@ -164,7 +163,8 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                                 global ulong *col_sum, global uint *col_filled,
                                 global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
                                 global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, global uint *exact_points, global uint *unsure)
+                                global const clvox_real *caps, global uint *exact_points, global uint *unsure,
+                                global const uint *answers, uint n_answers)
 {
     uint gid = get_global_id(0);
     if (gid >= col_count || R > CLVOX_COVERAGE_MAX_RAYS) return;
@@ -212,8 +212,6 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
         if (next == j) { /* voxel j holds a crossing: look at the points of those rays */
             cnt = 0;
             const uint u = u_begin + j;
-            const uint flags = signs ? CLVOX_AXIS_FLAGS(h[3]) : 0u;
-            uint unsure_n = 0; /* samples left to the host */
             /* uniform points are the same on every ray: made once */
             float pu[16];
             const int same_points = !stochastic && M <= 16u;
@@ -239,23 +237,18 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                             cnt += (uint)clvox_k_inside(K, abs_mode);
                             continue;
                         }
-                        const int in = clvox_sample_winding(K, abs_mode, axis, flags, p, rays + r0 + r, h, nodes,
+                        const int in = clvox_sample_winding(K, abs_mode, axis, p, rays + r0 + r, h, nodes,
                                                             node_count, caps, &exact, &sc);
-                        if (in & CLVOX_UNSURE) {
-                            clvox_unsure_push(unsure, gid, j, (uint)K, (r << 8) | m);
-                            unsure_n++;
-                        } else {
-                            cnt += (uint)in;
-                        }
+                        cnt += in & CLVOX_UNSURE
+                                   ? clvox_unsure_sample(unsure, answers, n_answers, gid, j, K, (r << 8) | m,
+                                                         (uint)in & 1u)
+                                   : (uint)in;
                     } else {
                         while (kk < n && hr[kk] <= p) kk++;
                         cnt += (n - kk) & 1u;
                     }
                 }
             }
-            /* the voxel's sure count: the host adds its unsure samples
-             * inside and rewrites the voxel (its value, its bit) */
-            if (unsure_n) clvox_unsure_push(unsure, gid, j, cnt, CLVOX_UNSURE_VOXEL);
         }
         const uint len = end - j;
         sum += (ulong)cnt * len;
@@ -292,11 +285,12 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
                            global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
                            global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
                            global const clvox_real *caps, global uint *exact_points, global uint *unsure,
+                           global const uint *answers, uint n_answers,
                            global uint *clvox_done, uint clvox_done_slot)
 {
     clvox_coverage_body(cols, col_count, R, M, hits, counts, capacity, u_begin, u_count, stochastic, seed_lo, seed_hi,
         value_of_count, occ_min, X, W, vox_stride, out_stride, coverage, occupancy, col_sum, col_filled, signs, rays,
-        abs_mode, axis, h, nodes, node_count, caps, exact_points, unsure);
+        abs_mode, axis, h, nodes, node_count, caps, exact_points, unsure, answers, n_answers);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
@@ -327,18 +321,3 @@ kernel void clvox_column_rays(global const clvox_column *cols, uint n_cols, uint
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 #endif
-
-/* The host's answers for the coverage samples the float build left unsure
- * (src/cast/unsure.c): at[4i ..] = the voxel's index in
- * `coverage` and its new value, the occupancy word and the bits to set
- * (0: none); either plane may be absent. */
-kernel void clvox_set_coverage(global ushort *coverage, global uint *occupancy, global const uint *at, uint n,
-                               global uint *clvox_done, uint clvox_done_slot)
-{
-    const uint i = get_global_id(0);
-    if (i < n) {
-        if (coverage) coverage[at[4u * i]] = (ushort)at[4u * i + 1u];
-        if (occupancy && at[4u * i + 3u]) atomic_or(occupancy + at[4u * i + 2u], at[4u * i + 3u]);
-    }
-    clvox_done_mark(clvox_done, clvox_done_slot);
-}

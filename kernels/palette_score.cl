@@ -59,25 +59,6 @@ static inline void clvox_unit_xyz(uint axis, float fu, float fv, float fw, float
     }
 }
 
-/* The host's answer for sample (ray r, point m) of voxel j of column gid,
- * which the first pass left unsure (src/cast/unsure.c): answers[3i ..] =
- * (column, voxel, r << 8 | m | inside << 31), sorted by those three. */
-static inline uint clvox_palette_answer(global const uint *answers, uint n, uint gid, uint j, uint rm)
-{
-    uint lo = 0, hi = n;
-    while (lo < hi) {
-        const uint mid = lo + (hi - lo) / 2u;
-        global const uint *a = answers + 3u * mid;
-        const uint key = a[2] & 0x7FFFFFFFu;
-        const int less = a[0] < gid || (a[0] == gid && (a[1] < j || (a[1] == j && key < rm)));
-        if (less) lo = mid + 1u;
-        else hi = mid;
-    }
-    if (lo < n && answers[3u * lo] == gid && answers[3u * lo + 1u] == j && (answers[3u * lo + 2u] & 0x7FFFFFFFu) == rm)
-        return answers[3u * lo + 2u] >> 31;
-    return 2u; /* not found (cannot happen: the same samples come out unsure) */
-}
-
 static void clvox_palette_score_body(global const clvox_column *cols, uint col_count, uint N, uint M,
                                      global const clvox_real *hits, global const uint *counts, uint capacity,
                                      uint u_begin, uint u_count, uint stochastic, uint seed_lo, uint seed_hi, uint axis,
@@ -179,19 +160,12 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                         if (sg) {
                             while (kk < n && hr[kk] <= p) K -= CLVOX_UNIT(sg[kk]), kk++;
                             if (near) {
-                                /* a float build's unsure sample: listed for the host, whose answer the
-                                 * second pass takes (the same samples come out unsure there) */
-                                const int w = clvox_sample_winding(K, abs_mode, axis - 1u, CLVOX_AXIS_FLAGS(h[3]), p,
-                                                                   rays + r0 + r, h, nodes, node_count, caps, &exact,
-                                                                   &sc);
+                                /* a float build's unsure sample: the host decides (src/cast/unsure.c) */
+                                const int w = clvox_sample_winding(K, abs_mode, axis - 1u, p, rays + r0 + r, h, nodes,
+                                                                   node_count, caps, &exact, &sc);
                                 in = (uint)w & 1u;
-                                if (w & CLVOX_UNSURE) {
-                                    const uint a = n_answers ? clvox_palette_answer(answers, n_answers, gid, j,
-                                                                                    (r << 8) | m)
-                                                             : 2u;
-                                    if (a < 2u) in = a;
-                                    else clvox_unsure_push(unsure, gid, j, (uint)K, (r << 8) | m); /* the host's */
-                                }
+                                if (w & CLVOX_UNSURE)
+                                    in = clvox_unsure_sample(unsure, answers, n_answers, gid, j, K, (r << 8) | m, in);
                             } else {
                                 in = (uint)clvox_k_inside(K, abs_mode);
                             }

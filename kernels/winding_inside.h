@@ -231,12 +231,10 @@ static inline int clvox_winding_inside_cut(int K, uint abs_mode, global const cl
  * the list the host reads after the batch (unsure[0]: entries wanted,
  * unsure[1]: room; the entries from unsure[2], CLVOX_UNSURE_WORDS words
  * each): binary runs (kernels/winding.cl) ray gid, voxel j of the slab's
- * stretch, K there, 0; coverage (kernels/coverage.cl) column gid, voxel j,
- * K, ray r << 8 | point m for a sample, and after the voxel's samples
- * (column gid, voxel j, the count of its sure samples inside,
- * CLVOX_UNSURE_VOXEL). Decided by src/cast/unsure.c. */
+ * stretch, K there, 0; the column runs (coverage.cl, palette_score.cl)
+ * column gid, voxel j, K, ray r << 8 | point m. Decided by
+ * src/cast/unsure.c. */
 #define CLVOX_UNSURE_WORDS 4u
-#define CLVOX_UNSURE_VOXEL 0xFFFFFFFFu
 static inline void clvox_unsure_push(global uint *unsure, uint gid, uint j, uint a, uint b)
 {
     const uint i = atomic_inc(unsure);
@@ -247,4 +245,36 @@ static inline void clvox_unsure_push(global uint *unsure, uint gid, uint j, uint
         e[2] = a;
         e[3] = b;
     }
+}
+
+/* A column run's second pass (src/cast/unsure.c): the host's answer for
+ * sample (ray r, point m: rm = r << 8 | m) of voxel j of column gid, which
+ * the first pass left unsure. answers[3i ..] = (column, voxel, rm | inside
+ * << 31), sorted by those three. 2: not there (on the first pass, none). */
+static inline uint clvox_unsure_answer(global const uint *answers, uint n, uint gid, uint j, uint rm)
+{
+    uint lo = 0, hi = n;
+    while (lo < hi) {
+        const uint mid = lo + (hi - lo) / 2u;
+        global const uint *a = answers + 3u * mid;
+        const uint key = a[2] & 0x7FFFFFFFu;
+        const int less = a[0] < gid || (a[0] == gid && (a[1] < j || (a[1] == j && key < rm)));
+        if (less) lo = mid + 1u;
+        else hi = mid;
+    }
+    if (lo < n && answers[3u * lo] == gid && answers[3u * lo + 1u] == j && (answers[3u * lo + 2u] & 0x7FFFFFFFu) == rm)
+        return answers[3u * lo + 2u] >> 31;
+    return 2u;
+}
+
+/* The inside test of a column run's unsure sample: the host's answer where
+ * there is one, else the sample goes to the host's list (and `guess`
+ * stands until the second pass). */
+static inline uint clvox_unsure_sample(global uint *unsure, global const uint *answers, uint n_answers, uint gid,
+                                       uint j, int K, uint rm, uint guess)
+{
+    const uint a = n_answers ? clvox_unsure_answer(answers, n_answers, gid, j, rm) : 2u;
+    if (a < 2u) return a;
+    clvox_unsure_push(unsure, gid, j, (uint)K, rm);
+    return guess;
 }

@@ -91,105 +91,65 @@ static long compare_run(const char *what, const clvox_mesh *mesh, const clvox_gr
     return d;
 }
 
-/* Coverage runs (grey levels) on both contexts: the coverage channel
- * compared bit for bit; the number of voxels that differ, or -1
- * when a run failed (reported). */
-static unsigned coverage_runs;
-static long compare_coverage(const char *what, const clvox_mesh *mesh, const clvox_grid *g,
-                             const clvox_voxelize_options *o)
-{
-    const size_t n = (size_t)g->dims[0] * g->dims[1] * g->dims[2];
-    float *ca = malloc(n * sizeof *ca), *cb = malloc(n * sizeof *cb);
-    long d = -1;
-    CHECK(ca && cb);
-    if (ca && cb) {
-        clvox_stats st = CLVOX_STATS_INIT;
-        clvox_status sa = clvox_voxelize_to_buffers(cd, mesh, g, o, NULL, 0, ca, n, NULL);
-        clvox_status sb = clvox_voxelize_to_buffers(cf, mesh, g, o, NULL, 0, cb, n, &st);
-        host_points += st.winding_host_points;
-        CHECK_MSG(sa == CLVOX_OK && sb == CLVOX_OK, "%s: double %s, float %s (%s)", what, clvox_status_string(sa),
-                  clvox_status_string(sb), sb != CLVOX_OK ? clvox_context_error(cf) : clvox_context_error(cd));
-        if (sa == CLVOX_OK && sb == CLVOX_OK) {
-            d = 0;
-            for (size_t i = 0; i < n; i++) d += memcmp(ca + i, cb + i, sizeof *ca) != 0;
-        }
-    }
-    free(ca);
-    free(cb);
-    coverage_runs++;
-    return d;
-}
-
-/* Palette runs on both contexts: element and score compared bit for bit;
- * the number of voxels that differ, or -1. */
+/* A column run (coverage, or palette where o->palette) on both contexts:
+ * coverage, or element and score, compared bit for bit; the number of
+ * voxels that differ, or -1 when a run failed (reported). */
 static clvox_palette *g_palette;
-static unsigned palette_runs;
-static long compare_palette(const char *what, const clvox_mesh *mesh, const clvox_grid *g,
+static unsigned coverage_runs, palette_runs;
+static long compare_columns(const char *what, const clvox_mesh *mesh, const clvox_grid *g,
                             const clvox_voxelize_options *o)
 {
     const size_t n = (size_t)g->dims[0] * g->dims[1] * g->dims[2];
-    uint16_t *ea = malloc(n * sizeof *ea), *eb = malloc(n * sizeof *eb);
-    float *sa = malloc(n * sizeof *sa), *sb = malloc(n * sizeof *sb);
+    uint16_t *ea = malloc(n * sizeof *ea), *eb = malloc(n * sizeof *eb); /* palette: the elements */
+    float *fa = malloc(n * sizeof *fa), *fb = malloc(n * sizeof *fb);    /* coverage or score */
     long d = -1;
-    CHECK(ea && eb && sa && sb);
-    if (ea && eb && sa && sb) {
+    CHECK(ea && eb && fa && fb);
+    if (ea && eb && fa && fb) {
+        memset(ea, 0, n * sizeof *ea);
+        memset(eb, 0, n * sizeof *eb);
         clvox_stats st = CLVOX_STATS_INIT;
-        clvox_status ra = clvox_voxelize_palette_to_buffers(cd, mesh, g, o, ea, n, sa, n, NULL);
-        clvox_status rb = clvox_voxelize_palette_to_buffers(cf, mesh, g, o, eb, n, sb, n, &st);
+        clvox_status ra = o->palette ? clvox_voxelize_palette_to_buffers(cd, mesh, g, o, ea, n, fa, n, NULL)
+                                     : clvox_voxelize_to_buffers(cd, mesh, g, o, NULL, 0, fa, n, NULL);
+        clvox_status rb = o->palette ? clvox_voxelize_palette_to_buffers(cf, mesh, g, o, eb, n, fb, n, &st)
+                                     : clvox_voxelize_to_buffers(cf, mesh, g, o, NULL, 0, fb, n, &st);
         host_points += st.winding_host_points;
         CHECK_MSG(ra == CLVOX_OK && rb == CLVOX_OK, "%s: double %s, float %s (%s)", what, clvox_status_string(ra),
                   clvox_status_string(rb), rb != CLVOX_OK ? clvox_context_error(cf) : clvox_context_error(cd));
         if (ra == CLVOX_OK && rb == CLVOX_OK) {
             d = 0;
-            for (size_t i = 0; i < n; i++) d += ea[i] != eb[i] || memcmp(sa + i, sb + i, sizeof *sa) != 0;
+            for (size_t i = 0; i < n; i++) d += ea[i] != eb[i] || memcmp(fa + i, fb + i, sizeof *fa) != 0;
         }
     }
     free(ea);
     free(eb);
-    free(sa);
-    free(sb);
-    palette_runs++;
+    free(fa);
+    free(fb);
+    *(o->palette ? &palette_runs : &coverage_runs) += 1;
     return d;
 }
 
-/* The palette cases of one mesh: planar10, uniform 3x3 rays x 2 points and
- * stochastic 2x2x3, with the inside test `inside`. */
-static void compare_mesh_palette(const char *name, const clvox_mesh *mesh, const clvox_grid *g, clvox_inside inside)
+/* The column runs of one mesh with the inside test `inside`: coverage with
+ * 2x2 rays x 3 points uniform (strata that are not dyadic: the points are
+ * rounded floats) and 2x2x2 stochastic; the planar10 palette with 3x3 x 2
+ * uniform and 2x2x3 stochastic. */
+static void compare_mesh_columns(const char *name, const clvox_mesh *mesh, const clvox_grid *g, clvox_inside inside)
 {
-    for (int stochastic = 0; stochastic <= 1; stochastic++) {
-        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
-        o.inside = inside;
-        o.palette = g_palette;
-        o.oversample = stochastic ? 2 : 3;
-        o.oversample_points = stochastic ? 3 : 2;
-        o.stochastic = stochastic;
-        o.seed = 11;
-        char what[256];
-        snprintf(what, sizeof what, "%s palette %s %s %ux%ux%u", name, stochastic ? "stochastic" : "uniform",
-                 inside == CLVOX_INSIDE_PARITY ? "parity" : "winding", g->dims[0], g->dims[1], g->dims[2]);
-        const long d = compare_palette(what, mesh, g, &o);
-        CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
-    }
-}
-
-/* The coverage cases of one mesh: uniform 2x2 rays x 3 points (strata that
- * are not dyadic: the points are rounded floats) and stochastic 2x2x2, with
- * the inside test `inside`. */
-static void compare_mesh_coverage(const char *name, const clvox_mesh *mesh, const clvox_grid *g, clvox_inside inside)
-{
-    for (int stochastic = 0; stochastic <= 1; stochastic++) {
-        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
-        o.inside = inside;
-        o.oversample = 2;
-        o.oversample_points = stochastic ? 2 : 3;
-        o.stochastic = stochastic;
-        o.seed = 7;
-        char what[256];
-        snprintf(what, sizeof what, "%s coverage %s %s %ux%ux%u", name, stochastic ? "stochastic" : "uniform",
-                 inside == CLVOX_INSIDE_PARITY ? "parity" : "winding", g->dims[0], g->dims[1], g->dims[2]);
-        const long d = compare_coverage(what, mesh, g, &o);
-        CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
-    }
+    for (int palette = 0; palette <= 1; palette++)
+        for (int stochastic = 0; stochastic <= 1; stochastic++) {
+            clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+            o.inside = inside;
+            o.palette = palette ? g_palette : NULL;
+            o.oversample = palette && !stochastic ? 3 : 2;
+            o.oversample_points = palette ? (stochastic ? 3 : 2) : (stochastic ? 2 : 3);
+            o.stochastic = stochastic;
+            o.seed = palette ? 11 : 7;
+            char what[256];
+            snprintf(what, sizeof what, "%s %s %s %s %ux%ux%u", name, palette ? "palette" : "coverage",
+                     stochastic ? "stochastic" : "uniform", inside == CLVOX_INSIDE_PARITY ? "parity" : "winding",
+                     g->dims[0], g->dims[1], g->dims[2]);
+            const long d = compare_columns(what, mesh, g, &o);
+            CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
+        }
 }
 
 /* Every exact mode on one mesh (with `all_axes` 0, parity along x only and
@@ -221,12 +181,9 @@ static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_g
         CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
         winding_runs++;
     }
-    compare_mesh_coverage(name, mesh, g, CLVOX_INSIDE_PARITY);
+    compare_mesh_columns(name, mesh, g, CLVOX_INSIDE_PARITY);
     if (g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2])
-        compare_mesh_coverage(name, mesh, g, CLVOX_INSIDE_WINDING);
-    compare_mesh_palette(name, mesh, g, CLVOX_INSIDE_PARITY);
-    if (g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2])
-        compare_mesh_palette(name, mesh, g, CLVOX_INSIDE_WINDING);
+        compare_mesh_columns(name, mesh, g, CLVOX_INSIDE_WINDING);
 }
 
 static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g);

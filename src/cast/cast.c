@@ -382,7 +382,6 @@ static void ray_release(clvox__method_state *s)
     if (s->k_sort) clReleaseKernel(s->k_sort);
     if (s->k_classify) clReleaseKernel(s->k_classify);
     if (s->k_set_bits) clReleaseKernel(s->k_set_bits);
-    if (s->k_set_coverage) clReleaseKernel(s->k_set_coverage);
     clvox__quadtree_free(&s->qt);
     free(s->z_counts);
     free(s);
@@ -508,8 +507,6 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         st = clvox__kernel(ctx, s->winding ? "clvox_classify_winding" : "clvox_classify", &s->k_classify);
     if (st == CLVOX_OK && s->winding && !s->coverage && ctx->real_size == 4)
         st = clvox__kernel(ctx, "clvox_set_bits", &s->k_set_bits);
-    if (st == CLVOX_OK && s->winding && s->coverage && !s->palette && ctx->real_size == 4)
-        st = clvox__kernel(ctx, "clvox_set_coverage", &s->k_set_coverage);
 
     /* A coverage batch holds whole columns: as many rays as a binary slab,
      * and at least one column. */

@@ -11,7 +11,6 @@
 
 #define UNSURE_ROOM 4096u       /* a float device's unsure points a batch lists before a rerun (unsure.c) */
 #define UNSURE_WORDS 4u         /* words an entry (kernels/winding_inside.h CLVOX_UNSURE_WORDS) */
-#define UNSURE_VOXEL 0xFFFFFFFFu /* a coverage voxel's entry (CLVOX_UNSURE_VOXEL) */
 
 /* One batch's device buffers and host arrays, and what is in flight of it
  * (ray_slab keeps two, alternating, where the device holds them: batch
@@ -54,7 +53,6 @@ struct clvox__method_state {
     uint32_t *tris_owned;        /* the index array when it is not the mesh's own (winding) */
     cl_kernel k_lookup, k_intersect, k_sort, k_classify; /* k_classify: binary runs, parity or winding */
     cl_kernel k_set_bits;        /* binary winding runs on a float device: the host's answers (unsure.c) */
-    cl_kernel k_set_coverage;    /* coverage winding runs on a float device: the same */
     int winding;                 /* 1: signed crossings and the winding inside test */
     clvox__winding_classify wind; /* its caps and rims (zero on parity runs: the column consumers take them too) */
     uint32_t leaf_size;

@@ -40,7 +40,7 @@ clvox_status clvox__coverage_prepare(clvox_context *ctx, clvox__coverage *c, con
     clvox_status st = CLVOX_OK;
     c->value_of_count = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ((size_t)S + 1) * sizeof *table,
                                       table, &st, "coverage table");
-    c->table = table;
+    free(table);
     if (st == CLVOX_OK && !o->palette) st = clvox__kernel(ctx, "clvox_coverage", &c->k);
     /* Rays made on the device only where its kernels compute in double:
      * clvox_column_ray's double arithmetic (correctly rounded +, -, / in
@@ -57,8 +57,6 @@ clvox_status clvox__coverage_prepare(clvox_context *ctx, clvox__coverage *c, con
 void clvox__coverage_release(clvox__coverage *c)
 {
     clvox__release_mem(&c->value_of_count);
-    free(c->table);
-    c->table = NULL;
     if (c->k) clReleaseKernel(c->k);
     c->k = NULL;
     if (c->k_rays) clReleaseKernel(c->k_rays);
@@ -117,7 +115,10 @@ clvox_status clvox__column_enqueue(clvox_context *ctx, cl_kernel k, const char *
     cl_uint i = 0;
     for (size_t j = 0; j < sizeof order / sizeof *order; j++) err |= set_kargs(k, &i, order[j]);
     err |= clvox__winding_args(k, &i, w, m, x->winding_axis);
-    if (x->unsure) err |= clSetKernelArg(k, i++, sizeof(cl_mem), m->unsure ? &m->unsure : NULL);
+    /* a float device's unsure samples: the list, the host's answers (src/cast/unsure.c) */
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), m->unsure ? &m->unsure : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), c->answers ? &c->answers : NULL);
+    err |= clSetKernelArg(k, i++, sizeof(cl_uint), &c->n_answers);
     return clvox__consumer_launch(ctx, k, name, err, n_cols, 64, ev);
 }
 
@@ -125,8 +126,7 @@ clvox_status clvox__coverage_enqueue(clvox_context *ctx, const clvox__coverage *
                                      const clvox__batch_mem *m, cl_uint n_cols, const clvox__slab_target *t,
                                      cl_event *ev)
 {
-    /* nothing of its own; the ray axis among the winding arguments, the
-     * unsure list after them */
-    static const clvox__column_extra none = {.winding_axis = 1, .unsure = 1};
+    /* nothing of its own; the ray axis among the winding arguments */
+    static const clvox__column_extra none = {.winding_axis = 1};
     return clvox__column_enqueue(ctx, c->k, "clvox_coverage", c->R, c, w, m, n_cols, t, &none, ev);
 }

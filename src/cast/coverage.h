@@ -17,7 +17,6 @@ typedef struct clvox__coverage {
     double threshold;            /* occupancy: coverage > threshold ... */
     uint32_t occ_min;            /* ... i.e. count >= occ_min */
     cl_mem value_of_count;       /* ushort[R*M+1]: HALF bits, or the count itself */
-    uint16_t *table;             /* the same on the host (a float device's unsure samples, src/cast/cast.c) */
     cl_uint X, W;                /* the grid's row: voxels, bit-row words */
     cl_uint vox_stride;          /* voxels between consecutive voxels of a ray in the coverage plane */
     cl_kernel k;                 /* clvox_coverage; NULL on palette runs */
@@ -28,6 +27,11 @@ typedef struct clvox__coverage {
      * by the host (clvox__column_rays) and uploaded, 16 bytes a ray. */
     cl_kernel k_rays;            /* NULL: host rays */
     cl_uint dim_v;               /* columns along v: id = w * dim_v + v */
+    /* a float device's second pass over a batch (src/cast/unsure.c): the
+     * host's answers for the samples the first left unsure (NULL, 0: none;
+     * both column consumers) */
+    cl_mem answers;
+    cl_uint n_answers;
 } clvox__coverage;
 
 /* Also for palette runs (then without the coverage kernel). */
@@ -66,7 +70,6 @@ typedef struct clvox__karg_span {
 typedef struct clvox__column_extra {
     clvox__karg_span after_seeds, before_planes, after_planes, after_tallies;
     int winding_axis;
-    int unsure; /* 1: the batch's unsure list after the winding arguments (coverage) */
 } clvox__column_extra;
 
 /* Sets k's arguments (per_column: the kernel's rays-per-column argument)

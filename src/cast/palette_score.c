@@ -116,15 +116,7 @@ clvox_status clvox__palette_score_enqueue(clvox_context *ctx, const clvox__palet
     const clvox__karg tallies[] = {{sizeof(cl_mem), &m->pstats}, {sizeof(cl_mem), &m->pvolume}};
     /* the kernel has its own ray axis (1..3) among the scoring arguments */
     const clvox__column_extra x = {CLVOX__KARGS(scoring), CLVOX__KARGS(outputs), CLVOX__KARGS(volume),
-                                   CLVOX__KARGS(tallies), 0, 1};
-    /* after the unsure list, before the completion count's two: the
-     * answers and their count */
-    cl_uint nargs = 0;
-    cl_int err = clGetKernelInfo(p->k, CL_KERNEL_NUM_ARGS, sizeof nargs, &nargs, NULL);
-    if (err == CL_SUCCESS && nargs < 4) err = CL_INVALID_KERNEL_ARGS;
-    if (err == CL_SUCCESS) err = clSetKernelArg(p->k, nargs - 4, sizeof(cl_mem), p->answers ? &p->answers : NULL);
-    if (err == CL_SUCCESS) err = clSetKernelArg(p->k, nargs - 3, sizeof(cl_uint), &p->n_answers);
-    if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(palette answers)");
+                                   CLVOX__KARGS(tallies), 0};
     return clvox__column_enqueue(ctx, p->k, "clvox_palette_score", c->N, c, w, m, n_cols, t, &x, ev);
 }
 

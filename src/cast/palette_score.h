@@ -14,10 +14,6 @@ typedef struct clvox__palette_score {
     cl_uint use_masks;           /* uniform samples: score with the precomputed element masks */
     char name[64];
     cl_kernel k;
-    /* a float device's second pass over a batch (src/cast/unsure.c): the
-     * host's answers for the samples the first left unsure (NULL, 0: none) */
-    cl_mem answers;
-    cl_uint n_answers;
 } clvox__palette_score;
 
 /* After clvox__coverage_prepare (c: the samples). */

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* Stage cast, a float device's part on the host: the points (binary
- * winding runs) and samples (coverage winding runs) whose float bounds
+ * winding runs) and samples (coverage and palette) whose float bounds
  * could not settle the inside test, decided in double (docs/design.md
  * "Devices without double precision"). */
 #include "cast_state.h"
@@ -12,12 +12,12 @@
 
 /* The points a float device left unsure (kernels/winding_inside.h
  * clvox_unsure_push), decided on the host in double as the double kernels
- * decide them (clvox__caps_host_inside), then written behind the batch on
- * the queue: a binary run's inside points get their bits (clvox_set_bits),
- * a coverage run's voxels with unsure samples their counts' values and
- * bits (clvox_set_coverage). A list that overflowed its room is made
- * again, whole, by running the batch's consumer once more with room for
- * all (its voxels, counts and tallies come out the same). */
+ * decide them (clvox__caps_host_inside): a binary run's inside points then
+ * get their bits (clvox_set_bits); a column run (coverage, palette: a
+ * voxel's value depends on all its samples) runs its consumer over the
+ * batch once more with the host's answers, which rewrites the batch's
+ * voxels and tallies. A list that overflowed its room is made again,
+ * whole, by running the batch's consumer once more with room for all. */
 /* The list of batch b, made again with room for all where it overflowed
  * (*again: the copy to free); NULL on an error. */
 static const cl_uint *unsure_list(clvox__method_state *s, batch_set *b, size_t count, cl_uint **again,
@@ -65,26 +65,24 @@ static const cl_uint *unsure_list(clvox__method_state *s, batch_set *b, size_t c
     return *again + 2;
 }
 
-/* Runs k (clvox_set_bits or clvox_set_coverage, whose first arguments are
- * `planes` cl_mems) over the n answers in at (`words` each), and waits. */
-static clvox_status unsure_write(clvox_context *ctx, cl_kernel k, const char *name, const cl_mem *planes,
-                                 int nplanes, const cl_uint *at, size_t n, size_t words)
+/* Sets the n bits at (word, bits pairs) in `occupancy` (clvox_set_bits),
+ * and waits. */
+static clvox_status set_bits(clvox_context *ctx, cl_kernel k, cl_mem occupancy, const cl_uint *at, size_t n)
 {
     clvox_status st = CLVOX_OK;
-    cl_mem tmp = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, words * n * sizeof *at, (void *)at, &st,
+    cl_mem tmp = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 2 * n * sizeof *at, (void *)at, &st,
                                "unsure answers");
     cl_uint nn = (cl_uint)n;
     cl_int err = CL_SUCCESS;
     if (st == CLVOX_OK) {
-        cl_uint i = 0;
-        for (int p = 0; p < nplanes; p++) err |= clSetKernelArg(k, i++, sizeof(cl_mem), planes[p] ? &planes[p] : NULL);
-        err |= clSetKernelArg(k, i++, sizeof(cl_mem), &tmp);
-        err |= clSetKernelArg(k, i++, sizeof(cl_uint), &nn);
-        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(unsure answers)");
+        err |= clSetKernelArg(k, 0, sizeof(cl_mem), &occupancy);
+        err |= clSetKernelArg(k, 1, sizeof(cl_mem), &tmp);
+        err |= clSetKernelArg(k, 2, sizeof(cl_uint), &nn);
+        if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(clvox_set_bits)");
     }
     if (st == CLVOX_OK) {
         clvox__launch_begin(ctx);
-        st = clvox__launch(ctx, k, name, 0, n, 64, NULL);
+        st = clvox__launch(ctx, k, "clvox_set_bits", 0, n, 64, NULL);
         if (st == CLVOX_OK) st = clvox__launch_check(ctx); /* waits: tmp is released below */
     }
     clvox__release_mem(&tmp);
@@ -134,7 +132,7 @@ static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__
     }
     clvox_status st = CLVOX_OK;
     if (inside && b->t.out->occupancy)
-        st = unsure_write(ctx, s->k_set_bits, "clvox_set_bits", &b->t.out->occupancy, 1, at, inside, 2);
+        st = set_bits(ctx, s->k_set_bits, b->t.out->occupancy, at, inside);
     free(at);
     if (st == CLVOX_OK) ss->filled += inside;
     return st;
@@ -175,13 +173,14 @@ static int cmp_answer(const void *pa, const void *pb)
     return 0;
 }
 
-/* Palette: a voxel's score depends on all its samples at once, so the
- * batch's scoring runs a second time with the host's answers for the
- * samples the first pass left unsure (sorted, for the kernel's binary
- * search), which rewrites the batch's voxels and tallies (read back here:
- * the tally after batch_wait reads them). The second pass meets the same
- * unsure samples and lists none. */
-static clvox_status resolve_palette(clvox__method_state *s, batch_set *b, const cl_uint *list, size_t count)
+/* A column run (coverage, palette): the batch's consumer runs a second
+ * time with the host's answers for the samples the first pass left unsure
+ * (sorted, for the kernel's binary search, clvox_unsure_answer), which
+ * rewrites the batch's voxels and its tallies (read back here: the tally
+ * after batch_wait reads them). The second pass meets the same unsure
+ * samples and, answered, lists none (checked). Only batches with an unsure
+ * sample pay it. */
+static clvox_status resolve_columns(clvox__method_state *s, batch_set *b, const cl_uint *list, size_t count)
 {
     clvox_context *ctx = s->ctx;
     double scale[3];
@@ -207,13 +206,14 @@ static clvox_status resolve_palette(clvox__method_state *s, batch_set *b, const 
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "clearing the unsure points");
     }
     if (st == CLVOX_OK) {
-        s->pal.answers = mem;
-        s->pal.n_answers = (cl_uint)count;
+        s->cov.answers = mem;
+        s->cov.n_answers = (cl_uint)count;
         clvox__launch_begin(ctx);
-        st = clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, &b->mem, b->n_cols, &b->t, NULL);
+        st = s->palette ? clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, &b->mem, b->n_cols, &b->t, NULL)
+                        : clvox__coverage_enqueue(ctx, &s->cov, &s->wind, &b->mem, b->n_cols, &b->t, NULL);
         if (st == CLVOX_OK) st = clvox__launch_check(ctx);
-        s->pal.answers = NULL;
-        s->pal.n_answers = 0;
+        s->cov.answers = NULL;
+        s->cov.n_answers = 0;
     }
     const size_t k = b->n_cols;
     if (st == CLVOX_OK) {
@@ -223,96 +223,18 @@ static clvox_status resolve_palette(clvox__method_state *s, batch_set *b, const 
                                       NULL);
         if (err == CL_SUCCESS)
             err = clEnqueueReadBuffer(ctx->queue, b->mem.sums, CL_TRUE, 0, k * sizeof *b->sums, b->sums, 0, NULL, NULL);
-        if (err == CL_SUCCESS)
+        if (err == CL_SUCCESS && s->palette)
             err = clEnqueueReadBuffer(ctx->queue, b->mem.pstats, CL_TRUE, 0, k * 4 * sizeof *b->pstats, b->pstats, 0,
                                       NULL, NULL);
-        if (err == CL_SUCCESS)
+        if (err == CL_SUCCESS && s->palette)
             err = clEnqueueReadBuffer(ctx->queue, b->mem.pvolume, CL_TRUE, 0, k * sizeof *b->pvolume, b->pvolume, 0,
                                       NULL, NULL);
         if (err != CL_SUCCESS) st = clvox__cl_fail(ctx, err, "reading the batch back");
         else if (again[0])
-            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the palette's second pass left %u samples unsure",
+            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the consumer's second pass left %u samples unsure",
                              (unsigned)again[0]);
     }
     clvox__release_mem(&mem);
-    return st;
-}
-
-/* Coverage: each voxel's entry (its sure count) after its samples'; a
- * voxel's samples found inside are added to its count, which gives its
- * value, its bit, and the column's tallies (b->sums, b->filled: the tally
- * after batch_wait reads them). */
-static clvox_status resolve_coverage(clvox__method_state *s, batch_set *b, const cl_uint *list, size_t count)
-{
-    clvox_context *ctx = s->ctx;
-    const clvox__coverage *c = &s->cov;
-    double scale[3];
-    const int exact = clvox__winding_scale(&s->grid, scale);
-    size_t voxels = 0;
-    for (size_t i = 0; i < count; i++) voxels += list[UNSURE_WORDS * i + 3] == UNSURE_VOXEL;
-    cl_uint *at = malloc((voxels ? voxels : 1) * 4 * sizeof *at);
-    uint32_t *inside = calloc(voxels ? voxels : 1, sizeof *inside);
-    uint64_t *key = malloc((voxels ? voxels : 1) * sizeof *key);
-    clvox_status st = CLVOX_OK;
-    if (!at || !inside || !key) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
-    /* the voxels (column, voxel) in list order, to find each sample's */
-    size_t nv = 0;
-    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
-        const cl_uint *e = list + UNSURE_WORDS * i;
-        if (e[3] == UNSURE_VOXEL) key[nv++] = (uint64_t)e[0] << 32 | e[1];
-    }
-    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
-        const cl_uint *e = list + UNSURE_WORDS * i;
-        if (e[3] == UNSURE_VOXEL) continue;
-        const cl_uint gid = e[0], j = e[1];
-        if (!sample_inside(s, b, e, scale, exact)) continue;
-        const uint64_t k = (uint64_t)gid << 32 | j;
-        size_t x = 0;
-        while (x < nv && key[x] != k) x++; /* few voxels a batch: a scan */
-        if (x == nv) {
-            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "an unsure sample of column %u voxel %u has no voxel entry",
-                             (unsigned)gid, (unsigned)j);
-            break;
-        }
-        inside[x]++;
-    }
-    size_t n = 0, x = 0;
-    const uint32_t samples = c->R * c->M;
-    for (size_t i = 0; st == CLVOX_OK && i < count; i++) {
-        const cl_uint *e = list + UNSURE_WORDS * i;
-        if (e[3] != UNSURE_VOXEL) continue;
-        const uint32_t add = inside[x++];
-        if (!add) continue;
-        const cl_uint gid = e[0], j = e[1], was = e[2], now = was + add;
-        if (now > samples) {
-            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "a voxel counted %u of %u samples", (unsigned)now,
-                             (unsigned)samples);
-            break;
-        }
-        const clvox_column col = b->cast_cols ? b->cast_cols[gid] : (clvox_column){0, 0, 0, 0};
-        clvox_u32 base = col.out_base, bit = col.bit;
-        if (!b->cast_cols) {
-            uint32_t v, w;
-            clvox__slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
-        }
-        /* where kernels/coverage.cl writes voxel j of the column */
-        const size_t row = base / c->W, x0 = (size_t)(base % c->W) * 32u + bit;
-        at[4 * n] = (cl_uint)(row * c->X + x0 + (size_t)j * (c->vox_stride ? c->vox_stride : 1u));
-        at[4 * n + 1] = c->table[now];
-        const int set = now >= c->occ_min && was < c->occ_min;
-        at[4 * n + 2] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
-        at[4 * n + 3] = set ? 1u << ((b->t.out_stride == 0 ? j : bit) & 31u) : 0u;
-        b->sums[gid] += add;
-        b->filled[gid] += (uint32_t)set;
-        n++;
-    }
-    if (st == CLVOX_OK && n) {
-        const cl_mem planes[2] = {b->t.out->coverage, b->t.out->occupancy};
-        st = unsure_write(ctx, s->k_set_coverage, "clvox_set_coverage", planes, 2, at, n, 4);
-    }
-    free(at);
-    free(inside);
-    free(key);
     return st;
 }
 
@@ -322,16 +244,8 @@ clvox_status clvox__resolve_unsure(clvox__method_state *s, batch_set *b, clvox__
     cl_uint *again = NULL;
     clvox_status st = CLVOX_OK;
     const cl_uint *list = unsure_list(s, b, count, &again, &st);
-    if (list)
-        st = s->palette    ? resolve_palette(s, b, list, count)
-             : s->coverage ? resolve_coverage(s, b, list, count)
-                           : resolve_binary(s, b, ss, list, count);
-    if (st == CLVOX_OK) { /* the points, not the voxels' entries */
-        size_t points = count;
-        if (s->coverage)
-            for (size_t i = 0; i < count; i++) points -= list[UNSURE_WORDS * i + 3] == UNSURE_VOXEL;
-        ss->host_points += points;
-    }
+    if (list) st = s->coverage ? resolve_columns(s, b, list, count) : resolve_binary(s, b, ss, list, count);
+    if (st == CLVOX_OK) ss->host_points += count;
     free(again);
     return st;
 }

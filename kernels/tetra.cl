@@ -236,21 +236,30 @@ static inline int clvox_sort3(float *p, float *q, float *r)
     return par;
 }
 
+/* Four lanes of clvox_ovr, and the mask type of their comparisons. */
 #if defined(CLVOX_FP64)
+typedef double4 clvox_ovr4;
+typedef long4 clvox_ovm4;
+#else
+typedef float4 clvox_ovr4;
+typedef int4 clvox_ovm4;
+#endif
 
 /* clvox_section at four heights at once (each within [D.z, A.z]). */
-static inline void clvox_section4(const double *vy, const double *vz, double4 h, const double *e, double4 *lo,
-                                  double4 *hi)
+static inline void clvox_section4(const clvox_ovr *vy, const clvox_ovr *vz, clvox_ovr4 h, const clvox_ovr *e,
+                                  clvox_ovr4 *lo, clvox_ovr4 *hi)
 {
-    long4 top = h >= vz[1], mid = h >= vz[2];
-    double4 bd = h - vz[3], cd = h - vz[2];
-    double4 p0 = vy[3] + bd * e[2];
-    double4 p1 = select(vy[3] + bd * e[4], vy[1] + (h - vz[1]) * e[0], top);
-    double4 p2 = select(vy[3] + bd * e[5], vy[2] + cd * e[1], top | mid);
-    double4 p3 = select(p2, vy[2] + cd * e[3], select(mid, (long4)0, top)); /* mid & !top; no ~ (winding_angles.h) */
+    clvox_ovm4 top = h >= vz[1], mid = h >= vz[2];
+    clvox_ovr4 bd = h - vz[3], cd = h - vz[2];
+    clvox_ovr4 p0 = vy[3] + bd * e[2];
+    clvox_ovr4 p1 = select(vy[3] + bd * e[4], vy[1] + (h - vz[1]) * e[0], top);
+    clvox_ovr4 p2 = select(vy[3] + bd * e[5], vy[2] + cd * e[1], top | mid);
+    clvox_ovr4 p3 = select(p2, vy[2] + cd * e[3], select(mid, (clvox_ovm4)0, top)); /* mid & !top; no ~ (winding_angles.h) */
     *lo = fmin(fmin(p0, p1), fmin(p2, p3));
     *hi = fmax(fmax(p0, p1), fmax(p2, p3));
 }
+
+#if defined(CLVOX_FP64)
 
 /* tasks: 4 uints each (triangle, first slice, end slice, unused), slices in
  * grid z. bits: words_per_row words per row, row (k - z0) * Y + y. */
@@ -443,17 +452,51 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
  * canonical (A, P1, P2) as in double, its sign taken with clvox_o3_sign_pre
  * (a float filter, then the exact expansion), and F == 0 broken by the same
  * perturbation from the exact signs of n's components (clvox_e2_sign). The
- * float n only guesses where a row's threshold is; the threshold itself is
- * settled by exact signs at the integers around the guess. */
+ * float n only guesses where a row's threshold is: four rows at once from
+ * each face's root as an affine function of the row with a rigorous error
+ * bound (clvox_face_root_x, clvox_bound_fast4f), and where that leaves an
+ * integer in doubt, by exact signs at the integers around the guess. */
 typedef struct clvox_tface_x {
     float v[9];        /* A, P1, P2 */
     float m[3], pm[3]; /* clvox_o3_setup(v) */
-    float nx, ny, nz;  /* n, rounded (guesses only) */
+    float nx, ny, nz;  /* n to about a float's precision (guesses only; clvox_normal_x) */
+    float dn[3];       /* bounds on |n - (nx, ny, nz)| */
     float inv_nx;      /* 1 / nx (0 when nx == 0) */
     int snx;           /* the exact sign of n.x */
     int want;          /* sign F must have inside the tetrahedron */
     int tie;           /* sign of F when F == 0 (0: degenerate face) */
 } clvox_tface_x;
+
+/* n = (P1 - A) x (P2 - A) (v: A, P1, P2) to about a float's precision
+ * even where its products cancel, as in the long thin tetrahedra from O to
+ * small faces (the rounded minors of clvox_o3_setup can lose every digit
+ * there): each difference as an exact sum hi + lo (Two-Sum), each minor as
+ * hi*hi' - hi*hi' exactly (products by fma, their difference by Two-Sum)
+ * plus the cross terms hi*lo in float. dn[k] bounds |n_k - nk's float|:
+ * u of the result, plus 32 u^2 of the permanent |P| + |Q| for the small
+ * terms' rounding (below 19 u^2 of it: four products, six sums of terms
+ * each under 4 u of it; lo*lo, dropped, is under 2 u^2), plus 2^-110 for
+ * products near underflow. */
+static inline void clvox_normal_x(const float *v, float *n, float *dn)
+{
+    const float u = CLVOX_OV_U;
+    float h[6], l[6]; /* a = P1 - A, b = P2 - A */
+    for (int i = 0; i < 6; i++) {
+        const float p = v[3 + i], q = -v[i % 3];
+        const float s = p + q, bv = s - p, av = s - bv;
+        h[i] = s;
+        l[i] = (p - av) + (q - bv);
+    }
+    for (int k = 0; k < 3; k++) {
+        const int s = (k + 1) % 3, t = (k + 2) % 3;
+        const float P = h[s] * h[3 + t], Q = -(h[t] * h[3 + s]);
+        const float eP = fma(h[s], h[3 + t], -P), eQ = fma(-h[t], h[3 + s], -Q);
+        const float d = P + Q, bv = d - P, av = d - bv, eD = (P - av) + (Q - bv);
+        const float cross = (h[s] * l[3 + t] + l[s] * h[3 + t]) - (h[t] * l[3 + s] + l[t] * h[3 + s]);
+        n[k] = d + (((eP + eQ) + eD) + cross);
+        dn[k] = 1.01f * u * fabs(n[k]) + 32.0f * u * u * (fabs(P) + fabs(Q)) + 0x1p-110f;
+    }
+}
 
 /* Face through A, P1, P2 (floats in grid space). */
 static inline void clvox_face_set_x(clvox_tface_x *f, float ax, float ay, float az, float p1x, float p1y, float p1z,
@@ -462,19 +505,18 @@ static inline void clvox_face_set_x(clvox_tface_x *f, float ax, float ay, float 
     const float v[9] = {ax, ay, az, p1x, p1y, p1z, p2x, p2y, p2z};
     for (int i = 0; i < 9; i++) f->v[i] = v[i];
     clvox_o3_setup(f->v, f->m, f->pm);
-    f->nx = f->m[0], f->ny = f->m[1], f->nz = f->m[2];
+    float n[3];
+    clvox_normal_x(v, n, f->dn);
+    f->nx = n[0], f->ny = n[1], f->nz = n[2];
     f->inv_nx = f->nx != 0.0f ? 1.0f / f->nx : 0.0f;
     /* exact signs of n's components: n_k is the 2x2 determinant in the
-     * cyclic coordinates (s, t) = (k + 1, k + 2) */
+     * cyclic coordinates (s, t) = (k + 1, k + 2); its sign is the guess's
+     * where that is farther from 0 than its bound, else exact */
     int sn[3];
     for (int k = 0; k < 3; k++) {
-        /* the rounded minor m[k] is within 4.1 u of its permanent pm[k] of
-         * n_k (clvox_face_threshold_x): its sign where it is farther from
-         * 0 than that, else exactly */
-        const float bound = CLVOX_OV_BOUND(4.1f * CLVOX_OV_U * f->pm[k]);
         const int s = (k + 1) % 3, t = (k + 2) % 3;
-        sn[k] = f->m[k] > bound    ? 1
-                : -f->m[k] > bound ? -1
+        sn[k] = n[k] > f->dn[k]    ? 1
+                : -n[k] > f->dn[k] ? -1
                                    : clvox_e2_sign(v[s], v[t], v[3 + s], v[3 + t], v[s], v[t], v[6 + s], v[6 + t]);
     }
     f->snx = sn[0];
@@ -509,10 +551,10 @@ static inline int clvox_face_sign_x(const clvox_tface_x *f, float x, float y, fl
  * in x with slope n.x, so that sign flips once along the row, after the
  * root r: the threshold is the first integer above r. Where a rigorous
  * bound E on the float root's error leaves no integer within E of it, that
- * is floor(xs) + 1 at once. E counts: the minors' rounding (4.1 u of their
- * permanents pm, clvox_o3_setup), the differences, products and sum of the
- * numerator (3.1 u of its terms), the quotient (the minor's relative error
- * and a 2.5-ulp division: 3 u), the last subtraction (u), all doubled;
+ * is floor(xs) + 1 at once. E counts: n's error (dn, clvox_normal_x), the
+ * differences, products and sum of the numerator (3.1 u of its terms), the
+ * quotient (n.x's relative error, a reciprocal within 2.5 ulp = 5 u and
+ * the product: 6 u), the last subtraction (u), all doubled;
  * only where n.x's own relative error is below 1 %. Elsewhere, or near an
  * integer, the walk starts at the guessed root and steps, by exact signs,
  * until it has found the flip. */
@@ -521,11 +563,11 @@ static inline int clvox_face_threshold_x(const clvox_tface_x *f, float yd, float
     const float dy = yd - f->v[1], dz = kd - f->v[2];
     const float ty = f->ny * dy, tz = f->nz * dz, q = (ty + tz) * f->inv_nx;
     const float xs = f->v[0] - q;
-    const float u = CLVOX_OV_U, anx = fabs(f->nx), rx = 4.1f * u * f->pm[0] / anx;
+    const float u = CLVOX_OV_U, anx = fabs(f->nx), rx = f->dn[0] / anx;
     if (f->snx != 0 && rx < 0.01f) {
-        const float E = 2.0f * ((4.1f * u * (f->pm[1] * fabs(dy) + f->pm[2] * fabs(dz)) +
+        const float E = 2.0f * (((f->dn[1] * fabs(dy) + f->dn[2] * fabs(dz)) +
                                  3.1f * u * (fabs(ty) + fabs(tz))) / anx +
-                                fabs(q) * (rx + 3.0f * u) + u * (fabs(q) + fabs(xs))) +
+                                fabs(q) * (rx + 6.0f * u) + u * (fabs(q) + fabs(xs))) +
                         0x1p-100f;
         if (xs - E >= (float)X) return X; /* r >= X: no integer of [0, X) above it */
         if (xs + E < 0.0f) return 0;      /* r < 0: 0 is above it */
@@ -548,7 +590,47 @@ static inline int clvox_group_bound_x(const clvox_tface_x *f, const int *idx, in
         const int t = clvox_face_threshold_x(&f[idx[a]], yd, kd, X);
         b = upper ? min(b, t) : max(b, t);
     }
+
     return b;
+}
+
+/* A face's root along x as an affine function of the row, root(y, k) =
+ * A.x + (k - A.z)*c1 + (y - A.y)*slope in float from n's float, for the
+ * fast bound of four rows at once (clvox_bound_fast4f). Dy and Dz bound
+ * |y - A.y| and |k - A.z| over the rows of the task. Returns tol, at least
+ * twice a rigorous bound on that value's distance from the exact root over
+ * those rows, or 1 where none below 1/2 is known (then c1 = slope = 0, so
+ * that nothing is NaN). The bound: n's error (|n - m| <= dn, m its float,
+ * clvox_normal_x) moves the root by at most
+ *   En = (Dy*|ny - my| + Dz*|nz - mz| + Q*|nx - mx|/|mx|) / |nx|,
+ * with Q = |my| Dy + |mz| Dz and |nx| >= 0.99 |mx| (required:
+ * dn[0] < 0.01 |mx|); the evaluation rounds by at most 10 u of
+ * M = |A.x| + Q/|mx| (a reciprocal within 2.5 ulp: 5 u; the differences,
+ * products and sums: u each), taken as 16 u. */
+static inline float clvox_face_root_x(const clvox_tface_x *f, float Dy, float Dz, float *c1, float *slope)
+{
+    const float u = CLVOX_OV_U, anx = fabs(f->nx), rx = f->dn[0] / anx;
+    *c1 = *slope = 0.0f;
+    if (f->snx == 0 || !(rx < 0.01f)) return 1.0f;
+    const float Q = fabs(f->ny) * Dy + fabs(f->nz) * Dz, M = fabs(f->v[0]) + Q / anx;
+    const float En = (f->dn[1] * Dy + f->dn[2] * Dz + Q * rx) / (0.99f * anx);
+    const float tol = 2.0f * (16.0f * u * M + En) + 0x1p-100f;
+    if (!(tol < 0.5f)) return 1.0f; /* also NaN */
+    *c1 = -f->nz * f->inv_nx;
+    *slope = -f->ny * f->inv_nx;
+    return tol;
+}
+
+/* clvox_bound_fast4 in float: the first integer beyond the extreme root
+ * xe of a group, for four rows, or -1 where an integer lies within tol of
+ * xe (then the row's thresholds are settled by exact signs). tol < 1/2 is
+ * at least twice the roots' error, which covers the rounding of xe -+ tol
+ * (their magnitude is below M, and tol >= 32 u M). */
+static inline int4 clvox_bound_fast4f(float4 xe, float tol, float Xd)
+{
+    const float4 c = min(max(xe, -0.5f), Xd - 0.5f);
+    const int4 lo = convert_int4(floor(c - tol)), hi = convert_int4(floor(c + tol));
+    return select((int4)(-1), hi + 1, lo == hi);
 }
 
 /* The raster of one task as in double, with exact signs throughout: the
@@ -585,57 +667,124 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
         clvox_face_set_x(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
         f[3].want = -s * par;
     }
-    int lo_idx[4], up_idx[4], cst_idx[4], nlo = 0, nup = 0, ncst = 0;
-    for (int i = 0; i < 4; i++) {
-        if (f[i].snx == 0) cst_idx[ncst++] = i;
-        else if (f[i].want == f[i].snx) lo_idx[nlo++] = i;
-        else up_idx[nup++] = i;
-    }
-    if (nlo > 3 || nup > 3) return;
-
     float vy[4], vz[4], e[6];
     clvox_section_setup(oy, oz, a1, a2, b1, b2, c1, c2, vy, vz, e);
     float big = fmax((float)Y, (float)task[2]);
     for (int i = 0; i < 4; i++) big = fmax(big, fmax(fabs(vy[i]), fabs(vz[i])));
     const float m = (float)CLVOX_TETRA_MARGIN + 0x1p-19f * big;
+    /* Rows with a covered centre lie within one of the tetrahedron's
+     * y-range [ylo, yhi]; only those are visited, so |y - A.y| <= Dy for
+     * the anchor A of every face (a vertex). */
+    const float ylo = fmin(fmin(vy[0], vy[1]), fmin(vy[2], vy[3])), yhi = fmax(fmax(vy[0], vy[1]), fmax(vy[2], vy[3]));
+    const float Dy = (yhi - ylo + 1.0f) * (1.0f + 0x1p-20f);
+    /* Groups as in double, with each face's root (clvox_face_root_x);
+     * groups are padded to 3 with roots at -+inf. */
+    int lo_idx[4], up_idx[4], cst_idx[4], nlo = 0, nup = 0, ncst = 0;
+    float lax[3] = {-INFINITY, -INFINITY, -INFINITY}, lay[3] = {0, 0, 0}, laz[3] = {0, 0, 0};
+    float lc1[3] = {0, 0, 0}, ls[3] = {0, 0, 0};
+    float uax[3] = {INFINITY, INFINITY, INFINITY}, uay[3] = {0, 0, 0}, uaz[3] = {0, 0, 0};
+    float uc1[3] = {0, 0, 0}, us[3] = {0, 0, 0};
+    float tol_lo = 0.0f, tol_up = 0.0f;
+    for (int i = 0; i < 4; i++) {
+        if (f[i].snx == 0) {
+            cst_idx[ncst++] = i;
+            continue;
+        }
+        const int lower = f[i].want == f[i].snx;
+        if ((lower ? nlo : nup) == 3) return; /* all four on one side: cannot cover anything */
+        const float *A = f[i].v;
+        const float Dz = fmax(fabs((float)task[1] - A[2]), fabs((float)task[2] - A[2])) * (1.0f + 0x1p-20f);
+        float c1, sl;
+        const float tol = clvox_face_root_x(&f[i], Dy, Dz, &c1, &sl);
+        if (lower) {
+            lax[nlo] = A[0], lay[nlo] = A[1], laz[nlo] = A[2], lc1[nlo] = c1, ls[nlo] = sl;
+            tol_lo = fmax(tol_lo, tol);
+            lo_idx[nlo++] = i;
+        } else {
+            uax[nup] = A[0], uay[nup] = A[1], uaz[nup] = A[2], uc1[nup] = c1, us[nup] = sl;
+            tol_up = fmax(tol_up, tol);
+            up_idx[nup++] = i;
+        }
+    }
+
     const float widen = 2.0f * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
                                         fmax(fabs(e[4]), fabs(e[5])));
     const int iX = (int)X;
-    for (uint k = task[1]; k < task[2]; k++) {
-        const float kd = (float)k;
-        float lo = INFINITY, hi = -INFINITY;
+    for (uint k4 = task[1]; k4 < task[2]; k4 += 4) {
+        /* Four slices at a time, their rows as in double, within one of
+         * [ylo, yhi]. */
+        const float4 kd4 = (float)k4 + (float4)(0.0f, 1.0f, 2.0f, 3.0f);
+        float4 lo4, hi4;
         if (widen < 0.5f) {
-            const float kc = fmin(fmax(kd, vz[3]), vz[0]);
-            if (fabs(kd - kc) > m) continue;
-            clvox_section(vy, vz, kc, e, &lo, &hi);
-            lo -= widen;
-            hi += widen;
+            const float4 kc = fmin(fmax(kd4, vz[3]), vz[0]);
+            clvox_section4(vy, vz, kc, e, &lo4, &hi4);
+            const int4 far = fabs(kd4 - kc) > m;
+            lo4 = select(lo4 - widen, (float4)(INFINITY), far);
+            hi4 = select(hi4 + widen, (float4)(-INFINITY), far);
         } else {
-            for (int i = 0; i < 4; i++)
-                if (fabs(vz[i] - kd) <= m) {
-                    lo = fmin(lo, vy[i]);
-                    hi = fmax(hi, vy[i]);
+            float los[4], his[4];
+            for (int q = 0; q < 4; q++) {
+                const float kd = (float)(k4 + q);
+                float lo = INFINITY, hi = -INFINITY;
+                for (int i = 0; i < 4; i++)
+                    if (fabs(vz[i] - kd) <= m) {
+                        lo = fmin(lo, vy[i]);
+                        hi = fmax(hi, vy[i]);
+                    }
+                for (int i = -1; i <= 1; i += 2) {
+                    float h = kd + (float)i * m, l2, h2;
+                    if (h < vz[3] || h > vz[0]) continue;
+                    clvox_section(vy, vz, h, e, &l2, &h2);
+                    lo = fmin(lo, l2);
+                    hi = fmax(hi, h2);
                 }
-            for (int i = -1; i <= 1; i += 2) {
-                float h = kd + (float)i * m, l2, h2;
-                if (h < vz[3] || h > vz[0]) continue;
-                clvox_section(vy, vz, h, e, &l2, &h2);
-                lo = fmin(lo, l2);
-                hi = fmax(hi, h2);
+                los[q] = lo;
+                his[q] = hi;
             }
+            lo4 = vload4(0, los);
+            hi4 = vload4(0, his);
         }
-        const float jlo = fmax(ceil(lo - m), 0.0f), jhi = fmin(floor(hi + m), (float)Y - 1.0f);
-        if (!(jlo <= jhi)) continue;
-        for (int j = (int)jlo; j <= (int)jhi; j++) {
-            const float yd = (float)j;
-            int out = 0;
-            for (int a = 0; a < ncst && !out; a++) /* faces with F constant along the row */
-                out = clvox_face_sign_x(&f[cst_idx[a]], 0.0f, yd, kd) != f[cst_idx[a]].want;
-            if (out) continue;
-            const int L = clvox_group_bound_x(f, lo_idx, nlo, yd, kd, iX, 0);
-            const int U = clvox_group_bound_x(f, up_idx, nup, yd, kd, iX, 1);
-            if (L >= U) continue;
-            clvox_span_xor(bits + ((size_t)(k - z0) * Y + (size_t)j) * words_per_row, L, U, iX);
+        const float4 jlo4 = fmax(fmax(ceil(lo4 - m), ceil(ylo - 1.0f)), 0.0f);
+        float4 jhi4 = fmin(fmin(floor(hi4 + m), floor(yhi + 1.0f)), (float)Y - 1.0f);
+        jhi4 = select(jhi4, (float4)(-1.0f), kd4 >= (float)task[2]); /* past the task */
+        const float4 nr4 = fmax(jhi4 - jlo4 + 1.0f, 0.0f);          /* 0 for empty (also inf) */
+        const float rmax = fmax(fmax(nr4.s0, nr4.s1), fmax(nr4.s2, nr4.s3));
+        if (rmax == 0.0f) continue;
+        const float4 lb0 = lax[0] + (kd4 - laz[0]) * lc1[0], lb1 = lax[1] + (kd4 - laz[1]) * lc1[1],
+                     lb2 = lax[2] + (kd4 - laz[2]) * lc1[2];
+        const float4 ub0 = uax[0] + (kd4 - uaz[0]) * uc1[0], ub1 = uax[1] + (kd4 - uaz[1]) * uc1[1],
+                     ub2 = uax[2] + (kd4 - uaz[2]) * uc1[2];
+        const int4 nr = convert_int4(nr4), j0 = convert_int4(select(jlo4, (float4)(0.0f), nr4 == 0.0f));
+        const float4 y0 = convert_float4(j0);
+        for (int r = 0; r < (int)rmax; r++) {
+            /* Lane q: row j0.q + r of slice k4 + q, while there is one. */
+            const float4 y4 = y0 + (float)r;
+            const float4 xl = max(max(lb0 + (y4 - lay[0]) * ls[0], lb1 + (y4 - lay[1]) * ls[1]),
+                                  lb2 + (y4 - lay[2]) * ls[2]);
+            const float4 xu = min(min(ub0 + (y4 - uay[0]) * us[0], ub1 + (y4 - uay[1]) * us[1]),
+                                  ub2 + (y4 - uay[2]) * us[2]);
+            const int4 L4 = clvox_bound_fast4f(xl, tol_lo, (float)X), U4 = clvox_bound_fast4f(xu, tol_up, (float)X);
+            const int4 live = ((int4)(r) < nr) & ((L4 < U4) | (L4 < 0) | (U4 < 0) | (int4)(ncst ? -1 : 0));
+            if (!any(live)) continue;
+            int Ls[4], Us[4], lv[4], Js[4];
+            vstore4(L4, 0, Ls);
+            vstore4(U4, 0, Us);
+            vstore4(live, 0, lv);
+            vstore4(j0 + r, 0, Js);
+            for (int q = 0; q < 4; q++) {
+                if (!lv[q]) continue;
+                const int j = Js[q];
+                const uint k = k4 + (uint)q;
+                const float yd = (float)j, kd = (float)k;
+                int out = 0;
+                for (int a = 0; a < ncst && !out; a++) /* faces with F constant along the row */
+                    out = clvox_face_sign_x(&f[cst_idx[a]], 0.0f, yd, kd) != f[cst_idx[a]].want;
+                if (out) continue;
+                const int L = Ls[q] >= 0 ? Ls[q] : clvox_group_bound_x(f, lo_idx, nlo, yd, kd, iX, 0);
+                const int U = Us[q] >= 0 ? Us[q] : clvox_group_bound_x(f, up_idx, nup, yd, kd, iX, 1);
+                if (L >= U) continue;
+                clvox_span_xor(bits + ((size_t)(k - z0) * Y + (size_t)j) * words_per_row, L, U, iX);
+            }
         }
     }
 }

@@ -361,6 +361,46 @@ static void test_random(void)
     }
 }
 
+/* Long triangles nearly parallel to x (1024-voxel rows, a band of 24 in y
+ * and 8 in z), for the tetra method: the faces' roots along a row move
+ * fast with y, so the float kernel's fast bound on a face's root
+ * (kernels/tetra.cl, clvox_face_root_x) is widest here, and some rows meet
+ * a root within its error of a centre, which it must leave to exact signs.
+ * With that bound a hundredth as wide, voxels differ (a tenth: none;
+ * it is a worst case over the roundings). */
+static void test_steep_soups(void)
+{
+    const double lo[3] = {0, 0, 0}, hi[3] = {1024, 1024, 8};
+    const clvox_grid g = test_grid(lo, hi, 1024, 1024, 8);
+    uint64_t rng = 7;
+    for (int k = 0; k < 2; k++) {
+        tmesh t = {0};
+        for (int i = 0; i < 300; i++) {
+            uint32_t v0 = (uint32_t)t.nv;
+            for (int c = 0; c < 3; c++) {
+                const double x = tmesh_rng_uniform(&rng) * 1024, y = 500 + tmesh_rng_uniform(&rng) * 24,
+                             z = tmesh_rng_uniform(&rng) * 8;
+                tmesh_add_vertex(&t, x, y, z);
+            }
+            tmesh_add_tri(&t, v0, v0 + 1, v0 + 2);
+        }
+        clvox_mesh *mesh = NULL;
+        CHECK_OK(cd, clvox_mesh_from_arrays(cd, t.xyz, t.nv, t.tri, t.nt, &mesh));
+        for (int conservative = 0; mesh && conservative <= 1; conservative++) {
+            clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+            o.method = CLVOX_METHOD_TETRA;
+            o.mode = conservative ? CLVOX_MODE_CONSERVATIVE : CLVOX_MODE_SOLID;
+            char what[96];
+            snprintf(what, sizeof what, "steep soup %d, %s", k, conservative ? "conservative tetra" : "tetra");
+            const long d = compare_run(what, mesh, &g, &o);
+            CHECK_MSG(d == 0, "%s: %ld voxels differ between the float and double kernels", what, d);
+            runs++;
+        }
+        clvox_mesh_destroy(mesh);
+        tmesh_free(&t);
+    }
+}
+
 /* A coordinate outside float's exact range (a vertex 1e-9 voxel from the
  * plane of centre 0): every float run refuses with one line naming it, the
  * double kernels run. */
@@ -444,6 +484,7 @@ int main(void)
     if (cf->real_size != 4 || cd->real_size != 8) return test_report();
     test_grid_aligned();
     test_random();
+    test_steep_soups();
     test_range_refused();
     test_adversarial();
     { /* the public option (clvox_context_options.float_kernels) builds them so too */

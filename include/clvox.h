@@ -98,8 +98,10 @@ typedef struct clvox_context_options {
      * them): the same voxels in every mode but the winding test on voxels
      * that are not cubes (docs/design.md "Devices
      * without double precision"), and faster where double is slow (most
-     * consumer GPUs run it at 1/16 to 1/64 of float). 0: double wherever
-     * the device has it. */
+     * consumer GPUs run it at 1/16 to 1/64 of float). 0: by speed: double
+     * where the device has it, unless its double measures 8 or more times
+     * slower than its float (then float for every run where float gives
+     * the same voxels; clvox_device_info.kernels_float). */
     int float_kernels;
 } clvox_context_options;
 #define CLVOX_CONTEXT_OPTIONS_INIT { sizeof(clvox_context_options), NULL, 0, 0 }
@@ -118,6 +120,19 @@ typedef struct clvox_device_info {
      * (CL_DEVICE_DOUBLE_FP_CONFIG); one without it gets kernels built in
      * float (clvox_context_options.float_kernels). */
     int fp64;
+    /* appended in 0.3, set in a context's devices (clvox_context_device_at;
+     * 0 in clvox_list_devices): 1 when the context runs the kernels in
+     * float there: the device has no fp64, float_kernels asked for it, or
+     * its double arithmetic measured 8 or more times slower than its float
+     * (then a run whose mode needs double switches to it: the winding test
+     * on voxels that are not cubes). The voxels are the same either way
+     * (docs/design.md "Which build a device gets"). */
+    int kernels_float;
+    /* how many times slower the device ran double than float (the same
+     * chains of multiply-adds), once per device and driver, kept in the
+     * kernel cache; 0 where not measured: no fp64, or a CPU (they keep
+     * double). CLVOX_FP64_SLOWDOWN=R sets it. */
+    float fp64_slowdown;
 } clvox_device_info;
 #define CLVOX_DEVICE_INFO_INIT { .size = sizeof(clvox_device_info) }
 

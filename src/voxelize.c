@@ -327,6 +327,24 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     memset(dev, 0, sizeof dev);
     /* Each device's launch unit, and the reorder window that keeps every
      * device's next group computing while the last one is written. */
+    /* Members whose kernels follow other rules than the set's best (float
+     * kernels beside double ones: clvox__kernel_rules) decide some voxels
+     * of winding runs (binary, coverage or palette) on voxels that are not
+     * cubes differently: left out of those. Everything else -- parity,
+     * tetra, surface, conservative, and the winding test on cubic voxels,
+     * binary or sampled -- is decided exactly in every build (docs/design.md
+     * "Devices without double precision"). A device in float by the speed
+     * rule (device_speed.c) has double too: it runs those in double. */
+    const int cubic = grid->voxel_size[0] == grid->voxel_size[1] && grid->voxel_size[0] == grid->voxel_size[2];
+    const int same_in_float = o.oversample || o.palette ? o.inside == CLVOX_INSIDE_PARITY || cubic
+                                                         : o.mode == CLVOX_MODE_SURFACE ||
+                                                               o.method == CLVOX_METHOD_TETRA ||
+                                                               o.inside == CLVOX_INSIDE_PARITY || cubic;
+    for (uint32_t d = 0; d < ndev && st == CLVOX_OK; d++) {
+        st = clvox__select_build(ctx->member[d], !same_in_float);
+        if (st != CLVOX_OK && ctx->member[d] != ctx) clvox__fail(ctx, st, "%s", ctx->member[d]->error);
+    }
+    if (st != CLVOX_OK) return st;
     uint32_t group_max = 1;
     for (uint32_t d = 0; d < ndev; d++) {
         dev[d].group = clvox__launch_slabs(ctx->member[d], m == &clvox__method_ray, &o, grid, depth, plane_slice);
@@ -337,21 +355,9 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         uint32_t fit = window / (2 * ndev);
         if (dev[d].group > fit) dev[d].group = fit ? fit : 1;
     }
-    /* Members whose kernels follow other rules than the set's best (float
-     * kernels beside double ones: clvox__kernel_rules) decide some voxels
-     * of winding runs (binary, coverage or palette) on voxels that are not
-     * cubes differently: left out of those. Everything else -- parity,
-     * tetra, surface, conservative, and the winding test on cubic voxels,
-     * binary or sampled -- is decided exactly in every build (docs/design.md
-     * "Devices without double precision"). */
     int best_rules = 0;
     for (uint32_t d = 0; d < ndev; d++)
         if (clvox__kernel_rules(ctx->member[d]) > best_rules) best_rules = clvox__kernel_rules(ctx->member[d]);
-    const int cubic = grid->voxel_size[0] == grid->voxel_size[1] && grid->voxel_size[0] == grid->voxel_size[2];
-    const int same_in_float = o.oversample || o.palette ? o.inside == CLVOX_INSIDE_PARITY || cubic
-                                                         : o.mode == CLVOX_MODE_SURFACE ||
-                                                               o.method == CLVOX_METHOD_TETRA ||
-                                                               o.inside == CLVOX_INSIDE_PARITY || cubic;
     if (!same_in_float && best_rules != 8) /* float devices alone */
         clvox__warn(ctx,
                     "the kernels of this run are built without double precision: its %s may differ from a double "
@@ -410,6 +416,15 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         if (dev[d].ms2) m2->release(dev[d].ms2);
         dev[d].ms = dev[d].ms2 = NULL;
         for (int i = 0; i < 4; i++) clvox__release_mem(&dev[d].plane[i]);
+        /* a coordinate outside float's exact range (clvox__float_check) on a
+         * device in float by the speed rule: again in double */
+        if (sd == CLVOX_ERR_NO_DEVICE && dc->float_for_speed && dc->real_size == 4) {
+            sd = clvox__select_build(dc, 1);
+            if (sd == CLVOX_OK) {
+                d--;
+                continue;
+            }
+        }
         /* the input's fault (or the only device): the run's error */
         if (ndev == 1 || (sd != CLVOX_ERR_OPENCL && sd != CLVOX_ERR_OUT_OF_MEMORY && sd != CLVOX_ERR_KERNEL_BUILD)) {
             if (dc != ctx) clvox__fail(ctx, sd, "%s", dc->error);

@@ -429,6 +429,112 @@ static void test_range_refused(void)
     tmesh_free(&m);
 }
 
+/* The speed rule (src/core/device_speed.c): a device with fp64 whose double
+ * is 8 or more times slower than its float gets the float build
+ * (CLVOX_FP64_SLOWDOWN's hook stands in for a consumer GPU), and switches
+ * to double for a run that needs it -- the winding test on voxels that are
+ * not cubes, a coordinate outside float's exact range -- and back: every
+ * run gives the double context's bytes, and no warning. Below the rule's
+ * ratio, double. And the measurement on this device (CLVOX_FP64_MEASURE's
+ * hook): a ratio, the same one read back from the kernel cache by the next
+ * context. */
+static clvox_context *context_slowdown(double slowdown, int measure)
+{
+    clvox__test_hooks h = *clvox__hooks();
+    h.kernels_float = 0;
+    h.fp64_slowdown = slowdown;
+    h.fp64_measure = measure;
+    clvox__set_test_hooks(&h);
+    clvox_context *c = test_context();
+    h.fp64_slowdown = 0;
+    h.fp64_measure = 0;
+    clvox__set_test_hooks(&h);
+    return c;
+}
+
+static void check_same(clvox_context *cs, const char *what, const clvox_mesh *mesh, const clvox_grid *g,
+                       const clvox_voxelize_options *o, size_t want_real)
+{
+    const size_t n = (size_t)g->dims[0] * g->dims[1] * g->dims[2];
+    uint8_t *a = malloc(n), *b = malloc(n);
+    CHECK(a && b);
+    if (a && b) {
+        CHECK_OK(cd, clvox_voxelize_to_memory(cd, mesh, g, o, a, n, NULL));
+        CHECK_OK(cs, clvox_voxelize_to_memory(cs, mesh, g, o, b, n, NULL));
+        long d = 0;
+        for (size_t i = 0; i < n; i++) d += a[i] != b[i];
+        CHECK_MSG(d == 0, "speed rule, %s: %ld voxels differ from the double context's", what, d);
+        CHECK_MSG(cs->real_size == want_real && clvox_context_device(cs)->kernels_float == (want_real == 4),
+                  "speed rule, %s: kernels of %zu bytes (device info: float %d), want %zu", what, cs->real_size,
+                  clvox_context_device(cs)->kernels_float, want_real);
+        const char *w = clvox_context_warnings(cs);
+        CHECK_MSG(!strstr(w, "without double precision"), "speed rule, %s: warned '%s'", what, w);
+    }
+    free(a);
+    free(b);
+}
+
+static void test_speed_rule(void)
+{
+    clvox_context *cs = context_slowdown(32, 0);
+    CHECK_MSG(cs && cs->real_size == 4 && cs->float_for_speed && clvox_context_device(cs)->kernels_float &&
+                  clvox_context_device(cs)->fp64_slowdown == 32.0f,
+              "slowdown 32: kernels of %zu bytes, float_for_speed %d", cs ? cs->real_size : 0,
+              cs ? cs->float_for_speed : 0);
+    tmesh m = tmesh_random_closed(5, 1, 150), box = {0}; /* box: m with every 7th face removed (open) */
+    for (size_t v = 0; v < m.nv; v++) tmesh_add_vertex(&box, m.xyz[3 * v], m.xyz[3 * v + 1], m.xyz[3 * v + 2]);
+    for (size_t t = 0; t < m.nt; t++)
+        if (t % 7 != 3) tmesh_add_tri(&box, m.tri[3 * t], m.tri[3 * t + 1], m.tri[3 * t + 2]);
+    clvox_mesh *mesh = NULL, *open = NULL;
+    CHECK_OK(cd, clvox_mesh_from_arrays(cd, m.xyz, m.nv, m.tri, m.nt, &mesh));
+    CHECK_OK(cd, clvox_mesh_from_arrays(cd, box.xyz, box.nv, box.tri, box.nt, &open));
+    const double lo[3] = {-1.3, -1.3, -1.3}, hi[3] = {1.3, 1.3, 1.3};
+    const clvox_grid cube = test_grid(lo, hi, 20, 20, 20), flat = test_grid(lo, hi, 23, 21, 19);
+    if (cs && mesh && open) {
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        check_same(cs, "winding, cubic voxels", open, &cube, &o, 4);
+        check_same(cs, "winding, voxels not cubes", open, &flat, &o, 8);
+        check_same(cs, "winding, cubic voxels again", open, &cube, &o, 4);
+        o.method = CLVOX_METHOD_TETRA;
+        check_same(cs, "tetra, voxels not cubes", mesh, &flat, &o, 4);
+        o = (clvox_voxelize_options)CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.oversample = 2;
+        check_same(cs, "coverage winding, voxels not cubes", open, &flat, &o, 8);
+        o.inside = CLVOX_INSIDE_PARITY;
+        check_same(cs, "coverage parity, voxels not cubes", mesh, &flat, &o, 4);
+    }
+    { /* a coordinate outside float's exact range: in double, not refused */
+        const double blo[3] = {-0.5, -0.5, -0.5}, bhi[3] = {15.5, 15.5, 15.5};
+        const clvox_grid g = test_grid(blo, bhi, 16, 16, 16);
+        tmesh t = tmesh_box(1e-9, 2, 2, 10, 10, 10);
+        clvox_mesh *tm = NULL;
+        CHECK_OK(cd, clvox_mesh_from_arrays(cd, t.xyz, t.nv, t.tri, t.nt, &tm));
+        clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+        o.inside = CLVOX_INSIDE_PARITY;
+        if (cs && tm) check_same(cs, "a coordinate outside float's range", tm, &g, &o, 8);
+        clvox_mesh_destroy(tm);
+        tmesh_free(&t);
+    }
+    clvox_context_destroy(cs);
+    clvox_context *c2 = context_slowdown(2, 0);
+    CHECK_MSG(c2 && c2->real_size == 8 && !c2->float_for_speed && !clvox_context_device(c2)->kernels_float,
+              "slowdown 2: kernels of %zu bytes", c2 ? c2->real_size : 0);
+    clvox_context_destroy(c2);
+    clvox_context *a = context_slowdown(0, 1), *b = context_slowdown(0, 1);
+    const float ra = a ? clvox_context_device(a)->fp64_slowdown : -1, rb = b ? clvox_context_device(b)->fp64_slowdown : -1;
+    printf("speed rule: this device's double measured %.2fx slower than its float (%s)\n", (double)ra,
+           ra >= CLVOX__FP64_SLOW ? "float kernels" : "double kernels");
+    CHECK_MSG(ra > 0 && ra == rb && a->real_size == (ra >= CLVOX__FP64_SLOW ? 4u : 8u),
+              "measured slowdowns %g and %g (the second from the cache), kernels of %zu bytes", (double)ra, (double)rb,
+              a ? a->real_size : 0);
+    clvox_context_destroy(a);
+    clvox_context_destroy(b);
+    clvox_mesh_destroy(mesh);
+    clvox_mesh_destroy(open);
+    tmesh_free(&m);
+    tmesh_free(&box);
+}
+
 static int by_name(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
 
 static void test_data_meshes(void)
@@ -486,6 +592,7 @@ int main(void)
     test_random();
     test_steep_soups();
     test_range_refused();
+    test_speed_rule();
     test_adversarial();
     { /* the public option (clvox_context_options.float_kernels) builds them so too */
         clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;

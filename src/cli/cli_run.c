@@ -226,8 +226,14 @@ void print_summary(const char *mesh_path, const clvox_mesh_report *r, const clvo
     print_scene(src);
 
     print_grid_line(grid->dims, grid->origin, grid->voxel_size);
-    printf(LABEL "%s (%s, %s)\n", "device", dev ? dev->name : "?", dev ? dev->type : "?",
-           dev ? dev->platform : "?");
+    char build[128] = "";
+    if (dev && dev->kernels_float)
+        snprintf(build, sizeof build, dev->fp64_slowdown >= 8 ? ", kernels in float: its double measured %.0fx slower"
+                                      : dev->fp64 ? ", kernels in float"
+                                                  : ", kernels in float: no fp64",
+                 (double)dev->fp64_slowdown);
+    printf(LABEL "%s (%s, %s%s)\n", "device", dev ? dev->name : "?", dev ? dev->type : "?",
+           dev ? dev->platform : "?", build);
     if (s->device_count > 1) { /* a device set: what each did, and how well they shared */
         uint64_t slices = 0;
         for (uint32_t i = 0; i < s->device_count; i++) slices += s->devices[i].slices;
@@ -886,6 +892,8 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
         jb_str(b, "name", dev->name);
         jb_str(b, "type", dev->type);
         jb_str(b, "platform", dev->platform);
+        jb_str(b, "kernels", dev->kernels_float ? "float" : "double");
+        jb_num(b, "fp64_slowdown", dev->fp64_slowdown);
         jb_obj_end(b);
         /* every device of the run, with its part */
         jb_arr_begin(b, "devices");
@@ -896,6 +904,7 @@ void vox_result_json(const vox_session *s, const vox_job *job, const vox_result 
             jb_u64(b, "index", d->device);
             jb_str(b, "name", di ? di->name : "");
             jb_str(b, "type", di ? di->type : "");
+            jb_str(b, "kernels", di && di->kernels_float ? "float" : "double");
             jb_u64(b, "slabs", d->slabs);
             jb_u64(b, "slices", d->slices);
             jb_num(b, "busy_s", d->busy_seconds);

@@ -314,9 +314,6 @@ static clvox_status build_program(clvox_context *ctx)
     /* Correctly rounded division where the device has it (device_checks.c).
      * CLVOX_KERNEL_FLOAT=1 builds the kernels as on a device without fp64
      * (a developer's check of the float path on PoCL). */
-    const clvox__test_hooks *hk = clvox__hooks();
-    ctx->kernels_float = ctx->want_float || hk->kernels_float ||
-                         (hk->kernels_float_device > 0 && (uint32_t)hk->kernels_float_device == ctx->position + 1);
     const char *base;
     clvox_status st = clvox__program_options(ctx, &base); /* device_checks.c */
     if (st != CLVOX_OK) return st;
@@ -406,15 +403,63 @@ static clvox_status open_device(clvox_context *ctx, const device_entry *e)
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateContext");
     ctx->queue = clCreateCommandQueue(ctx->cl, ctx->device_id, CL_QUEUE_PROFILING_ENABLE, &err);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clCreateCommandQueue");
+    /* The build (device_speed.c): float where asked or where the device
+     * has no fp64 (the program then has no choice), or where its double is
+     * slow; else double. */
+    const clvox__test_hooks *hk = clvox__hooks();
+    const int asked = ctx->want_float || hk->kernels_float ||
+                      (hk->kernels_float_device > 0 && (uint32_t)hk->kernels_float_device == ctx->position + 1);
+    ctx->device.fp64_slowdown = clvox__fp64_slowdown(ctx);
+    ctx->float_for_speed = !asked && ctx->device.fp64 && ctx->device.fp64_slowdown >= CLVOX__FP64_SLOW;
+    ctx->kernels_float = asked || ctx->float_for_speed;
     clvox_status st = build_program(ctx);
     if (st == CLVOX_OK) st = query_real_size(ctx);
-    return st == CLVOX_OK ? clvox__device_checks(ctx) : st; /* device_checks.c: the contraction self-test */
+    if (st == CLVOX_OK) st = clvox__device_checks(ctx); /* device_checks.c: the contraction self-test */
+    ctx->device.kernels_float = ctx->real_size == 4;
+    return st;
+}
+
+clvox_status clvox__select_build(clvox_context *ctx, int need_double)
+{
+    if (!ctx->float_for_speed || (ctx->real_size == 8) == (need_double != 0)) return CLVOX_OK;
+    if (!ctx->program_other) { /* the other build, once */
+        cl_program mine = ctx->program;
+        const int cached = ctx->program_cached;
+        ctx->program = NULL;
+        ctx->kernels_float = !need_double;
+        clvox_status st = build_program(ctx);
+        if (st == CLVOX_OK) st = query_real_size(ctx);
+        if (st == CLVOX_OK) st = clvox__device_checks(ctx);
+        if (st != CLVOX_OK || (ctx->real_size == 8) != (need_double != 0)) {
+            if (ctx->program) clReleaseProgram(ctx->program);
+    if (ctx->program_other) clReleaseProgram(ctx->program_other);
+    ctx->program_other = NULL;
+            ctx->program = mine;
+            ctx->program_cached = cached;
+            ctx->kernels_float = need_double;
+            ctx->real_size = need_double ? 4 : 8;
+            return st != CLVOX_OK ? st
+                                  : clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the %s build of the kernels has reals of %zu bytes",
+                                                need_double ? "double" : "float", ctx->real_size);
+        }
+        ctx->program_other = mine;
+    } else {
+        cl_program t = ctx->program;
+        ctx->program = ctx->program_other;
+        ctx->program_other = t;
+        ctx->kernels_float = !need_double;
+        ctx->real_size = need_double ? 8 : 4;
+    }
+    ctx->device.kernels_float = ctx->real_size == 4;
+    return CLVOX_OK;
 }
 
 static void close_device(clvox_context *ctx)
 {
     clvox__launch_release(ctx);
     if (ctx->program) clReleaseProgram(ctx->program);
+    if (ctx->program_other) clReleaseProgram(ctx->program_other);
+    ctx->program_other = NULL;
     if (ctx->queue) clReleaseCommandQueue(ctx->queue);
     if (ctx->cl) clReleaseContext(ctx->cl);
     ctx->program = NULL;

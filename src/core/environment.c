@@ -76,6 +76,13 @@ static clvox__test_hooks from_environment(void)
     h.fp32_unrounded = is("CLVOX_TEST_FP32_UNROUNDED", "1");
     h.no_crack_weld = is("CLVOX_CRACK_WELD", "0");
     h.unsure_room = (unsigned)in_range("CLVOX_UNSURE_ROOM", 1, 4096);
+    const char *slow = getenv("CLVOX_FP64_SLOWDOWN");
+    if (slow && *slow) {
+        char *end;
+        double r = strtod(slow, &end);
+        if (*end == 0 && r >= 1.0 && r <= 1024.0) h.fp64_slowdown = r;
+    }
+    h.fp64_measure = is("CLVOX_FP64_MEASURE", "1");
     const char *crash = getenv("CLVOX_TEST_ASSIMP_CRASH");
     if (crash && *crash && strlen(crash) < sizeof h.assimp_crash) strcpy(h.assimp_crash, crash);
     return h;

@@ -64,6 +64,10 @@ typedef struct clvox__test_hooks {
     unsigned unsure_room;      /* CLVOX_UNSURE_ROOM=1..4096: a float device's unsure winding points a batch
                                 * lists before its consumer runs again with room for all
                                 * (src/cast/unsure.c; the outputs are the same). 0: 4096 */
+    double fp64_slowdown;      /* CLVOX_FP64_SLOWDOWN=R (1 to 1024): every device with fp64 taken to run
+                                * double R times slower than float, not measured (device_speed.c); the
+                                * rule then picks the build. 0: measured on GPUs, CPUs keep double */
+    int fp64_measure;          /* CLVOX_FP64_MEASURE=1: CPU devices measured too (device_speed.c) */
     char assimp_crash[64];     /* CLVOX_TEST_ASSIMP_CRASH=TEXT: the Assimp reader kills its process
                                 * (SIGSEGV) on a file whose path contains TEXT, a stand-in for a
                                 * parser bug (test_assimp: load and batch) */

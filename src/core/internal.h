@@ -40,6 +40,9 @@ struct clvox_context {
     size_t real_size;       /* sizeof(clvox_real) in the kernels: 8 with fp64, else 4 */
     int kernels_float;      /* 1: built without fp64 on a device that has it (build_program) */
     int want_float;         /* clvox_context_options.float_kernels */
+    int float_for_speed;    /* 1: float by the speed rule on a device with fp64 (device_speed.c): a run
+                             * that needs double switches builds (clvox__select_build) */
+    cl_program program_other; /* float_for_speed: the build not in use, once a run has needed it */
     /* The run's devices (clvox_context_options.device "a,b" or "all"):
      * member[0] is this context; member[1..] are contexts of their own, one
      * per device (devices of different platforms cannot share a
@@ -103,6 +106,21 @@ const char *clvox__cl_error_name(cl_int err);
  * storing a program built from source. Neither ever fails the caller. */
 cl_program clvox__program_cache_load(clvox_context *ctx, const char *options);
 void clvox__program_cache_store(clvox_context *ctx, cl_program program, const char *options);
+/* Small facts about ctx's device kept the same way, under the name `what`
+ * in place of the build options (device_speed.c): get copies exactly size
+ * bytes into out and returns 1, else 0; put never fails the caller. */
+int clvox__cache_get(clvox_context *ctx, const char *what, void *out, size_t size);
+/* The speed rule (device_speed.c): a device with fp64 whose double
+ * arithmetic is this many times slower than its float gets the float build. */
+#define CLVOX__FP64_SLOW 8.0f
+/* How many times slower ctx's device runs double than float: measured once
+ * per device and driver and cached, or CLVOX_FP64_SLOWDOWN; 0 where not
+ * measured (no fp64, CPU devices) or where measuring failed. */
+float clvox__fp64_slowdown(clvox_context *ctx);
+/* For a float_for_speed context: the double build (need_double) or the
+ * float one in ctx->program, building it the first time. Else nothing. */
+clvox_status clvox__select_build(clvox_context *ctx, int need_double);
+void clvox__cache_put(clvox_context *ctx, const char *what, const void *data, size_t size);
 /* A cache file's n bytes: 1 when it is whole and for `identity`, with the
  * binary at file + *bin_off, *bin_len bytes; else 0 (fuzzed: fuzz_program_cache). */
 int clvox__program_cache_parse(const unsigned char *file, size_t n, const char *identity, size_t *bin_off,

@@ -354,20 +354,13 @@ static int write_all(int fd, const void *data, size_t n)
     return 1;
 }
 
-void clvox__program_cache_store(clvox_context *ctx, cl_program program, const char *options)
+/* Writes e's file holding `bin` (under a temporary name, then renamed). */
+static void store_bytes(cache_entry *e, const unsigned char *bin, size_t size)
 {
-    cache_entry *e = malloc(sizeof *e);
-    unsigned char *bin = NULL;
-    if (!e || !entry_for(ctx, options, e)) goto done;
-    size_t size = 0;
-    if (clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, NULL) != CL_SUCCESS || size == 0 ||
-        size > MAX_BINARY || !(bin = malloc(size)))
-        goto done;
-    if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof bin, &bin, NULL) != CL_SUCCESS) goto done;
     char tmp[3300];
-    if (snprintf(tmp, sizeof tmp, "%s/" TMP_PREFIX "XXXXXX", e->dir) >= (int)sizeof tmp) goto done;
+    if (snprintf(tmp, sizeof tmp, "%s/" TMP_PREFIX "XXXXXX", e->dir) >= (int)sizeof tmp) return;
     int fd = mkstemp(tmp);
-    if (fd < 0) goto done;
+    if (fd < 0) return;
     unsigned char head[sizeof MAGIC - 1 + 8], len8[8], sum[SUM];
     const size_t il = strlen(e->identity);
     memcpy(head, MAGIC, sizeof MAGIC - 1);
@@ -387,10 +380,46 @@ void clvox__program_cache_store(clvox_context *ctx, cl_program program, const ch
      * cache): a symbolic link there is replaced, never followed */
     if (!ok || rename(tmp, e->path) != 0) {
         (void)unlink(tmp);
-        goto done;
+        return;
     }
     (void)sweep(e->dir, NULL, KEEP);
+}
+
+void clvox__program_cache_store(clvox_context *ctx, cl_program program, const char *options)
+{
+    cache_entry *e = malloc(sizeof *e);
+    unsigned char *bin = NULL;
+    if (!e || !entry_for(ctx, options, e)) goto done;
+    size_t size = 0;
+    if (clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, NULL) != CL_SUCCESS || size == 0 ||
+        size > MAX_BINARY || !(bin = malloc(size)))
+        goto done;
+    if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof bin, &bin, NULL) != CL_SUCCESS) goto done;
+    store_bytes(e, bin, size);
 done:
     free(bin);
+    free(e);
+}
+
+int clvox__cache_get(clvox_context *ctx, const char *what, void *out, size_t size)
+{
+    cache_entry *e = malloc(sizeof *e);
+    int got = 0;
+    size_t n = 0;
+    const unsigned char *b = NULL;
+    unsigned char *file = NULL;
+    if (e && entry_for(ctx, what, e) && (file = read_binary(e, &b, &n)) != NULL && n == size) {
+        memcpy(out, b, size);
+        got = 1;
+    }
+    free(file);
+    free(e);
+    return got;
+}
+
+void clvox__cache_put(clvox_context *ctx, const char *what, const void *data, size_t size)
+{
+    cache_entry *e = malloc(sizeof *e);
+    if (e && size > 0 && size <= MAX_BINARY && entry_for(ctx, what, e)) store_bytes(e, data, size);
     free(e);
 }

@@ -1078,6 +1078,67 @@ static void test_mixed_precision(const mesh_case *mc)
     clvox_context_destroy(mixed);
 }
 
+/* ---- the speed rule on a set ---- */
+
+/* Both devices taken to run double 32x slower than float
+ * (CLVOX_FP64_SLOWDOWN's hook): each gets the float build by the speed rule
+ * (src/core/device_speed.c) and both take part in every run, the winding
+ * test on voxels that are not cubes included: there each switches to the
+ * double build. Every mode gives the one-device double volume, with no
+ * warning. */
+static void test_speed_rule_set(const mesh_case *mc)
+{
+    clvox__test_hooks h = g_hooks;
+    h.fp64_slowdown = 32;
+    clvox__set_test_hooks(&h);
+    clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
+    co.device = "all";
+    clvox_context *set = NULL;
+    clvox_status cs = clvox_context_create(&co, &set);
+    clear_fail(); /* g_hooks again */
+    CHECK_MSG(cs == CLVOX_OK && clvox_context_device_count(set) == 2 && set->member[0]->real_size == 4 &&
+                  set->member[1]->real_size == 4 && clvox_context_device_at(set, 1)->kernels_float,
+              "[%s] the speed rule on two devices: %s, %zu devices", g_config, clvox_status_string(cs),
+              cs == CLVOX_OK ? clvox_context_device_count(set) : 0);
+    if (cs != CLVOX_OK || clvox_context_device_count(set) != 2) {
+        clvox_context_destroy(set);
+        return;
+    }
+    mode_case modes[10];
+    const size_t nmode = make_modes(modes);
+    const clvox_grid *g = &mc->grid;
+    const int cubic = g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2];
+    for (size_t k = 0; k < nmode; k++) {
+        const char *name = modes[k].name;
+        const clvox_voxelize_options *mo = &modes[k].o;
+        const int float_ok = cubic || mo->inside == CLVOX_INSIDE_PARITY ||
+                             (!mo->oversample && !mo->palette &&
+                              (mo->mode == CLVOX_MODE_SURFACE || mo->method == CLVOX_METHOD_TETRA));
+        char what[256];
+        snprintf(what, sizeof what, "[%s] %s, %s, the speed rule on two devices", g_config, mc->name, name);
+        capture ref, c;
+        capture_init(&ref, g);
+        capture_init(&c, g);
+        CHECK_OK(g_one, run_capture(g_one, mc->mesh, g, mo, &ref, NULL));
+        clvox_stats st = CLVOX_STATS_INIT;
+        clvox_voxelize_options o = *mo;
+        o.slab_depth = 2;
+        clvox_status s = run_capture(set, mc->mesh, g, &o, &c, &st);
+        CHECK_MSG(s == CLVOX_OK, "%s: %s: %s", what, clvox_status_string(s), clvox_context_error(set));
+        check_order(&c, what);
+        check_same(&ref, &c, what);
+        const char *w = clvox_context_warnings(set);
+        const size_t want = float_ok ? 4 : 8;
+        CHECK_MSG(!*w && st.device_count == 2 && !st.devices[0].left_out && !st.devices[1].left_out &&
+                      set->member[0]->real_size == want && set->member[1]->real_size == want,
+                  "%s: warnings '%s', kernels of %zu and %zu bytes (want %zu)", what, w, set->member[0]->real_size,
+                  set->member[1]->real_size, want);
+        capture_free(&ref);
+        capture_free(&c);
+    }
+    clvox_context_destroy(set);
+}
+
 /* ---- the child: one pair of devices ---- */
 
 static int child(const char *config)
@@ -1137,6 +1198,7 @@ static int child(const char *config)
         if (lop->mesh) test_mixed_precision(lop);
         for (size_t i = 0; i < n; i++) /* an open mesh on cubic voxels */
             if (meshes[i].mesh && !strcmp(meshes[i].name, "elephant-with-holes.off")) test_mixed_precision(&meshes[i]);
+        if (lop->mesh) test_speed_rule_set(lop);
     }
 
     for (size_t i = 0; i < n; i++) clvox_mesh_destroy(meshes[i].mesh);

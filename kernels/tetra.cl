@@ -240,9 +240,11 @@ static inline int clvox_sort3(float *p, float *q, float *r)
 #if defined(CLVOX_FP64)
 typedef double4 clvox_ovr4;
 typedef long4 clvox_ovm4;
+#define clvox_convert_ovr4 convert_double4
 #else
 typedef float4 clvox_ovr4;
 typedef int4 clvox_ovm4;
+#define clvox_convert_ovr4 convert_float4
 #endif
 
 /* clvox_section at four heights at once (each within [D.z, A.z]). */
@@ -261,21 +263,15 @@ static inline void clvox_section4(const clvox_ovr *vy, const clvox_ovr *vz, clvo
 
 #if defined(CLVOX_FP64)
 
-/* tasks: 4 uints each (triangle, first slice, end slice, unused), slices in
- * grid z. bits: words_per_row words per row, row (k - z0) * Y + y. */
-static void clvox_tetra_raster_body(global const float *soup, global const uint *tasks, uint task_count, float ox,
-                                    float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
-                                    global uint *bits)
-{
-    uint gid = get_global_id(0);
-    if (gid >= task_count) return;
-    global const uint *task = tasks + (size_t)gid * 4;
-    global const float *t = soup + (size_t)task[0] * 9;
-    float a0 = t[0], a1 = t[1], a2 = t[2];
-    float b0 = t[3], b1 = t[4], b2 = t[5];
-    float c0 = t[6], c1 = t[7], c2 = t[8];
+/* ---- the double build's faces, for the shared raster below ---- */
 
-    clvox_tface f[4];
+typedef clvox_tface clvox_face;
+
+/* The tetrahedron's four faces with their wanted signs (above); 0 when it
+ * is flat and covers nothing. */
+static inline int clvox_tetra_faces(clvox_face *f, float ox, float oy, float oz, float a0, float a1, float a2,
+                                    float b0, float b1, float b2, float c0, float c1, float c2, uint tie_order)
+{
     /* Faces (O,a,b), (O,b,c), (O,c,a): inside, F_Oab, F_Obc, F_Oca all have
      * the sign s of the tetrahedron's orientation det[a-O; b-O; c-O]. */
     int s0 = clvox_face_internal(&f[0], ox, oy, oz, a0, a1, a2, b0, b1, b2, tie_order);
@@ -283,167 +279,57 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
     int s2 = clvox_face_internal(&f[2], ox, oy, oz, c0, c1, c2, a0, a1, a2, tie_order);
     double vol = (double)s0 * (f[0].nx * ((double)c0 - f[0].ax) +
                                (f[0].ny * ((double)c1 - f[0].ay) + f[0].nz * ((double)c2 - f[0].az)));
-    if (vol == 0.0) return; /* flat: covers nothing */
+    if (vol == 0.0) return 0; /* flat: covers nothing */
     int s = vol > 0.0 ? 1 : -1;
     f[0].want = s * s0;
     f[1].want = s * s1;
     f[2].want = s * s2;
     /* Mesh face, vertices sorted: F_abc = par * F_sorted, and inside F_abc
      * has the sign -s. */
-    {
-        float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
-        const int par = clvox_sort3(p, q, r);
-        clvox_face_set(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
-        f[3].want = -s * par;
-    }
-    /* Lower faces bound the rows' spans from the left, upper ones from the
-     * right; faces parallel to x (nx == 0) are constant along a row. Along
-     * x, a face's root in row (y, k) is ax - (ny*(y - ay) + nz*(k - az))/nx
-     * = c0 + k*c1 + y*slope; groups are padded to 3 with roots at -+inf. */
-    int lo_idx[4], up_idx[4], cst_idx[4], nlo = 0, nup = 0, ncst = 0;
-    double lc0[3] = {-INFINITY, -INFINITY, -INFINITY}, lc1[3] = {0, 0, 0}, ls[3] = {0, 0, 0};
-    double uc0[3] = {INFINITY, INFINITY, INFINITY}, uc1[3] = {0, 0, 0}, us[3] = {0, 0, 0};
-    double tol_lo = 0.0, tol_up = 0.0;
-    const double kmax = (double)task[2];
-    for (int i = 0; i < 4; i++) {
-        clvox_tface *g = &f[i];
-        if (g->nx == 0.0) {
-            cst_idx[ncst++] = i;
-            continue;
-        }
-        double c0 = g->ax + (g->nz * g->az + g->ny * g->ay) * g->inv_nx, c1 = -g->nz * g->inv_nx;
-        /* Error bound: a few ulps of the magnitudes summed (with the
-         * rounding of F itself), far below tol. */
-        double M = fabs(g->ax) + (fabs(g->nz) * (fabs(g->az) + kmax) + fabs(g->ny) * (fabs(g->ay) + (double)Y)) *
-                                     fabs(g->inv_nx);
-        double tol = 1e-7 + 1e-12 * M;
-        if (!(tol < 1.0)) tol = 1.0; /* from 0.5 on (or NaN), no root is far enough from an integer */
-        if ((g->want > 0) == (g->nx > 0.0)) {
-            lc0[nlo] = c0, lc1[nlo] = c1, ls[nlo] = g->slope, tol_lo = fmax(tol_lo, tol);
-            lo_idx[nlo++] = i;
-        } else {
-            uc0[nup] = c0, uc1[nup] = c1, us[nup] = g->slope, tol_up = fmax(tol_up, tol);
-            up_idx[nup++] = i;
-        }
-    }
-    if (nlo > 3 || nup > 3) return; /* all four on one side: cannot cover anything */
-
-    /* Cross-sections: vertices sorted by decreasing z (clvox_section). */
-    double vy[4], vz[4], e[6];
-    clvox_section_setup(oy, oz, a1, a2, b1, b2, c1, c2, vy, vz, e);
-
-    const double m = CLVOX_TETRA_MARGIN, Yd = (double)Y, Xd = (double)X;
-    const double widen = 2.0 * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
-                                        fmax(fabs(e[4]), fabs(e[5])));
-    const int iX = (int)X;
-    for (uint k4 = task[1]; k4 < task[2]; k4 += 4) {
-        /* Four slices at a time. Rows: the y-range of the part of the
-         * tetrahedron between the planes k - m and k + m. With kc = k clamped
-         * to [D.z, A.z] (k itself or a vertex within m), that is the section
-         * at kc widened by 2m times the steepest edge; with steep (nearly
-         * horizontal) edges, the sections at k -+ m and the vertices in
-         * between. Then m more. */
-        double4 kd4 = (double)k4 + (double4)(0.0, 1.0, 2.0, 3.0), lo4, hi4;
-        if (widen < 0.5) {
-            double4 kc = fmin(fmax(kd4, vz[3]), vz[0]);
-            clvox_section4(vy, vz, kc, e, &lo4, &hi4);
-            long4 far = fabs(kd4 - kc) > m;
-            lo4 = select(lo4 - widen, (double4)(INFINITY), far);
-            hi4 = select(hi4 + widen, (double4)(-INFINITY), far);
-        } else {
-            double los[4], his[4];
-            for (int q = 0; q < 4; q++) {
-                double kd = (double)(k4 + q), lo = INFINITY, hi = -INFINITY;
-                for (int i = 0; i < 4; i++)
-                    if (fabs(vz[i] - kd) <= m) {
-                        lo = fmin(lo, vy[i]);
-                        hi = fmax(hi, vy[i]);
-                    }
-                for (int i = -1; i <= 1; i += 2) {
-                    double h = kd + i * m, l2, h2;
-                    if (h < vz[3] || h > vz[0]) continue;
-                    clvox_section(vy, vz, h, e, &l2, &h2);
-                    lo = fmin(lo, l2);
-                    hi = fmax(hi, h2);
-                }
-                los[q] = lo;
-                his[q] = hi;
-            }
-            lo4 = vload4(0, los);
-            hi4 = vload4(0, his);
-        }
-        /* Rows r = 0, 1, ... of the four slices at once: lane q handles row
-         * jlo_q + r of slice k4 + q while there is one. */
-        double4 jlo4 = fmax(ceil(lo4 - m), 0.0), jhi4 = fmin(floor(hi4 + m), Yd - 1.0);
-        jhi4 = select(jhi4, (double4)(-1.0), kd4 >= (double)task[2]); /* past the task */
-        double4 nr4 = fmax(jhi4 - jlo4 + 1.0, 0.0);                  /* 0 for empty (also inf) */
-        double rmax = fmax(fmax(nr4.s0, nr4.s1), fmax(nr4.s2, nr4.s3));
-        if (rmax == 0.0) continue;
-        double4 lb0 = lc0[0] + kd4 * lc1[0], lb1 = lc0[1] + kd4 * lc1[1], lb2 = lc0[2] + kd4 * lc1[2];
-        double4 ub0 = uc0[0] + kd4 * uc1[0], ub1 = uc0[1] + kd4 * uc1[1], ub2 = uc0[2] + kd4 * uc1[2];
-        int4 nr = convert_int4(nr4), j0 = convert_int4(select(jlo4, (double4)(0.0), nr4 == 0.0));
-        for (int r = 0; r < (int)rmax; r++) {
-            double4 y4 = jlo4 + (double)r;
-            /* max/min, not fmax/fmin: no root is NaN (finite face data,
-             * padding at -+inf) and they compile to single instructions. */
-            double4 xl = max(max(lb0 + y4 * ls[0], lb1 + y4 * ls[1]), lb2 + y4 * ls[2]);
-            double4 xu = min(min(ub0 + y4 * us[0], ub1 + y4 * us[1]), ub2 + y4 * us[2]);
-            int4 L4 = clvox_bound_fast4(xl, tol_lo, Xd), U4 = clvox_bound_fast4(xu, tol_up, Xd);
-            /* Lanes with a row and a span that may be non-empty (or unknown). */
-            int4 live = ((int4)(r) < nr) & ((L4 < U4) | (L4 < 0) | (U4 < 0) | (int4)(ncst ? -1 : 0));
-            uint mask = (live.s0 ? 1u : 0u) | (live.s1 ? 2u : 0u) | (live.s2 ? 4u : 0u) | (live.s3 ? 8u : 0u);
-            if (!mask) continue;
-            if (!ncst && !any(L4 < 0) && !any(U4 < 0)) {
-                /* The common case: every span known exactly, live lanes
-                 * non-empty. Lanes taken apart statically (no private
-                 * arrays indexed at run time). */
-                int4 jr = j0 + r;
-                size_t base = (size_t)(k4 - z0) * Y;
-                if (live.s0) clvox_span_xor(bits + (base + (size_t)jr.s0) * words_per_row, L4.s0, U4.s0, iX);
-                if (live.s1) clvox_span_xor(bits + (base + Y + (size_t)jr.s1) * words_per_row, L4.s1, U4.s1, iX);
-                if (live.s2) clvox_span_xor(bits + (base + 2 * Y + (size_t)jr.s2) * words_per_row, L4.s2, U4.s2, iX);
-                if (live.s3) clvox_span_xor(bits + (base + 3 * Y + (size_t)jr.s3) * words_per_row, L4.s3, U4.s3, iX);
-                continue;
-            }
-            int Ls[4], Us[4], Js[4];
-            vstore4(L4, 0, Ls);
-            vstore4(U4, 0, Us);
-            vstore4(j0 + r, 0, Js);
-            while (mask) {
-                int q = 31 - (int)clz(mask & (0u - mask));
-                mask &= mask - 1u;
-                int j = Js[q], L = Ls[q], U = Us[q];
-                uint k = k4 + (uint)q;
-                double yd = (double)j, kd = (double)k;
-                if (ncst) { /* faces with F constant along the row */
-                    int out = 0;
-                    for (int a = 0; a < ncst; a++) {
-                        const clvox_tface *g = &f[cst_idx[a]];
-                        double C = g->ny * (yd - g->ay) + g->nz * (kd - g->az);
-                        int sg = C > 0.0 ? 1 : (C < 0.0 ? -1 : g->tie);
-                        out |= sg != g->want;
-                    }
-                    if (out) continue;
-                }
-                if (L < 0) L = clvox_group_bound(f, lo_idx, nlo, yd, kd, iX, 0);
-                if (U < 0) U = clvox_group_bound(f, up_idx, nup, yd, kd, iX, 1);
-                if (L >= U) continue;
-                clvox_span_xor(bits + ((size_t)(k - z0) * Y + (size_t)j) * words_per_row, L, U, iX);
-            }
-        }
-    }
+    float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
+    const int par = clvox_sort3(p, q, r);
+    clvox_face_set(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
+    f[3].want = -s * par;
+    return 1;
 }
 
-/* The kernel: the body, then the launch's completion count (clvox_done,
- * prelude.cl). */
-kernel void clvox_tetra_raster(global const float *soup, global const uint *tasks, uint task_count, float ox,
-                               float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
-                               global uint *bits,
-                               global uint *clvox_done, uint clvox_done_slot)
+/* 1: F is constant along x (the face is parallel to x); 1: a lower face
+ * (bounds the span from the left). */
+static inline int clvox_face_constant(const clvox_face *f) { return f->nx == 0.0; }
+static inline int clvox_face_lower(const clvox_face *f) { return (f->want > 0) == (f->nx > 0.0); }
+
+/* The face's root along x in row (y, k) as A + (k - Az)*c1 + (y - Ay)*slope;
+ * in double Az = Ay = 0 and A = c0 = ax + (nz*az + ny*ay)/nx. Returns tol:
+ * a few ulps of the magnitudes summed (with the rounding of F itself), far
+ * below it; 1 from 0.5 on (or NaN): no root is far enough from an integer. */
+static inline double clvox_face_root(const clvox_face *g, double Dy, double k0, double K, double Y, double *A,
+                                     double *Ay, double *Az, double *c1, double *slope)
 {
-    clvox_tetra_raster_body(soup, tasks, task_count, ox, oy, oz, tie_order, z0, X, Y, words_per_row, bits);
-    clvox_done_mark(clvox_done, clvox_done_slot);
+    (void)Dy;
+    (void)k0;
+    *A = g->ax + (g->nz * g->az + g->ny * g->ay) * g->inv_nx;
+    *Ay = *Az = 0.0;
+    *c1 = -g->nz * g->inv_nx;
+    *slope = g->slope;
+    double M = fabs(g->ax) + (fabs(g->nz) * (fabs(g->az) + K) + fabs(g->ny) * (fabs(g->ay) + Y)) * fabs(g->inv_nx);
+    double tol = 1e-7 + 1e-12 * M;
+    return tol < 1.0 ? tol : 1.0;
 }
+
+/* 1: a face constant along the row leaves it out of the tetrahedron. */
+static inline int clvox_row_outside(const clvox_face *f, const int *cst, int ncst, double yd, double kd)
+{
+    for (int a = 0; a < ncst; a++) {
+        const clvox_face *g = &f[cst[a]];
+        double C = g->ny * (yd - g->ay) + g->nz * (kd - g->az);
+        int sg = C > 0.0 ? 1 : (C < 0.0 ? -1 : g->tie);
+        if (sg != g->want) return 1;
+    }
+    return 0;
+}
+
+#define clvox_group_exact clvox_group_bound
+#define clvox_bound4 clvox_bound_fast4
 
 #else /* !CLVOX_FP64: float, every sign exact (kernels/overlap.h) */
 
@@ -633,12 +519,73 @@ static inline int4 clvox_bound_fast4f(float4 xe, float tol, float Xd)
     return select((int4)(-1), hi + 1, lo == hi);
 }
 
-/* The raster of one task as in double, with exact signs throughout: the
- * tetrahedron's orientation, the faces' sides and slopes, the constant
- * faces and every threshold. Rows come from the float cross-sections,
- * widened by a margin that covers their rounding (below 13 u of the
- * largest coordinate: u = 2^-24; 2^-19 of it is taken), so no row with a
- * covered centre is skipped; a row outside the tetrahedron gives L >= U. */
+/* ---- the float build's faces, for the shared raster below ---- */
+
+typedef clvox_tface_x clvox_face;
+
+/* The faces as in double, every sign exact: the tetrahedron's orientation,
+ * the faces' sides and slopes. 0 when it is flat. */
+static inline int clvox_tetra_faces(clvox_face *f, float ox, float oy, float oz, float a0, float a1, float a2,
+                                    float b0, float b1, float b2, float c0, float c1, float c2, uint tie_order)
+{
+    int s0 = clvox_face_internal_x(&f[0], ox, oy, oz, a0, a1, a2, b0, b1, b2, tie_order);
+    int s1 = clvox_face_internal_x(&f[1], ox, oy, oz, b0, b1, b2, c0, c1, c2, tie_order);
+    int s2 = clvox_face_internal_x(&f[2], ox, oy, oz, c0, c1, c2, a0, a1, a2, tie_order);
+    const int s = s0 * clvox_o3_sign_pre(f[0].v, f[0].m, f[0].pm, c0, c1, c2); /* det[a-O; b-O; c-O] */
+    if (s == 0) return 0; /* flat: covers nothing */
+    f[0].want = s * s0;
+    f[1].want = s * s1;
+    f[2].want = s * s2;
+    float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
+    const int par = clvox_sort3(p, q, r);
+    clvox_face_set_x(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
+    f[3].want = -s * par;
+    return 1;
+}
+
+static inline int clvox_face_constant(const clvox_face *f) { return f->snx == 0; }
+static inline int clvox_face_lower(const clvox_face *f) { return f->want == f->snx; }
+
+/* clvox_face_root_x, anchored at the face's A; Dz from the task's slices
+ * [k0, K). */
+static inline float clvox_face_root(const clvox_face *f, float Dy, float k0, float K, float Y, float *A, float *Ay,
+                                    float *Az, float *c1, float *slope)
+{
+    (void)Y;
+    *A = f->v[0], *Ay = f->v[1], *Az = f->v[2];
+    const float Dz = fmax(fabs(k0 - f->v[2]), fabs(K - f->v[2])) * (1.0f + 0x1p-20f);
+    return clvox_face_root_x(f, Dy, Dz, c1, slope);
+}
+
+/* 1: a face constant along the row leaves it out of the tetrahedron. */
+static inline int clvox_row_outside(const clvox_face *f, const int *cst, int ncst, float yd, float kd)
+{
+    for (int a = 0; a < ncst; a++)
+        if (clvox_face_sign_x(&f[cst[a]], 0.0f, yd, kd) != f[cst[a]].want) return 1;
+    return 0;
+}
+
+#define clvox_group_exact clvox_group_bound_x
+#define clvox_bound4 clvox_bound_fast4f
+
+#endif /* CLVOX_FP64 */
+
+/* ---- the raster of one task, in either build ---- */
+
+/* tasks: 4 uints each (triangle, first slice, end slice, unused), slices in
+ * grid z. bits: words_per_row words per row, row (k - z0) * Y + y.
+ *
+ * Lower faces bound the rows' spans from the left, upper ones from the
+ * right; faces parallel to x are constant along a row. A face's root
+ * along x in row (y, k) is A + (k - Az)*c1 + (y - Ay)*slope
+ * (clvox_face_root, with its error bound tol); groups are padded to 3 with
+ * roots at -+inf. Slices go four at a time, lane q handling row r of slice
+ * k + q: the bound of the lane's row is the first integer beyond the
+ * group's extreme root (clvox_bound4) unless an integer lies within tol of
+ * it, then each face's threshold (clvox_group_exact). Rows: within the
+ * cross-sections widened by a margin (below) and within one voxel of the
+ * tetrahedron's y-range [ylo, yhi] (so |y - Ay| <= Dy for every face's
+ * anchor, a vertex). */
 static void clvox_tetra_raster_body(global const float *soup, global const uint *tasks, uint task_count, float ox,
                                     float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
                                     global uint *bits)
@@ -650,89 +597,80 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
     float a0 = t[0], a1 = t[1], a2 = t[2];
     float b0 = t[3], b1 = t[4], b2 = t[5];
     float c0 = t[6], c1 = t[7], c2 = t[8];
+    clvox_face f[4];
+    if (!clvox_tetra_faces(f, ox, oy, oz, a0, a1, a2, b0, b1, b2, c0, c1, c2, tie_order)) return;
 
-    clvox_tface_x f[4];
-    int s0 = clvox_face_internal_x(&f[0], ox, oy, oz, a0, a1, a2, b0, b1, b2, tie_order);
-    int s1 = clvox_face_internal_x(&f[1], ox, oy, oz, b0, b1, b2, c0, c1, c2, tie_order);
-    int s2 = clvox_face_internal_x(&f[2], ox, oy, oz, c0, c1, c2, a0, a1, a2, tie_order);
-    const int vol = s0 * clvox_o3_sign_pre(f[0].v, f[0].m, f[0].pm, c0, c1, c2); /* det[a-O; b-O; c-O] */
-    if (vol == 0) return; /* flat: covers nothing */
-    const int s = vol;
-    f[0].want = s * s0;
-    f[1].want = s * s1;
-    f[2].want = s * s2;
-    {
-        float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
-        const int par = clvox_sort3(p, q, r);
-        clvox_face_set_x(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
-        f[3].want = -s * par;
-    }
-    float vy[4], vz[4], e[6];
+    /* Cross-sections: vertices sorted by decreasing z (clvox_section). The
+     * margin m: CLVOX_TETRA_MARGIN, and in float 2^-19 of the largest
+     * coordinate, which covers the sections' rounding (below 13 u of it). */
+    clvox_ovr vy[4], vz[4], e[6];
     clvox_section_setup(oy, oz, a1, a2, b1, b2, c1, c2, vy, vz, e);
+#if defined(CLVOX_FP64)
+    const clvox_ovr m = CLVOX_TETRA_MARGIN;
+#else
     float big = fmax((float)Y, (float)task[2]);
     for (int i = 0; i < 4; i++) big = fmax(big, fmax(fabs(vy[i]), fabs(vz[i])));
     const float m = (float)CLVOX_TETRA_MARGIN + 0x1p-19f * big;
-    /* Rows with a covered centre lie within one of the tetrahedron's
-     * y-range [ylo, yhi]; only those are visited, so |y - A.y| <= Dy for
-     * the anchor A of every face (a vertex). */
-    const float ylo = fmin(fmin(vy[0], vy[1]), fmin(vy[2], vy[3])), yhi = fmax(fmax(vy[0], vy[1]), fmax(vy[2], vy[3]));
-    const float Dy = (yhi - ylo + 1.0f) * (1.0f + 0x1p-20f);
-    /* Groups as in double, with each face's root (clvox_face_root_x);
-     * groups are padded to 3 with roots at -+inf. */
+#endif
+    const clvox_ovr ylo = fmin(fmin(vy[0], vy[1]), fmin(vy[2], vy[3])), yhi = fmax(fmax(vy[0], vy[1]), fmax(vy[2], vy[3]));
+    const clvox_ovr Dy = (yhi - ylo + (clvox_ovr)1) * ((clvox_ovr)1 + (clvox_ovr)0x1p-20);
+
     int lo_idx[4], up_idx[4], cst_idx[4], nlo = 0, nup = 0, ncst = 0;
-    float lax[3] = {-INFINITY, -INFINITY, -INFINITY}, lay[3] = {0, 0, 0}, laz[3] = {0, 0, 0};
-    float lc1[3] = {0, 0, 0}, ls[3] = {0, 0, 0};
-    float uax[3] = {INFINITY, INFINITY, INFINITY}, uay[3] = {0, 0, 0}, uaz[3] = {0, 0, 0};
-    float uc1[3] = {0, 0, 0}, us[3] = {0, 0, 0};
-    float tol_lo = 0.0f, tol_up = 0.0f;
+    clvox_ovr lax[3] = {-INFINITY, -INFINITY, -INFINITY}, lay[3] = {0, 0, 0}, laz[3] = {0, 0, 0};
+    clvox_ovr lc1[3] = {0, 0, 0}, ls[3] = {0, 0, 0};
+    clvox_ovr uax[3] = {INFINITY, INFINITY, INFINITY}, uay[3] = {0, 0, 0}, uaz[3] = {0, 0, 0};
+    clvox_ovr uc1[3] = {0, 0, 0}, us[3] = {0, 0, 0};
+    clvox_ovr tol_lo = 0, tol_up = 0;
     for (int i = 0; i < 4; i++) {
-        if (f[i].snx == 0) {
+        if (clvox_face_constant(&f[i])) {
             cst_idx[ncst++] = i;
             continue;
         }
-        const int lower = f[i].want == f[i].snx;
+        const int lower = clvox_face_lower(&f[i]);
         if ((lower ? nlo : nup) == 3) return; /* all four on one side: cannot cover anything */
-        const float *A = f[i].v;
-        const float Dz = fmax(fabs((float)task[1] - A[2]), fabs((float)task[2] - A[2])) * (1.0f + 0x1p-20f);
-        float c1, sl;
-        const float tol = clvox_face_root_x(&f[i], Dy, Dz, &c1, &sl);
+        clvox_ovr A, Ay, Az, c1, sl;
+        const clvox_ovr tol = clvox_face_root(&f[i], Dy, (clvox_ovr)task[1], (clvox_ovr)task[2], (clvox_ovr)Y, &A, &Ay,
+                                              &Az, &c1, &sl);
         if (lower) {
-            lax[nlo] = A[0], lay[nlo] = A[1], laz[nlo] = A[2], lc1[nlo] = c1, ls[nlo] = sl;
-            tol_lo = fmax(tol_lo, tol);
+            lax[nlo] = A, lay[nlo] = Ay, laz[nlo] = Az, lc1[nlo] = c1, ls[nlo] = sl, tol_lo = fmax(tol_lo, tol);
             lo_idx[nlo++] = i;
         } else {
-            uax[nup] = A[0], uay[nup] = A[1], uaz[nup] = A[2], uc1[nup] = c1, us[nup] = sl;
-            tol_up = fmax(tol_up, tol);
+            uax[nup] = A, uay[nup] = Ay, uaz[nup] = Az, uc1[nup] = c1, us[nup] = sl, tol_up = fmax(tol_up, tol);
             up_idx[nup++] = i;
         }
     }
 
-    const float widen = 2.0f * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
-                                        fmax(fabs(e[4]), fabs(e[5])));
+    const clvox_ovr Yd = (clvox_ovr)Y, Xd = (clvox_ovr)X, Kend = (clvox_ovr)task[2];
+    const clvox_ovr widen = (clvox_ovr)2 * m * fmax(fmax(fmax(fabs(e[0]), fabs(e[1])), fmax(fabs(e[2]), fabs(e[3]))),
+                                                    fmax(fabs(e[4]), fabs(e[5])));
     const int iX = (int)X;
     for (uint k4 = task[1]; k4 < task[2]; k4 += 4) {
-        /* Four slices at a time, their rows as in double, within one of
-         * [ylo, yhi]. */
-        const float4 kd4 = (float)k4 + (float4)(0.0f, 1.0f, 2.0f, 3.0f);
-        float4 lo4, hi4;
-        if (widen < 0.5f) {
-            const float4 kc = fmin(fmax(kd4, vz[3]), vz[0]);
+        /* Four slices at a time. Rows: the y-range of the part of the
+         * tetrahedron between the planes k - m and k + m. With kc = k clamped
+         * to [D.z, A.z] (k itself or a vertex within m), that is the section
+         * at kc widened by 2m times the steepest edge; with steep (nearly
+         * horizontal) edges, the sections at k -+ m and the vertices in
+         * between. Then m more. */
+        const clvox_ovr4 kd4 = (clvox_ovr)k4 + (clvox_ovr4)((clvox_ovr)0, (clvox_ovr)1, (clvox_ovr)2, (clvox_ovr)3);
+        clvox_ovr4 lo4, hi4;
+        if (widen < (clvox_ovr)0.5) {
+            const clvox_ovr4 kc = fmin(fmax(kd4, vz[3]), vz[0]);
             clvox_section4(vy, vz, kc, e, &lo4, &hi4);
-            const int4 far = fabs(kd4 - kc) > m;
-            lo4 = select(lo4 - widen, (float4)(INFINITY), far);
-            hi4 = select(hi4 + widen, (float4)(-INFINITY), far);
+            const clvox_ovm4 far = fabs(kd4 - kc) > m;
+            lo4 = select(lo4 - widen, (clvox_ovr4)((clvox_ovr)INFINITY), far);
+            hi4 = select(hi4 + widen, (clvox_ovr4)((clvox_ovr)-INFINITY), far);
         } else {
-            float los[4], his[4];
+            clvox_ovr los[4], his[4];
             for (int q = 0; q < 4; q++) {
-                const float kd = (float)(k4 + q);
-                float lo = INFINITY, hi = -INFINITY;
+                const clvox_ovr kd = (clvox_ovr)(k4 + q);
+                clvox_ovr lo = INFINITY, hi = -INFINITY;
                 for (int i = 0; i < 4; i++)
                     if (fabs(vz[i] - kd) <= m) {
                         lo = fmin(lo, vy[i]);
                         hi = fmax(hi, vy[i]);
                     }
                 for (int i = -1; i <= 1; i += 2) {
-                    float h = kd + (float)i * m, l2, h2;
+                    clvox_ovr h = kd + (clvox_ovr)i * m, l2, h2;
                     if (h < vz[3] || h > vz[0]) continue;
                     clvox_section(vy, vz, h, e, &l2, &h2);
                     lo = fmin(lo, l2);
@@ -744,44 +682,57 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
             lo4 = vload4(0, los);
             hi4 = vload4(0, his);
         }
-        const float4 jlo4 = fmax(fmax(ceil(lo4 - m), ceil(ylo - 1.0f)), 0.0f);
-        float4 jhi4 = fmin(fmin(floor(hi4 + m), floor(yhi + 1.0f)), (float)Y - 1.0f);
-        jhi4 = select(jhi4, (float4)(-1.0f), kd4 >= (float)task[2]); /* past the task */
-        const float4 nr4 = fmax(jhi4 - jlo4 + 1.0f, 0.0f);          /* 0 for empty (also inf) */
-        const float rmax = fmax(fmax(nr4.s0, nr4.s1), fmax(nr4.s2, nr4.s3));
-        if (rmax == 0.0f) continue;
-        const float4 lb0 = lax[0] + (kd4 - laz[0]) * lc1[0], lb1 = lax[1] + (kd4 - laz[1]) * lc1[1],
-                     lb2 = lax[2] + (kd4 - laz[2]) * lc1[2];
-        const float4 ub0 = uax[0] + (kd4 - uaz[0]) * uc1[0], ub1 = uax[1] + (kd4 - uaz[1]) * uc1[1],
-                     ub2 = uax[2] + (kd4 - uaz[2]) * uc1[2];
-        const int4 nr = convert_int4(nr4), j0 = convert_int4(select(jlo4, (float4)(0.0f), nr4 == 0.0f));
-        const float4 y0 = convert_float4(j0);
+        /* Rows r = 0, 1, ... of the four slices at once: lane q handles row
+         * j0_q + r of slice k4 + q while there is one. */
+        const clvox_ovr4 jlo4 = fmax(fmax(ceil(lo4 - m), ceil(ylo - (clvox_ovr)1)), (clvox_ovr)0);
+        clvox_ovr4 jhi4 = fmin(fmin(floor(hi4 + m), floor(yhi + (clvox_ovr)1)), Yd - (clvox_ovr)1);
+        jhi4 = select(jhi4, (clvox_ovr4)((clvox_ovr)-1), kd4 >= Kend); /* past the task */
+        const clvox_ovr4 nr4 = fmax(jhi4 - jlo4 + (clvox_ovr)1, (clvox_ovr)0); /* 0 for empty (also inf) */
+        const clvox_ovr rmax = fmax(fmax(nr4.s0, nr4.s1), fmax(nr4.s2, nr4.s3));
+        if (rmax == (clvox_ovr)0) continue;
+        const clvox_ovr4 lb0 = lax[0] + (kd4 - laz[0]) * lc1[0], lb1 = lax[1] + (kd4 - laz[1]) * lc1[1],
+                         lb2 = lax[2] + (kd4 - laz[2]) * lc1[2];
+        const clvox_ovr4 ub0 = uax[0] + (kd4 - uaz[0]) * uc1[0], ub1 = uax[1] + (kd4 - uaz[1]) * uc1[1],
+                         ub2 = uax[2] + (kd4 - uaz[2]) * uc1[2];
+        const int4 nr = convert_int4(nr4), j0 = convert_int4(select(jlo4, (clvox_ovr4)((clvox_ovr)0), nr4 == (clvox_ovr)0));
+        const clvox_ovr4 y0 = clvox_convert_ovr4(j0);
         for (int r = 0; r < (int)rmax; r++) {
-            /* Lane q: row j0.q + r of slice k4 + q, while there is one. */
-            const float4 y4 = y0 + (float)r;
-            const float4 xl = max(max(lb0 + (y4 - lay[0]) * ls[0], lb1 + (y4 - lay[1]) * ls[1]),
-                                  lb2 + (y4 - lay[2]) * ls[2]);
-            const float4 xu = min(min(ub0 + (y4 - uay[0]) * us[0], ub1 + (y4 - uay[1]) * us[1]),
-                                  ub2 + (y4 - uay[2]) * us[2]);
-            const int4 L4 = clvox_bound_fast4f(xl, tol_lo, (float)X), U4 = clvox_bound_fast4f(xu, tol_up, (float)X);
+            const clvox_ovr4 y4 = y0 + (clvox_ovr)r;
+            /* max/min, not fmax/fmin: no root is NaN (finite face data,
+             * padding at -+inf) and they compile to single instructions. */
+            const clvox_ovr4 xl = max(max(lb0 + (y4 - lay[0]) * ls[0], lb1 + (y4 - lay[1]) * ls[1]),
+                                      lb2 + (y4 - lay[2]) * ls[2]);
+            const clvox_ovr4 xu = min(min(ub0 + (y4 - uay[0]) * us[0], ub1 + (y4 - uay[1]) * us[1]),
+                                      ub2 + (y4 - uay[2]) * us[2]);
+            const int4 L4 = clvox_bound4(xl, tol_lo, Xd), U4 = clvox_bound4(xu, tol_up, Xd);
+            /* Lanes with a row and a span that may be non-empty (or unknown). */
             const int4 live = ((int4)(r) < nr) & ((L4 < U4) | (L4 < 0) | (U4 < 0) | (int4)(ncst ? -1 : 0));
             if (!any(live)) continue;
-            int Ls[4], Us[4], lv[4], Js[4];
+            const int4 jr = j0 + r;
+            if (!ncst && !any(L4 < 0) && !any(U4 < 0)) {
+                /* The common case: every span known, live lanes non-empty.
+                 * Lanes taken apart statically (no private arrays indexed
+                 * at run time). */
+                size_t base = (size_t)(k4 - z0) * Y;
+                if (live.s0) clvox_span_xor(bits + (base + (size_t)jr.s0) * words_per_row, L4.s0, U4.s0, iX);
+                if (live.s1) clvox_span_xor(bits + (base + Y + (size_t)jr.s1) * words_per_row, L4.s1, U4.s1, iX);
+                if (live.s2) clvox_span_xor(bits + (base + 2 * Y + (size_t)jr.s2) * words_per_row, L4.s2, U4.s2, iX);
+                if (live.s3) clvox_span_xor(bits + (base + 3 * Y + (size_t)jr.s3) * words_per_row, L4.s3, U4.s3, iX);
+                continue;
+            }
+            int Ls[4], Us[4], Js[4], lv[4];
             vstore4(L4, 0, Ls);
             vstore4(U4, 0, Us);
+            vstore4(jr, 0, Js);
             vstore4(live, 0, lv);
-            vstore4(j0 + r, 0, Js);
             for (int q = 0; q < 4; q++) {
                 if (!lv[q]) continue;
                 const int j = Js[q];
                 const uint k = k4 + (uint)q;
-                const float yd = (float)j, kd = (float)k;
-                int out = 0;
-                for (int a = 0; a < ncst && !out; a++) /* faces with F constant along the row */
-                    out = clvox_face_sign_x(&f[cst_idx[a]], 0.0f, yd, kd) != f[cst_idx[a]].want;
-                if (out) continue;
-                const int L = Ls[q] >= 0 ? Ls[q] : clvox_group_bound_x(f, lo_idx, nlo, yd, kd, iX, 0);
-                const int U = Us[q] >= 0 ? Us[q] : clvox_group_bound_x(f, up_idx, nup, yd, kd, iX, 1);
+                const clvox_ovr yd = (clvox_ovr)j, kd = (clvox_ovr)k;
+                if (ncst && clvox_row_outside(f, cst_idx, ncst, yd, kd)) continue;
+                const int L = Ls[q] >= 0 ? Ls[q] : clvox_group_exact(f, lo_idx, nlo, yd, kd, iX, 0);
+                const int U = Us[q] >= 0 ? Us[q] : clvox_group_exact(f, up_idx, nup, yd, kd, iX, 1);
                 if (L >= U) continue;
                 clvox_span_xor(bits + ((size_t)(k - z0) * Y + (size_t)j) * words_per_row, L, U, iX);
             }
@@ -789,6 +740,8 @@ static void clvox_tetra_raster_body(global const float *soup, global const uint 
     }
 }
 
+/* The kernel: the body, then the launch's completion count (clvox_done,
+ * prelude.cl). */
 kernel void clvox_tetra_raster(global const float *soup, global const uint *tasks, uint task_count, float ox,
                                float oy, float oz, uint tie_order, uint z0, uint X, uint Y, uint words_per_row,
                                global uint *bits,
@@ -798,7 +751,6 @@ kernel void clvox_tetra_raster(global const float *soup, global const uint *task
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
-#endif /* CLVOX_FP64 */
 
 /* Prefix XOR along each row, in place: difference markers -> occupancy bits
  * (the slab format of src/core/internal.h, bits past X cleared), and the count

@@ -167,6 +167,7 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                                 global const uint *answers, uint n_answers)
 {
     uint gid = get_global_id(0);
+    if (!clvox_pass_column(&gid, &answers, n_answers)) return;
     if (gid >= col_count || R > CLVOX_COVERAGE_MAX_RAYS) return;
     const size_t r0 = (size_t)gid * R;
     for (uint r = 0; r < R; r++)

@@ -76,7 +76,8 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                                      global const clvox_real *caps, global uint *exact_points,
                                      global uint *unsure, global const uint *answers, uint n_answers)
 {
-    const uint gid = get_global_id(0);
+    uint gid = get_global_id(0);
+    if (!clvox_pass_column(&gid, &answers, n_answers)) return;
     const uint R = N * N, S = R * M, words = (S + 31u) / 32u;
     if (gid >= col_count || R > CLVOX_PALETTE_MAX_RAYS || words > CLVOX_PALETTE_MAX_WORDS ||
         n_elements > CLVOX_PALETTE_MAX_ELEMENTS || n_elements < 2)

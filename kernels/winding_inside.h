@@ -267,6 +267,21 @@ static inline uint clvox_unsure_answer(global const uint *answers, uint n, uint 
     return 2u;
 }
 
+/* A column run's second pass runs only the columns that have answers
+ * (src/cast/unsure.c resolve_columns): then answers[0] is their count n,
+ * answers[1 .. n] the columns, ascending, and the answers proper follow.
+ * Work-item *gid takes the *gid-th of them; 0: none left for it. On the
+ * first pass (n_answers 0) every work-item is its own column. */
+static inline int clvox_pass_column(uint *gid, global const uint **answers, uint n_answers)
+{
+    if (!n_answers) return 1;
+    const uint n = (*answers)[0];
+    if (*gid >= n) return 0;
+    *gid = (*answers)[1u + *gid];
+    *answers += 1u + n;
+    return 1;
+}
+
 /* The inside test of a column run's unsure sample: the host's answer where
  * there is one, else the sample goes to the host's list (and `guess`
  * stands until the second pass). */

@@ -119,7 +119,7 @@ clvox_status clvox__column_enqueue(clvox_context *ctx, cl_kernel k, const char *
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), m->unsure ? &m->unsure : NULL);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), c->answers ? &c->answers : NULL);
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &c->n_answers);
-    return clvox__consumer_launch(ctx, k, name, err, n_cols, 64, ev);
+    return clvox__consumer_launch(ctx, k, name, err, c->n_pass_cols ? c->n_pass_cols : n_cols, 64, ev);
 }
 
 clvox_status clvox__coverage_enqueue(clvox_context *ctx, const clvox__coverage *c, const clvox__winding_classify *w,

@@ -32,6 +32,7 @@ typedef struct clvox__coverage {
      * both column consumers) */
     cl_mem answers;
     cl_uint n_answers;
+    cl_uint n_pass_cols; /* the second pass's work-items: its columns (answers' head); 0: the batch's */
 } clvox__coverage;
 
 /* Also for palette runs (then without the coverage kernel). */

@@ -9,6 +9,7 @@
 #include "../../kernels/sampler.h"
 
 #include <stdlib.h>
+#include <string.h>
 
 /* The points a float device left unsure (kernels/winding_inside.h
  * clvox_unsure_push), decided on the host in double as the double kernels
@@ -185,8 +186,12 @@ static clvox_status resolve_columns(clvox__method_state *s, batch_set *b, const 
     clvox_context *ctx = s->ctx;
     double scale[3];
     const int exact = clvox__winding_scale(&s->grid, scale);
-    cl_uint *ans = malloc((count ? count : 1) * 3 * sizeof *ans);
-    if (!ans) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+    /* [n, the n columns with answers, the answers]: the second pass runs
+     * those columns only (clvox_pass_column); a column's voxels and tallies
+     * depend on its own samples alone, so the others keep the first pass's */
+    cl_uint *buf = malloc((1 + 4 * (count ? count : 1)) * sizeof *buf);
+    if (!buf) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
+    cl_uint *ans = buf + 1 + count; /* the columns take at most count words */
     for (size_t i = 0; i < count; i++) {
         const cl_uint *e = list + UNSURE_WORDS * i;
         ans[3 * i] = e[0];
@@ -194,10 +199,15 @@ static clvox_status resolve_columns(clvox__method_state *s, batch_set *b, const 
         ans[3 * i + 2] = e[3] | (sample_inside(s, b, e, scale, exact) ? 0x80000000u : 0u);
     }
     qsort(ans, count, 3 * sizeof *ans, cmp_answer);
+    cl_uint n = 0;
+    for (size_t i = 0; i < count; i++)
+        if (i == 0 || ans[3 * i] != ans[3 * (i - 1)]) buf[1 + n++] = ans[3 * i];
+    buf[0] = n;
+    memmove(buf + 1 + n, ans, 3 * count * sizeof *ans);
     clvox_status st = CLVOX_OK;
-    cl_mem mem = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 3 * count * sizeof *ans, ans, &st,
-                               "unsure answers");
-    free(ans);
+    cl_mem mem = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, (1 + n + 3 * count) * sizeof *buf, buf,
+                               &st, "unsure answers");
+    free(buf);
     const cl_uint head[2] = {0, b->mem.unsure_room};
     cl_uint again[2] = {0, 0};
     cl_int err = CL_SUCCESS;
@@ -208,12 +218,14 @@ static clvox_status resolve_columns(clvox__method_state *s, batch_set *b, const 
     if (st == CLVOX_OK) {
         s->cov.answers = mem;
         s->cov.n_answers = (cl_uint)count;
+        s->cov.n_pass_cols = n;
         clvox__launch_begin(ctx);
         st = s->palette ? clvox__palette_score_enqueue(ctx, &s->pal, &s->cov, &s->wind, &b->mem, b->n_cols, &b->t, NULL)
                         : clvox__coverage_enqueue(ctx, &s->cov, &s->wind, &b->mem, b->n_cols, &b->t, NULL);
         if (st == CLVOX_OK) st = clvox__launch_check(ctx);
         s->cov.answers = NULL;
         s->cov.n_answers = 0;
+        s->cov.n_pass_cols = 0;
     }
     const size_t k = b->n_cols;
     if (st == CLVOX_OK) {

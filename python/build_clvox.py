@@ -39,7 +39,8 @@ typedef struct clvox_context clvox_context;
 typedef struct clvox_context_options { size_t size; const char *device; int host_only; int float_kernels; ...; } clvox_context_options;
 typedef struct clvox_device_info {
     size_t size; uint32_t index; char name[128]; char platform[128]; char type[16]; char version[64];
-    uint32_t compute_units; uint64_t global_mem_bytes; uint64_t max_alloc_bytes; int fp64; ...;
+    uint32_t compute_units; uint64_t global_mem_bytes; uint64_t max_alloc_bytes; int fp64;
+    int kernels_float; float fp64_slowdown; ...;
 } clvox_device_info;
 clvox_status clvox_list_devices(clvox_device_info *out, size_t capacity, size_t *count);
 clvox_status clvox_context_create(const clvox_context_options *options, clvox_context **out);

@@ -118,7 +118,10 @@ def _device(d):
     return {"index": int(d.index), "name": ffi.string(d.name).decode(), "platform": ffi.string(d.platform).decode(),
             "type": ffi.string(d.type).decode(), "version": ffi.string(d.version).decode(),
             "compute_units": int(d.compute_units), "global_mem_bytes": int(d.global_mem_bytes),
-            "max_alloc_bytes": int(d.max_alloc_bytes), "fp64": bool(d.fp64)}
+            "max_alloc_bytes": int(d.max_alloc_bytes), "fp64": bool(d.fp64),
+            # a context's device: whether its kernels run in float (no fp64, float_kernels, or the
+            # speed rule: double measured fp64_slowdown times slower, 8 or more; docs/design.md)
+            "kernels_float": bool(d.kernels_float), "fp64_slowdown": float(d.fp64_slowdown)}
 
 
 def devices():

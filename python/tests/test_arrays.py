@@ -171,6 +171,11 @@ def test_float_kernels(ctx):
     c = ctx.voxelize((v, open_f), resolution=16, oversample=(3, 2), stochastic=True, seed=5)
     d = fk.voxelize((v, open_f), resolution=16, oversample=(3, 2), stochastic=True, seed=5)
     assert np.array_equal(c.coverage, d.coverage) and c.coverage.dtype == np.float32
+    # the device dicts say which build ran (kernels_float; the speed rule's ratio: 0 on a CPU)
+    dev = ctx.device
+    assert fk.device["kernels_float"]
+    assert dev["kernels_float"] == (not dev["fp64"] or dev["fp64_slowdown"] >= 8)
+    assert dev["type"] != "cpu" or dev["fp64_slowdown"] == 0.0
 
 
 def test_soup_crack_weld(ctx):

@@ -11,6 +11,8 @@
 #   --repeat R  runs per case, the best whole-process wall time is shown
 #               (default 3)
 #   --quick     armadillo and elephant-with-holes only
+#   --only TEXT the rows whose case name contains TEXT (e.g. tetra,
+#               coverage, "open")
 #
 # Cases: closed meshes (armadillo 52 k triangles, bunny00 75 k) in the
 # default mode (winding: on a closed mesh parity's voxels), --inside parity,
@@ -29,13 +31,14 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$here"
-res=256 cov_res=128 repeat=3 quick=0
+res=256 cov_res=128 repeat=3 quick=0 only=""
 while [ $# -gt 0 ]; do
   case "$1" in
     -r) res=${2:?-r needs a number}; shift ;;
     --cov-r) cov_res=${2:?--cov-r needs a number}; shift ;;
     --repeat) repeat=${2:?--repeat needs a number}; shift ;;
     --quick) quick=1 ;;
+    --only) only=${2:?--only needs a text}; shift ;;
     *) echo "unknown option $1" >&2; exit 2 ;;
   esac
   shift
@@ -62,6 +65,7 @@ best() { # best of $repeat wall times of: env VAR=VALUE... clvox ARGS
 
 row() { # NAME MESH ARGS... (ROW_RES=N: that resolution)
   local name=$1 mesh=$2 res=${ROW_RES:-$res}; shift 2
+  case "$name" in *"$only"*) ;; *) return ;; esac
   [ -f "data/meshes/$mesh.off" ] || { echo "| $name | $mesh | missing | | | |"; return; }
   local a="$out/double.exr" b="$out/float.exr"
   # warm both builds' program caches once

@@ -267,31 +267,16 @@ static inline void clvox_section4(const clvox_ovr *vy, const clvox_ovr *vz, clvo
 
 typedef clvox_tface clvox_face;
 
-/* The tetrahedron's four faces with their wanted signs (above); 0 when it
- * is flat and covers nothing. */
-static inline int clvox_tetra_faces(clvox_face *f, float ox, float oy, float oz, float a0, float a1, float a2,
-                                    float b0, float b1, float b2, float c0, float c1, float c2, uint tie_order)
+/* Sign of det[a-O; b-O; c-O] from face 0 = (O, a, b) in its canonical
+ * order (s0 relates the two), in double as the faces judge it. */
+static inline int clvox_tetra_orientation(const clvox_face *f0, int s0, float c0, float c1, float c2)
 {
-    /* Faces (O,a,b), (O,b,c), (O,c,a): inside, F_Oab, F_Obc, F_Oca all have
-     * the sign s of the tetrahedron's orientation det[a-O; b-O; c-O]. */
-    int s0 = clvox_face_internal(&f[0], ox, oy, oz, a0, a1, a2, b0, b1, b2, tie_order);
-    int s1 = clvox_face_internal(&f[1], ox, oy, oz, b0, b1, b2, c0, c1, c2, tie_order);
-    int s2 = clvox_face_internal(&f[2], ox, oy, oz, c0, c1, c2, a0, a1, a2, tie_order);
-    double vol = (double)s0 * (f[0].nx * ((double)c0 - f[0].ax) +
-                               (f[0].ny * ((double)c1 - f[0].ay) + f[0].nz * ((double)c2 - f[0].az)));
-    if (vol == 0.0) return 0; /* flat: covers nothing */
-    int s = vol > 0.0 ? 1 : -1;
-    f[0].want = s * s0;
-    f[1].want = s * s1;
-    f[2].want = s * s2;
-    /* Mesh face, vertices sorted: F_abc = par * F_sorted, and inside F_abc
-     * has the sign -s. */
-    float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
-    const int par = clvox_sort3(p, q, r);
-    clvox_face_set(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
-    f[3].want = -s * par;
-    return 1;
+    double vol = (double)s0 * (f0->nx * ((double)c0 - f0->ax) +
+                               (f0->ny * ((double)c1 - f0->ay) + f0->nz * ((double)c2 - f0->az)));
+    return vol > 0.0 ? 1 : (vol < 0.0 ? -1 : 0);
 }
+#define clvox_face_set_any clvox_face_set
+#define clvox_face_internal_any clvox_face_internal
 
 /* 1: F is constant along x (the face is parallel to x); 1: a lower face
  * (bounds the span from the left). */
@@ -523,25 +508,13 @@ static inline int4 clvox_bound_fast4f(float4 xe, float tol, float Xd)
 
 typedef clvox_tface_x clvox_face;
 
-/* The faces as in double, every sign exact: the tetrahedron's orientation,
- * the faces' sides and slopes. 0 when it is flat. */
-static inline int clvox_tetra_faces(clvox_face *f, float ox, float oy, float oz, float a0, float a1, float a2,
-                                    float b0, float b1, float b2, float c0, float c1, float c2, uint tie_order)
+/* Sign of det[a-O; b-O; c-O], exactly (clvox_o3_sign_pre on face 0). */
+static inline int clvox_tetra_orientation(const clvox_face *f0, int s0, float c0, float c1, float c2)
 {
-    int s0 = clvox_face_internal_x(&f[0], ox, oy, oz, a0, a1, a2, b0, b1, b2, tie_order);
-    int s1 = clvox_face_internal_x(&f[1], ox, oy, oz, b0, b1, b2, c0, c1, c2, tie_order);
-    int s2 = clvox_face_internal_x(&f[2], ox, oy, oz, c0, c1, c2, a0, a1, a2, tie_order);
-    const int s = s0 * clvox_o3_sign_pre(f[0].v, f[0].m, f[0].pm, c0, c1, c2); /* det[a-O; b-O; c-O] */
-    if (s == 0) return 0; /* flat: covers nothing */
-    f[0].want = s * s0;
-    f[1].want = s * s1;
-    f[2].want = s * s2;
-    float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
-    const int par = clvox_sort3(p, q, r);
-    clvox_face_set_x(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
-    f[3].want = -s * par;
-    return 1;
+    return s0 * clvox_o3_sign_pre(f0->v, f0->m, f0->pm, c0, c1, c2);
 }
+#define clvox_face_set_any clvox_face_set_x
+#define clvox_face_internal_any clvox_face_internal_x
 
 static inline int clvox_face_constant(const clvox_face *f) { return f->snx == 0; }
 static inline int clvox_face_lower(const clvox_face *f) { return f->want == f->snx; }
@@ -571,6 +544,30 @@ static inline int clvox_row_outside(const clvox_face *f, const int *cst, int ncs
 #endif /* CLVOX_FP64 */
 
 /* ---- the raster of one task, in either build ---- */
+
+/* The tetrahedron's four faces with the signs F must have inside; 0 when it
+ * is flat and covers nothing. Faces (O,a,b), (O,b,c), (O,c,a): inside,
+ * F_Oab, F_Obc, F_Oca all have the sign s of the tetrahedron's orientation
+ * det[a-O; b-O; c-O]. The mesh face, vertices sorted: F_abc = par *
+ * F_sorted, and inside F_abc has the sign -s. */
+static inline int clvox_tetra_faces(clvox_face *f, float ox, float oy, float oz, float a0, float a1, float a2,
+                                    float b0, float b1, float b2, float c0, float c1, float c2, uint tie_order)
+{
+    int s0 = clvox_face_internal_any(&f[0], ox, oy, oz, a0, a1, a2, b0, b1, b2, tie_order);
+    int s1 = clvox_face_internal_any(&f[1], ox, oy, oz, b0, b1, b2, c0, c1, c2, tie_order);
+    int s2 = clvox_face_internal_any(&f[2], ox, oy, oz, c0, c1, c2, a0, a1, a2, tie_order);
+    const int s = clvox_tetra_orientation(&f[0], s0, c0, c1, c2);
+    if (s == 0) return 0; /* flat: covers nothing */
+    f[0].want = s * s0;
+    f[1].want = s * s1;
+    f[2].want = s * s2;
+    float p[3] = {a0, a1, a2}, q[3] = {b0, b1, b2}, r[3] = {c0, c1, c2};
+    const int par = clvox_sort3(p, q, r);
+    clvox_face_set_any(&f[3], p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2], tie_order);
+    f[3].want = -s * par;
+    return 1;
+}
+
 
 /* tasks: 4 uints each (triangle, first slice, end slice, unused), slices in
  * grid z. bits: words_per_row words per row, row (k - z0) * Y + y.

@@ -1082,10 +1082,10 @@ static void test_mixed_precision(const mesh_case *mc)
 
 /* Both devices taken to run double 32x slower than float
  * (CLVOX_FP64_SLOWDOWN's hook): each gets the float build by the speed rule
- * (src/core/device_speed.c) and both take part in every run, the winding
- * test on voxels that are not cubes included: there each switches to the
- * double build. Every mode gives the one-device double volume, with no
- * warning. */
+ * (src/core/device_speed.c) and neither is left out of a run for its
+ * build, the winding test on voxels that are not cubes included: there
+ * each switches to the double build. Every mode gives the one-device
+ * double volume, with no warning. */
 static void test_speed_rule_set(const mesh_case *mc)
 {
     clvox__test_hooks h = g_hooks;
@@ -1129,10 +1129,12 @@ static void test_speed_rule_set(const mesh_case *mc)
         check_same(&ref, &c, what);
         const char *w = clvox_context_warnings(set);
         const size_t want = float_ok ? 4 : 8;
-        CHECK_MSG(!*w && st.device_count == 2 && !st.devices[0].left_out && !st.devices[1].left_out &&
-                      set->member[0]->real_size == want && set->member[1]->real_size == want,
-                  "%s: warnings '%s', kernels of %zu and %zu bytes (want %zu)", what, w, set->member[0]->real_size,
-                  set->member[1]->real_size, want);
+        /* no device left out for its build (that warns; the scheduler's
+         * own "too slow to pay" depends on the load and does not) */
+        CHECK_MSG(!*w && st.device_count == 2 && set->member[0]->real_size == want &&
+                      set->member[1]->real_size == want,
+                  "%s: warnings '%s', %u devices, kernels of %zu and %zu bytes (want %zu)", what, w,
+                  (unsigned)st.device_count, set->member[0]->real_size, set->member[1]->real_size, want);
         capture_free(&ref);
         capture_free(&c);
     }

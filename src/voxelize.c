@@ -421,7 +421,7 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         if (sd == CLVOX_ERR_NO_DEVICE && dc->float_for_speed && dc->real_size == 4) {
             sd = clvox__select_build(dc, 1);
             if (sd == CLVOX_OK) {
-                d--;
+                d--; /* the loop's d++: this device again, in double */
                 continue;
             }
         }

@@ -419,38 +419,41 @@ static clvox_status open_device(clvox_context *ctx, const device_entry *e)
     return st;
 }
 
+/* Puts program p, of the double build or the float one, in use: what
+ * follows from which build it is. */
+static void use_build(clvox_context *ctx, cl_program p, int is_double)
+{
+    ctx->program = p;
+    ctx->real_size = is_double ? 8 : 4;
+    ctx->kernels_float = !is_double;
+    ctx->device.kernels_float = !is_double;
+}
+
 clvox_status clvox__select_build(clvox_context *ctx, int need_double)
 {
-    if (!ctx->float_for_speed || (ctx->real_size == 8) == (need_double != 0)) return CLVOX_OK;
-    if (!ctx->program_other) { /* the other build, once */
-        cl_program mine = ctx->program;
+    need_double = need_double != 0;
+    if (!ctx->float_for_speed || (ctx->real_size == 8) == need_double) return CLVOX_OK;
+    cl_program other = ctx->program_other, mine = ctx->program;
+    if (!other) { /* the other build, once: built and checked in ctx's place */
         const int cached = ctx->program_cached;
         ctx->program = NULL;
         ctx->kernels_float = !need_double;
         clvox_status st = build_program(ctx);
         if (st == CLVOX_OK) st = query_real_size(ctx);
         if (st == CLVOX_OK) st = clvox__device_checks(ctx);
-        if (st != CLVOX_OK || (ctx->real_size == 8) != (need_double != 0)) {
-            if (ctx->program) clReleaseProgram(ctx->program);
-    if (ctx->program_other) clReleaseProgram(ctx->program_other);
-    ctx->program_other = NULL;
-            ctx->program = mine;
-            ctx->program_cached = cached;
-            ctx->kernels_float = need_double;
-            ctx->real_size = need_double ? 4 : 8;
-            return st != CLVOX_OK ? st
-                                  : clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the %s build of the kernels has reals of %zu bytes",
-                                                need_double ? "double" : "float", ctx->real_size);
+        if (st == CLVOX_OK && (ctx->real_size == 8) != need_double)
+            st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "the %s build of the kernels has reals of %zu bytes",
+                             need_double ? "double" : "float", ctx->real_size);
+        other = ctx->program;
+        ctx->program_cached = cached;
+        if (st != CLVOX_OK) {
+            if (other) clReleaseProgram(other);
+            use_build(ctx, mine, !need_double);
+            return st;
         }
-        ctx->program_other = mine;
-    } else {
-        cl_program t = ctx->program;
-        ctx->program = ctx->program_other;
-        ctx->program_other = t;
-        ctx->kernels_float = !need_double;
-        ctx->real_size = need_double ? 8 : 4;
     }
-    ctx->device.kernels_float = ctx->real_size == 4;
+    ctx->program_other = mine;
+    use_build(ctx, other, need_double);
     return CLVOX_OK;
 }
 

@@ -99,7 +99,7 @@ static inline int clvox_column_winding_setup(global const char *signs, global co
     }
     if (node_count == 0) return 0;
     clvox_real q0[3], q1[3];
-    clvox_scaled_box(axis, g0, g1, h, q0, q1);
+    clvox_cap_box(axis, g0, g1, h, q0, q1);
     return !clvox_caps_far(nodes, node_count, q0, q1, 16u);
 }
 
@@ -119,7 +119,7 @@ static inline uint clvox_column_far_until(uint j, uint next, const clvox_real *g
     uint e = j + 1u;
     for (int first = 1;; first = 0) {
         a1[0] = (clvox_real)(u_begin + e) - (clvox_real)0.5;
-        clvox_scaled_box(axis, a0, a1, h, q0, q1);
+        clvox_cap_box(axis, a0, a1, h, q0, q1);
         const int far = clvox_caps_far(nodes, node_count, q0, q1, CLVOX_COLUMN_BUDGET);
         if (first) {
             if (!far) return j;

@@ -110,7 +110,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
     /* the segment of the ray's centres, scaled */
     const clvox_real g0[3] = {(clvox_real)u_begin, rv, rw}, g1[3] = {(clvox_real)(u_begin + u_count - 1u), rv, rw};
     clvox_real q0[3], q1[3];
-    clvox_scaled_box(axis, g0, g1, h, q0, q1);
+    clvox_cap_box(axis, g0, g1, h, q0, q1);
     const int pairs = CLVOX_PAIR_TREE(nodes, node_count);
     const int far = !pairs && clvox_caps_far(nodes, node_count, q0, q1, 16u);
     uint j = 0, cnt = 0, word = 0;
@@ -164,7 +164,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                     const clvox_real r0[3] = {(clvox_real)(u_begin + a), rv, rw},
                                      r1[3] = {(clvox_real)(u_begin + b - 1u), rv, rw};
                     clvox_real p0[3], p1[3];
-                    clvox_scaled_box(axis, r0, r1, h, p0, p1);
+                    clvox_cap_box(axis, r0, r1, h, p0, p1);
                     if (rsp + 2u > CLVOX_RUN_STACK || clvox_caps_far(nodes, node_count, p0, p1, CLVOX_RUN_BUDGET)) {
                         /* (a full stack cannot happen: halving 2^32 centres takes 32 levels) */
                         clvox_emit_run(o, out_stride, bit, a, b, kin, &word, &cnt);
@@ -345,8 +345,9 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
-/* For tests/test_winding.c only: pair i's node nodes[node_of[i]] seen from
- * point pts[3i ..] (scaled x, y, z), 12 reals per pair: the estimate and
+/* For tests/test_winding.c and tests/test_float_kernels.c only: pair i's
+ * node nodes[node_of[i]] seen from point pts[3i ..] (scaled x, y, z; with
+ * the axis flags of voxels that are not cubes), 12 reals per pair: the estimate and
  * bound of clvox_cap_estimate, of clvox_cap_estimate2 (both lanes the same
  * node: lane 0, lane 1), the exact clvox_cap_node_exact and its factors,
  * and of clvox_cap_estimate4 with the node in lanes 0 and 3 (the root in
@@ -359,12 +360,13 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
     if (i >= count) return;
     global const clvox_cap_node *nd = nodes + node_of[i];
     const clvox_real px = pts[3 * i], py = pts[3 * i + 1], pz = pts[3 * i + 2];
+    const clvox_real dp = clvox_point_rounding(px, py, pz, 0u); /* the axis flags of voxels that are not cubes */
     clvox_real e[4], b[4], e1, b1;
     global clvox_real *o = out + (size_t)i * 12u;
-    clvox_cap_estimate(nd, px, py, pz, 1, &e1, &b1);
+    clvox_cap_estimate(nd, px, py, pz, dp, 1, &e1, &b1);
     o[0] = e1;
     o[1] = b1;
-    clvox_cap_estimate2(nd, nd, px, py, pz, 1, e, b);
+    clvox_cap_estimate2(nd, nd, px, py, pz, dp, 1, e, b);
     o[2] = e[0];
     o[3] = b[0];
     o[4] = e[1];
@@ -372,7 +374,7 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
     clvox_real err = 0;
     o[6] = clvox_cap_node_exact(nd, caps, px, py, pz, 0u, &err);
     o[7] = err;
-    clvox_cap_estimate4(nd, nodes, nodes, nd, px, py, pz, 1, e, b);
+    clvox_cap_estimate4(nd, nodes, nodes, nd, px, py, pz, dp, 1, e, b);
     o[8] = e[0];
     o[9] = b[0];
     o[10] = e[3];

@@ -61,6 +61,21 @@
 #define CLVOX_REAL_U 5.9604644775390625e-8f /* 2^-24 */
 #endif
 #define CLVOX_FACTOR_DELTA (128 * CLVOX_REAL_U)
+/* On voxels that are not cubes the scaled coordinates are rounded: a
+ * float device's point p (the grid's coordinates times the float scale,
+ * rounded) lies within this of the double kernels' (times the double
+ * scale, rounded): u |p| for its own rounding, u |p| for the scale's, and
+ * the double's 2^-53 |p|, in the 1-norm, which bounds the 2-norm. 0 on
+ * cubic voxels (CLVOX_EXACT_SIGNS: both exact) and in double. */
+static inline clvox_real clvox_point_rounding(clvox_real px, clvox_real py, clvox_real pz, uint axis)
+{
+#if defined(CLVOX_FP64)
+    (void)px, (void)py, (void)pz, (void)axis;
+    return 0;
+#else
+    return (axis & CLVOX_EXACT_SIGNS) ? 0 : (clvox_real)2.5f * CLVOX_REAL_U * (fabs(px) + fabs(py) + fabs(pz));
+#endif
+}
 /* The sums of up to CLVOX_CAP_STACK (+ a few) bounds, rounded: a relative
  * error below (n + 8) u. */
 #if defined(CLVOX_FP64)
@@ -314,9 +329,36 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
      * (exact det == 0) multiplies by 1 exactly; its tie needs den's sign,
      * certain where |den| > 2 delta. */
     {
-        const clvox_real4 rho = (dfac * delta) / (hypot(den, det) * 0.9999f); /* hypot: no overflow */
+        clvox_real4 dl = delta;
+        const int exact_signs = (axis & CLVOX_EXACT_SIGNS) != 0;
+        clvox_mask4 lost = (clvox_mask4)0;
+        if (!exact_signs) {
+            /* Voxels that are not cubes: the corners and p are the double
+             * kernels' rounded to floats (clvox_point_rounding), so each
+             * difference a is off by eta_a <= u (1.1 |a|_1 + 3.5 |p|_1) in
+             * the 2-norm besides its own rounding. den and det move by at
+             * most 5 (eta_a lb lc + eta_b la lc + eta_c la lb) to first
+             * order (|grad_a den| <= 4 lb lc: the gradients of la lb lc,
+             * (a.b) lc, (b.c) la and (c.a) lb, each at most lb lc;
+             * |grad_a det| = |b x c| <= lb lc), 5.5 with the higher orders
+             * while every eta is at most 1/100 of its length (else nothing
+             * is bounded). No exact sign here: a det within dl of 0 where
+             * den is not surely positive may lie across the cut, and a
+             * flat lane's tie may be wrong -- both unbounded (the host
+             * decides). */
+            const clvox_real pn = fabs(px) + fabs(py) + fabs(pz);
+            const clvox_real4 ea = CLVOX_REAL_U * ((clvox_real)1.1f * (fabs(ax) + fabs(ay) + fabs(az)) + 3.5f * pn);
+            const clvox_real4 eb = CLVOX_REAL_U * ((clvox_real)1.1f * (fabs(bx) + fabs(by) + fabs(bz)) + 3.5f * pn);
+            const clvox_real4 ec = CLVOX_REAL_U * ((clvox_real)1.1f * (fabs(cx) + fabs(cy) + fabs(cz)) + 3.5f * pn);
+            dl = delta + 5.5f * (ea * lb * lc + eb * la * lc + ec * la * lb);
+            lost = (ea > 0.01f * la) | (eb > 0.01f * lb) | (ec > 0.01f * lc) | ((fabs(det) <= dl) & (den <= dl));
+        }
+        const clvox_real4 rho = (dfac * dl) / (hypot(den, det) * 0.9999f); /* hypot: no overflow */
         clvox_real4 e = select((clvox_real4)CLVOX_ERR_UNBOUNDED, rho * 1.05f + 3 * CLVOX_REAL_U, rho <= 0.5f);
-        e = select(e, select((clvox_real4)CLVOX_ERR_UNBOUNDED, zero, fabs(den) > delta), flat);
+        /* a flat lane: with exact signs and den < 0, det is exactly 0 (clvox_det_signs) and the tie exact;
+         * with den > dl, f lies within dl of den > 0: the bound above */
+        e = select(e, select((clvox_real4)CLVOX_ERR_UNBOUNDED, select(e, zero, den < zero), fabs(den) > dl), flat);
+        e = select(e, (clvox_real4)CLVOX_ERR_UNBOUNDED, lost);
         a->err += select(e, zero, past);
     }
 #endif

@@ -159,7 +159,8 @@ static inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_c
  * per axis is max(lo - p, p - hi, 0), exactly its branches' value). */
 static inline void clvox_cap_estimate4(global const clvox_cap_node *k, global const clvox_cap_node *l,
                                        global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
-                                       clvox_real py, clvox_real pz, int pairs, clvox_real *est, clvox_real *err)
+                                       clvox_real py, clvox_real pz, clvox_real dp, int pairs, clvox_real *est,
+                                       clvox_real *err)
 {
 #define CLVOX_N4(f) ((clvox_real4)(k->f, l->f, m->f, n->f))
     const clvox_real4 zero = (clvox_real4)0;
@@ -178,16 +179,33 @@ static inline void clvox_cap_estimate4(global const clvox_cap_node *k, global co
         const clvox_real4 gs = fmax(g, zero) * (clvox_real)(1 - 1e-6);
         db2 = select(db2, fmax(db2, gs * gs), pair);
     }
+#if !defined(CLVOX_FP64)
+    if (dp > 0) { /* the true point lies within dp of p: its box distance at least this less dp */
+        const clvox_real4 db = sqrt(db2) * (clvox_real)(1 - 1e-6) - dp;
+        db2 = select(zero, db * db, db > zero);
+    }
+#endif
     const clvox_real4 a = CLVOX_N4(area4pi), cap = CLVOX_N4(half_count);
     const clvox_real4 bb = a / db2 * (clvox_real)1.000001;
     const clvox_real4 b0 = select(select(cap, bb, bb < cap), cap, db2 == zero);
     const clvox_real4 x = CLVOX_N4(centre[0]) - px, y = CLVOX_N4(centre[1]) - py, z = CLVOX_N4(centre[2]) - pz;
     const clvox_real4 d2 = x * x + y * y + z * z, d = sqrt(d2);
+#if defined(CLVOX_FP64)
     const clvox_real4 dm = d * (1 - (clvox_real)CLVOX_EST_DREL) - r;
+#else
+    const clvox_real4 dm = d * (1 - (clvox_real)CLVOX_EST_DREL) - r - dp;
+#endif
     const clvox_real4 idr = (clvox_real)1 / dm, idr2 = idr * idr;
-    const clvox_real4 e1 = a * idr2 * ((2 * r) * idr * (clvox_real)CLVOX_EST_ROUND + (clvox_real)CLVOX_EST_M0);
-    const clvox_real4 e2 = (3 * CLVOX_N4(second4pi)) * (idr2 * idr2) * (clvox_real)CLVOX_EST_ROUND +
-                           a * idr2 * ((clvox_real)CLVOX_EST_M0 + (clvox_real)CLVOX_EST_M1 * r * idr);
+    clvox_real4 e1 = a * idr2 * ((2 * r) * idr * (clvox_real)CLVOX_EST_ROUND + (clvox_real)CLVOX_EST_M0);
+    clvox_real4 e2 = (3 * CLVOX_N4(second4pi)) * (idr2 * idr2) * (clvox_real)CLVOX_EST_ROUND +
+                     a * idr2 * ((clvox_real)CLVOX_EST_M0 + (clvox_real)CLVOX_EST_M1 * r * idr);
+#if !defined(CLVOX_FP64)
+    if (dp > 0) { /* w_node moves by at most |grad w_node| dp <= 2 a dp / dm^3 between p and the true point */
+        const clvox_real4 move = (2 * dp * (clvox_real)CLVOX_EST_ROUND) * a * (idr2 * idr);
+        e1 += move;
+        e2 += move;
+    }
+#endif
     const clvox_real4 id = (clvox_real)1 / d, id2 = id * id, id3 = id2 * id;
     const clvox_real4 nx = CLVOX_N4(normal4pi[0]) * x + CLVOX_N4(normal4pi[1]) * y + CLVOX_N4(normal4pi[2]) * z;
     const clvox_real4 qf =
@@ -207,10 +225,10 @@ static inline void clvox_cap_estimate4(global const clvox_cap_node *k, global co
 /* The same for one node (the root; a frontier's odd one out): every lane
  * the node, one body for all. */
 static inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real px, clvox_real py, clvox_real pz,
-                                      int pairs, clvox_real *est, clvox_real *err)
+                                      clvox_real dp, int pairs, clvox_real *est, clvox_real *err)
 {
     clvox_real e[4], b[4];
-    clvox_cap_estimate4(n, n, n, n, px, py, pz, pairs, e, b);
+    clvox_cap_estimate4(n, n, n, n, px, py, pz, dp, pairs, e, b);
     *est = e[0];
     *err = b[0];
 }
@@ -218,10 +236,11 @@ static inline void clvox_cap_estimate(global const clvox_cap_node *n, clvox_real
 /* The same for two nodes (a node's children): lanes 2 and 3 repeat them
  * (on the CPU devices a vector of four doubles costs what one of two does). */
 static inline void clvox_cap_estimate2(global const clvox_cap_node *m, global const clvox_cap_node *n, clvox_real px,
-                                       clvox_real py, clvox_real pz, int pairs, clvox_real *est, clvox_real *err)
+                                       clvox_real py, clvox_real pz, clvox_real dp, int pairs, clvox_real *est,
+                                       clvox_real *err)
 {
     clvox_real e[4], b[4];
-    clvox_cap_estimate4(m, n, m, n, px, py, pz, pairs, e, b);
+    clvox_cap_estimate4(m, n, m, n, px, py, pz, dp, pairs, e, b);
     est[0] = e[0];
     est[1] = e[1];
     err[0] = b[0];

@@ -53,6 +53,7 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
     *wlo = *whi = (clvox_real)K;
     if (node_count == 0) return abs_mode ? K != 0 : K >= 1;
     const int pairs = CLVOX_PAIR_TREE(nodes, node_count); /* the slab bounds only where there are pairs */
+    const clvox_real dp = clvox_point_rounding(px, py, pz, axis);
     uint stack[CLVOX_CAP_STACK];
     clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
     uint ex[CLVOX_CUT_MAX];
@@ -76,14 +77,14 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
         uint i = 0; /* the frontier's estimates, four or two at a time */
         for (; i + 3u < sp; i += 4u)
             clvox_cap_estimate4(nodes + stack[i], nodes + stack[i + 1u], nodes + stack[i + 2u], nodes + stack[i + 3u],
-                                px, py, pz, pairs, se + i, sb + i);
+                                px, py, pz, dp, pairs, se + i, sb + i);
         for (; i + 1u < sp; i += 2u)
-            clvox_cap_estimate2(nodes + stack[i], nodes + stack[i + 1u], px, py, pz, pairs, se + i, sb + i);
-        if (i < sp) clvox_cap_estimate(nodes + stack[i], px, py, pz, pairs, &se[i], &sb[i]);
+            clvox_cap_estimate2(nodes + stack[i], nodes + stack[i + 1u], px, py, pz, dp, pairs, se + i, sb + i);
+        if (i < sp) clvox_cap_estimate(nodes + stack[i], px, py, pz, dp, pairs, &se[i], &sb[i]);
         S = clvox_angles_value(&all, &serr);
     } else {
         stack[sp] = 0;
-        clvox_cap_estimate(nodes, px, py, pz, pairs, &se[sp], &sb[sp]);
+        clvox_cap_estimate(nodes, px, py, pz, dp, pairs, &se[sp], &sb[sp]);
         sp++;
     }
     uint extra = 0;
@@ -199,7 +200,7 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
         } else {
             stack[sp] = child;
             stack[sp + 1u] = child + 1u;
-            clvox_cap_estimate2(nodes + child, nodes + child + 1u, px, py, pz, pairs, se + sp, sb + sp);
+            clvox_cap_estimate2(nodes + child, nodes + child + 1u, px, py, pz, dp, pairs, se + sp, sb + sp);
             Br += sb[sp] + sb[sp + 1u];
             Er += se[sp] + se[sp + 1u];
             sp += 2u;

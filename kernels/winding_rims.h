@@ -166,3 +166,23 @@ static inline void clvox_scaled_box(uint axis, const clvox_real *g0, const clvox
     clvox_scaled_xyz(axis, g0[0], g0[1], g0[2], h, &q0[0], &q0[1], &q0[2]);
     clvox_scaled_xyz(axis, g1[0], g1[1], g1[2], h, &q1[0], &q1[1], &q1[2]);
 }
+
+/* clvox_scaled_box for the caps' bounds over a box: on voxels that are not
+ * cubes (h[3] == 0) a float device's box is widened by the scaled
+ * coordinates' rounding (clvox_point_rounding), so that it holds the
+ * double kernels' points too. */
+static inline void clvox_cap_box(uint axis, const clvox_real *g0, const clvox_real *g1, global const clvox_real *h,
+                                 clvox_real *q0, clvox_real *q1)
+{
+    clvox_scaled_box(axis, g0, g1, h, q0, q1);
+#if !defined(CLVOX_FP64)
+    if (h[3] == 0) {
+        const clvox_real d = fmax(clvox_point_rounding(q0[0], q0[1], q0[2], 0u),
+                                  clvox_point_rounding(q1[0], q1[1], q1[2], 0u)) * (clvox_real)1.01f;
+        for (uint a = 0; a < 3u; a++) {
+            q0[a] -= d;
+            q1[a] += d;
+        }
+    }
+#endif
+}

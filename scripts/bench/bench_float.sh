@@ -18,7 +18,8 @@
 # default mode (winding: on a closed mesh parity's voxels), --inside parity,
 # --method tetra, --mode surface; open meshes of the winding benchmark
 # (elephant-with-holes, holes, cylinder, mech-holes-shark, mushroom,
-# nefertiti, b9_mesh) in the default mode; coverage (grey levels, the
+# nefertiti, b9_mesh) in the default mode, on cubic voxels and on voxels
+# that are not cubes (the box divided into N x 0.8 N x 0.7 N); coverage (grey levels, the
 # default winding test): the closed meshes with 3^3 samples uniform and 2x2
 # rays x 3 points stochastic, elephant-with-holes, holes and cylinder with
 # 2^3 samples; the planar10 palette with 4x4 samples on armadillo (64^3)
@@ -63,8 +64,10 @@ best() { # best of $repeat wall times of: env VAR=VALUE... clvox ARGS
   printf '%.2f' "$b"
 }
 
-row() { # NAME MESH ARGS... (ROW_RES=N: that resolution)
+row() { # NAME MESH ARGS... (ROW_RES=N: that resolution; ROW_DIMS=X,Y,Z: --dims instead)
   local name=$1 mesh=$2 res=${ROW_RES:-$res}; shift 2
+  local grid=(-r "$res") label="$res^3"
+  if [ -n "${ROW_DIMS:-}" ]; then grid=(--dims "$ROW_DIMS"); label="${ROW_DIMS//,/x}"; fi
   case "$name" in *"$only"*) ;; *) return ;; esac
   [ -f "data/meshes/$mesh.off" ] || { echo "| $name | $mesh | missing | | | |"; return; }
   local a="$out/double.exr" b="$out/float.exr"
@@ -72,8 +75,8 @@ row() { # NAME MESH ARGS... (ROW_RES=N: that resolution)
   "$bin" "data/meshes/$mesh.off" -r 8 -q -o "$out/warm.exr" "$@" > /dev/null 2>&1 || true
   CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" -r 8 -q -o "$out/warm.exr" "$@" > /dev/null 2>&1 || true
   local td tf
-  td=$(best CLVOX_KERNEL_FLOAT=0 "$bin" "data/meshes/$mesh.off" -r "$res" -q -o "$a" "$@")
-  tf=$(best CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" -r "$res" -q -o "$b" "$@")
+  td=$(best CLVOX_KERNEL_FLOAT=0 "$bin" "data/meshes/$mesh.off" "${grid[@]}" -q -o "$a" "$@")
+  tf=$(best CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" "${grid[@]}" -q -o "$b" "$@")
   local same ratio="-"
   if [ "$td" = fail ] || [ "$tf" = fail ]; then same="run failed: $(head -c 200 "$out/err")"
   elif cmp -s "$a" "$b"; then same="identical"
@@ -81,9 +84,9 @@ row() { # NAME MESH ARGS... (ROW_RES=N: that resolution)
   [ "$td" != fail ] && [ "$tf" != fail ] && ratio=$(printf '%.2f' "$(echo "$tf / $td" | bc -l)")
   # the float run's points decided on the host (winding runs), one more run
   local host
-  host=$(CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" -r "$res" -o "$b" --json "$@" 2>/dev/null |
+  host=$(CLVOX_KERNEL_FLOAT=1 "$bin" "data/meshes/$mesh.off" "${grid[@]}" -o "$b" --json "$@" 2>/dev/null |
          grep -o '"host_points":[0-9]*' | cut -d: -f2 || true)
-  echo "| $name | $mesh $res^3 | $td | $tf | $ratio | $same | ${host:--} |"
+  echo "| $name | $mesh $label | $td | $tf | $ratio | $same | ${host:--} |"
 }
 
 {
@@ -100,6 +103,10 @@ row() { # NAME MESH ARGS... (ROW_RES=N: that resolution)
     row "surface" "$m" --mode surface
   done
   for m in $open; do row "default (winding), open" "$m"; done
+  # voxels that are not cubes: the box divided into res x 0.8 res x 0.7 res
+  for m in $open; do
+    ROW_DIMS="$res,$((res * 4 / 5)),$((res * 7 / 10))" row "default (winding), open, voxels not cubes" "$m"
+  done
   for m in $closed; do
     ROW_RES=$cov_res row "coverage 3^3" "$m" --oversample 3
     ROW_RES=$cov_res row "coverage 2x2x3 stochastic" "$m" --oversample 2,3 --stochastic
@@ -107,6 +114,8 @@ row() { # NAME MESH ARGS... (ROW_RES=N: that resolution)
   cov_open="elephant-with-holes holes cylinder"
   [ "$quick" = 1 ] && cov_open=elephant-with-holes
   for m in $cov_open; do ROW_RES=$cov_res row "coverage 2^3, open" "$m" --oversample 2; done
+  ROW_DIMS="$cov_res,$((cov_res * 4 / 5)),$((cov_res * 7 / 10))" row "coverage 2^3, open, voxels not cubes" \
+    elephant-with-holes --oversample 2
   ROW_RES=64 row "palette planar10 4x4" armadillo --palette planar10 --samples 4,4
   ROW_RES=48 row "palette planar10 4x4, open" elephant-with-holes --palette planar10 --samples 4,4
 } | tee "$md"

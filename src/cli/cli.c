@@ -123,7 +123,9 @@ static int cmd_list_devices(void)
     }
     if (count > 1)
         printf("\nOne run can use several devices: --device 0,1 (indices, types or names) or --device all.\n%s",
-               kinds == 3 ? "Devices without fp64 share every run with the others (the same voxels).\n" : "");
+               kinds == 3 ? "Devices without fp64 share every run with the others (the same voxels) but coverage and "
+                            "palette runs,\nand winding runs on voxels that are not cubes, which leave them out.\n"
+                          : "");
     free(devs);
     return EXIT_OK;
 }

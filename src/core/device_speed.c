@@ -2,8 +2,9 @@
 /* Which build of the kernels a device with fp64 gets: by speed, not only
  * by capability (issue 37).
  *
- * Every mode gives the same voxels in either build (docs/design.md
- * "Devices without double precision"). The float build does more work per point (bounds, exact
+ * Every mode gives the same voxels in either build but one, the winding
+ * test on voxels that are not cubes (docs/design.md "Devices without double
+ * precision"). The float build does more work per point (bounds, exact
  * signs, the host's unsure points): on PoCL it takes 1.0-1.6x the double
  * build's time, 2x on a palette of an open mesh. A GPU whose double
  * arithmetic runs at 1/16 to 1/64 of its float (most consumer cards) gains

@@ -188,28 +188,37 @@ static void compare_mesh(const char *name, const clvox_mesh *mesh, const clvox_g
 
 static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g);
 
-/* w at p of the triangles, in long double (van Oosterom-Strackee). */
+/* The solid angle / 4pi of triangle t (9 doubles: a, b, c) seen from p, in long double
+ * (van Oosterom-Strackee). */
+static long double ref_cap(const double *t, const double p[3])
+{
+    long double a[3], b[3], c[3];
+    for (int k = 0; k < 3; k++) {
+        a[k] = (long double)t[k] - p[k];
+        b[k] = (long double)t[3 + k] - p[k];
+        c[k] = (long double)t[6 + k] - p[k];
+    }
+    const long double la = sqrtl(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    const long double lb = sqrtl(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    const long double lc = sqrtl(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    const long double det = a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) +
+                            a[2] * (b[0] * c[1] - b[1] * c[0]);
+    const long double den = la * lb * lc + (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * lc +
+                            (b[0] * c[0] + b[1] * c[1] + b[2] * c[2]) * la + (c[0] * a[0] + c[1] * a[1] + c[2] * a[2]) * lb;
+    return 2 * atan2l(det, den) / (4 * 3.14159265358979323846264338327950288L);
+}
+
+/* w at p of the triangles, in long double. */
 static long double ref_w(const tmesh *m, const double p[3])
 {
     long double w = 0;
     for (size_t t = 0; t < m->nt; t++) {
-        long double a[3], b[3], c[3];
-        for (int k = 0; k < 3; k++) {
-            a[k] = (long double)m->xyz[3 * m->tri[3 * t] + k] - p[k];
-            b[k] = (long double)m->xyz[3 * m->tri[3 * t + 1] + k] - p[k];
-            c[k] = (long double)m->xyz[3 * m->tri[3 * t + 2] + k] - p[k];
-        }
-        const long double la = sqrtl(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-        const long double lb = sqrtl(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
-        const long double lc = sqrtl(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-        const long double det = a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) +
-                                a[2] * (b[0] * c[1] - b[1] * c[0]);
-        const long double den = la * lb * lc + (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * lc +
-                                (b[0] * c[0] + b[1] * c[1] + b[2] * c[2]) * la +
-                                (c[0] * a[0] + c[1] * a[1] + c[2] * a[2]) * lb;
-        w += 2 * atan2l(det, den);
+        double v[9];
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++) v[3 * c + k] = m->xyz[3 * m->tri[3 * t + c] + k];
+        w += ref_cap(v, p);
     }
-    return w / (4 * 3.14159265358979323846264338327950288L);
+    return w;
 }
 
 /* The box [2.3, 13.7] x [3.1, 12.9] x [2.7, top] without its top face (10
@@ -456,25 +465,6 @@ static void test_range_refused(void)
     free(buf);
     clvox_mesh_destroy(mesh);
     tmesh_free(&m);
-}
-
-/* The solid angle / 4pi of triangle (a, b, c) seen from p, in long double. */
-static long double ref_cap(const double *t, const double p[3])
-{
-    long double a[3], b[3], c[3];
-    for (int k = 0; k < 3; k++) {
-        a[k] = (long double)t[k] - p[k];
-        b[k] = (long double)t[3 + k] - p[k];
-        c[k] = (long double)t[6 + k] - p[k];
-    }
-    const long double la = sqrtl(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-    const long double lb = sqrtl(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
-    const long double lc = sqrtl(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-    const long double det = a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) +
-                            a[2] * (b[0] * c[1] - b[1] * c[0]);
-    const long double den = la * lb * lc + (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * lc +
-                            (b[0] * c[0] + b[1] * c[1] + b[2] * c[2]) * la + (c[0] * a[0] + c[1] * a[1] + c[2] * a[2]) * lb;
-    return 2 * atan2l(det, den) / (4 * 3.14159265358979323846264338327950288L);
 }
 
 /* The float build's cap values and estimates on voxels that are not cubes

@@ -95,13 +95,12 @@ typedef struct clvox_context_options {
     int host_only;
     /* appended in 0.3: 1 = build every device's kernels without double
      * precision, as on a device without cl_khr_fp64 (which always gets
-     * them): the same voxels in every mode but the winding test on voxels
-     * that are not cubes (docs/design.md "Devices
+     * them): the same voxels in every mode (docs/design.md "Devices
      * without double precision"), and faster where double is slow (most
      * consumer GPUs run it at 1/16 to 1/64 of float). 0: by speed: double
      * where the device has it, unless its double measures 8 or more times
-     * slower than its float (then float for every run where float gives
-     * the same voxels; clvox_device_info.kernels_float). */
+     * slower than its float (then float, but for a mesh with a coordinate
+     * outside float's exact range; clvox_device_info.kernels_float). */
     int float_kernels;
 } clvox_context_options;
 #define CLVOX_CONTEXT_OPTIONS_INIT { sizeof(clvox_context_options), NULL, 0, 0 }
@@ -124,8 +123,8 @@ typedef struct clvox_device_info {
      * 0 in clvox_list_devices): 1 when the context runs the kernels in
      * float there: the device has no fp64, float_kernels asked for it, or
      * its double arithmetic measured 8 or more times slower than its float
-     * (then a run whose mode needs double switches to it: the winding test
-     * on voxels that are not cubes). The voxels are the same either way
+     * (then a run whose mesh has a coordinate outside float's exact range
+     * switches to double). The voxels are the same either way
      * (docs/design.md "Which build a device gets"). */
     int kernels_float;
     /* how many times slower the device ran double than float (the same

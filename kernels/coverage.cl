@@ -143,15 +143,18 @@ typedef struct clvox_sample_cut {
 
 static inline int clvox_sample_winding(int K, uint abs_mode, uint axis, clvox_real u, global const clvox_ray *ray,
                                        global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                       global const clvox_real *caps, uint *exact, clvox_sample_cut *sc)
+                                       global const clvox_real *caps, global const float *gcaps, uint *exact,
+                                       clvox_sample_cut *sc)
 {
-    clvox_real x, y, z, lo, hi;
+    clvox_real x, y, z, lo, hi, g[3];
     clvox_scaled_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, h, &x, &y, &z);
-    /* the exact signs on cubic voxels (h[3]; the samples are floats,
+    /* the exact signs on the grid's floats (the samples are floats,
      * clvox_sample_u); the float build's unsure answers (CLVOX_UNSURE) go
      * to the host (clvox_unsure_sample) */
-    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, x, y, z, axis | CLVOX_AXIS_FLAGS(h[3]), 0u,
-                                    exact, &lo, &hi, sc->cut, &sc->n, &sc->fresh_exact);
+    clvox_grid_xyz(axis, u, (clvox_real)ray->v, (clvox_real)ray->w, g);
+    return clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, gcaps, g, x, y, z,
+                                    axis | CLVOX_AXIS_FLAGS(h[3]), 0u, exact, &lo, &hi, sc->cut, &sc->n,
+                                    &sc->fresh_exact);
 }
 
 static void clvox_coverage_body(global const clvox_column *cols, uint col_count, uint R, uint M,
@@ -163,7 +166,8 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                                 global ulong *col_sum, global uint *col_filled,
                                 global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
                                 global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, global uint *exact_points, global uint *unsure,
+                                global const clvox_real *caps, global const float *gcaps,
+                                global uint *exact_points, global uint *unsure,
                                 global const uint *answers, uint n_answers)
 {
     uint gid = get_global_id(0);
@@ -239,7 +243,7 @@ static void clvox_coverage_body(global const clvox_column *cols, uint col_count,
                             continue;
                         }
                         const int in = clvox_sample_winding(K, abs_mode, axis, p, rays + r0 + r, h, nodes,
-                                                            node_count, caps, &exact, &sc);
+                                                            node_count, caps, gcaps, &exact, &sc);
                         cnt += in & CLVOX_UNSURE
                                    ? clvox_unsure_sample(unsure, answers, n_answers, gid, j, K, (r << 8) | m,
                                                          (uint)in & 1u)
@@ -285,13 +289,14 @@ kernel void clvox_coverage(global const clvox_column *cols, uint col_count, uint
                            global ulong *col_sum, global uint *col_filled,
                            global const char *signs, global const clvox_ray *rays, uint abs_mode, uint axis,
                            global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                           global const clvox_real *caps, global uint *exact_points, global uint *unsure,
+                           global const clvox_real *caps, global const float *gcaps,
+                           global uint *exact_points, global uint *unsure,
                            global const uint *answers, uint n_answers,
                            global uint *clvox_done, uint clvox_done_slot)
 {
     clvox_coverage_body(cols, col_count, R, M, hits, counts, capacity, u_begin, u_count, stochastic, seed_lo, seed_hi,
         value_of_count, occ_min, X, W, vox_stride, out_stride, coverage, occupancy, col_sum, col_filled, signs, rays,
-        abs_mode, axis, h, nodes, node_count, caps, exact_points, unsure, answers, n_answers);
+        abs_mode, axis, h, nodes, node_count, caps, gcaps, exact_points, unsure, answers, n_answers);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 

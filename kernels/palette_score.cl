@@ -73,7 +73,8 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                                      global uint *pstats, global ulong *col_volume,
                                      global const char *signs, global const clvox_ray *rays, uint abs_mode,
                                      global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                     global const clvox_real *caps, global uint *exact_points,
+                                     global const clvox_real *caps, global const float *gcaps,
+                                     global uint *exact_points,
                                      global uint *unsure, global const uint *answers, uint n_answers)
 {
     uint gid = get_global_id(0);
@@ -163,7 +164,7 @@ static void clvox_palette_score_body(global const clvox_column *cols, uint col_c
                             if (near) {
                                 /* a float build's unsure sample: the host decides (src/cast/unsure.c) */
                                 const int w = clvox_sample_winding(K, abs_mode, axis - 1u, p, rays + r0 + r, h, nodes,
-                                                                   node_count, caps, &exact, &sc);
+                                                                   node_count, caps, gcaps, &exact, &sc);
                                 in = (uint)w & 1u;
                                 if (w & CLVOX_UNSURE)
                                     in = clvox_unsure_sample(unsure, answers, n_answers, gid, j, K, (r << 8) | m, in);
@@ -284,7 +285,8 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
                                 global uint *pstats, global ulong *col_volume,
                                 global const char *signs, global const clvox_ray *rays, uint abs_mode,
                                 global const clvox_real *h, global const clvox_cap_node *nodes, uint node_count,
-                                global const clvox_real *caps, global uint *exact_points, global uint *unsure,
+                                global const clvox_real *caps, global const float *gcaps,
+                                global uint *exact_points, global uint *unsure,
                                 global const uint *answers, uint n_answers,
                                 global uint *clvox_done, uint clvox_done_slot)
 {
@@ -292,6 +294,6 @@ kernel void clvox_palette_score(global const clvox_column *cols, uint col_count,
         seed_hi, axis, elements, cells, planes, n_elements, use_masks, masks, metric, early_out, sc_lo, sc_hi,
         value_of_count, occ_min, X, W, vox_stride, out_stride, element_out, score_out, coverage, occupancy,
         volume_fixed, col_sum, col_filled, pstats, col_volume, signs, rays, abs_mode, h, nodes, node_count, caps,
-        exact_points, unsure, answers, n_answers);
+        gcaps, exact_points, unsure, answers, n_answers);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }

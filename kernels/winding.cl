@@ -33,16 +33,17 @@ static inline void clvox_winding_advance(global const clvox_real *hh, global con
  * evaluation's tree cut (clvox_winding_inside_cut); an unsure answer goes
  * to the host's list too. */
 static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                   global const clvox_real *caps, uint axis, global const clvox_real *h,
-                                   global uint *unsure, uint gid, uint u_begin, uint j, clvox_real rv, clvox_real rw,
-                                   uint tight, uint *exact, clvox_real *lo, clvox_real *hi, uint *cut, uint *cut_n,
-                                   uint *fresh_exact)
+                                   global const clvox_real *caps, global const float *gcaps, uint axis,
+                                   global const clvox_real *h, global uint *unsure, uint gid, uint u_begin, uint j,
+                                   clvox_real rv, clvox_real rw, uint tight, uint *exact, clvox_real *lo,
+                                   clvox_real *hi, uint *cut, uint *cut_n, uint *fresh_exact)
 {
-    clvox_real px, py, pz;
+    clvox_real px, py, pz, g[3];
     clvox_scaled_xyz(axis, (clvox_real)(u_begin + j), rv, rw, h, &px, &py, &pz);
+    clvox_grid_xyz(axis, (clvox_real)(u_begin + j), rv, rw, g);
     const uint flags = CLVOX_AXIS_FLAGS(h[3]);
-    const int in = clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, px, py, pz, axis | flags, tight,
-                                            exact, lo, hi, cut, cut_n, fresh_exact);
+    const int in = clvox_winding_inside_cut(K, abs_mode, nodes, node_count, caps, gcaps, g, px, py, pz, axis | flags,
+                                            tight, exact, lo, hi, cut, cut_n, fresh_exact);
     if (!(in & CLVOX_UNSURE)) return in;
     clvox_unsure_push(unsure, gid, j, (uint)K, 0u);
     return 0; /* the host sets the voxel where it is inside */
@@ -91,8 +92,8 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                                         uint u_begin, uint u_count, uint out_stride, global uint *out,
                                         global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
                                         global const clvox_cap_node *nodes, uint node_count,
-                                        global const clvox_real *caps, global uint *exact_points,
-                                        global const clvox_cap_node *rims, uint rim_count,
+                                        global const clvox_real *caps, global const float *gcaps,
+                                        global uint *exact_points, global const clvox_cap_node *rims, uint rim_count,
                                         global const clvox_real *rim_edges, global uint *unsure)
 {
     uint gid = get_global_id(0);
@@ -136,14 +137,14 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                 uint a0 = j, b0 = end;
                 int last = -1;
                 if (k > 0u && b0 - a0 >= 2u) {
-                    const int in = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
+                    const int in = clvox_winding_at(K, abs_mode, nodes, node_count, caps, gcaps, axis, h,
                                                     unsure, gid, u_begin, a0, rv, rw, 0u, &exact, &lo, &hi, cut,
                                                     &cut_n, &fresh_exact);
                     clvox_emit(o, out_stride, bit, a0, in, &word, &cnt);
                     a0++;
                 }
                 if (k < n && b0 - a0 >= 2u) {
-                    last = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
+                    last = clvox_winding_at(K, abs_mode, nodes, node_count, caps, gcaps, axis, h,
                                             unsure, gid, u_begin, b0 - 1u, rv, rw, 0u, &exact, &lo, &hi, cut,
                                             &cut_n, &fresh_exact);
                     b0--;
@@ -155,7 +156,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                     rsp--;
                     const uint a = ra[rsp], b = rb[rsp];
                     if (b - a == 1u) {
-                        const int in = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
+                        const int in = clvox_winding_at(K, abs_mode, nodes, node_count, caps, gcaps, axis, h,
                                                         unsure, gid, u_begin, a, rv, rw, 0u, &exact, &lo, &hi,
                                                         cut, &cut_n, &fresh_exact);
                         clvox_emit(o, out_stride, bit, a, in, &word, &cnt);
@@ -221,8 +222,8 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
         clvox_real Jc = 0, lo = 0, hi = 0;
         const clvox_real step = h[axis], thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
         clvox_winding_advance(hh, sg, n, (clvox_real)u_begin, &k, &K, &Jc);
-        int inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h, unsure, gid, u_begin, 0u, rv, rw,
-                                      CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n, &fresh_exact);
+        int inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, gcaps, axis, h, unsure, gid, u_begin, 0u,
+                                      rv, rw, CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n, &fresh_exact);
         clvox_real la = lo - Jc, ha = hi - Jc; /* anchor a: g's interval */
         clvox_emit(o, out_stride, bit, 0u, inside, &word, &cnt);
         j = 0;
@@ -255,7 +256,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
             int Kb = K;
             clvox_real Jb = Jc;
             clvox_winding_advance(hh, sg, n, (clvox_real)(u_begin + jb), &kb, &Kb, &Jb);
-            const int ib = clvox_winding_at(Kb, abs_mode, nodes, node_count, caps, axis, h,
+            const int ib = clvox_winding_at(Kb, abs_mode, nodes, node_count, caps, gcaps, axis, h,
                                             unsure, gid, u_begin, jb, rv, rw, CLVOX_TIGHT, &exact, &lo, &hi, cut,
                                             &cut_n, &fresh_exact);
             const clvox_real lb = lo - Jb, hb = hi - Jb;
@@ -275,7 +276,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                     inside = clvox_interval_inside(l - e, u + e, abs_mode);
                 }
                 if (inside < 0) {
-                    inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, axis, h,
+                    inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, gcaps, axis, h,
                                               unsure, gid, u_begin, i, rv, rw, smooth ? CLVOX_TIGHT : 0u, &exact,
                                               &lo, &hi, cut, &cut_n, &fresh_exact);
                     ja = i;
@@ -335,13 +336,13 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                                    uint u_begin, uint u_count, uint out_stride, global uint *out,
                                    global uint *filled, uint abs_mode, uint axis, global const clvox_real *h,
                                    global const clvox_cap_node *nodes, uint node_count,
-                                   global const clvox_real *caps, global uint *exact_points,
-                                   global const clvox_cap_node *rims, uint rim_count,
+                                   global const clvox_real *caps, global const float *gcaps,
+                                   global uint *exact_points, global const clvox_cap_node *rims, uint rim_count,
                                    global const clvox_real *rim_edges, global uint *unsure,
                                    global uint *clvox_done, uint clvox_done_slot)
 {
     clvox_classify_winding_body(rays, ray_count, hits, signs, counts, capacity, u_begin, u_count, out_stride, out,
-        filled, abs_mode, axis, h, nodes, node_count, caps, exact_points, rims, rim_count, rim_edges, unsure);
+        filled, abs_mode, axis, h, nodes, node_count, caps, gcaps, exact_points, rims, rim_count, rim_edges, unsure);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 
@@ -372,7 +373,8 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
     o[4] = e[1];
     o[5] = b[1];
     clvox_real err = 0;
-    o[6] = clvox_cap_node_exact(nd, caps, px, py, pz, 0u, &err);
+    const clvox_real g[3] = {px, py, pz}; /* unused: axis 0u, no exact signs */
+    o[6] = clvox_cap_node_exact(nd, caps, (global const float *)0, g, px, py, pz, 0u, &err);
     o[7] = err;
     clvox_cap_estimate4(nd, nodes, nodes, nd, px, py, pz, dp, 1, e, b);
     o[8] = e[0];

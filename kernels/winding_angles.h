@@ -37,16 +37,27 @@
 #define CLVOX_TIGHT 8u
 #define CLVOX_TIGHT_F 0.5
 /* The winding functions' `axis` (0, 1, 2: the tie rule's first axis) may
- * carry CLVOX_EXACT_SIGNS: the scaled coordinates are the grid's floats
- * times 2^-k (cubic voxels, src/winding/winding.c clvox__winding_scale; the
- * scale buffer's h[3] == 1 + k, k in the bits from 3 on), so a cap's
- * orientation at p and its normal's components have exact signs
- * (kernels/overlap.h, on the coordinates times 2^k: the grid's floats, in
- * the range where float's expansions are exact). */
+ * carry flags. CLVOX_EXACT_SIGNS: p's grid coordinates g (x, y, z) and the
+ * caps' (gcaps: clvox__caps.grid, 9 floats a triangle in the caps' order)
+ * are given, so a cap's orientation at p and its normal's components get
+ * their exact signs (kernels/overlap.h, on the grid's floats): those of the
+ * world, which a positive scale per axis keeps, and those the cast takes
+ * (kernels/intersect.cl), so that w_caps steps by one exactly where K does.
+ * CLVOX_CUBIC: the voxels are cubes and the scaled coordinates are the
+ * grid's floats times 2^-k, exactly (src/winding/winding.c
+ * clvox__winding_scale; the scale buffer's h[3] != 0); else they are
+ * rounded, and the factors' bounds take that in (clvox_cap_angles4_v). */
 #define CLVOX_AXIS_OF(a) ((a) & 3u)
 #define CLVOX_EXACT_SIGNS 4u
-#define CLVOX_AXIS_FLAGS(h3) ((h3) != 0 ? CLVOX_EXACT_SIGNS | ((uint)((h3) - 1) << 3) : 0u)
-#define CLVOX_BACK(a) ((clvox_real)(1u << ((a) >> 3))) /* 2^k: scaled to grid coordinates */
+#define CLVOX_CUBIC 8u
+#define CLVOX_AXIS_FLAGS(h3) (CLVOX_EXACT_SIGNS | ((h3) != 0 ? CLVOX_CUBIC : 0u))
+/* Grid coordinates (u, v, w along the ray's axes) in x, y, z order. */
+static inline void clvox_grid_xyz(uint axis, clvox_real gu, clvox_real gv, clvox_real gw, clvox_real *g)
+{
+    g[axis] = gu;
+    g[(axis + 1u) % 3u] = gv;
+    g[(axis + 2u) % 3u] = gw;
+}
 /* A bound on the rounding of a cap factor den + i det (below): |d den| +
  * |d det| <= CLVOX_FACTOR_DELTA * la lb lc, 128 u (u the unit roundoff),
  * counted with the corners' differences from p rounded (u each): the
@@ -66,14 +77,14 @@
  * rounded) lies within this of the double kernels' (times the double
  * scale, rounded): u |p| for its own rounding, u |p| for the scale's, and
  * the double's 2^-53 |p|, in the 1-norm, which bounds the 2-norm. 0 on
- * cubic voxels (CLVOX_EXACT_SIGNS: both exact) and in double. */
+ * cubic voxels (CLVOX_CUBIC: both exact) and in double. */
 static inline clvox_real clvox_point_rounding(clvox_real px, clvox_real py, clvox_real pz, uint axis)
 {
 #if defined(CLVOX_FP64)
     (void)px, (void)py, (void)pz, (void)axis;
     return 0;
 #else
-    return (axis & CLVOX_EXACT_SIGNS) ? 0 : (clvox_real)2.5f * CLVOX_REAL_U * (fabs(px) + fabs(py) + fabs(pz));
+    return (axis & CLVOX_CUBIC) ? 0 : (clvox_real)2.5f * CLVOX_REAL_U * (fabs(px) + fabs(py) + fabs(pz));
 #endif
 }
 /* The sums of up to CLVOX_CAP_STACK (+ a few) bounds, rounded: a relative
@@ -216,21 +227,19 @@ static inline void clvox_angles_mul(clvox_angles *a, clvox_real4 den, clvox_real
     a->im = im;
 }
 
-/* The tie rule of cap triangle t seen from p when det == 0: +-1/2 when p
- * is inside it (den < 0), the side of p + e (above). The same arithmetic
- * as clvox_cap_angles4. */
-static inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px, clvox_real py, clvox_real pz,
-                                       clvox_real den, uint axis)
+/* The tie rule of cap triangle t (gt in grid space) seen from p when det
+ * == 0: +-1/2 when p is inside it (den < 0), the side of p + e (above).
+ * Without exact signs the same arithmetic as clvox_cap_angles4. */
+static inline clvox_real clvox_cap_tie(global const clvox_real *t, global const float *gt, clvox_real px,
+                                       clvox_real py, clvox_real pz, clvox_real den, uint axis)
 {
     if (!(den < 0)) return 0;
     if (axis & CLVOX_EXACT_SIGNS) { /* the normal's signs exactly: N_i = e2 over axes i + 1, i + 2 */
         const uint a0 = CLVOX_AXIS_OF(axis);
-        const clvox_real b = CLVOX_BACK(axis);
         int d = 0;
         for (uint k = 0; k < 3u && d == 0; k++) {
             const uint i = (a0 + k) % 3u, s = (i + 1u) % 3u, r = (i + 2u) % 3u;
-            d = -clvox_e2_sign(t[s] * b, t[r] * b, t[3 + s] * b, t[3 + r] * b, t[s] * b, t[r] * b, t[6 + s] * b,
-                               t[6 + r] * b);
+            d = -clvox_e2_sign(gt[s], gt[r], gt[3 + s], gt[3 + r], gt[s], gt[r], gt[6 + s], gt[6 + r]);
         }
         return d > 0 ? (clvox_real)0.5 : d < 0 ? (clvox_real)-0.5 : (clvox_real)0;
     }
@@ -248,20 +257,19 @@ static inline clvox_real clvox_cap_tie(global const clvox_real *t, clvox_real px
 
 /* clvox_cap_angles4_v's rare path (inline: out of line, PoCL's double
  * classify on holes was 2 % slower still): lanes i < count whose det (tv)
- * and den (nv) are both within delta (bv) of 0 get det's exact sign,
- * -orient3d(A, B, C, p): 0 in the plane, a wrong sign replaced by a small
- * value of the right one, fv[i] = 2 (its error within 2 delta), else 1. */
-static inline void clvox_det_signs(global const clvox_real *t, uint count, clvox_real px, clvox_real py,
-                                   clvox_real pz, uint axis, clvox_real *tv, const clvox_real *bv,
-                                   const clvox_real *nv, clvox_real *fv)
+ * and den (nv) are both within their error bv of 0 get det's exact sign,
+ * -orient3d(A, B, C, p) on the grid's floats (gt, g): 0 in the plane, a
+ * wrong sign replaced by a small value of the right one, fv[i] = 2 (its
+ * error within 2 bv), else 1. */
+static inline void clvox_det_signs(global const float *gt, uint count, const clvox_real *g, clvox_real *tv,
+                                   const clvox_real *bv, const clvox_real *nv, clvox_real *fv)
 {
-    const clvox_real back = CLVOX_BACK(axis);
     for (uint i = 0; i < 4u; i++) fv[i] = 1;
     for (uint i = 0; i < count; i++) {
         if (!(fabs(tv[i]) <= bv[i] && nv[i] <= bv[i])) continue;
         clvox_real v[9];
-        for (uint c = 0; c < 9u; c++) v[c] = t[i * 9u + c] * back;
-        const int sg = -clvox_o3_sign(v, px * back, py * back, pz * back);
+        for (uint c = 0; c < 9u; c++) v[c] = gt[i * 9u + c];
+        const int sg = -clvox_o3_sign(v, g[0], g[1], g[2]);
         if (sg != 0 && tv[i] * (clvox_real)sg > 0) continue;
         tv[i] = (clvox_real)sg * bv[i] * (clvox_real)0x1p-10;
         fv[i] = 2;
@@ -272,11 +280,13 @@ static inline void clvox_det_signs(global const clvox_real *t, uint count, clvox
  * p's frame: corner - p) seen from p, one per lane: positive when p is
  * behind a triangle (on the side its orientation faces away from). Lanes
  * past `count` multiply by 1; t: the triangles as 9 reals each (scaled x,
- * y, z), for the tie rule. */
+ * y, z), gt the same in grid space and g p's grid coordinates (with
+ * CLVOX_EXACT_SIGNS), for the exact signs and the tie rule. */
 static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_real4 az, clvox_real4 bx, clvox_real4 by,
                                        clvox_real4 bz, clvox_real4 cx, clvox_real4 cy, clvox_real4 cz,
-                                       global const clvox_real *t, uint count, clvox_real px, clvox_real py,
-                                       clvox_real pz, uint axis, clvox_angles *a)
+                                       global const clvox_real *t, global const float *gt, const clvox_real *g,
+                                       uint count, clvox_real px, clvox_real py, clvox_real pz, uint axis,
+                                       clvox_angles *a)
 {
     const clvox_real4 la = sqrt(ax * ax + ay * ay + az * az);
     const clvox_real4 lb = sqrt(bx * bx + by * by + bz * bz);
@@ -289,25 +299,55 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
     const clvox_mask4 lane = (clvox_mask4)(0, 1, 2, 3) < (clvox_mask4)count;
     const clvox_mask4 past = (clvox_mask4)(0, 1, 2, 3) >= (clvox_mask4)count; /* not ~lane: clvox_angles_mul */
     const clvox_real4 delta = (clvox_real)CLVOX_FACTOR_DELTA * L; /* |d den| + |d det| */
-    clvox_real4 dfac = (clvox_real4)1; /* the factor's error: delta, or 2 delta where det's sign was replaced */
+    /* The factor's error dl: delta on cubic voxels. On voxels that are not
+     * cubes the corners and p are rounded from the grid's floats times the
+     * scale (in double; a float device's are the double's rounded again,
+     * clvox_point_rounding), so each difference a is off by eta_a <= u (1.1
+     * |a|_1 + 3.5 |p|_1) in the 2-norm besides its own rounding. den and det
+     * move by at most 5 (eta_a lb lc + eta_b la lc + eta_c la lb) to first
+     * order (|grad_a den| <= 4 lb lc: the gradients of la lb lc, (a.b) lc,
+     * (b.c) la and (c.a) lb, each at most lb lc; |grad_a det| = |b x c| <=
+     * lb lc), 5.5 with the higher orders while every eta is at most 1/100 of
+     * its length (float: else nothing is bounded). With |a|_1 <= sqrt3 la:
+     * 5.5 * 1.1 * sqrt3 * 3 < 32 u L, and 5.5 * 3.5 < 19.5 u |p|_1 times
+     * lb lc + la lc + la lb (the lengths' own rounding, a few u, is far
+     * inside these constants' slack). */
+    clvox_real4 dl = delta;
+    clvox_mask4 lost = (clvox_mask4)0;
+    if (!(axis & CLVOX_CUBIC)) {
+        const clvox_real pn = fabs(px) + fabs(py) + fabs(pz);
+        dl = (clvox_real)(160 * CLVOX_REAL_U) * L +
+             (clvox_real)(19.5f * CLVOX_REAL_U) * pn * (lb * lc + la * (lb + lc));
+        /* eta_a > la / 100 (la < 100 u (1.1 sqrt3 la + 3.5 pn)): la < 351 u pn, as 360 */
+        const clvox_real lmin = (clvox_real)(360 * CLVOX_REAL_U) * pn;
+        lost = (la < lmin) | (lb < lmin) | (lc < lmin);
+    }
+    clvox_real4 dfac = (clvox_real4)1; /* the factor's error: dl, or 2 dl where det's sign was replaced */
     /* (lanes past count repeat triangle 0: clvox_det_signs looks at i < count only) */
-    if ((axis & CLVOX_EXACT_SIGNS) && any(fmax(fabs(det), den) <= delta)) {
-        /* rare (p within about 128 u of the cap's plane, and den not
-         * surely positive: where it is, f and its rounding lie in the right
-         * half-plane and det's sign moves arg f by no more than its bound
-         * below): det's sign exactly, -orient3d(A, B, C, p), and 0 when p
-         * lies in the plane; a det of the wrong sign becomes a small one of
-         * the right sign, within 2 delta of the true det (its error bound
-         * below). Not for slivers seen from afar (den about 4 L): their det
-         * is small, and its exact sign would cost (cylinder's rim caps,
-         * 256^3: 4x the classify). */
-        clvox_real tv[4], bv[4], nv[4], fv[4];
-        vstore4(det, 0, tv);
-        vstore4(delta, 0, bv);
-        vstore4(den, 0, nv);
-        clvox_det_signs(t, count, px, py, pz, axis, tv, bv, nv, fv);
-        det = vload4(0, tv);
-        dfac = vload4(0, fv);
+    if (axis & CLVOX_EXACT_SIGNS) {
+        if (any(fmax(fabs(det), den) <= dl)) {
+            /* rare (p within about 128 u of the cap's plane, and den not
+             * surely positive: where it is, f and its rounding lie in the
+             * right half-plane and det's sign moves arg f by no more than
+             * its bound below): det's sign exactly, and 0 when p lies in
+             * the plane; a det of the wrong sign becomes a small one of the
+             * right sign, within 2 dl of the true det (its error bound
+             * below). Not for slivers seen from afar (den about 4 L): their
+             * det is small, and its exact sign would cost (cylinder's rim
+             * caps, 256^3: 4x the classify). */
+            clvox_real tv[4], bv[4], nv[4], fv[4];
+            vstore4(det, 0, tv);
+            vstore4(dl, 0, bv);
+            vstore4(den, 0, nv);
+            clvox_det_signs(gt, count, g, tv, bv, nv, fv);
+            det = vload4(0, tv);
+            dfac = vload4(0, fv);
+        }
+    } else {
+        /* no exact signs (the probe kernel only): a det within dl of 0
+         * where den is not surely positive may lie across the cut, and a
+         * flat lane's tie may be wrong -- both unbounded */
+        lost |= (fabs(det) <= dl) & (den <= dl);
     }
     const clvox_mask4 flat = lane & (det == zero);
     if (any(flat)) { /* rare: the tie rule, lane by lane (arrays: no run-time vector subscript) */
@@ -315,52 +355,29 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
         vstore4(den, 0, dv);
         vstore4(det, 0, tv);
         for (uint i = 0; i < count; i++)
-            if (tv[i] == 0) a->halves += clvox_cap_tie(t + i * 9u, px, py, pz, dv[i], axis);
+            if (tv[i] == 0) a->halves += clvox_cap_tie(t + i * 9u, gt + i * 9u, px, py, pz, dv[i], axis);
     }
 #if !defined(CLVOX_FP64)
     /* The factor's rounding (float: the host's double decides where it
-     * matters, clvox_winding_inside_m): with |df| <= delta (2 delta where
-     * det's sign was replaced, above), arg f moves by at most asin(rho) <=
-     * 1.05 rho, rho = |df| / |f| <= 1/2 (|f| taken 1e-4 below its float
-     * value, which is within a few u of it) -- det's sign being
-     * exact (CLVOX_EXACT_SIGNS), f stays on its side of the cut -- and the
-     * product by sqrt5 u more (clvox_angles_mul). Past 1/2 (p near an
-     * edge's line, or at a corner: NaN) nothing is bounded. A flat lane
-     * (exact det == 0) multiplies by 1 exactly; its tie needs den's sign,
-     * certain where |den| > 2 delta. */
+     * matters, clvox_winding_inside_m): with |df| <= dl (2 dl where det's
+     * sign was replaced, above), arg f moves by at most asin(rho) <= 1.05
+     * rho, rho = |df| / |f| <= 1/2 (|f| taken 1e-4 below its float value,
+     * which is within a few u of it) -- det's sign being exact, f stays on
+     * its side of the cut -- and the product by sqrt5 u more
+     * (clvox_angles_mul). Past 1/2 (p near an edge's line, or at a corner:
+     * NaN) nothing is bounded. A flat lane (exact det == 0) multiplies by 1
+     * exactly; its tie needs den's sign, certain where |den| > dl. */
     {
-        clvox_real4 dl = delta;
-        const int exact_signs = (axis & CLVOX_EXACT_SIGNS) != 0;
-        clvox_mask4 lost = (clvox_mask4)0;
-        if (!exact_signs) {
-            /* Voxels that are not cubes: the corners and p are the double
-             * kernels' rounded to floats (clvox_point_rounding), so each
-             * difference a is off by eta_a <= u (1.1 |a|_1 + 3.5 |p|_1) in
-             * the 2-norm besides its own rounding. den and det move by at
-             * most 5 (eta_a lb lc + eta_b la lc + eta_c la lb) to first
-             * order (|grad_a den| <= 4 lb lc: the gradients of la lb lc,
-             * (a.b) lc, (b.c) la and (c.a) lb, each at most lb lc;
-             * |grad_a det| = |b x c| <= lb lc), 5.5 with the higher orders
-             * while every eta is at most 1/100 of its length (else nothing
-             * is bounded). No exact sign here: a det within dl of 0 where
-             * den is not surely positive may lie across the cut, and a
-             * flat lane's tie may be wrong -- both unbounded (the host
-             * decides). */
-            const clvox_real pn = fabs(px) + fabs(py) + fabs(pz);
-            const clvox_real4 ea = CLVOX_REAL_U * ((clvox_real)1.1f * (fabs(ax) + fabs(ay) + fabs(az)) + 3.5f * pn);
-            const clvox_real4 eb = CLVOX_REAL_U * ((clvox_real)1.1f * (fabs(bx) + fabs(by) + fabs(bz)) + 3.5f * pn);
-            const clvox_real4 ec = CLVOX_REAL_U * ((clvox_real)1.1f * (fabs(cx) + fabs(cy) + fabs(cz)) + 3.5f * pn);
-            dl = delta + 5.5f * (ea * lb * lc + eb * la * lc + ec * la * lb);
-            lost = (ea > 0.01f * la) | (eb > 0.01f * lb) | (ec > 0.01f * lc) | ((fabs(det) <= dl) & (den <= dl));
-        }
         const clvox_real4 rho = (dfac * dl) / (hypot(den, det) * 0.9999f); /* hypot: no overflow */
         clvox_real4 e = select((clvox_real4)CLVOX_ERR_UNBOUNDED, rho * 1.05f + 3 * CLVOX_REAL_U, rho <= 0.5f);
-        /* a flat lane: with exact signs and den < 0, det is exactly 0 (clvox_det_signs) and the tie exact;
+        /* a flat lane: with den < 0, det is exactly 0 (clvox_det_signs) and the tie exact;
          * with den > dl, f lies within dl of den > 0: the bound above */
         e = select(e, select((clvox_real4)CLVOX_ERR_UNBOUNDED, select(e, zero, den < zero), fabs(den) > dl), flat);
         e = select(e, (clvox_real4)CLVOX_ERR_UNBOUNDED, lost);
         a->err += select(e, zero, past);
     }
+#else
+    (void)lost, (void)dfac;
 #endif
     const clvox_mask4 skip = past | (det == zero) | isnan(det) | isnan(den); /* NaN: as atan2's 0 */
     den = select(den, (clvox_real4)1, skip);
@@ -370,27 +387,29 @@ static inline void clvox_cap_angles4_v(clvox_real4 ax, clvox_real4 ay, clvox_rea
 }
 
 /* Multiplies in cap triangles t .. t + count - 1 (count 1 .. 4; 9 reals
- * each, scaled x, y, z) seen from p, one per lane. Lanes past `count`
- * repeat triangle 0 and multiply by 1. */
-static inline void clvox_cap_angles4(global const clvox_real *t, uint count, clvox_real px, clvox_real py,
-                                     clvox_real pz, uint axis, clvox_angles *a)
+ * each, scaled x, y, z; gt the same in grid space) seen from p, one per
+ * lane. Lanes past `count` repeat triangle 0 and multiply by 1. */
+static inline void clvox_cap_angles4(global const clvox_real *t, global const float *gt, const clvox_real *g,
+                                     uint count, clvox_real px, clvox_real py, clvox_real pz, uint axis,
+                                     clvox_angles *a)
 {
     const uint i1 = count > 1u ? 9u : 0u, i2 = count > 2u ? 18u : 0u, i3 = count > 3u ? 27u : 0u;
 #define CLVOX_G4(k, p) ((clvox_real4)(t[k], t[i1 + (k)], t[i2 + (k)], t[i3 + (k)]) - (p))
     clvox_cap_angles4_v(CLVOX_G4(0, px), CLVOX_G4(1, py), CLVOX_G4(2, pz), CLVOX_G4(3, px), CLVOX_G4(4, py),
-                        CLVOX_G4(5, pz), CLVOX_G4(6, px), CLVOX_G4(7, py), CLVOX_G4(8, pz), t, count, px, py, pz,
-                        axis, a);
+                        CLVOX_G4(5, pz), CLVOX_G4(6, px), CLVOX_G4(7, py), CLVOX_G4(8, pz), t, gt, g, count, px, py,
+                        pz, axis, a);
 #undef CLVOX_G4
 }
 
 /* The same for a leaf's lane-major copy (clvox_cap_node.block): real k of
  * lane l at blk[4k + l], the same numbers, one vector load each. */
-static inline void clvox_cap_block4(global const clvox_real *blk, global const clvox_real *t, uint count, clvox_real px,
-                                    clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+static inline void clvox_cap_block4(global const clvox_real *blk, global const clvox_real *t, global const float *gt,
+                                    const clvox_real *g, uint count, clvox_real px, clvox_real py, clvox_real pz,
+                                    uint axis, clvox_angles *a)
 {
     clvox_cap_angles4_v(vload4(0, blk) - px, vload4(1, blk) - py, vload4(2, blk) - pz, vload4(3, blk) - px,
                         vload4(4, blk) - py, vload4(5, blk) - pz, vload4(6, blk) - px, vload4(7, blk) - py,
-                        vload4(8, blk) - pz, t, count, px, py, pz, axis, a);
+                        vload4(8, blk) - pz, t, gt, g, count, px, py, pz, axis, a);
 }
 
 /* The solid angle / 4pi of everything multiplied in: the lanes' (arg + 2pi

@@ -11,30 +11,35 @@
 #define CLVOX_CUT_EXACT 0x80000000u
 
 /* Multiplies the node's caps into a. */
-static inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const clvox_real *caps, clvox_real px,
-                                         clvox_real py, clvox_real pz, uint axis, clvox_angles *a)
+static inline void clvox_cap_node_angles(global const clvox_cap_node *nd, global const clvox_real *caps,
+                                         global const float *gcaps, const clvox_real *g, clvox_real px, clvox_real py,
+                                         clvox_real pz, uint axis, clvox_angles *a)
 {
     const uint first = nd->tri_first, count = nd->tri_count;
     if (nd->block) { /* a leaf (at most 4 caps) */
-        clvox_cap_block4(caps + nd->block, caps + (size_t)first * 9u, count, px, py, pz, axis, a);
+        clvox_cap_block4(caps + nd->block, caps + (size_t)first * 9u, gcaps + (size_t)first * 9u, g, count, px, py,
+                         pz, axis, a);
         return;
     }
     for (uint t = 0; t < count; t += 4u)
-        clvox_cap_angles4(caps + (size_t)(first + t) * 9u, min(count - t, 4u), px, py, pz, axis, a);
+        clvox_cap_angles4(caps + (size_t)(first + t) * 9u, gcaps + (size_t)(first + t) * 9u, g, min(count - t, 4u),
+                          px, py, pz, axis, a);
 }
 
 /* The node's caps' solid angles / 4pi at p, exactly; adds the value's
  * error bound to *err (clvox_angles_value). */
 static inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, global const clvox_real *caps,
-                                              clvox_real px, clvox_real py, clvox_real pz, uint axis, clvox_real *err)
+                                              global const float *gcaps, const clvox_real *g, clvox_real px,
+                                              clvox_real py, clvox_real pz, uint axis, clvox_real *err)
 {
     clvox_angles a;
     clvox_angles_init(&a);
-    clvox_cap_node_angles(nd, caps, px, py, pz, axis, &a);
+    clvox_cap_node_angles(nd, caps, gcaps, g, px, py, pz, axis, &a);
     return clvox_angles_value(&a, err);
 }
 
-/* The inside test at p (scaled grid space, x, y, z) given K there:
+/* The inside test at p (scaled grid space, x, y, z; g: its grid
+ * coordinates, gcaps the caps', for CLVOX_EXACT_SIGNS) given K there:
  * best-first refinement of the cap tree, each frontier node an estimate
  * and an error bound, until [K - S - sum est -+ sum err] lies on one side
  * of the threshold (S: the caps evaluated exactly). Adds 1 to *exact when
@@ -45,9 +50,9 @@ static inline clvox_real clvox_cap_node_exact(global const clvox_cap_node *nd, g
  * 0): in, a cut to start from (*cut_n entries; 0: the root); out, this
  * point's (*cut_n = 0 when it does not fit). */
 static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                         global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                         uint axis, uint tight, uint *exact, clvox_real *wlo, clvox_real *whi,
-                                         uint *cut, uint *cut_n)
+                                         global const clvox_real *caps, global const float *gcaps, const clvox_real *g,
+                                         clvox_real px, clvox_real py, clvox_real pz, uint axis, uint tight,
+                                         uint *exact, clvox_real *wlo, clvox_real *whi, uint *cut, uint *cut_n)
 {
     const clvox_real thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
     *wlo = *whi = (clvox_real)K;
@@ -67,7 +72,7 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
         for (uint i = 0; i < *cut_n; i++) {
             const uint nd = cut[i] & ~CLVOX_CUT_EXACT;
             if (cut[i] & CLVOX_CUT_EXACT) {
-                clvox_cap_node_angles(nodes + nd, caps, px, py, pz, axis, &all);
+                clvox_cap_node_angles(nodes + nd, caps, gcaps, g, px, py, pz, axis, &all);
                 ex[nex++] = nd;
                 evaluated = 1;
             } else {
@@ -190,7 +195,7 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
         sp--;
         const uint child = nodes[nd].child;
         if (child == 0 || sp + 2u > CLVOX_CAP_STACK) { /* evaluate the node's caps exactly */
-            S += clvox_cap_node_exact(nodes + nd, caps, px, py, pz, axis, &serr);
+            S += clvox_cap_node_exact(nodes + nd, caps, gcaps, g, px, py, pz, axis, &serr);
 #if !defined(CLVOX_FP64)
             serr += CLVOX_REAL_U * fabs(S); /* the sum's rounding */
 #endif
@@ -214,13 +219,14 @@ static inline int clvox_winding_inside_m(int K, uint abs_mode, global const clvo
  * (a cut only refines): *fresh_exact holds the exact nodes of the last
  * fresh start. */
 static inline int clvox_winding_inside_cut(int K, uint abs_mode, global const clvox_cap_node *nodes, uint node_count,
-                                           global const clvox_real *caps, clvox_real px, clvox_real py, clvox_real pz,
-                                           uint axis, uint tight, uint *exact, clvox_real *lo, clvox_real *hi,
-                                           uint *cut, uint *cut_n, uint *fresh_exact)
+                                           global const clvox_real *caps, global const float *gcaps,
+                                           const clvox_real *g, clvox_real px, clvox_real py, clvox_real pz, uint axis,
+                                           uint tight, uint *exact, clvox_real *lo, clvox_real *hi, uint *cut,
+                                           uint *cut_n, uint *fresh_exact)
 {
     const int fresh = *cut_n == 0;
-    const int inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, px, py, pz, axis, tight, exact,
-                                              lo, hi, cut, cut_n);
+    const int inside = clvox_winding_inside_m(K, abs_mode, nodes, node_count, caps, gcaps, g, px, py, pz, axis,
+                                              tight, exact, lo, hi, cut, cut_n);
     uint cut_exact = 0;
     for (uint i = 0; i < *cut_n; i++) cut_exact += (cut[i] & CLVOX_CUT_EXACT) != 0;
     if (fresh) *fresh_exact = cut_exact;

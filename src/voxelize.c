@@ -327,21 +327,12 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     memset(dev, 0, sizeof dev);
     /* Each device's launch unit, and the reorder window that keeps every
      * device's next group computing while the last one is written. */
-    /* Members whose kernels follow other rules than the set's best (float
-     * kernels beside double ones: clvox__kernel_rules) decide some voxels
-     * of winding runs (binary, coverage or palette) on voxels that are not
-     * cubes differently: left out of those. Everything else -- parity,
-     * tetra, surface, conservative, and the winding test on cubic voxels,
-     * binary or sampled -- is decided exactly in every build (docs/design.md
-     * "Devices without double precision"). A device in float by the speed
-     * rule (device_speed.c) has double too: it runs those in double. */
-    const int cubic = grid->voxel_size[0] == grid->voxel_size[1] && grid->voxel_size[0] == grid->voxel_size[2];
-    const int same_in_float = o.oversample || o.palette ? o.inside == CLVOX_INSIDE_PARITY || cubic
-                                                         : o.mode == CLVOX_MODE_SURFACE ||
-                                                               o.method == CLVOX_METHOD_TETRA ||
-                                                               o.inside == CLVOX_INSIDE_PARITY || cubic;
+    /* Every build decides every voxel exactly (docs/design.md "Devices
+     * without double precision"): a float device shares every run. A
+     * device in float by the speed rule (device_speed.c) runs in float,
+     * unless the mesh leaves float's exact range (below). */
     for (uint32_t d = 0; d < ndev && st == CLVOX_OK; d++) {
-        st = clvox__select_build(ctx->member[d], !same_in_float);
+        st = clvox__select_build(ctx->member[d], 0);
         if (st != CLVOX_OK && ctx->member[d] != ctx) clvox__fail(ctx, st, "%s", ctx->member[d]->error);
     }
     if (st != CLVOX_OK) return st;
@@ -355,15 +346,6 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
         uint32_t fit = window / (2 * ndev);
         if (dev[d].group > fit) dev[d].group = fit ? fit : 1;
     }
-    int best_rules = 0;
-    for (uint32_t d = 0; d < ndev; d++)
-        if (clvox__kernel_rules(ctx->member[d]) > best_rules) best_rules = clvox__kernel_rules(ctx->member[d]);
-    if (!same_in_float && best_rules != 8) /* float devices alone */
-        clvox__warn(ctx,
-                    "the kernels of this run are built without double precision: its %s may differ from a double "
-                    "device's where a sample lies within about 1e-6 of the inside test's threshold",
-                    o.oversample || o.palette ? "samples' winding test on voxels that are not cubes"
-                                              : "winding test on voxels that are not cubes");
     clvox_stats first = stats;
     int have_first = 0;
     uint32_t first_group = 1;
@@ -371,17 +353,6 @@ static clvox_status run(clvox_context *ctx, const clvox_mesh *mesh, const clvox_
     for (uint32_t d = 0; d < ndev; d++) {
         clvox_context *dc = ctx->member[d];
         dev[d].ctx = dc;
-        if (!same_in_float && clvox__kernel_rules(dc) != best_rules) {
-            clvox__warn(ctx,
-                        "device %u '%s' left out: its kernels are %s and would decide some voxels of this run "
-                        "differently from the other devices' (it takes part in every run but winding runs on "
-                        "voxels that are not cubes)",
-                        dc->position, dc->device.name,
-                        best_rules == 8 ? (dc->kernels_float ? "built without double precision (CLVOX_KERNEL_FLOAT)"
-                                                             : "built without double precision (no cl_khr_fp64)")
-                                        : "in float without correctly rounded division");
-            continue;
-        }
         clvox_stats mine = stats;
         clvox__run rd = req;
         rd.poll_user = &dev[d];

@@ -996,11 +996,11 @@ static void test_cli(void)
 /* ---- a device without fp64 beside one with it ---- */
 
 /* Device 1 built as a device without fp64 (CLVOX_KERNEL_FLOAT_DEVICE=1):
- * the set keeps both; parity, tetra and surface runs use both and give
- * the one-device volume, and device 1 alone gives it too (device 0 made to
- * fail at its first slab); so do coverage with parity, and winding,
- * conservative, coverage and palette on cubic voxels; winding on other
- * voxels leaves device 1 out with one warning, and gives it too. */
+ * the set keeps both; every mode (parity, tetra, surface, coverage with
+ * parity, and winding, conservative, coverage and palette on cubic voxels
+ * and on others) uses both and gives the one-device volume, with no
+ * warning, and device 1 alone gives it too (device 0 made to fail at its
+ * first slab). */
 static void test_mixed_precision(const mesh_case *mc)
 {
     clvox__test_hooks h = g_hooks;
@@ -1026,16 +1026,6 @@ static void test_mixed_precision(const mesh_case *mc)
     modes[nmode].o.inside = CLVOX_INSIDE_PARITY, modes[nmode].o.oversample_points = 3, nmode++;
     for (size_t k = 0; k < nmode; k++) {
         const char *name = modes[k].name;
-        /* winding (and conservative with it) too on cubic voxels, where the
-         * float build decides it exactly, the host settling what its bounds
-         * cannot */
-        const clvox_grid *g = &mc->grid;
-        const int cubic = g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2];
-        const int both = !strcmp(name, "ray parity") || !strcmp(name, "tetra") || !strcmp(name, "surface") ||
-                         !strcmp(name, "coverage parity") ||
-                         (cubic && (!strcmp(name, "ray winding") || !strcmp(name, "conservative") ||
-                                    !strcmp(name, "coverage") || !strcmp(name, "stochastic coverage") ||
-                                    !strcmp(name, "palette")));
         char what[256];
         snprintf(what, sizeof what, "[%s] %s, %s, a float device beside a double one", g_config, mc->name, name);
         capture ref, c;
@@ -1050,7 +1040,6 @@ static void test_mixed_precision(const mesh_case *mc)
         check_order(&c, what);
         check_same(&ref, &c, what);
         const char *w = clvox_context_warnings(mixed);
-        if (both)
         {
             /* it takes part (how many slabs it gets depends on the load) */
             CHECK_MSG(!*w && st.device_count == 2, "%s: warnings '%s'", what, w);
@@ -1067,11 +1056,6 @@ static void test_mixed_precision(const mesh_case *mc)
             check_same(&ref, &c1, what);
             capture_free(&c1);
         }
-        else
-            CHECK_MSG(strstr(w, "device 1 '") == w && strstr(w, "left out") && strstr(w, "double precision") &&
-                          count_lines(w) == 1 && st.devices[1].left_out && st.devices[1].slabs == 0,
-                      "%s: warnings '%s', device 1 left out %d with %u slabs", what, w, st.devices[1].left_out,
-                      st.devices[1].slabs);
         capture_free(&ref);
         capture_free(&c);
     }
@@ -1082,10 +1066,10 @@ static void test_mixed_precision(const mesh_case *mc)
 
 /* Both devices taken to run double 32x slower than float
  * (CLVOX_FP64_SLOWDOWN's hook): each gets the float build by the speed rule
- * (src/core/device_speed.c) and neither is left out of a run for its
- * build, the winding test on voxels that are not cubes included: there
- * each switches to the double build. Every mode gives the one-device
- * double volume, with no warning. */
+ * (src/core/device_speed.c) and keeps it, and neither is left out of a
+ * run for its build, the winding test on voxels that are not cubes
+ * included. Every mode gives the one-device double volume, with no
+ * warning. */
 static void test_speed_rule_set(const mesh_case *mc)
 {
     clvox__test_hooks h = g_hooks;
@@ -1107,13 +1091,9 @@ static void test_speed_rule_set(const mesh_case *mc)
     mode_case modes[10];
     const size_t nmode = make_modes(modes);
     const clvox_grid *g = &mc->grid;
-    const int cubic = g->voxel_size[0] == g->voxel_size[1] && g->voxel_size[0] == g->voxel_size[2];
     for (size_t k = 0; k < nmode; k++) {
         const char *name = modes[k].name;
         const clvox_voxelize_options *mo = &modes[k].o;
-        const int float_ok = cubic || mo->inside == CLVOX_INSIDE_PARITY ||
-                             (!mo->oversample && !mo->palette &&
-                              (mo->mode == CLVOX_MODE_SURFACE || mo->method == CLVOX_METHOD_TETRA));
         char what[256];
         snprintf(what, sizeof what, "[%s] %s, %s, the speed rule on two devices", g_config, mc->name, name);
         capture ref, c;
@@ -1128,7 +1108,7 @@ static void test_speed_rule_set(const mesh_case *mc)
         check_order(&c, what);
         check_same(&ref, &c, what);
         const char *w = clvox_context_warnings(set);
-        const size_t want = float_ok ? 4 : 8;
+        const size_t want = 4;
         /* no device left out for its build (that warns; the scheduler's
          * own "too slow to pay" depends on the load and does not) */
         CHECK_MSG(!*w && st.device_count == 2 && set->member[0]->real_size == want &&

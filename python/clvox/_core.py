@@ -479,8 +479,8 @@ class Context:
     slabs over them, same voxels; .devices lists them, .warnings says who was left out).
     host_only=True opens no device (reading volumes, loading meshes).
     float_kernels=True builds the kernels without double precision on every device (as devices
-    without fp64 always get them): the same voxels in every mode but the winding test on voxels
-    that are not cubes; faster where double is slow (clvox --float-kernels).
+    without fp64 always get them): the same voxels in every mode; faster where double is slow
+    (clvox --float-kernels).
 
     Thread safety: a Context runs one call at a time; a second call made while one is running
     (from another thread, or inside a slab iterator's loop) raises RuntimeError. Use one

@@ -217,7 +217,7 @@ static clvox_status fit_batches(clvox__method_state *s, const clvox__run *run, u
         return clvox__device_alloc_oom(ctx, R * ray_elem, what);
     }
     const cl_mem held[] = {s->verts,          s->tris,           s->nodes,          s->refs,
-                           s->wind.caps.h,    s->wind.caps.nodes, s->wind.caps.tris, s->wind.rims.h,
+                           s->wind.caps.h,    s->wind.caps.nodes, s->wind.caps.tris, s->wind.caps.grid, s->wind.rims.h,
                            s->wind.rims.nodes, s->wind.rims.tris, s->cov.value_of_count, s->pal.elements,
                            s->pal.cells,      s->pal.planes,     s->pal.masks,      s->pal.volume};
     uint64_t fixed = slab_plane_bytes(&s->grid, run->channels, depth);
@@ -272,8 +272,10 @@ static cl_mem upload(clvox_context *ctx, size_t bytes, const void *host, clvox_s
 
 /* A device copy on ctx of buffer `src` of another device's context (the
  * lead's, set up on this same thread): read back, then uploaded. NULL
- * stays NULL. */
-static cl_mem copy_from(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st, const char *what)
+ * stays NULL. With `keep`, *keep gets the bytes read back (the caller's to
+ * free) where the copy is made. */
+static cl_mem copy_from_keep(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st, const char *what,
+                             void **keep)
 {
     if (!src || *st != CLVOX_OK) return NULL;
     size_t bytes = 0;
@@ -292,20 +294,25 @@ static cl_mem copy_from(clvox_context *ctx, clvox_context *from, cl_mem src, clv
         return NULL;
     }
     cl_mem m = upload(ctx, bytes, host, st, what);
+    if (keep && m) {
+        *keep = host;
+        host = NULL;
+    }
     free(host);
     return m;
 }
 
-/* copy_from for an array of clvox_real: converted where the two devices'
- * kernels differ (a float device beside a double lead; on cubic voxels the
- * lead's doubles are floats times 2^-k, clvox__winding_scale, so nothing is
- * lost). With `host` (a float device's caps), their first host_count * 9
- * reals in double too (clvox__caps.host). */
-static cl_mem copy_reals(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st, const char *what,
-                         double **host, size_t host_count)
+static cl_mem copy_from(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st, const char *what)
 {
-    if (host) *host = NULL;
-    if (ctx->real_size == from->real_size && !host) return copy_from(ctx, from, src, st, what);
+    return copy_from_keep(ctx, from, src, st, what, NULL);
+}
+
+/* copy_from for an array of clvox_real: converted where the two devices'
+ * kernels differ (a float device beside a double lead: rounded, which the
+ * float kernels' bounds take in, kernels/winding_angles.h). */
+static cl_mem copy_reals(clvox_context *ctx, clvox_context *from, cl_mem src, clvox_status *st, const char *what)
+{
+    if (ctx->real_size == from->real_size) return copy_from(ctx, from, src, st, what);
     if (!src || *st != CLVOX_OK) return NULL;
     size_t bytes = 0;
     cl_int err = clGetMemObjectInfo(src, CL_MEM_SIZE, sizeof bytes, &bytes, NULL);
@@ -341,10 +348,6 @@ static cl_mem copy_reals(clvox_context *ctx, clvox_context *from, cl_mem src, cl
     }
     cl_mem m = upload(ctx, n * ctx->real_size, conv, st, what);
     free(conv);
-    if (host && *st == CLVOX_OK && host_count * 9 <= n) {
-        *host = d; /* its first host_count * 9 reals: the triangles in leaf order */
-        d = NULL;
-    }
     free(d);
     return m;
 }
@@ -354,9 +357,12 @@ static void copy_caps(clvox_context *ctx, clvox_context *from, const clvox__caps
 {
     dst->nodes = copy_from(ctx, from, src->nodes, st, "cap tree");
     const int keep = caps && ctx->real_size == 4 && src->cap_count; /* clvox__caps.host */
-    dst->tris = copy_reals(ctx, from, src->tris, st, "cap triangles", keep ? &dst->host : NULL, src->cap_count);
+    dst->tris = copy_reals(ctx, from, src->tris, st, "cap triangles");
+    void *host = NULL;
+    dst->grid = copy_from_keep(ctx, from, src->grid, st, "caps in grid space", keep ? &host : NULL);
+    dst->host = host;
     dst->host_count = dst->host ? src->cap_count : 0;
-    dst->h = copy_reals(ctx, from, src->h, st, "cap scale", NULL, 0);
+    dst->h = copy_reals(ctx, from, src->h, st, "cap scale");
     dst->node_count = src->node_count;
     dst->cap_count = src->cap_count;
 }

@@ -90,17 +90,13 @@ static clvox_status set_bits(clvox_context *ctx, cl_kernel k, cl_mem occupancy, 
     return st;
 }
 
-/* A scaled point of the winding code from grid-space u (along the axis),
- * v and w. */
-static void unsure_point(const clvox__method_state *s, const double scale[3], double u, double v, double w,
-                         double p[3])
+/* A point's grid coordinates, x, y, z, from u (along the axis), v and w. */
+static void unsure_point(const clvox__method_state *s, double u, double v, double w, double g[3])
 {
     const unsigned axis = s->wind.axis;
-    double g[3];
     g[axis] = u;
     g[(axis + 1) % 3] = v;
     g[(axis + 2) % 3] = w;
-    for (int a = 0; a < 3; a++) p[a] = g[a] * scale[a];
 }
 
 static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__slab_stats *ss, const cl_uint *list,
@@ -108,7 +104,7 @@ static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__
 {
     clvox_context *ctx = s->ctx;
     double scale[3];
-    const int exact = clvox__winding_scale(&s->grid, scale);
+    clvox__winding_scale(&s->grid, scale);
     size_t inside = 0;
     cl_uint *at = malloc(2 * count * sizeof *at);
     if (!at) return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu unsure points", count);
@@ -123,9 +119,9 @@ static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__
         } else {
             clvox__slab_column(s, b->z0, b->c0 + gid, &v, &w, &base, &bit);
         }
-        double p[3];
-        unsure_point(s, scale, (double)(b->t.u_begin + j), v, w, p);
-        if (!clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact))
+        double g[3];
+        unsure_point(s, (double)(b->t.u_begin + j), v, w, g);
+        if (!clvox__caps_host_inside(&s->wind.caps, scale, g, (int)e[2], (int)s->wind.abs_mode, s->wind.axis))
             continue;
         at[2 * inside] = b->t.out_stride == 0 ? base + (j >> 5) : base + j * b->t.out_stride;
         at[2 * inside + 1] = 1u << ((b->t.out_stride == 0 ? j : bit) & 31u);
@@ -141,8 +137,7 @@ static clvox_status resolve_binary(clvox__method_state *s, batch_set *b, clvox__
 
 /* Column run entry e (column, voxel, K, ray << 8 | point): is the sample
  * inside? */
-static int sample_inside(const clvox__method_state *s, const batch_set *b, const cl_uint *e, const double scale[3],
-                         int exact)
+static int sample_inside(const clvox__method_state *s, const batch_set *b, const cl_uint *e, const double scale[3])
 {
     const clvox__coverage *c = &s->cov;
     const cl_uint gid = e[0], j = e[1], r = e[3] >> 8, m = e[3] & 255u;
@@ -159,9 +154,9 @@ static int sample_inside(const clvox__method_state *s, const batch_set *b, const
     clvox_column_ray(v, w, col.id, r, c->N, c->stochastic, c->seed_lo, c->seed_hi, &pv, &pw);
     uint32_t bits[4] = {0, 0, 0, 0};
     if (c->stochastic) clvox_philox4x32_10(col.id, r, u, m >> 2, c->seed_lo, c->seed_hi, bits);
-    double p[3];
-    unsure_point(s, scale, clvox_sample_u(u, m, c->M, c->stochastic, bits[m & 3u]), pv, pw, p);
-    return clvox__caps_host_inside(&s->wind.caps, p, (int)e[2], (int)s->wind.abs_mode, s->wind.axis, exact);
+    double g[3];
+    unsure_point(s, clvox_sample_u(u, m, c->M, c->stochastic, bits[m & 3u]), pv, pw, g);
+    return clvox__caps_host_inside(&s->wind.caps, scale, g, (int)e[2], (int)s->wind.abs_mode, s->wind.axis);
 }
 
 static int cmp_answer(const void *pa, const void *pb)
@@ -185,7 +180,7 @@ static clvox_status resolve_columns(clvox__method_state *s, batch_set *b, const 
 {
     clvox_context *ctx = s->ctx;
     double scale[3];
-    const int exact = clvox__winding_scale(&s->grid, scale);
+    clvox__winding_scale(&s->grid, scale);
     /* [n, the n columns with answers, the answers]: the second pass runs
      * those columns only (clvox_pass_column); a column's voxels and tallies
      * depend on its own samples alone, so the others keep the first pass's */
@@ -196,7 +191,7 @@ static clvox_status resolve_columns(clvox__method_state *s, batch_set *b, const 
         const cl_uint *e = list + UNSURE_WORDS * i;
         ans[3 * i] = e[0];
         ans[3 * i + 1] = e[1];
-        ans[3 * i + 2] = e[3] | (sample_inside(s, b, e, scale, exact) ? 0x80000000u : 0u);
+        ans[3 * i + 2] = e[3] | (sample_inside(s, b, e, scale) ? 0x80000000u : 0u);
     }
     qsort(ans, count, 3 * sizeof *ans, cmp_answer);
     cl_uint n = 0;

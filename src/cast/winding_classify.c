@@ -234,6 +234,7 @@ cl_int clvox__winding_args(cl_kernel k, cl_uint *i, const clvox__winding_classif
     err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &w->caps.nodes);
     err |= clSetKernelArg(k, (*i)++, sizeof(cl_uint), &w->caps.node_count);
     err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &w->caps.tris);
+    err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &w->caps.grid);
     err |= clSetKernelArg(k, (*i)++, sizeof(cl_mem), &m->exact);
     return err;
 }

@@ -123,9 +123,7 @@ static int cmd_list_devices(void)
     }
     if (count > 1)
         printf("\nOne run can use several devices: --device 0,1 (indices, types or names) or --device all.\n%s",
-               kinds == 3 ? "Devices without fp64 share every run with the others (the same voxels) but coverage and "
-                            "palette runs,\nand winding runs on voxels that are not cubes, which leave them out.\n"
-                          : "");
+               kinds == 3 ? "Devices without fp64 share every run with the others (the same voxels).\n" : "");
     free(devs);
     return EXIT_OK;
 }

@@ -558,12 +558,11 @@ static clvox_status open_set(clvox_context *ctx, const device_entry *list, const
     if (n == 0)
         return clvox__fail(ctx, first_st, "none of the %u devices could be used; device 0: %s", count, first_error);
     /* Kernels with and without fp64, or float kernels with and without
-     * correctly rounded division, decide some voxels of some runs
-     * differently (docs/design.md "Device requirements", "Devices without
-     * double precision"): all stay in the set, those with the best rules
-     * present (double, else rounded float) first, and each run leaves out
-     * the others unless its mode decides the same in every build
-     * (voxelize.c). */
+     * correctly rounded division, decide every voxel the same
+     * (docs/design.md "Device requirements", "Devices without double
+     * precision"): all stay in the set, those with the best rules present
+     * (double, else rounded float) first, so that the lead prepares the
+     * mesh in double where a device can. */
     int best = 0;
     for (uint32_t i = 0; i < n; i++)
         if (clvox__kernel_rules(open[i]) > best) best = clvox__kernel_rules(open[i]);

@@ -43,6 +43,7 @@ void clvox__caps_release(clvox__caps *c)
 {
     clvox__release_mem(&c->nodes);
     clvox__release_mem(&c->tris);
+    clvox__release_mem(&c->grid);
     clvox__release_mem(&c->h);
     free(c->host);
     c->host = NULL;
@@ -50,13 +51,15 @@ void clvox__caps_release(clvox__caps *c)
     c->cap_count = 0;
 }
 
-/* Cap triangle t's solid angle / 4pi at p as the double kernels take it
- * (kernels/winding_angles.h clvox_cap_angles4_v, one triangle): van
- * Oosterom-Strackee, det's sign exact with `exact` (the coordinates are
- * floats), the tie rule where it is 0, NaN as 0. */
-static double cap_w(const double *t, const double *p, unsigned axis, int exact)
+/* Cap triangle tg's (grid space) solid angle / 4pi at p (scaled; g in grid
+ * space) as the double kernels take it (kernels/winding_angles.h
+ * clvox_cap_angles4_v, one triangle): van Oosterom-Strackee on the scaled
+ * corners tg times s, det's sign exact on the grid's floats, the tie rule
+ * where it is 0, NaN as 0. */
+static double cap_w(const float *tg, const double s[3], const double *p, const double *g, unsigned axis)
 {
-    double a[3], b[3], c[3];
+    double t[9], a[3], b[3], c[3];
+    for (int k = 0; k < 9; k++) t[k] = (double)tg[k] * s[k % 3];
     for (int k = 0; k < 3; k++) a[k] = t[k] - p[k], b[k] = t[3 + k] - p[k], c[k] = t[6 + k] - p[k];
     const double la = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
     const double lb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
@@ -66,22 +69,17 @@ static double cap_w(const double *t, const double *p, unsigned axis, int exact)
     const double L = la * lb * lc;
     const double den = L + (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * lc +
                        (b[0] * c[0] + b[1] * c[1] + b[2] * c[2]) * la + (c[0] * a[0] + c[1] * a[1] + c[2] * a[2]) * lb;
-    if (exact) {
-        const int sg = -clvox_o3_sign(t, p[0], p[1], p[2]);
-        if (sg == 0) det = 0;
-        else if (det * sg <= 0) det = sg * L * 0x1p-50;
-    }
+    double v[9];
+    for (int k = 0; k < 9; k++) v[k] = tg[k];
+    const int sg = -clvox_o3_sign(v, g[0], g[1], g[2]);
+    if (sg == 0) det = 0;
+    else if (det * sg <= 0) det = sg * L * 0x1p-50;
     if (det == 0) {
         if (!(den < 0)) return 0;
         int d = 0;
         for (unsigned k = 0; k < 3 && d == 0; k++) {
-            const unsigned i = (axis + k) % 3, s = (i + 1) % 3, r = (i + 2) % 3;
-            if (exact) {
-                d = -clvox_e2_sign(t[s], t[r], t[3 + s], t[3 + r], t[s], t[r], t[6 + s], t[6 + r]);
-            } else {
-                const double n = (t[3 + s] - t[s]) * (t[6 + r] - t[r]) - (t[3 + r] - t[r]) * (t[6 + s] - t[s]);
-                d = n > 0 ? -1 : n < 0 ? 1 : 0;
-            }
+            const unsigned i = (axis + k) % 3, j = (i + 1) % 3, r = (i + 2) % 3;
+            d = -clvox_e2_sign(v[j], v[r], v[3 + j], v[3 + r], v[j], v[r], v[6 + j], v[6 + r]);
         }
         return d > 0 ? 0.5 : d < 0 ? -0.5 : 0;
     }
@@ -89,10 +87,12 @@ static double cap_w(const double *t, const double *p, unsigned axis, int exact)
     return atan2(det, den) / (2.0 * 3.14159265358979323846);
 }
 
-int clvox__caps_host_inside(const clvox__caps *c, const double p[3], int K, int abs_mode, unsigned axis, int exact)
+int clvox__caps_host_inside(const clvox__caps *c, const double s[3], const double g[3], int K, int abs_mode,
+                            unsigned axis)
 {
+    const double p[3] = {g[0] * s[0], g[1] * s[1], g[2] * s[2]}; /* as the kernels' clvox_scaled_xyz */
     double w = 0;
-    for (size_t t = 0; t < c->host_count; t++) w += cap_w(c->host + t * 9, p, axis, exact);
+    for (size_t t = 0; t < c->host_count; t++) w += cap_w(c->host + t * 9, s, p, g, axis);
     w = (double)K - w;
     const double thr = 0.5 + 0x1p-30;
     return abs_mode ? (w > thr || w < -thr) : w > thr;
@@ -108,10 +108,12 @@ static void put_real(void *arr, size_t rs, size_t i, double v)
 }
 
 /* A tree built on the host: nodes, and its reals (rs bytes each): the
- * triangles in leaf order (9 each), then the leaves' lane-major copies. */
+ * triangles in leaf order (9 each), then the leaves' lane-major copies;
+ * grid: the triangles again in grid space (9 floats each; not for edges). */
 typedef struct tree {
     clvox_cap_node *nodes;
     size_t node_count;
+    float *grid;
     void *reals;
     size_t real_count, tri_count, block_reals;
 } tree;
@@ -121,21 +123,23 @@ enum { TREE_CAPS, TREE_SEGMENTS, TREE_PAIRS };
 static void tree_free(tree *t)
 {
     free(t->nodes);
+    free(t->grid);
     free(t->reals);
     memset(t, 0, sizeof *t);
 }
 
-/* The tree over n items (q, consumed): cap triangles (9 scaled reals each),
+/* The tree over n items (q, consumed; scaled by s, clvox__winding_scale): cap triangles (9 scaled reals each),
  * edges (TREE_SEGMENTS: q[0..2] -> q[3..5], q[6..8] = q[3..5], whose "area"
  * is their length), or weld pairs (TREE_PAIRS: 18 reals, T then T', see
  * clvox_cap_node). */
-static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode, tree *out);
+static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode, const double s[3], tree *out);
 /* Uploads t (freed) into out, which holds the voxel size already. */
 static clvox_status tree_send(clvox_context *ctx, tree *t, int segments, clvox__caps *out);
-static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, clvox__caps *out)
+static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int segments, const double s[3],
+                               clvox__caps *out)
 {
     tree t;
-    clvox_status st = tree_build(ctx, q, n, segments ? TREE_SEGMENTS : TREE_CAPS, &t);
+    clvox_status st = tree_build(ctx, q, n, segments ? TREE_SEGMENTS : TREE_CAPS, s, &t);
     if (st == CLVOX_OK) st = tree_send(ctx, &t, segments, out);
     if (st != CLVOX_OK) clvox__caps_release(out);
     return st;
@@ -203,11 +207,14 @@ static clvox_status tree_join(clvox_context *ctx, tree *c, tree *p, tree *out)
     if (!blocks) total = ct + pt;
     out->nodes = malloc((1 + nc + np) * sizeof *out->nodes);
     out->reals = malloc(total * rs);
-    if (!out->nodes || !out->reals) {
+    out->grid = malloc((ct + pt) * sizeof *out->grid);
+    if (!out->nodes || !out->reals || !out->grid) {
         tree_free(out);
         return clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps",
                            c->tri_count + p->tri_count);
     }
+    memcpy(out->grid, c->grid, ct * sizeof *out->grid);
+    memcpy(out->grid + ct, p->grid, pt * sizeof *out->grid);
     char *r = out->reals;
     memcpy(r, c->reals, ct * rs);
     memcpy(r + ct * rs, p->reals, pt * rs);
@@ -263,6 +270,7 @@ clvox_status clvox__caps_upload_pairs(clvox_context *ctx, const float *cap_soup,
             out->nodes = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof dummy, &dummy, &st,
                                        "cap tree");
             if (st == CLVOX_OK) out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY, 9 * ctx->real_size, NULL, &st, "caps");
+            if (st == CLVOX_OK) out->grid = clvox__buffer(ctx, CL_MEM_READ_ONLY, 9 * sizeof(float), NULL, &st, "caps");
         }
         if (st != CLVOX_OK) clvox__caps_release(out);
         return st;
@@ -281,7 +289,7 @@ clvox_status clvox__caps_upload_pairs(clvox_context *ctx, const float *cap_soup,
         if (!q) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap triangles", n);
         if (st == CLVOX_OK) {
             scaled(cap_soup, n, axes, h3, q);
-            st = tree_build(ctx, q, n, TREE_CAPS, &c);
+            st = tree_build(ctx, q, n, TREE_CAPS, h3, &c);
         }
     }
     if (st == CLVOX_OK && np) {
@@ -289,7 +297,7 @@ clvox_status clvox__caps_upload_pairs(clvox_context *ctx, const float *cap_soup,
         if (!q) st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu weld pairs", np);
         if (st == CLVOX_OK) {
             scaled(pair_soup, 2 * np, axes, h3, q);
-            st = tree_build(ctx, q, np, TREE_PAIRS, &p);
+            st = tree_build(ctx, q, np, TREE_PAIRS, h3, &p);
         }
     }
     if (st == CLVOX_OK) {
@@ -329,7 +337,7 @@ clvox_status clvox__rims_upload(clvox_context *ctx, const clvox_mesh *mesh, cons
                 q[e * 9 + c * 3 + a] = (double)g * s3[a];
             }
         }
-    return tree_upload(ctx, q, n, 1, out);
+    return tree_upload(ctx, q, n, 1, s3, out);
 }
 
 /* (per(T) + 6 delta) delta of pair p (18 scaled reals: T, then T'):
@@ -464,7 +472,7 @@ static void select_keys(cap_key *a, size_t n, size_t k)
     if (hi - lo > 1 && k > lo && k < hi) qsort(a + lo, hi - lo, sizeof *a, cmp_cap_key);
 }
 
-static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode, tree *out)
+static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode, const double s[3], tree *out)
 {
     memset(out, 0, sizeof *out);
     clvox_status st = CLVOX_OK;
@@ -619,6 +627,29 @@ static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode
                               !memcmp(w, w + 6, 3 * sizeof *w);
         for (int c = 0; c < 3; c++) memcpy(r + 9 + 3 * c, collapsed ? w : w + 3 * c, 3 * sizeof *r);
     }
+    /* caps: in grid space too, for the kernels' exact signs (clvox__caps.grid):
+     * every scaled real is a grid float times s rounded (scaled(), the
+     * rims' upload), from which the float is recovered exactly -- a
+     * relative error of 2^-52 is far below float's half spacing; checked */
+    float *grid = NULL;
+    if (!segments) {
+        grid = malloc(nt * 9 * sizeof *grid);
+        if (!grid) {
+            free(tv);
+            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for a tree of %zu caps", nt);
+            goto done;
+        }
+        for (size_t i = 0; i < nt * 9; i++) {
+            grid[i] = (float)(tv[i] / s[i % 3]);
+            if ((double)grid[i] * s[i % 3] != tv[i]) {
+                free(tv);
+                free(grid);
+                st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "a cap corner's grid coordinate is not a float (%.17g)",
+                                 tv[i]);
+                goto done;
+            }
+        }
+    }
     /* caps: after them, each leaf's caps again, lane-major (36 reals a
      * leaf, clvox_cap_node.block), for the kernels' vector loads */
     size_t leaves = 0, reals = nt * 9;
@@ -652,6 +683,7 @@ static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode
         }
     }
     free(tv);
+    out->grid = grid;
     out->nodes = nodes;
     out->node_count = node_count;
     out->reals = tris;
@@ -679,16 +711,17 @@ static clvox_status tree_send(clvox_context *ctx, tree *t, int segments, clvox__
     if (st == CLVOX_OK)
         out->tris = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, t->real_count * ctx->real_size,
                                   t->reals, &st, segments ? "boundary edges" : "caps");
+    if (st == CLVOX_OK && !segments)
+        out->grid = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, t->tri_count * 9 * sizeof(float),
+                                  t->grid, &st, "caps in grid space");
     out->node_count = (cl_uint)t->node_count;
     out->cap_count = t->tri_count;
     if (st == CLVOX_OK && !segments && ctx->real_size == 4 && t->tri_count) {
         /* a float device's unsure points are decided on the host, in
          * double, over the same triangles (clvox__caps_host_inside) */
-        out->host = malloc(t->tri_count * 9 * sizeof *out->host);
-        if (!out->host)
-            st = clvox__fail(ctx, CLVOX_ERR_OUT_OF_MEMORY, "out of memory for %zu cap triangles", t->tri_count);
-        for (size_t i = 0; st == CLVOX_OK && i < t->tri_count * 9; i++) out->host[i] = ((const float *)t->reals)[i];
-        out->host_count = st == CLVOX_OK ? t->tri_count : 0;
+        out->host = t->grid;
+        t->grid = NULL;
+        out->host_count = t->tri_count;
     }
     tree_free(t);
     return st;

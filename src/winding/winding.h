@@ -5,23 +5,26 @@
 #include "core/internal.h"
 
 /* The cap tree on the device (kernels/winding_*.h): nodes, the cap triangles
- * in its leaf order as scaled x, y, z reals, and the scale h (4 reals,
- * always set: clvox__winding_scale's s, then its result). node_count 0: no
- * caps. */
+ * in its leaf order as scaled x, y, z reals, the same triangles in grid
+ * space (grid: 9 floats each, x, y, z, for the exact signs; not in the
+ * rims' tree), and the scale h (4 reals, always set: clvox__winding_scale's
+ * s, then 1 + k on cubic voxels, else 0). node_count 0: no caps. */
 typedef struct clvox__caps {
-    cl_mem nodes, tris, h;
+    cl_mem nodes, tris, grid, h;
     cl_uint node_count;
     size_t cap_count;
-    double *host;      /* float devices: the triangles (9 each, leaf order) for clvox__caps_host_inside */
+    float *host;       /* float devices: the grid triangles (9 each, leaf order) for clvox__caps_host_inside */
     size_t host_count; /* triangles in host */
 } clvox__caps;
 
-/* The inside test at scaled point p given K there, in double on the host
- * over every cap triangle (what the double kernels decide; the float ones
- * leave it the points they cannot certify, kernels/winding.cl): w = K -
- * the caps' solid angles / 4pi, w > 1/2 + 2^-30 (abs_mode: |w|). axis: the
- * tie rule's; exact: clvox__winding_scale's result (exact signs). */
-int clvox__caps_host_inside(const clvox__caps *c, const double p[3], int K, int abs_mode, unsigned axis, int exact);
+/* The inside test at the point of grid coordinates g (x, y, z) given K
+ * there, in double on the host over every cap triangle, as the double
+ * kernels take it (the float ones leave it the points they cannot certify,
+ * kernels/winding.cl): w = K - the caps' solid angles / 4pi at g times s
+ * (clvox__winding_scale), w > 1/2 + 2^-30 (abs_mode: |w|); the signs exact
+ * on the grid's floats. axis: the tie rule's. */
+int clvox__caps_host_inside(const clvox__caps *c, const double s[3], const double g[3], int K, int abs_mode,
+                            unsigned axis);
 
 /* The winding code's scale (kernels/winding_*.h "scaled grid space"):
  * s[a] = h[a] / max(h) * 2^-k, grid coordinates times s being the world's up

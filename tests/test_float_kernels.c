@@ -330,6 +330,77 @@ static void test_adversarial(void)
     CHECK_MSG(host_points > before && flat_host > 0, "no point was left to the host");
 }
 
+/* A tilted opening on voxels that are not cubes (1 x 19/16 x 3/2, so that
+ * the scaled coordinates are rounded): the tetrahedron (1, 1, 1), (13, 1,
+ * 1), (1, 13, 1), (1, 1, 13) in grid coordinates (voxel centres at the
+ * integers; its world coordinates, grid times h, and back are exact) without
+ * its face x + y + z = 15. At the 55 centres inside that face w is 1/2
+ * exactly (the closed tetrahedron's 1/2 on a face, less the missing face's
+ * 0): outside. Both builds; every other centre against the long-double
+ * reference. With CLVOX_CAP_APEX=0 the caps' fan lies in the face's plane,
+ * and the centres inside the caps are ties whose det only an exact sign
+ * gets right (on the grid's floats: the rounded coordinates give it either
+ * sign); checked there are the face's centres off the fan's spokes (on a
+ * spoke den is 0 too: the tie rule does not cover it, and the apex's lift
+ * off the plane is what keeps centres off the spokes, src/winding/winding.c). */
+static void test_tilted_opening(void)
+{
+    const double h[3] = {1.0, 19.0 / 16, 1.5};
+    clvox_grid g;
+    for (int a = 0; a < 3; a++) g.dims[a] = 16, g.voxel_size[a] = h[a], g.origin[a] = -0.5 * h[a];
+    tmesh open = {0};
+    const double c[4][3] = {{1, 1, 1}, {13, 1, 1}, {1, 13, 1}, {1, 1, 13}};
+    for (int v = 0; v < 4; v++) tmesh_add_vertex(&open, c[v][0] * h[0], c[v][1] * h[1], c[v][2] * h[2]);
+    tmesh_add_tri(&open, 0, 2, 1); /* the three faces through (1, 1, 1), outward */
+    tmesh_add_tri(&open, 0, 1, 3);
+    tmesh_add_tri(&open, 0, 3, 2);
+    clvox_mesh *mesh = NULL;
+    CHECK_OK(cd, clvox_mesh_from_arrays(cd, open.xyz, open.nv, open.tri, open.nt, &mesh));
+    uint8_t *a = malloc(16 * 16 * 16);
+    CHECK(a != NULL);
+    for (int flat = 0; flat < 2 && mesh && a; flat++) {
+        clvox__test_hooks hk = *clvox__hooks();
+        hk.cap_apex_set = flat;
+        hk.cap_apex = 0;
+        clvox__set_test_hooks(&hk);
+        for (int f = 0; f < 2; f++) {
+            clvox_context *ctx = f ? cf : cd;
+            char name[96];
+            snprintf(name, sizeof name, "tilted opening, %s, %s", f ? "float" : "double", flat ? "flat caps" : "caps");
+            clvox_voxelize_options o = CLVOX_VOXELIZE_OPTIONS_INIT;
+            CHECK_OK(ctx, clvox_voxelize_to_memory(ctx, mesh, &g, &o, a, 16 * 16 * 16, NULL));
+            int on_face = 0, wrong = 0;
+            for (int z = 0; z < 16; z++)
+                for (int y = 0; y < 16; y++)
+                    for (int x = 0; x < 16; x++) {
+                        const int got = a[(z * 16 + y) * 16 + x];
+                        if (x + y + z == 15 && x > 1 && y > 1 && z > 1) { /* inside the missing face */
+                            /* the fan's spokes, from (5, 5, 5) to the corners: two coordinates equal, the
+                             * third 15 - 2 of them */
+                            const int spoke = (x == y && z >= 5) || (y == z && x >= 5) || (x == z && y >= 5);
+                            if (flat && spoke) continue;
+                            on_face++;
+                            wrong += got != 0;
+                            continue;
+                        }
+                        if (flat || x == 1 || y == 1 || z == 1) continue; /* on the surface's planes */
+                        const double p[3] = {x * h[0], y * h[1], z * h[2]};
+                        const long double d = ref_w(&open, p) - (0.5L + 0x1p-30L);
+                        if (fabsl(d) < 1e-12L) continue;
+                        CHECK_MSG(got == (d > 0), "%s: voxel (%d, %d, %d) w - 1/2 = %.3Lg: %d", name, x, y, z,
+                                  d + 0x1p-30L, got);
+                    }
+            CHECK_MSG(on_face == (flat ? 45 : 55) && wrong == 0,
+                      "%s: %d of the %d centres on the missing face (w = 1/2) inside", name, wrong, on_face);
+        }
+        hk.cap_apex_set = 0;
+        clvox__set_test_hooks(&hk);
+    }
+    free(a);
+    clvox_mesh_destroy(mesh);
+    tmesh_free(&open);
+}
+
 static void compare_tmesh(const char *name, const tmesh *m, const clvox_grid *g)
 {
     clvox_mesh *mesh = NULL;
@@ -765,6 +836,7 @@ int main(void)
     test_range_refused();
     test_speed_rule();
     test_adversarial();
+    test_tilted_opening();
     { /* the public option (clvox_context_options.float_kernels) builds them so too */
         clvox_context_options co = CLVOX_CONTEXT_OPTIONS_INIT;
         co.float_kernels = 1;

@@ -127,8 +127,9 @@ done
 echo "cases: $((passed + failed)) runs (oclgrind twice, PoCL local size 1 once) in $(($(date +%s) - start)) s"
 
 # The float build (devices without fp64: CLVOX_KERNEL_FLOAT=1) under
-# Oclgrind, in the modes it decides exactly (winding, coverage and palette:
-# with the host deciding the points its float bounds cannot settle): the same bytes as the double
+# Oclgrind, in every mode (winding, coverage and palette, on cubic voxels
+# and others, with the host deciding the points its float bounds cannot
+# settle): the same bytes as the double
 # kernels on PoCL (tests/test_float_kernels.c compares them on PoCL).
 float_cases="
 $M/cow.off -r 16 --inside parity
@@ -137,7 +138,9 @@ $M/cow.off -r 16 --method tetra
 $M/corner_with_hole.off -r 12 --mode surface
 $M/cow.off -r 16 --mode conservative --method tetra --axis z
 $M/elephant-with-holes.off -r 12
+$M/elephant-with-holes.off --dims 14,11,9
 $M/cube-ouvert.off -r 16
+$M/cube-ouvert.off --dims 12,10,8 --oversample 2 --axis y
 $M/cross.off -r 16 --axis z --inside winding-abs
 $M/cow.off -r 12 --oversample 2 --axis z
 $M/cube-ouvert.off -r 8 --oversample 3,2

@@ -53,8 +53,9 @@ static inline int clvox_ray_crosses_x(global const float *a, global const float 
     /* the estimate, as in double (weights rounded) */
     const float Av = a[1] - pv, Aw = a[2] - pw, Bv = b[1] - pv, Bw = b[2] - pw, Cv = c[1] - pv, Cw = c[2] - pw;
     const float eab = Av * Bw - Aw * Bv, ebc = Bv * Cw - Bw * Cv, eca = Cv * Aw - Cw * Av;
-    const float ua = a[0];
-    float h = ua + (eca * (b[0] - ua) + eab * (c[0] - ua)) / (eab + ebc + eca);
+    const float ua = a[0], db = b[0] - ua, dc = c[0] - ua;
+    const float S = eab + ebc + eca, N = eca * db + eab * dc, q = N / S;
+    float h = ua + q;
     if (exact_hits) { /* every float compared exactly, integers among them */
         *u_hit = h;
         return sab;
@@ -64,6 +65,31 @@ static inline int clvox_ray_crosses_x(global const float *a, global const float 
      * grid: a crossing beyond is on the same side of every centre) */
     const float umin = fmin(fmin(a[0], b[0]), c[0]), umax = fmax(fmax(a[0], b[0]), c[0]);
     const float lo = fmax(ceil(umin), -0x1p22f), hi = fmin(ceil(umax), 0x1p22f);
+    /* Most crossings lie well inside (i - 1, i]: where h's error bound
+     * keeps it there, ceil(h) is u's, the search's answer, and h the
+     * u_hit it returns. The bound: each e, from rounded differences, lies
+     * within 3.0001 u of its permanent (Shewchuk's ccwerrboundA; 2^-146
+     * more for products near underflow); S = their sum within ES; N = eca
+     * db + eab dc (db, dc rounded differences) within EN; q = N / S within
+     * (EN + |q| ES) / (|S| - ES) + u |q| where |S| > 2 ES; h = ua + q
+     * within that + u |h|, and 2 u |h| more for h -+ Eh's own rounding.
+     * The bound's own arithmetic (a dozen roundings) is inside the factors
+     * 1.0001. Elsewhere the search below. */
+    {
+        const float U = 0x1p-24f, TINY = 0x1p-146f;
+        const float e_ab = 3.0001f * U * (fabs(Av * Bw) + fabs(Aw * Bv)) + TINY;
+        const float e_bc = 3.0001f * U * (fabs(Bv * Cw) + fabs(Bw * Cv)) + TINY;
+        const float e_ca = 3.0001f * U * (fabs(Cv * Aw) + fabs(Cw * Av)) + TINY;
+        const float ES = (e_ab + e_bc + e_ca + 2.0001f * U * (fabs(eab) + fabs(ebc) + fabs(eca))) * 1.0001f + TINY;
+        const float EN = ((e_ca + 2.0001f * U * fabs(eca)) * fabs(db) + (e_ab + 2.0001f * U * fabs(eab)) * fabs(dc) +
+                          U * fabs(N)) * 1.0001f + TINY;
+        const float Eh = ((EN + fabs(q) * ES) / (fabs(S) - ES) + U * fabs(q) + 3 * U * fabs(h)) * 1.0001f;
+        const float ch = ceil(h);
+        if (fabs(S) > 2 * ES && Eh < 0.25f && ceil(h - Eh) == ch && ceil(h + Eh) == ch && ch >= lo && ch <= hi) {
+            *u_hit = h;
+            return sab;
+        }
+    }
     const float v[9] = {a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]};
     float i = fmin(fmax(ceil(h), lo), hi); /* NaN -> lo */
     while (i < hi && !clvox_hit_at_or_below(v, i, pv, pw, sab)) i += 1.0f;

@@ -164,15 +164,15 @@ int clvox__winding_scale(const clvox_grid *grid, double s[3])
 }
 
 /* The scale buffer every cap tree carries (the kernels take it): s, then
- * 1 + k where the scaled coordinates are the grid's floats times 2^-k
- * (cubic voxels; clvox__winding_scale_shift), else 0. */
+ * 1 where the scaled coordinates are the grid's floats times 2^-k exactly
+ * (cubic voxels; kernels/winding_angles.h CLVOX_CUBIC), else 0. */
 static clvox_status upload_h(clvox_context *ctx, const clvox_grid *grid, clvox__caps *out)
 {
     clvox_status st = CLVOX_OK;
     double hb[4], s[3];
     const int exact = clvox__winding_scale(grid, s);
     for (int a = 0; a < 3; a++) put_real(hb, ctx->real_size, (size_t)a, s[a]);
-    put_real(hb, ctx->real_size, 3, exact ? 1.0 + clvox__winding_scale_shift(grid) : 0.0);
+    put_real(hb, ctx->real_size, 3, exact ? 1.0 : 0.0);
     out->h = clvox__buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 4 * ctx->real_size, hb, &st, "voxel scale");
     return st;
 }

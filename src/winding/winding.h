@@ -8,7 +8,7 @@
  * in its leaf order as scaled x, y, z reals, the same triangles in grid
  * space (grid: 9 floats each, x, y, z, for the exact signs; not in the
  * rims' tree), and the scale h (4 reals, always set: clvox__winding_scale's
- * s, then 1 + k on cubic voxels, else 0). node_count 0: no caps. */
+ * s, then 1 on cubic voxels, else 0). node_count 0: no caps. */
 typedef struct clvox__caps {
     cl_mem nodes, tris, grid, h;
     cl_uint node_count;

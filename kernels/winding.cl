@@ -8,7 +8,7 @@
  * classified by runs from K alone, like parity; on a closed mesh there are
  * no caps and that is every ray. Rays near a cap decide voxel by voxel. */
 
-#define CLVOX_RIM_BUDGET 12u /* steps of the segments' M2 bound */
+#define CLVOX_RIM_BUDGET 24u /* steps of the segments' M2 bound */
 #define CLVOX_SEG_MAX 256u   /* voxels between anchors at most */
 #if defined(CLVOX_FP64)
 #define CLVOX_LERP_ERR 1e-12 /* the line's rounding, of the values' size */
@@ -228,6 +228,14 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
         clvox_emit(o, out_stride, bit, 0u, inside, &word, &cnt);
         j = 0;
         clvox_real ma = clvox_margin(inside, lo, hi, thr, abs_mode); /* anchor a's */
+        clvox_rim_terms rt; /* the rims' bound along this ray */
+        {
+            const clvox_real r0[3] = {(clvox_real)u_begin, rv, rw},
+                             r1[3] = {(clvox_real)(u_begin + u_count - 1u), rv, rw};
+            clvox_real p0[3], p1[3];
+            clvox_scaled_box(axis, r0, r1, h, p0, p1);
+            clvox_rim_ray_terms(rims, rim_count, rim_edges, p0, p1, axis, &rt);
+        }
         while (j + 1u < u_count) {
             uint jb = j + s < u_count - 1u ? j + s : u_count - 1u;
             /* The segment's M2; where its line's error at the middle, M2 (L
@@ -245,7 +253,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                                  g1[3] = {(clvox_real)(u_begin + jb), rv, rw};
                 clvox_real q0[3], q1[3];
                 clvox_scaled_box(axis, g0, g1, h, q0, q1);
-                M2 = clvox_rim_bound(rims, rim_count, rim_edges, q0, q1, axis, CLVOX_RIM_BUDGET);
+                M2 = clvox_rim_terms_bound(&rt, q0, q1, axis);
                 const clvox_real L = (clvox_real)(jb - j) * step;
                 if (ma > 0 && isfinite(M2) && M2 * L * L * (clvox_real)0.125 > 4 * ma) {
                     const clvox_real w = sqrt((clvox_real)3 * ma / M2) / step;
@@ -385,19 +393,26 @@ kernel void clvox_winding_probe(global const clvox_cap_node *nodes, global const
 
 /* For tests/test_winding.c only: the rims' bound over segment segs[6i ..]
  * (q0 then q1, scaled x, y, z, along the axis where they differ) into
- * out[i], at the classify's budget. */
+ * out[i], as the classify bounds a segment of a ray: the rim terms
+ * prepared for a ray through it (clvox_rim_ray_terms; here the segment
+ * extended by twice its length on either side), then summed over it. */
 kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, global const clvox_real *edges,
                             global const clvox_real *segs, uint count, global clvox_real *out)
 {
     const uint i = get_global_id(0);
     if (i >= count) return;
-    clvox_real q0[3], q1[3];
+    clvox_real q0[3], q1[3], r0[3], r1[3];
     for (uint a = 0; a < 3u; a++) {
-        q0[a] = segs[6 * i + a];
-        q1[a] = segs[6 * i + 3 + a];
+        q0[a] = r0[a] = segs[6 * i + a];
+        q1[a] = r1[a] = segs[6 * i + 3 + a];
     }
     const uint axis = q1[1] != q0[1] ? 1u : (q1[2] != q0[2] ? 2u : 0u);
-    out[i] = clvox_rim_bound(rims, rim_count, edges, q0, q1, axis, CLVOX_RIM_BUDGET);
+    const clvox_real len = q1[axis] - q0[axis];
+    r0[axis] -= 2 * len;
+    r1[axis] += 2 * len;
+    clvox_rim_terms t;
+    clvox_rim_ray_terms(rims, rim_count, edges, r0, r1, axis, &t);
+    out[i] = clvox_rim_terms_bound(&t, q0, q1, axis);
 }
 
 /* The host's answers for the points the float build left unsure

@@ -8,7 +8,6 @@
  * classified by runs from K alone, like parity; on a closed mesh there are
  * no caps and that is every ray. Rays near a cap decide voxel by voxel. */
 
-#define CLVOX_RIM_BUDGET 24u /* steps of the segments' M2 bound */
 #define CLVOX_SEG_MAX 256u   /* voxels between anchors at most */
 #if defined(CLVOX_FP64)
 #define CLVOX_LERP_ERR 1e-12 /* the line's rounding, of the values' size */

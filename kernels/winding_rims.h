@@ -108,8 +108,9 @@ static inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, co
 #define CLVOX_RIM_FINAL 0x80000000u /* an entry bounded edge by edge */
 #define CLVOX_RIM_LEAF 0x40000000u  /* a leaf bounded by its box */
 typedef struct clvox_rim_terms {
-    clvox_real d2[CLVOX_RIM_TERMS]; /* an edge's; a box's as -(d2 + 1) */
-    clvox_real lo[CLVOX_RIM_TERMS], hi[CLVOX_RIM_TERMS], w[CLVOX_RIM_TERMS];
+    clvox_real d2[CLVOX_RIM_TERMS]; /* the squared distance across the axis */
+    clvox_real lo[CLVOX_RIM_TERMS], hi[CLVOX_RIM_TERMS];
+    clvox_real w[CLVOX_RIM_TERMS]; /* a node's box: negated (sign bit set), so that d2 stays exact */
     clvox_real far;   /* the other entries' bound over the whole ray */
     clvox_real slack; /* the edges' distances' rounding (clvox_axis_edge_distance) */
     uint n;
@@ -192,10 +193,10 @@ static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint r
             const clvox_real g1 = lv > q0[a1] ? lv - q0[a1] : (q0[a1] > hv ? q0[a1] - hv : 0);
             const clvox_real g2 = lw > q0[a2] ? lw - q0[a2] : (q0[a2] > hw ? q0[a2] - hw : 0);
             const uint i = t->n++;
-            t->d2[i] = -(g1 * g1 + g2 * g2) - 1; /* a box: negative, -(d2 + 1) */
+            t->d2[i] = g1 * g1 + g2 * g2;
             t->lo[i] = r->lo[axis];
             t->hi[i] = r->hi[axis];
-            t->w[i] = (clvox_real)1.5 * (clvox_real)r->normal4pi[axis];
+            t->w[i] = -((clvox_real)1.5 * (clvox_real)r->normal4pi[axis]); /* a box: w's sign bit set */
         }
     }
 }
@@ -209,14 +210,14 @@ static inline clvox_real clvox_rim_terms_bound(const clvox_rim_terms *t, const c
         const clvox_real gap =
             t->lo[i] > q1[axis] ? t->lo[i] - q1[axis] : (q0[axis] > t->hi[i] ? q0[axis] - t->hi[i] : 0);
         clvox_real d2;
-        if (t->d2[i] < 0) {
-            d2 = -t->d2[i] - 1 + gap * gap; /* a node's box, as clvox_rim_box_bound */
+        if (signbit(t->w[i])) {
+            d2 = t->d2[i] + gap * gap; /* a node's box, as clvox_rim_box_bound */
         } else {
             const clvox_real d = sqrt(t->d2[i] + gap * gap) * (clvox_real)(1 - 1e-6) - t->slack;
             d2 = d > 0 ? d * d : 0;
         }
         if (!(d2 > 0)) return (clvox_real)INFINITY;
-        G += t->w[i] / (d2 * sqrt(d2));
+        G += fabs(t->w[i]) / (d2 * sqrt(d2));
     }
     return G * (clvox_real)CLVOX_SUM_ROUND;
 }

@@ -3,14 +3,19 @@
  * point or a box (distance to the nodes' boxes), the cap tree's node
  * estimates, and the interval test against the threshold. */
 
+/* The gap between the intervals [lo, hi] and [a, b] (0 when they meet). */
+static inline clvox_real clvox_interval_gap(clvox_real lo, clvox_real hi, clvox_real a, clvox_real b)
+{
+    return lo > b ? lo - b : (a > hi ? a - hi : 0);
+}
+
 /* Squared distance between the node's box and the box [q0, q1] (0 when
  * they meet); the cap tree's and the rim tree's bounds both start from it. */
 static inline clvox_real clvox_node_box_d2(global const clvox_cap_node *n, const clvox_real *q0, const clvox_real *q1)
 {
     clvox_real d2 = 0;
     for (uint a = 0; a < 3u; a++) {
-        const clvox_real lo = n->lo[a], hi = n->hi[a];
-        const clvox_real g = lo > q1[a] ? lo - q1[a] : (q0[a] > hi ? q0[a] - hi : 0);
+        const clvox_real g = clvox_interval_gap(n->lo[a], n->hi[a], q0[a], q1[a]);
         d2 += g * g;
     }
     return d2;

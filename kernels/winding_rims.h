@@ -33,8 +33,7 @@ static inline clvox_real clvox_axis_edge_d2(const clvox_real *q0, uint axis, glo
 static inline clvox_real clvox_axis_edge_distance(const clvox_real *q0, const clvox_real *q1, uint axis,
                                                   global const clvox_real *a, global const clvox_real *b)
 {
-    const clvox_real gap =
-        fmax((clvox_real)0, fmax(fmin(a[axis], b[axis]) - q1[axis], q0[axis] - fmax(a[axis], b[axis])));
+    const clvox_real gap = clvox_interval_gap(fmin(a[axis], b[axis]), fmax(a[axis], b[axis]), q0[axis], q1[axis]);
     clvox_real mag = 0;
     for (uint i = 0; i < 3u; i++)
         mag = fmax(mag, fmax(fmax(fabs(q0[i]), fabs(q1[i])), fmax(fabs(a[i]), fabs(b[i]))));
@@ -189,9 +188,8 @@ static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint r
                 t->w[i] = (clvox_real)1.5 * sqrt(dv * dv + dw * dw) * (clvox_real)(0.07957747154594767 * 1.000001);
             }
         } else {
-            const clvox_real lv = r->lo[a1], hv = r->hi[a1], lw = r->lo[a2], hw = r->hi[a2];
-            const clvox_real g1 = lv > q0[a1] ? lv - q0[a1] : (q0[a1] > hv ? q0[a1] - hv : 0);
-            const clvox_real g2 = lw > q0[a2] ? lw - q0[a2] : (q0[a2] > hw ? q0[a2] - hw : 0);
+            const clvox_real g1 = clvox_interval_gap(r->lo[a1], r->hi[a1], q0[a1], q0[a1]);
+            const clvox_real g2 = clvox_interval_gap(r->lo[a2], r->hi[a2], q0[a2], q0[a2]);
             const uint i = t->n++;
             t->d2[i] = g1 * g1 + g2 * g2;
             t->lo[i] = r->lo[axis];
@@ -207,8 +205,7 @@ static inline clvox_real clvox_rim_terms_bound(const clvox_rim_terms *t, const c
 {
     clvox_real G = t->far;
     for (uint i = 0; i < t->n; i++) {
-        const clvox_real gap =
-            t->lo[i] > q1[axis] ? t->lo[i] - q1[axis] : (q0[axis] > t->hi[i] ? q0[axis] - t->hi[i] : 0);
+        const clvox_real gap = clvox_interval_gap(t->lo[i], t->hi[i], q0[axis], q1[axis]);
         clvox_real d2;
         if (signbit(t->w[i])) {
             d2 = t->d2[i] + gap * gap; /* a node's box, as clvox_rim_box_bound */

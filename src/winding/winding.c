@@ -145,7 +145,8 @@ static clvox_status tree_upload(clvox_context *ctx, double *q, size_t n, int seg
     return st;
 }
 
-int clvox__winding_scale_shift(const clvox_grid *grid)
+/* k with 2^k >= the grid's largest dimension (clvox__winding_scale). */
+static int winding_scale_shift(const clvox_grid *grid)
 {
     const uint32_t n = grid->dims[0] > grid->dims[1] ? (grid->dims[0] > grid->dims[2] ? grid->dims[0] : grid->dims[2])
                                                       : (grid->dims[1] > grid->dims[2] ? grid->dims[1] : grid->dims[2]);
@@ -158,7 +159,7 @@ int clvox__winding_scale(const clvox_grid *grid, double s[3])
 {
     const double *h = grid->voxel_size;
     const double m = fmax(h[0], fmax(h[1], h[2]));
-    const double unit = ldexp(1.0, -clvox__winding_scale_shift(grid));
+    const double unit = ldexp(1.0, -winding_scale_shift(grid));
     for (int a = 0; a < 3; a++) s[a] = (m > 0 ? h[a] / m : 1.0) * unit;
     return h[0] == h[1] && h[0] == h[2];
 }

@@ -29,7 +29,7 @@ int clvox__caps_host_inside(const clvox__caps *c, const double s[3], const doubl
 /* The winding code's scale (kernels/winding_*.h "scaled grid space"):
  * s[a] = h[a] / max(h) * 2^-k, grid coordinates times s being the world's up
  * to one uniform scale, which keeps every solid angle; 2^k >= the largest
- * dimension (clvox__winding_scale_shift) keeps the coordinates near 1, where
+ * dimension (winding.c, winding_scale_shift) keeps the coordinates near 1, where
  * the products of the cap factors (kernels/winding_angles.h
  * clvox_angles_mul) seldom need rescaling (at grid scale, up to 2^11, they
  * did: 5 % of an open mesh's classify in double, more in float). Returns 1
@@ -37,7 +37,6 @@ int clvox__caps_host_inside(const clvox__caps *c, const double s[3], const doubl
  * floats times 2^-k, exactly, on which the kernels take exact signs (and a
  * float device is exact). */
 int clvox__winding_scale(const clvox_grid *grid, double s[3]);
-int clvox__winding_scale_shift(const clvox_grid *grid);
 
 /* cap_soup: n cap triangles of the cast's soup (grid space, u,v,w order). */
 clvox_status clvox__caps_upload(clvox_context *ctx, const float *cap_soup, size_t n, clvox__axes axes,

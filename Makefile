@@ -95,7 +95,8 @@ MANIFEST_CLI_SRC := src/cli/cli_manifest.c src/cli/cli_args.c src/cli/cli_common
 LIB_CXX := $(filter-out src/io/write_vdb.cpp,$(wildcard src/*/*.cpp))
 # Kernel program = shared types + prelude + sampler + palette + overlap + winding + one file per stage.
 # The winding parts in this order: each uses only what comes before it.
-KERNEL_WINDING := kernels/winding_angles.h kernels/winding_bounds.h kernels/winding_inside.h kernels/winding_rims.h
+KERNEL_WINDING := kernels/winding_angles.h kernels/winding_bounds.h kernels/winding_inside.h kernels/winding_rims.h \
+  kernels/winding_lattice.h
 KERNEL_FILES := kernels/clvox_types.h kernels/prelude.cl kernels/sampler.h kernels/palette.h kernels/overlap.h $(KERNEL_WINDING) $(filter-out kernels/prelude.cl,$(sort $(wildcard kernels/*.cl)))
 KERNEL_C := $(BUILD)/gen/kernels_embedded.c
 

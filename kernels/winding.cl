@@ -8,12 +8,7 @@
  * classified by runs from K alone, like parity; on a closed mesh there are
  * no caps and that is every ray. Rays near a cap decide voxel by voxel. */
 
-#define CLVOX_SEG_MAX 256u   /* voxels between anchors at most */
-#if defined(CLVOX_FP64)
-#define CLVOX_LERP_ERR 1e-12 /* the line's rounding, of the values' size */
-#else
-#define CLVOX_LERP_ERR 1e-5f
-#endif
+#define CLVOX_SEG_MAX 256u /* voxels between anchors at most */
 
 /* Moves K (the signed crossings beyond) and Jc (the surface steps so far)
  * along the ray to voxel centre u: crossings at or before u are passed. */
@@ -46,6 +41,23 @@ static inline int clvox_winding_at(int K, uint abs_mode, global const clvox_cap_
     if (!(in & CLVOX_UNSURE)) return in;
     clvox_unsure_push(unsure, gid, j, (uint)K, 0u);
     return 0; /* the host sets the voxel where it is inside */
+}
+
+/* clvox_winding_at where the slab's lattice does not decide voxel j
+ * (clvox_lattice_inside; [*lo, *hi] then its interval). */
+static inline int clvox_winding_at_lattice(const clvox_lattice *lt, int K, uint abs_mode,
+                                           global const clvox_cap_node *nodes, uint node_count,
+                                           global const clvox_real *caps, global const float *gcaps, uint axis,
+                                           global const clvox_real *h, global uint *unsure, uint gid, uint u_begin,
+                                           uint j, clvox_real rv, clvox_real rw, uint tight, uint *exact,
+                                           clvox_real *lo, clvox_real *hi, uint *cut, uint *cut_n, uint *fresh_exact)
+{
+    clvox_real g[3];
+    clvox_grid_xyz(axis, (clvox_real)(u_begin + j), rv, rw, g);
+    const int in = clvox_lattice_inside(lt, h, g, K, abs_mode, lo, hi);
+    if (in >= 0) return in;
+    return clvox_winding_at(K, abs_mode, nodes, node_count, caps, gcaps, axis, h, unsure, gid, u_begin, j, rv, rw,
+                            tight, exact, lo, hi, cut, cut_n, fresh_exact);
 }
 
 /* How far an evaluation's interval [lo, hi] lies from the threshold thr
@@ -93,7 +105,8 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                                         global const clvox_cap_node *nodes, uint node_count,
                                         global const clvox_real *caps, global const float *gcaps,
                                         global uint *exact_points, global const clvox_cap_node *rims, uint rim_count,
-                                        global const clvox_real *rim_edges, global uint *unsure)
+                                        global const clvox_real *rim_edges, global uint *unsure,
+                                        const clvox_lattice *lt)
 {
     uint gid = get_global_id(0);
     if (gid >= ray_count) return;
@@ -209,32 +222,32 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
          * steps (the crossings' -units since the ray's start, Jc: K changes
          * there and w_caps does not; at cap crossings K and w_caps step
          * together) is a smooth function g of u away from the rim, with
-         * |g''| <= M2 on a segment (clvox_rim_bound). So between
+         * |g''| <= M2 on a segment (the slab's lattice's blocks' bound or
+         * the ray's rim terms, kernels/winding_lattice.h and
+         * winding_rims.h). So between
          * two evaluated voxels (anchors) a and b, g lies within M2 (u - ua)
          * (ub - u) / 2 of the line through their intervals: a voxel whose
          * interval from that is on one side of the threshold needs no
          * evaluation. One that is not is evaluated and becomes the next
          * anchor a, the segment's M2 still holding. The next segment's
          * length is the one at which the line's error at its middle is
-         * half the last anchor's margin. */
+         * 3/8 of the last anchor's margin. Every voxel the line leaves
+         * undecided tries the slab's lattice before it is evaluated
+         * (clvox_winding_at_lattice): an anchor's interval may come from
+         * either. */
         uint exact = 0, k = 0, cut[CLVOX_CUT_MAX], cut_n = 0, fresh_exact = 0, s = 16u, wait = 0, cool = 0;
         clvox_real Jc = 0, lo = 0, hi = 0;
         const clvox_real step = h[axis], thr = (clvox_real)0.5 + (clvox_real)CLVOX_WINDING_TIE;
         clvox_winding_advance(hh, sg, n, (clvox_real)u_begin, &k, &K, &Jc);
-        int inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, gcaps, axis, h, unsure, gid, u_begin, 0u,
-                                      rv, rw, CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n, &fresh_exact);
+        int inside = clvox_winding_at_lattice(lt, K, abs_mode, nodes, node_count, caps, gcaps, axis, h, unsure, gid,
+                                              u_begin, 0u, rv, rw, CLVOX_TIGHT, &exact, &lo, &hi, cut, &cut_n,
+                                              &fresh_exact);
         clvox_real la = lo - Jc, ha = hi - Jc; /* anchor a: g's interval */
         clvox_emit(o, out_stride, bit, 0u, inside, &word, &cnt);
         j = 0;
         clvox_real ma = clvox_margin(inside, lo, hi, thr, abs_mode); /* anchor a's */
-        clvox_rim_terms rt; /* the rims' bound along this ray */
-        {
-            const clvox_real r0[3] = {(clvox_real)u_begin, rv, rw},
-                             r1[3] = {(clvox_real)(u_begin + u_count - 1u), rv, rw};
-            clvox_real p0[3], p1[3];
-            clvox_scaled_box(axis, r0, r1, h, p0, p1);
-            clvox_rim_ray_terms(rims, rim_count, rim_edges, p0, p1, axis, &rt);
-        }
+        clvox_rim_terms rt; /* the rims' bound along this ray, built when first needed */
+        int have_rt = 0;
         while (j + 1u < u_count) {
             uint jb = j + s < u_count - 1u ? j + s : u_count - 1u;
             /* The segment's M2; where its line's error at the middle, M2 (L
@@ -250,10 +263,29 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
             if (jb > j + 1u) {
                 const clvox_real g0[3] = {(clvox_real)(u_begin + j), rv, rw},
                                  g1[3] = {(clvox_real)(u_begin + jb), rv, rw};
-                clvox_real q0[3], q1[3];
-                clvox_scaled_box(axis, g0, g1, h, q0, q1);
-                M2 = clvox_rim_terms_bound(&rt, q0, q1, axis);
                 const clvox_real L = (clvox_real)(jb - j) * step;
+                /* The lattice's blocks' M2 (cheap) where they all interpolate
+                 * (the voxels the line leaves, the lattice mostly decides)
+                 * or where it keeps the line's error at the middle within
+                 * half a's margin; else the ray's rim terms (built for the
+                 * ray when first needed; tighter near the rims). */
+                clvox_real gx[3];
+                int usable;
+                clvox_grid_xyz(axis, g0[0], rv, rw, gx);
+                M2 = clvox_lattice_segment_m2(lt, axis, gx, jb - j, &usable);
+                if (!(isfinite(M2) && usable) && !(M2 * L * L * (clvox_real)0.125 <= (clvox_real)0.5 * ma)) {
+                    if (!have_rt) {
+                        const clvox_real r0[3] = {(clvox_real)u_begin, rv, rw},
+                                         r1[3] = {(clvox_real)(u_begin + u_count - 1u), rv, rw};
+                        clvox_real p0[3], p1[3];
+                        clvox_scaled_box(axis, r0, r1, h, p0, p1);
+                        clvox_rim_ray_terms(rims, rim_count, rim_edges, p0, p1, axis, &rt);
+                        have_rt = 1;
+                    }
+                    clvox_real q0[3], q1[3];
+                    clvox_scaled_box(axis, g0, g1, h, q0, q1);
+                    M2 = fmin(M2, clvox_rim_terms_bound(&rt, q0, q1, axis));
+                }
                 if (ma > 0 && isfinite(M2) && M2 * L * L * (clvox_real)0.125 > 4 * ma) {
                     const clvox_real w = sqrt((clvox_real)3 * ma / M2) / step;
                     if (w >= (clvox_real)2) jb = j + (uint)w;
@@ -263,9 +295,9 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
             int Kb = K;
             clvox_real Jb = Jc;
             clvox_winding_advance(hh, sg, n, (clvox_real)(u_begin + jb), &kb, &Kb, &Jb);
-            const int ib = clvox_winding_at(Kb, abs_mode, nodes, node_count, caps, gcaps, axis, h,
-                                            unsure, gid, u_begin, jb, rv, rw, CLVOX_TIGHT, &exact, &lo, &hi, cut,
-                                            &cut_n, &fresh_exact);
+            const int ib = clvox_winding_at_lattice(lt, Kb, abs_mode, nodes, node_count, caps, gcaps, axis, h,
+                                                    unsure, gid, u_begin, jb, rv, rw, CLVOX_TIGHT, &exact, &lo, &hi,
+                                                    cut, &cut_n, &fresh_exact);
             const clvox_real lb = lo - Jb, hb = hi - Jb;
             const clvox_real mb = clvox_margin(ib, lo, hi, thr, abs_mode); /* b's */
             const int smooth = isfinite(M2);
@@ -283,9 +315,9 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                     inside = clvox_interval_inside(l - e, u + e, abs_mode);
                 }
                 if (inside < 0) {
-                    inside = clvox_winding_at(K, abs_mode, nodes, node_count, caps, gcaps, axis, h,
-                                              unsure, gid, u_begin, i, rv, rw, smooth ? CLVOX_TIGHT : 0u, &exact,
-                                              &lo, &hi, cut, &cut_n, &fresh_exact);
+                    inside = clvox_winding_at_lattice(lt, K, abs_mode, nodes, node_count, caps, gcaps, axis, h,
+                                                      unsure, gid, u_begin, i, rv, rw, smooth ? CLVOX_TIGHT : 0u,
+                                                      &exact, &lo, &hi, cut, &cut_n, &fresh_exact);
                     ja = i;
                     la = lo - Jc;
                     ha = hi - Jc;
@@ -346,10 +378,14 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                                    global const clvox_real *caps, global const float *gcaps,
                                    global uint *exact_points, global const clvox_cap_node *rims, uint rim_count,
                                    global const clvox_real *rim_edges, global uint *unsure,
+                                   global const clvox_real *lat_points, global const clvox_real *lat_blocks,
+                                   uint lat_nx, uint lat_ny, uint lat_nz, uint lat_z0, uint lat_s,
                                    global uint *clvox_done, uint clvox_done_slot)
 {
+    const clvox_lattice lt = {lat_points, lat_blocks, lat_nx, lat_ny, lat_nz, lat_z0, lat_s};
     clvox_classify_winding_body(rays, ray_count, hits, signs, counts, capacity, u_begin, u_count, out_stride, out,
-        filled, abs_mode, axis, h, nodes, node_count, caps, gcaps, exact_points, rims, rim_count, rim_edges, unsure);
+        filled, abs_mode, axis, h, nodes, node_count, caps, gcaps, exact_points, rims, rim_count, rim_edges, unsure,
+        &lt);
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
 

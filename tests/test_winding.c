@@ -21,6 +21,7 @@
 #include "meshgen.h"
 #include "reference.h"
 #include "test.h"
+#include "cast/winding_classify.h" /* src/: the lattice (internal) */
 #include "winding/winding.h" /* src/: the cap tree (internal) */
 
 #include <math.h>
@@ -1380,6 +1381,29 @@ static double axis_segment_edge_distance(const double *q0, int axis, double len,
     return point_axis_segment_distance(p, q0, axis, len);
 }
 
+/* The boundary edges of t (those of one triangle only: these meshes are
+ * manifold), directed as that triangle has them, into rim (2 indices
+ * each, room for 3 nt); keys: scratch of 3 nt. */
+static size_t boundary_edges(const tmesh *t, uint64_t *keys, uint32_t *rim)
+{
+    for (size_t f = 0; f < t->nt; f++)
+        for (int e = 0; e < 3; e++) {
+            uint64_t a = t->tri[3 * f + e], b = t->tri[3 * f + (e + 1) % 3];
+            keys[3 * f + e] = a < b ? a << 32 | b : b << 32 | a;
+        }
+    size_t nrim = 0;
+    for (size_t x = 0; x < t->nt * 3; x++) {
+        size_t same = 0;
+        for (size_t y = 0; y < t->nt * 3; y++) same += keys[y] == keys[x];
+        if (same == 1) {
+            rim[2 * nrim] = t->tri[3 * (x / 3) + x % 3];
+            rim[2 * nrim + 1] = t->tri[3 * (x / 3) + (x % 3 + 1) % 3];
+            nrim++;
+        }
+    }
+    return nrim;
+}
+
 /* The rims' second-derivative bound (clvox_rim_bound, which the
  * classify's along-ray interpolation rests on) against the exact winding
  * number's own differences: along a segment that crosses no face, w is
@@ -1416,23 +1440,7 @@ static void test_rim_bounds(void)
         clvox__winding_scale(&g, sc);
         for (size_t i = 0; i < t->nv * 3; i++)
             v[i] = (double)clvox__grid_coord(t->xyz[i], g.origin[i % 3], g.voxel_size[i % 3]) * sc[i % 3];
-        /* boundary edges: those of one triangle only (these meshes are
-         * manifold), directed as that triangle has them */
-        for (size_t f = 0; f < t->nt; f++)
-            for (int e = 0; e < 3; e++) {
-                uint64_t a = t->tri[3 * f + e], b = t->tri[3 * f + (e + 1) % 3];
-                keys[3 * f + e] = a < b ? a << 32 | b : b << 32 | a;
-            }
-        size_t nrim = 0;
-        for (size_t x = 0; x < t->nt * 3; x++) {
-            size_t same = 0;
-            for (size_t y = 0; y < t->nt * 3; y++) same += keys[y] == keys[x];
-            if (same == 1) {
-                rim[2 * nrim] = t->tri[3 * (x / 3) + x % 3];
-                rim[2 * nrim + 1] = t->tri[3 * (x / 3) + (x % 3 + 1) % 3];
-                nrim++;
-            }
-        }
+        const size_t nrim = boundary_edges(t, keys, rim);
         clvox__caps rims;
         CHECK_OK(ctx, clvox__rims_upload(ctx, m, &g, rim, nrim, &rims));
         enum { SEGS = 600, STEPS = 8 };
@@ -1548,6 +1556,202 @@ static void test_rim_bounds(void)
     clReleaseKernel(k);
 }
 
+/* The caps' block lattice (kernels/winding_lattice.h), built by its own
+ * kernels for an open surface taken as the caps (its solid angle w_caps,
+ * its boundary the rims), against w_caps summed exactly on the host:
+ * every interval the lattice gives (K = 0: it holds -w_caps) must hold it,
+ * and w_caps's second differences along x in a block must stay within the
+ * block's M2. Then whole runs with the lattice and without
+ * (CLVOX_WINDING_LATTICE=0) give the same voxels on open meshes, and the
+ * lattice decides some. */
+static uint8_t *run_lattice(const clvox_mesh *m, const clvox_grid *g, int off, clvox_stats *s)
+{
+    clvox__test_hooks h = *clvox__hooks(), saved = h;
+    h.no_lattice = off;
+    clvox__set_test_hooks(&h);
+    *s = (clvox_stats)CLVOX_STATS_INIT;
+    uint8_t *v = run_inside(m, g, CLVOX_INSIDE_DEFAULT, s);
+    clvox__set_test_hooks(&saved);
+    return v;
+}
+
+static void test_lattice(void)
+{
+    if (ctx->real_size != 8) {
+        printf("lattice: bounds skipped (the device has no fp64)\n");
+    } else {
+        cl_kernel k = NULL;
+        CHECK_OK(ctx, clvox__kernel(ctx, "clvox_lattice_probe", &k));
+        if (!k) return;
+        const double cyl_c[3] = {0.3, 0.5, 0.5};
+        tmesh shapes[2] = {tmesh_sphere_holes(7, 0.5, 0.5, 0.5, 0.4, 16, 12),
+                           tmesh_cylinder(cyl_c, 0, 0.3, 0.4, 24, 6, 0)};
+        static const char *const names[] = {"sphere with 12 holes", "open tube"};
+        static const uint32_t sizes[] = {64, 160}; /* S = 4 and 8 (winding_lattice.c) */
+        uint64_t seed = 0x1a771ce5;
+        for (int sh = 0; sh < 2; sh++)
+            for (int gi = 0; gi < 2; gi++) {
+                tmesh *t = &shapes[sh];
+                clvox_mesh *m = to_mesh(t);
+                if (!m) continue;
+                const uint32_t N = sizes[gi];
+                clvox_grid g = {{N, N, N}, {0, 0, 0}, {1.0 / N, 1.0 / N, 1.0 / N}};
+                double sc[3];
+                clvox__winding_scale(&g, sc);
+                double *v = malloc(t->nv * 3 * sizeof *v);
+                float *soup = malloc(t->nt * 9 * sizeof *soup);
+                uint64_t *keys = malloc(t->nt * 3 * sizeof *keys);
+                uint32_t *rim = malloc(t->nt * 3 * 2 * sizeof *rim);
+                CHECK(v && soup && keys && rim);
+                for (size_t i = 0; i < t->nv * 3; i++)
+                    v[i] = (double)clvox__grid_coord(t->xyz[i], g.origin[i % 3], g.voxel_size[i % 3]) * sc[i % 3];
+                for (size_t f = 0; f < t->nt; f++)
+                    for (int c = 0; c < 3; c++)
+                        for (int a = 0; a < 3; a++)
+                            soup[9 * f + 3 * c + a] = clvox__grid_coord(t->xyz[3 * t->tri[3 * f + c] + a], 0, 1.0 / N);
+                const size_t nrim = boundary_edges(t, keys, rim);
+                clvox__winding_classify w;
+                memset(&w, 0, sizeof w);
+                CHECK_OK(ctx, clvox__caps_upload(ctx, soup, t->nt, clvox__axes_for(CLVOX_AXIS_X), &g, &w.caps));
+                CHECK_OK(ctx, clvox__rims_upload(ctx, m, &g, rim, nrim, &w.rims));
+                CHECK_OK(ctx, clvox__winding_lattice_prepare(ctx, &g, 1, &w));
+                /* a slab from a plane between the lattice's: z0 = N/4 + 1 */
+                const uint32_t z0 = N / 4 + 1, nz = N / 2;
+                CHECK_OK(ctx, clvox__winding_lattice_slab(ctx, &g, &w, z0, nz));
+                CHECK_MSG(w.lattice_on && w.lat[0] >= 2, "%s at %u: no lattice", names[sh], N);
+                enum { PTS = 8000 };
+                double *gp = malloc(PTS * 3 * sizeof *gp), *res = malloc(PTS * 4 * sizeof *res);
+                CHECK(gp && res);
+                /* half at random, half at blocks' centres (where the
+                 * interpolation's error bound is the largest) */
+                const uint32_t S = w.lat[4];
+                for (int i = 0; i < PTS; i++) {
+                    gp[3 * i] = (double)(uint32_t)(tmesh_rng_uniform(&seed) * N);
+                    gp[3 * i + 1] = (double)(uint32_t)(tmesh_rng_uniform(&seed) * N);
+                    gp[3 * i + 2] = (double)(z0 + (uint32_t)(tmesh_rng_uniform(&seed) * nz));
+                    if (i % 2)
+                        for (int q = 0; q < 3; q++) {
+                            const double c = floor(gp[3 * i + q] / S) * S + S / 2;
+                            gp[3 * i + q] = q < 2 ? (c < N ? c : c - S) : (c < z0 + nz ? c : c - S);
+                        }
+                }
+                cl_int ce = CL_SUCCESS;
+                cl_mem bg = clCreateBuffer(ctx->cl, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, PTS * 3 * sizeof *gp, gp,
+                                           &ce);
+                cl_mem bo = clCreateBuffer(ctx->cl, CL_MEM_WRITE_ONLY, PTS * 4 * sizeof *res, NULL, &ce);
+                cl_uint cnt = PTS, a = 0;
+                cl_int e = clSetKernelArg(k, a++, sizeof(cl_mem), &w.caps.h);
+                e |= clSetKernelArg(k, a++, sizeof(cl_mem), &w.lat_points);
+                e |= clSetKernelArg(k, a++, sizeof(cl_mem), &w.lat_blocks);
+                for (int d = 0; d < 5; d++) e |= clSetKernelArg(k, a++, sizeof(cl_uint), &w.lat[d]);
+                e |= clSetKernelArg(k, a++, sizeof(cl_mem), &bg);
+                e |= clSetKernelArg(k, a++, sizeof(cl_uint), &cnt);
+                e |= clSetKernelArg(k, a++, sizeof(cl_mem), &bo);
+                size_t global = PTS;
+                e |= clEnqueueNDRangeKernel(ctx->queue, k, 1, NULL, &global, NULL, 0, NULL, NULL);
+                e |= clEnqueueReadBuffer(ctx->queue, bo, CL_TRUE, 0, PTS * 4 * sizeof *res, res, 0, NULL, NULL);
+                CHECK(ce == CL_SUCCESS && e == CL_SUCCESS);
+                size_t kind[3] = {0, 0, 0}, outside = 0, m2_tested = 0, m2_bad = 0;
+                double worst = 0, worst_m2 = 0;
+                for (int i = 0; i < PTS; i++) {
+                    const int how = (int)res[4 * i + 2];
+                    kind[how]++;
+                    if (how == 0) continue;
+                    /* w_caps at grid point x + dx along x */
+                    double wc[3];
+                    for (int d = 0; d < 3; d++) {
+                        const double p[3] = {(gp[3 * i] + d - 1) * sc[0], gp[3 * i + 1] * sc[1], gp[3 * i + 2] * sc[2]};
+                        wc[d] = 0;
+                        for (size_t f = 0; f < t->nt; f++) {
+                            double A[3], B[3], C[3];
+                            for (int q = 0; q < 3; q++) {
+                                A[q] = v[3 * t->tri[3 * f] + q] - p[q];
+                                B[q] = v[3 * t->tri[3 * f + 1] + q] - p[q];
+                                C[q] = v[3 * t->tri[3 * f + 2] + q] - p[q];
+                            }
+                            wc[d] += ref_solid_angle(A, B, C) / (4 * PI);
+                        }
+                    }
+                    const double lo = res[4 * i], hi = res[4 * i + 1], mid = (lo + hi) / 2, half = (hi - lo) / 2;
+                    if (!(-wc[1] >= lo - 1e-12 && -wc[1] <= hi + 1e-12) && outside++ < 3)
+                        fprintf(stderr, "  %s at %u: point (%g %g %g): -w_caps %.9g outside [%.9g, %.9g] (%s)\n",
+                                names[sh], N, gp[3 * i], gp[3 * i + 1], gp[3 * i + 2], -wc[1], lo, hi,
+                                how == 1 ? "interpolated" : "caps' bound");
+                    if (how == 1 && half > 0 && fabs(-wc[1] - mid) / half > worst) worst = fabs(-wc[1] - mid) / half;
+                    /* w_caps is smooth in an interpolating block (no cap near) */
+                    const uint32_t xk = (uint32_t)gp[3 * i] % S;
+                    if (how == 1 && xk != 0) {
+                        const double g2 = fabs(wc[2] - 2 * wc[1] + wc[0]) / (sc[0] * sc[0]);
+                        m2_tested++;
+                        if (!(g2 <= res[4 * i + 3] * (1 + 1e-9) + 1e-9) && m2_bad++ < 3)
+                            fprintf(stderr, "  %s at %u: second difference %.6g > block M2 %.6g\n", names[sh], N,
+                                    g2, res[4 * i + 3]);
+                        if (res[4 * i + 3] > 0 && g2 / res[4 * i + 3] > worst_m2) worst_m2 = g2 / res[4 * i + 3];
+                    }
+                }
+                CHECK_MSG(outside == 0, "%s at %u: %zu lattice intervals miss -w_caps", names[sh], N, outside);
+                CHECK_MSG(m2_bad == 0, "%s at %u: %zu second differences above the blocks' M2", names[sh], N, m2_bad);
+                CHECK_MSG(kind[1] > PTS / 10 && (sh == 0 || kind[2] > 0), /* the sphere's w_caps is never small */
+                          "%s at %u: %zu points interpolated, %zu by the caps' bound, of %d", names[sh], N, kind[1],
+                          kind[2], PTS);
+                /* intervals that are never approached would decide little */
+                CHECK_MSG(worst > 0.05 && worst_m2 > 0.01, "%s at %u: -w_caps within %.3g of the half-widths, "
+                          "second differences within %.3g of M2", names[sh], N, worst, worst_m2);
+                printf("lattice %-22s %3u^3 (S = %u): %zu of %d points interpolated, %zu by the caps' bound; -w_caps "
+                       "at most %.3f of the half-width from the middle; second differences at most %.3f of M2 "
+                       "(%zu)\n",
+                       names[sh], N, S, kind[1], PTS, kind[2], worst, worst_m2, m2_tested);
+                clReleaseMemObject(bg);
+                clReleaseMemObject(bo);
+                clvox__winding_classify_release(&w);
+                free(gp);
+                free(res);
+                free(v);
+                free(soup);
+                free(keys);
+                free(rim);
+                clvox_mesh_destroy(m);
+            }
+        tmesh_free(&shapes[0]);
+        tmesh_free(&shapes[1]);
+        clReleaseKernel(k);
+    }
+    /* whole runs: the same voxels with the lattice and without */
+    tmesh t = tmesh_sphere_holes(5, 0.5, 0.5, 0.5, 0.45, 24, 8);
+    static const struct { const char *name; uint32_t n; } real[] = {
+        {NULL, 72}, {NULL, 136}, {"elephant-with-holes.off", 96}, {"mech-holes-shark.off", 80}, {"mushroom.off", 72}};
+    for (size_t i = 0; i < sizeof real / sizeof real[0]; i++) {
+        if (real[i].name && getenv("CLVOX_QUICK")) continue;
+        clvox_mesh *m = real[i].name ? load_real(real[i].name) : to_mesh(&t);
+        if (!m) continue;
+        const uint32_t N = real[i].n;
+        clvox_grid g = {{N, N, N}, {0, 0, 0}, {1.0 / N, 1.0 / N, 1.0 / N}};
+        if (real[i].name) { /* the mesh's box, cubic voxels (the lattice's) */
+            const clvox_mesh_report *r = clvox_mesh_get_report(m);
+            double ext = 0;
+            for (int a = 0; a < 3; a++) ext = fmax(ext, r->bbox_max[a] - r->bbox_min[a]);
+            for (int a = 0; a < 3; a++) {
+                g.voxel_size[a] = ext * 1.02 / N;
+                g.origin[a] = (r->bbox_min[a] + r->bbox_max[a]) / 2 - g.voxel_size[a] * N / 2;
+            }
+        }
+        clvox_stats on = CLVOX_STATS_INIT, off = CLVOX_STATS_INIT;
+        uint8_t *a = run_lattice(m, &g, 0, &on), *b = run_lattice(m, &g, 1, &off);
+        const size_t d = a && b ? ndiff(a, b, nvox(&g)) : 1;
+        const char *name = real[i].name ? real[i].name : "sphere with 8 holes";
+        CHECK_MSG(d == 0, "%s at %u: %zu voxels differ with the lattice", name, N, d);
+        CHECK_MSG(on.winding.exact_points < off.winding.exact_points,
+                  "%s at %u: %llu exact points with the lattice, %llu without", name, N,
+                  (unsigned long long)on.winding.exact_points, (unsigned long long)off.winding.exact_points);
+        printf("lattice run %-24s %3u^3: same voxels, %llu exact points (%llu without)\n", name, N,
+               (unsigned long long)on.winding.exact_points, (unsigned long long)off.winding.exact_points);
+        free(a);
+        free(b);
+        clvox_mesh_destroy(m);
+    }
+    tmesh_free(&t);
+}
+
 static void test_batches(void)
 {
     tmesh t = tmesh_sphere_holes(5, 0.5, 0.5, 0.5, 0.45, 24, 8);
@@ -1606,6 +1810,7 @@ int main(int argc, char **argv)
         {"coverage", test_coverage_samples}, {"apex", test_apex},
         {"estimates", test_cap_estimates}, {"ahead", test_prepare_ahead},
         {"batches", test_batches},         {"rims", test_rim_bounds},
+        {"lattice", test_lattice},
     };
     for (size_t i = 0; i < sizeof sections / sizeof sections[0]; i++)
         if (!only || strstr(sections[i].name, only)) sections[i].fn();

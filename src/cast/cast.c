@@ -513,6 +513,8 @@ static clvox_status ray_prepare(clvox_context *ctx, const clvox_mesh *mesh, cons
         st = clvox__kernel(ctx, s->winding ? "clvox_classify_winding" : "clvox_classify", &s->k_classify);
     if (st == CLVOX_OK && s->winding && !s->coverage && ctx->real_size == 4)
         st = clvox__kernel(ctx, "clvox_set_bits", &s->k_set_bits);
+    if (st == CLVOX_OK && s->winding)
+        st = clvox__winding_lattice_prepare(ctx, grid, !s->coverage && !s->palette, &s->wind);
 
     /* A coverage batch holds whole columns: as many rays as a binary slab,
      * and at least one column. */
@@ -878,6 +880,13 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
         cl_int err = clEnqueueFillBuffer(ctx->queue, out->occupancy, &zero, sizeof zero, 0,
                                          (size_t)W * Y * nz * sizeof(cl_uint), 0, NULL, NULL);
         if (err != CL_SUCCESS) return clvox__cl_fail(ctx, err, "clearing the slab");
+    }
+    if (s->winding) { /* the caps' lattice (winding_lattice.c): the classify's time */
+        const double t0 = clvox__now();
+        clvox_status lst = clvox__winding_lattice_slab(ctx, &s->grid, &s->wind, z0, nz);
+        if (lst != CLVOX_OK) return lst;
+        ss->classify_seconds += clvox__now() - t0;
+        ss->exact_seconds += clvox__now() - t0;
     }
     /* z-rays are the same for every slab: count them once. */
     const int count_rays = s->axis != CLVOX_AXIS_Z || z0 == 0;

@@ -222,6 +222,11 @@ void clvox__winding_classify_release(clvox__winding_classify *w)
 {
     clvox__caps_release(&w->caps);
     clvox__caps_release(&w->rims);
+    clvox__release_mem(&w->lat_points);
+    clvox__release_mem(&w->lat_blocks);
+    if (w->k_blocks) clReleaseKernel(w->k_blocks);
+    if (w->k_lattice) clReleaseKernel(w->k_lattice);
+    w->k_blocks = w->k_lattice = NULL;
 }
 
 cl_int clvox__winding_args(cl_kernel k, cl_uint *i, const clvox__winding_classify *w, const clvox__batch_mem *m,
@@ -252,5 +257,12 @@ clvox_status clvox__winding_classify_enqueue(clvox_context *ctx, cl_kernel k, co
     err |= clSetKernelArg(k, i++, sizeof(cl_uint), &w->rims.node_count);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &w->rims.tris);
     err |= clSetKernelArg(k, i++, sizeof(cl_mem), &m->unsure);
+    const int lat = w->lattice_on && w->lat[0] >= 2;
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), lat ? &w->lat_points : &w->caps.h); /* bound, unread */
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), lat ? &w->lat_blocks : &w->caps.h);
+    for (int d = 0; d < 5; d++) {
+        const cl_uint v = lat ? w->lat[d] : 0u;
+        err |= clSetKernelArg(k, i++, sizeof v, &v);
+    }
     return clvox__consumer_launch(ctx, k, "clvox_classify_winding", err, n, w->local, ev);
 }

@@ -19,6 +19,12 @@ typedef struct clvox__winding_classify {
     double crack_distance;       /* the certified crack weld (src/winding/crack_weld.c), when crack_pairs */
     uint64_t crack_welded, crack_pairs, crack_holes;
     size_t local;                /* work-group size of clvox_classify_winding */
+    /* The slab's block lattice (kernels/winding_lattice.h, src/cast/winding_lattice.c): binary runs with
+     * caps, no weld pairs, cubic voxels. lat[0] < 2 (nx): none for the slab. */
+    int lattice_on;
+    cl_kernel k_blocks, k_lattice;
+    cl_mem lat_points, lat_blocks;
+    cl_uint lat[5];              /* nx, ny, nz, z0 (in lattice planes), S (voxels between points) */
 } clvox__winding_classify;
 
 /* The triangles the cast runs over: grid-space vertices and 3 indices each
@@ -51,6 +57,16 @@ void clvox__winding_stats(const clvox__winding_classify *w, clvox_stats *stats);
  * the exact-point counter, as the winding kernels' consumers (kernels/winding_*.h) take them. */
 cl_int clvox__winding_args(cl_kernel k, cl_uint *i, const clvox__winding_classify *w, const clvox__batch_mem *m,
                            int with_axis);
+
+/* The block lattice: whether the run uses one (lattice_on, its kernels
+ * made), from clvox__winding_cast_prepare's results and the grid. */
+clvox_status clvox__winding_lattice_prepare(clvox_context *ctx, const clvox_grid *grid, int binary,
+                                            clvox__winding_classify *w);
+/* Builds the lattice of the slab of grid planes z in [z0, z0 + nz) and
+ * waits for it (nothing where !lattice_on, or where it would take more
+ * than a quarter of the device's largest buffer: it is an aid). */
+clvox_status clvox__winding_lattice_slab(clvox_context *ctx, const clvox_grid *grid, clvox__winding_classify *w,
+                                         uint32_t z0, uint32_t nz);
 
 /* The binary consumer: n rays of one ray per voxel column. */
 clvox_status clvox__winding_classify_enqueue(clvox_context *ctx, cl_kernel k, const clvox__winding_classify *w,

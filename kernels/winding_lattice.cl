@@ -1,0 +1,108 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Stage classify, winding numbers: the lattice of one slab
+ * (kernels/winding_lattice.h), built before its rays are classified
+ * (src/cast/winding_lattice.c): first the blocks, then the lattice points
+ * that a usable block needs. */
+
+/* Block i of the lattice (nx by ny by nz points from plane z0), out[5i ..]
+ * (CLVOX_BLOCK_WORDS): M2 along x, y and z over it (INFINITY where a rim
+ * may touch it), the caps' bound over it where that decides every voxel
+ * by K alone (else INFINITY), and 1 where its points interpolate (no cap
+ * near, the interpolation's error at its centre under CLVOX_BLOCK_USABLE),
+ * else 0. The rays' segments take M2 from the blocks too (kernels/
+ * winding.cl), caps or not. */
+kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_count, global const clvox_real *caps,
+                                 global const clvox_real *h, global const clvox_cap_node *rims, uint rim_count,
+                                 global const clvox_real *edges, uint nx, uint ny, uint nz, uint z0, uint S,
+                                 global clvox_real *out, global uint *clvox_done, uint clvox_done_slot)
+{
+    const uint i = get_global_id(0), bx = nx - 1u, by = ny - 1u;
+    if (i < bx * by * (nz - 1u)) {
+        const uint g[3] = {i % bx, (i / bx) % by, i / (bx * by) + z0};
+        clvox_real q0[3], q1[3], m2[3], e = 0;
+        for (uint a = 0; a < 3u; a++) {
+            q0[a] = (clvox_real)(g[a] * S) * h[a];
+            q1[a] = (clvox_real)((g[a] + 1u) * S) * h[a];
+        }
+        global clvox_real *o = out + (size_t)i * CLVOX_BLOCK_WORDS;
+        const clvox_real far = node_count ? clvox_caps_box_bound(nodes, q0, q1, CLVOX_BLOCK_FAR_BUDGET) : 0;
+        const int alone = far < (clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2;
+        m2[0] = m2[1] = m2[2] = (clvox_real)INFINITY;
+        /* sum of M2 at which the centre's error is CLVOX_BLOCK_ENOUGH (cubic voxels: h[a] the same) */
+        const clvox_real hw0 = (clvox_real)S * h[0] * (clvox_real)0.5;
+        if (!alone)
+            clvox_rim_box_m2(rims, rim_count, edges, q0, q1, (clvox_real)CLVOX_BLOCK_ENOUGH * 2 / (hw0 * hw0), m2);
+        for (uint a = 0; a < 3u; a++) {
+            o[a] = m2[a];
+            const clvox_real hw = (clvox_real)S * h[a] * (clvox_real)0.5;
+            e += m2[a] * hw * hw * (clvox_real)0.5; /* the interpolation's error at the centre */
+        }
+        o[3] = alone ? far : (clvox_real)INFINITY;
+        o[4] = !alone && e < (clvox_real)CLVOX_BLOCK_USABLE &&
+                       !clvox_caps_touch(nodes, caps, q0, q1, h[0] * (clvox_real)1e-3)
+                   ? 1
+                   : 0;
+    }
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}
+
+/* Lattice point i: w_caps's interval (clvox_caps_interval) into out[2i ..]
+ * where a block next to it is usable (blocks, clvox_winding_blocks), else
+ * NAN. axis: the classify's ray axis (its tie rule). */
+kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global const clvox_real *caps,
+                                  global const float *gcaps, global const clvox_real *h, uint axis,
+                                  global const clvox_real *blocks, uint nx, uint ny, uint nz, uint z0, uint S,
+                                  global clvox_real *out, global uint *clvox_done, uint clvox_done_slot)
+{
+    const uint i = get_global_id(0);
+    if (i < nx * ny * nz) {
+        const uint p[3] = {i % nx, (i / nx) % ny, i / (nx * ny)};
+        const uint n[3] = {nx, ny, nz};
+        int need = 0;
+        for (uint q = 0; q < 8u && !need; q++) {
+            uint b[3], ok = 1;
+            for (uint a = 0; a < 3u; a++) {
+                const uint d = (q >> a) & 1u;
+                ok &= p[a] >= d && p[a] - d + 1u < n[a];
+                b[a] = p[a] - d;
+            }
+            if (!ok) continue;
+            global const clvox_real *bw =
+                blocks + ((size_t)(b[2] * (ny - 1u) + b[1]) * (nx - 1u) + b[0]) * CLVOX_BLOCK_WORDS;
+            need = bw[4] != 0;
+        }
+        clvox_real lo = (clvox_real)NAN, hi = (clvox_real)NAN;
+        if (need) {
+            const clvox_real g[3] = {(clvox_real)(p[0] * S), (clvox_real)(p[1] * S),
+                                     (clvox_real)((p[2] + z0) * S)};
+            clvox_caps_interval(nodes, caps, gcaps, g, g[0] * h[0], g[1] * h[1], g[2] * h[2],
+                                axis | CLVOX_AXIS_FLAGS(h[3]), &lo, &hi);
+        }
+        out[2 * (size_t)i] = lo;
+        out[2 * (size_t)i + 1] = hi;
+    }
+    clvox_done_mark(clvox_done, clvox_done_slot);
+}
+
+/* For tests/test_winding.c only: the lattice's answer for grid points
+ * g[3i ..] (x, y, z) with K = 0, so that [lo, hi] holds -w_caps: out[4i ..]
+ * = lo, hi, how (1 interpolated, 2 the caps' bound alone, 0 none), and the
+ * block's M2 along x. */
+kernel void clvox_lattice_probe(global const clvox_real *h, global const clvox_real *points,
+                                global const clvox_real *blocks, uint nx, uint ny, uint nz, uint z0, uint S,
+                                global const clvox_real *g, uint count, global clvox_real *out)
+{
+    const uint i = get_global_id(0);
+    if (i >= count) return;
+    const clvox_lattice lt = {points, blocks, nx, ny, nz, z0, S};
+    const clvox_real p[3] = {g[3 * i], g[3 * i + 1], g[3 * i + 2]};
+    clvox_real lo = (clvox_real)NAN, hi = (clvox_real)NAN;
+    clvox_lattice_inside(&lt, h, p, 0, 0u, &lo, &hi);
+    global clvox_real *o = out + 4 * (size_t)i;
+    o[0] = lo;
+    o[1] = hi;
+    int usable;
+    const clvox_real m2 = clvox_lattice_segment_m2(&lt, 0u, p, 1u, &usable);
+    o[2] = !(lo <= hi) ? 0 : (usable ? 1 : 2);
+    o[3] = m2;
+}

@@ -58,8 +58,12 @@ kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global con
     if (i < nx * ny * nz) {
         const uint p[3] = {i % nx, (i / nx) % ny, i / (nx * ny)};
         const uint n[3] = {nx, ny, nz};
-        int need = 0;
-        for (uint q = 0; q < 8u && !need; q++) {
+        /* the width aimed at: CLVOX_LATTICE_EPS, or half the smallest
+         * interpolation error (at the centre) of the usable blocks next to
+         * it where that is larger (a narrower value would not narrow the
+         * voxels' intervals much) */
+        clvox_real want = (clvox_real)INFINITY;
+        for (uint q = 0; q < 8u; q++) {
             uint b[3], ok = 1;
             for (uint a = 0; a < 3u; a++) {
                 const uint d = (q >> a) & 1u;
@@ -69,14 +73,20 @@ kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global con
             if (!ok) continue;
             global const clvox_real *bw =
                 blocks + ((size_t)(b[2] * (ny - 1u) + b[1]) * (nx - 1u) + b[0]) * CLVOX_BLOCK_WORDS;
-            need = bw[4] != 0;
+            if (bw[4] == 0) continue;
+            clvox_real e = 0;
+            for (uint a = 0; a < 3u; a++) {
+                const clvox_real hw = (clvox_real)S * h[a] * (clvox_real)0.5;
+                e += bw[a] * hw * hw * (clvox_real)0.5;
+            }
+            want = fmin(want, fmax((clvox_real)CLVOX_LATTICE_EPS, e * (clvox_real)0.5));
         }
         clvox_real lo = (clvox_real)NAN, hi = (clvox_real)NAN;
-        if (need) {
+        if (isfinite(want)) {
             const clvox_real g[3] = {(clvox_real)(p[0] * S), (clvox_real)(p[1] * S),
                                      (clvox_real)((p[2] + z0) * S)};
             clvox_caps_interval(nodes, caps, gcaps, g, g[0] * h[0], g[1] * h[1], g[2] * h[2],
-                                axis | CLVOX_AXIS_FLAGS(h[3]), &lo, &hi);
+                                axis | CLVOX_AXIS_FLAGS(h[3]), want, &lo, &hi);
         }
         out[2 * (size_t)i] = lo;
         out[2 * (size_t)i + 1] = hi;

@@ -21,8 +21,8 @@
  * everywhere is decided by K alone (its bound stored, for the interval).
  * Used on cubic voxels only (CLVOX_CUBIC: the lattice points' scaled
  * coordinates are exact). */
-#define CLVOX_LATTICE_EPS 2e-2    /* a lattice value's interval width aimed at */
-#define CLVOX_LATTICE_STEPS 1024u /* its refinement steps at most */
+#define CLVOX_LATTICE_EPS 2e-2    /* a lattice value's interval width aimed at, at least */
+#define CLVOX_LATTICE_STEPS 256u  /* its refinement steps at most */
 #define CLVOX_BLOCK_STEPS 96u     /* a block's rim refinement steps */
 #define CLVOX_BLOCK_FAR_BUDGET 24u
 #define CLVOX_BLOCK_WORDS 5u      /* M2 along x, y, z; the caps' bound where it decides alone; usable */
@@ -36,11 +36,11 @@
 
 /* The caps' w_caps at p (scaled x, y, z; g its grid coordinates) within
  * [*lo, *hi]: the cap tree refined best first (as clvox_winding_inside_m)
- * until the interval is CLVOX_LATTICE_EPS wide or the steps run out (the
- * interval holds either way). */
+ * until the interval is `width` wide or the steps run out (the interval
+ * holds either way). */
 static inline void clvox_caps_interval(global const clvox_cap_node *nodes, global const clvox_real *caps,
                                        global const float *gcaps, const clvox_real *g, clvox_real px, clvox_real py,
-                                       clvox_real pz, uint axis, clvox_real *lo, clvox_real *hi)
+                                       clvox_real pz, uint axis, clvox_real width, clvox_real *lo, clvox_real *hi)
 {
     const clvox_real dp = clvox_point_rounding(px, py, pz, axis);
     uint stack[CLVOX_CAP_STACK];
@@ -48,27 +48,34 @@ static inline void clvox_caps_interval(global const clvox_cap_node *nodes, globa
     uint sp = 1;
     stack[0] = 0;
     clvox_cap_estimate(nodes, px, py, pz, dp, 0, &se[0], &sb[0]);
-    clvox_real S = 0, serr = 0;
+    clvox_real S = 0, serr = 0, Br = sb[0]; /* Br: the frontier's bounds, a running sum */
     for (uint it = 0;; it++) {
-        clvox_real B = 0, E = 0, EA = 0;
-        uint best = 0;
-        for (uint i = 0; i < sp; i++) {
-            B += sb[i];
-            E += se[i];
-            EA += fabs(se[i]);
-            best = sb[i] > sb[best] ? i : best;
-        }
-        B = B * (clvox_real)CLVOX_SUM_ROUND + (clvox_real)1e-12 + serr;
+        /* the running sum only picks when to sum afresh (as
+         * clvox_winding_inside_m): the interval is the fresh sums' */
+        if (sp == 0 || Br * (clvox_real)CLVOX_SUM_ROUND + serr <= width * (clvox_real)0.5 ||
+            it >= CLVOX_LATTICE_STEPS) {
+            clvox_real B = 0, E = 0, EA = 0;
+            for (uint i = 0; i < sp; i++) {
+                B += sb[i];
+                E += se[i];
+                EA += fabs(se[i]);
+            }
+            Br = B;
+            B = B * (clvox_real)CLVOX_SUM_ROUND + (clvox_real)1e-12 + serr;
 #if !defined(CLVOX_FP64)
-        B += (clvox_real)1.01f * CLVOX_REAL_U * ((clvox_real)(sp + 2u) * EA + 2 * (fabs(S) + fabs(E)));
+            B += (clvox_real)1.01f * CLVOX_REAL_U * ((clvox_real)(sp + 2u) * EA + 2 * (fabs(S) + fabs(E)));
 #else
-        (void)EA;
+            (void)EA;
 #endif
-        if (sp == 0 || B <= (clvox_real)CLVOX_LATTICE_EPS * (clvox_real)0.5 || it >= CLVOX_LATTICE_STEPS) {
-            *lo = S + E - B;
-            *hi = S + E + B;
-            return;
+            if (sp == 0 || B <= width * (clvox_real)0.5 || it >= CLVOX_LATTICE_STEPS) {
+                *lo = S + E - B;
+                *hi = S + E + B;
+                return;
+            }
         }
+        uint best = 0;
+        for (uint i = 1; i < sp; i++) best = sb[i] > sb[best] ? i : best;
+        Br -= sb[best];
         const uint nd = stack[best];
         stack[best] = stack[sp - 1u];
         sb[best] = sb[sp - 1u];
@@ -84,6 +91,7 @@ static inline void clvox_caps_interval(global const clvox_cap_node *nodes, globa
             stack[sp] = child;
             stack[sp + 1u] = child + 1u;
             clvox_cap_estimate2(nodes + child, nodes + child + 1u, px, py, pz, dp, 0, se + sp, sb + sp);
+            Br += sb[sp] + sb[sp + 1u];
             sp += 2u;
         }
     }

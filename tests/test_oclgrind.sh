@@ -150,6 +150,16 @@ $M/cow.off -r 6 --palette binary --samples 4,2 --stochastic --axis z
 "
 run_cases float "float:--data-races --check-api" "$float_cases"
 
+# The caps' block lattice (kernels/winding_lattice.h), which runs only from
+# 192 voxels on unless CLVOX_WINDING_LATTICE=1: the same bytes, in double
+# and in float.
+export CLVOX_WINDING_LATTICE=1
+if check_case lattice "--data-races --check-api" "$M/elephant-with-holes.off" -r 16; then pass; else failed=$((failed + 1)); fi
+if check_case lattice-float "float:--data-races --check-api" "$M/elephant-with-holes.off" -r 16 --axis z; then pass; else
+  failed=$((failed + 1))
+fi
+unset CLVOX_WINDING_LATTICE
+
 # The negative checks: a broken kernel must fail a case (the cache off, so
 # the broken build is not kept nor an earlier one taken).
 for k in 1 2; do

@@ -1561,13 +1561,13 @@ static void test_rim_bounds(void)
  * its boundary the rims), against w_caps summed exactly on the host:
  * every interval the lattice gives (K = 0: it holds -w_caps) must hold it,
  * and w_caps's second differences along x in a block must stay within the
- * block's M2. Then whole runs with the lattice and without
- * (CLVOX_WINDING_LATTICE=0) give the same voxels on open meshes, and the
- * lattice decides some. */
-static uint8_t *run_lattice(const clvox_mesh *m, const clvox_grid *g, int off, clvox_stats *s)
+ * block's M2. Then whole runs with the lattice (CLVOX_WINDING_LATTICE=1:
+ * on these small grids too) and without (=0) give the same voxels on open
+ * meshes, and the lattice decides some. */
+static uint8_t *run_lattice(const clvox_mesh *m, const clvox_grid *g, int mode, clvox_stats *s)
 {
     clvox__test_hooks h = *clvox__hooks(), saved = h;
-    h.no_lattice = off;
+    h.lattice = mode; /* -1 off, 1 on grids of any size, 0 the library's rule (from 192 voxels) */
     clvox__set_test_hooks(&h);
     *s = (clvox_stats)CLVOX_STATS_INIT;
     uint8_t *v = run_inside(m, g, CLVOX_INSIDE_DEFAULT, s);
@@ -1583,11 +1583,14 @@ static void test_lattice(void)
         cl_kernel k = NULL;
         CHECK_OK(ctx, clvox__kernel(ctx, "clvox_lattice_probe", &k));
         if (!k) return;
+        clvox__test_hooks hk = *clvox__hooks(), saved = hk;
+        hk.lattice = 1; /* on these small grids too */
+        clvox__set_test_hooks(&hk);
         const double cyl_c[3] = {0.3, 0.5, 0.5};
         tmesh shapes[2] = {tmesh_sphere_holes(7, 0.5, 0.5, 0.5, 0.4, 16, 12),
                            tmesh_cylinder(cyl_c, 0, 0.3, 0.4, 24, 6, 0)};
         static const char *const names[] = {"sphere with 12 holes", "open tube"};
-        static const uint32_t sizes[] = {64, 160}; /* S = 4 and 8 (winding_lattice.c) */
+        static const uint32_t sizes[] = {64, 160}; /* S = 4 and 8 (winding_lattice.c, CLVOX_WINDING_LATTICE=1) */
         uint64_t seed = 0x1a771ce5;
         for (int sh = 0; sh < 2; sh++)
             for (int gi = 0; gi < 2; gi++) {
@@ -1715,11 +1718,13 @@ static void test_lattice(void)
         tmesh_free(&shapes[0]);
         tmesh_free(&shapes[1]);
         clReleaseKernel(k);
+        clvox__set_test_hooks(&saved);
     }
     /* whole runs: the same voxels with the lattice and without */
     tmesh t = tmesh_sphere_holes(5, 0.5, 0.5, 0.5, 0.45, 24, 8);
     static const struct { const char *name; uint32_t n; } real[] = {
-        {NULL, 72}, {NULL, 136}, {"elephant-with-holes.off", 96}, {"mech-holes-shark.off", 80}, {"mushroom.off", 72}};
+        {NULL, 72}, {NULL, 136}, {NULL, 200}, {"elephant-with-holes.off", 96}, {"mech-holes-shark.off", 80},
+        {"mushroom.off", 72}};
     for (size_t i = 0; i < sizeof real / sizeof real[0]; i++) {
         if (real[i].name && getenv("CLVOX_QUICK")) continue;
         clvox_mesh *m = real[i].name ? load_real(real[i].name) : to_mesh(&t);
@@ -1736,7 +1741,8 @@ static void test_lattice(void)
             }
         }
         clvox_stats on = CLVOX_STATS_INIT, off = CLVOX_STATS_INIT;
-        uint8_t *a = run_lattice(m, &g, 0, &on), *b = run_lattice(m, &g, 1, &off);
+        /* at 200 by the library's own rule, below it forced on */
+        uint8_t *a = run_lattice(m, &g, N >= 192 ? 0 : 1, &on), *b = run_lattice(m, &g, -1, &off);
         const size_t d = a && b ? ndiff(a, b, nvox(&g)) : 1;
         const char *name = real[i].name ? real[i].name : "sphere with 8 holes";
         CHECK_MSG(d == 0, "%s at %u: %zu voxels differ with the lattice", name, N, d);

@@ -75,7 +75,7 @@ static clvox__test_hooks from_environment(void)
     h.copy_slabs = is("CLVOX_COPY_SLABS", "1");
     h.fp32_unrounded = is("CLVOX_TEST_FP32_UNROUNDED", "1");
     h.no_crack_weld = is("CLVOX_CRACK_WELD", "0");
-    h.no_lattice = is("CLVOX_WINDING_LATTICE", "0");
+    h.lattice = is("CLVOX_WINDING_LATTICE", "0") ? -1 : is("CLVOX_WINDING_LATTICE", "1") ? 1 : 0;
     h.unsure_room = (unsigned)in_range("CLVOX_UNSURE_ROOM", 1, 4096);
     const char *slow = getenv("CLVOX_FP64_SLOWDOWN");
     if (slow && *slow) {

@@ -61,8 +61,9 @@ typedef struct clvox__test_hooks {
                                 * rounded float divide/sqrt (no -cl-fp32-correctly-rounded-divide-sqrt) */
     int no_crack_weld;         /* CLVOX_CRACK_WELD=0: no certified crack weld (src/winding/crack_weld.c; the
                                 * voxels are the same, found the slow way) */
-    int no_lattice;            /* CLVOX_WINDING_LATTICE=0: no block lattice near the caps
-                                * (kernels/winding_lattice.h; the voxels are the same, found voxel by voxel) */
+    int lattice;               /* CLVOX_WINDING_LATTICE=0 (-1): no block lattice near the caps
+                                * (kernels/winding_lattice.h; the same voxels, found voxel by voxel); =1 (1):
+                                * one on grids of any size (S from 4), not only from 192 voxels on */
     unsigned unsure_room;      /* CLVOX_UNSURE_ROOM=1..4096: a float device's unsure winding points a batch
                                 * lists before its consumer runs again with room for all
                                 * (src/cast/unsure.c; the outputs are the same). 0: 4096 */

@@ -643,10 +643,11 @@ static clvox_status tree_build(clvox_context *ctx, double *q, size_t n, int mode
         for (size_t i = 0; i < nt * 9; i++) {
             grid[i] = (float)(tv[i] / s[i % 3]);
             if ((double)grid[i] * s[i % 3] != tv[i]) {
+                const double bad = tv[i]; /* for the message, before tv goes */
                 free(tv);
                 free(grid);
                 st = clvox__fail(ctx, CLVOX_ERR_INTERNAL, "a cap corner's grid coordinate is not a float (%.17g)",
-                                 tv[i]);
+                                 bad);
                 goto done;
             }
         }

@@ -75,14 +75,12 @@ static inline clvox_real clvox_cap_bound_box(global const clvox_cap_node *n, con
 /* Inside from K alone (no caps near): w = K exactly, K >= 1 (abs: K != 0). */
 static inline int clvox_k_inside(int K, uint abs_mode) { return abs_mode ? K != 0 : K >= 1; }
 
-/* Is the box [q0, q1] decided by K alone? 1 when the caps' bound over
- * it is below 1/2 - 2^-29, so that every point of it is inside exactly
- * when clvox_k_inside. Refines at most `budget` nodes. */
-static inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, const clvox_real *q0,
-                                 const clvox_real *q1, uint budget)
+/* The caps' bound over the box [q0, q1]: the tree refined best first until
+ * the bound (times its sums' rounding) is under `stop`, or after `budget`
+ * steps, or at a leaf. */
+static inline clvox_real clvox_caps_box_bound(global const clvox_cap_node *nodes, const clvox_real *q0,
+                                              const clvox_real *q1, uint budget, clvox_real stop)
 {
-    if (node_count == 0) return 1;
-    const clvox_real limit = (clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2;
     uint stack[CLVOX_CAP_STACK];
     clvox_real sb[CLVOX_CAP_STACK];
     uint sp = 1;
@@ -95,10 +93,9 @@ static inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_c
             B += sb[i];
             if (sb[i] > sb[best]) best = i;
         }
-        if (B * (clvox_real)CLVOX_SUM_ROUND < limit) return 1;
-        if (it >= budget || sp + 1u >= CLVOX_CAP_STACK) return 0;
         const uint nd = stack[best];
-        if (nodes[nd].child == 0) return 0; /* a leaf's own bound is too large */
+        B *= (clvox_real)CLVOX_SUM_ROUND;
+        if (B < stop || it >= budget || sp + 1u >= CLVOX_CAP_STACK || nodes[nd].child == 0) return B;
         stack[best] = stack[sp - 1u];
         sb[best] = sb[sp - 1u];
         sp--;
@@ -108,6 +105,19 @@ static inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_c
             sb[sp++] = clvox_cap_bound_box(nodes + ch, q0, q1);
         }
     }
+}
+
+/* The caps' bound under which K alone decides: 1/2 - 2^-29. */
+#define CLVOX_CAPS_FAR_LIMIT ((clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2)
+
+/* Is the box [q0, q1] decided by K alone? 1 when the caps' bound over
+ * it is below 1/2 - 2^-29, so that every point of it is inside exactly
+ * when clvox_k_inside. Refines at most `budget` nodes. */
+static inline int clvox_caps_far(global const clvox_cap_node *nodes, uint node_count, const clvox_real *q0,
+                                 const clvox_real *q1, uint budget)
+{
+    if (node_count == 0) return 1;
+    return clvox_caps_box_bound(nodes, q0, q1, budget, CLVOX_CAPS_FAR_LIMIT) < CLVOX_CAPS_FAR_LIMIT;
 }
 
 /* The node's caps' w seen from p as an estimate and an error bound: the

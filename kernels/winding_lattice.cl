@@ -25,8 +25,9 @@ kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_c
             q1[a] = (clvox_real)((g[a] + 1u) * S) * h[a];
         }
         global clvox_real *o = out + (size_t)i * CLVOX_BLOCK_WORDS;
-        const clvox_real far = node_count ? clvox_caps_box_bound(nodes, q0, q1, CLVOX_BLOCK_FAR_BUDGET) : 0;
-        const int alone = far < (clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2;
+        const clvox_real far =
+            node_count ? clvox_caps_box_bound(nodes, q0, q1, CLVOX_BLOCK_FAR_BUDGET, CLVOX_CAPS_FAR_LIMIT) : 0;
+        const int alone = far < CLVOX_CAPS_FAR_LIMIT;
         m2[0] = m2[1] = m2[2] = (clvox_real)INFINITY;
         /* sum of M2 at which the centre's error is CLVOX_BLOCK_ENOUGH (cubic voxels: h[a] the same) */
         const clvox_real hw0 = (clvox_real)S * h[0] * (clvox_real)0.5;

@@ -97,37 +97,6 @@ static inline void clvox_caps_interval(global const clvox_cap_node *nodes, globa
     }
 }
 
-/* The caps' bound over the box [q0, q1] after at most `budget` steps (as
- * clvox_caps_far, which answers only whether it is under 1/2). */
-static inline clvox_real clvox_caps_box_bound(global const clvox_cap_node *nodes, const clvox_real *q0,
-                                              const clvox_real *q1, uint budget)
-{
-    uint stack[CLVOX_CAP_STACK];
-    clvox_real sb[CLVOX_CAP_STACK];
-    uint sp = 1;
-    stack[0] = 0;
-    sb[0] = clvox_cap_bound_box(nodes, q0, q1);
-    for (uint it = 0;; it++) {
-        clvox_real B = 0;
-        uint best = 0;
-        for (uint i = 0; i < sp; i++) {
-            B += sb[i];
-            if (sb[i] > sb[best]) best = i;
-        }
-        const uint nd = stack[best];
-        if (it >= budget || sp + 1u >= CLVOX_CAP_STACK || nodes[nd].child == 0)
-            return B * (clvox_real)CLVOX_SUM_ROUND;
-        stack[best] = stack[sp - 1u];
-        sb[best] = sb[sp - 1u];
-        sp--;
-        for (uint c = 0; c < 2u; c++) {
-            const uint ch = nodes[nd].child + c;
-            stack[sp] = ch;
-            sb[sp++] = clvox_cap_bound_box(nodes + ch, q0, q1);
-        }
-    }
-}
-
 /* Is triangle t (scaled x, y, z, 9 reals) clear of the box [q0, q1] by
  * more than `margin`? Separating axes (the box's, the triangle's normal and
  * the 9 edge-by-axis crosses), each projection's gap taken as clear only
@@ -296,7 +265,7 @@ static inline int clvox_lattice_inside(const clvox_lattice *lt, global const clv
     global const clvox_real *bw =
         lt->blocks + ((size_t)(c[2] * (n[1] - 1u) + c[1]) * (n[0] - 1u) + c[0]) * CLVOX_BLOCK_WORDS;
     const clvox_real Kr = (clvox_real)K;
-    if (bw[3] < (clvox_real)0.5 - (clvox_real)CLVOX_WINDING_TIE * 2) { /* K alone */
+    if (bw[3] < CLVOX_CAPS_FAR_LIMIT) { /* K alone */
         *lo = Kr - bw[3];
         *hi = Kr + bw[3];
         return clvox_k_inside(K, abs_mode);

@@ -885,8 +885,9 @@ static clvox_status ray_slab(clvox__method_state *s, uint32_t z0, uint32_t nz, c
         const double t0 = clvox__now();
         clvox_status lst = clvox__winding_lattice_slab(ctx, &s->grid, &s->wind, z0, nz);
         if (lst != CLVOX_OK) return lst;
-        ss->classify_seconds += clvox__now() - t0;
-        ss->exact_seconds += clvox__now() - t0;
+        const double dt = clvox__now() - t0;
+        ss->classify_seconds += dt;
+        ss->exact_seconds += dt;
     }
     /* z-rays are the same for every slab: count them once. */
     const int count_rays = s->axis != CLVOX_AXIS_Z || z0 == 0;

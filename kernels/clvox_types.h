@@ -88,6 +88,11 @@ typedef struct clvox_cap_node {
     clvox_f32 quad4pi[6];
 } clvox_cap_node;
 
+/* A block of the winding classify's lattice (kernels/winding_lattice.h,
+ * src/cast/winding_lattice.c sizes the buffer): M2 along x, y and z, the
+ * caps' bound where it decides alone, whether it interpolates. */
+#define CLVOX_BLOCK_WORDS 5u
+
 #if defined(__cplusplus)
 static_assert(sizeof(clvox_cap_node) == 104, "clvox_cap_node layout");
 static_assert(sizeof(clvox_qt_node) == 16, "clvox_qt_node layout");

@@ -25,7 +25,6 @@
 #define CLVOX_LATTICE_STEPS 256u  /* its refinement steps at most */
 #define CLVOX_BLOCK_STEPS 96u     /* a block's rim refinement steps */
 #define CLVOX_BLOCK_FAR_BUDGET 24u
-#define CLVOX_BLOCK_WORDS 5u      /* M2 along x, y, z; the caps' bound where it decides alone; usable */
 #define CLVOX_BLOCK_USABLE 0.4    /* a block's largest interpolation error (at its centre) worth its points */
 #define CLVOX_BLOCK_ENOUGH 0.02   /* an error there small enough to stop refining its M2 */
 #if defined(CLVOX_FP64)

@@ -12,7 +12,6 @@
 
 #define LATTICE_PLANES 32u     /* lattice points along the grid's largest side, about: S from it */
 #define LATTICE_MIN_SIDE 192u  /* the grid's largest side from which the lattice is used */
-#define BLOCK_WORDS 5u     /* kernels/winding_lattice.h CLVOX_BLOCK_WORDS */
 #define LATTICE_BYTES ((uint64_t)64 << 20) /* a slab's points or blocks at most */
 
 clvox_status clvox__winding_lattice_prepare(clvox_context *ctx, const clvox_grid *grid, int binary,
@@ -73,7 +72,7 @@ clvox_status clvox__winding_lattice_slab(clvox_context *ctx, const clvox_grid *g
     const uint32_t nzl = zl1 - zl0 + 1;
     if (nx < 2 || ny < 2 || nzl < 2) return CLVOX_OK;
     const uint64_t points = (uint64_t)nx * ny * nzl, blocks = (uint64_t)(nx - 1) * (ny - 1) * (nzl - 1);
-    const uint64_t pb = points * 2 * ctx->real_size, bb = blocks * BLOCK_WORDS * ctx->real_size;
+    const uint64_t pb = points * 2 * ctx->real_size, bb = blocks * CLVOX_BLOCK_WORDS * ctx->real_size;
     /* an aid, not a need: none where it would take much memory (a 2048^3
      * grid's slab of 64 planes at S = 64: 0.6 MB) */
     uint64_t max = clvox__device_max_alloc(ctx) / 4;

@@ -380,9 +380,11 @@ kernel void clvox_classify_winding(global const clvox_ray *rays, uint ray_count,
                                    global const clvox_real *rim_edges, global uint *unsure,
                                    global const clvox_real *lat_points, global const clvox_real *lat_blocks,
                                    uint lat_nx, uint lat_ny, uint lat_nz, uint lat_z0, uint lat_s,
+                                   global const clvox_real *lat_split, global const uint *lat_near,
                                    global uint *clvox_done, uint clvox_done_slot)
 {
-    const clvox_lattice lt = {lat_points, lat_blocks, lat_nx, lat_ny, lat_nz, lat_z0, lat_s};
+    const clvox_lattice lt = {lat_points, lat_blocks, lat_nx, lat_ny, lat_nz, lat_z0, lat_s, lat_split, lat_near,
+                              nodes, caps, gcaps, axis | CLVOX_AXIS_FLAGS(h[3])};
     clvox_classify_winding_body(rays, ray_count, hits, signs, counts, capacity, u_begin, u_count, out_stride, out,
         filled, abs_mode, axis, h, nodes, node_count, caps, gcaps, exact_points, rims, rim_count, rim_edges, unsure,
         &lt);

@@ -9,12 +9,16 @@
  * may touch it), the caps' bound over it where that decides every voxel
  * by K alone (else INFINITY), and 1 where its points interpolate (no cap
  * near, the interpolation's error at its centre under CLVOX_BLOCK_USABLE),
- * else 0. The rays' segments take M2 from the blocks too (kernels/
- * winding.cl), caps or not. */
+ * CLVOX_BLOCK_SPLIT where it is split in near and far caps (its far caps'
+ * corners and M2 in split, its near leaves in near; axis: the classify's
+ * ray axis, for the tie rule), else 0. The rays' segments take M2 from the
+ * blocks too (kernels/winding.cl), caps or not. */
 kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_count, global const clvox_real *caps,
                                  global const clvox_real *h, global const clvox_cap_node *rims, uint rim_count,
                                  global const clvox_real *edges, uint nx, uint ny, uint nz, uint z0, uint S,
-                                 global clvox_real *out, global uint *clvox_done, uint clvox_done_slot)
+                                 global clvox_real *out, global const float *gcaps, uint axis,
+                                 global clvox_real *split, global uint *near, global uint *clvox_done,
+                                 uint clvox_done_slot)
 {
     const uint i = get_global_id(0), bx = nx - 1u, by = ny - 1u;
     if (i < bx * by * (nz - 1u)) {
@@ -43,6 +47,34 @@ kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_c
                        !clvox_caps_touch(nodes, caps, q0, q1, h[0] * (clvox_real)1e-3)
                    ? 1
                    : 0;
+        /* a block near the rims: split in near and far caps where the far
+         * part's interpolation error is small enough (winding_lattice.h) */
+        global uint *list = near + (size_t)i * (CLVOX_NEAR_MAX + 1u);
+        list[0] = 0;
+        clvox_real mf = 0;
+        const clvox_real R = (clvox_real)(CLVOX_NEAR_BLOCKS * S) * h[0];
+        if (!alone && o[4] == 0 && node_count && e >= (clvox_real)CLVOX_BLOCK_USABLE &&
+            clvox_caps_split(nodes, q0, q1, R, list, &mf)) {
+            const clvox_real ef = 3 * mf * hw0 * hw0 * (clvox_real)0.5; /* cubic voxels: hw0 on every axis */
+            if (ef < (clvox_real)CLVOX_BLOCK_USABLE) {
+                global clvox_real *sw = split + (size_t)i * CLVOX_SPLIT_WORDS;
+                const clvox_real want = fmax((clvox_real)CLVOX_LATTICE_EPS, ef * (clvox_real)0.5);
+                for (uint q = 0; q < 8u; q++) {
+                    const clvox_real gq[3] = {(clvox_real)((g[0] + (q & 1u)) * S),
+                                              (clvox_real)((g[1] + ((q >> 1) & 1u)) * S),
+                                              (clvox_real)((g[2] + (q >> 2)) * S)};
+                    clvox_real lo, hi;
+                    clvox_caps_interval(nodes, caps, gcaps, gq, gq[0] * h[0], gq[1] * h[1], gq[2] * h[2],
+                                        axis | CLVOX_AXIS_FLAGS(h[3]), want, q0, q1, R * R, &lo, &hi);
+                    sw[2u * q] = lo;
+                    sw[2u * q + 1u] = hi;
+                }
+                sw[16] = mf;
+                o[4] = CLVOX_BLOCK_SPLIT;
+            } else {
+                list[0] = 0;
+            }
+        }
     }
     clvox_done_mark(clvox_done, clvox_done_slot);
 }
@@ -74,7 +106,7 @@ kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global con
             if (!ok) continue;
             global const clvox_real *bw =
                 blocks + ((size_t)(b[2] * (ny - 1u) + b[1]) * (nx - 1u) + b[0]) * CLVOX_BLOCK_WORDS;
-            if (bw[4] == 0) continue;
+            if (bw[4] != 1) continue;
             clvox_real e = 0;
             for (uint a = 0; a < 3u; a++) {
                 const clvox_real hw = (clvox_real)S * h[a] * (clvox_real)0.5;
@@ -87,7 +119,7 @@ kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global con
             const clvox_real g[3] = {(clvox_real)(p[0] * S), (clvox_real)(p[1] * S),
                                      (clvox_real)((p[2] + z0) * S)};
             clvox_caps_interval(nodes, caps, gcaps, g, g[0] * h[0], g[1] * h[1], g[2] * h[2],
-                                axis | CLVOX_AXIS_FLAGS(h[3]), want, &lo, &hi);
+                                axis | CLVOX_AXIS_FLAGS(h[3]), want, 0, 0, 0, &lo, &hi);
         }
         out[2 * (size_t)i] = lo;
         out[2 * (size_t)i + 1] = hi;
@@ -96,24 +128,31 @@ kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global con
 }
 
 /* For tests/test_winding.c only: the lattice's answer for grid points
- * g[3i ..] (x, y, z) with K = 0, so that [lo, hi] holds -w_caps: out[4i ..]
- * = lo, hi, how (1 interpolated, 2 the caps' bound alone, 0 none), and the
- * block's M2 along x. */
+ * g[3i ..] (x, y, z) with K = 0, so that [lo, hi] holds -w_caps: out[5i ..]
+ * = lo, hi, how (1 interpolated, 2 the caps' bound alone, 0 none), the
+ * block's M2 along x and its word 4 (1, CLVOX_BLOCK_SPLIT or 0). */
 kernel void clvox_lattice_probe(global const clvox_real *h, global const clvox_real *points,
                                 global const clvox_real *blocks, uint nx, uint ny, uint nz, uint z0, uint S,
-                                global const clvox_real *g, uint count, global clvox_real *out)
+                                global const clvox_real *split, global const uint *near,
+                                global const clvox_cap_node *nodes, global const clvox_real *caps,
+                                global const float *gcaps, uint axis, global const clvox_real *g, uint count,
+                                global clvox_real *out)
 {
     const uint i = get_global_id(0);
     if (i >= count) return;
-    const clvox_lattice lt = {points, blocks, nx, ny, nz, z0, S};
+    const clvox_lattice lt = {points, blocks, nx, ny, nz, z0, S, split, near, nodes, caps, gcaps,
+                              axis | CLVOX_AXIS_FLAGS(h[3])};
     const clvox_real p[3] = {g[3 * i], g[3 * i + 1], g[3 * i + 2]};
     clvox_real lo = (clvox_real)NAN, hi = (clvox_real)NAN;
     clvox_lattice_inside(&lt, h, p, 0, 0u, &lo, &hi);
-    global clvox_real *o = out + 4 * (size_t)i;
+    global clvox_real *o = out + 5 * (size_t)i;
     o[0] = lo;
     o[1] = hi;
     int usable;
     const clvox_real m2 = clvox_lattice_segment_m2(&lt, 0u, p, 1u, &usable);
     o[2] = !(lo <= hi) ? 0 : (usable ? 1 : 2);
     o[3] = m2;
+    uint c[3], k[3];
+    global const clvox_real *bw = clvox_lattice_block(&lt, p, c, k);
+    o[4] = bw ? bw[4] : 0;
 }

@@ -27,6 +27,9 @@
 #define CLVOX_BLOCK_FAR_BUDGET 24u
 #define CLVOX_BLOCK_USABLE 0.4    /* a block's largest interpolation error (at its centre) worth its points */
 #define CLVOX_BLOCK_ENOUGH 0.02   /* an error there small enough to stop refining its M2 */
+#define CLVOX_BLOCK_SPLIT 2       /* word 4 of a block split in near and far caps (else 1 interpolates, 0 not) */
+#define CLVOX_NEAR_BLOCKS 2u      /* the near caps' reach, in blocks */
+#define CLVOX_NEAR_AREA 8.0       /* the near caps' area at most, in (reach)^2: larger caps are left to the ray */
 #if defined(CLVOX_FP64)
 #define CLVOX_LERP_ERR 1e-12 /* an interpolation's rounding, of the values' size (here and along a ray) */
 #else
@@ -36,18 +39,42 @@
 /* The caps' w_caps at p (scaled x, y, z; g its grid coordinates) within
  * [*lo, *hi]: the cap tree refined best first (as clvox_winding_inside_m)
  * until the interval is `width` wide or the steps run out (the interval
- * holds either way). */
+ * holds either way). With x0 (else 0): the caps' of the leaves at least
+ * sqrt(R2) from the box [x0, x1] only, a split block's far caps
+ * (clvox_caps_split's rule: the leaves within it are its near caps). */
 static inline void clvox_caps_interval(global const clvox_cap_node *nodes, global const clvox_real *caps,
                                        global const float *gcaps, const clvox_real *g, clvox_real px, clvox_real py,
-                                       clvox_real pz, uint axis, clvox_real width, clvox_real *lo, clvox_real *hi)
+                                       clvox_real pz, uint axis, clvox_real width, const clvox_real *x0,
+                                       const clvox_real *x1, clvox_real R2, clvox_real *lo, clvox_real *hi)
 {
     const clvox_real dp = clvox_point_rounding(px, py, pz, axis);
     uint stack[CLVOX_CAP_STACK];
     clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
     uint sp = 1;
     stack[0] = 0;
-    clvox_cap_estimate(nodes, px, py, pz, dp, 0, &se[0], &sb[0]);
-    clvox_real S = 0, serr = 0, Br = sb[0]; /* Br: the frontier's bounds, a running sum */
+    clvox_real S = 0, serr = 0, Br = 0; /* Br: the frontier's bounds, a running sum */
+    if (x0) {
+        /* without the caps near the box [x0, x1] (clvox_caps_split): the
+         * nodes within sqrt(R2) of it opened, their leaves left out */
+        uint open[CLVOX_CAP_STACK], on = 1;
+        open[0] = 0;
+        sp = 0;
+        while (on) {
+            const uint nd = open[--on];
+            if (clvox_node_box_d2(nodes + nd, x0, x1) >= R2) {
+                if (sp == CLVOX_CAP_STACK) break; /* cannot happen: clvox_caps_split bounds the near part */
+                stack[sp] = nd;
+                clvox_cap_estimate(nodes + nd, px, py, pz, dp, 0, &se[sp], &sb[sp]);
+                Br += sb[sp++];
+            } else if (nodes[nd].child && on + 2u <= CLVOX_CAP_STACK) {
+                open[on++] = nodes[nd].child;
+                open[on++] = nodes[nd].child + 1u;
+            }
+        }
+    } else {
+        clvox_cap_estimate(nodes, px, py, pz, dp, 0, &se[0], &sb[0]);
+        Br = sb[0];
+    }
     for (uint it = 0;; it++) {
         /* the running sum only picks when to sum afresh (as
          * clvox_winding_inside_m): the interval is the fresh sums' */
@@ -232,6 +259,66 @@ static inline void clvox_rim_box_m2(global const clvox_cap_node *rims, uint rim_
     for (uint a = 0; a < 3u; a++) m2[a] *= (clvox_real)CLVOX_SUM_ROUND;
 }
 
+/* The near caps of a block, and the far caps' bound on w_caps'' over it
+ * (clvox_winding_blocks): the cap tree's leaves whose boxes lie within R
+ * of the block's box [q0, q1] are its near part, into list[1 ..] (list[0]
+ * their count); every other cap is at least R away, and their w_caps is
+ * smooth over the block with |d^2 / dx_a^2| <= 6 area4pi / d^4 a node
+ * (w_caps is the integral of n . F(y - p) dA / 4pi, F = -grad 1/|x|, and
+ * the norm of D^3 (1/|x|) is 3! / |x|^4: winding_bounds.h), summed into
+ * *m2 over the nodes beyond 2R and the leaves beyond R (opening the nodes
+ * out to 4R gave a few more split blocks and cost more time). 0 where the
+ * near part has more than CLVOX_NEAR_MAX leaves or more area than
+ * CLVOX_NEAR_AREA R^2 (or the stack fills): summing large caps at every
+ * voxel cost more than the rays' own evaluations (holes, whose 7 holes
+ * are large: 3-12 % slower with them split; elephant-with-holes's 171
+ * small ones gain). */
+static inline int clvox_caps_split(global const clvox_cap_node *nodes, const clvox_real *q0, const clvox_real *q1,
+                                   clvox_real R, global uint *list, clvox_real *m2)
+{
+    uint stack[CLVOX_CAP_STACK];
+    uint sp = 1, n = 0;
+    stack[0] = 0;
+    const clvox_real R2 = R * R, F2 = 4 * R2;
+    clvox_real M = 0, An = 0;
+    const clvox_real Amax = (clvox_real)CLVOX_NEAR_AREA * R2 * (clvox_real)0.07957747154594767; /* over 4pi */
+    while (sp) {
+        const uint nd = stack[--sp];
+        const clvox_real d2 = clvox_node_box_d2(nodes + nd, q0, q1);
+        const uint child = nodes[nd].child;
+        if (d2 >= F2 || (child == 0 && d2 >= R2)) {
+            M += (clvox_real)6 * (clvox_real)nodes[nd].area4pi / (d2 * d2);
+            continue;
+        }
+        if (child == 0) {
+            if (n == CLVOX_NEAR_MAX) return 0;
+            list[1u + n++] = nd;
+            An += (clvox_real)nodes[nd].area4pi;
+            if (An > Amax) return 0;
+            continue;
+        }
+        if (sp + 2u > CLVOX_CAP_STACK) return 0;
+        stack[sp++] = child;
+        stack[sp++] = child + 1u;
+    }
+    list[0] = n;
+    *m2 = M * (clvox_real)1.000001 * (clvox_real)CLVOX_SUM_ROUND;
+    return 1;
+}
+
+/* A block near the rims (its M2 too large, or INFINITY) may be split:
+ * w_caps = w_near + w_far, w_near the caps of the leaves within
+ * CLVOX_NEAR_BLOCKS blocks of it, summed exactly at each voxel that needs
+ * it (clvox_cap_node_angles, the exact evaluation's own solid angles and
+ * tie rule), w_far interpolated from the block's own corners (w_far
+ * evaluated there, per block: the near caps differ from block to block)
+ * with the far caps' bound on its M2. The steps and the rims are in the
+ * near part; the far part is smooth. Blocks whose interpolation error is
+ * under CLVOX_BLOCK_USABLE but that a cap crosses are not split, nor are
+ * blocks with large caps near (clvox_caps_split): the rays' line and
+ * evaluations decide their voxels more cheaply (holes, mech-holes-shark:
+ * splitting them cost 3-12 %). */
+
 /* The lattice of one slab (kernels/winding_lattice.cl): points every S-th
  * voxel centre along x, y and z, nx by ny by nz of them from lattice
  * plane z0 (z = z0 S) on; blocks between them, (nx - 1)(ny - 1)(nz - 1). */
@@ -239,7 +326,35 @@ typedef struct clvox_lattice {
     global const clvox_real *points; /* w_caps's interval per point: lo, hi (NAN: not computed) */
     global const clvox_real *blocks; /* CLVOX_BLOCK_WORDS per block */
     uint nx, ny, nz, z0, s; /* s: S */
+    global const clvox_real *split; /* CLVOX_SPLIT_WORDS per block */
+    global const uint *near;        /* CLVOX_NEAR_MAX + 1 per block: count, leaves */
+    global const clvox_cap_node *nodes;
+    global const clvox_real *caps;
+    global const float *gcaps;
+    uint axis; /* the ray axis with its flags (the near caps' tie rule) */
 } clvox_lattice;
+
+/* The block of the voxel at grid x, y, z (its first corner c, the voxel's
+ * steps k from it; a voxel on a block's face finds the block above it
+ * where there is one), NULL where the slab's lattice has none. */
+static inline global const clvox_real *clvox_lattice_block(const clvox_lattice *lt, const clvox_real *g, uint *c,
+                                                          uint *k)
+{
+    if (lt->nx < 2u) return 0;
+    const uint n[3] = {lt->nx, lt->ny, lt->nz}, base[3] = {0u, 0u, lt->z0}, S = lt->s;
+    for (uint a = 0; a < 3u; a++) {
+        const uint x = (uint)g[a], b = x / S;
+        if (b < base[a]) return 0;
+        c[a] = b - base[a];
+        k[a] = x % S;
+        if (c[a] + 1u >= n[a]) { /* on the last lattice plane: the block before it */
+            if (c[a] + 1u > n[a] || k[a] != 0u || c[a] == 0u) return 0;
+            c[a]--;
+            k[a] = S;
+        }
+    }
+    return lt->blocks + ((size_t)(c[2] * (n[1] - 1u) + c[1]) * (n[0] - 1u) + c[0]) * CLVOX_BLOCK_WORDS;
+}
 
 /* The inside test of the voxel at grid x, y, z from the lattice, given K
  * there: 1 inside, 0 outside with w in [*lo, *hi]; -1 undecided (the
@@ -247,22 +362,10 @@ typedef struct clvox_lattice {
 static inline int clvox_lattice_inside(const clvox_lattice *lt, global const clvox_real *h, const clvox_real *g, int K,
                                        uint abs_mode, clvox_real *lo, clvox_real *hi)
 {
-    if (lt->nx < 2u) return -1;
     uint c[3], k[3];
-    const uint n[3] = {lt->nx, lt->ny, lt->nz}, base[3] = {0u, 0u, lt->z0}, S = lt->s;
-    for (uint a = 0; a < 3u; a++) {
-        const uint x = (uint)g[a], b = x / S;
-        if (b < base[a]) return -1;
-        c[a] = b - base[a];
-        k[a] = x % S;
-        if (c[a] + 1u >= n[a]) { /* on the last lattice plane: the block before it */
-            if (c[a] + 1u > n[a] || k[a] != 0u || c[a] == 0u) return -1;
-            c[a]--;
-            k[a] = S;
-        }
-    }
-    global const clvox_real *bw =
-        lt->blocks + ((size_t)(c[2] * (n[1] - 1u) + c[1]) * (n[0] - 1u) + c[0]) * CLVOX_BLOCK_WORDS;
+    global const clvox_real *bw = clvox_lattice_block(lt, g, c, k);
+    if (!bw) return -1;
+    const uint n[3] = {lt->nx, lt->ny, lt->nz}, S = lt->s;
     const clvox_real Kr = (clvox_real)K;
     if (bw[3] < CLVOX_CAPS_FAR_LIMIT) { /* K alone */
         *lo = Kr - bw[3];
@@ -270,6 +373,54 @@ static inline int clvox_lattice_inside(const clvox_lattice *lt, global const clv
         return clvox_k_inside(K, abs_mode);
     }
     if (bw[4] == 0) return -1;
+    const size_t bi = (size_t)(c[2] * (n[1] - 1u) + c[1]) * (n[0] - 1u) + c[0];
+    if (bw[4] == (clvox_real)CLVOX_BLOCK_SPLIT) {
+        /* w_caps = the near caps' here + the far caps' interpolated (E
+         * its error; in float the sums' rounding in CLVOX_LERP_ERR) */
+        global const clvox_real *sw = lt->split + bi * CLVOX_SPLIT_WORDS;
+        global const uint *list = lt->near + bi * (CLVOX_NEAR_MAX + 1u);
+        clvox_real L = 0, U = 0, mag = 1 + fabs(Kr);
+        for (uint q = 0; q < 8u; q++) {
+            const uint dx = q & 1u, dy = (q >> 1) & 1u, dz = q >> 2;
+            const clvox_real t = (clvox_real)((dx ? k[0] : S - k[0]) * (dy ? k[1] : S - k[1]) *
+                                              (dz ? k[2] : S - k[2])) *
+                                 ((clvox_real)1 / (clvox_real)(S * S * S));
+            L += t * sw[2u * q];
+            U += t * sw[2u * q + 1u];
+            mag += fabs(sw[2u * q]) + fabs(sw[2u * q + 1u]);
+        }
+        if (!(L <= U)) return -1;
+        clvox_real E = 0;
+        for (uint a = 0; a < 3u; a++) E += (clvox_real)(k[a] * (S - k[a])) * (h[a] * h[a]);
+        E = E * sw[16] * (clvox_real)0.5 * (clvox_real)1.000001;
+        clvox_real err = 0, near = 0;
+        if (list[0]) {
+            /* the near caps' bound first (clvox_cap_bound_box at the
+             * voxel): where it decides, no solid angle is needed */
+            const clvox_real p3[3] = {g[0] * h[0], g[1] * h[1], g[2] * h[2]};
+            clvox_real B = 0;
+            for (uint i = 0; i < list[0]; i++) B += clvox_cap_bound_box(lt->nodes + list[1u + i], p3, p3);
+            B = B * (clvox_real)CLVOX_SUM_ROUND + (clvox_real)CLVOX_LERP_ERR * (mag + B);
+            const int in = clvox_interval_inside(Kr - U - E - B, Kr - L + E + B, abs_mode);
+            if (in >= 0) {
+                *lo = Kr - U - E - B;
+                *hi = Kr - L + E + B;
+                return in;
+            }
+        }
+        if (list[0]) {
+            clvox_angles an;
+            clvox_angles_init(&an);
+            const clvox_real px = g[0] * h[0], py = g[1] * h[1], pz = g[2] * h[2];
+            for (uint i = 0; i < list[0]; i++)
+                clvox_cap_node_angles(lt->nodes + list[1u + i], lt->caps, lt->gcaps, g, px, py, pz, lt->axis, &an);
+            near = clvox_angles_value(&an, &err);
+        }
+        E += err + (clvox_real)CLVOX_LERP_ERR * (mag + fabs(near));
+        *lo = Kr - near - U - E;
+        *hi = Kr - near - L + E;
+        return clvox_interval_inside(*lo, *hi, abs_mode);
+    }
     clvox_real L = 0, U = 0, mag = 1 + fabs(Kr);
     for (uint q = 0; q < 8u; q++) {
         const uint dx = q & 1u, dy = (q >> 1) & 1u, dz = q >> 2;

@@ -224,6 +224,8 @@ void clvox__winding_classify_release(clvox__winding_classify *w)
     clvox__caps_release(&w->rims);
     clvox__release_mem(&w->lat_points);
     clvox__release_mem(&w->lat_blocks);
+    clvox__release_mem(&w->lat_split);
+    clvox__release_mem(&w->lat_near);
     if (w->k_blocks) clReleaseKernel(w->k_blocks);
     if (w->k_lattice) clReleaseKernel(w->k_lattice);
     w->k_blocks = w->k_lattice = NULL;
@@ -264,5 +266,7 @@ clvox_status clvox__winding_classify_enqueue(clvox_context *ctx, cl_kernel k, co
         const cl_uint v = lat ? w->lat[d] : 0u;
         err |= clSetKernelArg(k, i++, sizeof v, &v);
     }
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), lat ? &w->lat_split : &w->caps.h);
+    err |= clSetKernelArg(k, i++, sizeof(cl_mem), lat ? &w->lat_near : &w->caps.h);
     return clvox__consumer_launch(ctx, k, "clvox_classify_winding", err, n, w->local, ev);
 }

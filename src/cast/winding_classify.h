@@ -24,6 +24,7 @@ typedef struct clvox__winding_classify {
     int lattice_on;
     cl_kernel k_blocks, k_lattice;
     cl_mem lat_points, lat_blocks;
+    cl_mem lat_split, lat_near;  /* the blocks split in near and far caps (kernels/winding_lattice.h) */
     cl_uint lat[5];              /* nx, ny, nz, z0 (in lattice planes), S (voxels between points) */
 } clvox__winding_classify;
 

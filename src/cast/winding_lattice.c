@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* The block lattice of the winding classify, host side
- * (kernels/winding_lattice.h): per slab, the blocks' bounds
- * (clvox_winding_blocks) and the caps' solid angle at the lattice points
+ * (kernels/winding_lattice.h): per slab, the blocks' bounds, and the near
+ * caps and far corners of the blocks split near the rims
+ * (clvox_winding_blocks), then the caps' solid angle at the lattice points
  * next to a usable block (clvox_winding_lattice), before the slab's rays are
  * classified. */
 #include "winding_classify.h"
@@ -78,8 +79,13 @@ clvox_status clvox__winding_lattice_slab(clvox_context *ctx, const clvox_grid *g
     uint64_t max = clvox__device_max_alloc(ctx) / 4;
     if (max > LATTICE_BYTES) max = LATTICE_BYTES;
     if (points > UINT32_MAX / 2 || pb > max || bb > max) return CLVOX_OK;
+    const uint64_t sb = blocks * CLVOX_SPLIT_WORDS * ctx->real_size;
+    const uint64_t nb = blocks * (CLVOX_NEAR_MAX + 1) * sizeof(cl_uint);
+    if (sb > max || nb > max) return CLVOX_OK;
     clvox_status st = room(ctx, &w->lat_blocks, (size_t)bb, "winding lattice blocks");
     if (st == CLVOX_OK) st = room(ctx, &w->lat_points, (size_t)pb, "winding lattice points");
+    if (st == CLVOX_OK) st = room(ctx, &w->lat_split, (size_t)sb, "winding lattice split blocks");
+    if (st == CLVOX_OK) st = room(ctx, &w->lat_near, (size_t)nb, "winding lattice near caps");
     if (st != CLVOX_OK) return st;
     cl_uint axis = w->axis;
     cl_uint a = 0;
@@ -95,6 +101,10 @@ clvox_status clvox__winding_lattice_slab(clvox_context *ctx, const clvox_grid *g
     err |= clSetKernelArg(kb, a++, sizeof(cl_mem), &w->rims.tris);
     for (int i = 0; i < 5; i++) err |= clSetKernelArg(kb, a++, sizeof(cl_uint), &dims[i]);
     err |= clSetKernelArg(kb, a++, sizeof(cl_mem), &w->lat_blocks);
+    err |= clSetKernelArg(kb, a++, sizeof(cl_mem), &w->caps.grid);
+    err |= clSetKernelArg(kb, a++, sizeof(cl_uint), &axis);
+    err |= clSetKernelArg(kb, a++, sizeof(cl_mem), &w->lat_split);
+    err |= clSetKernelArg(kb, a++, sizeof(cl_mem), &w->lat_near);
     a = 0;
     err |= clSetKernelArg(kl, a++, sizeof(cl_mem), &w->caps.nodes);
     err |= clSetKernelArg(kl, a++, sizeof(cl_mem), &w->caps.tris);

@@ -373,73 +373,54 @@ static inline int clvox_lattice_inside(const clvox_lattice *lt, global const clv
         return clvox_k_inside(K, abs_mode);
     }
     if (bw[4] == 0) return -1;
+    /* w_caps interpolated from the lattice's points, or in a split block
+     * from its own far corners plus its near caps summed here */
+    const int split = bw[4] == (clvox_real)CLVOX_BLOCK_SPLIT;
     const size_t bi = (size_t)(c[2] * (n[1] - 1u) + c[1]) * (n[0] - 1u) + c[0];
-    if (bw[4] == (clvox_real)CLVOX_BLOCK_SPLIT) {
-        /* w_caps = the near caps' here + the far caps' interpolated (E
-         * its error; in float the sums' rounding in CLVOX_LERP_ERR) */
-        global const clvox_real *sw = lt->split + bi * CLVOX_SPLIT_WORDS;
-        global const uint *list = lt->near + bi * (CLVOX_NEAR_MAX + 1u);
-        clvox_real L = 0, U = 0, mag = 1 + fabs(Kr);
-        for (uint q = 0; q < 8u; q++) {
-            const uint dx = q & 1u, dy = (q >> 1) & 1u, dz = q >> 2;
-            const clvox_real t = (clvox_real)((dx ? k[0] : S - k[0]) * (dy ? k[1] : S - k[1]) *
-                                              (dz ? k[2] : S - k[2])) *
-                                 ((clvox_real)1 / (clvox_real)(S * S * S));
-            L += t * sw[2u * q];
-            U += t * sw[2u * q + 1u];
-            mag += fabs(sw[2u * q]) + fabs(sw[2u * q + 1u]);
-        }
-        if (!(L <= U)) return -1;
-        clvox_real E = 0;
-        for (uint a = 0; a < 3u; a++) E += (clvox_real)(k[a] * (S - k[a])) * (h[a] * h[a]);
-        E = E * sw[16] * (clvox_real)0.5 * (clvox_real)1.000001;
-        clvox_real err = 0, near = 0;
-        if (list[0]) {
-            /* the near caps' bound first (clvox_cap_bound_box at the
-             * voxel): where it decides, no solid angle is needed */
-            const clvox_real p3[3] = {g[0] * h[0], g[1] * h[1], g[2] * h[2]};
-            clvox_real B = 0;
-            for (uint i = 0; i < list[0]; i++) B += clvox_cap_bound_box(lt->nodes + list[1u + i], p3, p3);
-            B = B * (clvox_real)CLVOX_SUM_ROUND + (clvox_real)CLVOX_LERP_ERR * (mag + B);
-            const int in = clvox_interval_inside(Kr - U - E - B, Kr - L + E + B, abs_mode);
-            if (in >= 0) {
-                *lo = Kr - U - E - B;
-                *hi = Kr - L + E + B;
-                return in;
-            }
-        }
-        if (list[0]) {
-            clvox_angles an;
-            clvox_angles_init(&an);
-            const clvox_real px = g[0] * h[0], py = g[1] * h[1], pz = g[2] * h[2];
-            for (uint i = 0; i < list[0]; i++)
-                clvox_cap_node_angles(lt->nodes + list[1u + i], lt->caps, lt->gcaps, g, px, py, pz, lt->axis, &an);
-            near = clvox_angles_value(&an, &err);
-        }
-        E += err + (clvox_real)CLVOX_LERP_ERR * (mag + fabs(near));
-        *lo = Kr - near - U - E;
-        *hi = Kr - near - L + E;
-        return clvox_interval_inside(*lo, *hi, abs_mode);
-    }
+    global const clvox_real *sw = lt->split + bi * CLVOX_SPLIT_WORDS;
     clvox_real L = 0, U = 0, mag = 1 + fabs(Kr);
     for (uint q = 0; q < 8u; q++) {
         const uint dx = q & 1u, dy = (q >> 1) & 1u, dz = q >> 2;
         const size_t p = ((size_t)(c[2] + dz) * n[1] + c[1] + dy) * n[0] + c[0] + dx;
-        const clvox_real wl = lt->points[2 * p], wh = lt->points[2 * p + 1];
+        global const clvox_real *v = split ? sw + 2u * q : lt->points + 2 * p;
         const clvox_real t = (clvox_real)((dx ? k[0] : S - k[0]) * (dy ? k[1] : S - k[1]) *
                                           (dz ? k[2] : S - k[2])) *
                              ((clvox_real)1 / (clvox_real)(S * S * S));
-        L += t * wl;
-        U += t * wh;
-        mag += fabs(wl) + fabs(wh);
+        L += t * v[0];
+        U += t * v[1];
+        mag += fabs(v[0]) + fabs(v[1]);
     }
     if (!(L <= U)) return -1; /* a corner not computed (NAN): cannot happen next to a usable block */
     clvox_real E = 0;
     for (uint a = 0; a < 3u; a++)
-        E += bw[a] * (clvox_real)(k[a] * (S - k[a])) * (h[a] * h[a]);
-    E = E * (clvox_real)0.5 * (clvox_real)1.000001 + (clvox_real)CLVOX_LERP_ERR * mag;
-    *lo = Kr - U - E;
-    *hi = Kr - L + E;
+        E += (split ? sw[16] : bw[a]) * (clvox_real)(k[a] * (S - k[a])) * (h[a] * h[a]);
+    E = E * (clvox_real)0.5 * (clvox_real)1.000001;
+    clvox_real err = 0, near = 0;
+    global const uint *list = lt->near + bi * (CLVOX_NEAR_MAX + 1u);
+    if (split && list[0]) {
+        /* the near caps' bound at the voxel first (clvox_cap_bound_box):
+         * where it decides, no solid angle is needed */
+        const clvox_real p3[3] = {g[0] * h[0], g[1] * h[1], g[2] * h[2]};
+        clvox_real B = 0;
+        for (uint i = 0; i < list[0]; i++) B += clvox_cap_bound_box(lt->nodes + list[1u + i], p3, p3);
+        B = B * (clvox_real)CLVOX_SUM_ROUND + (clvox_real)CLVOX_LERP_ERR * (mag + B);
+        const int in = clvox_interval_inside(Kr - U - E - B, Kr - L + E + B, abs_mode);
+        if (in >= 0) {
+            *lo = Kr - U - E - B;
+            *hi = Kr - L + E + B;
+            return in;
+        }
+        clvox_angles an;
+        clvox_angles_init(&an);
+        for (uint i = 0; i < list[0]; i++)
+            clvox_cap_node_angles(lt->nodes + list[1u + i], lt->caps, lt->gcaps, g, p3[0], p3[1], p3[2], lt->axis,
+                                  &an);
+        near = clvox_angles_value(&an, &err);
+    }
+    /* E: the interpolation's error, the near sum's, and the sums' rounding */
+    E += err + (clvox_real)CLVOX_LERP_ERR * (mag + fabs(near));
+    *lo = Kr - near - U - E;
+    *hi = Kr - near - L + E;
     return clvox_interval_inside(*lo, *hi, abs_mode);
 }
 

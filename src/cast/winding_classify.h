@@ -64,9 +64,9 @@ cl_int clvox__winding_args(cl_kernel k, cl_uint *i, const clvox__winding_classif
 clvox_status clvox__winding_lattice_prepare(clvox_context *ctx, const clvox_grid *grid, int binary,
                                             clvox__winding_classify *w);
 /* Builds the lattice of the slab of grid planes z in [z0, z0 + nz) and
- * waits for it (nothing where !lattice_on, or where its points or blocks
- * would take more than 64 MiB or a quarter of the device's largest
- * buffer: it is an aid). */
+ * waits for it (nothing where !lattice_on, or where its points, blocks or
+ * split blocks' data would take more than 64 MiB or a quarter of the
+ * device's largest buffer: it is an aid). */
 clvox_status clvox__winding_lattice_slab(clvox_context *ctx, const clvox_grid *grid, clvox__winding_classify *w,
                                          uint32_t z0, uint32_t nz);
 

@@ -92,8 +92,8 @@ typedef struct clvox_cap_node {
  * src/cast/winding_lattice.c sizes the buffer): M2 along x, y and z, the
  * caps' bound where it decides alone, whether it interpolates. */
 #define CLVOX_BLOCK_WORDS 5u
-/* A block split in near and far caps: the far caps' w_caps at its 8
- * corners (lo, hi), then their M2; its near caps: a count, then up to
+/* A block split in near and far caps: its near caps' w_caps at its 8
+ * corners (value, error bound), then the far caps' M2; its near caps: a count, then up to
  * CLVOX_NEAR_MAX cap tree leaves. */
 #define CLVOX_SPLIT_WORDS 17u
 #define CLVOX_NEAR_MAX 32u

@@ -9,9 +9,9 @@
  * may touch it), the caps' bound over it where that decides every voxel
  * by K alone (else INFINITY), and 1 where its points interpolate (no cap
  * near, the interpolation's error at its centre under CLVOX_BLOCK_USABLE),
- * CLVOX_BLOCK_SPLIT where it is split in near and far caps (its far caps'
- * corners and M2 in split, its near leaves in near; axis: the classify's
- * ray axis, for the tie rule), else 0. The rays' segments take M2 from the
+ * CLVOX_BLOCK_SPLIT where it is split in near and far caps (its near caps'
+ * sums at its corners and the far caps' M2 in split, its near leaves in
+ * near; axis: the classify's ray axis, for the tie rule), else 0. The rays' segments take M2 from the
  * blocks too (kernels/winding.cl), caps or not. */
 kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_count, global const clvox_real *caps,
                                  global const clvox_real *h, global const clvox_cap_node *rims, uint rim_count,
@@ -57,17 +57,21 @@ kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_c
             clvox_caps_split(nodes, q0, q1, R, list, &mf)) {
             const clvox_real ef = 3 * mf * hw0 * hw0 * (clvox_real)0.5; /* cubic voxels: hw0 on every axis */
             if (ef < (clvox_real)CLVOX_BLOCK_USABLE) {
+                /* the near caps' sum at the block's corners: the far part
+                 * there is the lattice point's w_caps less it */
                 global clvox_real *sw = split + (size_t)i * CLVOX_SPLIT_WORDS;
-                const clvox_real want = fmax((clvox_real)CLVOX_LATTICE_EPS, ef * (clvox_real)0.5);
                 for (uint q = 0; q < 8u; q++) {
                     const clvox_real gq[3] = {(clvox_real)((g[0] + (q & 1u)) * S),
                                               (clvox_real)((g[1] + ((q >> 1) & 1u)) * S),
                                               (clvox_real)((g[2] + (q >> 2)) * S)};
-                    clvox_real lo, hi;
-                    clvox_caps_interval(nodes, caps, gcaps, gq, gq[0] * h[0], gq[1] * h[1], gq[2] * h[2],
-                                        axis | CLVOX_AXIS_FLAGS(h[3]), want, q0, q1, R * R, &lo, &hi);
-                    sw[2u * q] = lo;
-                    sw[2u * q + 1u] = hi;
+                    clvox_angles an;
+                    clvox_angles_init(&an);
+                    for (uint l = 0; l < list[0]; l++)
+                        clvox_cap_node_angles(nodes + list[1u + l], caps, gcaps, gq, gq[0] * h[0], gq[1] * h[1],
+                                              gq[2] * h[2], axis | CLVOX_AXIS_FLAGS(h[3]), &an);
+                    clvox_real err = 0;
+                    sw[2u * q] = clvox_angles_value(&an, &err);
+                    sw[2u * q + 1u] = err;
                 }
                 sw[16] = mf;
                 o[4] = CLVOX_BLOCK_SPLIT;
@@ -80,12 +84,14 @@ kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_c
 }
 
 /* Lattice point i: w_caps's interval (clvox_caps_interval) into out[2i ..]
- * where a block next to it is usable (blocks, clvox_winding_blocks), else
- * NAN. axis: the classify's ray axis (its tie rule). */
+ * where a block next to it interpolates or is split (blocks,
+ * clvox_winding_blocks; a split block's far part at its corners is this
+ * less its near caps there, split), else NAN. axis: the classify's ray axis (its tie rule). */
 kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global const clvox_real *caps,
                                   global const float *gcaps, global const clvox_real *h, uint axis,
                                   global const clvox_real *blocks, uint nx, uint ny, uint nz, uint z0, uint S,
-                                  global clvox_real *out, global uint *clvox_done, uint clvox_done_slot)
+                                  global clvox_real *out, global const clvox_real *split, global uint *clvox_done,
+                                  uint clvox_done_slot)
 {
     const uint i = get_global_id(0);
     if (i < nx * ny * nz) {
@@ -104,13 +110,14 @@ kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global con
                 b[a] = p[a] - d;
             }
             if (!ok) continue;
-            global const clvox_real *bw =
-                blocks + ((size_t)(b[2] * (ny - 1u) + b[1]) * (nx - 1u) + b[0]) * CLVOX_BLOCK_WORDS;
-            if (bw[4] != 1) continue;
+            const size_t bi = (size_t)(b[2] * (ny - 1u) + b[1]) * (nx - 1u) + b[0];
+            global const clvox_real *bw = blocks + bi * CLVOX_BLOCK_WORDS;
+            if (bw[4] == 0) continue;
             clvox_real e = 0;
             for (uint a = 0; a < 3u; a++) {
                 const clvox_real hw = (clvox_real)S * h[a] * (clvox_real)0.5;
-                e += bw[a] * hw * hw * (clvox_real)0.5;
+                /* a split block: its far caps' M2 (cubic voxels) */
+                e += (bw[4] == 1 ? bw[a] : split[bi * CLVOX_SPLIT_WORDS + 16u]) * hw * hw * (clvox_real)0.5;
             }
             want = fmin(want, fmax((clvox_real)CLVOX_LATTICE_EPS, e * (clvox_real)0.5));
         }
@@ -119,7 +126,7 @@ kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global con
             const clvox_real g[3] = {(clvox_real)(p[0] * S), (clvox_real)(p[1] * S),
                                      (clvox_real)((p[2] + z0) * S)};
             clvox_caps_interval(nodes, caps, gcaps, g, g[0] * h[0], g[1] * h[1], g[2] * h[2],
-                                axis | CLVOX_AXIS_FLAGS(h[3]), want, 0, 0, 0, &lo, &hi);
+                                axis | CLVOX_AXIS_FLAGS(h[3]), want, &lo, &hi);
         }
         out[2 * (size_t)i] = lo;
         out[2 * (size_t)i + 1] = hi;

@@ -1,10 +1,10 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* The block lattice of the winding classify, host side
  * (kernels/winding_lattice.h): per slab, the blocks' bounds, and the near
- * caps and far corners of the blocks split near the rims
- * (clvox_winding_blocks), then the caps' solid angle at the lattice points
- * next to a usable block (clvox_winding_lattice), before the slab's rays are
- * classified. */
+ * caps of the blocks split near the rims with their sums at the blocks'
+ * corners (clvox_winding_blocks), then the caps' solid angle at the lattice
+ * points next to a usable or split block (clvox_winding_lattice), before
+ * the slab's rays are classified. */
 #include "winding_classify.h"
 #include "core/environment.h"
 #include "core/launch.h"
@@ -114,6 +114,7 @@ clvox_status clvox__winding_lattice_slab(clvox_context *ctx, const clvox_grid *g
     err |= clSetKernelArg(kl, a++, sizeof(cl_mem), &w->lat_blocks);
     for (int i = 0; i < 5; i++) err |= clSetKernelArg(kl, a++, sizeof(cl_uint), &dims[i]);
     err |= clSetKernelArg(kl, a++, sizeof(cl_mem), &w->lat_points);
+    err |= clSetKernelArg(kl, a++, sizeof(cl_mem), &w->lat_split);
     if (err != CL_SUCCESS) return clvox__cl_fail(ctx, CL_INVALID_KERNEL_ARGS, "clSetKernelArg(winding lattice)");
     clvox__launch_begin(ctx);
     st = clvox__launch(ctx, kb, "clvox_winding_blocks", 0, (size_t)blocks, 16, NULL);

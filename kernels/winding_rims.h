@@ -128,30 +128,40 @@ static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint r
     const uint a1 = (axis + 1u) % 3u, a2 = (axis + 2u) % 3u;
     uint cut[CLVOX_RIM_STEPS + 2u]; /* a step adds one entry at most */
     clvox_real sb[CLVOX_RIM_STEPS + 2u];
-    uint sp = 1, inf = 0;
+    /* entries [0, r) may be refined, [r, sp) are bounded edge by edge:
+     * the search for the largest looks at the first only */
+    uint sp = 1, r = 1, inf = 0;
     cut[0] = rims[0].child == 0 ? CLVOX_RIM_LEAF : 0u;
     sb[0] = clvox_rim_box_bound(rims, q0, q1, axis);
     clvox_real G = 0;
     if (isfinite(sb[0])) G = sb[0];
     else inf = 1;
-    for (uint it = 0; it < CLVOX_RIM_STEPS; it++) {
-        uint best = sp;
-        for (uint i = 0; i < sp; i++)
-            if (!(cut[i] & CLVOX_RIM_FINAL) && (best == sp || sb[i] > sb[best])) best = i;
-        if (best == sp || (inf == 0 && sb[best] < G * CLVOX_RIM_CUT_F)) break;
+    for (uint it = 0; it < CLVOX_RIM_STEPS && r > 0; it++) {
+        uint best = 0;
+        for (uint i = 1; i < r; i++) best = sb[i] > sb[best] ? i : best;
+        if (inf == 0 && sb[best] < G * CLVOX_RIM_CUT_F) break;
         const uint e = cut[best], nd = e & ~(CLVOX_RIM_FINAL | CLVOX_RIM_LEAF);
         if (isfinite(sb[best])) G -= sb[best];
         else inf--;
         if (e & CLVOX_RIM_LEAF) {
-            sb[best] = clvox_rim_leaf_bound(rims + nd, edges, q0, q1, axis);
-            cut[best] = nd | CLVOX_RIM_FINAL;
-            if (isfinite(sb[best])) G += sb[best];
+            const clvox_real b = clvox_rim_leaf_bound(rims + nd, edges, q0, q1, axis);
+            if (isfinite(b)) G += b;
             else inf++;
+            r--; /* to the bounded ones: the last refinable entry takes its place */
+            cut[best] = cut[r];
+            sb[best] = sb[r];
+            cut[r] = nd | CLVOX_RIM_FINAL;
+            sb[r] = b;
             continue;
         }
         const uint child = rims[nd].child;
+        /* the first child in its place, the second at r (the bounded
+         * entry there, if any, to the end) */
+        cut[sp] = cut[r];
+        sb[sp] = sb[r];
+        sp++;
         for (uint c = 0; c < 2u; c++) {
-            const uint slot = c == 0 ? best : sp++;
+            const uint slot = c == 0 ? best : r++;
             cut[slot] = (child + c) | (rims[child + c].child == 0 ? CLVOX_RIM_LEAF : 0u);
             sb[slot] = clvox_rim_box_bound(rims + child + c, q0, q1, axis);
             if (isfinite(sb[slot])) G += sb[slot];
@@ -164,10 +174,16 @@ static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint r
                              fmax(fabs((clvox_real)rims[0].lo[i]), fabs((clvox_real)rims[0].hi[i]))));
     t->slack = CLVOX_RIM_SLACK(mag);
     /* the largest entries into terms, while they fit (selection: the
-     * infinite ones first), the rest into far */
+     * infinite ones first), the rest into far; where all fit, in any
+     * order (no selection) */
+    uint all = 0;
+    for (uint i = 0; i < sp; i++)
+        all += (cut[i] & CLVOX_RIM_FINAL) ? rims[cut[i] & ~(CLVOX_RIM_FINAL | CLVOX_RIM_LEAF)].tri_count : 1u;
+    const int select = all > CLVOX_RIM_TERMS;
     for (uint k = 0; k < sp; k++) {
         uint best = k;
-        for (uint i = k + 1u; i < sp; i++) best = sb[i] > sb[best] ? i : best;
+        if (select)
+            for (uint i = k + 1u; i < sp; i++) best = sb[i] > sb[best] ? i : best;
         const uint e = cut[best], nd = e & ~(CLVOX_RIM_FINAL | CLVOX_RIM_LEAF);
         const uint need = (e & CLVOX_RIM_FINAL) ? rims[nd].tri_count : 1u;
         if (t->n + need > CLVOX_RIM_TERMS) {
@@ -206,15 +222,15 @@ static inline clvox_real clvox_rim_terms_bound(const clvox_rim_terms *t, const c
     clvox_real G = t->far;
     for (uint i = 0; i < t->n; i++) {
         const clvox_real gap = clvox_interval_gap(t->lo[i], t->hi[i], q0[axis], q1[axis]);
-        clvox_real d2;
         if (signbit(t->w[i])) {
-            d2 = t->d2[i] + gap * gap; /* a node's box, as clvox_rim_box_bound */
-        } else {
+            const clvox_real d2 = t->d2[i] + gap * gap; /* a node's box, as clvox_rim_box_bound */
+            if (!(d2 > 0)) return (clvox_real)INFINITY;
+            G -= t->w[i] / (d2 * sqrt(d2));
+        } else { /* an edge (as clvox_axis_edge_distance) */
             const clvox_real d = sqrt(t->d2[i] + gap * gap) * (clvox_real)(1 - 1e-6) - t->slack;
-            d2 = d > 0 ? d * d : 0;
+            if (!(d > 0)) return (clvox_real)INFINITY;
+            G += t->w[i] / (d * d * d);
         }
-        if (!(d2 > 0)) return (clvox_real)INFINITY;
-        G += fabs(t->w[i]) / (d2 * sqrt(d2));
     }
     return G * (clvox_real)CLVOX_SUM_ROUND;
 }

@@ -222,6 +222,7 @@ static inline void clvox_rim_box_m2(global const clvox_cap_node *rims, uint rim_
             }
             for (uint k = 0; k < 3u; k++) sb[best][k] = s[k];
             cut[best] = nd | CLVOX_RIM_FINAL;
+            if (!isfinite(s[0] + s[1] + s[2])) break; /* an edge may touch the box: INFINITY whatever follows */
             continue;
         }
         const uint child = rims[nd].child;

@@ -248,9 +248,10 @@ static inline void clvox_rim_box_m2(global const clvox_cap_node *rims, uint rim_
  * out to 4R gave a few more split blocks and cost more time). 0 where the
  * near part has more than CLVOX_NEAR_MAX leaves or more area than
  * CLVOX_NEAR_AREA R^2 (or the stack fills): summing large caps at every
- * voxel cost more than the rays' own evaluations (holes, whose 7 holes
- * are large: 3-12 % slower with them split; elephant-with-holes's 171
- * small ones gain). */
+ * voxel costs as much as the rays' own evaluations (holes, whose 7 holes
+ * are large: 3-12 % slower with them split when split blocks refined
+ * their own corners, no faster since they share the lattice's; elephant-
+ * with-holes's 171 small ones gain). */
 static inline int clvox_caps_split(global const clvox_cap_node *nodes, const clvox_real *q0, const clvox_real *q1,
                                    clvox_real R, global uint *list, clvox_real *m2)
 {

@@ -28,17 +28,15 @@ static inline clvox_real clvox_axis_edge_d2(const clvox_real *q0, uint axis, glo
  * of the edge the distance across the axis is at least the 2-D distance
  * (clvox_axis_edge_d2), and the distance along it at least the gap gap
  * between their extents, so the distance is at least sqrt(d2 + gap^2)
- * (shrunk by more than its rounding; 0 when they may touch). About a third
- * of the cost of the closest points in 3-D, used until 2026-12-07. */
+ * (shrunk by more than its rounding, slack: CLVOX_RIM_SLACK of a
+ * magnitude at least the coordinates'; 0 when they may touch). About a
+ * third of the cost of the closest points in 3-D, used until 2026-12-07. */
 static inline clvox_real clvox_axis_edge_distance(const clvox_real *q0, const clvox_real *q1, uint axis,
-                                                  global const clvox_real *a, global const clvox_real *b)
+                                                  global const clvox_real *a, global const clvox_real *b,
+                                                  clvox_real slack)
 {
     const clvox_real gap = clvox_interval_gap(fmin(a[axis], b[axis]), fmax(a[axis], b[axis]), q0[axis], q1[axis]);
-    clvox_real mag = 0;
-    for (uint i = 0; i < 3u; i++)
-        mag = fmax(mag, fmax(fmax(fabs(q0[i]), fabs(q1[i])), fmax(fabs(a[i]), fabs(b[i]))));
-    const clvox_real d =
-        sqrt(clvox_axis_edge_d2(q0, axis, a, b) + gap * gap) * (clvox_real)(1 - 1e-6) - CLVOX_RIM_SLACK(mag);
+    const clvox_real d = sqrt(clvox_axis_edge_d2(q0, axis, a, b) + gap * gap) * (clvox_real)(1 - 1e-6) - slack;
     return d > 0 ? d : 0;
 }
 
@@ -46,13 +44,14 @@ static inline clvox_real clvox_axis_edge_distance(const clvox_real *q0, const cl
  * |e x u| / (4pi d^3), |e x u| the edge's length across the axis, d its
  * own distance to the segment [q0, q1] along the axis (the bound below). */
 static inline clvox_real clvox_rim_leaf_bound(global const clvox_cap_node *nd, global const clvox_real *edges,
-                                              const clvox_real *q0, const clvox_real *q1, uint axis)
+                                              const clvox_real *q0, const clvox_real *q1, uint axis,
+                                              clvox_real slack)
 {
     const uint a1 = (axis + 1u) % 3u, a2 = (axis + 2u) % 3u;
     clvox_real G = 0;
     for (uint e = 0; e < nd->tri_count; e++) {
         global const clvox_real *ed = edges + (size_t)(nd->tri_first + e) * 9u;
-        const clvox_real d = clvox_axis_edge_distance(q0, q1, axis, ed, ed + 3);
+        const clvox_real d = clvox_axis_edge_distance(q0, q1, axis, ed, ed + 3, slack);
         if (!(d > 0)) return (clvox_real)INFINITY;
         const clvox_real x1 = ed[3 + a1] - ed[a1], x2 = ed[3 + a2] - ed[a2];
         G += (clvox_real)1.5 * sqrt(x1 * x1 + x2 * x2) * (clvox_real)(0.07957747154594767 * 1.000001) / (d * d * d);
@@ -126,6 +125,13 @@ static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint r
     t->slack = 0;
     if (rim_count == 0) return;
     const uint a1 = (axis + 1u) % 3u, a2 = (axis + 2u) % 3u;
+    /* the distances' rounding, for coordinates up to the ray's and the
+     * rims' box's (every edge lies in it) */
+    clvox_real mag = 0;
+    for (uint i = 0; i < 3u; i++)
+        mag = fmax(mag, fmax(fmax(fabs(q0[i]), fabs(q1[i])),
+                             fmax(fabs((clvox_real)rims[0].lo[i]), fabs((clvox_real)rims[0].hi[i]))));
+    t->slack = CLVOX_RIM_SLACK(mag);
     uint cut[CLVOX_RIM_STEPS + 2u]; /* a step adds one entry at most */
     clvox_real sb[CLVOX_RIM_STEPS + 2u];
     /* entries [0, r) may be refined, [r, sp) are bounded edge by edge:
@@ -144,7 +150,7 @@ static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint r
         if (isfinite(sb[best])) G -= sb[best];
         else inf--;
         if (e & CLVOX_RIM_LEAF) {
-            const clvox_real b = clvox_rim_leaf_bound(rims + nd, edges, q0, q1, axis);
+            const clvox_real b = clvox_rim_leaf_bound(rims + nd, edges, q0, q1, axis, t->slack);
             if (isfinite(b)) G += b;
             else inf++;
             r--; /* to the bounded ones: the last refinable entry takes its place */
@@ -168,11 +174,6 @@ static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint r
             else inf++;
         }
     }
-    clvox_real mag = 0;
-    for (uint i = 0; i < 3u; i++)
-        mag = fmax(mag, fmax(fmax(fabs(q0[i]), fabs(q1[i])),
-                             fmax(fabs((clvox_real)rims[0].lo[i]), fabs((clvox_real)rims[0].hi[i]))));
-    t->slack = CLVOX_RIM_SLACK(mag);
     /* the largest entries into terms, while they fit (selection: the
      * infinite ones first), the rest into far; where all fit, in any
      * order (no selection) */

@@ -247,7 +247,7 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
         j = 0;
         clvox_real ma = clvox_margin(inside, lo, hi, thr, abs_mode); /* anchor a's */
         clvox_rim_terms rt; /* the rims' bound along this ray, built when first needed */
-        int have_rt = 0;
+        uint have_rt = 0; /* the steps its terms were refined in (0: not built) */
         while (j + 1u < u_count) {
             uint jb = j + s < u_count - 1u ? j + s : u_count - 1u;
             /* The segment's M2; where its line's error at the middle, M2 (L
@@ -274,13 +274,17 @@ static void clvox_classify_winding_body(global const clvox_ray *rays, uint ray_c
                 clvox_grid_xyz(axis, g0[0], rv, rw, gx);
                 M2 = clvox_lattice_segment_m2(lt, axis, gx, jb - j, &usable);
                 if (!(isfinite(M2) && usable) && !(M2 * L * L * (clvox_real)0.125 <= (clvox_real)0.5 * ma)) {
-                    if (!have_rt) {
+                    /* the full refinement where this ray's exact evaluations
+                     * are costly (CLVOX_RIM_COSTLY; built again once they
+                     * turn out so), else half of it */
+                    const uint steps = fresh_exact > CLVOX_RIM_COSTLY ? CLVOX_RIM_STEPS : CLVOX_RIM_STEPS / 2u;
+                    if (have_rt < steps) {
                         const clvox_real r0[3] = {(clvox_real)u_begin, rv, rw},
                                          r1[3] = {(clvox_real)(u_begin + u_count - 1u), rv, rw};
                         clvox_real p0[3], p1[3];
                         clvox_scaled_box(axis, r0, r1, h, p0, p1);
-                        clvox_rim_ray_terms(rims, rim_count, rim_edges, p0, p1, axis, &rt);
-                        have_rt = 1;
+                        clvox_rim_ray_terms(rims, rim_count, rim_edges, p0, p1, axis, steps, &rt);
+                        have_rt = steps;
                     }
                     clvox_real q0[3], q1[3];
                     clvox_scaled_box(axis, g0, g1, h, q0, q1);
@@ -448,7 +452,7 @@ kernel void clvox_rim_probe(global const clvox_cap_node *rims, uint rim_count, g
     r0[axis] -= 2 * len;
     r1[axis] += 2 * len;
     clvox_rim_terms t;
-    clvox_rim_ray_terms(rims, rim_count, edges, r0, r1, axis, &t);
+    clvox_rim_ray_terms(rims, rim_count, edges, r0, r1, axis, CLVOX_RIM_STEPS, &t);
     out[i] = clvox_rim_terms_bound(&t, q0, q1, axis);
 }
 

@@ -88,7 +88,7 @@ static inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, co
  * its leaves' 3-D distances, and deeper refinement cost more than the
  * evaluations it saved). The tree is refined best first against the whole
  * ray (a node's box bound replaced by its children's, a leaf's by its
- * edges' own; CLVOX_RIM_STEPS at most, until the largest refinable term is
+ * edges' own; `steps` at most, until the largest refinable term is
  * under CLVOX_RIM_CUT_F of the total), and its CLVOX_RIM_TERMS largest
  * entries (a leaf bounded edge by edge as its edges) become terms w /
  * dist^3 whose distance to a segment [ua, ub] of the ray splits into what
@@ -101,6 +101,14 @@ static inline clvox_real clvox_rim_box_bound(global const clvox_cap_node *nd, co
  * refinement, so the bound holds; refining for the whole ray rather than
  * the segment only makes the far part coarser. */
 #define CLVOX_RIM_STEPS 64u
+/* A ray refines its terms CLVOX_RIM_STEPS steps where its last fresh exact
+ * evaluation needed more exact cap nodes than this, else half as many, and
+ * builds them again in full once its evaluations turn out costly: tighter
+ * terms save evaluations, worth it where those are costly (32 steps
+ * everywhere: b9_mesh 1.04 M -> 1.26 M exact points, 9 % slower;
+ * mech-holes-shark and elephant-with-holes 10-26 % faster; this rule:
+ * b9_mesh 1.05 M, the same time, the others 7-8 % faster). */
+#define CLVOX_RIM_COSTLY 2u
 #define CLVOX_RIM_TERMS 64u
 #define CLVOX_RIM_CUT_F ((clvox_real)0.002)
 #define CLVOX_RIM_FINAL 0x80000000u /* an entry bounded edge by edge */
@@ -118,7 +126,7 @@ typedef struct clvox_rim_terms {
  * its segments are bounded from them). */
 static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint rim_count,
                                        global const clvox_real *edges, const clvox_real *q0, const clvox_real *q1,
-                                       uint axis, clvox_rim_terms *t)
+                                       uint axis, uint steps, clvox_rim_terms *t)
 {
     t->n = 0;
     t->far = 0;
@@ -142,7 +150,7 @@ static inline void clvox_rim_ray_terms(global const clvox_cap_node *rims, uint r
     clvox_real G = 0;
     if (isfinite(sb[0])) G = sb[0];
     else inf = 1;
-    for (uint it = 0; it < CLVOX_RIM_STEPS && r > 0; it++) {
+    for (uint it = 0; it < steps && r > 0; it++) {
         uint best = 0;
         for (uint i = 1; i < r; i++) best = sb[i] > sb[best] ? i : best;
         if (inf == 0 && sb[best] < G * CLVOX_RIM_CUT_F) break;

@@ -93,8 +93,8 @@ typedef struct clvox_cap_node {
  * caps' bound where it decides alone, whether it interpolates. */
 #define CLVOX_BLOCK_WORDS 5u
 /* A block split in near and far caps: its near caps' w_caps at its 8
- * corners (value, error bound), then the far caps' M2; its near caps: a count, then up to
- * CLVOX_NEAR_MAX cap tree leaves. */
+ * corners (value, error bound), then the far caps' M2; its near caps: a
+ * count, then up to CLVOX_NEAR_MAX cap tree leaves. */
 #define CLVOX_SPLIT_WORDS 17u
 #define CLVOX_NEAR_MAX 32u
 

@@ -11,8 +11,9 @@
  * near, the interpolation's error at its centre under CLVOX_BLOCK_USABLE),
  * CLVOX_BLOCK_SPLIT where it is split in near and far caps (its near caps'
  * sums at its corners and the far caps' M2 in split, its near leaves in
- * near; axis: the classify's ray axis, for the tie rule), else 0. The rays' segments take M2 from the
- * blocks too (kernels/winding.cl), caps or not. */
+ * near; axis: the classify's ray axis, for the tie rule), else 0. The
+ * rays' segments take M2 from the blocks too (kernels/winding.cl), caps or
+ * not. */
 kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_count, global const clvox_real *caps,
                                  global const clvox_real *h, global const clvox_cap_node *rims, uint rim_count,
                                  global const clvox_real *edges, uint nx, uint ny, uint nz, uint z0, uint S,
@@ -64,13 +65,8 @@ kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_c
                     const clvox_real gq[3] = {(clvox_real)((g[0] + (q & 1u)) * S),
                                               (clvox_real)((g[1] + ((q >> 1) & 1u)) * S),
                                               (clvox_real)((g[2] + (q >> 2)) * S)};
-                    clvox_angles an;
-                    clvox_angles_init(&an);
-                    for (uint l = 0; l < list[0]; l++)
-                        clvox_cap_node_angles(nodes + list[1u + l], caps, gcaps, gq, gq[0] * h[0], gq[1] * h[1],
-                                              gq[2] * h[2], axis | CLVOX_AXIS_FLAGS(h[3]), &an);
                     clvox_real err = 0;
-                    sw[2u * q] = clvox_angles_value(&an, &err);
+                    sw[2u * q] = clvox_near_sum(nodes, caps, gcaps, list, gq, h, axis | CLVOX_AXIS_FLAGS(h[3]), &err);
                     sw[2u * q + 1u] = err;
                 }
                 sw[16] = mf;
@@ -86,7 +82,8 @@ kernel void clvox_winding_blocks(global const clvox_cap_node *nodes, uint node_c
 /* Lattice point i: w_caps's interval (clvox_caps_interval) into out[2i ..]
  * where a block next to it interpolates or is split (blocks,
  * clvox_winding_blocks; a split block's far part at its corners is this
- * less its near caps there, split), else NAN. axis: the classify's ray axis (its tie rule). */
+ * less its near caps there, split), else NAN. axis: the classify's ray
+ * axis (its tie rule). */
 kernel void clvox_winding_lattice(global const clvox_cap_node *nodes, global const clvox_real *caps,
                                   global const float *gcaps, global const clvox_real *h, uint axis,
                                   global const clvox_real *blocks, uint nx, uint ny, uint nz, uint z0, uint S,

@@ -49,9 +49,8 @@ static inline void clvox_caps_interval(global const clvox_cap_node *nodes, globa
     clvox_real se[CLVOX_CAP_STACK], sb[CLVOX_CAP_STACK];
     uint sp = 1;
     stack[0] = 0;
-    clvox_real S = 0, serr = 0, Br; /* Br: the frontier's bounds, a running sum */
     clvox_cap_estimate(nodes, px, py, pz, dp, 0, &se[0], &sb[0]);
-    Br = sb[0];
+    clvox_real S = 0, serr = 0, Br = sb[0]; /* Br: the frontier's bounds, a running sum */
     for (uint it = 0;; it++) {
         /* the running sum only picks when to sum afresh (as
          * clvox_winding_inside_m): the interval is the fresh sums' */
@@ -300,6 +299,22 @@ static inline int clvox_caps_split(global const clvox_cap_node *nodes, const clv
  * evaluations decide their voxels more cheaply (holes, mech-holes-shark:
  * splitting them cost 3-12 %). */
 
+/* A split block's near caps (list: a count, then cap tree leaves) summed
+ * exactly at grid point g (x, y, z; h: the scaled spacing; axis with its
+ * flags, for the tie rule), at the voxels that need it and at the block's
+ * corners alike; adds the sum's error bound to *err. */
+static inline clvox_real clvox_near_sum(global const clvox_cap_node *nodes, global const clvox_real *caps,
+                                        global const float *gcaps, global const uint *list, const clvox_real *g,
+                                        global const clvox_real *h, uint axis, clvox_real *err)
+{
+    clvox_angles an;
+    clvox_angles_init(&an);
+    for (uint i = 0; i < list[0]; i++)
+        clvox_cap_node_angles(nodes + list[1u + i], caps, gcaps, g, g[0] * h[0], g[1] * h[1], g[2] * h[2], axis,
+                              &an);
+    return clvox_angles_value(&an, err);
+}
+
 /* The lattice of one slab (kernels/winding_lattice.cl): points every S-th
  * voxel centre along x, y and z, nx by ny by nz of them from lattice
  * plane z0 (z = z0 S) on; blocks between them, (nx - 1)(ny - 1)(nz - 1). */
@@ -398,12 +413,7 @@ static inline int clvox_lattice_inside(const clvox_lattice *lt, global const clv
             *hi = Kr - L + E + B;
             return in;
         }
-        clvox_angles an;
-        clvox_angles_init(&an);
-        for (uint i = 0; i < list[0]; i++)
-            clvox_cap_node_angles(lt->nodes + list[1u + i], lt->caps, lt->gcaps, g, p3[0], p3[1], p3[2], lt->axis,
-                                  &an);
-        near = clvox_angles_value(&an, &err);
+        near = clvox_near_sum(lt->nodes, lt->caps, lt->gcaps, list, g, h, lt->axis, &err);
     }
     /* E: the interpolation's error, the near sum's, and the sums' rounding */
     E += err + (clvox_real)CLVOX_LERP_ERR * (mag + fabs(near));

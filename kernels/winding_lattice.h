@@ -250,7 +250,10 @@ static inline void clvox_rim_box_m2(global const clvox_cap_node *rims, uint rim_
  * voxel costs as much as the rays' own evaluations (holes, whose 7 holes
  * are large: 3-12 % slower with them split when split blocks refined
  * their own corners, no faster since they share the lattice's; elephant-
- * with-holes's 171 small ones gain). */
+ * with-holes's 171 small ones gain). Splitting them anyway, with far
+ * leaves bounded by their edges' field where that is tighter, removed a
+ * fifth to a half of the exact points and no time (2026-12-08,
+ * docs/benchmarks.md). */
 static inline int clvox_caps_split(global const clvox_cap_node *nodes, const clvox_real *q0, const clvox_real *q1,
                                    clvox_real R, global uint *list, clvox_real *m2)
 {
@@ -292,12 +295,12 @@ static inline int clvox_caps_split(global const clvox_cap_node *nodes, const clv
  * lattice point's w_caps, shared with the blocks around, less the block's
  * near caps summed exactly: an exact sum of a few caps costs far less than
  * a refinement of the far caps alone at every corner of every split block,
- * elephant-with-holes 1.16x) with the far caps' bound on its M2. The steps and the rims are in the
- * near part; the far part is smooth. Blocks whose interpolation error is
- * under CLVOX_BLOCK_USABLE but that a cap crosses are not split, nor are
- * blocks with large caps near (clvox_caps_split): the rays' line and
- * evaluations decide their voxels more cheaply (holes, mech-holes-shark:
- * splitting them cost 3-12 %). */
+ * elephant-with-holes 1.16x) with the far caps' bound on its M2. The steps
+ * and the rims are in the near part; the far part is smooth. Blocks whose
+ * interpolation error is under CLVOX_BLOCK_USABLE but that a cap crosses
+ * are not split, nor are blocks with large caps near (clvox_caps_split):
+ * the rays' line and evaluations decide their voxels more cheaply (holes,
+ * mech-holes-shark: splitting them cost 3-12 %). */
 
 /* A split block's near caps (list: a count, then cap tree leaves) summed
  * exactly at grid point g (x, y, z; h: the scaled spacing; axis with its

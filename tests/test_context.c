@@ -187,7 +187,7 @@ static int peak_reset(long *rss)
  * slices vs 65536 slices. Each run's own peak is measured: the heap is
  * trimmed and VmHWM reset (clear_refs 5) before it, so what earlier runs
  * left in malloc's free lists does not count. Measured (heaptrack and
- * VmHWM, 2026-12-08): +900-1320 KiB for the 65024 extra slices, the two
+ * VmHWM, 2026-12-08): +900-1360 KiB for the 65024 extra slices, the two
  * tables' 1103 KiB give or take the allocator's arenas. Bound: 24 bytes per
  * extra slice + 256 KiB (1780 KiB); it was 16 bytes per slice, set before
  * the scheduler's table came, and a clean CI run failed it at +1356 KiB
